@@ -1,0 +1,138 @@
+"""Energy loss of an impact (eqs. 58-61) and the necessary stiction conditions (eq. 62)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .problem import build_problem, check_mass_matrix, check_restitution
+from .errors import ShapeError
+
+
+def energy_loss(M, dq_minus, dq_plus) -> float:
+    """T_L = T- - T+ = 1/2 dq-^T M dq- - 1/2 dq+^T M dq+ (eq. 58)."""
+    M, _ = check_mass_matrix(M)
+    a, b = np.asarray(dq_minus, float), np.asarray(dq_plus, float)
+    if a.shape != (M.shape[0],) or b.shape != a.shape:
+        raise ShapeError(f"dq_minus and dq_plus must have length {M.shape[0]}")
+    return 0.5 * float(a @ M @ a) - 0.5 * float(b @ M @ b)
+
+
+def oblique_coefficients(M, c_n, c_t, C=None) -> tuple[float, float, float]:
+    """m_nn, m_nt, m_tt = c_n^T G c_n, c_n^T G c_t, c_t^T G c_t (eq. 61).
+
+    G = M^-1 for open loops and the loop-constrained inverse for closed ones (Section 6).
+    """
+    c_n, c_t = np.asarray(c_n, float), np.asarray(c_t, float)
+    P = build_problem(M, np.vstack([c_n, c_t]), np.zeros_like(c_n), C=C)
+    W = P.delassus
+    return float(W[0, 0]), float(W[0, 1]), float(W[1, 1])
+
+
+def central_energy_loss(M, c_n, dq, e: float, C=None) -> float:
+    """T_L = (1 - e^2) v_n-^2 / (2 c_n^T M^-1 c_n) for a central/frictionless impact (eq. 59)."""
+    c_n = np.asarray(c_n, float)
+    e = float(check_restitution(e)[0])
+    m_nn, _, _ = oblique_coefficients(M, c_n, np.zeros_like(c_n), C)
+    v_n = float(c_n @ np.asarray(dq, float))
+    return (1.0 - e * e) * v_n * v_n / (2.0 * m_nn)
+
+
+def oblique_energy_loss(M, c_n, c_t, dq, normal_impulse: float, mu: float, C=None) -> float:
+    """T_L for a sliding impulse pi = pi_n (c_n + mu c_t) (eqs. 60, 61).
+
+    T_L = -1/2 pi_n^2 (m_nn + 2 mu m_nt + mu^2 m_tt) - pi_n (v_n- + mu v_t-), with
+    v_t- = c_t^T dq- measured along the impulse's tangent t.
+    """
+    dq = np.asarray(dq, float)
+    m_nn, m_nt, m_tt = oblique_coefficients(M, c_n, c_t, C)
+    v_n, v_t = float(np.asarray(c_n, float) @ dq), float(np.asarray(c_t, float) @ dq)
+    pn = float(normal_impulse)
+    return -0.5 * pn * pn * (m_nn + 2 * mu * m_nt + mu * mu * m_tt) - pn * (v_n + mu * v_t)
+
+
+@dataclass(frozen=True)
+class StictionInterval:
+    """Coefficients of restitution e in [lower, upper] for which sticking is possible.
+
+    ``empty`` is True (and the bounds are NaN) when no e in [0, 1] allows sticking.
+    ``conditions`` names the conditions that were imposed.
+    """
+
+    lower: float
+    upper: float
+    conditions: tuple[str, ...]
+
+    @property
+    def empty(self) -> bool:
+        return not (self.lower <= self.upper)
+
+    def __contains__(self, e: float) -> bool:
+        return (not self.empty) and self.lower <= e <= self.upper
+
+
+def stiction_interval(M, Jc, dq, mu: float | None = None, C=None,
+                      opposing: bool = True, tol: float = 1e-12) -> StictionInterval:
+    """Interval of e for which the sticking solution of eq. (42)/(52) is admissible.
+
+    The sticking impulse is affine in e: pi(e) = -W^-1 ((1+e) v_n, v_t). Imposed on it:
+
+    * ``"compressive"``: pi_n(e) >= 0 (the paper's D_1/D > 0);
+    * ``"opposing"`` (if ``opposing``): the friction impulse opposes the pre-impact slip,
+      pi_t(e) . v_t- <= 0 -- with the compressive condition these are the paper's necessary
+      conditions (62a, 62b) in the plane;
+    * ``"cone"`` (if ``mu`` is given): |pi_t(e)| <= mu pi_n(e), the admissibility test of the
+      Section 8 algorithm, which makes the conditions sufficient as well.
+
+    Each condition cuts a convex set of e (linear or second-order-cone in e), so the result
+    is one interval, clipped to [0, 1].
+    """
+    P = build_problem(M, Jc, dq, C=C)
+    if P.n_contacts != 1:
+        raise ShapeError("stiction_interval takes one contact Jacobian")
+    W, v = P.contact_block(0)
+    Winv = np.linalg.inv(W)
+    base = np.zeros_like(v)
+    base[0] = v[0]
+    pi0 = -Winv @ v  # pi(e) = pi0 + e pi1
+    pi1 = -Winv @ base
+    vt = v[1:]
+    conditions = ["compressive"]
+    linear = [(pi0[0], pi1[0])]  # a + b e >= 0
+    if opposing:
+        conditions.append("opposing")
+        linear.append((-float(pi0[1:] @ vt), -float(pi1[1:] @ vt)))
+    if mu is not None:
+        conditions.append("cone")
+
+    scale = max(float(np.max(np.abs(pi0))), float(np.max(np.abs(pi1))), 1e-300)
+
+    def feasible(e: float) -> bool:
+        if any(a + b * e < -tol * scale for a, b in linear):
+            return False
+        if mu is not None:
+            p = pi0 + e * pi1
+            return float(np.linalg.norm(p[1:])) <= mu * p[0] + tol * scale
+        return True
+
+    # breakpoints: ends of [0, 1], roots of the linear conditions, roots of the cone quadratic
+    points = [0.0, 1.0]
+    for a, b in linear:
+        if b != 0.0:
+            points.append(-a / b)
+    if mu is not None:
+        # mu^2 (a0 + e a1)^2 - |t0 + e t1|^2 = 0
+        a0, a1, t0, t1 = pi0[0], pi1[0], pi0[1:], pi1[1:]
+        q2 = mu * mu * a1 * a1 - float(t1 @ t1)
+        q1 = 2 * mu * mu * a0 * a1 - 2 * float(t0 @ t1)
+        q0 = mu * mu * a0 * a0 - float(t0 @ t0)
+        roots = np.roots([q2, q1, q0]) if abs(q2) > 0 else (
+            np.array([-q0 / q1]) if q1 != 0 else np.array([]))
+        points.extend(float(r.real) for r in np.atleast_1d(roots) if abs(r.imag) < 1e-12)
+    pts = sorted(p for p in points if 0.0 <= p <= 1.0)
+    candidates = pts + [0.5 * (x + y) for x, y in zip(pts, pts[1:])]
+    ok = [p for p in candidates if feasible(p)]
+    if not ok:
+        return StictionInterval(float("nan"), float("nan"), tuple(conditions))
+    return StictionInterval(min(ok), max(ok), tuple(conditions))

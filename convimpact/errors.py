@@ -1,0 +1,94 @@
+"""Exception hierarchy of convimpact.
+
+Every error the library raises on purpose derives from :class:`ConvImpactError`, so research
+code can catch one type. The subclasses also derive from the matching built-in exception
+(``ValueError``, ``ArithmeticError``, ``RuntimeError``, ``NotImplementedError``), so generic
+handlers keep working. Messages say what to change.
+"""
+
+from __future__ import annotations
+
+
+class ConvImpactError(Exception):
+    """Base class of every error raised by convimpact."""
+
+
+class InputError(ConvImpactError, ValueError):
+    """An argument is malformed or out of its admissible range."""
+
+
+class ShapeError(InputError):
+    """Arrays have the wrong shape or do not agree with each other."""
+
+
+class NonFiniteError(InputError):
+    """An input contains NaN or infinity."""
+
+
+class MassMatrixError(InputError):
+    """The generalized mass matrix is not symmetric positive definite."""
+
+
+class ParameterError(InputError):
+    """A physical parameter is out of range (e outside [0, 1], mu < 0, ...)."""
+
+
+class UnknownOptionError(InputError):
+    """An unknown law, method or option name was given."""
+
+
+class LoopConstraintError(InputError):
+    """The loop-constraint Jacobian C is rank deficient or inconsistent with the velocities."""
+
+
+class ModelError(InputError):
+    """A mechanism model is ill-defined (unknown body or joint, bad mass or inertia, ...)."""
+
+
+class SingularSystemError(ConvImpactError, ArithmeticError):
+    """A matrix that the chosen branch must invert is singular (Delassus or loop matrix)."""
+
+
+class NonPositiveEffectiveMassError(SingularSystemError):
+    """The sliding denominator c_n^T M^-1 (c_n + mu c_t) is not positive (Painleve-like jam).
+
+    Under Newton's law with Coulomb friction at this mu the normal impulse of eq. (38)/(51)
+    would be infinite or negative. Use a convex law (``law="coulomb"``, ``"ccp"`` or
+    ``"dissipative"``), which stay well posed, or lower mu below the critical value
+    reported in the message.
+    """
+
+
+class SolverError(ConvImpactError, RuntimeError):
+    """A numerical solver failed: infeasible, unbounded, or not converged."""
+
+
+class AssemblyError(ConvImpactError, RuntimeError):
+    """A closed loop could not be assembled (Newton iteration on Psi(theta) = 0 failed)."""
+
+
+class SimulationError(ConvImpactError, RuntimeError):
+    """The event-driven simulation could not proceed."""
+
+
+class NotSupportedError(ConvImpactError, NotImplementedError):
+    """The requested method cannot treat this case; the message names one that can."""
+
+
+__all__ = [
+    "ConvImpactError",
+    "InputError",
+    "ShapeError",
+    "NonFiniteError",
+    "MassMatrixError",
+    "ParameterError",
+    "UnknownOptionError",
+    "LoopConstraintError",
+    "ModelError",
+    "SingularSystemError",
+    "NonPositiveEffectiveMassError",
+    "SolverError",
+    "AssemblyError",
+    "SimulationError",
+    "NotSupportedError",
+]

@@ -1,0 +1,165 @@
+"""Result types of an impact resolution (small frozen dataclasses, the paper's names spelled out)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Mapping, Union
+
+import numpy as np
+
+Regime = str  # "separating", "frictionless", "stick" or "slide"
+
+#: default tolerances used by :meth:`ImpactDiagnostics.held` (relative residuals)
+DEFAULT_HOLD_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class ImpactDiagnostics:
+    """What the impact law did, measured on its answer.
+
+    Flags (booleans) say when the law misbehaved; residuals (relative, dimensionless, >= 0)
+    say how well each physical property held. A residual of 0 means exactly held.
+
+    Attributes
+    ----------
+    energy_before, energy_after : float
+        Kinetic energies T- and T+ (eq. 58).
+    energy_gained : bool
+        T+ > T- beyond round-off: the law created energy.
+    friction_pushes_slip : bool
+        Some contact's tangential impulse points along its pre-impact slip (pi_t . v_t- > 0).
+    slip_reversal : bool
+        Some sliding contact ends with a slip the friction impulse does not oppose
+        (pi_t . v_t+ > 0): the slide assumption of the law reversed itself.
+    effective_mass : float or None
+        The sliding denominator c_n^T M^-1 (c_n + mu c_t) of eq. (38)/(51) when a slide branch
+        of the closed form was taken (its inverse is an effective mass); None otherwise.
+    delassus_condition : float
+        2-norm condition number of the Delassus matrix W = Jc G Jc^T.
+    loop_condition : float or None
+        Condition number of C M^-1 C^T (closed loops), None for open loops.
+    mass_condition : float
+        Condition number of M.
+    restitution_residual : float
+        Max over contacts of |v_n+ + e v_n-| / |v_n-| where the contact carries an impulse, and
+        of the negative part of (v_n+ + e v_n-) where it carries none (separation condition).
+    cone_violation : float
+        Max over contacts of max(0, |pi_t| - mu pi_n, -pi_n) / |pi|.
+    coulomb_residual : float
+        Max over contacts of |pi_t + mu pi_n u_t/|u_t|| / |pi| for contacts that slip after
+        impact (u_t = v_t+): zero when friction opposes the post-impact slip at full strength.
+    loop_residual : float
+        |C theta_dot+| relative to |C| |theta_dot-| (eq. 43).
+    momentum_residual : float
+        |M Delta theta_dot - Jc^T pi - C^T Delta sigma| relative to |Jc^T pi| (eqs. 33, 44).
+    warnings : tuple of str
+        Human-readable statements of each flag raised.
+    extras : mapping
+        Law-specific figures (e.g. the CCP normal-velocity lift, sweep angle, iterations).
+    """
+
+    energy_before: float
+    energy_after: float
+    energy_gained: bool
+    friction_pushes_slip: bool
+    slip_reversal: bool
+    effective_mass: float | None
+    delassus_condition: float
+    loop_condition: float | None
+    mass_condition: float
+    restitution_residual: float
+    cone_violation: float
+    coulomb_residual: float
+    loop_residual: float
+    momentum_residual: float
+    warnings: tuple[str, ...] = ()
+    extras: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+
+    def held(self, tol: float = DEFAULT_HOLD_TOL) -> dict[str, bool]:
+        """Which physical properties held to relative tolerance ``tol``."""
+        return {
+            "restitution": self.restitution_residual <= tol,
+            "friction_cone": self.cone_violation <= tol,
+            "friction_opposes_post_slip": self.coulomb_residual <= tol,
+            "energy_not_gained": not self.energy_gained,
+            "loop_closed": self.loop_residual <= tol,
+            "momentum_balance": self.momentum_residual <= tol,
+        }
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-JSON view."""
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "extras"}
+        out["warnings"] = list(self.warnings)
+        out["extras"] = {k: _jsonable(v) for k, v in self.extras.items()}
+        out["held"] = self.held()
+        return out
+
+
+@dataclass(frozen=True)
+class ImpactResult:
+    """Outcome of one impact (the momentum balance of Sections 5-8).
+
+    For a single contact (``Jc`` passed as one matrix) ``impulse``, ``v_minus``, ``v_plus`` have
+    shape (d,) and ``regime`` is a string; for several contacts they are stacked with shape
+    (n_contacts, d) and ``regime`` is a tuple of strings, one per contact.
+
+    Attributes
+    ----------
+    dq_plus : (k,) joint velocities after impact, theta_dot+ = theta_dot- + Delta theta_dot.
+    impulse : contact-frame impulse, normal first: (pi_n, pi_t) or (pi_n, pi_t1, pi_t2).
+    loop_impulse : (m,) internal loop impulses Delta sigma (eq. 44); empty for open loops.
+    regime : "separating", "frictionless", "stick" or "slide" (per contact for several).
+    energy_loss : T- - T+ (eq. 58); negative when the law gained energy.
+    v_minus, v_plus : contact-frame relative velocities before and after impact (eq. 17).
+    law, method : the impact law and the solver path that produced this result.
+    diagnostics : :class:`ImpactDiagnostics`.
+    """
+
+    dq_plus: np.ndarray
+    impulse: np.ndarray
+    loop_impulse: np.ndarray
+    regime: Union[Regime, tuple[Regime, ...]]
+    energy_loss: float
+    v_minus: np.ndarray
+    v_plus: np.ndarray
+    law: str
+    method: str
+    diagnostics: ImpactDiagnostics
+
+    @property
+    def normal_impulse(self):
+        """pi_n (per contact for several contacts)."""
+        return self.impulse[..., 0]
+
+    @property
+    def tangential_impulse(self):
+        """pi_t in the contact frame (per contact for several contacts)."""
+        return self.impulse[..., 1:]
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-JSON view (lists and floats)."""
+        return {
+            "dq_plus": _jsonable(self.dq_plus),
+            "impulse": _jsonable(self.impulse),
+            "loop_impulse": _jsonable(self.loop_impulse),
+            "regime": self.regime if isinstance(self.regime, str) else list(self.regime),
+            "energy_loss": float(self.energy_loss),
+            "v_minus": _jsonable(self.v_minus),
+            "v_plus": _jsonable(self.v_plus),
+            "law": self.law,
+            "method": self.method,
+            "diagnostics": self.diagnostics.as_dict(),
+        }
+
+
+def _jsonable(v):
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, (np.floating, np.integer, np.bool_)):
+        return v.item()
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, Mapping):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    return v
