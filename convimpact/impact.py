@@ -24,8 +24,13 @@ METHODS = ("auto", "closed-form", "sweep", "fast", "clarabel", "cvxpy")
 
 Solver = Callable[..., ImpactResult]
 _SOLVERS: dict[tuple[str, str], Solver] = {}
-#: modules that register further solvers when imported
-_SOLVER_MODULES: tuple[str, ...] = ()
+#: modules that register further solvers when imported (a module not yet present is skipped)
+_SOLVER_MODULES: tuple[str, ...] = (
+    "convimpact.fast",          # exact single-contact solvers, every law
+    "convimpact.sweep",         # the paper's 1-D search over the tangent angle
+    "convimpact.programs",      # cvxpy programs (DPP, compiled once per shape)
+    "convimpact.clarabel_direct",  # Clarabel's own API, built once and updated
+)
 _loaded = False
 
 
@@ -45,7 +50,11 @@ def _load_solver_modules() -> None:
     global _loaded
     if not _loaded:
         for name in _SOLVER_MODULES:
-            importlib.import_module(name)
+            try:
+                importlib.import_module(name)
+            except ModuleNotFoundError as exc:
+                if exc.name != name:
+                    raise
         _loaded = True
 
 
