@@ -1,0 +1,69 @@
+"""Scenes: a mechanism with its initial state and parameters, ready to simulate or to impact.
+
+Every module of :mod:`convimpact.problems` (the top-level ``problems/`` folder) that defines
+``make_scene(**params) -> Scene`` is a scene; :func:`list_scenes` names them and
+:func:`load_scene` builds one.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+
+from .errors import UnknownOptionError
+from .mechanism import Mechanism
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A mechanism, where it starts, and what the scene assumes.
+
+    Attributes
+    ----------
+    name : module name of the scene in ``problems/``.
+    description : one paragraph, including every assumption the paper leaves open.
+    mechanism : the model, satisfying :class:`convimpact.mechanism.Mechanism`.
+    theta0, dtheta0 : initial joint coordinates and velocities for simulation.
+    t_end : default simulated time span [0, t_end].
+    parameters : JSON-ready scene parameters (masses, lengths, e, mu, assumptions).
+    impact_state : (theta, dtheta) at the paper's impact instant, or None.
+    impact_contact : name of the contact that strikes at ``impact_state``, or None.
+    """
+
+    name: str
+    description: str
+    mechanism: Mechanism
+    theta0: np.ndarray
+    dtheta0: np.ndarray
+    t_end: float
+    parameters: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    impact_state: tuple[np.ndarray, np.ndarray] | None = None
+    impact_contact: str | None = None
+
+
+def list_scenes() -> list[str]:
+    """Names of the scenes in ``convimpact.problems``."""
+    import convimpact.problems as pkg
+
+    names = []
+    for info in pkgutil.iter_modules(pkg.__path__):
+        if info.name.startswith("_"):
+            continue
+        mod = importlib.import_module(f"convimpact.problems.{info.name}")
+        if callable(getattr(mod, "make_scene", None)):
+            names.append(info.name)
+    return sorted(names)
+
+
+def load_scene(name: str, **params) -> Scene:
+    """Build scene ``name`` with optional parameters."""
+    if name not in list_scenes():
+        raise UnknownOptionError(
+            f"unknown scene {name!r}; available: {', '.join(list_scenes()) or 'none'}")
+    mod = importlib.import_module(f"convimpact.problems.{name}")
+    return mod.make_scene(**params)
