@@ -14,7 +14,7 @@ Regime = str  # "separating", "frictionless", "stick" or "slide"
 DEFAULT_HOLD_TOL = 1e-6
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ImpactDiagnostics:
     """What the impact law did, measured on its answer.
 
@@ -96,7 +96,7 @@ class ImpactDiagnostics:
         return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ImpactResult:
     """Outcome of one impact (the momentum balance of Sections 5-8).
 
