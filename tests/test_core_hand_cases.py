@@ -159,7 +159,8 @@ def test_rod_far_from_boundary_slides_with_eq38():
     r = ci.resolve_impact(M, Jc, dq, e=e, mu=mu)
     Pn, Pt = _rod_hand(phi, Jc @ dq, e, mu)["slide"]
     # hand: a_nn = 1 + 3 cos^2 = 3.25, a_nt = -3 sin cos = -1.299, v_t = 1 > 0
-    assert Pn == pytest.approx(1.5 / (3.25 - 0.3 * 3 * np.sin(phi) * np.cos(phi)), rel=1e-12)
+    # eq. (38): pi_n = -(1+e) v_n / (a_nn - mu sign(v_t) a_nt) = 1.5 / (3.25 + 0.3 * 1.299)
+    assert Pn == pytest.approx(1.5 / (3.25 + 0.3 * 3 * np.sin(phi) * np.cos(phi)), rel=1e-12)
     np.testing.assert_allclose(r.impulse, [Pn, Pt], rtol=1e-12)
 
 
