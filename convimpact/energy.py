@@ -81,7 +81,10 @@ def stiction_interval(M, Jc, dq, mu: float | None = None, C=None,
     * ``"compressive"``: pi_n(e) >= 0 (the paper's D_1/D > 0);
     * ``"opposing"`` (if ``opposing``): the friction impulse opposes the pre-impact slip,
       pi_t(e) . v_t- <= 0 -- with the compressive condition these are the paper's necessary
-      conditions (62a, 62b) in the plane;
+      conditions (62a, 62b) in the plane. They are Cramer's D_1/D > 0 and D_2/D > 0 of eq. (42);
+      (62b) is printed exactly so, while the printed (62a), m_tt v_t - (1+e) m_nt v_n > 0, swaps
+      m_tt and m_nt relative to D_1 = m_nt v_t - (1+e) m_tt v_n (t the paper's tangent): we
+      follow the derivation (a test pins a case where the two differ in sign);
     * ``"cone"`` (if ``mu`` is given): |pi_t(e)| <= mu pi_n(e), the admissibility test of the
       Section 8 algorithm, which makes the conditions sufficient as well.
 
