@@ -1,0 +1,138 @@
+"""A model as a :class:`convimpact.mechanism.Mechanism`: the object simulators and scenes use.
+
+:class:`ModelMechanism` pairs an immutable :class:`~convimpact.model.builder.Model` with one
+private :class:`~convimpact.model.data.Data` and forwards each protocol method to the
+evaluation functions, so M, f, C and the contact Jacobians at one state share one tree walk.
+Obtain it with ``model.mechanism()``.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from . import contacts as _contacts
+from . import dynamics as _dyn
+from . import kinematics as _kin
+from . import loops as _loops
+from .builder import Model
+
+
+class ModelMechanism:
+    """A joint-coordinate model evaluated through the Mechanism protocol.
+
+    Parameters
+    ----------
+    model : the model to evaluate.
+
+    Attributes
+    ----------
+    model : the underlying :class:`Model`.
+    data : the :class:`~convimpact.model.data.Data` workspace (last evaluated state).
+    n_coordinates, n_loop_constraints, contact_names, coordinate_names : as in the model.
+    """
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.data = model.create_data()
+        self.n_coordinates: int = model.n_coordinates
+        self.n_loop_constraints: int = model.n_loop_constraints
+        self.contact_names: Sequence[str] = model.contact_names
+        self.coordinate_names: Sequence[str] = model.coordinate_names
+
+    def __repr__(self) -> str:
+        kind = "planar" if self.model.planar else "spatial"
+        return (f"ModelMechanism({kind}, k={self.n_coordinates}, "
+                f"m={self.n_loop_constraints}, contacts={list(self.contact_names)})")
+
+    @property
+    def planar(self) -> bool:
+        return self.model.planar
+
+    # -- Mechanism protocol -------------------------------------------------------------
+    def mass_matrix(self, theta: np.ndarray) -> np.ndarray:
+        """M(theta) = B^T M B, (k, k) (eq. 3)."""
+        return _dyn.mass_matrix(self.model, self.data, theta)
+
+    def mass_matrix_dot(self, theta: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
+        """dM/dt along theta_dot, (k, k) (eq. 11)."""
+        return _dyn.mass_matrix_dot(self.model, self.data, theta, dtheta)
+
+    def generalized_forces(self, t: float, theta: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
+        """f = B^T (g - M B_dot theta_dot) + applied joint forces, (k,) (eq. 4)."""
+        return _dyn.generalized_forces(self.model, self.data, t, theta, dtheta)
+
+    def loop_residual(self, theta: np.ndarray) -> np.ndarray:
+        """Psi(theta), (m,) (eq. 6)."""
+        return _loops.loop_residual(self.model, self.data, theta)
+
+    def loop_jacobian(self, theta: np.ndarray) -> np.ndarray:
+        """C(theta), (m, k) (eq. 7)."""
+        return _loops.loop_jacobian(self.model, self.data, theta)
+
+    def loop_jacobian_dot(self, theta: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
+        """C_dot(theta, theta_dot), (m, k) (eqs. 8, 14)."""
+        return _loops.loop_jacobian_dot(self.model, self.data, theta, dtheta)
+
+    def contact_gap(self, name: str, theta: np.ndarray) -> float:
+        """Signed gap of contact ``name``."""
+        return _contacts.contact_gap(self.model, self.data, name, theta)
+
+    def contact_jacobian(self, name: str, theta: np.ndarray) -> np.ndarray:
+        """Jc of contact ``name``, rows n, t (2, k) or n, t1, t2 (3, k)."""
+        return _contacts.contact_jacobian(self.model, self.data, name, theta)
+
+    def contact_parameters(self, name: str) -> tuple[float, float]:
+        """(e, mu) of contact ``name``."""
+        spec = self.model.contact(name)
+        return spec.restitution, spec.friction
+
+    def kinetic_energy(self, theta: np.ndarray, dtheta: np.ndarray) -> float:
+        """T = 1/2 theta_dot^T M theta_dot."""
+        return _dyn.kinetic_energy(self.model, self.data, theta, dtheta)
+
+    def potential_energy(self, theta: np.ndarray) -> float:
+        """Gravitational potential energy."""
+        return _dyn.potential_energy(self.model, self.data, theta)
+
+    # -- extras ---------------------------------------------------------------------------
+    def contact_frame(self, name: str, theta: np.ndarray) -> _contacts.ContactFrame:
+        """Gap, contact point, normal, tangents and Jc of contact ``name``."""
+        return _contacts.contact_frame(self.model, self.data, name, theta)
+
+    def velocity_transformation(self, theta: np.ndarray) -> np.ndarray:
+        """B of eq. (1), stacking (c_dot, w) of every moving body."""
+        return _dyn.velocity_transformation(self.model, self.data, theta)
+
+    def coordinate_index(self, name: str) -> int:
+        """Index in theta of a coordinate (or one-coordinate joint) name."""
+        return self.model.coordinate_index(name)
+
+    def point_position(self, body: str, local, theta: np.ndarray) -> np.ndarray:
+        """World position of a point given in body ``body``'s frame."""
+        b = _kin.body_index(self.model, body)
+        _kin.forward_kinematics(self.model, self.data, theta,
+                                self.data.dtheta if _contacts._same(self.data, theta) else None)
+        return _kin.world_point(self.data, b, np.asarray(local, dtype=float))
+
+    def point_jacobian(self, body: str, local, theta: np.ndarray) -> np.ndarray:
+        """Jacobian (d, k) of the velocity of a point given in body ``body``'s frame."""
+        x = self.point_position(body, local, theta)
+        return _kin.point_jacobian(self.model, self.data, _kin.body_index(self.model, body), x)[0]
+
+    def body_placement(self, body: str, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World (rotation, origin) of body ``body``'s frame."""
+        _kin.forward_kinematics(self.model, self.data, theta,
+                                self.data.dtheta if _contacts._same(self.data, theta) else None)
+        return _kin.frame_placement(self.model, self.data, body)
+
+    def assemble(self, theta: np.ndarray, fixed: Sequence = (), tol: float = 1e-12,
+                 max_iter: int = 50) -> np.ndarray:
+        """Newton assembly onto Psi = 0 (see :func:`convimpact.model.loops.assemble`)."""
+        return _loops.assemble(self, theta, fixed, tol, max_iter)
+
+    def consistent_velocity(self, theta: np.ndarray, dtheta: np.ndarray,
+                            fixed: Sequence = ()) -> np.ndarray:
+        """Velocities satisfying C theta_dot = 0 (see :func:`convimpact.model.loops.consistent_velocity`)."""
+        return _loops.consistent_velocity(self, theta, dtheta, fixed)
