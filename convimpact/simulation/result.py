@@ -1,0 +1,245 @@
+"""Result types of a simulation (small frozen dataclasses, the paper's names spelled out)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Mapping, Union
+
+import numpy as np
+
+from ..results import ImpactResult, _jsonable
+
+
+@dataclass(frozen=True)
+class ImpactEvent:
+    """One impact: the integration halted, the law gave the jump, the integration resumed.
+
+    Attributes
+    ----------
+    time : impact instant t (located to the simulation's ``event_tol``).
+    contacts : names of the contacts closing together (several when simultaneous).
+    held_contacts : persistent contacts that took part as bilateral constraints.
+    regime : per contact "frictionless", "stick", "slide" or "separating".
+    impulse : (n_contacts, d) contact-frame impulses (normal first).
+    loop_impulse : Delta sigma of the loops and held contacts (eq. 44).
+    generalized_impulse : Delta p = Jc^T pi (eq. 33), (k,).
+    theta : configuration at the impact.
+    dtheta_minus, dtheta_plus : joint velocities before and after (eq. 29/44).
+    energy_loss : T- - T+ as reported by the law (eq. 58).
+    kinetic_energy_minus, kinetic_energy_plus : T- and T+ measured by the mechanism.
+    persistent : contacts switched to persistent (held closed) at this impact.
+    released : held contacts released because the impact pulled on them.
+    resolve_time : wall time spent in ``resolve_impact`` (s).
+    result : the law's full :class:`~convimpact.results.ImpactResult` (with diagnostics).
+    """
+
+    time: float
+    contacts: tuple[str, ...]
+    held_contacts: tuple[str, ...]
+    regime: tuple[str, ...]
+    impulse: np.ndarray
+    loop_impulse: np.ndarray
+    generalized_impulse: np.ndarray
+    theta: np.ndarray
+    dtheta_minus: np.ndarray
+    dtheta_plus: np.ndarray
+    energy_loss: float
+    kinetic_energy_minus: float
+    kinetic_energy_plus: float
+    persistent: tuple[str, ...]
+    released: tuple[str, ...]
+    resolve_time: float
+    result: ImpactResult
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-JSON view."""
+        return {
+            "time": self.time, "contacts": list(self.contacts),
+            "held_contacts": list(self.held_contacts), "regime": list(self.regime),
+            "impulse": _jsonable(self.impulse), "loop_impulse": _jsonable(self.loop_impulse),
+            "generalized_impulse": _jsonable(self.generalized_impulse),
+            "theta": _jsonable(self.theta), "dtheta_minus": _jsonable(self.dtheta_minus),
+            "dtheta_plus": _jsonable(self.dtheta_plus), "energy_loss": self.energy_loss,
+            "kinetic_energy_minus": self.kinetic_energy_minus,
+            "kinetic_energy_plus": self.kinetic_energy_plus,
+            "persistent": list(self.persistent), "released": list(self.released),
+            "resolve_time": self.resolve_time,
+            "diagnostics": self.result.diagnostics.as_dict(),
+        }
+
+
+@dataclass(frozen=True)
+class ContactEvent:
+    """A contact switching between free (unilateral, event-driven) and persistent (held).
+
+    Attributes
+    ----------
+    time : instant of the switch.
+    contact : contact name.
+    kind : "persist" (gap held closed from now on) or "release" (normal force reached zero,
+        or an impact pulled on it, or it was separating when asked to be held).
+    reason : human-readable cause (accumulation detected, rest velocity, tensile force ...).
+    accumulation_time : for "persist" after a detected accumulation, the extrapolated limit
+        t_inf of the geometric sequence of impact times; None otherwise.
+    energy_change : T+ - T- of the velocity correction applied at the switch (<= 0).
+    """
+
+    time: float
+    contact: str
+    kind: str
+    reason: str
+    accumulation_time: float | None = None
+    energy_change: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: _jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True, eq=False)
+class SimulationResult:
+    """Outcome of :func:`convimpact.simulation.simulate` (modelled on scipy's OdeResult).
+
+    Series are sampled at every accepted step (or at ``t_eval``). At an impact instant the
+    pre- and post-impact states are both stored, at the same time (so ``t`` is non-decreasing
+    and a jump shows as a vertical segment in plots).
+
+    Attributes
+    ----------
+    t : (n,) times.
+    theta, dtheta, p : (n, k) joint coordinates, velocities and momenta (eqs. 10, 13).
+    sigma : (n, m) loop multipliers of eq. (13) (empty columns for open loops).
+    kinetic_energy, potential_energy : (n,) T and V.
+    loop_residual : (n,) max |Psi(theta)| (position drift, eq. 6).
+    loop_velocity_residual : (n,) max |C theta_dot| (velocity drift, eq. 7).
+    held : (n,) number of contacts held closed (persistent) at each sample.
+    impacts : the impact events, in time order.
+    contact_events : persistent-contact switches, in time order.
+    sol : callable ``sol(t) -> y = [theta, p]`` across all segments (right-continuous at
+        impacts), or None unless ``dense_output=True``.
+    status : 0 reached the end of the span; 1 stopped early by request (accumulation with
+        ``zeno="stop"`` or ``max_impacts`` reached); -1 the integrator failed.
+    message : why it stopped.
+    nfev : right-hand-side evaluations; njev_events: event-function evaluations.
+    n_steps, n_projections, n_restarts : accepted steps, constraint projections, restarts.
+    wall_time : total wall time (s); impact_time : wall time inside ``resolve_impact`` (s).
+    max_loop_residual, max_loop_velocity_residual : max drift over the run (after projection).
+    settings : the options used (law, method, integrator, tolerances).
+    """
+
+    t: np.ndarray
+    theta: np.ndarray
+    dtheta: np.ndarray
+    p: np.ndarray
+    sigma: np.ndarray
+    kinetic_energy: np.ndarray
+    potential_energy: np.ndarray
+    loop_residual: np.ndarray
+    loop_velocity_residual: np.ndarray
+    held: np.ndarray
+    impacts: tuple[ImpactEvent, ...]
+    contact_events: tuple[ContactEvent, ...]
+    sol: Any
+    status: int
+    message: str
+    nfev: int
+    nevents_fev: int
+    n_steps: int
+    n_projections: int
+    n_restarts: int
+    wall_time: float
+    impact_time: float
+    settings: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+
+    @property
+    def success(self) -> bool:
+        """True when the integrator did not fail (status >= 0)."""
+        return self.status >= 0
+
+    @property
+    def y(self) -> np.ndarray:
+        """Integration array y = [theta, p] (eq. 15), shape (2k, n) as in scipy."""
+        return np.hstack([self.theta, self.p]).T
+
+    @property
+    def total_energy(self) -> np.ndarray:
+        return self.kinetic_energy + self.potential_energy
+
+    @property
+    def max_loop_residual(self) -> float:
+        return float(np.max(self.loop_residual)) if self.loop_residual.size else 0.0
+
+    @property
+    def max_loop_velocity_residual(self) -> float:
+        return (float(np.max(self.loop_velocity_residual))
+                if self.loop_velocity_residual.size else 0.0)
+
+    @property
+    def rhs_per_second(self) -> float:
+        """Right-hand-side evaluations per wall-clock second (benchmark figure)."""
+        return self.nfev / self.wall_time if self.wall_time > 0 else float("nan")
+
+    @property
+    def impact_share(self) -> float:
+        """Share of the wall time spent in impact resolution."""
+        return self.impact_time / self.wall_time if self.wall_time > 0 else float("nan")
+
+    def as_dict(self, series: bool = True) -> dict[str, Any]:
+        """Plain-JSON view; ``series=False`` leaves out the time series."""
+        out: dict[str, Any] = {
+            "status": self.status, "message": self.message, "nfev": self.nfev,
+            "nevents_fev": self.nevents_fev, "n_steps": self.n_steps,
+            "n_projections": self.n_projections, "n_restarts": self.n_restarts,
+            "wall_time": self.wall_time, "impact_time": self.impact_time,
+            "rhs_per_second": self.rhs_per_second,
+            "max_loop_residual": self.max_loop_residual,
+            "max_loop_velocity_residual": self.max_loop_velocity_residual,
+            "settings": _jsonable(dict(self.settings)),
+            "impacts": [e.as_dict() for e in self.impacts],
+            "contact_events": [e.as_dict() for e in self.contact_events],
+        }
+        if series:
+            out["series"] = {
+                "t": self.t.tolist(), "theta": self.theta.tolist(),
+                "dtheta": self.dtheta.tolist(), "p": self.p.tolist(),
+                "sigma": self.sigma.tolist(),
+                "kinetic_energy": self.kinetic_energy.tolist(),
+                "potential_energy": self.potential_energy.tolist(),
+                "loop_residual": self.loop_residual.tolist(),
+                "loop_velocity_residual": self.loop_velocity_residual.tolist(),
+                "held": self.held.tolist(),
+            }
+        return out
+
+
+Regime = Union[str, tuple[str, ...]]
+
+
+class PiecewiseSolution:
+    """Dense output across integration segments: ``sol(t) -> y = [theta, p]``.
+
+    Each segment is ``(t_start, t_end, interpolant)``; at a shared boundary (an impact) the
+    later segment wins, so the solution is right-continuous (post-impact) there.
+    """
+
+    def __init__(self, segments):
+        segs = [s for s in segments if s[1] >= s[0]]
+        self._t0 = np.array([s[0] for s in segs])
+        self._t1 = np.array([s[1] for s in segs])
+        self._f = [s[2] for s in segs]
+
+    @property
+    def t_min(self) -> float:
+        return float(self._t0[0])
+
+    @property
+    def t_max(self) -> float:
+        return float(self._t1[-1])
+
+    def __call__(self, t):
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        idx = np.searchsorted(self._t0, ts, side="right") - 1
+        idx = np.clip(idx, 0, len(self._f) - 1)
+        cols = [np.asarray(self._f[i](ti), float).ravel() for i, ti in zip(idx, ts)]
+        out = np.column_stack(cols)
+        return out[:, 0] if np.ndim(t) == 0 else out
