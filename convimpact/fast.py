@@ -136,48 +136,60 @@ def _quartic_roots(c4: float, c3: float, c2: float, c1: float, c0: float) -> lis
     infinity, which the callers cover by trying the angle pi explicitly). Nearly double roots
     that round-off turns into a complex pair are returned as their real part; callers polish.
     """
-    coeffs = [c4, c3, c2, c1, c0]
-    scale = max(abs(x) for x in coeffs)
+    scale = max(abs(c4), abs(c3), abs(c2), abs(c1), abs(c0))
     if scale == 0.0:
         return None
-    while coeffs and abs(coeffs[0]) <= 1e-13 * scale:
-        coeffs.pop(0)
-    deg = len(coeffs) - 1
-    if deg <= 0:
-        return []
-    lead = coeffs[0]
-    k = [x / lead for x in coeffs[1:]]
-    if deg == 1:
-        return [-k[0]]
-    if deg == 2:
-        return _quadratic_roots(k[0], k[1])
-    if deg == 3:
-        return _cubic_roots(k[0], k[1], k[2])
-    a, b, c, d = k
+    eps = 1e-13 * scale
+    if abs(c4) <= eps:
+        if abs(c3) <= eps:
+            if abs(c2) <= eps:
+                return [-c0 / c1] if abs(c1) > eps else []
+            return _quadratic_roots(c1 / c2, c0 / c2)
+        return _cubic_roots(c2 / c3, c1 / c3, c0 / c3)
+    f = 1.0 / c4
+    a, b, c, d = c3 * f, c2 * f, c1 * f, c0 * f
     a2 = a * a
-    p = b - 3.0 * a2 / 8.0
-    q = c - a * b / 2.0 + a2 * a / 8.0
-    r = d - a * c / 4.0 + a2 * b / 16.0 - 3.0 * a2 * a2 / 256.0
-    shift = -a / 4.0
-    ys: list[float] = []
+    p = b - 0.375 * a2
+    q = c - 0.5 * a * b + 0.125 * a2 * a
+    r = d - 0.25 * a * c + 0.0625 * a2 * b - 0.01171875 * a2 * a2
+    shift = -0.25 * a
     qscale = abs(p) ** 1.5 + abs(r) ** 0.75 + abs(q)
     if abs(q) <= 1e-14 * qscale:  # biquadratic y^4 + p y^2 + r
+        ys = []
         for z in _quadratic_roots(p, r):
             if z > 0.0:
                 s = math.sqrt(z)
-                ys += [s, -s]
+                ys += [s + shift, shift - s]
             elif z >= -1e-9 * (abs(p) + math.sqrt(abs(r))):
-                ys.append(0.0)
+                ys.append(shift)
+        return ys
+    # resolvent 8 m^3 + 8 p m^2 + (2 p^2 - 8 r) m - q^2 = 0: its largest root m > 0
+    ca, cb, cc = p, 0.25 * p * p - r, -0.125 * q * q
+    pp = cb - ca * ca / 3.0
+    qq = 2.0 * ca * ca * ca / 27.0 - ca * cb / 3.0 + cc
+    disc = 0.25 * qq * qq + pp * pp * pp / 27.0
+    if pp < 0.0 and disc <= 0.0:
+        mm = 2.0 * math.sqrt(-pp / 3.0)
+        arg = 3.0 * qq / (pp * mm)
+        arg = 1.0 if arg > 1.0 else (-1.0 if arg < -1.0 else arg)
+        m = mm * math.cos(math.acos(arg) / 3.0) - ca / 3.0
     else:
-        # resolvent 8 m^3 + 8 p m^2 + (2 p^2 - 8 r) m - q^2 = 0, largest root m > 0
-        m = max(_cubic_roots(p, p * p / 4.0 - r, -q * q / 8.0))
-        if m <= 0.0:
-            m = 1e-300
-        s = math.sqrt(2.0 * m)
-        h = q / (2.0 * s)
-        ys += _quadratic_roots(-s, 0.5 * p + m + h)
-        ys += _quadratic_roots(s, 0.5 * p + m - h)
-    return [y + shift for y in ys]
+        sd = math.sqrt(disc if disc > 0.0 else 0.0)
+        u = -0.5 * qq + sd if qq <= 0.0 else -0.5 * qq - sd
+        u = math.copysign(abs(u) ** (1.0 / 3.0), u)
+        m = (u - pp / (3.0 * u) if u != 0.0 else 0.0) - ca / 3.0
+    for _ in range(2):  # Newton polish on the resolvent
+        fm = ((m + ca) * m + cb) * m + cc
+        dfm = (3.0 * m + 2.0 * ca) * m + cb
+        if dfm == 0.0:
+            break
+        m -= fm / dfm
+    if m <= 0.0:
+        m = 1e-300
+    s = math.sqrt(2.0 * m)
+    h = q / (2.0 * s)
+    k = 0.5 * p + m
+    return [y + shift for y in _quadratic_roots(-s, k + h) + _quadratic_roots(s, k - h)]
 
 
 # --------------------------------------------------------------------------------------------
@@ -185,51 +197,117 @@ def _quartic_roots(c4: float, c3: float, c2: float, c1: float, c0: float) -> lis
 # y = sin th; affine forms are (k0, kx, ky)
 
 
-def _mul(f: tuple, g: tuple) -> tuple:
-    return (f[0] * g[0], f[0] * g[1] + f[1] * g[0], f[0] * g[2] + f[2] * g[0],
-            f[1] * g[1], f[2] * g[2], f[1] * g[2] + f[2] * g[1])
+def _best_point(bd: "_Boundary", score) -> tuple[float, float, float] | None:
+    """Refined (x, y, score) of the candidate maximizing ``score(x, y)`` (None = invalid).
 
-
-def _add(*qs: tuple) -> tuple:
-    return tuple(sum(col) for col in zip(*qs))
-
-
-def _stationary_angles(E: tuple) -> list[float]:
-    """All angles th in (-pi, pi] where the trigonometric quadratic E vanishes (polished).
-
-    ``pi`` (tau = infinity) is always included as a candidate; if E vanishes identically the
-    only candidate returned is 0 (every direction is then stationary).
+    Scores are compared on the unpolished roots first (they are stationary points, so their
+    score is accurate to second order); the winner, and any runner-up within 1e-6, is then
+    polished and rescored. Returns None if no candidate is valid.
     """
-    c0, cx, cy, cxx, cyy, cxy = E
-    roots = _quartic_roots(c0 - cx + cxx, 2.0 * (cy - cxy), 2.0 * (c0 - cxx) + 4.0 * cyy,
-                           2.0 * (cy + cxy), c0 + cx + cxx)
-    if roots is None:
-        return [0.0]
-    thetas = [2.0 * math.atan(t) for t in roots]
-    thetas.append(math.pi)
-    out = []
-    for th in thetas:
-        x, y = math.cos(th), math.sin(th)
-        f = c0 + cx * x + cy * y + cxx * x * x + cyy * y * y + cxy * x * y
-        for _ in range(8):  # Newton on E(th)
-            df = -cx * y + cy * x + 2.0 * (cyy - cxx) * x * y + cxy * (x * x - y * y)
-            if df == 0.0:
-                break
-            step = f / df
-            if step > 0.5:
-                step = 0.5
-            elif step < -0.5:
-                step = -0.5
-            th_new = th - step
-            xn, yn = math.cos(th_new), math.sin(th_new)
-            fn = c0 + cx * xn + cy * yn + cxx * xn * xn + cyy * yn * yn + cxy * xn * yn
-            if abs(fn) >= abs(f):
-                break
-            th, x, y, f = th_new, xn, yn, fn
-            if abs(step) < 1e-15:
-                break
-        out.append(th)
-    return out
+    ranked = []
+    for pt in bd.points:
+        val = score(pt[0], pt[1])
+        if val is not None:
+            ranked.append((val, pt))
+    if not ranked:
+        return None
+    ranked.sort(key=lambda r: r[0], reverse=True)
+    top = ranked[0][0]
+    best = None
+    for val, pt in ranked:
+        if best is not None and val < top - 1e-6 * (abs(top) + 1e-300):
+            break
+        x, y = bd.refine(pt)
+        v2 = score(x, y)
+        if v2 is None:  # polishing left the admissible set: keep the raw candidate
+            x, y, v2 = pt[0], pt[1], val
+        if best is None or v2 > best[2]:
+            best = (x, y, v2)
+    return best
+
+
+def _dot_forms(u: tuple, k: tuple) -> tuple:
+    """sum_i u_i k_i for triples of affine forms u_i, k_i: a trigonometric quadratic."""
+    (a0, ax, ay), (b0, bx, by), (d0, dx, dy) = u
+    (e0, ex, ey), (f0, fx, fy), (g0, gx, gy) = k
+    return (a0 * e0 + b0 * f0 + d0 * g0,
+            a0 * ex + ax * e0 + b0 * fx + bx * f0 + d0 * gx + dx * g0,
+            a0 * ey + ay * e0 + b0 * fy + by * f0 + d0 * gy + dy * g0,
+            ax * ex + bx * fx + dx * gx,
+            ay * ey + by * fy + dy * gy,
+            ax * ey + ay * ex + bx * fy + by * fx + dx * gy + dy * gx)
+
+
+def _polish(c4: float, c3: float, c2: float, c1: float, c0: float, t: float) -> float:
+    """Newton's method on the quartic from t (|t| <= 1 expected), safeguarded."""
+    f = (((c4 * t + c3) * t + c2) * t + c1) * t + c0
+    for _ in range(8):
+        df = ((4.0 * c4 * t + 3.0 * c3) * t + 2.0 * c2) * t + c1
+        if df == 0.0:
+            break
+        step = f / df
+        if step > 0.5:
+            step = 0.5
+        elif step < -0.5:
+            step = -0.5
+        tn = t - step
+        fn = (((c4 * tn + c3) * tn + c2) * tn + c1) * tn + c0
+        if abs(fn) >= abs(f):
+            break
+        t, f = tn, fn
+        if abs(step) < 1e-12:
+            break
+    return t
+
+
+class _Boundary:
+    """Candidate boundary points where a trigonometric quadratic E(th) vanishes.
+
+    The quartic in tau = tan(th/2) is solved in closed form. Each root is kept in the chart
+    where it is small: tau itself for |tau| <= 1, s = 1/tau (the reversed quartic) otherwise;
+    th = pi (s = 0) is always a candidate, which covers a vanishing leading coefficient.
+    ``points`` are unpolished (x, y, chart value, reversed); :meth:`refine` polishes one by
+    Newton's method. If E vanishes identically every direction is stationary and the single
+    candidate th = 0 is exact.
+    """
+
+    __slots__ = ("c", "points")
+
+    def __init__(self, E: tuple):
+        c0, cx, cy, cxx, cyy, cxy = E
+        c = (c0 - cx + cxx, 2.0 * (cy - cxy), 2.0 * (c0 - cxx) + 4.0 * cyy,
+             2.0 * (cy + cxy), c0 + cx + cxx)
+        roots = _quartic_roots(*c)
+        if roots is None:
+            self.c = None
+            self.points = [(1.0, 0.0, 0.0, False)]
+            return
+        self.c = c
+        pts = []
+        for t in roots:
+            if -1.0 <= t <= 1.0:
+                t2 = t * t
+                pts.append(((1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2), t, False))
+            else:
+                s = 1.0 / t
+                s2 = s * s
+                pts.append(((s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0), s, True))
+        pts.append((-1.0, 0.0, 0.0, True))
+        self.points = pts
+
+    def refine(self, point: tuple) -> tuple[float, float]:
+        """Newton-polished (x, y) of a candidate."""
+        x, y, t, rev = point
+        if self.c is None:
+            return x, y
+        c4, c3, c2, c1, c0 = self.c
+        if rev:
+            s = _polish(c0, c1, c2, c3, c4, t)
+            s2 = s * s
+            return (s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0)
+        t = _polish(c4, c3, c2, c1, c0, t)
+        t2 = t * t
+        return (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
 
 
 # --------------------------------------------------------------------------------------------
@@ -255,9 +333,8 @@ class _Spatial:
         self.v2 = -v[1] * r2 + v[2] * r1
         self.r1, self.r2 = r1, r2
 
-    def direction(self, th: float) -> tuple[float, float]:
-        """Unit tangent t(th) = cos th r + sin th r_perp in the contact frame (t1, t2)."""
-        x, y = math.cos(th), math.sin(th)
+    def direction(self, x: float, y: float) -> tuple[float, float]:
+        """Unit tangent t = x r + y r_perp (x = cos th, y = sin th) in the frame (t1, t2)."""
         return x * self.r1 - y * self.r2, x * self.r2 + y * self.r1
 
     def wp_forms(self, mu: float) -> tuple[tuple, tuple, tuple]:
@@ -272,47 +349,45 @@ def _cross_q(k0: float, k1: float, k2: float, mu: float) -> tuple[tuple, tuple, 
     return (0.0, -k2, k1), (-mu * k2, 0.0, -k0), (mu * k1, k0, 0.0)
 
 
-def _det_affine(U: tuple, X: tuple) -> tuple:
-    """U . X for affine-form triples U and X: a trigonometric quadratic."""
-    return _add(_mul(U[0], X[0]), _mul(U[1], X[1]), _mul(U[2], X[2]))
-
-
-def _eval_p(S: _Spatial, mu: float, th: float) -> tuple[float, float, float, float, float]:
-    """(x, y, D = a.p, p.W.p, W p tangential components) at th."""
-    x, y = math.cos(th), math.sin(th)
+def _eval_p(S: _Spatial, mu: float, x: float, y: float) -> tuple[float, float, tuple]:
+    """(D = a.p, p.W.p, W p tangential components) at t = (x, y) in S's basis."""
     P0 = S.A + mu * (S.B1 * x + S.B2 * y)
     P1 = S.B1 + mu * (S.C11 * x + S.C12 * y)
     P2 = S.B2 + mu * (S.C12 * x + S.C22 * y)
-    return x, y, P0, P0 + mu * (x * P1 + y * P2), (P1, P2)
+    return P0, P0 + mu * (x * P1 + y * P2), (P1, P2)
 
 
 def _dissipation_angle(S: _Spatial, c: float, mu: float) -> tuple[float, float, float, float]:
-    """Angle th in S's basis maximizing T_L (eq. 60) on the cone boundary with D > 0.
+    """Direction (x, y) = (cos th, sin th) in S's basis maximizing T_L (eq. 60) on the cone
+    boundary with D > 0.
 
-    Returns (th, T_L, pi_n, D).
+    Returns ((x, y), T_L, pi_n, D).
     """
-    Wp = S.wp_forms(mu)
-    X = _cross_q(S.A, S.B1, S.B2, mu)  # a x q, a = W e_n
-    vX = _add(_scale_aff(X[0], S.v0), _scale_aff(X[1], S.v1), _scale_aff(X[2], S.v2))
-    # c det[W p, a, q] + (a.p) det[v, a, q] = 0: stationarity of T_L on the boundary
-    E = _add(tuple(c * t for t in _det_affine(Wp, X)), _mul(Wp[0], vX))
-    best = None
-    dmin = 1e-12 * (abs(S.A) + mu * math.hypot(S.B1, S.B2))
-    for th in _stationary_angles(E):
-        x, y, D, pWp, _ = _eval_p(S, mu, th)
+    A, B1, B2, C11, C12, C22 = S.A, S.B1, S.B2, S.C11, S.C12, S.C22
+    v0, v1, v2 = S.v0, S.v1, S.v2
+    mA, mB1, mB2 = mu * A, mu * B1, mu * B2
+    # c det[W p, a, q] + (a.p) det[v, a, q] = det[c W p + (a.p) v, a, q] = 0 (stationarity of
+    # T_L on the boundary), a = W e_n, a.p = A + mu (B1 x + B2 y)
+    U = ((c * A + v0 * A, c * mB1 + v0 * mB1, c * mB2 + v0 * mB2),
+         (c * B1 + v1 * A, c * mu * C11 + v1 * mB1, c * mu * C12 + v1 * mB2),
+         (c * B2 + v2 * A, c * mu * C12 + v2 * mB1, c * mu * C22 + v2 * mB2))
+    E = _dot_forms(U, _cross_q(A, B1, B2, mu))
+    dmin = 1e-12 * (abs(A) + mu * math.hypot(B1, B2))
+
+    def energy_loss(x: float, y: float) -> float | None:
+        D = A + mu * (B1 * x + B2 * y)
         if not D > dmin:
-            continue
+            return None
+        pWp = D + mu * (x * (B1 + mu * (C11 * x + C12 * y)) + y * (B2 + mu * (C12 * x + C22 * y)))
         pn = c / D
-        tl = -pn * (S.v0 + mu * (S.v1 * x + S.v2 * y)) - 0.5 * pn * pn * pWp
-        if best is None or tl > best[1]:
-            best = (th, tl, pn, D)
-    if best is None:  # unreachable for A > 0: D averages A over the circle
+        return -pn * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * pn * pn * pWp  # eq. (60)
+
+    best = _best_point(_Boundary(E), energy_loss)
+    if best is None:  # unreachable for W_nn > 0: D averages W_nn over the circle
         raise SolverError("no admissible sliding direction found (every D <= 0)")
-    return best
-
-
-def _scale_aff(X: tuple, s: float) -> tuple:
-    return (X[0] * s, X[1] * s, X[2] * s)
+    x, y, tl = best
+    D = A + mu * (B1 * x + B2 * y)
+    return (x, y), tl, c / D, D
 
 
 def _unit_or(x1: float, x2: float, fallback: tuple[float, float]) -> tuple[float, float]:
@@ -377,8 +452,380 @@ def max_dissipation_direction(W, v, e: float, mu: float, tol: float = 1e-10) -> 
         return np.array([bt if bt is not None else 1.0])
     r1, r2 = _unit_or(-vv[1], -vv[2], (1.0, 0.0))
     S = _Spatial(w, vv, r1, r2)
-    th = _dissipation_angle(S, c, mu)[0]
-    return np.array(S.direction(th))
+    x, y = _dissipation_angle(S, c, mu)[0]
+    return np.array(S.direction(x, y))
 
 
-__all__ = ["ContactSolution", "max_dissipation_direction", "FAST_LAWS"]
+# --------------------------------------------------------------------------------------------
+# linear solves (interior branches)
+
+
+def _singular(law: str, det: float) -> SingularSystemError:
+    return SingularSystemError(
+        f"the Delassus matrix W = Jc M^-1 Jc^T of this contact is singular (det W = {det:.3e}): "
+        "its normal and tangential motions are dependent here, so the exact fast solve of law "
+        f"{law!r} (which inverts W on its interior branch) has no unique answer; use "
+        "method='clarabel' or method='cvxpy' (law='dissipative' or 'ccp' accept a singular W)")
+
+
+def _inverse3(w: list, law: str) -> tuple:
+    """Symmetric inverse of the 3 x 3 W as (i00, i01, i02, i11, i12, i22)."""
+    A, B1, B2 = w[0]
+    C11, C12, C22 = w[1][1], w[1][2], w[2][2]
+    k00 = C11 * C22 - C12 * C12
+    k01 = B2 * C12 - B1 * C22
+    k02 = B1 * C12 - B2 * C11
+    det = A * k00 + B1 * k01 + B2 * k02
+    tr = A + C11 + C22
+    if not det > SINGULAR_RTOL * tr * tr * tr:
+        raise _singular(law, det)
+    f = 1.0 / det
+    return (k00 * f, k01 * f, k02 * f, (A * C22 - B2 * B2) * f, (B1 * B2 - A * C12) * f,
+            (A * C11 - B1 * B1) * f)
+
+
+def _solve3(inv: tuple, r0: float, r1: float, r2: float) -> tuple[float, float, float]:
+    i00, i01, i02, i11, i12, i22 = inv
+    return (i00 * r0 + i01 * r1 + i02 * r2, i01 * r0 + i11 * r1 + i12 * r2,
+            i02 * r0 + i12 * r1 + i22 * r2)
+
+
+def _inverse2(w: list, law: str) -> tuple:
+    A, B, C = w[0][0], w[0][1], w[1][1]
+    det = A * C - B * B
+    if not det > SINGULAR_RTOL * (A + C) * (A + C):
+        raise _singular(law, det)
+    f = 1.0 / det
+    return (C * f, -B * f, A * f)
+
+
+def _in_cone(pn: float, ptn: float, mu: float) -> bool:
+    """|pi_t| <= mu pi_n (eq. 53), with the closed form's round-off allowance."""
+    return pn >= 0.0 and ptn <= mu * pn * (1.0 + CONE_RTOL)
+
+
+def _jam(mu: float, D: float, law: str) -> NonPositiveEffectiveMassError:
+    return NonPositiveEffectiveMassError(
+        f"sliding denominator c_n^T M^-1 (c_n + mu c_t) = {D:.3e} <= 0 at mu = {mu:g} for every "
+        f"sliding solution of law {law!r} (Painleve-like jam: eq. (38) would divide by it); use "
+        "law='ccp' or 'dissipative', which stay well posed, or lower mu")
+
+
+def _sol(impulse: Sequence[float], regime: str, effective_mass: float | None = None,
+         extras: dict | None = None, warnings: tuple[str, ...] = ()) -> ContactSolution:
+    return ContactSolution(np.array(impulse, dtype=float), regime, effective_mass,
+                           MappingProxyType(extras or {}), warnings)
+
+
+def _angle_from_slip(v1: float, v2: float, t1: float, t2: float) -> float:
+    """Angle in [0, 2 pi) of t measured counter-clockwise from v_t- (from t1 if v_t- = 0)."""
+    if v1 == 0.0 and v2 == 0.0:
+        a = math.atan2(t2, t1)
+    else:
+        a = math.atan2(v1 * t2 - v2 * t1, v1 * t1 + v2 * t2)
+    return a % _TWO_PI
+
+
+# --------------------------------------------------------------------------------------------
+# the seed's law (Section 8): stick test, else slide with maximal dissipation
+
+
+def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
+    c = -(1.0 + e) * v[0]
+    b0 = -c
+    if d == 2:
+        i00, i01, i11 = _inverse2(w, "pereira-nikravesh")
+        pn = -(i00 * b0 + i01 * v[1])  # eq. (42)
+        pt = -(i01 * b0 + i11 * v[1])
+        if _in_cone(pn, abs(pt), mu):
+            return _sol((pn, pt), "stick")
+        s = -math.copysign(1.0, v[1]) if v[1] != 0.0 else (math.copysign(1.0, pt) if pt else 1.0)
+        D = w[0][0] + mu * s * w[0][1]  # eq. (55) direction, eq. (38) denominator
+        if not D > 1e-12 * max(abs(w[0][0]), abs(w[0][1]), abs(w[1][1])):
+            raise _jam(mu, D, "pereira-nikravesh")
+        p = c / D
+        return _sol((p, mu * s * p), "slide", D)
+    inv = _inverse3(w, "pereira-nikravesh")
+    pn, p1, p2 = _solve3(inv, c, -v[1], -v[2])  # eq. (42) in space
+    ptn = math.hypot(p1, p2)
+    if _in_cone(pn, ptn, mu):
+        return _sol((pn, p1, p2), "stick")
+    r1, r2 = _unit_or(-v[1], -v[2], _unit_or(p1, p2, (1.0, 0.0)))
+    S = _Spatial(w, v, r1, r2)
+    (x, y), tl, p, D = _dissipation_angle(S, c, mu)
+    t1, t2 = S.direction(x, y)
+    # P_N's optimum over the plane a.pi = c: pi* = lam e_n - W^-1 v, lam = (c + v_n) / W_nn
+    q0, q1, q2 = _solve3(inv, v[0], v[1], v[2])
+    lam = (c + v[0]) / w[0][0]
+    interior = _in_cone(lam - q0, math.hypot(q1, q2), mu)
+    extras = {"alpha_m": _angle_from_slip(v[1], v[2], t1, t2), "energy_loss_max": tl,
+              "normal_impulse": p, "direction": (t1, t2), "pn_optimum_interior": interior}
+    warns = ()
+    if interior:
+        warns = ("P_N's optimum is interior to the cone (with e > 0 its slip is not zero) while "
+                 "the stick test failed: the seed's boundary maximal-dissipation direction is "
+                 "used",)
+    return _sol((p, mu * p * t1, mu * p * t2), "slide", D, extras, warns)
+
+
+# --------------------------------------------------------------------------------------------
+# Coulomb friction opposing the post-impact slip, Newton restitution
+
+
+def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
+    c = -(1.0 + e) * v[0]
+    b0 = -c  # b = v + e v_n e_n; u = b + W pi
+    wscale = max(abs(x) for row in w for x in row)
+    dmin = 1e-12 * wscale
+    vscale = max(abs(x) for x in v)
+    if d == 2:
+        i00, i01, i11 = _inverse2(w, "coulomb")
+        pn = -(i00 * b0 + i01 * v[1])
+        pt = -(i01 * b0 + i11 * v[1])
+        if _in_cone(pn, abs(pt), mu):
+            return _sol((pn, pt), "stick")
+        A, B, C = w[0][0], w[0][1], w[1][1]
+        found, jams = [], []
+        for s in (1.0, -1.0):
+            D = A + mu * s * B
+            if not D > dmin:
+                jams.append(D)
+                continue
+            p = c / D
+            ut = v[1] + p * (B + mu * s * C)  # post-impact slip
+            if ut * s <= CONE_RTOL * vscale:  # anti-parallel to pi_t (or zero)
+                tl = -p * (v[0] + mu * s * v[1]) - 0.5 * p * p * (D + mu * s * (B + mu * s * C))
+                found.append((tl, s, p, D, ut))
+        if not found:
+            if jams:
+                raise _jam(mu, min(jams), "coulomb")
+            raise SolverError("no Coulomb sliding solution exists for this planar contact "
+                              "although the stick impulse leaves the cone; use method='clarabel'")
+        tl, s, p, D, ut = max(found)
+        extras = {"n_slide_solutions": len(found), "post_slip": (ut,)}
+        warns = (("the Coulomb law has several sliding solutions here; the most dissipative "
+                  "one is returned",) if len(found) > 1 else ())
+        return _sol((p, mu * s * p), "slide", D, extras, warns)
+    inv = _inverse3(w, "coulomb")
+    pn, p1, p2 = _solve3(inv, c, -v[1], -v[2])
+    if _in_cone(pn, math.hypot(p1, p2), mu):
+        return _sol((pn, p1, p2), "stick")
+    r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
+    S = _Spatial(w, v, r1, r2)
+    Wp = S.wp_forms(mu)
+    # det[W p, (0, t), b] = 0 with m x b = (x b2 - y b1, y b0, -x b0)
+    E = _dot_forms(Wp, ((0.0, S.v2, -S.v1), (0.0, 0.0, b0), (0.0, -b0, 0.0)))
+    escale = sum(abs(x) for x in E) or 1.0
+    bd = _Boundary(E)
+
+    def conditions(x: float, y: float, rtol: float) -> tuple | None:
+        """(T_L, pi_n, D, sigma) if t = (x, y) is a Coulomb slide to relative tolerance rtol."""
+        D, pWp, (P1, P2) = _eval_p(S, mu, x, y)
+        if abs(_eval_trig(E, x, y)) > rtol * escale:
+            return None
+        if not D > dmin:
+            jams.append(D)
+            return None
+        p = c / D  # eq. (38): u_n = 0
+        u1, u2 = S.v1 + p * P1, S.v2 + p * P2  # post-impact slip, rotated basis
+        sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
+        if sigma < -rtol * vscale or abs(u1 * y - u2 * x) > rtol * (vscale + abs(p) * wscale):
+            return None
+        return -p * (S.v0 + mu * (S.v1 * x + S.v2 * y)) - 0.5 * p * p * pWp, p, D, sigma
+
+    found: list = []
+    jams: list = []
+    for loose in (True, False):
+        for pt in bd.points:
+            if loose and conditions(pt[0], pt[1], 1e-6) is None:
+                continue
+            x, y = bd.refine(pt)
+            got = conditions(x, y, ROOT_RTOL)
+            if got is None or any(abs(x - f[1]) + abs(y - f[2]) < 1e-9 for f in found):
+                continue  # not a solution, or the same root reached twice
+            tl, p, D, sigma = got
+            found.append((tl, x, y, p, D, sigma))
+        if found:
+            break
+    if not found:
+        if jams:
+            raise _jam(mu, min(jams), "coulomb")
+        raise SolverError("no Coulomb sliding solution found for this spatial contact although "
+                          "the stick impulse leaves the cone; use method='clarabel'")
+    tl, x, y, p, D, sigma = max(found)
+    t1, t2 = S.direction(x, y)
+    extras = {"n_slide_solutions": len(found), "direction": (t1, t2),
+              "alpha": _angle_from_slip(v[1], v[2], t1, t2), "post_slip_speed": sigma}
+    warns = (("the Coulomb law has several sliding solutions here; the most dissipative one "
+              "is returned",) if len(found) > 1 else ())
+    return _sol((p, mu * p * t1, mu * p * t2), "slide", D, extras, warns)
+
+
+def _eval_trig(E: tuple, x: float, y: float) -> float:
+    return E[0] + E[1] * x + E[2] * y + E[3] * x * x + E[4] * y * y + E[5] * x * y
+
+
+# --------------------------------------------------------------------------------------------
+# CCP (Anitescu): min 1/2 pi.W.pi + pi.b over K_mu
+
+
+def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str) -> ContactSolution:
+    b = list(v)
+    b[0] = (1.0 + e) * v[0]
+    if d == 2:
+        bt = abs(b[1])
+        if b[0] >= mu * bt:  # b in the dual cone K*: pi = 0 is optimal
+            return _sol((0.0, 0.0), "separating")
+        i00, i01, i11 = _inverse2(w, law)
+        pn = -(i00 * b[0] + i01 * b[1])
+        pt = -(i01 * b[0] + i11 * b[1])
+        if _in_cone(pn, abs(pt), mu):
+            return _sol((pn, pt), "stick", extras={"normal_velocity_lift": 0.0})
+        best = None
+        for s in (1.0, -1.0):
+            pb = b[0] + mu * s * b[1]
+            pWp = w[0][0] + 2.0 * mu * s * w[0][1] + mu * mu * w[1][1]
+            if pb < 0.0 and pWp > 0.0:
+                obj = -0.5 * pb * pb / pWp
+                if best is None or obj < best[0]:
+                    best = (obj, s, -pb / pWp)
+        if best is None:
+            raise SolverError("CCP boundary search found no descent direction; use "
+                              "method='clarabel'")
+        _, s, r = best
+        un = b[0] + r * (w[0][0] + mu * s * w[0][1])
+        ut = b[1] + r * (w[0][1] + mu * s * w[1][1])
+        return _sol((r, mu * s * r), "slide",
+                    extras={"normal_velocity_lift": un, "post_slip": (ut,)})
+    if b[0] >= mu * math.hypot(b[1], b[2]):
+        return _sol((0.0, 0.0, 0.0), "separating")
+    inv = _inverse3(w, law)
+    pn, p1, p2 = _solve3(inv, -b[0], -b[1], -b[2])
+    if _in_cone(pn, math.hypot(p1, p2), mu):
+        return _sol((pn, p1, p2), "stick", extras={"normal_velocity_lift": 0.0})
+    r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
+    S = _Spatial(w, b, r1, r2)  # S.v* hold b in the rotated basis
+    Wp = S.wp_forms(mu)
+    E = _dot_forms(Wp, _cross_q(S.v0, S.v1, S.v2, mu))  # det[W p, b, q] = 0
+
+    def dissipation(x: float, y: float) -> float | None:
+        D, pWp, _ = _eval_p(S, mu, x, y)
+        pb = S.v0 + mu * (S.v1 * x + S.v2 * y)
+        if pb < 0.0 and pWp > 0.0:
+            return 0.5 * pb * pb / pWp  # minus the optimal objective along this ray
+        return None
+
+    best = _best_point(_Boundary(E), dissipation)
+    if best is None:
+        raise SolverError("CCP boundary search found no descent direction; use "
+                          "method='clarabel'")
+    x, y, _ = best
+    D, pWp, (P1, P2) = _eval_p(S, mu, x, y)
+    r = -(S.v0 + mu * (S.v1 * x + S.v2 * y)) / pWp
+    t1, t2 = S.direction(x, y)
+    un = S.v0 + r * D
+    slip = math.hypot(S.v1 + r * P1, S.v2 + r * P2)
+    return _sol((r, mu * r * t1, mu * r * t2), "slide",
+                extras={"normal_velocity_lift": un, "post_slip_speed": slip,
+                        "direction": (t1, t2)})
+
+
+# --------------------------------------------------------------------------------------------
+# public kernel
+
+
+def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
+    """Exact impulse of one contact under ``law`` (the kernel of ``method="fast"``).
+
+    Parameters
+    ----------
+    W : (d, d) array_like
+        The contact's Delassus block (loops already folded in), d = 2 (n, t) or 3 (n, t1, t2).
+    v : (d,) array_like
+        Pre-impact contact velocity; ``v[0] = v_n < 0`` when approaching.
+    e : float
+        Restitution in [0, 1].
+    mu : float
+        Friction coefficient >= 0.
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
+        ``"pereira-nikravesh"``: stick test (eq. 42), else slide on the cone boundary along
+        eq. (55) in the plane and along the maximal-dissipation direction in space (eq. 60).
+        ``"coulomb"``: Newton restitution on u = v+ + e v_n- n and friction opposing the
+        post-impact slip (stick if the stick impulse is in the cone, else u_n = 0 and
+        pi_t = -mu pi_n u_t/|u_t|; the most dissipative solution if several).
+        ``"ccp"``: min 1/2 pi.W.pi + pi.b over K_mu, b = v + e v_n n.
+        ``"dissipative"``: ccp with e = 0, the impulse times (1 + e).
+
+    Returns
+    -------
+    ContactSolution
+
+    Raises
+    ------
+    ShapeError, UnknownOptionError
+        bad shapes or law.
+    SingularSystemError
+        W_nn <= 0, or W singular where the law inverts it.
+    NonPositiveEffectiveMassError
+        Newton laws whose every slide has a non-positive denominator (Painleve-like).
+    SolverError
+        no solution of the law's conditions exists (Coulomb) or was found.
+    """
+    w, vv, d = _as_lists(W, v)
+    e = float(e)
+    mu = float(mu)
+    if law not in FAST_LAWS:
+        raise UnknownOptionError(f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
+    if not vv[0] < 0.0:
+        return _sol([0.0] * d, "separating")
+    A = w[0][0]
+    if not A > 0.0:
+        raise SingularSystemError(
+            f"W_nn = c_n^T M^-1 c_n = {A:.3e}: the contact normal moves no mass in this "
+            "configuration; no impulse can act there")
+    if mu == 0.0:
+        pi = [0.0] * d
+        pi[0] = -(1.0 + e) * vv[0] / A  # eq. (38) with mu = 0 (every law agrees)
+        return _sol(pi, "frictionless")
+    if law == "pereira-nikravesh":
+        return _pereira_nikravesh(w, vv, d, e, mu)
+    if law == "coulomb":
+        return _coulomb(w, vv, d, e, mu)
+    if law == "ccp":
+        return _ccp(w, vv, d, e, mu, law)
+    plastic = _ccp(w, vv, d, 0.0, mu, law)  # maximal-dissipation plastic impact
+    pp = plastic.impulse
+    scale = 1.0 + e  # Poisson's hypothesis
+    extras = {"plastic_impulse": tuple(pp.tolist())}
+    return ContactSolution(pp * scale, plastic.regime, None, MappingProxyType(extras))
+
+
+# --------------------------------------------------------------------------------------------
+# registered solvers
+
+
+def _fast_solver(law: str):
+    def solver(problem: ImpactProblem, **options) -> Any:
+        if options:
+            raise UnknownOptionError(
+                f"method 'fast' takes no options, got {', '.join(sorted(options))}")
+        if problem.n_contacts != 1:
+            raise NotSupportedError(
+                f"method='fast' is exact for one contact only; for {problem.n_contacts} "
+                "simultaneous contacts use method='clarabel' or method='cvxpy'")
+        W, v = problem.contact_block(0)
+        sol = solve_contact(W, v, float(problem.restitution[0]), float(problem.friction[0]), law)
+        return assemble_result(problem, sol.impulse[None], [sol.regime], law, "fast",
+                               effective_mass=sol.effective_mass, tol=FAST_TOL,
+                               extras=sol.extras, warnings=sol.warnings)
+
+    solver.__name__ = f"fast_{law.replace('-', '_')}"
+    solver.__doc__ = f"Exact single-contact solver of law {law!r} (see solve_contact)."
+    return register_solver(law, "fast")(solver)
+
+
+for _law in FAST_LAWS:
+    _fast_solver(_law)
+del _law
+
+__all__ = ["ContactSolution", "solve_contact", "max_dissipation_direction", "FAST_LAWS"]
