@@ -309,10 +309,8 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray) -> tuple[np.ndarray, bool]:
             best = (fn, u.copy())
         if fn <= 1e-14:
             break
-        try:
-            step = np.linalg.solve(J, -F)
-        except np.linalg.LinAlgError:
-            step, *_ = np.linalg.lstsq(J, -F, rcond=None)
+        # minimum-norm Newton step: the KKT Jacobian is singular when contacts are redundant
+        step, *_ = np.linalg.lstsq(J, -F, rcond=1e-13)
         u = u + step
     F, J, x, G = residual(best[1])
     u = best[1]
@@ -982,9 +980,11 @@ def _pn_result(P: ImpactProblem, backend: Backend, method: str,
         W, v = P.contact_block(0)
         e, mu = float(P.restitution[0]), float(P.friction[0])
         if interior[0]:
-            from . import sweep  # the other solver path's boundary search (lazy)
-
-            direction = np.asarray(sweep.max_dissipation_direction(W, v, e, mu, tol=opts.tol),
+            try:  # the boundary search of the other solver paths (lazy imports)
+                from .sweep import max_dissipation_direction
+            except ImportError:
+                from .fast import max_dissipation_direction
+            direction = np.asarray(max_dissipation_direction(W, v, e, mu, tol=opts.tol),
                                    dtype=float)
             warnings.append("P_N's optimum is interior but the stick test failed: the sliding "
                             "direction comes from the boundary search (maximal T_L on the cone)")
