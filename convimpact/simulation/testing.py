@@ -9,6 +9,8 @@ Each satisfies :class:`convimpact.mechanism.Mechanism` and is written from its L
 * :class:`PointMass` -- a particle in a vertical plane above a floor (the drop test).
 * :class:`DoublePendulum` -- two point masses on massless links hanging from a support
   above a floor; the lower mass strikes the floor.
+* :class:`FallingRod` -- a slender rod whose two ends can strike the floor (simultaneous
+  contacts, bouncing to rest).
 * :class:`SliderCrank` -- crank, coupler (uniform rods), slider on the line y = 0 (loop cut at
   the coupler-slider pin: Psi = 0 has two rows) and a free slider ahead of it on the same line,
   struck centrally; an optional restoring torque ``-c (theta1_dot - omega)`` on the crank.
@@ -228,3 +230,56 @@ class SliderCrank:
         a, b = theta[0], theta[1]
         return self.g * (0.5 * m1 * self.r * np.sin(a)
                          + m2 * (self.r * np.sin(a) + 0.5 * self.l * np.sin(b)))
+
+
+class FallingRod:
+    """Uniform slender rod (x, y, phi) of mass m and length L under gravity above the floor y = 0.
+
+    theta = (x, y, phi): centre of mass and angle from +x. Contacts "left" and "right": the ends
+    (x -+ L/2 cos phi, y -+ L/2 sin phi) against the floor, frame n = +y, t = +x.
+    """
+
+    n_coordinates = 3
+    n_loop_constraints = 0
+    contact_names = ("left", "right")
+
+    def __init__(self, mass=1.0, length=1.0, g=9.81, e=0.5, mu=0.0):
+        self.m, self.L, self.g, self.e, self.mu = mass, length, g, e, mu
+
+    def mass_matrix(self, theta):
+        return np.diag([self.m, self.m, self.m * self.L**2 / 12.0])
+
+    def mass_matrix_dot(self, theta, dtheta):
+        return np.zeros((3, 3))
+
+    def generalized_forces(self, t, theta, dtheta):
+        return np.array([0.0, -self.m * self.g, 0.0])
+
+    def loop_residual(self, theta):
+        return np.zeros(0)
+
+    def loop_jacobian(self, theta):
+        return np.zeros((0, 3))
+
+    def loop_jacobian_dot(self, theta, dtheta):
+        return np.zeros((0, 3))
+
+    def _sign(self, name):
+        return -1.0 if name == "left" else 1.0
+
+    def contact_gap(self, name, theta):
+        return float(theta[1] + self._sign(name) * 0.5 * self.L * np.sin(theta[2]))
+
+    def contact_jacobian(self, name, theta):
+        s, h, phi = self._sign(name), 0.5 * self.L, theta[2]
+        return np.array([[0.0, 1.0, s * h * np.cos(phi)],
+                         [1.0, 0.0, -s * h * np.sin(phi)]])
+
+    def contact_parameters(self, name):
+        return self.e, self.mu
+
+    def kinetic_energy(self, theta, dtheta):
+        return 0.5 * float(dtheta @ self.mass_matrix(theta) @ dtheta)
+
+    def potential_energy(self, theta):
+        return self.m * self.g * float(theta[1])
