@@ -140,6 +140,7 @@ class QPSolution:
     solve_time: float = float("nan")
     polished: bool = False
     kkt_residual: float = float("nan")
+    converged: bool = True  # False: the solver stopped short (e.g. AlmostSolved)
 
 
 class Backend(Protocol):
@@ -174,8 +175,12 @@ def solve_cone_qp(backend: Backend, qp: ConeQP, tol: float = DEFAULT_TOL,
     x, polished = sol.x, False
     if polish:
         x, polished = polish_cone_qp(scaled, sol.x)
+    if not (sol.converged or polished):
+        # an answer the solver itself did not certify is used only when the KKT polish
+        # certifies it (residual at round-off on a consistent active set)
+        raise SolverError(_status_message(sol.status) + f" (method={backend.name!r})")
     return QPSolution(x * (sq / sW), sol.status, sol.iterations, sol.solve_time, polished,
-                      kkt_residual(scaled, x))
+                      kkt_residual(scaled, x), sol.converged)
 
 
 #: relative thresholds that classify a conic solution's contacts for the polish
@@ -201,7 +206,7 @@ def _classify(qp: ConeQP, x: np.ndarray) -> list[str]:
     return kinds
 
 
-def polish_cone_qp(qp: ConeQP, x0: np.ndarray) -> tuple[np.ndarray, bool]:
+def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False) -> tuple[np.ndarray, bool]:
     """Newton refinement of an interior-point answer on its active set (KKT equations).
 
     Each contact is classified from ``x0`` as zero, interior, on the cone boundary, or (when
@@ -211,6 +216,10 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray) -> tuple[np.ndarray, bool]:
     interior ones and ``x_i = 0`` on zero ones. The answer is kept only when it is consistent
     (r > 0, kappa >= 0, interior points strictly inside, zero contacts' z in K*) and close to
     ``x0``; otherwise ``x0`` is returned unchanged.
+
+    With ``coulomb=True`` the same active-set Newton solves Coulomb's law instead of the cone
+    QP's KKT system (E must be empty): ``u = W x + q`` with ``u_i = 0`` (stick),
+    ``u_i = kappa (0, -c)`` on sliding contacts (no normal lift) and ``u_n >= 0`` on zero ones.
 
     Returns
     -------
@@ -232,7 +241,11 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray) -> tuple[np.ndarray, bool]:
         elif k == "bnd":
             # kappa estimate from the stationarity residual
             g = qp.W[i * d:(i + 1) * d] @ x0 + qp.q[i * d:(i + 1) * d]
-            kap = max(float(g[0]) / qp.mu[i], 0.0)
+            if coulomb:
+                tdir = xi[1:] / max(np.linalg.norm(xi[1:]), _TINY)
+                kap = max(-float(g[1:] @ tdir), 0.0)
+            else:
+                kap = max(float(g[0]) / qp.mu[i], 0.0)
             if d == 3:
                 u0 += [xi[0], math.atan2(xi[2], xi[1]), kap]
             else:
@@ -258,6 +271,7 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray) -> tuple[np.ndarray, bool]:
             s, e_ = slots[i]
             o = i * d
             mu = qp.mu[i]
+            zn = 0.0 if coulomb else mu
             if k == "int":
                 x[o:o + d] = u[s:e_]
                 Jx[o:o + d, s:e_] = np.eye(d)
@@ -271,16 +285,16 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray) -> tuple[np.ndarray, bool]:
                     x[o:o + 3] = r * np.array([1.0, mu * c, mu * sn])
                     Jx[o:o + 3, s] = [1.0, mu * c, mu * sn]
                     Jx[o:o + 3, s + 1] = [0.0, -r * mu * sn, r * mu * c]
-                    z[o:o + 3] = kap * np.array([mu, -c, -sn])
+                    z[o:o + 3] = kap * np.array([zn, -c, -sn])
                     Jz[o:o + 3, s + 1] = [0.0, kap * sn, -kap * c]
-                    Jz[o:o + 3, s + 2] = [mu, -c, -sn]
+                    Jz[o:o + 3, s + 2] = [zn, -c, -sn]
                 else:
                     r, kap = u[s:e_]
                     sg = sign[i]
                     x[o:o + 2] = r * np.array([1.0, mu * sg])
                     Jx[o:o + 2, s] = [1.0, mu * sg]
-                    z[o:o + 2] = kap * np.array([mu, -sg])
-                    Jz[o:o + 2, s + 1] = [mu, -sg]
+                    z[o:o + 2] = kap * np.array([zn, -sg])
+                    Jz[o:o + 2, s + 1] = [zn, -sg]
         return x, z, Jx, Jz
 
     eq_rows = np.zeros(N, dtype=bool)
@@ -322,7 +336,7 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray) -> tuple[np.ndarray, bool]:
         s, e_ = slots[i]
         xi, gi, mu = x[i * d:(i + 1) * d], G[i * d:(i + 1) * d], qp.mu[i]
         if k == "zero":
-            if mu == 0.0:
+            if mu == 0.0 or coulomb:
                 if gi[0] < -1e-10:
                     return x0, False
             elif mu * np.linalg.norm(gi[1:]) > gi[0] + 1e-10:
@@ -446,10 +460,11 @@ class CvxpyBackend:
         status = str(problem.status)
         stats = problem.solver_stats
         iters = int(stats.num_iters) if stats is not None and stats.num_iters is not None else -1
-        if status != cp.OPTIMAL or x.value is None:
+        if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or x.value is None:
             raise SolverError(_status_message(status))
         t = float(stats.solve_time) if stats is not None and stats.solve_time else float("nan")
-        return QPSolution(np.array(x.value, dtype=float), status, iters, t)
+        return QPSolution(np.array(x.value, dtype=float), status, iters, t,
+                          converged=status == cp.OPTIMAL)
 
 
 def _status_message(status: str) -> str:
@@ -729,8 +744,14 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
     The shift ``s_i = mu_i |u_t,i|`` (u = W pi + b) enters ``q_n``; the map ``s -> s(pi(s))`` is
     iterated with Anderson acceleration (memory ``anderson_memory``), each step safeguarded:
     a step that does not reduce the fixed-point residual is replaced by a damped plain step.
-    For one contact the answer is finished by the exact single-contact solve (the candidate
-    nearest the iterate), which also rescues a fixed point that did not converge.
+    After every program the iterate's active set (stick / slide / separate per contact) is
+    handed to an active-set Newton solve of Coulomb's conditions themselves
+    (:func:`polish_cone_qp` with ``coulomb=True``); once that certifies a solution (residual at
+    round-off, consistent active set) the iteration stops. This is what converges on the
+    paper's Section 9.3 pendulum, where the plain fixed point does not. For one contact the
+    answer is finished by the exact single-contact solve (the candidate nearest the iterate),
+    which also rescues a fixed point that did not converge. When Coulomb's law has several
+    solutions (large mu, several contacts) the one reached from the CCP start is returned.
 
     Returns
     -------
@@ -760,6 +781,10 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
     res_norm = prev = math.inf
     beta = 1.0  # mixing; halved whenever a step fails to reduce the residual
     status = ""
+    newton = False
+    sW = max(float(np.max(np.abs(W))), _TINY)
+    sb = max(float(np.max(np.abs(b))), _TINY)
+    unit = ConeQP(W / sW, b / sb, mu, d, np.zeros((0, n * d)), np.zeros(0))
     while iters < opts.max_fixed_point_iter:
         sol, gs = solve_for(s)
         iters += 1
@@ -771,6 +796,11 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
                 not np.any(fric):
             converged = True
             break
+        if n > 1:  # active-set Newton on Coulomb's conditions from this iterate
+            y, ok = polish_cone_qp(unit, sol.x * (sW / sb), coulomb=True)
+            if ok and coulomb_residual(W, b, mu, d, y * (sb / sW)) <= 1e-11:
+                last_x, converged, newton = y * (sb / sW), True, True
+                break
         if res_norm > 0.9 * prev and hist_s:  # safeguard: restart, damp harder
             hist_s.clear()
             hist_r.clear()
@@ -790,6 +820,14 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
         s = np.maximum(s_new, 0.0)
     pi = last_x.reshape(n, d)
     finished = "fixed point" + (" (polished programs)" if polished else "")
+    if newton:
+        finished = "active-set Newton on Coulomb's conditions"
+    elif n > 1:
+        y, ok = polish_cone_qp(unit, pi.ravel() * (sW / sb), coulomb=True)
+        if ok and coulomb_residual(W, b, mu, d, y * (sb / sW)) <= \
+                coulomb_residual(W, b, mu, d, pi.ravel()):
+            pi, newton = (y * (sb / sW)).reshape(n, d), True
+            finished += ", then active-set Newton"
     n_solutions = None
     if n == 1 and fric[0]:
         # exact single-contact solve: finishes a converged iterate to machine precision and
@@ -800,7 +838,7 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
             k = int(np.argmin([np.linalg.norm(c - pi[0]) for c in cands]))
             pi = cands[k][None]
             finished = "exact single-contact solve"
-    acc = opts.accuracy(polished or finished.startswith("exact"))
+    acc = opts.accuracy(polished or newton or finished.startswith("exact"))
     resid = coulomb_residual(W, b, mu, d, pi.ravel())
     info = {
         "fixed_point_iterations": iters,
