@@ -4,7 +4,8 @@ Writes ``result.json`` (the scene's parameters, the settings, every impact event
 switch, the energy and constraint-drift series) and PNG plots ``trajectory.png`` and
 ``energy.png`` into ``--out`` (default ``./simulate-SCENE``); ``--json`` prints the JSON to
 standard output instead (and writes files only when ``--out`` is given too).
-``convimpact simulate --list`` names the scenes.
+``convimpact simulate --list`` names the scenes; ``convimpact simulate --bench [SCENE]``
+times them (RHS evaluations per second, wall time per simulated second, impact share).
 """
 
 from __future__ import annotations
@@ -39,6 +40,17 @@ def _parse_params(items: list[str]) -> dict[str, Any]:
     return out
 
 
+def _strict(v):
+    """Strict JSON: non-finite floats become the strings "inf", "-inf", "nan"."""
+    if isinstance(v, float) and not np.isfinite(v):
+        return "nan" if np.isnan(v) else ("inf" if v > 0 else "-inf")
+    if isinstance(v, dict):
+        return {k: _strict(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_strict(x) for x in v]
+    return v
+
+
 def scene_report(scene, res: SimulationResult, series: bool = True) -> dict[str, Any]:
     """JSON-ready report of a scene's simulation: parameters, events, energy and drift."""
     report = {
@@ -64,7 +76,7 @@ def scene_report(scene, res: SimulationResult, series: bool = True) -> dict[str,
             "loop_velocity_residual": res.loop_velocity_residual.tolist(),
             "held": res.held.tolist(),
         }
-    return report
+    return _strict(report)
 
 
 def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
@@ -101,13 +113,19 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     axes[0].set_ylabel("energy [J]")
     axes[0].legend(loc="upper right", fontsize="small")
     axes[0].set_title(f"{scene.name}: energy and constraint drift")
-    floor = 1e-18
-    axes[1].semilogy(res.t, np.maximum(res.loop_residual, floor), label="max |Psi|")
-    axes[1].semilogy(res.t, np.maximum(res.loop_velocity_residual, floor),
-                     label="max |C theta_dot|")
-    axes[1].set_ylabel("drift")
+    if scene.mechanism.n_loop_constraints:
+        floor = 1e-18
+        axes[1].semilogy(res.t, np.maximum(res.loop_residual, floor), label="max |Psi|")
+        axes[1].semilogy(res.t, np.maximum(res.loop_velocity_residual, floor),
+                         label="max |C theta_dot|")
+        axes[1].set_ylabel("constraint drift")
+        axes[1].legend(loc="upper right", fontsize="small")
+    else:
+        axes[1].plot(res.t, res.held, drawstyle="steps-post")
+        axes[1].set_ylabel("held contacts")
+        axes[1].text(0.02, 0.85, "open loop: no loop constraints to drift",
+                     transform=axes[1].transAxes, fontsize="small")
     axes[1].set_xlabel("t [s]")
-    axes[1].legend(loc="upper right", fontsize="small")
     for ax in axes:
         for ti in t_imp:
             ax.axvline(ti, color="0.8", lw=0.5, zorder=0)
@@ -124,6 +142,26 @@ def run(args: argparse.Namespace) -> int:
     if args.list:
         for name in list_scenes():
             print(name)
+        return 0
+    if args.bench:
+        from .benchmark import run_benchmark
+
+        rows = run_benchmark([args.scene] if args.scene else None, repeats=args.repeats,
+                             law=args.law, method=args.method, integrator=args.integrator,
+                             rtol=args.rtol, atol=args.atol)
+        text = json.dumps(_strict(rows), indent=1)
+        if args.out is not None:
+            Path(args.out).mkdir(parents=True, exist_ok=True)
+            (Path(args.out) / "simulation_benchmark.json").write_text(text)
+        if args.json:
+            print(text)
+        else:
+            print(f"{'scene':<18} {'impacts':>7} {'steps':>6} {'RHS/s':>8} {'wall/sim s':>10} "
+                  f"{'impact %':>8}")
+            for r in rows["rows"]:
+                print(f"{r['scene']:<18} {r['n_impacts']:>7} {r['n_steps']:>6} "
+                      f"{r['rhs_per_second']:>8.0f} {r['wall_per_simulated_second']:>10.4f} "
+                      f"{100 * r['impact_share']:>8.1f}")
         return 0
     if not args.scene:
         raise ParameterError("name a scene (see `convimpact simulate --list`)")
@@ -178,6 +216,10 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--zeno", default="persist", choices=("persist", "stop"),
                    help="accumulating impacts: hold the contact closed, or stop")
     p.add_argument("--max-impacts", type=int, default=10_000)
+    p.add_argument("--bench", action="store_true",
+                   help="benchmark the scene (or every scene): RHS/s, wall time per simulated "
+                        "second, share of impact resolution")
+    p.add_argument("--repeats", type=int, default=3, help="benchmark repeats (best is kept)")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="scene parameter (JSON value), repeatable")
 

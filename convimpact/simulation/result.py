@@ -120,7 +120,8 @@ class SimulationResult:
     status : 0 reached the end of the span; 1 stopped early by request (accumulation with
         ``zeno="stop"`` or ``max_impacts`` reached); -1 the integrator failed.
     message : why it stopped.
-    nfev : right-hand-side evaluations; njev_events: event-function evaluations.
+    nfev : right-hand-side evaluations (eq. 15); nevents_fev : gap and force evaluations of
+        the event location.
     n_steps, n_projections, n_restarts : accepted steps, constraint projections, restarts.
     wall_time : total wall time (s); impact_time : wall time inside ``resolve_impact`` (s).
     max_loop_residual, max_loop_velocity_residual : max drift over the run (after projection).
