@@ -786,6 +786,10 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
     if mu == 0.0:
         pi = [0.0] * d
         pi[0] = -(1.0 + e) * vv[0] / A  # eq. (38) with mu = 0 (every law agrees)
+        if law == "dissipative":
+            plastic = [0.0] * d
+            plastic[0] = -vv[0] / A
+            return _sol(pi, "frictionless", extras={"plastic_impulse": tuple(plastic)})
         return _sol(pi, "frictionless")
     if law == "pereira-nikravesh":
         return _pereira_nikravesh(w, vv, d, e, mu)

@@ -37,6 +37,7 @@ from .errors import (
     SingularSystemError,
     UnknownOptionError,
 )
+from .fast import max_dissipation_direction  # the exact answer, re-exported
 from .impact import register_solver
 from .problem import ImpactProblem
 from .results import ImpactResult
@@ -237,7 +238,7 @@ def sweep_direction(W, v, e: float, mu: float, xtol: float = DEFAULT_XTOL,
                                -(ref[0] * w[0] + ref[1] * w[1])) % _TWO_PI
         else:
             a_max = 0.0
-        pn_max = -(1.0 + e) * v[0] / (W[0, 0] - mu * nw)
+        pn_max = float(-(1.0 + e) * v[0] / (W[0, 0] - mu * nw))
     else:
         a_max, pn_max = None, math.inf
     return SweepResult(
@@ -374,4 +375,5 @@ def _pereira_nikravesh_sweep(problem: ImpactProblem, xtol: float = DEFAULT_XTOL,
                            tol=1e-7, extras=extras)
 
 
-__all__ = ["EnergyLossCurve", "SweepResult", "energy_loss_versus_angle", "sweep_direction"]
+__all__ = ["EnergyLossCurve", "SweepResult", "energy_loss_versus_angle", "sweep_direction",
+           "max_dissipation_direction"]
