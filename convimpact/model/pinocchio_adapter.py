@@ -1,0 +1,385 @@
+"""Optional Pinocchio adapter: impacts of Pinocchio models, and our models exported to it.
+
+Research users often already have a Pinocchio model of their robot. This module gives, from a
+Pinocchio ``model``, ``data``, configuration ``q`` and velocity ``v``:
+
+* :func:`mass_matrix` (CRBA, symmetrized) and :func:`contact_jacobian` (rows n, t1, t2 of the
+  frame point's world velocity, minus that of a second frame for body-body contacts);
+* :func:`point_loop_jacobian`: C of a point-coincidence loop closure between two frames (the
+  position part of a revolute or spherical cut joint), with :func:`point_loop_jacobian_dot`;
+* :func:`impact_arguments`: the keyword arguments of :func:`convimpact.resolve_impact`;
+* :class:`PinocchioMechanism`: a :class:`~convimpact.mechanism.Mechanism` (for simulation),
+  with plane contacts on frames and point loop closures;
+* :func:`to_pinocchio`: our :class:`~convimpact.model.builder.Model` as a Pinocchio model
+  (planar models embedded in the x-y plane), used by the tests as an independent check.
+
+Pinocchio (PyPI package ``pin``) is an optional extra: ``pip install convimpact[pinocchio]``.
+It is imported on first use; when it is missing every function raises
+:class:`PinocchioUnavailableError`, which is both a
+:class:`~convimpact.errors.NotSupportedError` and an ``ImportError``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Optional, Sequence, Union
+
+import numpy as np
+
+from ..errors import ModelError, NotSupportedError, ShapeError
+from .geometry import orthonormal_complement
+
+FrameRef = Union[str, int]
+
+
+class PinocchioUnavailableError(NotSupportedError, ImportError):
+    """Pinocchio is not installed."""
+
+
+def _pin():
+    try:
+        import pinocchio
+    except ImportError as exc:
+        raise PinocchioUnavailableError(
+            "the Pinocchio adapter needs Pinocchio: install it with "
+            "`pip install convimpact[pinocchio]` (PyPI package 'pin')") from exc
+    return pinocchio
+
+
+def _frame_id(model, frame: FrameRef) -> int:
+    if isinstance(frame, (int, np.integer)):
+        if not 0 <= int(frame) < model.nframes:
+            raise ModelError(f"frame index {frame} out of range 0..{model.nframes - 1}")
+        return int(frame)
+    if not model.existFrame(frame):
+        raise ModelError(f"the Pinocchio model has no frame {frame!r}; add it with model.addFrame")
+    return int(model.getFrameId(frame))
+
+
+def _vec(model, a, n: int, name: str) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    if a.shape != (n,):
+        raise ShapeError(f"{name} must have shape ({n},) for this Pinocchio model, got {a.shape}")
+    return a
+
+
+def mass_matrix(model, data, q) -> np.ndarray:
+    """Joint-space mass matrix M(q) by CRBA (Pinocchio fills one triangle; we symmetrize)."""
+    pin = _pin()
+    M = np.array(pin.crba(model, data, _vec(model, q, model.nq, "q")))
+    return np.triu(M) + np.triu(M, 1).T
+
+
+def _frame_point_jacobian(pin, model, data, fid: int, local_point) -> tuple[np.ndarray, np.ndarray]:
+    """World position and linear world-aligned Jacobian of a point fixed in frame ``fid``."""
+    frame = model.frames[fid]
+    placement = frame.placement
+    if local_point is not None:
+        placement = placement * pin.SE3(np.eye(3), np.asarray(local_point, dtype=float))
+    J = pin.getFrameJacobian(model, data, frame.parentJoint, placement, pin.LOCAL_WORLD_ALIGNED)
+    x = (data.oMi[frame.parentJoint] * placement).translation
+    return np.array(x), np.array(J[:3])
+
+
+def contact_basis(normal, tangent=None, planar: bool = False) -> np.ndarray:
+    """Rows (n, t1, t2) - or (n, t) when ``planar`` - of a contact frame in world coordinates.
+
+    ``t1`` defaults to a deterministic completion; ``t2 = n x t1``. A planar basis in the x-y
+    plane uses ``t = n`` turned by +90 degrees about z, as the planar models do.
+    """
+    n = np.asarray(normal, dtype=float)
+    if n.shape != (3,) or np.linalg.norm(n) < 1e-12:
+        raise ShapeError(f"normal must be a non-zero 3-vector, got {normal!r}")
+    n = n / np.linalg.norm(n)
+    if planar:
+        if abs(n[2]) > 1e-12:
+            raise ShapeError("a planar contact normal must lie in the x-y plane")
+        return np.array([n, [-n[1], n[0], 0.0]])
+    if tangent is None:
+        t1, t2 = orthonormal_complement(n)
+    else:
+        t1 = np.asarray(tangent, dtype=float)
+        t1 = t1 - (t1 @ n) * n
+        if np.linalg.norm(t1) < 1e-9:
+            raise ShapeError("tangent is parallel to the normal")
+        t1 = t1 / np.linalg.norm(t1)
+        t2 = np.cross(n, t1)
+    return np.array([n, t1, t2])
+
+
+def contact_jacobian(model, data, q, frame: FrameRef, normal, tangent=None,
+                     other_frame: Optional[FrameRef] = None, local_point=None,
+                     planar: bool = False) -> np.ndarray:
+    """Contact Jacobian ``Jc`` (rows n, t1, t2 or n, t) of a point of ``frame``.
+
+    Parameters
+    ----------
+    model, data, q : Pinocchio model, data and configuration.
+    frame : frame (name or id) carrying the contact point (its origin, shifted by
+        ``local_point`` in the frame's axes when given): body i.
+    normal : world normal pointing toward body i; ``tangent`` optional t1.
+    other_frame : body j's frame for body-body contacts (its material point coincident with
+        the contact point is used); None for a contact against the fixed world.
+    planar : return the 2-row planar Jacobian (n, t) of an x-y plane mechanism.
+    """
+    pin = _pin()
+    q = _vec(model, q, model.nq, "q")
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    x, J = _frame_point_jacobian(pin, model, data, _frame_id(model, frame), local_point)
+    if other_frame is not None:
+        fj = _frame_id(model, other_frame)
+        oMf = data.oMf[fj]
+        local = oMf.rotation.T @ (x - oMf.translation)
+        _, Jj = _frame_point_jacobian(pin, model, data, fj, local)
+        J = J - Jj
+    return contact_basis(normal, tangent, planar) @ J
+
+
+def point_loop_jacobian(model, data, q, frame_a: FrameRef, frame_b: FrameRef) -> np.ndarray:
+    """C (3, nv) of the loop closure ``Psi = p_a - p_b = 0`` between two frame origins."""
+    pin = _pin()
+    q = _vec(model, q, model.nq, "q")
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    _, Ja = _frame_point_jacobian(pin, model, data, _frame_id(model, frame_a), None)
+    _, Jb = _frame_point_jacobian(pin, model, data, _frame_id(model, frame_b), None)
+    return Ja - Jb
+
+
+def _point_jacobian_dot(pin, model, data, fid: int) -> np.ndarray:
+    # point Jacobian J_p = J_lin - [p]x J_ang from the WORLD (spatial) Jacobian; differentiate
+    Jw = pin.getFrameJacobian(model, data, fid, pin.WORLD)
+    dJw = pin.getFrameJacobianTimeVariation(model, data, fid, pin.WORLD)
+    p = data.oMf[fid].translation
+    v = data.v_for_dot
+    pdot = (Jw[:3] - _skew(p) @ Jw[3:]) @ v
+    return dJw[:3] - _skew(pdot) @ Jw[3:] - _skew(p) @ dJw[3:]
+
+
+def _skew(w) -> np.ndarray:
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def point_loop_jacobian_dot(model, data, q, v, frame_a: FrameRef, frame_b: FrameRef) -> np.ndarray:
+    """C_dot (3, nv) of :func:`point_loop_jacobian` along the velocity v."""
+    pin = _pin()
+    q = _vec(model, q, model.nq, "q")
+    v = _vec(model, v, model.nv, "v")
+    pin.computeJointJacobiansTimeVariation(model, data, q, v)
+    pin.updateFramePlacements(model, data)
+    data.v_for_dot = v
+    return (_point_jacobian_dot(pin, model, data, _frame_id(model, frame_a))
+            - _point_jacobian_dot(pin, model, data, _frame_id(model, frame_b)))
+
+
+@dataclass(frozen=True)
+class PinocchioContact:
+    """A point of a Pinocchio frame against a plane fixed in the world.
+
+    ``normal`` (world, toward the robot's body) and ``plane_point`` define the plane; the gap
+    is ``n . (p - plane_point)``; ``tangent`` is the optional t1; e and mu the coefficients.
+    """
+
+    name: str
+    frame: FrameRef
+    normal: Sequence[float]
+    plane_point: Sequence[float] = (0.0, 0.0, 0.0)
+    tangent: Optional[Sequence[float]] = None
+    e: float = 0.0
+    mu: float = 0.0
+
+
+def impact_arguments(model, data, q, v, contacts: Sequence[PinocchioContact],
+                     loops: Sequence[tuple[FrameRef, FrameRef]] = ()) -> dict:
+    """Keyword arguments of :func:`convimpact.resolve_impact` for a Pinocchio robot.
+
+    ``contacts`` are the contacts taking part in the impact; ``loops`` optional pairs of
+    frames whose origins must coincide (point loop closures, C of eq. 7).
+    """
+    if not contacts:
+        raise ModelError("name at least one PinocchioContact")
+    q = _vec(model, q, model.nq, "q")
+    v = _vec(model, v, model.nv, "v")
+    data_M = mass_matrix(model, data, q)
+    Jc = [contact_jacobian(model, data, q, c.frame, c.normal, c.tangent) for c in contacts]
+    C = None
+    if loops:
+        C = np.vstack([point_loop_jacobian(model, data, q, a, b) for a, b in loops])
+    return dict(M=data_M, Jc=Jc, dq=v.copy(), C=C, e=[c.e for c in contacts],
+                mu=[c.mu for c in contacts])
+
+
+class PinocchioMechanism:
+    """A Pinocchio model through the :class:`~convimpact.mechanism.Mechanism` protocol.
+
+    Parameters
+    ----------
+    model : pinocchio.Model with ``nq == nv`` (joint velocities are the time derivatives of
+        the coordinates, as eqs. (1)-(14) assume; quaternion joints are refused).
+    contacts : plane contacts on frames.
+    loops : pairs of frames whose origins coincide (point loop closures).
+    applied_forces : optional ``(t, q, v) -> (nv,)`` joint forces.
+    """
+
+    def __init__(self, model, contacts: Sequence[PinocchioContact] = (),
+                 loops: Sequence[tuple[FrameRef, FrameRef]] = (),
+                 applied_forces: Optional[Callable] = None):
+        pin = _pin()
+        if model.nq != model.nv:
+            raise NotSupportedError(
+                f"this Pinocchio model has nq = {model.nq} != nv = {model.nv} (quaternion or "
+                "unbounded joints); the Mechanism protocol needs theta_dot = d theta/dt. Use "
+                "convimpact.model.pinocchio_adapter.impact_arguments for single impacts instead")
+        self.model = model
+        self.data = model.createData()
+        self._pin = pin
+        self.contacts = {c.name: c for c in contacts}
+        for c in contacts:
+            _frame_id(model, c.frame)
+        self.loops = tuple(loops)
+        for a, b in self.loops:
+            _frame_id(model, a), _frame_id(model, b)
+        self.applied_forces = applied_forces
+        self.n_coordinates = model.nv
+        self.n_loop_constraints = 3 * len(self.loops)
+        self.contact_names = tuple(self.contacts)
+
+    def _contact(self, name: str) -> PinocchioContact:
+        try:
+            return self.contacts[name]
+        except KeyError:
+            raise ModelError(f"unknown contact {name!r}; contacts are "
+                             f"{', '.join(self.contact_names) or 'none'}") from None
+
+    def mass_matrix(self, theta):
+        return mass_matrix(self.model, self.data, theta)
+
+    def mass_matrix_dot(self, theta, dtheta):
+        Cor = np.array(self._pin.computeCoriolisMatrix(self.model, self.data, theta, dtheta))
+        return Cor + Cor.T  # M_dot = C + C^T (Pinocchio's Coriolis factorization)
+
+    def generalized_forces(self, t, theta, dtheta):
+        f = -np.array(self._pin.nonLinearEffects(self.model, self.data, theta, dtheta))
+        if self.applied_forces is not None:
+            f = f + np.asarray(self.applied_forces(t, theta, dtheta), dtype=float)
+        return f
+
+    def _loop_positions(self, theta):
+        pin = self._pin
+        pin.framesForwardKinematics(self.model, self.data, theta)
+        return [(self.data.oMf[_frame_id(self.model, a)].translation,
+                 self.data.oMf[_frame_id(self.model, b)].translation) for a, b in self.loops]
+
+    def loop_residual(self, theta):
+        if not self.loops:
+            return np.zeros(0)
+        return np.concatenate([pa - pb for pa, pb in self._loop_positions(theta)])
+
+    def loop_jacobian(self, theta):
+        if not self.loops:
+            return np.zeros((0, self.n_coordinates))
+        return np.vstack([point_loop_jacobian(self.model, self.data, theta, a, b)
+                          for a, b in self.loops])
+
+    def loop_jacobian_dot(self, theta, dtheta):
+        if not self.loops:
+            return np.zeros((0, self.n_coordinates))
+        return np.vstack([point_loop_jacobian_dot(self.model, self.data, theta, dtheta, a, b)
+                          for a, b in self.loops])
+
+    def contact_gap(self, name, theta):
+        c = self._contact(name)
+        self._pin.framesForwardKinematics(self.model, self.data, theta)
+        p = self.data.oMf[_frame_id(self.model, c.frame)].translation
+        n = np.asarray(c.normal, dtype=float)
+        n = n / np.linalg.norm(n)
+        return float(n @ (p - np.asarray(c.plane_point, dtype=float)))
+
+    def contact_jacobian(self, name, theta):
+        c = self._contact(name)
+        return contact_jacobian(self.model, self.data, theta, c.frame, c.normal, c.tangent)
+
+    def contact_parameters(self, name):
+        c = self._contact(name)
+        return float(c.e), float(c.mu)
+
+    def kinetic_energy(self, theta, dtheta):
+        dtheta = np.asarray(dtheta, dtype=float)
+        return 0.5 * float(dtheta @ self.mass_matrix(theta) @ dtheta)
+
+    def potential_energy(self, theta):
+        return float(self._pin.computePotentialEnergy(self.model, self.data, theta))
+
+
+def to_pinocchio(model):
+    """Our :class:`Model` as an equivalent Pinocchio model, with q = theta and v = theta_dot.
+
+    Each elementary motion becomes a ``RevoluteUnaligned`` or ``PrismaticUnaligned`` joint
+    (composite joints through massless intermediate frames), fixed joints are merged into the
+    parent joint. Planar models are embedded in the x-y plane (revolute joints about z).
+    Every body's frame is added as an ``OP_FRAME`` named after the body. Pinocchio needs the
+    joints in depth-first order, so its coordinates are ours permuted.
+
+    Returns
+    -------
+    (pinocchio.Model, permutation)
+        ``q = theta[permutation]`` and ``v = theta_dot[permutation]``; a Pinocchio matrix
+        ``X`` over v maps back as ``X[np.ix_(inv, inv)]`` with ``inv = np.argsort(permutation)``.
+    """
+    pin = _pin()
+
+    def lift(v):
+        return np.array([v[0], v[1], 0.0]) if model.planar else np.asarray(v, dtype=float)
+
+    def lift_rot(R):
+        if not model.planar:
+            return np.asarray(R, dtype=float)
+        R3 = np.eye(3)
+        R3[:2, :2] = R
+        return R3
+
+    pm = pin.Model()
+    pm.gravity = pin.Motion(np.concatenate([lift(model.gravity), np.zeros(3)]))
+    # where each of our bodies' frames sits: (pinocchio joint id, placement in that joint)
+    where = {0: (0, pin.SE3.Identity())}
+    children: dict[int, list[int]] = {}
+    for b in model.bodies[1:]:
+        children.setdefault(b.parent, []).append(b.index)
+    order: list[int] = []
+    stack = [0]
+    while stack:  # depth-first, children in declaration order
+        i = stack.pop()
+        if i:
+            order.append(i)
+        stack.extend(reversed(children.get(i, [])))
+    permutation = [c for i in order for c in model.bodies[i].coordinates]
+    for b in (model.bodies[i] for i in order):
+        pj, off = where[b.parent]
+        placement = off * pin.SE3(lift_rot(b.placement_rotation), lift(b.placement_origin))
+        jid = pj
+        for i, mo in enumerate(b.motions):
+            if mo.kind == "revolute":
+                axis = np.array([0.0, 0.0, mo.axis[0]]) if model.planar else mo.axis
+                jm = pin.JointModelRevoluteUnaligned(axis)
+            else:
+                jm = pin.JointModelPrismaticUnaligned(lift(mo.axis))
+            jid = pm.addJoint(jid, jm, placement if i == 0 else pin.SE3.Identity(),
+                              f"{b.joint_name}:{i}")
+        body_off = pin.SE3.Identity() if b.motions else placement
+        where[b.index] = (jid, body_off)
+        if model.planar:
+            izz = float(b.inertia[0, 0])
+            I3 = np.diag([izz, izz, izz])
+        else:
+            I3 = b.inertia
+        pm.appendBodyToJoint(jid, pin.Inertia(b.mass, lift(b.com), I3), body_off)
+        pm.addFrame(pin.Frame(b.name, jid, body_off, pin.FrameType.OP_FRAME))
+    return pm, np.array(permutation, dtype=int)
+
+
+__all__ = [
+    "PinocchioUnavailableError", "PinocchioContact", "PinocchioMechanism", "mass_matrix",
+    "contact_basis", "contact_jacobian", "point_loop_jacobian", "point_loop_jacobian_dot",
+    "impact_arguments", "to_pinocchio",
+]
