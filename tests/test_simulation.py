@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
@@ -380,3 +382,59 @@ def test_inconsistent_closed_loop_initial_conditions():
 
     with pytest.raises(AssemblyError, match="Psi"):
         simulate(OffsetGuide(), (0.0, 0.1), (th, np.zeros(4)), assemble=True)
+
+
+class _RampParticle(PointMass):
+    """Particle on the floor sliding into a 45-degree ramp x + y = 0 (normal (1, 1)/sqrt 2)."""
+
+    contact_names = ("floor", "ramp")
+
+    def contact_gap(self, name, theta):
+        if name == "floor":
+            return float(theta[1])
+        return float((theta[0] + theta[1]) / np.sqrt(2.0))
+
+    def contact_jacobian(self, name, theta):
+        if name == "floor":
+            return np.array([[0.0, 1.0], [1.0, 0.0]])
+        s = 1.0 / np.sqrt(2.0)
+        return np.array([[s, s], [-s, s]])
+
+
+def test_held_contact_released_when_an_impact_pulls_on_it():
+    res = simulate(_RampParticle(e=0.5), (0.0, 1.2), (np.array([1.0, 0.0]), np.array([-1.0, 0.0])))
+    assert [(c.kind, c.contact) for c in res.contact_events][:2] == [("persist", "floor"),
+                                                                     ("release", "floor")]
+    ev = res.impacts[0]
+    assert ev.contacts == ("ramp",) and ev.released == ("floor",)
+    assert ev.time == pytest.approx(1.0, abs=1e-10)  # slides 1 m at 1 m/s (frictionless hold)
+    # free reflection on the ramp: v_n+ = e / sqrt 2, tangential kept -> ((e-1)/2, (e+1)/2)
+    np.testing.assert_allclose(ev.dtheta_plus, [-0.25, 0.75], atol=1e-12)
+    # ballistic flight afterwards: gap rate along n is (0.5 - g t)/sqrt 2, so the particle
+    # falls back onto the ramp at t = 1 + 1/g with velocity (-0.25, 0.75 - 1)
+    assert res.impacts[1].contacts == ("ramp",)
+    assert res.impacts[1].time == pytest.approx(1.0 + 1.0 / G, abs=1e-10)
+    np.testing.assert_allclose(res.impacts[1].dtheta_minus, [-0.25, -0.25], atol=1e-9)
+
+
+def test_multi_contact_needs_a_multi_contact_method():
+    with pytest.raises(ci.NotSupportedError) as info:
+        simulate(FallingRod(), (0.0, 1.0), (np.array([0.0, 0.5, 0.0]), np.zeros(3)),
+                 method="closed-form")
+    assert any("left, right" in n for n in getattr(info.value, "__notes__", []))
+
+
+@settings(max_examples=30, deadline=None)
+@given(h=st.floats(0.05, 3.0), e=st.floats(0.1, 0.9), vx=st.floats(-2.0, 2.0),
+       vy=st.floats(-3.0, 3.0))
+def test_drop_first_impacts_closed_form_property(h, e, vx, vy):
+    res = simulate(PointMass(e=e), (0.0, 20.0), (np.array([0.0, h]), np.array([vx, vy])),
+                   max_impacts=3)
+    v1 = np.sqrt(vy**2 + 2 * G * h)  # impact speed
+    t1 = (vy + v1) / G  # root of h + vy t - g t^2 / 2 = 0
+    expected = [t1, t1 + 2 * e * v1 / G, t1 + 2 * e * v1 / G + 2 * e**2 * v1 / G]
+    got = [ev.time for ev in res.impacts]
+    np.testing.assert_allclose(got, expected, atol=1e-9 * max(1.0, t1))
+    for j, ev in enumerate(res.impacts):
+        assert ev.dtheta_minus[1] == pytest.approx(-(e**j) * v1, rel=1e-8)
+        assert ev.dtheta_plus[0] == pytest.approx(vx, abs=1e-12)
