@@ -196,3 +196,26 @@ def test_applied_forces_enter_f():
     b.set_applied_forces(lambda t, th, dth: np.array([3.0 * t - dth[0]]))
     mech = b.build().mechanism()
     assert mech.generalized_forces(2.0, np.zeros(1), np.array([1.0]))[0] == pytest.approx(5.0)
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2 ** 31 - 1), planar=st.booleans(), n_bodies=st.integers(1, 5))
+def test_property_kinetic_energy_and_gap_rates(seed, planar, n_bodies):
+    """On random trees: T from M equals T from finite-difference body velocities, and
+    Jc[0] theta_dot is the rate of the exact gap."""
+    rng = np.random.default_rng(seed)
+    kinds = KINDS_PLANAR if planar else KINDS_SPATIAL
+    model, theta = random_model(rng, planar, n_bodies=n_bodies, joint_kinds=kinds, n_contacts=2)
+    mech = model.mechanism()
+    dtheta = rng.normal(size=model.n_coordinates)
+    T = mech.kinetic_energy(theta, dtheta)
+    assert T >= 0.0
+    assert T == pytest.approx(_fd_kinetic_energy(mech, theta, dtheta), abs=1e-7 * max(1.0, T))
+    for name in model.contact_names:
+        dgap = (mech.contact_gap(name, theta + H * dtheta)
+                - mech.contact_gap(name, theta - H * dtheta)) / (2 * H)
+        assert mech.contact_jacobian(name, theta)[0] @ dtheta == pytest.approx(dgap, abs=TOL)
