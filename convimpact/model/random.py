@@ -57,7 +57,8 @@ def random_model(rng: np.random.Generator, planar: bool, n_bodies: int = 4,
     rng : numpy random generator.
     planar : planar or spatial kinematics.
     n_bodies : number of moving bodies.
-    joint_kinds : joint kinds to draw from (the first body's joint is drawn too).
+    joint_kinds : joint kinds to draw from (the first body's is never "fixed", so the model
+        always has coordinates).
     n_contacts : contacts: alternately a point/sphere against the floor and a sphere on one
         body against a sphere on another.
     loop : None or a cut-joint kind; the loop joins the last body to the ground with the two
@@ -70,6 +71,8 @@ def random_model(rng: np.random.Generator, planar: bool, n_bodies: int = 4,
     for i in range(n_bodies):
         parent = names[-1] if chain else names[int(rng.integers(0, len(names)))]
         kind = joint_kinds[int(rng.integers(0, len(joint_kinds)))]
+        if i == 0 and kind == "fixed":  # at least one coordinate
+            kind = "revolute"
         mass = float(rng.uniform(0.3, 3.0))
         R = None if planar else random_rotation(rng)
         b.add_body(f"b{i}", parent, _joint(rng, kind, planar), mass, rng.normal(size=d) * 0.3,
