@@ -267,9 +267,10 @@ def _inertia(value, planar: bool, allow_singular: bool, body: str) -> np.ndarray
     if np.max(np.abs(Ival - Ival.T)) > INERTIA_RTOL * scale:
         raise ModelError(f"body {body!r}: inertia tensor is not symmetric")
     lam = np.linalg.eigvalsh(0.5 * (Ival + Ival.T))
-    if lam[0] < -INERTIA_RTOL * scale or (lam[0] <= INERTIA_RTOL * scale and not allow_singular):
+    negative = lam[0] < -INERTIA_RTOL * scale
+    if negative or (lam[0] <= INERTIA_RTOL * scale and not allow_singular):
         raise ModelError(f"body {body!r}: inertia tensor is not positive definite (principal "
-                         f"moments {np.round(lam, 12).tolist()})" + (hint if lam[0] >= -INERTIA_RTOL * scale else ""))
+                         f"moments {np.round(lam, 12).tolist()})" + ("" if negative else hint))
     if lam[2] > lam[0] + lam[1] + INERTIA_RTOL * scale:
         raise ModelError(f"body {body!r}: principal moments {lam.tolist()} violate the triangle "
                          "inequality I3 <= I1 + I2 that every rigid body satisfies")
@@ -369,7 +370,8 @@ class ModelBuilder:
             raise ModelError(f"body {name!r}: mass must be positive and finite, got {mass}")
         com = _vec(com, d, f"body {name!r}: com")
         I = _inertia(inertia, self.planar, allow_singular_inertia, name)
-        origin = np.zeros(d) if joint_origin is None else _vec(joint_origin, d, f"body {name!r}: joint_origin")
+        origin = (np.zeros(d) if joint_origin is None
+                  else _vec(joint_origin, d, f"body {name!r}: joint_origin"))
         R0, angle0 = _rotation(joint_rotation, self.planar, f"body {name!r}: joint_rotation")
         jname = name if joint_name is None else str(joint_name)
         if any(b.joint_name == jname for b in self._bodies):

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import SingularSystemError
 from .geometry import orthonormal_complement, perp
-from .kinematics import forward_kinematics, point_jacobian, world_point
+from .kinematics import ensure_configuration, point_jacobian, world_point
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,14 +40,10 @@ class ContactFrame:
     jacobian: np.ndarray
 
 
-def _same(data, theta) -> bool:
-    return data.theta is not None and np.array_equal(np.asarray(theta, dtype=float), data.theta)
-
-
 def contact_frame(model, data, name: str, theta) -> ContactFrame:
     """Evaluate contact ``name`` at theta (gap, frame and Jacobian)."""
     spec = model.contact(name)
-    forward_kinematics(model, data, theta, data.dtheta if _same(data, theta) else None)
+    ensure_configuration(model, data, theta)
     key = "q:contact:" + name
     if key in data.cache:
         return data.cache[key]

@@ -38,6 +38,7 @@ class Data:
         self.rotation = np.tile(np.eye(d), (nb, 1, 1))
         self.angle = np.zeros(nb)
         self.position = np.zeros((nb, d))
+        self.offset = np.zeros((nb, d))  # parent-frame joint offset in world axes
         self.velocity = np.zeros((nb, d))
         self.omega = np.zeros((nb, r))
         self.axis_rev = np.zeros((r, k))

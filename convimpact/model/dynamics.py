@@ -18,8 +18,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import NonFiniteError, ShapeError
-from .geometry import skew
-from .kinematics import check_vector, forward_kinematics, point_jacobian, point_jacobian_dot
+from .geometry import cross3, skew
+from .kinematics import (
+    check_vector,
+    ensure_configuration,
+    forward_kinematics,
+    point_jacobian,
+    point_jacobian_dot,
+)
 
 
 def _world_inertia(model, data, b: int) -> np.ndarray:
@@ -60,17 +66,13 @@ def velocity_transformation(model, data, theta) -> np.ndarray:
 
     Shape ``((n_bodies - 1) (d + r), k)``.
     """
-    forward_kinematics(model, data, theta, data.dtheta if _same(data, theta) else None)
+    ensure_configuration(model, data, theta)
     return np.vstack([np.vstack([Jv, Jw]) for _, Jv, Jw in body_jacobians(model, data)])
-
-
-def _same(data, theta) -> bool:
-    return data.theta is not None and np.array_equal(np.asarray(theta, dtype=float), data.theta)
 
 
 def mass_matrix(model, data, theta) -> np.ndarray:
     """Generalized mass matrix ``M(theta) = B^T M B`` (eq. 3), (k, k) symmetric."""
-    forward_kinematics(model, data, theta, data.dtheta if _same(data, theta) else None)
+    ensure_configuration(model, data, theta)
     key = "q:mass_matrix"
     if key not in data.cache:
         k = model.n_coordinates
@@ -130,7 +132,7 @@ def generalized_forces(model, data, t: float, theta, dtheta) -> np.ndarray:
             tau = -I @ (dJw @ dtheta)
             if not model.planar:
                 w = data.omega[b]
-                tau -= np.cross(w, I @ w)
+                tau -= cross3(w, I @ w)
             f += Jw.T @ tau
         data.cache[key] = f
     return data.cache[key] + applied_forces(model, float(t), theta, dtheta)
@@ -144,6 +146,6 @@ def kinetic_energy(model, data, theta, dtheta) -> float:
 
 def potential_energy(model, data, theta) -> float:
     """Gravitational potential ``V = -sum_b m_b g . c_b`` (zero at the origin)."""
-    forward_kinematics(model, data, theta, data.dtheta if _same(data, theta) else None)
+    ensure_configuration(model, data, theta)
     return -sum(model.bodies[b].mass * float(model.gravity @ c)
                 for b, (c, _, _) in enumerate(body_jacobians(model, data), start=1))

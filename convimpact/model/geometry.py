@@ -18,15 +18,21 @@ def cross(planar: bool, w: np.ndarray, v: np.ndarray) -> np.ndarray:
     ``w (-v_y, v_x)``. Spatial: the ordinary cross product (columns along axis 0).
     """
     if planar:
-        return w[0] * np.stack([-v[1], v[0]])
-    return np.cross(w, v, axis=0)
+        return w[0] * np.array([-v[1], v[0]])
+    return cross3(w, v)
+
+
+def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product along axis 0 of 3-vectors or (3, n) columns (broadcasting), without the
+    overhead of ``np.cross`` on tiny arrays."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def cross_ww(planar: bool, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a x b`` for two angular vectors (zero in the plane, where all of them are along z)."""
     if planar:
         return np.zeros(np.broadcast_shapes(np.shape(a), np.shape(b)))
-    return np.cross(a, b, axis=0)
+    return cross3(a, b)
 
 
 def perp(v: np.ndarray) -> np.ndarray:

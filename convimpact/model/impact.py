@@ -9,7 +9,7 @@ models of this package, on Pinocchio wrappers and on hand-written mechanisms ali
 
 from __future__ import annotations
 
-from typing import Optional, Sequence, Union
+from typing import Sequence, Union
 
 import numpy as np
 

@@ -31,36 +31,50 @@ def check_vector(model, value, name: str) -> np.ndarray:
     return a
 
 
+def same_configuration(data, theta) -> bool:
+    """True when ``data`` already holds configuration ``theta``."""
+    return data.theta is not None and np.array_equal(np.asarray(theta, dtype=float), data.theta)
+
+
+def ensure_configuration(model, data, theta) -> None:
+    """Make ``data`` hold configuration ``theta``, keeping its velocity if theta is unchanged."""
+    forward_kinematics(model, data, theta, data.dtheta if same_configuration(data, theta) else None)
+
+
 def forward_kinematics(model, data, theta, dtheta=None) -> None:
     """Fill ``data`` with body poses and velocities at (theta, theta_dot).
 
     ``dtheta`` None means zero velocities. Nothing is recomputed when ``data`` already holds
-    this state.
+    this state, and only the velocity pass runs when just theta_dot changed.
     """
     theta = check_vector(model, theta, "theta")
     dtheta = np.zeros_like(theta) if dtheta is None else check_vector(model, dtheta, "dtheta")
-    if (data.theta is not None and np.array_equal(theta, data.theta)
-            and np.array_equal(dtheta, data.dtheta)):
+    same_q = data.theta is not None and np.array_equal(theta, data.theta)
+    if same_q and np.array_equal(dtheta, data.dtheta):
         return
-    if data.theta is None or not np.array_equal(theta, data.theta):
-        data.cache.clear()
-    else:  # same configuration, new velocity: keep configuration-only entries
+    if same_q:  # new velocity only: keep configuration-only entries
         data.cache = {key: val for key, val in data.cache.items() if key.startswith("q:")}
+    else:
+        data.cache.clear()
+        _positions(model, data, theta)
+        data.theta = theta.copy()
+    _velocities(model, data, theta, dtheta)
+    data.dtheta = dtheta.copy()
+
+
+def _positions(model, data, theta: np.ndarray) -> None:
     planar = model.planar
     for b in model.bodies[1:]:
         a = b.parent
-        Ra, pa, wa, va = data.rotation[a], data.position[a], data.omega[a], data.velocity[a]
+        Ra = data.rotation[a]
         offset = Ra @ b.placement_origin
+        data.offset[b.index] = offset
         R = Ra @ b.placement_rotation
-        p = pa + offset
+        p = data.position[a] + offset
         ang = data.angle[a] + b.placement_angle
-        w = wa.copy()
-        v = va + cross(planar, wa, offset)
         for j, mo in zip(b.coordinates, b.motions):
             data.axis_origin[:, j] = p
-            data.axis_omega[:, j] = w
-            data.axis_origin_vel[:, j] = v
-            q, dq = theta[j], dtheta[j]
+            q = theta[j]
             if mo.kind == "revolute":
                 if planar:
                     aw = mo.axis
@@ -71,20 +85,32 @@ def forward_kinematics(model, data, theta, dtheta=None) -> None:
                     R = R @ rot3(mo.axis, q)
                 data.axis_rev[:, j] = aw
                 data.axis_pri[:, j] = 0.0
-                w = w + aw * dq
             else:
                 uw = R @ mo.axis
                 data.axis_pri[:, j] = uw
                 data.axis_rev[:, j] = 0.0
-                v = v + cross(planar, w, uw * q) + uw * dq
                 p = p + uw * q
         data.rotation[b.index] = R
         data.position[b.index] = p
         data.angle[b.index] = ang
+
+
+def _velocities(model, data, theta: np.ndarray, dtheta: np.ndarray) -> None:
+    planar = model.planar
+    for b in model.bodies[1:]:
+        a = b.parent
+        w = data.omega[a].copy()
+        v = data.velocity[a] + cross(planar, w, data.offset[b.index])
+        for j, mo in zip(b.coordinates, b.motions):
+            data.axis_omega[:, j] = w
+            data.axis_origin_vel[:, j] = v
+            if mo.kind == "revolute":
+                w = w + data.axis_rev[:, j] * dtheta[j]
+            else:
+                uw = data.axis_pri[:, j]
+                v = v + cross(planar, w, uw * theta[j]) + uw * dtheta[j]
         data.omega[b.index] = w
         data.velocity[b.index] = v
-    data.theta = theta.copy()
-    data.dtheta = dtheta.copy()
 
 
 def world_point(data, body: int, local) -> np.ndarray:

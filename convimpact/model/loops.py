@@ -16,7 +16,13 @@ import numpy as np
 
 from ..errors import AssemblyError, ModelError
 from .geometry import cross
-from .kinematics import forward_kinematics, point_jacobian, point_jacobian_dot, world_point
+from .kinematics import (
+    ensure_configuration,
+    forward_kinematics,
+    point_jacobian,
+    point_jacobian_dot,
+    world_point,
+)
 
 
 @dataclass(frozen=True)
@@ -97,10 +103,10 @@ def _rows(model, data, lp) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _all_rows(model, data, theta, dtheta=None):
-    same_q = data.theta is not None and np.array_equal(np.asarray(theta, dtype=float), data.theta)
     if dtheta is None:
-        dtheta = data.dtheta if same_q else None
-    forward_kinematics(model, data, theta, dtheta)
+        ensure_configuration(model, data, theta)
+    else:
+        forward_kinematics(model, data, theta, dtheta)
     key = "loop_rows"
     if key not in data.cache:
         k = model.n_coordinates

@@ -112,8 +112,7 @@ class ModelMechanism:
     def point_position(self, body: str, local, theta: np.ndarray) -> np.ndarray:
         """World position of a point given in body ``body``'s frame."""
         b = _kin.body_index(self.model, body)
-        _kin.forward_kinematics(self.model, self.data, theta,
-                                self.data.dtheta if _contacts._same(self.data, theta) else None)
+        _kin.ensure_configuration(self.model, self.data, theta)
         return _kin.world_point(self.data, b, np.asarray(local, dtype=float))
 
     def point_jacobian(self, body: str, local, theta: np.ndarray) -> np.ndarray:
@@ -123,8 +122,7 @@ class ModelMechanism:
 
     def body_placement(self, body: str, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World (rotation, origin) of body ``body``'s frame."""
-        _kin.forward_kinematics(self.model, self.data, theta,
-                                self.data.dtheta if _contacts._same(self.data, theta) else None)
+        _kin.ensure_configuration(self.model, self.data, theta)
         return _kin.frame_placement(self.model, self.data, body)
 
     def assemble(self, theta: np.ndarray, fixed: Sequence = (), tol: float = 1e-12,
