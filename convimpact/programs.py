@@ -67,6 +67,7 @@ solver's gap and feasibility tolerance on the scaled problem, default 1e-10), ``
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Any, Callable, Protocol
 
@@ -462,8 +463,12 @@ class CvxpyBackend:
             E.value = qp.E
             f.value = qp.f
         try:
-            problem.solve(solver=cp.CLARABEL, tol_gap_abs=tol, tol_gap_rel=tol, tol_feas=tol,
-                          tol_ktratio=max(tol, 1e-12) ** 0.5 * 1e-3, max_iter=max_iter)
+            with warnings.catch_warnings():
+                # "may be inaccurate": such answers are used only when the KKT polish of
+                # solve_cone_qp certifies them, otherwise SolverError reports the status
+                warnings.simplefilter("ignore", UserWarning)
+                problem.solve(solver=cp.CLARABEL, tol_gap_abs=tol, tol_gap_rel=tol, tol_feas=tol,
+                              tol_ktratio=1e-3 * tol ** 0.5, max_iter=max_iter)
         except cp.error.SolverError as exc:
             raise SolverError(f"cvxpy/Clarabel failed on the impact program: {exc}") from exc
         status = str(problem.status)
