@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -32,6 +34,7 @@ def test_every_scene_is_well_formed(name, params):
     assert s.theta0.shape == s.dtheta0.shape == (k,) and s.t_end > 0
     assert len(s.description) > 100
     assert s.parameters.get("assumptions") or "chose" in s.description
+    json.dumps(dict(s.parameters))  # JSON-ready parameters
     # the simulation starts separated, assembled, with SPD mass matrix and finite forces
     assert all(mech.contact_gap(c, s.theta0) > 0 for c in mech.contact_names)
     assert np.allclose(mech.loop_residual(s.theta0), 0.0, atol=1e-10)
