@@ -18,10 +18,11 @@ quartic in ``tau = tan(th / 2)``:
 * CCP (Anitescu): ``W pi + b = s (mu, -t)`` so ``det[W p, b, q] = 0``,
 
 with ``p = (1, mu t)``, ``c = -(1 + e) v_n`` and ``b = v + e v_n e_n``. The quartic is solved
-in closed form (Ferrari), every real root is polished by Newton's method on the trigonometric
-form (no loss at ``tau -> infinity``; the angle opposite to the reference direction is always
-tried as well, which covers a vanishing leading coefficient), and the root that satisfies all
-of the law's conditions (and is best for its objective) is kept. The kernels work on plain
+in closed form (Ferrari); the roots are compared on the law's objective and conditions, and
+the winner is polished by Newton's method on the quartic in tan(th/2) or, for |tau| > 1, on
+the reversed quartic in cot(th/2) (no loss at ``tau -> infinity``; the angle opposite to the
+reference direction is tried whenever the leading coefficient nearly vanishes). The root that
+satisfies all of the law's conditions (and is best for its objective) is kept. The kernels work on plain
 Python floats: a spatial solve takes a few microseconds.
 """
 
@@ -60,7 +61,7 @@ FAST_TOL = 1e-10
 _TWO_PI = 2.0 * math.pi
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class ContactSolution:
     """Impulse of one contact under one law, as found by :func:`solve_contact`.
 
@@ -153,8 +154,8 @@ def _quartic_roots(c4: float, c3: float, c2: float, c1: float, c0: float) -> lis
     q = c - 0.5 * a * b + 0.125 * a2 * a
     r = d - 0.25 * a * c + 0.0625 * a2 * b - 0.01171875 * a2 * a2
     shift = -0.25 * a
-    qscale = abs(p) ** 1.5 + abs(r) ** 0.75 + abs(q)
-    if abs(q) <= 1e-14 * qscale:  # biquadratic y^4 + p y^2 + r
+    ap, sr = abs(p), math.sqrt(math.sqrt(abs(r)))
+    if abs(q) <= 1e-14 * (ap * math.sqrt(ap) + sr * sr * sr + abs(q)):  # biquadratic
         ys = []
         for z in _quadratic_roots(p, r):
             if z > 0.0:
@@ -204,19 +205,21 @@ def _best_point(bd: "_Boundary", score) -> tuple[float, float, float] | None:
     score is accurate to second order); the winner, and any runner-up within 1e-6, is then
     polished and rescored. Returns None if no candidate is valid.
     """
-    ranked = []
+    scored = []
+    top = None
     for pt in bd.points:
         val = score(pt[0], pt[1])
         if val is not None:
-            ranked.append((val, pt))
-    if not ranked:
+            scored.append((val, pt))
+            if top is None or val > top:
+                top = val
+    if top is None:
         return None
-    ranked.sort(key=lambda r: r[0], reverse=True)
-    top = ranked[0][0]
+    cut = top - 1e-6 * (abs(top) + 1e-300)
     best = None
-    for val, pt in ranked:
-        if best is not None and val < top - 1e-6 * (abs(top) + 1e-300):
-            break
+    for val, pt in scored:
+        if val < cut:
+            continue
         x, y = bd.refine(pt)
         v2 = score(x, y)
         if v2 is None:  # polishing left the admissible set: keep the raw candidate
@@ -265,7 +268,8 @@ class _Boundary:
 
     The quartic in tau = tan(th/2) is solved in closed form. Each root is kept in the chart
     where it is small: tau itself for |tau| <= 1, s = 1/tau (the reversed quartic) otherwise;
-    th = pi (s = 0) is always a candidate, which covers a vanishing leading coefficient.
+    th = pi (s = 0) is added as a candidate when the leading coefficient is small (a root near
+    tau = infinity, possibly dropped by the closed form) or no root was found.
     ``points`` are unpolished (x, y, chart value, reversed); :meth:`refine` polishes one by
     Newton's method. If E vanishes identically every direction is stationary and the single
     candidate th = 0 is exact.
@@ -292,7 +296,8 @@ class _Boundary:
                 s = 1.0 / t
                 s2 = s * s
                 pts.append(((s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0), s, True))
-        pts.append((-1.0, 0.0, 0.0, True))
+        if not pts or abs(c[0]) <= 1e-6 * max(abs(c[1]), abs(c[2]), abs(c[3]), abs(c[4])):
+            pts.append((-1.0, 0.0, 0.0, True))  # th = pi: a root near tau = infinity
         self.points = pts
 
     def refine(self, point: tuple) -> tuple[float, float]:
@@ -513,7 +518,7 @@ def _jam(mu: float, D: float, law: str) -> NonPositiveEffectiveMassError:
 
 def _sol(impulse: Sequence[float], regime: str, effective_mass: float | None = None,
          extras: dict | None = None, warnings: tuple[str, ...] = ()) -> ContactSolution:
-    return ContactSolution(np.array(impulse, dtype=float), regime, effective_mass,
+    return ContactSolution(np.array(impulse), regime, effective_mass,
                            MappingProxyType(extras or {}), warnings)
 
 
@@ -575,9 +580,9 @@ def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> Contact
 def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     c = -(1.0 + e) * v[0]
     b0 = -c  # b = v + e v_n e_n; u = b + W pi
-    wscale = max(abs(x) for row in w for x in row)
+    wscale = max(w[k][k] for k in range(d))  # = max |W_ij| for a PSD W
     dmin = 1e-12 * wscale
-    vscale = max(abs(x) for x in v)
+    vscale = max(abs(v[0]), abs(v[1]), abs(v[-1]))
     if d == 2:
         i00, i01, i11 = _inverse2(w, "coulomb")
         pn = -(i00 * b0 + i01 * v[1])
@@ -615,23 +620,29 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     Wp = S.wp_forms(mu)
     # det[W p, (0, t), b] = 0 with m x b = (x b2 - y b1, y b0, -x b0)
     E = _dot_forms(Wp, ((0.0, S.v2, -S.v1), (0.0, 0.0, b0), (0.0, -b0, 0.0)))
-    escale = sum(abs(x) for x in E) or 1.0
+    escale = (abs(E[0]) + abs(E[1]) + abs(E[2]) + abs(E[3]) + abs(E[4]) + abs(E[5])) or 1.0
     bd = _Boundary(E)
+    A, B1, B2, C11, C12, C22 = S.A, S.B1, S.B2, S.C11, S.C12, S.C22
+    v0, v1, v2 = S.v0, S.v1, S.v2
+    e0, ex, ey, exx, eyy, exy = E
 
     def conditions(x: float, y: float, rtol: float) -> tuple | None:
         """(T_L, pi_n, D, sigma) if t = (x, y) is a Coulomb slide to relative tolerance rtol."""
-        D, pWp, (P1, P2) = _eval_p(S, mu, x, y)
-        if abs(_eval_trig(E, x, y)) > rtol * escale:
+        if abs(e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > rtol * escale:
             return None
+        D = A + mu * (B1 * x + B2 * y)
         if not D > dmin:
             jams.append(D)
             return None
+        P1 = B1 + mu * (C11 * x + C12 * y)
+        P2 = B2 + mu * (C12 * x + C22 * y)
         p = c / D  # eq. (38): u_n = 0
-        u1, u2 = S.v1 + p * P1, S.v2 + p * P2  # post-impact slip, rotated basis
+        u1, u2 = v1 + p * P1, v2 + p * P2  # post-impact slip, rotated basis
         sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
         if sigma < -rtol * vscale or abs(u1 * y - u2 * x) > rtol * (vscale + abs(p) * wscale):
             return None
-        return -p * (S.v0 + mu * (S.v1 * x + S.v2 * y)) - 0.5 * p * p * pWp, p, D, sigma
+        pWp = D + mu * (x * P1 + y * P2)
+        return -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * pWp, p, D, sigma
 
     found: list = []
     jams: list = []
