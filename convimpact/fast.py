@@ -37,8 +37,10 @@ import numpy as np
 
 from .diagnostics import assemble_result
 from .errors import (
+    NonFiniteError,
     NonPositiveEffectiveMassError,
     NotSupportedError,
+    ParameterError,
     ShapeError,
     SingularSystemError,
     SolverError,
@@ -403,14 +405,22 @@ def _unit_or(x1: float, x2: float, fallback: tuple[float, float]) -> tuple[float
 
 
 def _as_lists(W, v) -> tuple[list, list, int]:
-    w = W.tolist() if isinstance(W, np.ndarray) else [list(map(float, r)) for r in W]
-    vv = v.tolist() if isinstance(v, np.ndarray) else [float(x) for x in v]
-    d = len(vv)
-    if d not in (2, 3) or len(w) != d or any(len(r) != d for r in w):
-        raise ShapeError(
-            f"a single contact needs W of shape (d, d) and v of length d with d = 2 (n, t) or "
-            f"3 (n, t1, t2); got W {np.shape(W)} and v {np.shape(v)}")
-    return w, vv, d
+    if type(W) is np.ndarray and type(v) is np.ndarray:
+        d = v.shape[0] if v.ndim == 1 else 0
+        if d in (2, 3) and W.shape == (d, d):
+            return W.tolist(), v.tolist(), d
+    else:
+        try:
+            w = [[float(x) for x in row] for row in W]
+            vv = [float(x) for x in v]
+        except (TypeError, ValueError):
+            w, vv = [], []
+        d = len(vv)
+        if d in (2, 3) and len(w) == d and all(len(r) == d for r in w):
+            return w, vv, d
+    raise ShapeError(
+        f"a single contact needs W of shape (d, d) and v of length d with d = 2 (n, t) or "
+        f"3 (n, t1, t2); got W {np.shape(W)} and v {np.shape(v)}")
 
 
 def max_dissipation_direction(W, v, e: float, mu: float, tol: float = 1e-10) -> np.ndarray:
@@ -773,8 +783,8 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
 
     Raises
     ------
-    ShapeError, UnknownOptionError
-        bad shapes or law.
+    ShapeError, UnknownOptionError, NonFiniteError, ParameterError
+        bad shapes, law, non-finite data, e outside [0, 1] or mu < 0.
     SingularSystemError
         W_nn <= 0, or W singular where the law inverts it.
     NonPositiveEffectiveMassError
@@ -787,6 +797,10 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
     mu = float(mu)
     if law not in FAST_LAWS:
         raise UnknownOptionError(f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
+    if not math.isfinite(sum(map(sum, w)) + sum(vv) + e + mu):
+        raise NonFiniteError("W, v, e and mu must be finite; got NaN or infinity")
+    if not (0.0 <= e <= 1.0 and mu >= 0.0):
+        raise ParameterError(f"need e in [0, 1] and mu >= 0, got e = {e:g}, mu = {mu:g}")
     if not vv[0] < 0.0:
         return _sol([0.0] * d, "separating")
     A = w[0][0]

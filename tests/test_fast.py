@@ -403,6 +403,14 @@ def test_kernel_input_errors_and_separation():
         solve_contact(W, [-1.0, 0.0, 0.0], 0.5, 0.3, "newton")
     with pytest.raises(ci.ShapeError):
         solve_contact(np.eye(4), [-1.0, 0, 0, 0], 0.5, 0.3, "ccp")
+    with pytest.raises(ci.NonFiniteError):
+        solve_contact(W, [-1.0, np.nan, 0.0], 0.5, 0.3, "ccp")
+    with pytest.raises(ci.NonFiniteError):
+        solve_contact(np.diag([1.0, np.inf, 1.0]), [-1.0, 0.0, 0.0], 0.5, 0.3, "coulomb")
+    with pytest.raises(ci.ParameterError):
+        solve_contact(W, [-1.0, 0.0, 0.0], 1.5, 0.3, "coulomb")
+    with pytest.raises(ci.ParameterError):
+        solve_contact(W, [-1.0, 0.0, 0.0], 0.5, -0.3, "coulomb")
     sol = solve_contact(W, [0.5, 1.0, 0.0], 0.5, 0.3, "coulomb")
     assert sol.regime == "separating" and not np.any(sol.impulse)
     with pytest.raises(ci.SingularSystemError):
