@@ -126,10 +126,25 @@ def closed_form_landscape(M, Jc, dq, e, mu, C=None) -> Landscape:
                          "pereira-nikravesh", "closed-form", MappingProxyType({"v_minus": v}))
 
     # sticking impulse, eq. (42)/(52): affine in e
-    Winv = np.linalg.inv(W)
-    st_n = -(Winv[0, 0] * (1 + E) * vn + Winv[0, 1] * vt)
-    st_t = -(Winv[1, 0] * (1 + E) * vn + Winv[1, 1] * vt)
-    stick = (st_n >= 0) & (np.abs(st_t) <= np.abs(MU) * st_n)
+    from .closed_form import DELASSUS_COND_MAX
+
+    if np.linalg.cond(W) < DELASSUS_COND_MAX:
+        Winv = np.linalg.inv(W)
+        st_n = -(Winv[0, 0] * (1 + E) * vn + Winv[0, 1] * vt)
+        st_t = -(Winv[1, 0] * (1 + E) * vn + Winv[1, 1] * vt)
+        stick = (st_n >= 0) & (np.abs(st_t) <= np.abs(MU) * st_n)
+    elif np.all(mu == 0.0):
+        # frictionless everywhere (e.g. a central impact whose tangent moves no mass):
+        # the sticking solve is never needed
+        st_n = st_t = np.zeros(shape)
+        stick = np.zeros(shape, bool)
+    else:
+        from .errors import SingularSystemError
+
+        raise SingularSystemError(
+            f"the Delassus matrix W = Jc M^-1 Jc^T is singular (cond = {np.linalg.cond(W):.3e}):"
+            " the sticking solve of eq. (42)/(52) has no unique answer; evaluate this impact "
+            "with mu = 0 only, or use contact_landscape with law='dissipative'")
     # sliding, eq. (38): t opposite to v_t- for mu > 0 (eq. 55), along it for mu < 0
     # sign of the slip; with no slip, friction saturates where the sticking impulse pointed
     s = np.full(shape, np.sign(vt)) if vt != 0.0 else -np.sign(st_t)
@@ -255,3 +270,219 @@ def law_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb", method: str = 
         meta=MappingProxyType({"v_minus": base.v_minus[0].tolist(), "energy_before": T_minus}),
         **flags,
     )
+
+
+def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
+                      progress: bool = True) -> Landscape:
+    """Any law over a grid of e and mu (mu >= 0) with the exact single-contact kernels.
+
+    The contact-space data (Delassus block ``W`` with the loops folded in, ``v-``) are computed
+    once; each grid point then costs one call of :func:`convimpact.fast.solve_contact` (the
+    kernel of ``method="fast"``, tens of microseconds) and everything after the impulse --
+    energy loss (eq. 58 in contact space), post-impact velocity and the failure flags -- is
+    evaluated in numpy over the whole grid, with the same definitions and tolerance as
+    :func:`convimpact.diagnostics.assemble_result` for ``method="fast"``. Planar or spatial,
+    one contact.
+
+    Parameters
+    ----------
+    M, Jc, dq, C : as for :func:`convimpact.resolve_impact`; one contact.
+    e : (ne,) array_like of restitution coefficients in [0, 1].
+    mu : (nmu,) array_like of friction coefficients >= 0.
+    law : one of :data:`convimpact.LAWS`.
+    progress : show a progress bar on stderr when the run is long.
+
+    Returns
+    -------
+    Landscape
+        ``method="fast"``. Points where the kernel raises are NaN and marked in ``failed``
+        (and in ``jammed`` for a non-positive sliding denominator). ``stick_possible`` marks
+        the points where the law stuck.
+    """
+    from .errors import NonPositiveEffectiveMassError, UnknownOptionError
+    from .fast import FAST_LAWS, FAST_TOL, solve_contact
+    from .problem import check_friction
+
+    if law not in FAST_LAWS:
+        raise UnknownOptionError(f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
+    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
+    mu = check_friction(np.atleast_1d(np.asarray(mu, float)), np.size(mu))
+    P = build_problem(M, Jc, dq, 0.0, 0.0, C)
+    if P.n_contacts != 1:
+        raise ShapeError("contact_landscape takes one contact Jacobian (d x k)")
+    W, v = P.contact_block(0)
+    d = P.dim
+    shape = (e.size, mu.size)
+    pi = np.full(shape + (d,), np.nan)
+    regime = np.full(shape, REGIMES.index("failed"))
+    jam = np.zeros(shape, bool)
+    failed = np.zeros(shape, bool)
+    bar = _Progress(e.size * mu.size, f"{law}/fast") if progress else None
+    n = 0
+    for i, ei in enumerate(e):
+        for j, mj in enumerate(mu):
+            try:
+                sol = solve_contact(W, v, float(ei), float(mj), law)
+            except NonPositiveEffectiveMassError:
+                jam[i, j] = failed[i, j] = True
+            except ConvImpactError:
+                failed[i, j] = True
+            else:
+                pi[i, j] = sol.impulse
+                regime[i, j] = REGIMES.index(sol.regime)
+            n += 1
+            if bar:
+                bar.update(n)
+    return _landscape_from_impulses(P, e, mu, pi, regime, jam, failed, law, "fast", FAST_TOL)
+
+
+def _landscape_from_impulses(P: ImpactProblem, e, mu, pi, regime, jam, failed, law, method,
+                             tol) -> Landscape:
+    """Energy, velocities and the diagnostics' flags of a grid of contact impulses."""
+    W, v = P.contact_block(0)
+    tiny = 1e-300
+    T_minus = P.kinetic_energy(P.dq_minus)
+    ok = ~failed
+    p = np.where(ok[..., None], pi, 0.0)
+    v_plus = v + p @ W.T
+    dT = p @ v + 0.5 * np.einsum("...i,ij,...j->...", p, W, p)
+    TL = np.where(ok, -dT, np.nan)
+    v_plus = np.where(ok[..., None], v_plus, np.nan)
+    gained = ok & (dT > tol * max(T_minus, tiny) * 10.0)
+    pt, vt = p[..., 1:], v[1:]
+    npt = np.linalg.norm(pt, axis=-1)
+    pscale = np.maximum(np.linalg.norm(p, axis=-1), tiny)
+    vscale = max(float(np.max(np.abs(v))), tiny)
+    pushes = ok & (npt > tol * pscale) & (pt @ vt > tol * npt * float(np.linalg.norm(vt)))
+    vtp = np.where(ok[..., None], v_plus[..., 1:], 0.0)
+    nvtp = np.linalg.norm(vtp, axis=-1)
+    slipping = nvtp > tol * 10.0 * vscale
+    reversal = (ok & (regime == REGIMES.index("slide")) & slipping & (npt > tol * pscale)
+                & (np.sum(pt * vtp, axis=-1) > tol * npt * nvtp))
+    if P.planar:
+        s = np.sign(vt[0]) if vt[0] != 0 else 1.0
+        tangential_velocity = -s * v_plus[..., 1]
+    else:
+        tangential_velocity = np.linalg.norm(v_plus[..., 1:], axis=-1)
+    return Landscape(
+        e=e, mu=mu, energy_loss=TL, energy_loss_fraction=TL / T_minus,
+        normal_impulse=np.where(ok, pi[..., 0], np.nan), tangential_impulse=pi[..., 1:],
+        v_plus=v_plus, tangential_velocity=tangential_velocity, regime=regime,
+        energy_gained=gained, friction_pushes_slip=pushes, slip_reversal=reversal, jammed=jam,
+        failed=failed, stick_possible=regime == REGIMES.index("stick"), law=law, method=method,
+        meta=MappingProxyType({"v_minus": v.tolist(), "energy_before": T_minus}),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class AngleLandscape:
+    """The sliding rule of Section 9.3 over e x mu x alpha (the paper's Fig. 9, generalized).
+
+    The tangential impulse slides along ``t(alpha)``, rotated by ``alpha`` counter-clockwise
+    from the pre-impact slip ``v_t-`` in the (t1, t2) plane, with ``pi_n`` from eq. (38)/(51).
+
+    Attributes
+    ----------
+    e, mu, alpha : the grid axes (alpha in radians).
+    energy_loss : T_L(e, mu, alpha) (eq. 60), shape (ne, nmu, nalpha); NaN where excluded.
+    normal_impulse : pi_n(e, mu, alpha) (eq. 38/51); NaN where excluded.
+    admissible : the sliding denominator D(alpha) = c_n^T G (c_n + mu c_t) is positive.
+    energy_gained : admissible directions with T_L < 0 (the paper's sector alpha_0..alpha_1).
+    alpha_m : (ne, nmu) exact angle of maximal dissipation (:func:`fast.max_dissipation_direction`),
+        in [0, 2 pi); NaN for mu = 0.
+    energy_loss_max, normal_impulse_max_dissipation : T_L and pi_n at ``alpha_m``.
+    meta : the impact state (v_minus, energy_before).
+    """
+
+    e: np.ndarray
+    mu: np.ndarray
+    alpha: np.ndarray
+    energy_loss: np.ndarray
+    normal_impulse: np.ndarray
+    admissible: np.ndarray
+    energy_gained: np.ndarray
+    alpha_m: np.ndarray
+    energy_loss_max: np.ndarray
+    normal_impulse_max_dissipation: np.ndarray
+    meta: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-JSON view (NaN becomes None)."""
+        out = {}
+        for k in self.__dataclass_fields__:
+            v = getattr(self, k)
+            if isinstance(v, np.ndarray) and v.dtype.kind == "f":
+                v = np.where(np.isfinite(v), v, None)
+            out[k] = _jsonable(v)
+        return out
+
+
+def angle_landscape(M, Jc, dq, e, mu, alpha, C=None) -> AngleLandscape:
+    """T_L and pi_n of the Section 9.3 sliding rule over grids of e, mu and alpha, vectorized.
+
+    Parameters
+    ----------
+    M, Jc, dq, C : as for :func:`convimpact.resolve_impact`; one spatial contact (Jc 3 x k)
+        approaching (v_n- < 0).
+    e : (ne,) restitution coefficients in [0, 1].
+    mu : (nmu,) friction coefficients >= 0.
+    alpha : (nalpha,) angles (radians) counter-clockwise from v_t- (from t1 if v_t- = 0).
+
+    Returns
+    -------
+    AngleLandscape
+    """
+    from .errors import ParameterError
+    from .fast import max_dissipation_direction
+    from .problem import check_friction
+
+    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
+    mu = check_friction(np.atleast_1d(np.asarray(mu, float)), np.size(mu))
+    alpha = np.atleast_1d(np.asarray(alpha, float))
+    if not np.all(np.isfinite(alpha)):
+        raise ShapeError("alpha must be finite angles in radians")
+    P = build_problem(M, Jc, dq, 0.0, 0.0, C)
+    if P.n_contacts != 1 or P.planar:
+        raise ShapeError("angle_landscape takes one spatial contact (Jc of shape 3 x k); a "
+                         "planar contact has only the two tangents alpha = 0 and pi")
+    W, v = P.contact_block(0)
+    if not v[0] < 0.0:
+        raise ParameterError(f"the contact is not approaching (v_n- = {v[0]:g} >= 0): no "
+                             "impulse acts, choose an impact state with v_n- < 0")
+    vt = v[1:]
+    nv = float(np.hypot(*vt))
+    ref = vt / nv if nv > 0.0 else np.array([1.0, 0.0])
+    t1 = np.cos(alpha) * ref[0] - np.sin(alpha) * ref[1]
+    t2 = np.cos(alpha) * ref[1] + np.sin(alpha) * ref[0]
+    E = e[:, None, None]
+    MU = mu[None, :, None]
+    wt = W[0, 1] * t1 + W[0, 2] * t2
+    tWt = W[1, 1] * t1 * t1 + 2.0 * W[1, 2] * t1 * t2 + W[2, 2] * t2 * t2
+    D = W[0, 0] + MU * wt  # eq. (38)/(51) denominator
+    ok = np.broadcast_to(D > 1e-12 * float(np.max(np.abs(W))), (e.size, mu.size, alpha.size))
+    pn = -(1.0 + E) * v[0] / np.where(ok, D, 1.0)
+    TL = -pn * (v[0] + MU * (vt[0] * t1 + vt[1] * t2)) - 0.5 * pn * pn * (
+        W[0, 0] + 2.0 * MU * wt + MU * MU * tWt)  # eq. (60)
+    TL = np.where(ok, TL, np.nan)
+    pn = np.where(ok, pn, np.nan)
+    am = np.full((e.size, mu.size), np.nan)
+    tlm = np.full_like(am, np.nan)
+    pnm = np.full_like(am, np.nan)
+    for i, ei in enumerate(e):  # one exact solve per (e, mu), none per angle
+        for j, mj in enumerate(mu):
+            if mj == 0.0:
+                pnm[i, j] = -(1.0 + ei) * v[0] / W[0, 0]
+                tlm[i, j] = 0.5 * (1.0 - ei * ei) * v[0] ** 2 / W[0, 0]  # eq. (59)
+                continue
+            t = max_dissipation_direction(W, v, float(ei), float(mj))
+            am[i, j] = np.arctan2(ref[0] * t[1] - ref[1] * t[0], ref @ t) % (2.0 * np.pi)
+            g = np.array([1.0, mj * t[0], mj * t[1]])
+            p = -(1.0 + ei) * v[0] / float(W[0] @ g)
+            pnm[i, j] = p
+            tlm[i, j] = -p * float(g @ v) - 0.5 * p * p * float(g @ W @ g)
+    return AngleLandscape(
+        e=e, mu=mu, alpha=alpha, energy_loss=TL, normal_impulse=pn, admissible=ok.copy(),
+        energy_gained=ok & (TL < 0.0), alpha_m=am, energy_loss_max=tlm,
+        normal_impulse_max_dissipation=pnm,
+        meta=MappingProxyType({"v_minus": v.tolist(),
+                               "energy_before": P.kinetic_energy(P.dq_minus)}))
