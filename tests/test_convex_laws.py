@@ -20,6 +20,7 @@ import math
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings, strategies as st
+from scipy.optimize import minimize_scalar
 
 import convimpact as ci
 from convimpact import clarabel_direct as cd
@@ -47,6 +48,15 @@ def _tl_grid(W, v, e, mu, n=20001):
     pi = pn * g
     tl = -(v @ pi + 0.5 * np.einsum("ik,ij,jk->k", pi, W, pi))
     return a, np.where(den > 0, tl, -np.inf)
+
+
+def _tl_grid_at(W, v, e, mu, a):
+    g = np.array([1.0, mu * np.cos(a), mu * np.sin(a)])
+    den = W[0] @ g
+    if den <= 0:
+        return -np.inf
+    pi = -(1 + e) * v[0] / den * g
+    return -(v @ pi + 0.5 * pi @ W @ pi)
 
 
 # --------------------------------------------------------------------------------------------
@@ -167,25 +177,30 @@ def test_ccp_exact_when_sticking_and_reports_the_lift(s):
 # pereira-nikravesh
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), e=st.floats(0, 1), mu=st.floats(0.05, 1.0),
        loops=st.integers(0, 1))
 def test_pn_spatial_slide_is_the_maximal_dissipation_direction(seed, e, mu, loops):
-    """Brute force over 20001 angles of eq. (60) with pi_n from eq. (38): the law's T_L is the
-    maximum (to grid resolution) and its angle is within one grid step of the argmax."""
+    """Brute force over 4001 angles of eq. (60) with pi_n from eq. (38), refined by a bounded
+    scalar search: the law's T_L is that maximum and its angle the argmax."""
     M, Jc, dq, C = random_system(seed, 3, 1, loops)
     r = ci.resolve_impact(M, Jc, dq, e=e, mu=mu, C=C, law="pereira-nikravesh",
                           method="clarabel")
     assume(r.regime == "slide")
     W = delassus(M, Jc, C)
     v = Jc @ dq
-    a, tl = _tl_grid(W, v, e, mu)
+    a, tl = _tl_grid(W, v, e, mu, n=4001)
     k = int(np.argmax(tl))
     assert r.energy_loss >= tl[k] - 1e-12 * abs(tl[k])
-    assert r.energy_loss <= tl[k] + 1e-6 * abs(tl[k])  # grid max is within O(h^2)
+    # refine the grid's best angle by a bounded scalar search (the maximum can be sharp near
+    # a direction where the denominator of eq. (38) vanishes)
+    h = a[1] - a[0]
+    ref = minimize_scalar(lambda x: -_tl_grid_at(W, v, e, mu, x), bounds=(a[k] - h, a[k] + h),
+                          method="bounded", options={"xatol": 1e-13})
+    assert r.energy_loss == pytest.approx(-ref.fun, rel=1e-8)
     angle = r.diagnostics.extras["slide_angle"]
-    gap = abs((angle - a[k] + np.pi) % (2 * np.pi) - np.pi)
-    assert gap < 1e-2 or np.isclose(tl[k], r.energy_loss, rtol=1e-9)
+    gap = abs((angle - ref.x + np.pi) % (2 * np.pi) - np.pi)
+    assert gap < 1e-5 or np.isclose(-ref.fun, r.energy_loss, rtol=1e-10)
     # Newton restitution holds exactly and the impulse is on the cone boundary
     assert r.v_plus[0] == pytest.approx(-e * v[0], rel=1e-9, abs=1e-12)
     assert np.linalg.norm(r.impulse[1:]) == pytest.approx(mu * r.impulse[0], rel=1e-9)
