@@ -26,7 +26,7 @@ def _solve_both(M, Jc, dq, e, mu, C, law):
     return out
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=20, deadline=None)
 @given(systems)
 def test_clarabel_and_cvxpy_agree(s):
     """Post-impact velocities agree (unique even when W is singular and impulses are not)."""
@@ -44,7 +44,7 @@ def test_clarabel_and_cvxpy_agree(s):
         assert a.regime == b.regime or law == "pereira-nikravesh", law
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=20, deadline=None)
 @given(systems)
 def test_several_contacts_coulomb_both_paths_solve_the_law(s):
     """With several contacts both paths return an impulse meeting Coulomb's conditions (to the

@@ -63,7 +63,7 @@ def _tl_grid_at(W, v, e, mu, a):
 # coulomb
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(single)
 def test_coulomb_agrees_with_closed_form_or_is_the_consistent_one(s):
     M, Jc, dq, C = random_system(s["seed"], s["d"], 1, s["loops"])
@@ -105,7 +105,7 @@ def test_coulomb_plain_fixed_point_fails_where_the_safeguarded_one_converges():
 # dissipative
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(systems)
 def test_dissipative_never_gains_energy(s):
     """T_L = 1/2 (1 - e^2) pi_p.W.pi_p >= 0 with a common e, W from the null-space formula."""
@@ -151,7 +151,7 @@ def test_dissipative_with_different_e_can_gain_energy():
 # ccp
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(single)
 def test_ccp_exact_when_sticking_and_reports_the_lift(s):
     M, Jc, dq, C = random_system(s["seed"], s["d"], 1, s["loops"])

@@ -60,7 +60,7 @@ def test_ccp_single_spatial_matches_brute_force(seed, e, mu, loops):
     assert r.diagnostics.extras["polished"]
 
 
-@settings(max_examples=12, deadline=None)
+@settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), d=st.sampled_from([2, 3]), n=st.integers(2, 3),
        loops=st.integers(0, 1), mu=st.floats(0.1, 1.0))
 def test_dissipative_multi_contact_matches_slsqp(seed, d, n, loops, mu):
