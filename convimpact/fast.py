@@ -505,6 +505,16 @@ def _solve3(inv: tuple, r0: float, r1: float, r2: float) -> tuple[float, float, 
             i02 * r0 + i12 * r1 + i22 * r2)
 
 
+def _linsolve3(w: list, inv: tuple, r0: float, r1: float, r2: float) -> tuple[float, float, float]:
+    """W x = r by the adjugate inverse plus one step of iterative refinement."""
+    x0, x1, x2 = _solve3(inv, r0, r1, r2)
+    (A, B1, B2), (_, C11, C12), (_, _, C22) = w
+    d0, d1, d2 = _solve3(inv, r0 - (A * x0 + B1 * x1 + B2 * x2),
+                         r1 - (B1 * x0 + C11 * x1 + C12 * x2),
+                         r2 - (B2 * x0 + C12 * x1 + C22 * x2))
+    return x0 + d0, x1 + d1, x2 + d2
+
+
 def _inverse2(w: list, law: str) -> tuple:
     A, B, C = w[0][0], w[0][1], w[1][1]
     det = A * C - B * B
@@ -561,7 +571,7 @@ def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> Contact
         p = c / D
         return _sol((p, mu * s * p), "slide", D)
     inv = _inverse3(w, "pereira-nikravesh")
-    pn, p1, p2 = _solve3(inv, c, -v[1], -v[2])  # eq. (42) in space
+    pn, p1, p2 = _linsolve3(w, inv, c, -v[1], -v[2])  # eq. (42) in space
     ptn = math.hypot(p1, p2)
     if _in_cone(pn, ptn, mu):
         return _sol((pn, p1, p2), "stick")
@@ -622,7 +632,7 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
                   "one is returned",) if len(found) > 1 else ())
         return _sol((p, mu * s * p), "slide", D, extras, warns)
     inv = _inverse3(w, "coulomb")
-    pn, p1, p2 = _solve3(inv, c, -v[1], -v[2])
+    pn, p1, p2 = _linsolve3(w, inv, c, -v[1], -v[2])
     if _in_cone(pn, math.hypot(p1, p2), mu):
         return _sol((pn, p1, p2), "stick")
     r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
@@ -721,7 +731,7 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str) -> ContactSolu
     if b[0] >= mu * math.hypot(b[1], b[2]):
         return _sol((0.0, 0.0, 0.0), "separating")
     inv = _inverse3(w, law)
-    pn, p1, p2 = _solve3(inv, -b[0], -b[1], -b[2])
+    pn, p1, p2 = _linsolve3(w, inv, -b[0], -b[1], -b[2])
     if _in_cone(pn, math.hypot(p1, p2), mu):
         return _sol((pn, p1, p2), "stick", extras={"normal_velocity_lift": 0.0})
     r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
