@@ -326,13 +326,15 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False) -> tuple[n
         return F, J, x, G
 
     best = None
-    for _ in range(POLISH_MAX_NEWTON):
+    f0 = None
+    for it in range(POLISH_MAX_NEWTON):
         F, J, x, G = residual(u)
         fn = float(np.max(np.abs(F), initial=0.0))
+        f0 = fn if f0 is None else f0
         if best is None or fn < best[0]:
             best = (fn, u.copy())
-        if fn <= 1e-14:
-            break
+        if fn <= 1e-14 or (it >= 4 and best[0] > 1e-6 * f0):
+            break  # converged, or not converging quadratically: wrong active set
         # minimum-norm Newton step: the KKT Jacobian is singular when contacts are redundant
         step, *_ = np.linalg.lstsq(J, -F, rcond=1e-13)
         u = u + step
@@ -810,7 +812,8 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
                 not np.any(fric):
             converged = True
             break
-        if n > 1:  # active-set Newton on Coulomb's conditions from this iterate
+        # active-set Newton on Coulomb's conditions from this iterate
+        if n > 1:
             y, ok = polish_cone_qp(unit, sol.x * (sW / sb), coulomb=True)
             if ok and coulomb_residual(W, b, mu, d, y * (sb / sW)) <= 1e-11:
                 last_x, converged, newton = y * (sb / sW), True, True
