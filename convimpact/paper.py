@@ -177,8 +177,8 @@ def table1(example: PaperExample, result) -> dict[str, Any]:
     v_n_minus, v_n_plus = float(result.v_minus[0]), float(result.v_plus[0])
     loop = example.C @ result.dq_plus
     return {
-        "coordinates": ["theta1 (crank, rad)", "theta2 (coupler rel. crank, rad)",
-                        "theta3 (slider x, m)", "theta4 (free slider x, m)"],
+        "coordinates": ["theta_dot_1 (crank) [rad/s]", "theta_dot_2 (coupler) [rad/s]",
+                        "theta_dot_3 (slider x) [m/s]", "theta_dot_4 (free slider x) [m/s]"],
         "dq_minus": example.dq.tolist(),
         "delta_theta_dot": jump.tolist(),
         "dq_plus": result.dq_plus.tolist(),
@@ -434,7 +434,7 @@ def _property_table(report: PaperReport) -> dict:
             else:
                 row[law] = {"held": r.diagnostics.held(), "regime": r.regime,
                             "energy_loss_fraction": r.energy_loss / T}
-        table[key] = row
+        table[f"{key}\ne = {ex.e:g}, mu = {ex.mu:g}"] = row
     return table
 
 
@@ -475,22 +475,30 @@ def write_figures(report: PaperReport, out: str) -> list[str]:
             transform=ax.transAxes, fontsize=7, va="bottom")
     save(fig, FIGURES[0])
     # Figs. 5-7
+    slip_label = "outgoing slip along the pre-impact slip [m/s]"
     for name, key, q, title in (
             (FIGURES[1], "pendulum_a", "tangential_velocity",
-             "Fig. 5: pendulum (a), outgoing slip $v_t^+$ along $t$ (Section 8)"),
+             "Fig. 5: pendulum (a), outgoing tangential velocity (Section 8)"),
             (FIGURES[2], "pendulum_a", "energy_loss",
              "Fig. 6: pendulum (a), energy loss $T_L$ (eq. 60)"),
             (FIGURES[3], "pendulum_b", "tangential_velocity",
-             "Fig. 7: pendulum (b), outgoing slip $v_t^+$ along $t$ (Section 8)")):
+             "Fig. 7: pendulum (b), outgoing tangential velocity (Section 8)")):
         L, iv = report.landscapes[key]
-        fig, ax = plt.subplots(figsize=(7.5, 5.5))
+        fig, ax = plt.subplots(figsize=(7.5, 6.6))
+        # positive: the contact still slides the way it came (the paper's "positive v_t+")
+        values = -L.tangential_velocity if q == "tangential_velocity" else None
+        # colour scale of the velocity maps: +-1.5 |v_r-| (the slip blows up near a jam)
+        speed = float(np.linalg.norm(L.meta["v_minus"]))
+        vlim = (-1.5 * speed, 1.5 * speed) if values is not None else None
         plot_landscape(L, q, ax=ax, title=title, stiction=(iv.lower, iv.upper),
-                       zero_contour=True)
+                       zero_contour=True, values=values,
+                       label=slip_label if values is not None else None, robust=True,
+                       legend="below", limits=vlim)
         vm = L.meta["v_minus"]
-        ax.text(0.99, 0.01, f"$v_r^-$ = {vm[0]:.3f} n {vm[1]:+.3f} t;  t = $-v_t^-/|v_t^-|$;\n"
-                r"$\mu$ < 0: friction along the slip (paper's convention)",
+        ax.text(0.99, 0.01, f"$v_r^-$ = {vm[0]:.3f} n {vm[1]:+.3f} t\n"
+                r"$\mu$ > 0: friction opposes the slip (eq. 55); $\mu$ < 0: along it",
                 transform=ax.transAxes, ha="right", va="bottom", fontsize=7,
-                bbox=dict(fc="w", alpha=0.7, lw=0))
+                bbox=dict(fc="w", alpha=0.8, lw=0))
         save(fig, name)
     # Fig. 9
     f9 = d["fig9"]
@@ -505,11 +513,12 @@ def write_figures(report: PaperReport, out: str) -> list[str]:
     save(fig, FIGURES[4])
     # Fig. 10
     f10 = d["fig10"]
-    fig, ax = plt.subplots(figsize=(6, 6))
+    fig, ax = plt.subplots(figsize=(6, 7.5))
     plot_tangent_vectors({r"$v_t^-$": f10["v_t_minus"], r"$\Delta v_t$": f10["delta_v_t"],
                           r"$v_t^+$": f10["v_t_plus"], r"$\pi_t$ [N s]": f10["pi_t"],
-                          r"$t$ of ref. [17] (unit)": f10["t_average"]}, ax=ax,
-                         title="Fig. 10: 3D pendulum, tangent plane at maximal dissipation")
+                          r"$t$ of ref. [17] (unit)": f10["t_average"]}, ax=ax, legend=True,
+                         title="Fig. 10: 3D pendulum, tangent plane at maximal dissipation\n"
+                               "(velocities in m/s, impulse in N s)")
     save(fig, FIGURES[5])
     # laws side by side
     fig, ax = plt.subplots(figsize=(13, 7))
@@ -519,10 +528,14 @@ def write_figures(report: PaperReport, out: str) -> list[str]:
     save(fig, FIGURES[6])
     for name, key in ((FIGURES[7], "pendulum_a"), (FIGURES[8], "pendulum_b")):
         per = report.law_landscapes[key]
-        fig, axes = plt.subplots(1, len(per), figsize=(5.2 * len(per), 4.6))
+        fig, axes = plt.subplots(1, len(per), figsize=(5.4 * len(per), 5.6),
+                                 layout="constrained")
         for ax, (law, L) in zip(axes, per.items()):
-            plot_landscape(L, "energy_loss_fraction", ax=ax, title=f"{law}", levels=17)
-        fig.suptitle(f"{key}: energy loss fraction $T_L/T^-$ under each law, failure regions "
+            plot_landscape(L, "energy_loss_fraction", ax=ax, title=f"{law}", levels=21,
+                           limits=(-1.0, 1.0), legend="below")
+        vm = report.examples[key].v_minus
+        fig.suptitle(f"{key} ($v_r^-$ = {vm[0]:.3f} n {vm[1]:+.3f} t): energy loss fraction "
+                     "$T_L/T^-$ under each law (common scale, clipped at -1), failure regions "
                      "marked", fontsize=12)
         save(fig, name)
     comp = {law: r.v_plus for law, r in report.results["pendulum_3d"].items()

@@ -29,72 +29,100 @@ def _axes(ax):
 
 def plot_landscape(L: Landscape, quantity: str = "tangential_velocity", ax=None,
                    title: str | None = None, levels: int = 21,
-                   stiction: tuple[float, float] | None = None, zero_contour: bool = False):
+                   stiction: tuple[float, float] | None = None, zero_contour: bool = False,
+                   values: np.ndarray | None = None, label: str | None = None,
+                   robust: bool = False, legend: str = "inside",
+                   limits: tuple[float, float] | None = None):
     """Filled contours of ``quantity`` over (mu, e) with the failure regions marked.
 
     Marked: where sticking is possible (solid outline), where energy is gained (hatched ``//``),
     where friction pushes the pre-impact slip (dotted outline), slip reversal (hatched ``\\\\``)
     and where the law jams or fails (grey).
 
-    Optional: ``stiction = (e_lower, e_upper)`` draws the bounds on e of the necessary stiction
-    conditions (eq. 62, e.g. from :func:`convimpact.stiction_interval`) as dashed lines (an
-    empty interval, NaN bounds, is stated in the legend); ``zero_contour`` draws the level
-    ``quantity = 0`` in white.
+    Optional:
+
+    * ``stiction = (e_lower, e_upper)`` draws the bounds on e of the necessary stiction
+      conditions (eq. 62, e.g. from :func:`convimpact.stiction_interval`) as dashed lines (an
+      empty interval, NaN bounds, is stated in the legend);
+    * ``zero_contour`` draws the level ``quantity = 0`` in light blue (outside the stick region when
+      the quantity is a velocity, which vanishes identically there);
+    * ``values`` (shape (len(e), len(mu))) replaces ``getattr(L, quantity)``, ``label`` the
+      colour-bar label;
+    * ``robust`` limits the colour scale to the 2nd-98th percentiles (values beyond are shown
+      in the end colours), so that a blow-up near a jam does not wash out the map;
+    * ``limits = (low, high)`` fixes the colour scale (values beyond are clipped, as for
+      ``robust``);
+    * ``legend``: ``"inside"`` (upper left), ``"below"`` (under the axes) or ``"none"``.
     """
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 
     ax = _axes(ax)
-    Z = np.asarray(getattr(L, quantity), float)
+    Z = np.asarray(getattr(L, quantity) if values is None else values, float)
     if Z.ndim == 3:
         Z = np.linalg.norm(Z, axis=-1)
     MU, E = np.meshgrid(L.mu, L.e)
     finite = np.isfinite(Z)
     if finite.any():
-        lo, hi = np.nanmin(Z[finite]), np.nanmax(Z[finite])
+        clip = robust or limits is not None
+        if limits is not None:
+            lo, hi = (float(x) for x in limits)
+        elif robust:
+            lo, hi = np.percentile(Z[finite], [2.0, 98.0])
+        else:
+            lo, hi = np.nanmin(Z[finite]), np.nanmax(Z[finite])
         if hi <= lo:
             hi = lo + 1.0
         span = np.linspace(lo - 1e-9 * abs(hi - lo), hi + 1e-9 * abs(hi - lo), levels)
-        cs = ax.contourf(MU, E, np.where(finite, Z, np.nan), levels=span, cmap="viridis")
-        plt.colorbar(cs, ax=ax, label=_LABELS.get(quantity, quantity))
+        Zc = np.where(finite, np.clip(Z, span[0], span[-1]) if clip else Z, np.nan)
+        cs = ax.contourf(MU, E, Zc, levels=span, cmap="viridis")
+        cb = plt.colorbar(cs, ax=ax, label=label or _LABELS.get(quantity, quantity))
+        if clip and (np.nanmin(Z) < lo or np.nanmax(Z) > hi):
+            cb.ax.set_title("clipped", fontsize=7)
     handles = []
     bad = L.jammed | L.failed
     if bad.any():
         ax.contourf(MU, E, bad.astype(float), levels=[0.5, 1.5], colors=["0.6"])
         handles.append(Patch(color="0.6", label="jam / solver failure"))
-    for mask, hatch, label in ((L.energy_gained, "//", "energy gained"),
-                               (L.slip_reversal, "\\\\", "slip reversal")):
+    for mask, hatch, text in ((L.energy_gained, "//", "energy gained"),
+                              (L.slip_reversal, "\\\\", "slip reversal")):
         if mask.any():
             ax.contourf(MU, E, mask.astype(float), levels=[0.5, 1.5], colors="none",
                         hatches=[hatch])
             ax.contour(MU, E, mask.astype(float), levels=[0.5], colors="k", linewidths=0.6)
-            handles.append(Patch(facecolor="none", edgecolor="k", hatch=hatch, label=label))
-    for mask, style, color, label in ((L.stick_possible, "-", "crimson", "stick boundary"),
-                                      (L.friction_pushes_slip, ":", "darkorange",
-                                       "friction pushes slip")):
+            handles.append(Patch(facecolor="none", edgecolor="k", hatch=hatch, label=text))
+    for mask, style, color, text in ((L.stick_possible, "-", "crimson", "stick boundary"),
+                                     (L.friction_pushes_slip, ":", "darkorange",
+                                      "friction pushes slip")):
         if mask.any() and not mask.all():
             ax.contour(MU, E, mask.astype(float), levels=[0.5], colors=color,
                        linestyles=style, linewidths=2.0)
-            handles.append(plt.Line2D([], [], color=color, ls=style, lw=2.0, label=label))
+            handles.append(plt.Line2D([], [], color=color, ls=style, lw=2.0, label=text))
     if zero_contour and finite.any() and np.nanmin(Z) < 0.0 < np.nanmax(Z):
-        ax.contour(MU, E, np.where(finite, Z, np.nan), levels=[0.0], colors="white",
-                   linewidths=1.5)
-        handles.append(plt.Line2D([], [], color="white", lw=1.5, label=f"{quantity} = 0"))
+        Z0 = np.where(finite, Z, np.nan)
+        if quantity in ("tangential_velocity", "v_plus"):
+            Z0 = np.where(L.regime == 2, np.nan, Z0)  # identically zero where stuck
+        ax.contour(MU, E, Z0, levels=[0.0], colors="deepskyblue", linewidths=1.8)
+        handles.append(plt.Line2D([], [], color="deepskyblue", lw=1.8,
+                                  label=f"{(label or quantity).split(' [')[0]} = 0"))
     if stiction is not None:
         lo, hi = stiction
         if np.isfinite(lo) and np.isfinite(hi):
             for y in {float(lo), float(hi)}:
                 ax.axhline(y, color="crimson", ls="--", lw=1.2)
             handles.append(plt.Line2D([], [], color="crimson", ls="--", lw=1.2,
-                                      label=f"eq. (62): stiction needs {lo:.3g} <= e <= {hi:.3g}"))
+                                      label=f"eq. (62) (stiction necessary): {lo:.3g} <= e <= {hi:.3g}"))
         else:
             handles.append(plt.Line2D([], [], color="crimson", ls="--", lw=1.2,
                                       label="eq. (62): no e in [0, 1] allows stiction"))
     ax.set_xlabel(r"friction coefficient $\mu$")
     ax.set_ylabel("coefficient of restitution $e$")
     ax.set_title(title or f"{L.law} / {L.method}: {quantity.replace('_', ' ')}")
-    if handles:
+    if handles and legend == "inside":
         ax.legend(handles=handles, loc="upper left", fontsize=8, framealpha=0.85)
+    elif handles and legend == "below":
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13),
+                  ncol=2, fontsize=8, frameon=False)
     return ax
 
 
@@ -144,17 +172,29 @@ def plot_angle_sweep(alpha: np.ndarray, energy_loss: np.ndarray, normal_impulse:
     return ax
 
 
-def plot_tangent_vectors(vectors: dict[str, np.ndarray], ax=None, title: str | None = None):
-    """The paper's Fig. 10: vectors in the tangent plane (t1 right, t2 up), from the origin."""
+def plot_tangent_vectors(vectors: dict[str, np.ndarray], ax=None, title: str | None = None,
+                         legend: bool = False):
+    """The paper's Fig. 10: vectors in the tangent plane (t1 right, t2 up), from the origin.
+
+    Each vector is labelled at its tip, or (``legend=True``) in a legend with its components,
+    which stays readable when vectors are nearly collinear.
+    """
     ax = _axes(ax)
     lim = 0.0
+    handles = []
+    import matplotlib.pyplot as plt
+
     for i, (name, vec) in enumerate(vectors.items()):
         vec = np.asarray(vec, float)[-2:]
         ax.annotate("", xy=vec, xytext=(0, 0),
-                    arrowprops=dict(arrowstyle="->", color=f"C{i}", lw=2))
-        ax.text(*(1.05 * vec), name, color=f"C{i}", fontsize=10)
+                    arrowprops=dict(arrowstyle="-|>", color=f"C{i}", lw=2))
+        if legend:
+            handles.append(plt.Line2D([], [], color=f"C{i}", lw=2,
+                                      label=f"{name} = ({vec[0]:.3f}, {vec[1]:.3f})"))
+        else:
+            ax.text(*(1.05 * vec), name, color=f"C{i}", fontsize=10)
         lim = max(lim, float(np.abs(vec).max()))
-    lim = 1.25 * lim or 1.0
+    lim = 1.15 * lim or 1.0
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
     ax.set_aspect("equal")
@@ -162,6 +202,9 @@ def plot_tangent_vectors(vectors: dict[str, np.ndarray], ax=None, title: str | N
     ax.axvline(0, color="0.7", lw=0.5)
     ax.set_xlabel("$t_1$")
     ax.set_ylabel("$t_2$")
+    if handles:
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=1,
+                  fontsize=8, frameon=False)
     ax.set_title(title or "tangent plane")
     return ax
 
@@ -226,7 +269,7 @@ def plot_law_properties(table: dict, ax=None, title: str | None = None):
                 img[i, j] = 1 if broken else 0
                 text = (f"{cell['regime']}, $T_L/T^-$ = {cell['energy_loss_fraction']:.3f}\n"
                         + ("broken: " + ",\n".join(broken) if broken else "all kept"))
-            ax.text(j, i, text, ha="center", va="center", fontsize=7)
+            ax.text(j, i, text, ha="center", va="center", fontsize=8)
     from matplotlib.colors import ListedColormap
 
     ax.imshow(img, cmap=ListedColormap(["#c7e9c0", "#fcbba1", "#d9d9d9"]), vmin=0, vmax=2,
