@@ -40,7 +40,8 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
 
     figures = []
     for law in laws:
-        rows = [a for a in aggs if a["law"] == law and a["time_full_median"] is not None]
+        every = [a for a in aggs if a["law"] == law]
+        rows = [a for a in every if a["time_full_median"] is not None]
         if not rows:
             continue
         fig, axes = plt.subplots(2, 4, figsize=(17, 8.2), sharex=True, sharey=True)
@@ -53,8 +54,12 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
             ax.axhline(ERROR_FLOOR, color="0.7", lw=0.8, ls="--")
             ax.grid(True, which="major", alpha=0.3)
             if not sub:
-                ax.text(0.5, 0.5, "no path serves\nthis class", ha="center", va="center",
-                        transform=ax.transAxes, color="0.5")
+                failed = [a for a in every if a["class"] == cls]
+                kinds = ", ".join(sorted({f for a in failed for f in a["failures"]}))
+                text = ("no path serves\nthis class" if not failed else
+                        f"every path failed here\n({kinds};\nsee bench.json)")
+                ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes,
+                        color="0.4", fontsize=9)
                 continue
             for a in sub:
                 m = a["method"]
@@ -71,9 +76,14 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
                     ax.plot(a["time_kernel_median"], y, **{**style, "mfc": "none"}, alpha=0.9)
                     ax.plot([a["time_kernel_median"], a["time_full_median"]], [y, y],
                             color=style["color"], lw=0.6, alpha=0.5)
+                note = _short_setting(a["setting"])
+                if a["is_reference"]:
+                    note = (note + " ref").strip()
                 if a["n_failed"]:
-                    ax.annotate(f"{a['n_failed']} failed", (a["time_full_median"], y),
-                                fontsize=6, color="0.4", xytext=(3, 3),
+                    note += f" ({a['n_failed']}/{a['n_problems']} failed)"
+                if note:
+                    ax.annotate(note, (a["time_full_median"], y), fontsize=6,
+                                color=style["color"], xytext=(4, 3),
                                 textcoords="offset points")
         for ax in axes[-1]:
             ax.set_xlabel("median wall time per solve [s]")
@@ -87,14 +97,24 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
                    labels=list(handles) + [h.get_label() for h in extra],
                    loc="lower center", ncol=min(6, len(handles) + 2), fontsize=9,
                    frameon=False)
-        fig.suptitle(f"law '{law}': error against wall time (larger marker = tighter "
-                     "tolerance)", fontsize=12)
+        fig.suptitle(f"law '{law}': median impulse error against median wall time per solve "
+                     "(labels: tolerance setting; 'ref': the reference path)", fontsize=12)
         fig.tight_layout(rect=(0, 0.06, 1, 0.96))
         name = f"per_impact_{law}.png"
         fig.savefig(Path(out) / name, dpi=90)
         plt.close(fig)
         figures.append(name)
     return figures
+
+
+def _short_setting(setting: str) -> str:
+    """``"tol=1e-06"`` -> ``"1e-06"``, ``"xtol=1e-02 grid=36"`` -> ``"x1e-02/36"``."""
+    if setting == "default":
+        return ""
+    parts = dict(p.split("=", 1) for p in setting.split() if "=" in p)
+    if "xtol" in parts:
+        return f"x{parts['xtol']}/{parts.get('grid', '')}"
+    return parts.get("tol", setting)
 
 
 def _tightness(setting: str) -> float:
