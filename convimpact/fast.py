@@ -196,51 +196,8 @@ def _quartic_roots(c4: float, c3: float, c2: float, c1: float, c0: float) -> lis
 
 
 # --------------------------------------------------------------------------------------------
-# trigonometric quadratics: coefficients (c0, cx, cy, cxx, cyy, cxy) of a form in x = cos th,
-# y = sin th; affine forms are (k0, kx, ky)
-
-
-def _best_point(bd: "_Boundary", score) -> tuple[float, float, float] | None:
-    """Refined (x, y, score) of the candidate maximizing ``score(x, y)`` (None = invalid).
-
-    Scores are compared on the unpolished roots first (they are stationary points, so their
-    score is accurate to second order); the winner, and any runner-up within 1e-6, is then
-    polished and rescored. Returns None if no candidate is valid.
-    """
-    scored = []
-    top = None
-    for pt in bd.points:
-        val = score(pt[0], pt[1])
-        if val is not None:
-            scored.append((val, pt))
-            if top is None or val > top:
-                top = val
-    if top is None:
-        return None
-    cut = top - 1e-6 * (abs(top) + 1e-300)
-    best = None
-    for val, pt in scored:
-        if val < cut:
-            continue
-        x, y = bd.refine(pt)
-        v2 = score(x, y)
-        if v2 is None:  # polishing left the admissible set: keep the raw candidate
-            x, y, v2 = pt[0], pt[1], val
-        if best is None or v2 > best[2]:
-            best = (x, y, v2)
-    return best
-
-
-def _dot_forms(u: tuple, k: tuple) -> tuple:
-    """sum_i u_i k_i for triples of affine forms u_i, k_i: a trigonometric quadratic."""
-    (a0, ax, ay), (b0, bx, by), (d0, dx, dy) = u
-    (e0, ex, ey), (f0, fx, fy), (g0, gx, gy) = k
-    return (a0 * e0 + b0 * f0 + d0 * g0,
-            a0 * ex + ax * e0 + b0 * fx + bx * f0 + d0 * gx + dx * g0,
-            a0 * ey + ay * e0 + b0 * fy + by * f0 + d0 * gy + dy * g0,
-            ax * ex + bx * fx + dx * gx,
-            ay * ey + by * fy + dy * gy,
-            ax * ey + ay * ex + bx * fy + by * fx + dx * gy + dy * gx)
+# the boundary quartic: a trigonometric quadratic E(th) = e0 + ex x + ey y + exx x^2 + eyy y^2
+# + exy x y in x = cos th, y = sin th, solved through tau = tan(th / 2)
 
 
 def _polish(c4: float, c3: float, c2: float, c1: float, c0: float, t: float) -> float:
@@ -265,136 +222,137 @@ def _polish(c4: float, c3: float, c2: float, c1: float, c0: float, t: float) -> 
     return t
 
 
-class _Boundary:
-    """Candidate boundary points where a trigonometric quadratic E(th) vanishes.
+def _candidates(e0: float, ex: float, ey: float, exx: float, eyy: float,
+                exy: float) -> tuple[tuple | None, list]:
+    """Unpolished points (x, y, chart value, reversed) where E(th) vanishes.
 
     The quartic in tau = tan(th/2) is solved in closed form. Each root is kept in the chart
     where it is small: tau itself for |tau| <= 1, s = 1/tau (the reversed quartic) otherwise;
-    th = pi (s = 0) is added as a candidate when the leading coefficient is small (a root near
-    tau = infinity, possibly dropped by the closed form) or no root was found.
-    ``points`` are unpolished (x, y, chart value, reversed); :meth:`refine` polishes one by
-    Newton's method. If E vanishes identically every direction is stationary and the single
-    candidate th = 0 is exact.
+    th = pi (s = 0) is added when the leading coefficient is small (a root near tau = infinity,
+    possibly dropped by the closed form) or no root was found. Returns the quartic's
+    coefficients (None if E vanishes identically: every direction is then stationary and the
+    single candidate th = 0 is exact) and the points; :func:`_refine` polishes one.
     """
-
-    __slots__ = ("c", "points")
-
-    def __init__(self, E: tuple):
-        c0, cx, cy, cxx, cyy, cxy = E
-        c = (c0 - cx + cxx, 2.0 * (cy - cxy), 2.0 * (c0 - cxx) + 4.0 * cyy,
-             2.0 * (cy + cxy), c0 + cx + cxx)
-        roots = _quartic_roots(*c)
-        if roots is None:
-            self.c = None
-            self.points = [(1.0, 0.0, 0.0, False)]
-            return
-        self.c = c
-        pts = []
-        for t in roots:
-            if -1.0 <= t <= 1.0:
-                t2 = t * t
-                pts.append(((1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2), t, False))
-            else:
-                s = 1.0 / t
-                s2 = s * s
-                pts.append(((s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0), s, True))
-        if not pts or abs(c[0]) <= 1e-6 * max(abs(c[1]), abs(c[2]), abs(c[3]), abs(c[4])):
-            pts.append((-1.0, 0.0, 0.0, True))  # th = pi: a root near tau = infinity
-        self.points = pts
-
-    def refine(self, point: tuple) -> tuple[float, float]:
-        """Newton-polished (x, y) of a candidate."""
-        x, y, t, rev = point
-        if self.c is None:
-            return x, y
-        c4, c3, c2, c1, c0 = self.c
-        if rev:
-            s = _polish(c0, c1, c2, c3, c4, t)
+    c4 = e0 - ex + exx
+    c3 = 2.0 * (ey - exy)
+    c2 = 2.0 * (e0 - exx) + 4.0 * eyy
+    c1 = 2.0 * (ey + exy)
+    c0 = e0 + ex + exx
+    roots = _quartic_roots(c4, c3, c2, c1, c0)
+    if roots is None:
+        return None, [(1.0, 0.0, 0.0, False)]
+    pts = []
+    for t in roots:
+        if -1.0 <= t <= 1.0:
+            t2 = t * t
+            pts.append(((1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2), t, False))
+        else:
+            s = 1.0 / t
             s2 = s * s
-            return (s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0)
-        t = _polish(c4, c3, c2, c1, c0, t)
-        t2 = t * t
-        return (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
+            pts.append(((s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0), s, True))
+    if not pts or abs(c4) <= 1e-6 * max(abs(c3), abs(c2), abs(c1), abs(c0)):
+        pts.append((-1.0, 0.0, 0.0, True))  # th = pi: a root near tau = infinity
+    return (c4, c3, c2, c1, c0), pts
 
 
-# --------------------------------------------------------------------------------------------
-# spatial contact data in a rotated tangent basis (r, r_perp)
+def _refine(coeffs: tuple | None, point: tuple) -> tuple[float, float]:
+    """Newton-polished (x, y) = (cos th, sin th) of a candidate of :func:`_candidates`."""
+    x, y, t, rev = point
+    if coeffs is None:
+        return x, y
+    c4, c3, c2, c1, c0 = coeffs
+    if rev:
+        s = _polish(c0, c1, c2, c3, c4, t)
+        s2 = s * s
+        return (s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0)
+    t = _polish(c4, c3, c2, c1, c0, t)
+    t2 = t * t
+    return (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
 
 
-class _Spatial:
-    """W and v of one spatial contact expressed in the tangent basis (r, r_perp)."""
-
-    __slots__ = ("A", "B1", "B2", "C11", "C12", "C22", "v0", "v1", "v2", "r1", "r2")
-
-    def __init__(self, w: Sequence[Sequence[float]], v: Sequence[float], r1: float, r2: float):
-        A, B1, B2 = w[0]
-        C11, C12, C22 = w[1][1], w[1][2], w[2][2]
-        self.A = A
-        self.B1 = B1 * r1 + B2 * r2
-        self.B2 = -B1 * r2 + B2 * r1
-        self.C11 = C11 * r1 * r1 + 2.0 * C12 * r1 * r2 + C22 * r2 * r2
-        self.C22 = C11 * r2 * r2 - 2.0 * C12 * r1 * r2 + C22 * r1 * r1
-        self.C12 = (C22 - C11) * r1 * r2 + C12 * (r1 * r1 - r2 * r2)
-        self.v0 = v[0]
-        self.v1 = v[1] * r1 + v[2] * r2
-        self.v2 = -v[1] * r2 + v[2] * r1
-        self.r1, self.r2 = r1, r2
-
-    def direction(self, x: float, y: float) -> tuple[float, float]:
-        """Unit tangent t = x r + y r_perp (x = cos th, y = sin th) in the frame (t1, t2)."""
-        return x * self.r1 - y * self.r2, x * self.r2 + y * self.r1
-
-    def wp_forms(self, mu: float) -> tuple[tuple, tuple, tuple]:
-        """W p with p = (1, mu x, mu y), as three affine forms."""
-        return ((self.A, mu * self.B1, mu * self.B2),
-                (self.B1, mu * self.C11, mu * self.C12),
-                (self.B2, mu * self.C12, mu * self.C22))
+def _det_wq(u: tuple, k0: float, k1: float, k2: float, mu: float) -> tuple:
+    """E = sum_i U_i (k x q)_i with q = (-mu, x, y): U = (u00, u0x, u0y, u10, ..., u2y) are
+    three affine forms, k a constant vector; returns (e0, ex, ey, exx, eyy, exy)."""
+    u00, u0x, u0y, u10, u1x, u1y, u20, u2x, u2y = u
+    mk1, mk2 = mu * k1, mu * k2
+    # k x q = (k1 y - k2 x, -mu k2 - k0 y, k0 x + mu k1)
+    return (-u10 * mk2 + u20 * mk1,
+            -u00 * k2 - u1x * mk2 + u20 * k0 + u2x * mk1,
+            u00 * k1 - u10 * k0 - u1y * mk2 + u2y * mk1,
+            -u0x * k2 + u2x * k0,
+            u0y * k1 - u1y * k0,
+            u0x * k1 - u0y * k2 - u1x * k0 + u2y * k0)
 
 
-def _cross_q(k0: float, k1: float, k2: float, mu: float) -> tuple[tuple, tuple, tuple]:
-    """k x q with q = (-mu, x, y), as three affine forms."""
-    return (0.0, -k2, k1), (-mu * k2, 0.0, -k0), (mu * k1, k0, 0.0)
+def _rotate(w: list, v: list, r1: float, r2: float) -> tuple:
+    """(A, B1, B2, C11, C12, C22, v0, v1, v2): W and v in the tangent basis (r, r_perp)."""
+    A, B1, B2 = w[0]
+    C11, C12, C22 = w[1][1], w[1][2], w[2][2]
+    rr = r1 * r2
+    return (A, B1 * r1 + B2 * r2, B2 * r1 - B1 * r2,
+            C11 * r1 * r1 + 2.0 * C12 * rr + C22 * r2 * r2,
+            (C22 - C11) * rr + C12 * (r1 * r1 - r2 * r2),
+            C11 * r2 * r2 - 2.0 * C12 * rr + C22 * r1 * r1,
+            v[0], v[1] * r1 + v[2] * r2, v[2] * r1 - v[1] * r2)
 
 
-def _eval_p(S: _Spatial, mu: float, x: float, y: float) -> tuple[float, float, tuple]:
-    """(D = a.p, p.W.p, W p tangential components) at t = (x, y) in S's basis."""
-    P0 = S.A + mu * (S.B1 * x + S.B2 * y)
-    P1 = S.B1 + mu * (S.C11 * x + S.C12 * y)
-    P2 = S.B2 + mu * (S.C12 * x + S.C22 * y)
-    return P0, P0 + mu * (x * P1 + y * P2), (P1, P2)
+def _wp(R: tuple, mu: float) -> tuple:
+    """W p, p = (1, mu x, mu y), as three affine forms (9 floats) in the rotated basis."""
+    A, B1, B2, C11, C12, C22 = R[:6]
+    return (A, mu * B1, mu * B2, B1, mu * C11, mu * C12, B2, mu * C12, mu * C22)
 
 
-def _dissipation_angle(S: _Spatial, c: float, mu: float) -> tuple[float, float, float, float]:
-    """Direction (x, y) = (cos th, sin th) in S's basis maximizing T_L (eq. 60) on the cone
-    boundary with D > 0.
+def _dissipation_angle(R: tuple, c: float, mu: float) -> tuple[float, float, float, float,
+                                                                float]:
+    """Direction maximizing T_L (eq. 60) on the cone boundary with D > 0.
 
-    Returns ((x, y), T_L, pi_n, D).
+    ``R`` is the contact in a rotated basis (:func:`_rotate`). The stationarity condition is
+    c det[W p, a, q] + (a.p) det[v, a, q] = det[c W p + (a.p) v, a, q] = 0 with a = W e_n and
+    a.p = A + mu (B1 x + B2 y), the denominator D of eq. (38). Returns (x, y, T_L, pi_n, D).
     """
-    A, B1, B2, C11, C12, C22 = S.A, S.B1, S.B2, S.C11, S.C12, S.C22
-    v0, v1, v2 = S.v0, S.v1, S.v2
-    mA, mB1, mB2 = mu * A, mu * B1, mu * B2
-    # c det[W p, a, q] + (a.p) det[v, a, q] = det[c W p + (a.p) v, a, q] = 0 (stationarity of
-    # T_L on the boundary), a = W e_n, a.p = A + mu (B1 x + B2 y)
-    U = ((c * A + v0 * A, c * mB1 + v0 * mB1, c * mB2 + v0 * mB2),
-         (c * B1 + v1 * A, c * mu * C11 + v1 * mB1, c * mu * C12 + v1 * mB2),
-         (c * B2 + v2 * A, c * mu * C12 + v2 * mB1, c * mu * C22 + v2 * mB2))
-    E = _dot_forms(U, _cross_q(A, B1, B2, mu))
-    dmin = 1e-12 * (abs(A) + mu * math.hypot(B1, B2))
-
-    def energy_loss(x: float, y: float) -> float | None:
+    A, B1, B2, C11, C12, C22, v0, v1, v2 = R
+    mB1, mB2 = mu * B1, mu * B2
+    cv, cm = c + v0, c * mu
+    U = (cv * A, cv * mB1, cv * mB2,
+         c * B1 + v1 * A, cm * C11 + v1 * mB1, cm * C12 + v1 * mB2,
+         c * B2 + v2 * A, cm * C12 + v2 * mB1, cm * C22 + v2 * mB2)
+    coeffs, cands = _candidates(*_det_wq(U, A, B1, B2, mu))
+    dmin = 1e-12 * (A + mu * math.hypot(B1, B2))
+    scored = []
+    top = None
+    for pt in cands:
+        x, y = pt[0], pt[1]
         D = A + mu * (B1 * x + B2 * y)
         if not D > dmin:
-            return None
+            continue
         pWp = D + mu * (x * (B1 + mu * (C11 * x + C12 * y)) + y * (B2 + mu * (C12 * x + C22 * y)))
         pn = c / D
-        return -pn * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * pn * pn * pWp  # eq. (60)
-
-    best = _best_point(_Boundary(E), energy_loss)
-    if best is None:  # unreachable for W_nn > 0: D averages W_nn over the circle
+        tl = -pn * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * pn * pn * pWp  # eq. (60)
+        scored.append((tl, pt))
+        if top is None or tl > top:
+            top = tl
+    if top is None:  # unreachable for W_nn > 0: D averages W_nn over the circle
         raise SolverError("no admissible sliding direction found (every D <= 0)")
-    x, y, tl = best
-    D = A + mu * (B1 * x + B2 * y)
-    return (x, y), tl, c / D, D
+    # the roots are stationary, so their unpolished scores are accurate to second order:
+    # polish the winner and any runner-up within 1e-6
+    cut = top - 1e-6 * (abs(top) + 1e-300)
+    best = None
+    for tl0, pt in scored:
+        if tl0 < cut:
+            continue
+        x, y = _refine(coeffs, pt)
+        D = A + mu * (B1 * x + B2 * y)
+        if D > dmin:
+            pWp = D + mu * (x * (B1 + mu * (C11 * x + C12 * y))
+                            + y * (B2 + mu * (C12 * x + C22 * y)))
+            pn = c / D
+            tl = -pn * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * pn * pn * pWp
+        else:  # polishing left the admissible set: keep the raw candidate
+            x, y, tl = pt[0], pt[1], tl0
+            D = A + mu * (B1 * x + B2 * y)
+        if best is None or tl > best[2]:
+            best = (x, y, tl, c / D, D)
+    return best
 
 
 def _unit_or(x1: float, x2: float, fallback: tuple[float, float]) -> tuple[float, float]:
@@ -466,9 +424,8 @@ def max_dissipation_direction(W, v, e: float, mu: float, tol: float = 1e-10) -> 
                 best, bt = tl, s
         return np.array([bt if bt is not None else 1.0])
     r1, r2 = _unit_or(-vv[1], -vv[2], (1.0, 0.0))
-    S = _Spatial(w, vv, r1, r2)
-    x, y = _dissipation_angle(S, c, mu)[0]
-    return np.array(S.direction(x, y))
+    x, y = _dissipation_angle(_rotate(w, vv, r1, r2), c, mu)[:2]
+    return np.array((x * r1 - y * r2, x * r2 + y * r1))
 
 
 # --------------------------------------------------------------------------------------------
@@ -576,9 +533,8 @@ def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> Contact
     if _in_cone(pn, ptn, mu):
         return _sol((pn, p1, p2), "stick")
     r1, r2 = _unit_or(-v[1], -v[2], _unit_or(p1, p2, (1.0, 0.0)))
-    S = _Spatial(w, v, r1, r2)
-    (x, y), tl, p, D = _dissipation_angle(S, c, mu)
-    t1, t2 = S.direction(x, y)
+    x, y, tl, p, D = _dissipation_angle(_rotate(w, v, r1, r2), c, mu)
+    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
     # P_N's optimum over the plane a.pi = c: pi* = lam e_n - W^-1 v, lam = (c + v_n) / W_nn
     q0, q1, q2 = _solve3(inv, v[0], v[1], v[2])
     lam = (c + v[0]) / w[0][0]
@@ -636,15 +592,19 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     if _in_cone(pn, math.hypot(p1, p2), mu):
         return _sol((pn, p1, p2), "stick")
     r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
-    S = _Spatial(w, v, r1, r2)
-    Wp = S.wp_forms(mu)
-    # det[W p, (0, t), b] = 0 with m x b = (x b2 - y b1, y b0, -x b0)
-    E = _dot_forms(Wp, ((0.0, S.v2, -S.v1), (0.0, 0.0, b0), (0.0, -b0, 0.0)))
-    escale = (abs(E[0]) + abs(E[1]) + abs(E[2]) + abs(E[3]) + abs(E[4]) + abs(E[5])) or 1.0
-    bd = _Boundary(E)
-    A, B1, B2, C11, C12, C22 = S.A, S.B1, S.B2, S.C11, S.C12, S.C22
-    v0, v1, v2 = S.v0, S.v1, S.v2
-    e0, ex, ey, exx, eyy, exy = E
+    R = _rotate(w, v, r1, r2)
+    A, B1, B2, C11, C12, C22, v0, v1, v2 = R
+    u00, u0x, u0y, u10, u1x, u1y, u20, u2x, u2y = _wp(R, mu)
+    # det[W p, (0, t), b] = sum_i (W p)_i (m x b)_i = 0, m = (0, x, y), b = (b0, v1, v2):
+    # m x b = (x v2 - y v1, y b0, -x b0)
+    e0 = 0.0
+    ex = u00 * v2 - u20 * b0
+    ey = -u00 * v1 + u10 * b0
+    exx = u0x * v2 - u2x * b0
+    eyy = -u0y * v1 + u1y * b0
+    exy = -u0x * v1 + u0y * v2 + u1x * b0 - u2y * b0
+    escale = (abs(ex) + abs(ey) + abs(exx) + abs(eyy) + abs(exy)) or 1.0
+    coeffs, cands = _candidates(e0, ex, ey, exx, eyy, exy)
 
     def conditions(x: float, y: float, rtol: float) -> tuple | None:
         """(T_L, pi_n, D, sigma) if t = (x, y) is a Coulomb slide to relative tolerance rtol."""
@@ -667,10 +627,10 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     found: list = []
     jams: list = []
     for loose in (True, False):
-        for pt in bd.points:
+        for pt in cands:
             if loose and conditions(pt[0], pt[1], 1e-6) is None:
                 continue
-            x, y = bd.refine(pt)
+            x, y = _refine(coeffs, pt)
             got = conditions(x, y, ROOT_RTOL)
             if got is None or any(abs(x - f[1]) + abs(y - f[2]) < 1e-9 for f in found):
                 continue  # not a solution, or the same root reached twice
@@ -684,16 +644,12 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
         raise SolverError("no Coulomb sliding solution found for this spatial contact although "
                           "the stick impulse leaves the cone; use method='clarabel'")
     tl, x, y, p, D, sigma = max(found)
-    t1, t2 = S.direction(x, y)
+    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
     extras = {"n_slide_solutions": len(found), "direction": (t1, t2),
               "alpha": _angle_from_slip(v[1], v[2], t1, t2), "post_slip_speed": sigma}
     warns = (("the Coulomb law has several sliding solutions here; the most dissipative one "
               "is returned",) if len(found) > 1 else ())
     return _sol((p, mu * p * t1, mu * p * t2), "slide", D, extras, warns)
-
-
-def _eval_trig(E: tuple, x: float, y: float) -> float:
-    return E[0] + E[1] * x + E[2] * y + E[3] * x * x + E[4] * y * y + E[5] * x * y
 
 
 # --------------------------------------------------------------------------------------------
@@ -735,27 +691,49 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str) -> ContactSolu
     if _in_cone(pn, math.hypot(p1, p2), mu):
         return _sol((pn, p1, p2), "stick", extras={"normal_velocity_lift": 0.0})
     r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
-    S = _Spatial(w, b, r1, r2)  # S.v* hold b in the rotated basis
-    Wp = S.wp_forms(mu)
-    E = _dot_forms(Wp, _cross_q(S.v0, S.v1, S.v2, mu))  # det[W p, b, q] = 0
-
-    def dissipation(x: float, y: float) -> float | None:
-        D, pWp, _ = _eval_p(S, mu, x, y)
-        pb = S.v0 + mu * (S.v1 * x + S.v2 * y)
+    R = _rotate(w, b, r1, r2)  # R[6:] hold b in the rotated basis
+    A, B1, B2, C11, C12, C22, b0, b1, b2 = R
+    coeffs, cands = _candidates(*_det_wq(_wp(R, mu), b0, b1, b2, mu))  # det[W p, b, q] = 0
+    # along the ray pi = r p the optimum is r = -p.b / p.W.p (if p.b < 0), objective
+    # -1/2 (p.b)^2 / p.W.p: the winner maximizes g = (p.b)^2 / (2 p.W.p)
+    scored = []
+    top = None
+    for pt in cands:
+        x, y = pt[0], pt[1]
+        pb = b0 + mu * (b1 * x + b2 * y)
+        pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
+                                                        + C22 * y * y))
         if pb < 0.0 and pWp > 0.0:
-            return 0.5 * pb * pb / pWp  # minus the optimal objective along this ray
-        return None
-
-    best = _best_point(_Boundary(E), dissipation)
-    if best is None:
+            g = 0.5 * pb * pb / pWp
+            scored.append((g, pt))
+            if top is None or g > top:
+                top = g
+    if top is None:
         raise SolverError("CCP boundary search found no descent direction; use "
                           "method='clarabel'")
-    x, y, _ = best
-    D, pWp, (P1, P2) = _eval_p(S, mu, x, y)
-    r = -(S.v0 + mu * (S.v1 * x + S.v2 * y)) / pWp
-    t1, t2 = S.direction(x, y)
-    un = S.v0 + r * D
-    slip = math.hypot(S.v1 + r * P1, S.v2 + r * P2)
+    cut = top - 1e-6 * top
+    best = None
+    for g0, pt in scored:
+        if g0 < cut:
+            continue
+        x, y = _refine(coeffs, pt)
+        pb = b0 + mu * (b1 * x + b2 * y)
+        pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
+                                                        + C22 * y * y))
+        if not (pb < 0.0 and pWp > 0.0):
+            x, y = pt[0], pt[1]
+            pb = b0 + mu * (b1 * x + b2 * y)
+            pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
+                                                            + C22 * y * y))
+        g = 0.5 * pb * pb / pWp
+        if best is None or g > best[0]:
+            best = (g, x, y, pb, pWp)
+    _, x, y, pb, pWp = best
+    r = -pb / pWp
+    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
+    un = b0 + r * (A + mu * (B1 * x + B2 * y))
+    slip = math.hypot(b1 + r * (B1 + mu * (C11 * x + C12 * y)),
+                      b2 + r * (B2 + mu * (C12 * x + C22 * y)))
     return _sol((r, mu * r * t1, mu * r * t2), "slide",
                 extras={"normal_velocity_lift": un, "post_slip_speed": slip,
                         "direction": (t1, t2)})

@@ -20,7 +20,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 import convimpact as ci
 from convimpact.closed_form import pereira_nikravesh as closed_form_pn
-from convimpact.fast import _Boundary, max_dissipation_direction, solve_contact
+from convimpact.fast import _candidates, _refine, max_dissipation_direction, solve_contact
 
 from convex_systems import ccp_residual, coulomb_conditions, delassus, random_system
 
@@ -384,17 +384,22 @@ def test_jam_direction_always_sticks_in_the_plane():
 
 def test_boundary_root_at_infinity_and_double_root():
     # E = sin th: roots th = 0 and th = pi (tau = infinity, vanishing leading coefficient)
-    pts = _Boundary((0.0, 0.0, 1.0, 0.0, 0.0, 0.0)).points
+    _, pts = _candidates(0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     assert any(abs(x + 1.0) < 1e-15 and abs(y) < 1e-15 for x, y, *_ in pts)
     assert any(abs(x - 1.0) < 1e-15 and abs(y) < 1e-15 for x, y, *_ in pts)
     # E = (cos th - cos 1)^2 = cos^2 - 2 cos1 cos + cos1^2: double roots at th = +-1
     c1 = math.cos(1.0)
-    bd = _Boundary((c1 * c1, -2 * c1, 0.0, 1.0, 0.0, 0.0))
-    got = [bd.refine(p) for p in bd.points]
+    coeffs, pts = _candidates(c1 * c1, -2 * c1, 0.0, 1.0, 0.0, 0.0)
+    got = [_refine(coeffs, p) for p in pts]
     for th in (1.0, -1.0):
         assert min(math.hypot(x - math.cos(th), y - math.sin(th)) for x, y in got) < 1e-7
+    # a root just short of tau = infinity (th = pi - 1e-9) is recovered to round-off
+    th0 = math.pi - 1e-9
+    coeffs, pts = _candidates(0.0, -math.sin(th0), math.cos(th0), 0.0, 0.0, 0.0)  # sin(th-th0)
+    got = [_refine(coeffs, p) for p in pts]
+    assert min(math.hypot(x - math.cos(th0), y - math.sin(th0)) for x, y in got) < 1e-14
     # E identically zero: every direction stationary, one candidate
-    assert _Boundary((0.0,) * 6).points == [(1.0, 0.0, 0.0, False)]
+    assert _candidates(0.0, 0.0, 0.0, 0.0, 0.0, 0.0) == (None, [(1.0, 0.0, 0.0, False)])
 
 
 def test_kernel_input_errors_and_separation():
