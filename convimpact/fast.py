@@ -656,18 +656,29 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
 # CCP (Anitescu): min 1/2 pi.W.pi + pi.b over K_mu
 
 
-def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str) -> ContactSolution:
+def _ccp_sol(poisson: float | None, impulse: tuple, regime: str,
+             extras: dict | None = None) -> ContactSolution:
+    if poisson is None:
+        return _sol(impulse, regime, extras=extras)
+    k = 1.0 + poisson  # Poisson's hypothesis on the plastic impulse
+    return _sol([k * x for x in impulse], regime, extras={"plastic_impulse": impulse})
+
+
+def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str,
+         poisson: float | None = None) -> ContactSolution:
+    """CCP impulse; with ``poisson = e`` (the dissipative law, called with e = 0) the plastic
+    impulse is returned times (1 + e), and reported in the extras."""
     b = list(v)
     b[0] = (1.0 + e) * v[0]
     if d == 2:
         bt = abs(b[1])
         if b[0] >= mu * bt:  # b in the dual cone K*: pi = 0 is optimal
-            return _sol((0.0, 0.0), "separating")
+            return _ccp_sol(poisson, (0.0, 0.0), "separating")
         i00, i01, i11 = _inverse2(w, law)
         pn = -(i00 * b[0] + i01 * b[1])
         pt = -(i01 * b[0] + i11 * b[1])
         if _in_cone(pn, abs(pt), mu):
-            return _sol((pn, pt), "stick", extras={"normal_velocity_lift": 0.0})
+            return _ccp_sol(poisson, (pn, pt), "stick", extras={"normal_velocity_lift": 0.0})
         best = None
         for s in (1.0, -1.0):
             pb = b[0] + mu * s * b[1]
@@ -682,14 +693,14 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str) -> ContactSolu
         _, s, r = best
         un = b[0] + r * (w[0][0] + mu * s * w[0][1])
         ut = b[1] + r * (w[0][1] + mu * s * w[1][1])
-        return _sol((r, mu * s * r), "slide",
+        return _ccp_sol(poisson, (r, mu * s * r), "slide",
                     extras={"normal_velocity_lift": un, "post_slip": (ut,)})
     if b[0] >= mu * math.hypot(b[1], b[2]):
-        return _sol((0.0, 0.0, 0.0), "separating")
+        return _ccp_sol(poisson, (0.0, 0.0, 0.0), "separating")
     inv = _inverse3(w, law)
     pn, p1, p2 = _linsolve3(w, inv, -b[0], -b[1], -b[2])
     if _in_cone(pn, math.hypot(p1, p2), mu):
-        return _sol((pn, p1, p2), "stick", extras={"normal_velocity_lift": 0.0})
+        return _ccp_sol(poisson, (pn, p1, p2), "stick", extras={"normal_velocity_lift": 0.0})
     r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
     R = _rotate(w, b, r1, r2)  # R[6:] hold b in the rotated basis
     A, B1, B2, C11, C12, C22, b0, b1, b2 = R
@@ -734,7 +745,7 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str) -> ContactSolu
     un = b0 + r * (A + mu * (B1 * x + B2 * y))
     slip = math.hypot(b1 + r * (B1 + mu * (C11 * x + C12 * y)),
                       b2 + r * (B2 + mu * (C12 * x + C22 * y)))
-    return _sol((r, mu * r * t1, mu * r * t2), "slide",
+    return _ccp_sol(poisson, (r, mu * r * t1, mu * r * t2), "slide",
                 extras={"normal_velocity_lift": un, "post_slip_speed": slip,
                         "direction": (t1, t2)})
 
@@ -810,11 +821,7 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
         return _coulomb(w, vv, d, e, mu)
     if law == "ccp":
         return _ccp(w, vv, d, e, mu, law)
-    plastic = _ccp(w, vv, d, 0.0, mu, law)  # maximal-dissipation plastic impact
-    pp = plastic.impulse
-    scale = 1.0 + e  # Poisson's hypothesis
-    extras = {"plastic_impulse": tuple(pp.tolist())}
-    return ContactSolution(pp * scale, plastic.regime, None, MappingProxyType(extras))
+    return _ccp(w, vv, d, 0.0, mu, law, poisson=e)  # plastic maximal dissipation x (1 + e)
 
 
 # --------------------------------------------------------------------------------------------
