@@ -758,8 +758,10 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
     """Coulomb's law with Newton restitution by a fixed point over shifted CCP programs.
 
     The shift ``s_i = mu_i |u_t,i|`` (u = W pi + b) enters ``q_n``; the map ``s -> s(pi(s))`` is
-    iterated with Anderson acceleration (memory ``anderson_memory``), each step safeguarded:
-    a step that does not reduce the fixed-point residual is replaced by a damped plain step.
+    iterated with Anderson acceleration (memory ``anderson_memory``), safeguarded: when a step
+    does not reduce the fixed-point residual the history is dropped and the mixing halved. If
+    that pass fails, a second pass runs the plain iteration (up to ``max_fixed_point_iter``
+    programs each).
     After every program the iterate's active set (stick / slide / separate per contact) is
     handed to an active-set Newton solve of Coulomb's conditions themselves
     (:func:`polish_cone_qp` with ``coulomb=True``); once that certifies a solution (residual at
@@ -788,53 +790,59 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
         u = (W @ sol.x + b).reshape(n, d)
         return sol, mu * np.linalg.norm(u[:, 1:], axis=1)
 
-    s = np.zeros(n)
-    hist_s: list[np.ndarray] = []
-    hist_r: list[np.ndarray] = []
-    iters = conic_iters = 0
-    converged = polished = False
-    last_x = None
-    res_norm = prev = math.inf
-    beta = 1.0  # mixing; halved whenever a step fails to reduce the residual
-    status = ""
-    newton = False
     sW = max(float(np.max(np.abs(W))), _TINY)
     sb = max(float(np.max(np.abs(b))), _TINY)
     unit = ConeQP(W / sW, b / sb, mu, d, np.zeros((0, n * d)), np.zeros(0))
-    while iters < opts.max_fixed_point_iter:
-        sol, gs = solve_for(s)
-        iters += 1
-        conic_iters += max(sol.iterations, 0)
-        status, last_x, polished = sol.status, sol.x, sol.polished
-        r = gs - s
-        res_norm = float(np.max(np.abs(r))) / vscale
-        if res_norm <= max(opts.fixed_point_tol, opts.accuracy(sol.polished)) or \
-                not np.any(fric):
-            converged = True
-            break
-        # active-set Newton on Coulomb's conditions from this iterate
-        if n > 1:
-            y, ok = polish_cone_qp(unit, sol.x * (sW / sb), coulomb=True)
-            if ok and coulomb_residual(W, b, mu, d, y * (sb / sW)) <= 1e-11:
-                last_x, converged, newton = y * (sb / sW), True, True
+    iters = conic_iters = 0
+    converged = polished = newton = False
+    last_x = None
+    res_norm = math.inf
+    status = ""
+    # first Anderson-accelerated and safeguarded (restart with halved mixing when the residual
+    # does not drop), then, if that fails, the plain iteration, which is slower but reaches
+    # active sets that the accelerated one jumps over
+    for memory in ([opts.anderson_memory, 0] if opts.anderson_memory else [0]):
+        s = np.zeros(n)
+        hist_s: list[np.ndarray] = []
+        hist_r: list[np.ndarray] = []
+        prev = math.inf
+        beta = 1.0  # mixing; halved whenever a step fails to reduce the residual
+        for _ in range(opts.max_fixed_point_iter):
+            sol, gs = solve_for(s)
+            iters += 1
+            conic_iters += max(sol.iterations, 0)
+            status, last_x, polished = sol.status, sol.x, sol.polished
+            r = gs - s
+            res_norm = float(np.max(np.abs(r))) / vscale
+            if res_norm <= max(opts.fixed_point_tol, opts.accuracy(sol.polished)) or \
+                    not np.any(fric):
+                converged = True
                 break
-        if res_norm > 0.9 * prev and hist_s:  # safeguard: restart, damp harder
-            hist_s.clear()
-            hist_r.clear()
-            beta = max(beta * 0.5, 1.0 / 16.0)
-        prev = res_norm
-        hist_s.append(s.copy())
-        hist_r.append(r.copy())
-        if len(hist_s) > opts.anderson_memory + 1:
-            hist_s.pop(0)
-            hist_r.pop(0)
-        s_new = s + beta * r
-        if len(hist_s) >= 2 and opts.anderson_memory > 0:  # Anderson (type II) step
-            dR = np.array([hist_r[k + 1] - hist_r[k] for k in range(len(hist_r) - 1)]).T
-            dS = np.array([hist_s[k + 1] - hist_s[k] for k in range(len(hist_s) - 1)]).T
-            gamma, *_ = np.linalg.lstsq(dR, r, rcond=None)
-            s_new = s_new - (dS + beta * dR) @ gamma
-        s = np.maximum(s_new, 0.0)
+            # active-set Newton on Coulomb's conditions from this iterate
+            if n > 1:
+                y, ok = polish_cone_qp(unit, sol.x * (sW / sb), coulomb=True)
+                if ok and coulomb_residual(W, b, mu, d, y * (sb / sW)) <= 1e-11:
+                    last_x, converged, newton = y * (sb / sW), True, True
+                    break
+            if memory and res_norm > 0.9 * prev and hist_s:  # safeguard: restart, damp
+                hist_s.clear()
+                hist_r.clear()
+                beta = max(beta * 0.5, 1.0 / 16.0)
+            prev = res_norm
+            hist_s.append(s.copy())
+            hist_r.append(r.copy())
+            if len(hist_s) > memory + 1:
+                hist_s.pop(0)
+                hist_r.pop(0)
+            s_new = s + beta * r
+            if len(hist_s) >= 2 and memory > 0:  # Anderson (type II) step
+                dR = np.array([hist_r[k + 1] - hist_r[k] for k in range(len(hist_r) - 1)]).T
+                dS = np.array([hist_s[k + 1] - hist_s[k] for k in range(len(hist_s) - 1)]).T
+                gamma, *_ = np.linalg.lstsq(dR, r, rcond=None)
+                s_new = s_new - (dS + beta * dR) @ gamma
+            s = np.maximum(s_new, 0.0)
+        if converged or (n == 1 and fric[0]):
+            break  # one contact: the exact solve below finishes or rescues
     pi = last_x.reshape(n, d)
     finished = "fixed point" + (" (polished programs)" if polished else "")
     if newton:

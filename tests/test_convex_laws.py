@@ -12,7 +12,9 @@ Reference figures measured while writing these tests (kept here as the brief ask
 * Coulomb fixed point: the plain iteration s <- mu |u_t(pi(s))| 2-cycles on the paper's 3D
   pendulum (e = 0.7, mu = 0.4) between s = 0 and s = 0.1404 (slide <-> stick); the
   safeguarded Anderson iteration converges in 7 programs. On 150 random systems (1-3 contacts,
-  mu up to 1.5) 3 multi-contact cases still fail and raise SolverError.
+  mu up to 1.5) every case converged: 93 multi-contact ones by the active-set Newton seeded
+  from an Anderson iterate, 3 only from the plain iteration's second pass (Anderson jumped over
+  the active set there), 38 single contacts finished by the exact solve, 16 by the fixed point.
 """
 
 import math
