@@ -76,9 +76,10 @@ def test_json_documented_keys(quick_run):
     for r in per["records"]:
         if r["status"] != "ok":
             assert r["error_type"] and r["message"]
+            assert r["peer"] or not r["unexpected"], r
     land = report["sections"]["landscape"]["records"]
     assert land[0]["function"] == "closed_form_landscape"
-    assert all(r["points_per_second"] > 0 for r in land)
+    assert all(r["points_per_second"] > 0 for r in land), [r for r in land if r.get("error")]
     assert report["summary"] and (out / "summary.txt").read_text().count("fast is") >= 1
 
 

@@ -92,7 +92,7 @@ def _reference(bp: BenchProblem, law: str) -> tuple[tuple | None, str | None, fl
             continue
         try:
             r = solve_problem(P, real, path.method, **path.options_for(real))
-        except ConvImpactError as exc:
+        except Exception as exc:  # typed library errors and bugs alike are recorded
             notes.append(f"{path.label}: {type(exc).__name__}: {exc}"[:300])
             continue
         val = (np.ravel(r.impulse), np.asarray(r.dq_plus))
@@ -113,13 +113,15 @@ def _record(bp: BenchProblem, law: str, method: str, setting: str, options: dict
             "options": dict(options), "peer": peer, "status": "ok", "error_type": None,
             "message": None, "time_full": None, "time_kernel": None, "impulse_error": None,
             "velocity_error": None, "regime": None, "energy_gained": None,
-            "reference": None, "is_reference": False}
+            "reference": None, "is_reference": False, "unexpected": False}
 
 
 def _fail(rec: dict, exc: BaseException) -> dict:
+    """Mark a record failed; ``unexpected`` when the exception is not a library error."""
     rec["status"] = "failed"
     rec["error_type"] = type(exc).__name__
     rec["message"] = str(exc)[:300]
+    rec["unexpected"] = not isinstance(exc, ConvImpactError)
     return rec
 
 
@@ -130,7 +132,7 @@ def _measure_ours(bp, law, path, ref, ref_label, config) -> dict[str, Any]:
     rec["is_reference"] = ref_label == path.label
     try:
         t, res = time_call(_solve_call(P, real, path), config.repeat, config.min_batch_time)
-    except ConvImpactError as exc:
+    except Exception as exc:  # a bug in a solver is reported (unexpected=True), not fatal
         return _fail(rec, exc)
     rec["time_full"] = t.as_dict()
     rec["regime"] = res.regime if isinstance(res.regime, str) else list(res.regime)
@@ -142,7 +144,7 @@ def _measure_ours(bp, law, path, ref, ref_label, config) -> dict[str, Any]:
         try:
             tk, _ = time_call(path.kernel(P, klaw), config.repeat, config.min_batch_time)
             rec["time_kernel"] = tk.as_dict()
-        except ConvImpactError as exc:
+        except Exception as exc:
             rec["message"] = f"kernel: {type(exc).__name__}: {exc}"[:300]
     return rec
 
@@ -302,7 +304,12 @@ def summarize(aggs: list[dict[str, Any]], records: list[dict[str, Any]]) -> list
         kinds[f"{r['law']}/{r['label']}: {r['error_type']}"] += 1
     top = ", ".join(f"{k} x{v}" for k, v in sorted(kinds.items(), key=lambda kv: -kv[1])[:4])
     lines.append(f"{len(records) - len(n_fail)} of {len(records)} measured solves succeeded"
-                 + (f"; failures (typed errors, recorded): {top}" if n_fail else ""))
+                 + (f"; failures (recorded in bench.json): {top}" if n_fail else ""))
+    odd = [r for r in n_fail if r.get("unexpected") and not r["peer"]]
+    if odd:
+        lines.append(f"WARNING: {len(odd)} solves raised exceptions outside convimpact.errors "
+                     f"(e.g. {odd[0]['law']}/{odd[0]['label']} on {odd[0]['problem']}: "
+                     f"{odd[0]['error_type']}: {odd[0]['message'][:120]})")
     return lines
 
 

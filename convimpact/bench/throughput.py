@@ -79,15 +79,24 @@ def landscape_section(config: BenchConfig, progress: Progress) -> SectionResult:
                 return law_landscape(**state, e=e, mu=mu, law=law, method=method,
                                      progress=False)
 
-            law_landscape(**state, e=e[:1], mu=mu[-1:], law=law, method=method, progress=False)
-            wall, iqr, L = _time_landscape(call, config)
             n = ne * nmu
+            try:
+                law_landscape(**state, e=e[:1], mu=mu[-1:], law=law, method=method,
+                              progress=False)
+                wall, iqr, L = _time_landscape(call, config)
+            except Exception as exc:  # a whole landscape failing is recorded, not fatal
+                records.append({"label": f"{law} / {method}", "law": law, "method": method,
+                                "function": "law_landscape", "grid": [ne, nmu], "points": n,
+                                "wall_time": None, "points_per_second": None,
+                                "error": f"{type(exc).__name__}: {exc}"[:300]})
+                progress(f"landscape {law}/{method}: failed ({type(exc).__name__})")
+                continue
             records.append({"label": f"{law} / {method}", "law": law, "method": method,
                             "function": "law_landscape", "grid": [ne, nmu], "points": n,
                             "wall_time": wall, "wall_time_iqr": iqr,
                             "points_per_second": n / wall,
                             "failed_points": int(np.sum(L.failed)),
-                            "jammed_points": int(np.sum(L.jammed))})
+                            "jammed_points": int(np.sum(L.jammed)), "error": None})
             progress(f"landscape {law}/{method}: {n / wall:.3g} points/s")
     fig = throughput_chart(records, config.out,
                            f"landscape throughput on {state_name} (law / method)")
