@@ -251,6 +251,20 @@ def test_slider_crank_long_run_loop_drift_and_energy():
     assert res.theta[-1, 0] - th[0] > 2 * np.pi * 10
 
 
+@pytest.mark.parametrize("integrator, bound", [("RK45", 1e-10), ("Radau", 1e-10),
+                                               ("LSODA", 1e3 * 1e-9), ("BDF", 1e3 * 1e-9)])
+def test_slider_crank_drift_bound_per_integrator(integrator, bound):
+    """Stated bound: projection_tol for one-step methods, max(projection_tol, 1000 atol) for
+    multistep ones (which restart on projection)."""
+    sc = SliderCrank()
+    th, dth = sc.assembled(0.3, 10.0, 5.0, 0.0)
+    res = simulate(sc, (0.0, 1.0), (th, dth), integrator=integrator, rtol=1e-7, atol=1e-9)
+    assert res.status == 0
+    assert res.max_loop_residual <= bound
+    assert res.max_loop_velocity_residual <= 1e-12
+    assert res.n_restarts <= 2  # no restart storm
+
+
 def test_slider_crank_stays_closed_through_impact():
     sc = SliderCrank(damping=0.5, omega=10.0)
     th, dth = sc.assembled(0.3, 10.0, 0.6, -1.0)

@@ -47,6 +47,8 @@ INTEGRATORS: dict[str, type[OdeSolver]] = {
     "RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
 }
 ZENO_POLICIES = ("persist", "stop")
+#: integrators whose state (y, f) can be replaced after a step without a restart
+ONE_STEP = (RK23, RK45, DOP853, Radau)
 #: relative tolerance on C theta_dot0 = 0 accepted without assembling
 INITIAL_VELOCITY_RTOL = 1e-8
 #: events at one instant beyond which the run is declared chattering (never loops forever)
@@ -141,7 +143,9 @@ def simulate(
         and the penetration accepted in the initial state.
     projection_tol : float
         Max |Psi| (loops and held contacts) tolerated after a step before theta is projected
-        back onto Psi = 0 (always projected after an event).
+        back onto Psi = 0 (always projected after an event). One-step integrators (RK23,
+        RK45, DOP853, Radau) continue from the projected state; multistep ones (BDF, LSODA)
+        restart, and are projected only beyond ``max(projection_tol, 1000 atol)``.
     assemble : bool
         If the initial state violates Psi = 0 or C theta_dot = 0: project it onto the
         constraints (True) or raise :class:`~convimpact.errors.LoopConstraintError` (False).
@@ -240,6 +244,10 @@ def simulate(
         if t_eval.size and (np.any(np.diff(t_eval) < 0) or t_eval[0] < t0 or t_eval[-1] > t1):
             raise ParameterError("t_eval must be sorted and lie within t_span")
     zeno_tol = 1e-6 * (t1 - t0) if zeno_time_tol is None else float(zeno_time_tol)
+    # one-step methods continue from a projected state; multistep ones must restart, so
+    # they are projected only beyond a looser threshold
+    in_place = issubclass(solver_cls, ONE_STEP)
+    drift_threshold = projection_tol if in_place else max(projection_tol, 1e3 * atol)
     impact_options = dict(impact_options or {})
 
     # ---- initial state ---------------------------------------------------------------------
@@ -578,12 +586,20 @@ def simulate(
                 t, y = t_new, y_new
                 if eq.n_constraints:
                     drift = float(np.max(np.abs(eq.residual(y[:k]))))
-                    if drift > projection_tol:
+                    if drift > drift_threshold:
                         dth, sig, _ = eq.velocities(y[:k], y[k:])
                         y = project_state(y, held, sig, dth)
-                        record(t, y, held)
-                        h_next = solver.step_size
-                        break
+                        if not in_place:  # multistep: the history is void, restart
+                            record(t, y, held)
+                            h_next = solver.step_size
+                            if solver.status == "finished":
+                                status, message = 0, "the end of the time span was reached"
+                            break
+                        # one-step method: continue from the projected state, same step size
+                        solver.y = y.copy()
+                        solver.f = solver.fun(t, solver.y)
+                        g_new = {c: gap(c, y[:k]) for c in free}
+                        nu_new = eq.multipliers(t, y)[m:] if held else np.zeros(0)
                 record(t, y, held)
                 g_prev, nu_prev = g_new, nu_new
                 if solver.status == "finished":
