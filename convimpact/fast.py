@@ -556,7 +556,9 @@ def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> Contact
 def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     c = -(1.0 + e) * v[0]
     b0 = -c  # b = v + e v_n e_n; u = b + W pi
-    wscale = max(w[k][k] for k in range(d))  # = max |W_ij| for a PSD W
+    wscale = w[0][0] if w[0][0] > w[1][1] else w[1][1]  # max |W_ij| for a PSD W
+    if d == 3 and w[2][2] > wscale:
+        wscale = w[2][2]
     dmin = 1e-12 * wscale
     vscale = max(abs(v[0]), abs(v[1]), abs(v[-1]))
     if d == 2:
@@ -626,18 +628,33 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
 
     found: list = []
     jams: list = []
-    for loose in (True, False):
+    for pt in cands:  # cheap screening of the unpolished roots, then polish and check
+        x, y = pt[0], pt[1]
+        D = A + mu * (B1 * x + B2 * y)
+        if not D > dmin:
+            jams.append(D)
+            continue
+        p = c / D
+        sigma = -((v1 + p * (B1 + mu * (C11 * x + C12 * y))) * x
+                  + (v2 + p * (B2 + mu * (C12 * x + C22 * y))) * y)
+        if sigma < -1e-6 * vscale or abs(
+                e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > 1e-6 * escale:
+            continue
+        x, y = _refine(coeffs, pt)
+        got = conditions(x, y, ROOT_RTOL)
+        if got is None:
+            continue
+        for f in found:
+            if abs(x - f[1]) + abs(y - f[2]) < 1e-9:
+                break  # the same root reached twice
+        else:
+            found.append((got[0], x, y, got[1], got[2], got[3]))
+    if not found:  # nothing passed the screening: polish every candidate and check strictly
         for pt in cands:
-            if loose and conditions(pt[0], pt[1], 1e-6) is None:
-                continue
             x, y = _refine(coeffs, pt)
             got = conditions(x, y, ROOT_RTOL)
-            if got is None or any(abs(x - f[1]) + abs(y - f[2]) < 1e-9 for f in found):
-                continue  # not a solution, or the same root reached twice
-            tl, p, D, sigma = got
-            found.append((tl, x, y, p, D, sigma))
-        if found:
-            break
+            if got is not None:
+                found.append((got[0], x, y, got[1], got[2], got[3]))
     if not found:
         if jams:
             raise _jam(mu, min(jams), "coulomb")
