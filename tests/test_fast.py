@@ -98,11 +98,6 @@ def unit(x):
     return y / np.linalg.norm(y)
 
 
-def in_cone(pi, mu, rtol=1e-9):
-    return pi[0] >= -rtol * np.linalg.norm(pi) and (
-        np.linalg.norm(pi[1:]) <= mu * pi[0] + rtol * np.linalg.norm(pi))
-
-
 def newton_b(v, e):
     b = np.array(v, dtype=float)
     b[0] *= 1.0 + e
