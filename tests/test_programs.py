@@ -64,7 +64,8 @@ def test_ccp_single_spatial_matches_brute_force(seed, e, mu, loops):
 @given(seed=st.integers(0, 2**32 - 1), d=st.sampled_from([2, 3]), n=st.integers(2, 3),
        loops=st.integers(0, 1), mu=st.floats(0.1, 1.0))
 def test_dissipative_multi_contact_matches_slsqp(seed, d, n, loops, mu):
-    """The plastic program (min T+ over the cones) against scipy's SLSQP on the same objective."""
+    """The plastic program (min T+ over the cones) against scipy's SLSQP on the same objective
+    (measured: SLSQP matches to 1e-6 or stalls higher; the conic answer is never worse)."""
     M, Jc, dq, C = random_system(seed, d, n, loops)
     W = delassus(M, Jc, C)
     v = np.concatenate([j @ dq for j in Jc])
@@ -84,9 +85,11 @@ def test_dissipative_multi_contact_matches_slsqp(seed, d, n, loops, mu):
     # SLSQP may stop early or slightly outside the cones: compare with its feasible answers
     assume(ref.success and violation <= 1e-10)
     scale = max(abs(ref.fun), 1e-12)
-    # the conic optimum is at least as good as SLSQP's, and SLSQP lands on it
+    # the conic optimum is at least as good as SLSQP's feasible answer (SLSQP sometimes stalls
+    # at a worse point: the squared cone constraint is degenerate at the apex) ...
     assert f_conic <= ref.fun + 1e-9 * scale
-    assert f_conic == pytest.approx(ref.fun, rel=1e-6, abs=1e-10)
+    # ... and it is optimal: the KKT conditions of min 1/2 x.W.x + v.x over the cones
+    assert ccp_residual(W, v, [mu] * n, d, r.impulse) < 1e-9
 
 
 def test_hand_solved_frictionless_pair():
