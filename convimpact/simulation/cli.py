@@ -89,9 +89,11 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     paths = []
     t_imp = [ev.time for ev in res.impacts]
     fig, axes = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
+    names = list(getattr(scene.mechanism, "coordinate_names", None)
+                 or [f"theta{j + 1}" for j in range(res.theta.shape[1])])
     for j in range(res.theta.shape[1]):
-        axes[0].plot(res.t, res.theta[:, j], label=f"theta{j + 1}")
-        axes[1].plot(res.t, res.dtheta[:, j], label=f"dtheta{j + 1}")
+        axes[0].plot(res.t, res.theta[:, j], label=names[j])
+        axes[1].plot(res.t, res.dtheta[:, j], label=f"d{names[j]}/dt")
     axes[0].set_ylabel("theta")
     axes[1].set_ylabel("theta_dot")
     axes[1].set_xlabel("t [s]")
