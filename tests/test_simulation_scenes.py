@@ -106,3 +106,22 @@ def test_slider_crank_closed_through_impact():
     omega = scene.parameters["omega_ref"]
     late = res.t > 0.5 * scene.t_end
     assert np.mean(res.dtheta[late, 0]) == pytest.approx(omega, rel=0.1)
+
+
+def test_cli_runs_a_real_scene_and_benchmarks_it(capsys, tmp_path):
+    import json
+
+    from convimpact import cli
+
+    assert cli.main(["simulate", "bouncing_ball", "--json", "--t-end", "1.5"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scene"] == "bouncing_ball" and out["n_impacts"] >= 10
+    assert out["parameters"]["e"] == 0.5
+    assert out["series"]["t"][-1] == 1.5
+    assert cli.main(["simulate", "bouncing_ball", "--bench", "--repeats", "1", "--json",
+                     "--out", str(tmp_path)]) == 0
+    bench = json.loads(capsys.readouterr().out)
+    (row,) = bench["rows"]
+    assert row["scene"] == "bouncing_ball" and row["nfev"] > 0
+    assert row["rhs_per_second"] > 0 and 0 <= row["impact_share"] <= 1
+    assert (tmp_path / "simulation_benchmark.json").exists()
