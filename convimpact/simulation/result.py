@@ -28,7 +28,8 @@ class ImpactEvent:
     dtheta_minus, dtheta_plus : joint velocities before and after (eq. 29/44).
     energy_loss : T- - T+ as reported by the law (eq. 58).
     kinetic_energy_minus, kinetic_energy_plus : T- and T+ measured by the mechanism.
-    persistent : contacts switched to persistent (held closed) at this impact.
+    persistent : contacts switched to persistent (held closed) at this impact; an accumulating
+        contact's impact is then resolved with e = 0 (the reported result is that one).
     released : held contacts released because the impact pulled on them.
     resolve_time : wall time spent in ``resolve_impact`` (s).
     result : the law's full :class:`~convimpact.results.ImpactResult` (with diagnostics).
