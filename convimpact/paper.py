@@ -566,7 +566,8 @@ def format_summary(report: PaperReport) -> str:
     ck = t1["checks"]
     lines.append(f"  impulse pi_n = {t1['normal_impulse']:.5f} N s, loop impulses Delta sigma = "
                  f"{np.round(t1['loop_impulse'], 5).tolist()}")
-    lines.append(f"  checks: generalized impulse on sliders {np.round(ck['generalized_impulse_on_sliders'], 6).tolist()}"
+    gen = np.round(ck["generalized_impulse_on_sliders"], 6).tolist()
+    lines.append(f"  checks: generalized impulse on sliders {gen}"
                  f" (equal and opposite: {ck['equal_and_opposite']}), m4 Delta theta_dot_4 = "
                  f"{ck['free_slider_momentum_change']:.5f}, v_n+/v_n- = "
                  f"{-ck['restitution_ratio']:.4f}, |C theta_dot+| = "

@@ -110,8 +110,8 @@ def plot_landscape(L: Landscape, quantity: str = "tangential_velocity", ax=None,
         if np.isfinite(lo) and np.isfinite(hi):
             for y in {float(lo), float(hi)}:
                 ax.axhline(y, color="crimson", ls="--", lw=1.2)
-            handles.append(plt.Line2D([], [], color="crimson", ls="--", lw=1.2,
-                                      label=f"eq. (62) (stiction necessary): {lo:.3g} <= e <= {hi:.3g}"))
+            text = f"eq. (62) (stiction necessary): {lo:.3g} <= e <= {hi:.3g}"
+            handles.append(plt.Line2D([], [], color="crimson", ls="--", lw=1.2, label=text))
         else:
             handles.append(plt.Line2D([], [], color="crimson", ls="--", lw=1.2,
                                       label="eq. (62): no e in [0, 1] allows stiction"))

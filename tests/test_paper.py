@@ -135,7 +135,8 @@ def test_contact_landscape_matches_resolve_impact(examples, key, law):
     for i, ei in enumerate(e):
         for j, mj in enumerate(mu):
             # a second solver path (the conic program through Clarabel) where it exists
-            method = "clarabel" if (law != "pereira-nikravesh" or ex.Jc.shape[0] == 3) else "closed-form"
+            spatial = ex.Jc.shape[0] == 3
+            method = "clarabel" if (law != "pereira-nikravesh" or spatial) else "closed-form"
             r = ci.resolve_impact(ex.M, ex.Jc, ex.dq, e=ei, mu=mj, C=ex.C, law=law, method=method)
             assert REGIMES[L.regime[i, j]] == r.regime
             np.testing.assert_allclose(L.normal_impulse[i, j], r.impulse[0], rtol=1e-6,
