@@ -31,12 +31,36 @@ from .errors import *  # noqa: F401,F403  (the exception hierarchy is public)
 from .impact import LAWS, METHODS, available_methods, resolve_impact, solve_problem
 from .problem import ImpactProblem, build_problem
 from .results import ImpactDiagnostics, ImpactResult
+from .mechanism import Mechanism
+from .scenes import Scene, list_scenes, load_scene
+
+
+def __getattr__(name):
+    # heavier layers load on first use, so ``import convimpact`` stays light
+    if name == "simulate":
+        from .simulation import simulate
+
+        return simulate
+    if name in ("impact_arguments", "resolve_mechanism_impact", "ModelBuilder", "Joint"):
+        from . import model
+
+        return getattr(model, name)
+    raise AttributeError(f"module 'convimpact' has no attribute {name!r}")
 
 __version__ = "0.1.0"
 
 __all__ = [
     "resolve_impact",
     "solve_problem",
+    "simulate",
+    "Mechanism",
+    "Scene",
+    "list_scenes",
+    "load_scene",
+    "impact_arguments",
+    "resolve_mechanism_impact",
+    "ModelBuilder",
+    "Joint",
     "build_problem",
     "available_methods",
     "ImpactProblem",

@@ -41,6 +41,13 @@ class LoopConstraintError(InputError):
     """The loop-constraint Jacobian C is rank deficient or inconsistent with the velocities."""
 
 
+class PenetrationError(InputError):
+    """A simulation starts in a state that already penetrates a contact (gap < 0 beyond tolerance).
+
+    Start from a state with every gap >= 0 (raise the mechanism, or move the contact surface).
+    """
+
+
 class ModelError(InputError):
     """A mechanism model is ill-defined (unknown body or joint, bad mass or inertia, ...)."""
 
@@ -84,6 +91,7 @@ __all__ = [
     "ParameterError",
     "UnknownOptionError",
     "LoopConstraintError",
+    "PenetrationError",
     "ModelError",
     "SingularSystemError",
     "NonPositiveEffectiveMassError",

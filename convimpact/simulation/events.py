@@ -13,10 +13,7 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import brentq
 
-from ..errors import InputError
-
-class PenetrationError(InputError):
-    """The initial state already penetrates a contact (a gap is negative beyond tolerance)."""
+from ..errors import PenetrationError  # noqa: F401  (re-exported for convimpact.simulation)
 
 
 def locate_crossing(fun: Callable[[float], float], ta: float, tb: float, fa: float, fb: float,
