@@ -290,3 +290,45 @@ def test_bad_options_give_typed_errors(examples):
     sc = examples["slider_crank"]
     with pytest.raises(ci.SingularSystemError):
         closed_form_landscape(sc.M, sc.Jc, sc.dq, [0.5], [0.3], sc.C)
+
+
+# ------------------------------------------------------------------------------------------
+# property: the vectorized post-processing of contact_landscape reproduces assemble_result
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2 ** 31 - 1), d=st.sampled_from([2, 3]),
+       law=st.sampled_from(ci.LAWS))
+def test_contact_landscape_flags_match_diagnostics_on_random_systems(seed, d, law):
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(d, 6))
+    A = rng.normal(size=(k, k))
+    M = A @ A.T + 0.5 * np.eye(k)
+    Jc = rng.normal(size=(d, k))
+    dq = rng.normal(size=k)
+    if Jc[0] @ dq > 0:
+        dq = -dq
+    e = np.array([0.0, 0.6, 1.0])
+    mu = np.array([0.0, 0.3, 1.2])
+    L = contact_landscape(M, Jc, dq, e, mu, law=law, progress=False)
+    T = 0.5 * dq @ M @ dq
+    for i, ei in enumerate(e):
+        for j, mj in enumerate(mu):
+            try:
+                r = ci.resolve_impact(M, Jc, dq, e=ei, mu=mj, law=law, method="fast")
+            except ci.ConvImpactError as exc:
+                assert L.failed[i, j]
+                assert L.jammed[i, j] == isinstance(exc, ci.NonPositiveEffectiveMassError)
+                continue
+            assert not L.failed[i, j]
+            assert REGIMES[L.regime[i, j]] == r.regime
+            TL = T - 0.5 * r.dq_plus @ M @ r.dq_plus  # eq. (58) in joint space
+            assert L.energy_loss[i, j] == pytest.approx(TL, rel=1e-8, abs=1e-10 * max(T, 1))
+            np.testing.assert_allclose(L.v_plus[i, j], Jc @ r.dq_plus, rtol=1e-8,
+                                       atol=1e-10 * np.abs(Jc @ dq).max())
+            dg = r.diagnostics
+            assert L.energy_gained[i, j] == dg.energy_gained
+            assert L.friction_pushes_slip[i, j] == dg.friction_pushes_slip
+            assert L.slip_reversal[i, j] == dg.slip_reversal
