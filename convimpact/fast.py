@@ -60,8 +60,9 @@ from .problem import ImpactProblem
 
 #: laws treated by :func:`solve_contact`
 FAST_LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative")
-#: relative determinant below which W is treated as singular (det W <= tol * trace(W)^d)
-SINGULAR_RTOL = 1e-13
+#: relative determinant below which W is treated as singular: det W <= tol * trace(W)^d
+#: (in the plane det/trace^2 ~ 1/cond(W), matching the closed form's cond(W) >= 1e12)
+SINGULAR_RTOL = 1e-12
 #: relative tolerance of the cone / sign tests (round-off allowance)
 CONE_RTOL = 1e-12
 #: relative tolerance on a boundary root's residual for it to count as a solution
@@ -231,22 +232,50 @@ def _polish(c4: float, c3: float, c2: float, c1: float, c0: float, t: float) -> 
     return t
 
 
+#: reference rotations tried when E(0) or E(pi) nearly vanishes (roots near tau = 0 or inf)
+_ROTATIONS = tuple((math.cos(a), math.sin(a), math.cos(2 * a), math.sin(2 * a))
+                   for a in (0.5 * math.pi, 0.25 * math.pi, 0.75 * math.pi, 0.125 * math.pi,
+                             0.375 * math.pi, 0.625 * math.pi, 0.875 * math.pi))
+
+
 def _candidates(e0: float, ex: float, ey: float, exx: float, eyy: float,
                 exy: float) -> tuple[tuple | None, list]:
     """Unpolished points (x, y, chart value, reversed) where E(th) vanishes.
 
-    The quartic in tau = tan(th/2) is solved in closed form. Each root is kept in the chart
-    where it is small: tau itself for |tau| <= 1, s = 1/tau (the reversed quartic) otherwise;
-    th = pi (s = 0) is added when the leading coefficient is small (a root near tau = infinity,
-    possibly dropped by the closed form) or no root was found. Returns the quartic's
-    coefficients (None if E vanishes identically: every direction is then stationary and the
-    single candidate th = 0 is exact) and the points; :func:`_refine` polishes one.
+    E is first written in harmonics, a0 + a1 cos th + b1 sin th + a2 cos 2th + b2 sin 2th,
+    and measured from a reference angle phi at which neither E(phi) nor E(phi + pi) nearly
+    vanishes: those are the constant and leading coefficients of the quartic in
+    tau = tan((th - phi)/2), so its roots stay bounded away from 0 and infinity and Ferrari's
+    closed form stays accurate (phi = 0 unless min(|E(0)|, |E(pi)|) < 1e-2 max |c|). Each
+    root is kept in the chart where it is small: tau itself for |tau| <= 1, s = 1/tau (the
+    reversed quartic) otherwise; th = phi + pi is added when the leading coefficient is still
+    small or no root was found. Returns the quartic's data (None if E vanishes identically:
+    every direction is then stationary and the single candidate th = 0 is exact) and the
+    points, (x, y) = (cos th, sin th) in the caller's basis; :func:`_refine` polishes one.
     """
-    c4 = e0 - ex + exx
-    c3 = 2.0 * (ey - exy)
-    c2 = 2.0 * (e0 - exx) + 4.0 * eyy
-    c1 = 2.0 * (ey + exy)
-    c0 = e0 + ex + exx
+    a0 = e0 + 0.5 * (exx + eyy)
+    a1, b1, a2, b2 = ex, ey, 0.5 * (exx - eyy), 0.5 * exy
+    cp, sp = 1.0, 0.0
+    c4, c0 = a0 - a1 + a2, a0 + a1 + a2  # E(pi), E(0)
+    big = max(abs(a0), abs(a1), abs(b1), abs(a2), abs(b2))
+    if big == 0.0:
+        return None, [(1.0, 0.0, 0.0, False)]
+    if min(abs(c4), abs(c0)) < 1e-2 * big:
+        best = min(abs(c4), abs(c0))
+        for c, s, c2, s2 in _ROTATIONS:
+            r1, r2 = a1 * c + b1 * s, a2 * c2 + b2 * s2
+            q = min(abs(a0 - r1 + r2), abs(a0 + r1 + r2))
+            if q > best:
+                best, cp, sp, cp2, sp2 = q, c, s, c2, s2
+                if q >= 1e-2 * big:
+                    break
+        if sp != 0.0 or cp != 1.0:
+            a1, b1 = a1 * cp + b1 * sp, b1 * cp - a1 * sp
+            a2, b2 = a2 * cp2 + b2 * sp2, b2 * cp2 - a2 * sp2
+            c4, c0 = a0 - a1 + a2, a0 + a1 + a2
+    c3 = 2.0 * (b1 - 2.0 * b2)
+    c2 = 2.0 * a0 - 6.0 * a2
+    c1 = 2.0 * (b1 + 2.0 * b2)
     roots = _quartic_roots(c4, c3, c2, c1, c0)
     if roots is None:
         return None, [(1.0, 0.0, 0.0, False)]
@@ -254,14 +283,17 @@ def _candidates(e0: float, ex: float, ey: float, exx: float, eyy: float,
     for t in roots:
         if -1.0 <= t <= 1.0:
             t2 = t * t
-            pts.append(((1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2), t, False))
+            x, y = (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
+            rev = False
         else:
-            s = 1.0 / t
-            s2 = s * s
-            pts.append(((s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0), s, True))
+            t = 1.0 / t
+            t2 = t * t
+            x, y = (t2 - 1.0) / (t2 + 1.0), 2.0 * t / (t2 + 1.0)
+            rev = True
+        pts.append((x * cp - y * sp, x * sp + y * cp, t, rev))
     if not pts or abs(c4) <= 1e-6 * max(abs(c3), abs(c2), abs(c1), abs(c0)):
-        pts.append((-1.0, 0.0, 0.0, True))  # th = pi: a root near tau = infinity
-    return (c4, c3, c2, c1, c0), pts
+        pts.append((-cp, -sp, 0.0, True))  # th = phi + pi: a root near tau = infinity
+    return (c4, c3, c2, c1, c0, cp, sp), pts
 
 
 def _refine(coeffs: tuple | None, point: tuple) -> tuple[float, float]:
@@ -269,14 +301,16 @@ def _refine(coeffs: tuple | None, point: tuple) -> tuple[float, float]:
     x, y, t, rev = point
     if coeffs is None:
         return x, y
-    c4, c3, c2, c1, c0 = coeffs
+    c4, c3, c2, c1, c0, cp, sp = coeffs
     if rev:
         s = _polish(c0, c1, c2, c3, c4, t)
         s2 = s * s
-        return (s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0)
-    t = _polish(c4, c3, c2, c1, c0, t)
-    t2 = t * t
-    return (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
+        x, y = (s2 - 1.0) / (s2 + 1.0), 2.0 * s / (s2 + 1.0)
+    else:
+        t = _polish(c4, c3, c2, c1, c0, t)
+        t2 = t * t
+        x, y = (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
+    return x * cp - y * sp, x * sp + y * cp
 
 
 def _det_wq(u: tuple, k0: float, k1: float, k2: float, mu: float) -> tuple:
