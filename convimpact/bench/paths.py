@@ -91,7 +91,7 @@ def solver_paths(quick: bool) -> list[SolverPath]:
     clar = [1e-6, 1e-10] if quick else [1e-4, 1e-6, 1e-8, 1e-10, 1e-12]
     for t in clar:
         paths.append(SolverPath("clarabel", _tol(t), {"tol": t}))
-    for t in ([1e-10] if quick else [1e-6, 1e-10]):
+    for t in ([1e-10] if quick else [1e-6, 1e-8, 1e-10]):
         paths.append(SolverPath("cvxpy", _tol(t), {"tol": t}))
     registered = {law: set(available_methods(law)) for law in LAWS}
     return [p for p in paths if any(p.method in registered[law] for law in p.laws)]

@@ -39,7 +39,7 @@ BENCH_LAWS = LAWS + (FRICTIONLESS,)
 #: methods of ours run on the frictionless impacts (law "coulomb" at mu = 0)
 FRICTIONLESS_METHODS = ("closed-form", "fast", "clarabel", "cvxpy")
 #: Pinocchio contact-solver tolerances
-PEER_TOLS_FULL = (1e-6, 1e-10)
+PEER_TOLS_FULL = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12)
 PEER_TOLS_QUICK = (1e-8,)
 
 
@@ -298,6 +298,28 @@ def summarize(aggs: list[dict[str, Any]], records: list[dict[str, Any]]) -> list
     if p:
         lines.append(f"frictionless, {several}: impulseDynamics (bilateral normals) max impulse "
                      f"error {_err(p['impulse_error_max'])} against the unilateral reference")
+    for cls, law, method in ((several, "ccp", "clarabel"), (several, "coulomb", "clarabel"),
+                             (single, "ccp", "pinocchio ADMM ccp"),
+                             (single, "coulomb", "pinocchio PGS")):
+        rows = [a for a in aggs if a["class"] == cls and a["law"] == law
+                and a["method"] == method and a["time_full_median"]
+                and a["impulse_error_median"] is not None and a["setting"].startswith("tol=")]
+        if len(rows) >= 2:
+            rows.sort(key=lambda a: -float(a["setting"].split("=")[1]))
+            lo, hi = rows[0], rows[-1]
+            lines.append(f"{law}, {cls}, {method}: loosest {lo['setting']} "
+                         f"{_us(lo['time_full_median'])} (median error "
+                         f"{_err(lo['impulse_error_median'])}) vs tightest {hi['setting']} "
+                         f"{_us(hi['time_full_median'])} (error "
+                         f"{_err(hi['impulse_error_median'])})")
+    multi = {r["problem"] for r in records if r["n_contacts"] > 1}
+    pn_inf = {r["problem"] for r in records if r["n_contacts"] > 1
+              and r["law"] == "pereira-nikravesh" and r["error_type"] == "SolverError"}
+    if multi:
+        lines.append(f"pereira-nikravesh with several contacts: P_N raised SolverError "
+                     f"(Newton's restitution infeasible at every approaching contact) on "
+                     f"{len(pn_inf)} of {len(multi)} several-contact problems; the other laws "
+                     "let contacts separate")
     n_fail = [r for r in records if r["status"] != "ok"]
     kinds = defaultdict(int)
     for r in n_fail:

@@ -24,6 +24,8 @@ from ..errors import UnknownOptionError
 
 #: schema version of bench.json
 SCHEMA = 1
+#: significant digits of the floats written to bench.json (measurements carry no more)
+SIGNIFICANT = 6
 #: default output directory of ``convimpact bench``
 DEFAULT_OUT = "convimpact-bench"
 
@@ -123,12 +125,13 @@ def stderr_progress(start: float | None = None, stream=None) -> Progress:
 
 
 def strict_json(v):
-    """Strict JSON values: numpy scalars/arrays become Python, non-finite floats None."""
+    """Strict JSON values: numpy scalars/arrays become Python, floats keep
+    :data:`SIGNIFICANT` digits, non-finite floats become None."""
     if isinstance(v, np.ndarray):
         return strict_json(v.tolist())
     if isinstance(v, (np.floating, float)):
         f = float(v)
-        return f if math.isfinite(f) else None
+        return float(f"{f:.{SIGNIFICANT}g}") if math.isfinite(f) else None
     if isinstance(v, (np.integer,)):
         return int(v)
     if isinstance(v, (np.bool_,)):
