@@ -191,18 +191,28 @@ def _quartic_roots(c4: float, c3: float, c2: float, c1: float, c0: float) -> lis
         u = -0.5 * qq + sd if qq <= 0.0 else -0.5 * qq - sd
         u = math.copysign(abs(u) ** (1.0 / 3.0), u)
         m = (u - pp / (3.0 * u) if u != 0.0 else 0.0) - ca / 3.0
-    for _ in range(2):  # Newton polish on the resolvent
-        fm = ((m + ca) * m + cb) * m + cc
-        dfm = (3.0 * m + 2.0 * ca) * m + cb
-        if dfm == 0.0:
-            break
-        m -= fm / dfm
+    dfm = (3.0 * m + 2.0 * ca) * m + cb  # one Newton step on the resolvent
+    if dfm != 0.0:
+        m -= (((m + ca) * m + cb) * m + cc) / dfm
     if m <= 0.0:
         m = 1e-300
     s = math.sqrt(2.0 * m)
     h = q / (2.0 * s)
     k = 0.5 * p + m
-    return [y + shift for y in _quadratic_roots(-s, k + h) + _quadratic_roots(s, k - h)]
+    out = []
+    # y^2 - s y + (k + h) = 0 and y^2 + s y + (k - h) = 0 (stable forms; a nearly double
+    # complex pair gives its real part)
+    for b, c in ((-s, k + h), (s, k - h)):
+        disc = b * b - 4.0 * c
+        if disc >= 0.0:
+            qr = -0.5 * (b + math.copysign(math.sqrt(disc), b))
+            if qr != 0.0:
+                out += [qr + shift, c / qr + shift]
+            else:
+                out.append(shift)
+        elif disc >= -1e-9 * (b * b + abs(c)):
+            out.append(shift - 0.5 * b)
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -684,7 +694,7 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
                 e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > 1e-6 * escale:
             continue
         x, y = _refine(coeffs, pt)
-        got = conditions(x, y, ROOT_RTOL)
+        got = conditions(x, y, ROOT_RTOL)  # the strict check on the polished root
         if got is None:
             continue
         for f in found:
