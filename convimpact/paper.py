@@ -16,6 +16,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import time
 from dataclasses import dataclass
@@ -601,6 +602,17 @@ def format_summary(report: PaperReport) -> str:
     return "\n".join(lines)
 
 
+_INNER_LIST = re.compile(r"\[\s+([^\[\]{}]*?)\s+\]")
+
+
+def dumps(data: Mapping[str, Any]) -> str:
+    """Strict JSON, indented, with every innermost list of numbers or strings on one line."""
+    text = json.dumps(data, indent=1, allow_nan=False)
+    compact = _INNER_LIST.sub(lambda m: "[" + re.sub(r"\s*\n\s*", " ", m.group(1)) + "]", text)
+    # the reformatting only touches whitespace between tokens; keep it only if it round-trips
+    return compact if json.loads(compact) == json.loads(text) else text
+
+
 def run(args) -> int:
     """``convimpact paper``: compute, write the figures and JSON, print the summary."""
     t0 = time.perf_counter()
@@ -610,7 +622,7 @@ def run(args) -> int:
     data = dict(report.data)
     data["figures"] = [os.path.basename(p) for p in paths]
     data["elapsed_total_s"] = time.perf_counter() - t0
-    text = json.dumps(data, indent=1, allow_nan=False)
+    text = dumps(data)
     json_path = os.path.join(out, "paper.json")
     with open(json_path, "w") as fh:
         fh.write(text + "\n")
