@@ -180,6 +180,7 @@ def test_pendulum_3d_sweep():
     assert abs(math.remainder(x["alpha_m"] - f.diagnostics.extras["alpha_m"], 2 * math.pi)) < 1e-6
     assert r.energy_loss == pytest.approx(f.energy_loss, rel=1e-10)
     (a0, a1), = x["energy_gain_sectors"]  # one sector of energy gain, as in Fig. 9
+    assert (x["alpha_0"], x["alpha_1"]) == (a0, a1)
     am = x["alpha_m"]
     assert not ((am - a0) % (2 * math.pi) <= (a1 - a0) % (2 * math.pi))  # alpha_m outside it
     assert x["energy_loss_max"] > 0
