@@ -488,9 +488,14 @@ def write_figures(report: PaperReport, out: str) -> list[str]:
         fig, ax = plt.subplots(figsize=(7.5, 6.6))
         # positive: the contact still slides the way it came (the paper's "positive v_t+")
         values = -L.tangential_velocity if q == "tangential_velocity" else None
-        # colour scale of the velocity maps: +-1.5 |v_r-| (the slip blows up near a jam)
-        speed = float(np.linalg.norm(L.meta["v_minus"]))
-        vlim = (-1.5 * speed, 1.5 * speed) if values is not None else None
+        # symmetric colour scale of the velocity maps: the 98th percentile of |v|, at most
+        # 1.5 |v_r-| (the slip blows up near a jam)
+        vlim = None
+        if values is not None:
+            speed = float(np.linalg.norm(L.meta["v_minus"]))
+            fin = np.abs(values[np.isfinite(values)])
+            top = min(1.5 * speed, float(np.percentile(fin, 98.0))) if fin.size else speed
+            vlim = (-top, top)
         plot_landscape(L, q, ax=ax, title=title, stiction=(iv.lower, iv.upper),
                        zero_contour=True, values=values,
                        label=slip_label if values is not None else None, robust=True,
