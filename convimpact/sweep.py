@@ -209,8 +209,11 @@ def sweep_direction(W, v, e: float, mu: float, xtol: float = DEFAULT_XTOL,
     # every grid local maximum (cyclic) is refined; the best refined one wins
     prev, nxt = np.roll(T, 1), np.roll(T, -1)
     peaks = np.flatnonzero(np.isfinite(T) & (T >= prev) & (T >= nxt))
-    if peaks.size == 0:  # T_L constant: every direction is a maximum
+    if peaks.size == 0:
         peaks = np.array([int(np.argmax(T))])
+    # T_L has at most two local maxima on the circle (its stationarity is a quartic in
+    # tan(alpha/2)); on a plateau (T_L constant) every grid point is one: keep the best four
+    peaks = peaks[np.argsort(-T[peaks], kind="stable")[:4]]
     best = None
     for k in peaks:
         lo, hi = grid[k] - h, grid[k] + h
