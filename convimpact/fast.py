@@ -694,14 +694,27 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
                 e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > 1e-6 * escale:
             continue
         x, y = _refine(coeffs, pt)
-        got = conditions(x, y, ROOT_RTOL)  # the strict check on the polished root
-        if got is None:
+        # the strict check on the polished root (conditions() inlined: this is the hot path)
+        if abs(e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > (
+                ROOT_RTOL * escale):
+            continue
+        D = A + mu * (B1 * x + B2 * y)
+        if not D > dmin:
+            continue
+        P1 = B1 + mu * (C11 * x + C12 * y)
+        P2 = B2 + mu * (C12 * x + C22 * y)
+        p = c / D  # eq. (38): u_n = 0
+        u1, u2 = v1 + p * P1, v2 + p * P2  # post-impact slip, rotated basis
+        sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
+        if sigma < -ROOT_RTOL * vscale or abs(u1 * y - u2 * x) > ROOT_RTOL * (
+                vscale + abs(p) * wscale):
             continue
         for f in found:
             if abs(x - f[1]) + abs(y - f[2]) < 1e-9:
                 break  # the same root reached twice
         else:
-            found.append((got[0], x, y, got[1], got[2], got[3]))
+            tl = -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * (D + mu * (x * P1 + y * P2))
+            found.append((tl, x, y, p, D, sigma))
     if not found:  # nothing passed the screening: polish every candidate and check strictly
         for pt in cands:
             x, y = _refine(coeffs, pt)
