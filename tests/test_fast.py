@@ -449,3 +449,27 @@ def test_pendulum_3d_newton_laws_rebound_exactly():
     assert coulomb_conditions(W, newton_b(v, 0.7), [0.4], 3, co.impulse) < 1e-10
     d = ci.resolve_impact(**args, law="dissipative", method="fast")
     assert d.energy_loss >= 0.0
+
+
+def test_excluded_directions_and_near_isotropic_regressions():
+    # strong normal-tangent coupling: D = W_nn + mu w.t <= 0 on a sector of directions; the
+    # seed's law slides within D > 0 at the maximum of eq. (60) (brute force)
+    W = np.array([[1.0, 1.5, 0.3], [1.5, 3.0, 0.2], [0.3, 0.2, 1.2]])
+    v = np.array([-0.2, -3.0, -2.0])
+    e, mu = 0.6, 1.2
+    assert mu * np.linalg.norm(W[0, 1:]) > W[0, 0]
+    sol = solve_contact(W, v, e, mu, "pereira-nikravesh")
+    assert sol.regime == "slide" and sol.effective_mass > 0
+    t = np.array(sol.extras["direction"])
+    tl_ref, _ = brute_max_dissipation(W, v, e, mu)
+    assert float(energy_loss_eq60(W, v, e, mu, t)[0]) == pytest.approx(tl_ref, rel=1e-10)
+    # a near-isotropic W with huge mu puts roots of the boundary quartic near tau = 0 and
+    # tau = infinity at once (Ferrari lost them before the reference rotation): KKT holds
+    W = np.diag([1.3845051800135775, 0.1156404397889843, 0.11512941783089871])
+    v = np.array([-0.044928629752366916, 0.21793617360206702, 1.4083420965233502])
+    for law, b in (("ccp", newton_b(v, 1.0)), ("dissipative", v)):
+        sol = solve_contact(W, v, 1.0, 100.0, law)
+        pi = sol.impulse if law == "ccp" else sol.impulse / 2.0
+        assert ccp_residual(W, b, [100.0], 3, pi) < 1e-10
+    co = solve_contact(W, v, 1.0, 100.0, "coulomb")
+    assert coulomb_conditions(W, newton_b(v, 1.0), [100.0], 3, co.impulse) < 1e-10
