@@ -1,0 +1,424 @@
+"""Moreau–Jean time stepping: a velocity-level impact law on every step (an alternative to
+the event-driven :func:`convimpact.simulation.simulate`).
+
+The scheme (Moreau's midpoint rule generalized by a parameter theta, as in Jean's NSCD and
+Acary & Brogliato's "Numerical methods for nonsmooth dynamical systems", ch. 10), per step
+of size h from (q_k, v_k) at t_k:
+
+1. intermediate configuration ``q_m = q_k + h (1 - theta) v_k`` at ``t_m = t_k + (1 - theta) h``;
+2. smooth forces once per step, explicitly: ``f = f(t_m, q_m, v_k)``, with ``M = M(q_m)``;
+3. free-flight velocity: ``v_free = v_k + h M^-1 f``, M-orthogonally projected onto
+   ``C(q_m) v = 0`` for closed loops (the loop impulse of the step);
+4. active set by gap prediction: a contact takes part when its gap predicted at the end of the
+   step with the free velocity closes, ``g(q_m) + h theta c_n(q_m)^T v_free <= gap_tol``;
+5. the contact impulse of the active contacts comes from :func:`convimpact.resolve_impact`
+   with the step's matrices (its Delassus ``W = Jc G Jc^T`` with G the loop-constrained inverse
+   of ``M(q_m)``, so ``C v_{k+1} = 0`` holds), the chosen ``law`` and ``method``, applied to the
+   free velocity. Newton's restitution acts on the contact velocity at the *start* of the step
+   (``v_n+ = -e v_n,k``, standard Moreau–Jean): it is passed as the per-contact coefficient
+   ``e_eff = min(e v_n,k / v_n,free, 1)`` on contacts approaching at t_k
+   (``v_n,k < -rest_velocity``) and ``e_eff = 0`` on contacts already at rest (so resting
+   contacts do not micro-bounce);
+6. ``q_{k+1} = q_m + h theta v_{k+1}``; for closed loops theta is projected back onto
+   ``Psi = 0`` (M-weighted, when the drift exceeds ``projection_tol``) and ``v_{k+1}`` onto
+   ``C(q_{k+1}) v = 0``.
+
+Known artefacts (measured by the bench section ``simulation`` and the failure atlas):
+
+* impact instants are not located: an impact acts at the step's midpoint (error up to h in
+  time, O(h) in the post-impact state: gravity and the driving forces act over the whole
+  step in which the impact happens);
+* an impact whose contact velocity changes over several steps (multiple contacts, a rod
+  landing on both ends, loops transmitting the impulse) is *smeared* over those steps; the
+  per-step law then differs from the event-driven law applied once;
+* positions can penetrate by O(h |v|) (the gap is predicted, not enforced; with theta < 1 the
+  first part of the step uses the pre-impact velocity); the maximum is reported as
+  ``max_penetration``;
+* the smooth part is explicit in the forces (stable for h below the stiffest smooth time
+  constant, e.g. the slider-crank's speed regulator); theta = 1/2 is second order for
+  positions in free flight under constant forces; theta != 1/2 makes the position update
+  first order, and its energy error does not vanish faster than O(h) per unit time;
+* restitution is Newton's at the velocity level on each step: a contact that stays active
+  over several steps is treated as plastic after the first (e_eff = 0), which is the
+  Moreau–Jean convention, not the event-driven one.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..errors import (
+    ConvImpactError,
+    LoopConstraintError,
+    NonFiniteError,
+    ParameterError,
+    ShapeError,
+    SimulationError,
+    UnknownOptionError,
+)
+from ..impact import LAWS, METHODS, resolve_impact
+from .events import PenetrationError
+from .projection import project_positions, project_velocities
+from .result import ImpactEvent, SimulationResult
+from .simulate import INITIAL_VELOCITY_RTOL, _as_mechanism, _vector
+
+#: steps beyond which a run is refused (h too small for the span)
+MAX_STEPS = 5_000_000
+
+
+@dataclass(frozen=True, eq=False)
+class MoreauResult(SimulationResult):
+    """:class:`SimulationResult` of :func:`simulate_moreau`, with the scheme's own figures.
+
+    ``impacts`` lists the steps on which a contact approaching at the start of the step
+    received an impulse (time = the step's midpoint t_m, ``dtheta_minus`` = v_k,
+    ``dtheta_plus`` = v_{k+1}); ``nfev`` counts smooth-force evaluations (one per step).
+
+    Attributes
+    ----------
+    step_size : h.
+    theta_parameter : theta of the scheme.
+    n_contact_steps : steps with at least one active contact (impacts and resting contact).
+    max_penetration : largest penetration (-gap) of any contact at a stored state (>= 0).
+    """
+
+    step_size: float = float("nan")
+    theta_parameter: float = 0.5
+    n_contact_steps: int = 0
+    max_penetration: float = 0.0
+
+    def as_dict(self, series: bool = True) -> dict[str, Any]:
+        out = super().as_dict(series)
+        out.update(scheme="moreau-jean", step_size=self.step_size,
+                   theta_parameter=self.theta_parameter, n_contact_steps=self.n_contact_steps,
+                   max_penetration=self.max_penetration)
+        return out
+
+
+def _loop_inverse(M: np.ndarray, C: np.ndarray):
+    """Cholesky factor of M and, for loops, ``A = M^-1 C^T`` with ``C A`` factored."""
+    try:
+        cho = sla.cho_factor(M, lower=True, check_finite=True)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise SimulationError(f"the mass matrix is not positive definite or not finite: "
+                              f"{exc}") from None
+    if C.shape[0] == 0:
+        return cho, None, None
+    A = sla.cho_solve(cho, C.T)
+    S = C @ A
+    try:
+        sfac = sla.cho_factor(S, lower=True)
+    except np.linalg.LinAlgError:
+        raise LoopConstraintError(
+            "the loop matrix C M^-1 C^T is singular on this step (a dead-centre configuration "
+            "or redundant loops); Moreau–Jean cannot keep C v = 0 here") from None
+    return cho, A, sfac
+
+
+def simulate_moreau(
+    system,
+    t_span: Sequence[float] | None = None,
+    y0=None,
+    *,
+    h: float,
+    theta: float = 0.5,
+    law: str = "coulomb",
+    method: str = "auto",
+    gap_tol: float = 0.0,
+    rest_velocity: float = 1e-6,
+    projection_tol: float = 1e-10,
+    assemble: bool = False,
+    contact_tol: float = 1e-8,
+    impact_options: Mapping[str, Any] | None = None,
+) -> MoreauResult:
+    """Integrate a mechanism through its impacts by Moreau–Jean time stepping.
+
+    Parameters
+    ----------
+    system : Mechanism or Scene
+        The model, or a :class:`convimpact.scenes.Scene` (its mechanism, state and t_end).
+    t_span : (t0, t1), optional
+        Time span; default ``(0, scene.t_end)`` for a scene. The last step is shortened to
+        end exactly at t1.
+    y0 : tuple (theta0, dtheta0), optional
+        Initial joint coordinates and velocities; default the scene's.
+    h : float
+        Step size (s), > 0.
+    theta : float
+        Parameter of the scheme in [0, 1] (see the module docstring); 1/2 is Moreau's
+        midpoint rule.
+    law, method : str
+        Impact law and solver path of :func:`convimpact.resolve_impact` for the per-step
+        impulse (default "coulomb", the complementarity law of Moreau–Jean). Several active
+        contacts need a multi-contact method ("auto" picks "clarabel").
+    gap_tol : float
+        A contact is active when its predicted end-of-step gap is at most this.
+    rest_velocity : float
+        Contacts whose normal velocity at the start of the step is above ``-rest_velocity``
+        are resolved plastically (e_eff = 0).
+    projection_tol : float
+        Loop drift max |Psi| above which positions are projected after a step.
+    assemble : bool
+        Project an initial state that violates the loops (True) or raise
+        :class:`~convimpact.errors.LoopConstraintError` (False).
+    contact_tol : float
+        Penetration accepted in the initial state.
+    impact_options : mapping, optional
+        Options forwarded to the impact solver.
+
+    Returns
+    -------
+    MoreauResult
+        Series at every step (t_k), the impact steps, counters, ``max_penetration``.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError, ParameterError, UnknownOptionError
+        for malformed input;
+    LoopConstraintError
+        for an inconsistent initial state (``assemble=False``) or a singular loop matrix;
+    PenetrationError
+        when the initial state penetrates by more than ``contact_tol``;
+    SimulationError
+        when the state becomes non-finite;
+    ConvImpactError subclasses of ``resolve_impact`` (SingularSystemError, SolverError, ...)
+        from the per-step impulse, with a note naming the step.
+    """
+    wall0 = _time.perf_counter()
+    mech, scene = _as_mechanism(system)
+    k = int(mech.n_coordinates)
+    m = int(mech.n_loop_constraints)
+    contacts = tuple(mech.contact_names)
+    if law not in LAWS:
+        raise UnknownOptionError(f"unknown impact law {law!r}; choose one of {', '.join(LAWS)}")
+    if method not in METHODS:
+        raise UnknownOptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    try:
+        h = float(h)
+        theta_p = float(theta)
+    except (TypeError, ValueError):
+        raise ParameterError("h and theta must be numbers") from None
+    if not (math.isfinite(h) and h > 0):
+        raise ParameterError(f"the step size h must be a positive finite number, got {h!r}")
+    if not (0.0 <= theta_p <= 1.0):
+        raise ParameterError(f"theta must lie in [0, 1] (1/2: midpoint rule), got {theta!r}")
+    for name, val in (("projection_tol", projection_tol), ("contact_tol", contact_tol)):
+        if not (np.isfinite(val) and val > 0):
+            raise ParameterError(f"{name} must be a positive finite number, got {val!r}")
+    if not (np.isfinite(gap_tol) and rest_velocity >= 0):
+        raise ParameterError("gap_tol must be finite and rest_velocity >= 0")
+    if t_span is None:
+        if scene is None:
+            raise ShapeError("t_span is required when simulating a bare mechanism")
+        t_span = (0.0, float(scene.t_end))
+    ts = np.asarray(t_span, dtype=float).ravel()
+    if ts.shape != (2,):
+        raise ShapeError(f"t_span must be (t0, t1), got {t_span!r}")
+    if not np.all(np.isfinite(ts)):
+        raise NonFiniteError(f"t_span must be finite, got {ts.tolist()}")
+    t0, t1 = float(ts[0]), float(ts[1])
+    if not t1 > t0:
+        raise ParameterError(f"t_span must be increasing (t0 < t1), got ({t0:g}, {t1:g})")
+    n_steps_total = int(math.ceil((t1 - t0) / h - 1e-9))
+    if n_steps_total > MAX_STEPS:
+        raise ParameterError(f"h = {h:g} needs {n_steps_total} steps over the span (more than "
+                             f"{MAX_STEPS}); take a larger step")
+    impact_options = dict(impact_options or {})
+
+    # ---- initial state ---------------------------------------------------------------------
+    if y0 is None:
+        if scene is None:
+            raise ShapeError("y0 is required when simulating a bare mechanism")
+        y0 = (scene.theta0, scene.dtheta0)
+    if not (isinstance(y0, tuple) and len(y0) == 2):
+        raise ShapeError("y0 must be a tuple (theta0, dtheta0)")
+    q = _vector("theta0", y0[0], k)
+    v = _vector("dtheta0", y0[1], k)
+
+    def loop_rows(th):
+        return (np.asarray(mech.loop_jacobian(th), float).reshape(m, k) if m
+                else np.zeros((0, k)))
+
+    if m:
+        err = float(np.max(np.abs(np.asarray(mech.loop_residual(q), float))))
+        if err > projection_tol:
+            if not assemble:
+                raise LoopConstraintError(
+                    f"the initial theta violates the loop constraints: max |Psi| = {err:.3e}; "
+                    "assemble it first or pass assemble=True")
+            q, _, _ = project_positions(mech.loop_residual, loop_rows, mech.mass_matrix(q), q,
+                                        projection_tol)
+        C = loop_rows(q)
+        scale = float(np.linalg.norm(C)) * max(float(np.linalg.norm(v)), 1e-300)
+        if float(np.linalg.norm(C @ v)) > INITIAL_VELOCITY_RTOL * scale:
+            if not assemble:
+                raise LoopConstraintError(
+                    "the initial theta_dot violates C theta_dot = 0 (eq. 7); give consistent "
+                    "velocities or pass assemble=True")
+            v = project_velocities(np.asarray(mech.mass_matrix(q), float), C, v)
+    for c in contacts:
+        g = float(mech.contact_gap(c, q))
+        if not np.isfinite(g):
+            raise NonFiniteError(f"the gap of contact {c!r} is not finite at the initial state")
+        if g < -contact_tol:
+            raise PenetrationError(
+                f"the initial state penetrates contact {c!r} (gap {g:.3e}); start with the "
+                "contact open or touching")
+    params = {c: mech.contact_parameters(c) for c in contacts}
+
+    # ---- run ---------------------------------------------------------------------------------
+    rows: dict[str, list] = {key: [] for key in ("t", "theta", "dtheta", "p", "sigma", "T", "V",
+                                                 "psi", "cdq")}
+    sigma = np.zeros(m)
+    max_pen = 0.0
+    impacts: list[ImpactEvent] = []
+    counters = {"nfev": 0, "impact_time": 0.0, "contact_steps": 0, "proj": 0}
+
+    def record(t, th, dth):
+        nonlocal max_pen
+        M_ = np.asarray(mech.mass_matrix(th), float)
+        C_ = loop_rows(th)
+        rows["t"].append(t)
+        rows["theta"].append(th.copy())
+        rows["dtheta"].append(dth.copy())
+        rows["p"].append(M_ @ dth - C_.T @ sigma)
+        rows["sigma"].append(sigma.copy())
+        rows["T"].append(0.5 * float(dth @ M_ @ dth))
+        rows["V"].append(float(mech.potential_energy(th)))
+        if m:
+            rows["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
+            rows["cdq"].append(float(np.max(np.abs(C_ @ dth))))
+        else:
+            rows["psi"].append(0.0)
+            rows["cdq"].append(0.0)
+        for c in contacts:
+            max_pen = max(max_pen, -float(mech.contact_gap(c, th)))
+
+    t = t0
+    record(t, q, v)
+    status, message = 0, "the end of the time span was reached"
+    for step in range(n_steps_total):
+        hk = min(h, t1 - t)
+        if hk <= 0:
+            break
+        tm = t + (1.0 - theta_p) * hk
+        qm = q + hk * (1.0 - theta_p) * v
+        M = np.asarray(mech.mass_matrix(qm), float)
+        f = np.asarray(mech.generalized_forces(tm, qm, v), float)
+        counters["nfev"] += 1
+        C = loop_rows(qm)
+        cho, A, sfac = _loop_inverse(M, C)
+        v_star = v + hk * sla.cho_solve(cho, f)
+        if A is not None:
+            s = sla.cho_solve(sfac, C @ v_star)
+            v_free = v_star - A @ s
+            sigma = sigma - s  # loop impulse of the smooth part (M dv = h f + C^T dsigma)
+        else:
+            v_free = v_star
+        # active set by gap prediction (step 4)
+        active, Jcs, es, mus, vnk = [], [], [], [], []
+        for c in contacts:
+            J = np.asarray(mech.contact_jacobian(c, qm), float)
+            g_pred = float(mech.contact_gap(c, qm)) + hk * theta_p * float(J[0] @ v_free)
+            if g_pred <= gap_tol:
+                vn_k, vn_free = float(J[0] @ v), float(J[0] @ v_free)
+                e_c, mu_c = params[c]
+                if vn_k < -rest_velocity and vn_free < 0.0:
+                    e_eff = min(float(e_c) * vn_k / vn_free, 1.0)
+                else:
+                    e_eff = 0.0
+                active.append(c)
+                Jcs.append(J)
+                es.append(e_eff)
+                mus.append(float(mu_c))
+                vnk.append(vn_k)
+        v_new = v_free
+        if active:
+            counters["contact_steps"] += 1
+            t_start = _time.perf_counter()
+            try:
+                if len(active) == 1:
+                    r = resolve_impact(M, Jcs[0], v_free, es[0], mus[0], C if m else None,
+                                       law=law, method=method, **impact_options)
+                else:
+                    r = resolve_impact(M, Jcs, v_free, es, mus, C if m else None,
+                                       law=law, method=method, **impact_options)
+            except ConvImpactError as exc:
+                exc.add_note(f"(while resolving the step impulse of {', '.join(active)} at "
+                             f"t = {tm:.9g}, step {step}, in simulate_moreau)")
+                raise
+            finally:
+                counters["impact_time"] += _time.perf_counter() - t_start
+            v_new = np.asarray(r.dq_plus, float)
+            dsig = np.asarray(r.loop_impulse, float)
+            if m and dsig.size >= m:
+                sigma = sigma + dsig[:m]
+            impulse = np.asarray(r.impulse, float).reshape(len(active), -1)
+            approaching = [i for i, vn in enumerate(vnk) if vn < -rest_velocity
+                           and impulse[i, 0] > 0.0]
+            if approaching:
+                regime = (r.regime,) if isinstance(r.regime, str) else tuple(r.regime)
+                impacts.append(ImpactEvent(
+                    time=tm, contacts=tuple(active[i] for i in approaching),
+                    held_contacts=(), regime=regime, impulse=impulse,
+                    loop_impulse=dsig, generalized_impulse=np.vstack(Jcs).T @ impulse.ravel(),
+                    theta=qm.copy(), dtheta_minus=v.copy(), dtheta_plus=v_new.copy(),
+                    energy_loss=float(r.energy_loss),
+                    kinetic_energy_minus=0.5 * float(v @ M @ v),
+                    kinetic_energy_plus=0.5 * float(v_new @ M @ v_new),
+                    persistent=(), released=(), resolve_time=0.0, result=r))
+        q_new = qm + hk * theta_p * v_new
+        if m:
+            drift = float(np.max(np.abs(mech.loop_residual(q_new))))
+            if drift > projection_tol:
+                q_new, _, _ = project_positions(mech.loop_residual, loop_rows, M, q_new,
+                                                0.1 * projection_tol)
+                counters["proj"] += 1
+            v_new = project_velocities(np.asarray(mech.mass_matrix(q_new), float),
+                                       loop_rows(q_new), v_new)
+        if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
+            raise SimulationError(f"the state became non-finite at t = {t + hk:.9g}; reduce h")
+        q, v = q_new, v_new
+        t = t1 if step == n_steps_total - 1 else t + hk
+        record(t, q, v)
+
+    wall = _time.perf_counter() - wall0
+    n = len(rows["t"])
+    settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
+                "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
+                "projection_tol": projection_tol, "t_span": [t0, t1]}
+    return MoreauResult(
+        t=np.array(rows["t"], float),
+        theta=np.array(rows["theta"], float).reshape(n, k),
+        dtheta=np.array(rows["dtheta"], float).reshape(n, k),
+        p=np.array(rows["p"], float).reshape(n, k),
+        sigma=np.array(rows["sigma"], float).reshape(n, m),
+        kinetic_energy=np.array(rows["T"], float),
+        potential_energy=np.array(rows["V"], float),
+        loop_residual=np.array(rows["psi"], float),
+        loop_velocity_residual=np.array(rows["cdq"], float),
+        held=np.zeros(n, dtype=int),
+        impacts=tuple(impacts),
+        contact_events=(),
+        sol=None,
+        status=status,
+        message=message,
+        nfev=counters["nfev"],
+        nevents_fev=0,
+        n_steps=n - 1,
+        n_projections=counters["proj"],
+        n_restarts=0,
+        wall_time=float(wall),
+        impact_time=float(counters["impact_time"]),
+        settings=settings,
+        step_size=h,
+        theta_parameter=theta_p,
+        n_contact_steps=counters["contact_steps"],
+        max_penetration=max(0.0, max_pen),
+    )
