@@ -106,11 +106,11 @@ def _reference(bp: BenchProblem, law: str) -> tuple[tuple | None, str | None, fl
 
 def _record(bp: BenchProblem, law: str, method: str, setting: str, options: dict,
             peer: bool) -> dict[str, Any]:
-    return {"problem": bp.name, "class": bp.problem_class, "source": bp.source,
-            "k": bp.info["k"], "n_contacts": bp.info["n_contacts"], "dim": bp.info["dim"],
-            "n_loops": bp.info["n_loops"], "law": law, "method": method, "setting": setting,
+    # problem facts (k, dim, loops, source) are in meta["problems"], options in meta["paths"]
+    return {"problem": bp.name, "class": bp.problem_class, "n_contacts": bp.info["n_contacts"],
+            "law": law, "method": method, "setting": setting,
             "label": method if setting == "default" else f"{method} {setting}",
-            "options": dict(options), "peer": peer, "status": "ok", "error_type": None,
+            "peer": peer, "status": "ok", "error_type": None,
             "message": None, "time_full": None, "time_kernel": None, "impulse_error": None,
             "velocity_error": None, "regime": None, "energy_gained": None,
             "reference": None, "is_reference": False, "unexpected": False}
@@ -381,6 +381,8 @@ def per_impact_section(config: BenchConfig, progress: Progress) -> SectionResult
             "frictionless": "the same impact with mu = 0, law 'coulomb' (closed-form: "
                             "'pereira-nikravesh'); the common ground with impulseDynamics",
             "aggregates": "per (class, law, label): medians over the class's problems",
+            "coulomb_options": "the conic paths' law 'coulomb' also sets fixed_point_tol = "
+                               "10 tol (the library's default ratio 1e-9 / 1e-10)",
         },
         "classes": list(CLASSES),
         "problems": problem_rows,

@@ -184,7 +184,7 @@ def run_bench(config: BenchConfig, sections: Sequence[str] | None = None,
     report["summary"] = summary
     report["wall_time"] = time.perf_counter() - t0
     report = strict_json(report)
-    (out / "bench.json").write_text(json.dumps(report, indent=1) + "\n")
+    (out / "bench.json").write_text(json.dumps(report, separators=(",", ":")) + "\n")
     (out / "summary.txt").write_text(format_summary(report))
     progress(f"wrote {out / 'bench.json'}, {out / 'summary.txt'} in {report['wall_time']:.1f}s")
     return report

@@ -35,7 +35,7 @@ class Timing:
 
     def as_dict(self) -> dict[str, Any]:
         return {"median": self.median, "q1": self.q1, "q3": self.q3, "iqr": self.iqr,
-                "best": self.best, "n_batches": self.n_batches, "n_inner": self.n_inner}
+                "n_batches": self.n_batches, "n_inner": self.n_inner}
 
 
 def time_call(fn: Callable[[], Any], repeat: int = 7, min_batch_time: float = 2e-3,
