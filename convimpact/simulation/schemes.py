@@ -1,0 +1,75 @@
+"""``simulate_with``: one entry point for the three ways of simulating impacts.
+
+* ``"event-driven"`` -- :func:`convimpact.simulation.simulate`: impacts located in time and
+  resolved by the chosen impact law (exact up to the integrator's tolerance);
+* ``"moreau-jean"`` -- :func:`convimpact.simulation.moreau.simulate_moreau`: fixed-step time
+  stepping with a velocity-level impact law on each step (impacts smeared over a step);
+* ``"compliant"`` -- :func:`convimpact.simulation.compliant.simulate_compliant`: penalty
+  forces (Hunt–Crossley / Lankarani–Nikravesh) with a stiff integrator (penetration, contact
+  durations, effective restitution set by the force law).
+
+All three return a :class:`~convimpact.simulation.SimulationResult` (the last two a subclass
+with the scheme's own figures), so results compare sample for sample.
+
+>>> import numpy as np
+>>> from convimpact.simulation.schemes import simulate_with
+>>> from convimpact.simulation.testing import PointMass
+>>> y0 = (np.array([0.0, 1.0]), np.zeros(2))
+>>> r = simulate_with(PointMass(e=0.5), (0.0, 0.5), y0, scheme="moreau-jean", h=1e-3)
+>>> bool(abs(r.impacts[0].dtheta_plus[1] - 0.5 * np.sqrt(2 * 9.81)) < 0.01)
+True
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+from ..errors import UnknownOptionError
+from .compliant import simulate_compliant
+from .moreau import simulate_moreau
+from .result import SimulationResult
+from .simulate import simulate
+
+SCHEMES = ("event-driven", "moreau-jean", "compliant")
+
+
+def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
+                  scheme: str = "event-driven", **options: Any) -> SimulationResult:
+    """Simulate ``system`` with the named scheme.
+
+    Parameters
+    ----------
+    system, t_span, y0 :
+        As in :func:`convimpact.simulation.simulate` (for "moreau-jean" and "compliant" y0 is a
+        tuple (theta0, dtheta0)).
+    scheme : {"event-driven", "moreau-jean", "compliant"}
+    **options :
+        The scheme's own keyword arguments: ``law``, ``method``, ``rtol``... for event-driven;
+        ``h`` (required), ``theta``, ``law``, ``method`` for Moreau–Jean; ``stiffness``
+        (required), ``model``, ``exponent``, ``e``, ``mu``, ``integrator``, ``rtol``... for
+        compliant.
+
+    Returns
+    -------
+    SimulationResult (MoreauResult, CompliantResult)
+
+    Raises
+    ------
+    UnknownOptionError
+        for an unknown scheme or an option the scheme does not take (the message lists them).
+    """
+    fns = {"event-driven": simulate, "moreau-jean": simulate_moreau,
+           "compliant": simulate_compliant}
+    if scheme not in fns:
+        raise UnknownOptionError(f"unknown simulation scheme {scheme!r}; choose one of "
+                                 f"{', '.join(SCHEMES)}")
+    fn = fns[scheme]
+    import inspect
+
+    accepted = [p.name for p in inspect.signature(fn).parameters.values()
+                if p.kind == p.KEYWORD_ONLY]
+    unknown = sorted(set(options) - set(accepted))
+    if unknown:
+        raise UnknownOptionError(f"scheme {scheme!r} takes no option(s) {', '.join(unknown)}; "
+                                 f"its options are {', '.join(accepted)}")
+    return fn(system, t_span, y0, **options)
