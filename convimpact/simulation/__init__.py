@@ -15,6 +15,7 @@ from .projection import project_positions, project_velocities
 from .result import ContactEvent, ImpactEvent, PiecewiseSolution, SimulationResult
 from .simulate import INTEGRATORS, simulate
 from .zeno import Accumulation, AccumulationDetector
+from .schemes import SCHEMES, simulate_with  # noqa: F401  (moreau-jean, compliant)
 
 __all__ = [
     "simulate",
