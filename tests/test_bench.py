@@ -196,8 +196,11 @@ def test_sections_plug_in(tmp_path):
     def dummy(config, progress):
         progress("dummy running")
         seen["config"] = config
+        meta = {"unit": "none"}
+        if seen.get("aggregates"):
+            meta["aggregates"] = [{"n": 1}]
         return SectionResult("dummy-test", [{"x": 1.0, "y": float("nan")}], [], ["dummy ran"],
-                             {"unit": "none"})
+                             meta)
 
     try:
         config = BenchConfig.make(tmp_path, quick=True, repeat=2)
@@ -210,6 +213,13 @@ def test_sections_plug_in(tmp_path):
         assert "dummy ran" in (tmp_path / "summary.txt").read_text()
         with pytest.raises(UnknownOptionError, match="dummy-test"):
             run_bench(config, ["no-such-section"], lines.append)
+        # records are dropped only where a section keeps aggregates of them
+        slim = BenchConfig.make(tmp_path / "slim", quick=True, keep_records=False)
+        assert run_bench(slim, ["dummy-test"], lines.append)["sections"]["dummy-test"][
+            "records"] == [{"x": 1.0, "y": None}]
+        seen["aggregates"] = True
+        out = run_bench(slim, ["dummy-test"], lines.append)["sections"]["dummy-test"]
+        assert out["records"] == [] and out["records_dropped"] == 1
     finally:
         registry._SECTIONS.pop("dummy-test", None)
     with pytest.raises(ParameterError):

@@ -21,10 +21,14 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--blas-threads", type=int, default=1,
                    help="OpenBLAS threads during the run (default 1, as suits k <= 30; "
                         "0 leaves the library's own setting)")
+    p.add_argument("--no-records", action="store_true",
+                   help="leave the per-measurement records out of bench.json where a section "
+                        "keeps their aggregates (a small file to commit)")
 
 
 def _run(args) -> int:
-    config = BenchConfig.make(args.out, args.quick, args.repeat, args.seed, args.blas_threads)
+    config = BenchConfig.make(args.out, args.quick, args.repeat, args.seed, args.blas_threads,
+                              not args.no_records)
     report = run_bench(config, args.sections, stderr_progress())
     print(f"wrote {config.out}/bench.json, summary.txt and "
           f"{sum(len(s['figures']) for s in report['sections'].values())} charts")

@@ -46,6 +46,8 @@ class BenchConfig:
         so that microsecond calls are not dominated by the timer.
     blas_threads : threads of the loaded OpenBLAS libraries during the run (None: leave them;
         see :mod:`convimpact.bench.threads`).
+    keep_records : False writes bench.json without the per-measurement records of sections
+        that summarize them in ``meta["aggregates"]`` (a small file to commit).
     """
 
     out: Path = Path(DEFAULT_OUT)
@@ -54,10 +56,12 @@ class BenchConfig:
     seed: int = 20260521
     min_batch_time: float = 2e-3
     blas_threads: int | None = 1
+    keep_records: bool = True
 
     @classmethod
     def make(cls, out: str | Path = DEFAULT_OUT, quick: bool = False, repeat: int | None = None,
-             seed: int | None = None, blas_threads: int | None = 1) -> "BenchConfig":
+             seed: int | None = None, blas_threads: int | None = 1,
+             keep_records: bool = True) -> "BenchConfig":
         """Defaults for a full or a quick run (quick: 3 repeats, 0.5 ms batches)."""
         rep = repeat if repeat is not None else (3 if quick else 7)
         if int(rep) < 1:
@@ -66,7 +70,8 @@ class BenchConfig:
         return cls(out=Path(out), quick=bool(quick), repeat=int(rep),
                    seed=cls.seed if seed is None else int(seed),
                    min_batch_time=5e-4 if quick else 2e-3,
-                   blas_threads=None if not blas_threads else int(blas_threads))
+                   blas_threads=None if not blas_threads else int(blas_threads),
+                   keep_records=bool(keep_records))
 
 
 @dataclass(frozen=True)
@@ -197,9 +202,13 @@ def _run_sections(config: BenchConfig, names: list[str], progress: Progress,
         ts = time.perf_counter()
         res = _SECTIONS[name][1](config, progress)
         wall = time.perf_counter() - ts
+        records = res.records
+        dropped = 0
+        if not config.keep_records and "aggregates" in res.meta:
+            records, dropped = [], len(res.records)
         report["sections"][name] = {
             "description": section_description(name), "wall_time": wall,
-            "records": res.records, "figures": list(res.figures),
+            "records": records, "records_dropped": dropped, "figures": list(res.figures),
             "summary": list(res.summary), "meta": dict(res.meta),
         }
         summary += res.summary
