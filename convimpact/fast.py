@@ -249,7 +249,7 @@ _ROTATIONS = tuple((math.cos(a), math.sin(a), math.cos(2 * a), math.sin(2 * a))
 
 
 def _candidates(e0: float, ex: float, ey: float, exx: float, eyy: float,
-                exy: float) -> tuple[tuple | None, list]:
+                exy: float, robust: bool = False) -> tuple[tuple | None, list]:
     """Unpolished points (x, y, chart value, reversed) where E(th) vanishes.
 
     E is first written in harmonics, a0 + a1 cos th + b1 sin th + a2 cos 2th + b2 sin 2th,
@@ -262,6 +262,8 @@ def _candidates(e0: float, ex: float, ey: float, exx: float, eyy: float,
     small or no root was found. Returns the quartic's data (None if E vanishes identically:
     every direction is then stationary and the single candidate th = 0 is exact) and the
     points, (x, y) = (cos th, sin th) in the caller's basis; :func:`_refine` polishes one.
+    ``robust=True`` takes the roots from the companion matrix's eigenvalues (numpy) instead
+    of Ferrari and always adds th = phi + pi: the callers' fallback when a check fails.
     """
     a0 = e0 + 0.5 * (exx + eyy)
     a1, b1, a2, b2 = ex, ey, 0.5 * (exx - eyy), 0.5 * exy
@@ -286,7 +288,8 @@ def _candidates(e0: float, ex: float, ey: float, exx: float, eyy: float,
     c3 = 2.0 * (b1 - 2.0 * b2)
     c2 = 2.0 * a0 - 6.0 * a2
     c1 = 2.0 * (b1 + 2.0 * b2)
-    roots = _quartic_roots(c4, c3, c2, c1, c0)
+    roots = _quartic_roots(c4, c3, c2, c1, c0) if not robust else _eigen_roots(
+        c4, c3, c2, c1, c0)
     if roots is None:
         return None, [(1.0, 0.0, 0.0, False)]
     pts = []
@@ -301,9 +304,20 @@ def _candidates(e0: float, ex: float, ey: float, exx: float, eyy: float,
             x, y = (t2 - 1.0) / (t2 + 1.0), 2.0 * t / (t2 + 1.0)
             rev = True
         pts.append((x * cp - y * sp, x * sp + y * cp, t, rev))
-    if not pts or abs(c4) <= 1e-6 * max(abs(c3), abs(c2), abs(c1), abs(c0)):
+    if robust or not pts or abs(c4) <= 1e-6 * max(abs(c3), abs(c2), abs(c1), abs(c0)):
         pts.append((-cp, -sp, 0.0, True))  # th = phi + pi: a root near tau = infinity
     return (c4, c3, c2, c1, c0, cp, sp), pts
+
+
+def _eigen_roots(c4: float, c3: float, c2: float, c1: float, c0: float) -> list[float] | None:
+    """Real parts of the nearly real roots of the quartic, from numpy's companion matrix."""
+    c = np.array([c4, c3, c2, c1, c0])
+    scale = float(np.max(np.abs(c)))
+    if scale == 0.0:
+        return None
+    nz = np.flatnonzero(np.abs(c) > 1e-13 * scale)
+    z = np.roots(c[nz[0]:])
+    return [float(r.real) for r in z if abs(r.imag) <= 1e-6 * (1.0 + abs(r))]
 
 
 def _refine(coeffs: tuple | None, point: tuple) -> tuple[float, float]:
@@ -355,8 +369,8 @@ def _wp(R: tuple, mu: float) -> tuple:
     return (A, mu * B1, mu * B2, B1, mu * C11, mu * C12, B2, mu * C12, mu * C22)
 
 
-def _dissipation_angle(R: tuple, c: float, mu: float) -> tuple[float, float, float, float,
-                                                                float]:
+def _dissipation_angle(R: tuple, c: float, mu: float,
+                       robust: bool = False) -> tuple[float, float, float, float, float]:
     """Direction maximizing T_L (eq. 60) on the cone boundary with D > 0.
 
     ``R`` is the contact in a rotated basis (:func:`_rotate`). The stationarity condition is
@@ -369,7 +383,7 @@ def _dissipation_angle(R: tuple, c: float, mu: float) -> tuple[float, float, flo
     U = (cv * A, cv * mB1, cv * mB2,
          c * B1 + v1 * A, cm * C11 + v1 * mB1, cm * C12 + v1 * mB2,
          c * B2 + v2 * A, cm * C12 + v2 * mB1, cm * C22 + v2 * mB2)
-    coeffs, cands = _candidates(*_det_wq(U, A, B1, B2, mu))
+    coeffs, cands = _candidates(*_det_wq(U, A, B1, B2, mu), robust=robust)
     dmin = 1e-12 * (A + mu * math.hypot(B1, B2))
     scored = []
     top = None
@@ -565,6 +579,46 @@ def _angle_from_slip(v1: float, v2: float, t1: float, t2: float) -> float:
 # the seed's law (Section 8): stick test, else slide with maximal dissipation
 
 
+def _max_dissipation_verified(w: list, v: list, c: float, mu: float, p: float, t1: float,
+                              t2: float, tl: float, interior: bool) -> bool:
+    """Cheap certificate that the boundary direction t maximizes T_L (guards the quartic).
+
+    When P_N's optimum lies on the boundary it is this point, so y = W pi + v - lam W e_n with
+    lam = pi.(W pi + v) / c must be sigma (mu, -t) with sigma >= 0 (KKT of P_N). When it is
+    interior, or that test fails to round-off, T_L(t) must beat eight probe directions.
+    """
+    (A, B1, B2), (_, C11, C12), (_, _, C22) = w
+    if not interior:
+        a1, a2 = mu * p * t1, mu * p * t2
+        g0 = A * p + B1 * a1 + B2 * a2 + v[0]
+        g1 = B1 * p + C11 * a1 + C12 * a2 + v[1]
+        g2 = B2 * p + C12 * a1 + C22 * a2 + v[2]
+        lam = (p * g0 + a1 * g1 + a2 * g2) / c
+        y0, y1, y2 = g0 - lam * A, g1 - lam * B1, g2 - lam * B2  # = sigma (mu, -t), sigma >= 0
+        sigma = -(y1 * t1 + y2 * t2)
+        tol = 1e-6 * (c + abs(v[0]) + abs(v[1]) + abs(v[2])
+                      + max(A, C11, C22) * (p + abs(a1) + abs(a2)) + abs(lam) * A)
+        if sigma >= -tol and abs(y1 * t2 - y2 * t1) <= tol and abs(
+                y0 - mu * sigma) <= tol * (1.0 + mu):
+            return True
+        # no KKT certificate (e.g. mu so small that T_L is flat in t to round-off): fall
+        # through to the probe directions
+    for k in range(8):
+        x, y = _PROBES[k]
+        D = A + mu * (B1 * x + B2 * y)
+        if D > 0.0:
+            pn = c / D
+            pWp = D + mu * (x * (B1 + mu * (C11 * x + C12 * y)) + y * (B2 + mu * (C12 * x
+                                                                                 + C22 * y)))
+            if -pn * (v[0] + mu * (v[1] * x + v[2] * y)) - 0.5 * pn * pn * pWp > (
+                    tl + 1e-9 * (abs(tl) + c * c / A)):
+                return False
+    return True
+
+
+_PROBES = tuple((math.cos(k * math.pi / 4), math.sin(k * math.pi / 4)) for k in range(8))
+
+
 def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     c = -(1.0 + e) * v[0]
     b0 = -c
@@ -586,12 +640,19 @@ def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> Contact
     if _in_cone(pn, ptn, mu):
         return _sol((pn, p1, p2), "stick")
     r1, r2 = _unit_or(-v[1], -v[2], _unit_or(p1, p2, (1.0, 0.0)))
-    x, y, tl, p, D = _dissipation_angle(_rotate(w, v, r1, r2), c, mu)
-    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
     # P_N's optimum over the plane a.pi = c: pi* = lam e_n - W^-1 v, lam = (c + v_n) / W_nn
     q0, q1, q2 = _solve3(inv, v[0], v[1], v[2])
     lam = (c + v[0]) / w[0][0]
     interior = _in_cone(lam - q0, math.hypot(q1, q2), mu)
+    R = _rotate(w, v, r1, r2)
+    x, y, tl, p, D = _dissipation_angle(R, c, mu)
+    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
+    if not _max_dissipation_verified(w, v, c, mu, p, t1, t2, tl, interior):
+        x, y, tl, p, D = _dissipation_angle(R, c, mu, robust=True)  # companion-matrix roots
+        t1, t2 = x * r1 - y * r2, x * r2 + y * r1
+        if not _max_dissipation_verified(w, v, c, mu, p, t1, t2, tl, interior):
+            raise SolverError("the maximal-dissipation direction could not be certified (KKT "
+                              "of P_N or probe directions); use method='sweep' or 'clarabel'")
     extras = {"alpha_m": _angle_from_slip(v[1], v[2], t1, t2), "energy_loss_max": tl,
               "normal_impulse": p, "direction": (t1, t2), "pn_optimum_interior": interior}
     warns = ()
@@ -715,7 +776,8 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
         else:
             tl = -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * (D + mu * (x * P1 + y * P2))
             found.append((tl, x, y, p, D, sigma))
-    if not found:  # nothing passed the screening: polish every candidate and check strictly
+    if not found:  # nothing passed the screening: companion-matrix roots, checked strictly
+        coeffs, cands = _candidates(e0, ex, ey, exx, eyy, exy, robust=True)
         for pt in cands:
             x, y = _refine(coeffs, pt)
             got = conditions(x, y, ROOT_RTOL)
@@ -786,10 +848,29 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str,
         return _ccp_sol(poisson, (pn, p1, p2), "stick", extras={"normal_velocity_lift": 0.0})
     r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
     R = _rotate(w, b, r1, r2)  # R[6:] hold b in the rotated basis
+    scale = abs(b[0]) + abs(b[1]) + abs(b[2])
+    got = _ccp_boundary(R, mu, False)
+    if got is None or got[3] < -1e-6 * scale:  # KKT: y_n = u_n = mu |u_t| >= 0
+        got = _ccp_boundary(R, mu, True)  # companion-matrix roots
+        if got is None or got[3] < -1e-6 * scale:
+            raise SolverError("the CCP boundary solve found no KKT point; use "
+                              "method='clarabel'")
+    x, y, r, un, slip = got
+    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
+    return _ccp_sol(poisson, (r, mu * r * t1, mu * r * t2), "slide",
+                    extras={"normal_velocity_lift": un, "post_slip_speed": slip,
+                            "direction": (t1, t2)})
+
+
+def _ccp_boundary(R: tuple, mu: float, robust: bool) -> tuple | None:
+    """Best boundary ray of the CCP program: (x, y, r, u_n, |u_t|) in R's basis, or None.
+
+    Along the ray pi = r p the optimum is r = -p.b / p.W.p (if p.b < 0), with objective
+    -1/2 (p.b)^2 / p.W.p; the winner maximizes g = (p.b)^2 / (2 p.W.p) over the roots of
+    det[W p, b, q] = 0.
+    """
     A, B1, B2, C11, C12, C22, b0, b1, b2 = R
-    coeffs, cands = _candidates(*_det_wq(_wp(R, mu), b0, b1, b2, mu))  # det[W p, b, q] = 0
-    # along the ray pi = r p the optimum is r = -p.b / p.W.p (if p.b < 0), objective
-    # -1/2 (p.b)^2 / p.W.p: the winner maximizes g = (p.b)^2 / (2 p.W.p)
+    coeffs, cands = _candidates(*_det_wq(_wp(R, mu), b0, b1, b2, mu), robust=robust)
     scored = []
     top = None
     for pt in cands:
@@ -803,8 +884,7 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str,
             if top is None or g > top:
                 top = g
     if top is None:
-        raise SolverError("CCP boundary search found no descent direction; use "
-                          "method='clarabel'")
+        return None
     cut = top - 1e-6 * top
     best = None
     for g0, pt in scored:
@@ -824,13 +904,10 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str,
             best = (g, x, y, pb, pWp)
     _, x, y, pb, pWp = best
     r = -pb / pWp
-    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
     un = b0 + r * (A + mu * (B1 * x + B2 * y))
     slip = math.hypot(b1 + r * (B1 + mu * (C11 * x + C12 * y)),
                       b2 + r * (B2 + mu * (C12 * x + C22 * y)))
-    return _ccp_sol(poisson, (r, mu * r * t1, mu * r * t2), "slide",
-                extras={"normal_velocity_lift": un, "post_slip_speed": slip,
-                        "direction": (t1, t2)})
+    return x, y, r, un, slip
 
 
 # --------------------------------------------------------------------------------------------

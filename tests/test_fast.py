@@ -473,3 +473,26 @@ def test_excluded_directions_and_near_isotropic_regressions():
         assert ccp_residual(W, b, [100.0], 3, pi) < 1e-10
     co = solve_contact(W, v, 1.0, 100.0, "coulomb")
     assert coulomb_conditions(W, newton_b(v, 1.0), [100.0], 3, co.impulse) < 1e-10
+
+
+def test_checks_fall_back_to_companion_roots(monkeypatch):
+    # if the closed-form quartic lost its roots, each law's certificate (KKT sign, Coulomb
+    # conditions, probe directions) sends the solve to numpy's companion-matrix roots
+    import convimpact.fast as fast
+
+    rng = np.random.default_rng(5)
+    cases = []
+    while len(cases) < 10:
+        A = rng.normal(size=(3, 3))
+        W = A @ A.T + 0.1 * np.eye(3)
+        v = rng.normal(size=3)
+        v[0] = -abs(v[0])
+        if solve_contact(W, v, 0.5, 0.8, "coulomb").regime == "slide":
+            cases.append((W, v, {law: solve_contact(W, v, 0.5, 0.8, law) for law in LAWS}))
+    # Ferrari finds nothing and Newton does not move: only th = pi is left as a candidate
+    monkeypatch.setattr(fast, "_quartic_roots", lambda *c: [])
+    monkeypatch.setattr(fast, "_polish", lambda *c: c[-1])
+    for W, v, ref in cases:
+        for law in LAWS:
+            got = solve_contact(W, v, 0.5, 0.8, law)
+            np.testing.assert_allclose(got.impulse, ref[law].impulse, rtol=1e-9, atol=1e-12)
