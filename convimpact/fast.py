@@ -221,10 +221,11 @@ def _quartic_roots(c4: float, c3: float, c2: float, c1: float, c0: float) -> lis
 
 
 def _polish(c4: float, c3: float, c2: float, c1: float, c0: float, t: float) -> float:
-    """Newton's method on the quartic from t (|t| <= 1 expected), safeguarded."""
+    """Newton's method on the quartic from t (|t| <= 1 expected), safeguarded: a step is
+    taken only if it decreases |f|, and steps are clipped to 0.5."""
     f = (((c4 * t + c3) * t + c2) * t + c1) * t + c0
+    df = ((4.0 * c4 * t + 3.0 * c3) * t + 2.0 * c2) * t + c1
     for _ in range(8):
-        df = ((4.0 * c4 * t + 3.0 * c3) * t + 2.0 * c2) * t + c1
         if df == 0.0:
             break
         step = f / df
@@ -239,6 +240,7 @@ def _polish(c4: float, c3: float, c2: float, c1: float, c0: float, t: float) -> 
         t, f = tn, fn
         if abs(step) < 1e-12:
             break
+        df = ((4.0 * c4 * t + 3.0 * c3) * t + 2.0 * c2) * t + c1
     return t
 
 
