@@ -39,7 +39,9 @@ def _strict_load(path: Path) -> dict:
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    code = cli.main(["bench", "--quick", "--out", str(out)])
+    # the sections of this file; later sections (simulation, atlas) test themselves
+    code = cli.main(["bench", "--quick", "--out", str(out), "--sections", "per-impact",
+                     "landscape"])
     assert code == 0
     return out, _strict_load(out / "bench.json")
 

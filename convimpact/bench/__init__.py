@@ -9,7 +9,9 @@ Sections (registered in run order, see :mod:`convimpact.bench.registry`):
   landscapes.
 
 Every run records the machine (:mod:`~convimpact.bench.machine`) and writes ``bench.json``,
-``summary.txt`` and PNG charts. Further sections plug in with :func:`register_section`.
+``summary.txt`` and PNG charts. Further sections plug in with :func:`register_section`: a
+module of this package whose name ends in ``_section`` is imported with the package (after
+the two above, in name order), so adding ``convimpact/bench/<name>_section.py`` is enough.
 
 >>> from convimpact.bench import section_names
 >>> section_names()[:2]
@@ -28,7 +30,20 @@ from .registry import (
 )
 from . import per_impact as _per_impact  # noqa: E402,F401  (registers "per-impact")
 from . import throughput as _throughput  # noqa: E402,F401  (registers "landscape")
-from . import cli as _cli  # noqa: E402,F401  (registers the subcommand)
+
+
+def _load_section_modules() -> None:
+    """Import every ``*_section`` module of this package (each registers its section)."""
+    import importlib
+    import pkgutil
+
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
+        if info.name.endswith("_section"):
+            importlib.import_module(f"{__name__}.{info.name}")
+
+
+_load_section_modules()
+from . import cli as _cli  # noqa: E402,F401  (registers the subcommand, after the sections)
 
 __all__ = ["BenchConfig", "SectionResult", "register_section", "run_bench", "section_names",
            "stderr_progress"]
