@@ -197,7 +197,8 @@ def headline(rows: list[dict[str, Any]], label: str) -> str:
                 f"({best['setting']})")
         if ed:
             text += (f", event-driven {ed[key]:.2g} in {ed['wall_time']:.3g} s "
-                     f"({ed['setting']}): {best['wall_time'] / ed['wall_time']:.3g}x faster")
+                     f"({ed['setting']}); wall-time ratio {scheme}/event-driven "
+                     f"{best['wall_time'] / ed['wall_time']:.3g}")
         parts.append(text)
     return f"{label}, post-impact velocity error: " + "; ".join(parts)
 
