@@ -371,13 +371,11 @@ def _wp(R: tuple, mu: float) -> tuple:
     return (A, mu * B1, mu * B2, B1, mu * C11, mu * C12, B2, mu * C12, mu * C22)
 
 
-def _dissipation_angle(R: tuple, c: float, mu: float,
-                       robust: bool = False) -> tuple[float, float, float, float, float]:
-    """Direction maximizing T_L (eq. 60) on the cone boundary with D > 0.
+def _dissipation_equation(R: tuple, c: float, mu: float) -> tuple:
+    """Stationarity of T_L on the boundary as a trigonometric quadratic E(th).
 
-    ``R`` is the contact in a rotated basis (:func:`_rotate`). The stationarity condition is
     c det[W p, a, q] + (a.p) det[v, a, q] = det[c W p + (a.p) v, a, q] = 0 with a = W e_n and
-    a.p = A + mu (B1 x + B2 y), the denominator D of eq. (38). Returns (x, y, T_L, pi_n, D).
+    a.p = A + mu (B1 x + B2 y), the denominator D of eq. (38); ``R`` from :func:`_rotate`.
     """
     A, B1, B2, C11, C12, C22, v0, v1, v2 = R
     mB1, mB2 = mu * B1, mu * B2
@@ -385,7 +383,35 @@ def _dissipation_angle(R: tuple, c: float, mu: float,
     U = (cv * A, cv * mB1, cv * mB2,
          c * B1 + v1 * A, cm * C11 + v1 * mB1, cm * C12 + v1 * mB2,
          c * B2 + v2 * A, cm * C12 + v2 * mB1, cm * C22 + v2 * mB2)
-    coeffs, cands = _candidates(*_det_wq(U, A, B1, B2, mu), robust=robust)
+    return _det_wq(U, A, B1, B2, mu)
+
+
+def _newton_root(E: tuple) -> tuple[float, float, bool]:
+    """Root of E(th) by Newton's method from th = 0, on the quartic in tan(th/2).
+
+    Returns (x, y, converged): a fast path whose answer the callers certify (KKT of a convex
+    program), falling back to :func:`_candidates` when it is not certified.
+    """
+    e0, ex, ey, exx, eyy, exy = E
+    c4 = e0 - ex + exx
+    c3 = 2.0 * (ey - exy)
+    c2 = 2.0 * (e0 - exx) + 4.0 * eyy
+    c1 = 2.0 * (ey + exy)
+    c0 = e0 + ex + exx
+    t = _polish(c4, c3, c2, c1, c0, 0.0)
+    t2 = t * t
+    x, y = (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
+    res = e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y
+    scale = abs(e0) + abs(ex) + abs(ey) + abs(exx) + abs(eyy) + abs(exy)
+    return x, y, abs(res) <= 1e-12 * scale
+
+
+def _dissipation_angle(R: tuple, c: float, mu: float, robust: bool = False,
+                       E: tuple | None = None) -> tuple[float, float, float, float, float]:
+    """Direction maximizing T_L (eq. 60) on the cone boundary with D > 0, over every root of
+    :func:`_dissipation_equation`. Returns (x, y, T_L, pi_n, D) in R's basis."""
+    A, B1, B2, C11, C12, C22, v0, v1, v2 = R
+    coeffs, cands = _candidates(*(E or _dissipation_equation(R, c, mu)), robust=robust)
     dmin = 1e-12 * (A + mu * math.hypot(B1, B2))
     scored = []
     top = None
@@ -492,9 +518,12 @@ def max_dissipation_direction(W, v, e: float, mu: float, tol: float = 1e-10) -> 
             if best is None or tl > best:
                 best, bt = tl, s
         return np.array([bt if bt is not None else 1.0])
-    r1, r2 = _unit_or(-vv[1], -vv[2], (1.0, 0.0))
-    x, y = _dissipation_angle(_rotate(w, vv, r1, r2), c, mu)[:2]
-    return np.array((x * r1 - y * r2, x * r2 + y * r1))
+    try:
+        inv = _inverse3(w, "pereira-nikravesh")
+    except SingularSystemError:
+        inv = None
+    t1, t2 = _max_dissipation3(w, vv, c, mu, inv, (1.0, 0.0))[:2]
+    return np.array((t1, t2))
 
 
 # --------------------------------------------------------------------------------------------
@@ -589,22 +618,10 @@ def _max_dissipation_verified(w: list, v: list, c: float, mu: float, p: float, t
     lam = pi.(W pi + v) / c must be sigma (mu, -t) with sigma >= 0 (KKT of P_N). When it is
     interior, or that test fails to round-off, T_L(t) must beat eight probe directions.
     """
+    if not interior and _pn_kkt(w, v, c, mu, p, t1, t2):
+        return True
+    # interior, or no KKT certificate (e.g. mu so small that T_L is flat in t to round-off)
     (A, B1, B2), (_, C11, C12), (_, _, C22) = w
-    if not interior:
-        a1, a2 = mu * p * t1, mu * p * t2
-        g0 = A * p + B1 * a1 + B2 * a2 + v[0]
-        g1 = B1 * p + C11 * a1 + C12 * a2 + v[1]
-        g2 = B2 * p + C12 * a1 + C22 * a2 + v[2]
-        lam = (p * g0 + a1 * g1 + a2 * g2) / c
-        y0, y1, y2 = g0 - lam * A, g1 - lam * B1, g2 - lam * B2  # = sigma (mu, -t), sigma >= 0
-        sigma = -(y1 * t1 + y2 * t2)
-        tol = 1e-6 * (c + abs(v[0]) + abs(v[1]) + abs(v[2])
-                      + max(A, C11, C22) * (p + abs(a1) + abs(a2)) + abs(lam) * A)
-        if sigma >= -tol and abs(y1 * t2 - y2 * t1) <= tol and abs(
-                y0 - mu * sigma) <= tol * (1.0 + mu):
-            return True
-        # no KKT certificate (e.g. mu so small that T_L is flat in t to round-off): fall
-        # through to the probe directions
     for k in range(8):
         x, y = _PROBES[k]
         D = A + mu * (B1 * x + B2 * y)
@@ -618,7 +635,68 @@ def _max_dissipation_verified(w: list, v: list, c: float, mu: float, p: float, t
     return True
 
 
+def _pn_kkt(w: list, v: list, c: float, mu: float, p: float, t1: float, t2: float) -> bool:
+    """KKT of P_N at pi = p (1, mu t): y = W pi + v - lam W e_n = sigma (mu, -t), sigma >= 0,
+    with lam = pi.(W pi + v) / c (so that y is orthogonal to pi)."""
+    (A, B1, B2), (_, C11, C12), (_, _, C22) = w
+    a1, a2 = mu * p * t1, mu * p * t2
+    g0 = A * p + B1 * a1 + B2 * a2 + v[0]
+    g1 = B1 * p + C11 * a1 + C12 * a2 + v[1]
+    g2 = B2 * p + C12 * a1 + C22 * a2 + v[2]
+    lam = (p * g0 + a1 * g1 + a2 * g2) / c
+    y0, y1, y2 = g0 - lam * A, g1 - lam * B1, g2 - lam * B2
+    sigma = -(y1 * t1 + y2 * t2)
+    tol = 1e-6 * (c + abs(v[0]) + abs(v[1]) + abs(v[2])
+                  + max(A, C11, C22) * (p + abs(a1) + abs(a2)) + abs(lam) * A)
+    return sigma >= -tol and abs(y1 * t2 - y2 * t1) <= tol and abs(
+        y0 - mu * sigma) <= tol * (1.0 + mu)
+
+
 _PROBES = tuple((math.cos(k * math.pi / 4), math.sin(k * math.pi / 4)) for k in range(8))
+
+
+def _max_dissipation3(w: list, v: list, c: float, mu: float, inv: tuple | None,
+                      fallback: tuple[float, float]) -> tuple:
+    """The seed's spatial slide: (t1, t2, T_L, pi_n, D, P_N interior?) maximizing eq. (60).
+
+    Reference direction -v_t- (else ``fallback``, else t1). When P_N's optimum lies on the
+    boundary (``inv`` = W^-1 tells), Newton's method from the reference direction is tried
+    first and certified by P_N's KKT conditions (P_N is convex); otherwise, or if that fails,
+    every root of the boundary quartic is compared, the answer is certified (KKT or probe
+    directions), then retried with companion-matrix roots, then SolverError.
+    """
+    r1, r2 = _unit_or(-v[1], -v[2], _unit_or(fallback[0], fallback[1], (1.0, 0.0)))
+    if inv is not None:
+        # P_N's optimum over the plane a.pi = c: pi* = lam e_n - W^-1 v, lam = (c + v_n) / W_nn
+        q0, q1, q2 = _solve3(inv, v[0], v[1], v[2])
+        lam = (c + v[0]) / w[0][0]
+        interior = _in_cone(lam - q0, math.hypot(q1, q2), mu)
+    else:
+        interior = True  # unknown: no KKT shortcut, the probes certify
+    R = _rotate(w, v, r1, r2)
+    E = _dissipation_equation(R, c, mu)
+    if not interior:
+        # fast path: Newton from -v_t; P_N is convex, so its KKT conditions certify the root
+        x, y, converged = _newton_root(E)
+        A, B1, B2, C11, C12, C22, v0, v1, v2 = R
+        D = A + mu * (B1 * x + B2 * y)
+        if converged and D > 1e-12 * (A + mu * math.hypot(B1, B2)):
+            p = c / D
+            t1, t2 = x * r1 - y * r2, x * r2 + y * r1
+            if _pn_kkt(w, v, c, mu, p, t1, t2):
+                pWp = D + mu * (x * (B1 + mu * (C11 * x + C12 * y))
+                                + y * (B2 + mu * (C12 * x + C22 * y)))
+                tl = -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * pWp  # eq. (60)
+                return t1, t2, tl, p, D, interior
+    x, y, tl, p, D = _dissipation_angle(R, c, mu, E=E)
+    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
+    if not _max_dissipation_verified(w, v, c, mu, p, t1, t2, tl, interior):
+        x, y, tl, p, D = _dissipation_angle(R, c, mu, robust=True)  # companion-matrix roots
+        t1, t2 = x * r1 - y * r2, x * r2 + y * r1
+        if not _max_dissipation_verified(w, v, c, mu, p, t1, t2, tl, interior):
+            raise SolverError("the maximal-dissipation direction could not be certified (KKT "
+                              "of P_N or probe directions); use method='sweep' or 'clarabel'")
+    return t1, t2, tl, p, D, interior
 
 
 def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
@@ -641,20 +719,7 @@ def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> Contact
     ptn = math.hypot(p1, p2)
     if _in_cone(pn, ptn, mu):
         return _sol((pn, p1, p2), "stick")
-    r1, r2 = _unit_or(-v[1], -v[2], _unit_or(p1, p2, (1.0, 0.0)))
-    # P_N's optimum over the plane a.pi = c: pi* = lam e_n - W^-1 v, lam = (c + v_n) / W_nn
-    q0, q1, q2 = _solve3(inv, v[0], v[1], v[2])
-    lam = (c + v[0]) / w[0][0]
-    interior = _in_cone(lam - q0, math.hypot(q1, q2), mu)
-    R = _rotate(w, v, r1, r2)
-    x, y, tl, p, D = _dissipation_angle(R, c, mu)
-    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
-    if not _max_dissipation_verified(w, v, c, mu, p, t1, t2, tl, interior):
-        x, y, tl, p, D = _dissipation_angle(R, c, mu, robust=True)  # companion-matrix roots
-        t1, t2 = x * r1 - y * r2, x * r2 + y * r1
-        if not _max_dissipation_verified(w, v, c, mu, p, t1, t2, tl, interior):
-            raise SolverError("the maximal-dissipation direction could not be certified (KKT "
-                              "of P_N or probe directions); use method='sweep' or 'clarabel'")
+    t1, t2, tl, p, D, interior = _max_dissipation3(w, v, c, mu, inv, (p1, p2))
     extras = {"alpha_m": _angle_from_slip(v[1], v[2], t1, t2), "energy_loss_max": tl,
               "normal_impulse": p, "direction": (t1, t2), "pn_optimum_interior": interior}
     warns = ()
@@ -851,8 +916,11 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str,
     r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
     R = _rotate(w, b, r1, r2)  # R[6:] hold b in the rotated basis
     scale = abs(b[0]) + abs(b[1]) + abs(b[2])
-    got = _ccp_boundary(R, mu, False)
-    if got is None or got[3] < -1e-6 * scale:  # KKT: y_n = u_n = mu |u_t| >= 0
+    E = _det_wq(_wp(R, mu), R[6], R[7], R[8], mu)  # det[W p, b, q] = 0
+    got = _ccp_ray(R, mu, *_newton_root(E))  # fast path: Newton from the unconstrained pi_t
+    if got is None or got[3] < -1e-6 * scale:  # KKT: y_n = u_n = mu |u_t| >= 0 certifies
+        got = _ccp_boundary(R, mu, False, E)
+    if got is None or got[3] < -1e-6 * scale:
         got = _ccp_boundary(R, mu, True)  # companion-matrix roots
         if got is None or got[3] < -1e-6 * scale:
             raise SolverError("the CCP boundary solve found no KKT point; use "
@@ -864,7 +932,24 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str,
                             "direction": (t1, t2)})
 
 
-def _ccp_boundary(R: tuple, mu: float, robust: bool) -> tuple | None:
+def _ccp_ray(R: tuple, mu: float, x: float, y: float, converged: bool) -> tuple | None:
+    """(x, y, r, u_n, |u_t|) of the optimal ray pi = r p along t = (x, y), or None."""
+    if not converged:
+        return None
+    A, B1, B2, C11, C12, C22, b0, b1, b2 = R
+    pb = b0 + mu * (b1 * x + b2 * y)
+    pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
+                                                    + C22 * y * y))
+    if not (pb < 0.0 and pWp > 0.0):
+        return None
+    r = -pb / pWp
+    un = b0 + r * (A + mu * (B1 * x + B2 * y))
+    slip = math.hypot(b1 + r * (B1 + mu * (C11 * x + C12 * y)),
+                      b2 + r * (B2 + mu * (C12 * x + C22 * y)))
+    return x, y, r, un, slip
+
+
+def _ccp_boundary(R: tuple, mu: float, robust: bool, E: tuple | None = None) -> tuple | None:
     """Best boundary ray of the CCP program: (x, y, r, u_n, |u_t|) in R's basis, or None.
 
     Along the ray pi = r p the optimum is r = -p.b / p.W.p (if p.b < 0), with objective
@@ -872,7 +957,7 @@ def _ccp_boundary(R: tuple, mu: float, robust: bool) -> tuple | None:
     det[W p, b, q] = 0.
     """
     A, B1, B2, C11, C12, C22, b0, b1, b2 = R
-    coeffs, cands = _candidates(*_det_wq(_wp(R, mu), b0, b1, b2, mu), robust=robust)
+    coeffs, cands = _candidates(*(E or _det_wq(_wp(R, mu), b0, b1, b2, mu)), robust=robust)
     scored = []
     top = None
     for pt in cands:
