@@ -46,7 +46,8 @@ def sticking_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
     SingularSystemError
         when W is singular (contact directions dependent through the mechanism).
     """
-    cond = np.linalg.cond(W)
+    lam = np.linalg.eigvalsh(W)  # W is symmetric positive semi-definite
+    cond = lam[-1] / lam[0] if lam[0] > 0 else np.inf
     if not cond < DELASSUS_COND_MAX:
         raise SingularSystemError(
             f"the Delassus matrix W = Jc M^-1 Jc^T is singular (cond = {cond:.3e}): the "

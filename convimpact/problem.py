@@ -40,6 +40,17 @@ LOOP_RANK_RTOL = 1e-10
 LOOP_VELOCITY_RTOL = 1e-6
 
 
+_dtrtrs = sla.lapack.dtrtrs  # LAPACK triangular solve, without scipy's per-call checks
+
+
+def _tri_solve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
+    """Solve L X = B (trans=0) or L^T X = B (trans=1) for lower-triangular L."""
+    X, info = _dtrtrs(L, B, lower=1, trans=trans)
+    if info != 0:  # pragma: no cover - L comes from a successful Cholesky factorization
+        raise MassMatrixError(f"triangular solve failed (LAPACK info {info})")
+    return X
+
+
 def _finite(name: str, a: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise NonFiniteError(f"{name} contains NaN or infinity; pass finite values")
@@ -246,8 +257,8 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
     mu = check_friction(mu, n_contacts)
 
     Jflat = J.reshape(n_contacts * d, k)
-    X = sla.solve_triangular(L, Jflat.T, lower=True)  # L^-1 Jc^T
-    minv_jt = sla.solve_triangular(L.T, X, lower=False)  # M^-1 Jc^T
+    X = _tri_solve(L, Jflat.T)  # L^-1 Jc^T
+    minv_jt = _tri_solve(L, X, trans=1)  # M^-1 Jc^T
     W = X.T @ X
 
     if C is None:
@@ -281,8 +292,8 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
                 f"dq violates the loop constraints: |C dq| = {resid:.3e} (eq. 7 requires 0); "
                 "project dq onto the null space of C before the impact"
             )
-        Y = sla.solve_triangular(L, C.T, lower=True)  # L^-1 C^T
-        minv_ct = sla.solve_triangular(L.T, Y, lower=False)
+        Y = _tri_solve(L, C.T)  # L^-1 C^T
+        minv_ct = _tri_solve(L, Y, trans=1)
         A = Y.T @ Y
         loop_cho = sla.cho_factor(A, lower=True)
         B = Y.T @ X

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from types import MappingProxyType
 from typing import Any, Mapping, Union
 
@@ -41,6 +42,8 @@ class ImpactDiagnostics:
         Condition number of C M^-1 C^T (closed loops), None for open loops.
     mass_condition : float
         Condition number of M.
+        (The three condition numbers are computed on first access, so an impact solve does
+        not pay for SVDs nobody reads.)
     restitution_residual : float
         Max over contacts of |v_n+ + e v_n-| / |v_n-| where the contact carries an impulse, and
         of the negative part of (v_n+ + e v_n-) where it carries none (separation condition).
@@ -50,7 +53,7 @@ class ImpactDiagnostics:
         Max over contacts of |pi_t + mu pi_n u_t/|u_t|| / |pi| for contacts that slip after
         impact (u_t = v_t+): zero when friction opposes the post-impact slip at full strength.
     loop_residual : float
-        |C theta_dot+| relative to |C| |theta_dot-| (eq. 43).
+        |C theta_dot+| relative to |C|_F |theta_dot-| (eq. 43).
     momentum_residual : float
         |M Delta theta_dot - Jc^T pi - C^T Delta sigma| relative to |Jc^T pi| (eqs. 33, 44).
     warnings : tuple of str
@@ -65,9 +68,6 @@ class ImpactDiagnostics:
     friction_pushes_slip: bool
     slip_reversal: bool
     effective_mass: float | None
-    delassus_condition: float
-    loop_condition: float | None
-    mass_condition: float
     restitution_residual: float
     cone_violation: float
     coulomb_residual: float
@@ -75,6 +75,24 @@ class ImpactDiagnostics:
     momentum_residual: float
     warnings: tuple[str, ...] = ()
     extras: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    # matrices behind the condition numbers (W, M, C M^-1 C^T), kept for lazy evaluation
+    _delassus: Any = field(default=None, repr=False)
+    _mass: Any = field(default=None, repr=False)
+    _loop: Any = field(default=None, repr=False)
+
+    @cached_property
+    def delassus_condition(self) -> float:
+        return float(np.linalg.cond(self._delassus)) if self._delassus is not None else 1.0
+
+    @cached_property
+    def mass_condition(self) -> float:
+        return float(np.linalg.cond(self._mass)) if self._mass is not None else 1.0
+
+    @cached_property
+    def loop_condition(self) -> float | None:
+        if self._loop is None or np.size(self._loop) == 0:
+            return None
+        return float(np.linalg.cond(self._loop))
 
     def held(self, tol: float = DEFAULT_HOLD_TOL) -> dict[str, bool]:
         """Which physical properties held to relative tolerance ``tol``."""
@@ -89,7 +107,10 @@ class ImpactDiagnostics:
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view."""
-        out = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "extras"}
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__
+               if k != "extras" and not k.startswith("_")}
+        for k in ("delassus_condition", "loop_condition", "mass_condition"):
+            out[k] = getattr(self, k)
         out["warnings"] = list(self.warnings)
         out["extras"] = {k: _jsonable(v) for k, v in self.extras.items()}
         out["held"] = self.held()
