@@ -539,7 +539,7 @@ def _singular(law: str, det: float) -> SingularSystemError:
 
 
 def _inverse3(w: list, law: str) -> tuple:
-    """Symmetric inverse of the 3 x 3 W as (i00, i01, i02, i11, i12, i22)."""
+    """Symmetric inverse of the 3 x 3 W as (i00, i01, i02, i11, i12, i22, det W / tr(W)^3)."""
     A, B1, B2 = w[0]
     C11, C12, C22 = w[1][1], w[1][2], w[2][2]
     k00 = C11 * C22 - C12 * C12
@@ -551,18 +551,21 @@ def _inverse3(w: list, law: str) -> tuple:
         raise _singular(law, det)
     f = 1.0 / det
     return (k00 * f, k01 * f, k02 * f, (A * C22 - B2 * B2) * f, (B1 * B2 - A * C12) * f,
-            (A * C11 - B1 * B1) * f)
+            (A * C11 - B1 * B1) * f, det / (tr * tr * tr))
 
 
 def _solve3(inv: tuple, r0: float, r1: float, r2: float) -> tuple[float, float, float]:
-    i00, i01, i02, i11, i12, i22 = inv
+    i00, i01, i02, i11, i12, i22 = inv[:6]
     return (i00 * r0 + i01 * r1 + i02 * r2, i01 * r0 + i11 * r1 + i12 * r2,
             i02 * r0 + i12 * r1 + i22 * r2)
 
 
 def _linsolve3(w: list, inv: tuple, r0: float, r1: float, r2: float) -> tuple[float, float, float]:
-    """W x = r by the adjugate inverse plus one step of iterative refinement."""
+    """W x = r by the adjugate inverse, plus one step of iterative refinement when W is
+    ill-conditioned (det W / tr(W)^3 < 1e-3)."""
     x0, x1, x2 = _solve3(inv, r0, r1, r2)
+    if inv[6] >= 1e-3:
+        return x0, x1, x2
     (A, B1, B2), (_, C11, C12), (_, _, C22) = w
     d0, d1, d2 = _solve3(inv, r0 - (A * x0 + B1 * x1 + B2 * x2),
                          r1 - (B1 * x0 + C11 * x1 + C12 * x2),
@@ -570,13 +573,19 @@ def _linsolve3(w: list, inv: tuple, r0: float, r1: float, r2: float) -> tuple[fl
     return x0 + d0, x1 + d1, x2 + d2
 
 
-def _inverse2(w: list, law: str) -> tuple:
+def _stick2(w: list, r0: float, r1: float, law: str) -> tuple[float, float]:
+    """Solve the 2 x 2 W x = r (adjugate; one refinement step when ill-conditioned)."""
     A, B, C = w[0][0], w[0][1], w[1][1]
     det = A * C - B * B
-    if not det > SINGULAR_RTOL * (A + C) * (A + C):
+    tr2 = (A + C) * (A + C)
+    if not det > SINGULAR_RTOL * tr2:
         raise _singular(law, det)
     f = 1.0 / det
-    return (C * f, -B * f, A * f)
+    x0, x1 = (C * r0 - B * r1) * f, (A * r1 - B * r0) * f
+    if det < 1e-3 * tr2:
+        d0, d1 = r0 - (A * x0 + B * x1), r1 - (B * x0 + C * x1)
+        x0, x1 = x0 + (C * d0 - B * d1) * f, x1 + (A * d1 - B * d0) * f
+    return x0, x1
 
 
 def _in_cone(pn: float, ptn: float, mu: float) -> bool:
@@ -701,11 +710,8 @@ def _max_dissipation3(w: list, v: list, c: float, mu: float, inv: tuple | None,
 
 def _pereira_nikravesh(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     c = -(1.0 + e) * v[0]
-    b0 = -c
     if d == 2:
-        i00, i01, i11 = _inverse2(w, "pereira-nikravesh")
-        pn = -(i00 * b0 + i01 * v[1])  # eq. (42)
-        pt = -(i01 * b0 + i11 * v[1])
+        pn, pt = _stick2(w, c, -v[1], "pereira-nikravesh")  # eq. (42)
         if _in_cone(pn, abs(pt), mu):
             return _sol((pn, pt), "stick")
         s = -math.copysign(1.0, v[1]) if v[1] != 0.0 else (math.copysign(1.0, pt) if pt else 1.0)
@@ -743,9 +749,7 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     dmin = 1e-12 * wscale
     vscale = max(abs(v[0]), abs(v[1]), abs(v[-1]))
     if d == 2:
-        i00, i01, i11 = _inverse2(w, "coulomb")
-        pn = -(i00 * b0 + i01 * v[1])
-        pt = -(i01 * b0 + i11 * v[1])
+        pn, pt = _stick2(w, c, -v[1], "coulomb")
         if _in_cone(pn, abs(pt), mu):
             return _sol((pn, pt), "stick")
         A, B, C = w[0][0], w[0][1], w[1][1]
@@ -777,7 +781,8 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     r1, r2 = _unit_or(p1, p2, _unit_or(-v[1], -v[2], (1.0, 0.0)))
     R = _rotate(w, v, r1, r2)
     A, B1, B2, C11, C12, C22, v0, v1, v2 = R
-    u00, u0x, u0y, u10, u1x, u1y, u20, u2x, u2y = _wp(R, mu)
+    u00, u0x, u0y, u10, u1x, u1y, u20, u2x, u2y = (A, mu * B1, mu * B2, B1, mu * C11, mu * C12,
+                                                   B2, mu * C12, mu * C22)  # W p
     # det[W p, (0, t), b] = sum_i (W p)_i (m x b)_i = 0, m = (0, x, y), b = (b0, v1, v2):
     # m x b = (x v2 - y v1, y b0, -x b0)
     e0 = 0.0
@@ -788,24 +793,6 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     exy = -u0x * v1 + u0y * v2 + u1x * b0 - u2y * b0
     escale = (abs(ex) + abs(ey) + abs(exx) + abs(eyy) + abs(exy)) or 1.0
     coeffs, cands = _candidates(e0, ex, ey, exx, eyy, exy)
-
-    def conditions(x: float, y: float, rtol: float) -> tuple | None:
-        """(T_L, pi_n, D, sigma) if t = (x, y) is a Coulomb slide to relative tolerance rtol."""
-        if abs(e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > rtol * escale:
-            return None
-        D = A + mu * (B1 * x + B2 * y)
-        if not D > dmin:
-            jams.append(D)
-            return None
-        P1 = B1 + mu * (C11 * x + C12 * y)
-        P2 = B2 + mu * (C12 * x + C22 * y)
-        p = c / D  # eq. (38): u_n = 0
-        u1, u2 = v1 + p * P1, v2 + p * P2  # post-impact slip, rotated basis
-        sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
-        if sigma < -rtol * vscale or abs(u1 * y - u2 * x) > rtol * (vscale + abs(p) * wscale):
-            return None
-        pWp = D + mu * (x * P1 + y * P2)
-        return -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * pWp, p, D, sigma
 
     found: list = []
     jams: list = []
@@ -844,6 +831,24 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
             tl = -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * (D + mu * (x * P1 + y * P2))
             found.append((tl, x, y, p, D, sigma))
     if not found:  # nothing passed the screening: companion-matrix roots, checked strictly
+        def conditions(x: float, y: float, rtol: float) -> tuple | None:
+            """(T_L, pi_n, D, sigma) if t = (x, y) is a Coulomb slide to relative tolerance rtol."""
+            if abs(e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > rtol * escale:
+                return None
+            D = A + mu * (B1 * x + B2 * y)
+            if not D > dmin:
+                jams.append(D)
+                return None
+            P1 = B1 + mu * (C11 * x + C12 * y)
+            P2 = B2 + mu * (C12 * x + C22 * y)
+            p = c / D  # eq. (38): u_n = 0
+            u1, u2 = v1 + p * P1, v2 + p * P2  # post-impact slip, rotated basis
+            sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
+            if sigma < -rtol * vscale or abs(u1 * y - u2 * x) > rtol * (vscale + abs(p) * wscale):
+                return None
+            pWp = D + mu * (x * P1 + y * P2)
+            return -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * pWp, p, D, sigma
+
         coeffs, cands = _candidates(e0, ex, ey, exx, eyy, exy, robust=True)
         for pt in cands:
             x, y = _refine(coeffs, pt)
@@ -886,9 +891,7 @@ def _ccp(w: list, v: list, d: int, e: float, mu: float, law: str,
         bt = abs(b[1])
         if b[0] >= mu * bt:  # b in the dual cone K*: pi = 0 is optimal
             return _ccp_sol(poisson, (0.0, 0.0), "separating")
-        i00, i01, i11 = _inverse2(w, law)
-        pn = -(i00 * b[0] + i01 * b[1])
-        pt = -(i01 * b[0] + i11 * b[1])
+        pn, pt = _stick2(w, -b[0], -b[1], law)
         if _in_cone(pn, abs(pt), mu):
             return _ccp_sol(poisson, (pn, pt), "stick", extras={"normal_velocity_lift": 0.0})
         best = None
