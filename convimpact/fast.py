@@ -21,8 +21,16 @@ with ``p = (1, mu t)``, ``c = -(1 + e) v_n`` and ``b = v + e v_n e_n``. The quar
 in closed form (Ferrari); the roots are compared on the law's objective and conditions, and
 the winner is polished by Newton's method on the quartic in tan(th/2) or, for |tau| > 1, on
 the reversed quartic in cot(th/2) (no loss at ``tau -> infinity``; the angle opposite to the
-reference direction is tried whenever the leading coefficient nearly vanishes). The root that
+reference direction is tried whenever the leading coefficient nearly vanishes; the quartic is
+measured from a reference angle where neither end coefficient vanishes). The root that
 satisfies all of the law's conditions (and is best for its objective) is kept.
+
+For the two convex programs (P_N behind the seed's spatial law, and CCP) Newton's method from
+the reference direction is tried first and accepted only when the program's KKT conditions
+certify it (convexity makes that certificate global); otherwise the quartic's roots are
+enumerated. Every boundary answer is certified (P_N's KKT sign or probe directions, CCP's KKT
+sign, Coulomb's conditions); a failed certificate retries with numpy's companion-matrix roots
+and then raises SolverError, never returning a wrong root silently.
 
 The interior branches solve W x = r by the adjugate with one step of iterative refinement.
 Every kernel works on plain Python floats (numpy's per-call overhead would dominate): a spatial
