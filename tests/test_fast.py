@@ -161,7 +161,9 @@ def test_spatial_stick_equals_closed_form_and_slide_maximizes_eq60(seed, loops, 
                      + energy_loss_eq60(W, v, e, mu, tangent(a_ref - h))[0] - 2 * tl_ref)) / h**2
     if curv > 1e-3 * scale:
         assert np.linalg.norm(t - t_ref) < 1e-5
-    np.testing.assert_allclose(max_dissipation_direction(W, v, e, mu), t, atol=1e-12)
+    t_pub = max_dissipation_direction(W, v, e, mu)  # the public entry, against brute force
+    assert float(energy_loss_eq60(W, v, e, mu, t_pub)[0]) == pytest.approx(
+        tl_ref, rel=1e-9, abs=1e-12 * scale)
 
 
 def test_max_dissipation_direction_planar_picks_the_better_tangent():
