@@ -800,75 +800,76 @@ def _coulomb(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
     eyy = -u0y * v1 + u1y * b0
     exy = -u0x * v1 + u0y * v2 + u1x * b0 - u2y * b0
     escale = (abs(ex) + abs(ey) + abs(exx) + abs(eyy) + abs(exy)) or 1.0
-    coeffs, cands = _candidates(e0, ex, ey, exx, eyy, exy)
-
     found: list = []
     jams: list = []
-    for pt in cands:  # cheap screening of the unpolished roots, then polish and check
-        x, y = pt[0], pt[1]
+
+    def conditions(x: float, y: float, rtol: float) -> tuple | None:
+        """(T_L, x, y, pi_n, D, sigma) if t = (x, y) is a Coulomb slide to tolerance rtol."""
+        if abs(e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > rtol * escale:
+            return None
         D = A + mu * (B1 * x + B2 * y)
         if not D > dmin:
             jams.append(D)
-            continue
-        p = c / D
-        sigma = -((v1 + p * (B1 + mu * (C11 * x + C12 * y))) * x
-                  + (v2 + p * (B2 + mu * (C12 * x + C22 * y))) * y)
-        if sigma < -1e-6 * vscale or abs(
-                e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > 1e-6 * escale:
-            continue
-        x, y = _refine(coeffs, pt)
-        # the strict check on the polished root (conditions() inlined: this is the hot path)
-        if abs(e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > (
-                ROOT_RTOL * escale):
-            continue
-        D = A + mu * (B1 * x + B2 * y)
-        if not D > dmin:
-            continue
+            return None
         P1 = B1 + mu * (C11 * x + C12 * y)
         P2 = B2 + mu * (C12 * x + C22 * y)
         p = c / D  # eq. (38): u_n = 0
         u1, u2 = v1 + p * P1, v2 + p * P2  # post-impact slip, rotated basis
         sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
-        if sigma < -ROOT_RTOL * vscale or abs(u1 * y - u2 * x) > ROOT_RTOL * (
-                vscale + abs(p) * wscale):
-            continue
-        for f in found:
-            if abs(x - f[1]) + abs(y - f[2]) < 1e-9:
-                break  # the same root reached twice
-        else:
-            tl = -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * (D + mu * (x * P1 + y * P2))
-            found.append((tl, x, y, p, D, sigma))
-    if not found:  # nothing passed the screening: companion-matrix roots, checked strictly
-        def conditions(x: float, y: float, rtol: float) -> tuple | None:
-            """(T_L, pi_n, D, sigma) if t = (x, y) is a Coulomb slide to relative tolerance rtol."""
-            if abs(e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > rtol * escale:
-                return None
-            D = A + mu * (B1 * x + B2 * y)
-            if not D > dmin:
-                jams.append(D)
-                return None
-            P1 = B1 + mu * (C11 * x + C12 * y)
-            P2 = B2 + mu * (C12 * x + C22 * y)
-            p = c / D  # eq. (38): u_n = 0
-            u1, u2 = v1 + p * P1, v2 + p * P2  # post-impact slip, rotated basis
-            sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
-            if sigma < -rtol * vscale or abs(u1 * y - u2 * x) > rtol * (vscale + abs(p) * wscale):
-                return None
-            pWp = D + mu * (x * P1 + y * P2)
-            return -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * pWp, p, D, sigma
+        if sigma < -rtol * vscale or abs(u1 * y - u2 * x) > rtol * (vscale + abs(p) * wscale):
+            return None
+        pWp = D + mu * (x * P1 + y * P2)
+        return -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * pWp, x, y, p, D, sigma
 
-        coeffs, cands = _candidates(e0, ex, ey, exx, eyy, exy, robust=True)
-        for pt in cands:
-            x, y = _refine(coeffs, pt)
-            got = conditions(x, y, ROOT_RTOL)
-            if got is not None:
-                found.append((got[0], x, y, got[1], got[2], got[3]))
+    def add(got: tuple) -> None:
+        for f in found:
+            if abs(got[1] - f[1]) + abs(got[2] - f[2]) < 1e-9:
+                return  # the same root reached twice
+        found.append(got)
+
+    # fast path: Newton from the stick impulse's tangent (tau = 0), then the other roots from
+    # the deflated cubic, so that every sliding solution is still enumerated
+    c4, c3, c2, c1, c0 = (e0 - ex + exx, 2.0 * (ey - exy), 2.0 * (e0 - exx) + 4.0 * eyy,
+                          2.0 * (ey + exy), e0 + ex + exx)
+    big = max(abs(c4), abs(c3), abs(c2), abs(c1), abs(c0))
+    fast_done = False
+    if abs(c4) >= 1e-2 * big:  # all roots bounded: |tau| <= 101
+        t0 = _polish(c4, c3, c2, c1, c0, 0.0)
+        t2 = t0 * t0
+        got = conditions((1.0 - t2) / (1.0 + t2), 2.0 * t0 / (1.0 + t2), ROOT_RTOL)
+        if got is not None:
+            fast_done = True
+            found.append(got)
+            b2 = c3 + t0 * c4
+            b1 = c2 + t0 * b2
+            b0 = c1 + t0 * b1
+            for t in _cubic_roots(b2 / c4, b1 / c4, b0 / c4):
+                t2 = t * t
+                x, y = (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
+                if conditions(x, y, 1e-6) is None:  # cheap screening of the raw root
+                    continue
+                t = _polish(c4, c3, c2, c1, c0, t)
+                t2 = t * t
+                got = conditions((1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2), ROOT_RTOL)
+                if got is not None:
+                    add(got)
+    if not fast_done:
+        for robust in (False, True):  # Ferrari's roots, then the companion matrix's
+            coeffs, cands = _candidates(e0, ex, ey, exx, eyy, exy, robust=robust)
+            for pt in cands:
+                if not robust and conditions(pt[0], pt[1], 1e-6) is None:
+                    continue  # cheap screening of the raw root
+                got = conditions(*_refine(coeffs, pt), ROOT_RTOL)
+                if got is not None:
+                    add(got)
+            if found:
+                break
     if not found:
         if jams:
             raise _jam(mu, min(jams), "coulomb")
         raise SolverError("no Coulomb sliding solution found for this spatial contact although "
                           "the stick impulse leaves the cone; use method='clarabel'")
-    tl, x, y, p, D, sigma = max(found)
+    tl, x, y, p, D, sigma = max(found)  # the most dissipative if several
     t1, t2 = x * r1 - y * r2, x * r2 + y * r1
     extras = {"n_slide_solutions": len(found), "direction": (t1, t2),
               "alpha": _angle_from_slip(v[1], v[2], t1, t2), "post_slip_speed": sigma}
