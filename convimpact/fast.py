@@ -28,7 +28,9 @@ satisfies all of the law's conditions (and is best for its objective) is kept.
 For the two convex programs (P_N behind the seed's spatial law, and CCP) Newton's method from
 the reference direction is tried first and accepted only when the program's KKT conditions
 certify it (convexity makes that certificate global); otherwise the quartic's roots are
-enumerated. Every boundary answer is certified (P_N's KKT sign or probe directions, CCP's KKT
+enumerated. Coulomb's law is not a convex program and may have several sliding solutions: its
+Newton root (from the stick impulse's tangent) is completed by the roots of the deflated
+cubic, so every solution is still found and counted. Every boundary answer is certified (P_N's KKT sign or probe directions, CCP's KKT
 sign, Coulomb's conditions); a failed certificate retries with numpy's companion-matrix roots
 and then raises SolverError, never returning a wrong root silently.
 
