@@ -67,6 +67,7 @@ from .errors import (
 )
 from .impact import register_solver
 from .problem import ImpactProblem
+from .results import ImpactResult
 
 #: laws treated by :func:`solve_contact`
 FAST_LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative")
@@ -1090,7 +1091,7 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
 
 
 def _fast_solver(law: str):
-    def solver(problem: ImpactProblem, **options) -> Any:
+    def solver(problem: ImpactProblem, **options) -> ImpactResult:
         if options:
             raise UnknownOptionError(
                 f"method 'fast' takes no options, got {', '.join(sorted(options))}")
