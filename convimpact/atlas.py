@@ -155,8 +155,8 @@ class AtlasMap:
             "counts": {p: dict(c) for p, c in self.counts.items()},
             "separating_cells": int(np.sum(self.all_separating)),
             "regions": regions,
-            "values": {k: np.where(np.isfinite(v), v, np.nan).tolist()
-                       for k, v in self.values.items()},
+            "values": {k: [[float(x) if math.isfinite(x) else None for x in row]
+                           for row in np.asarray(v, float)] for k, v in self.values.items()},
             "fixed": dict(self.fixed), "examples": {p: dict(e) for p, e in
                                                     self.examples.items()},
             "wall_time": self.wall_time,
