@@ -6,7 +6,10 @@ Acary & Brogliato's "Numerical methods for nonsmooth dynamical systems", ch. 10)
 of size h from (q_k, v_k) at t_k:
 
 1. intermediate configuration ``q_m = q_k + h (1 - theta) v_k`` at ``t_m = t_k + (1 - theta) h``;
-2. smooth forces once per step, explicitly: ``f = f(t_m, q_m, v_k)``, with ``M = M(q_m)``;
+2. smooth forces at the intermediate instant, explicitly: ``M = M(q_m)``,
+   ``f = f(t_m, q_m, v_m)`` with the predicted velocity
+   ``v_m = v_k + (1 - theta) h M^-1 f(t_m, q_m, v_k)`` (two force evaluations per step for
+   theta < 1, one for theta = 1);
 3. free-flight velocity: ``v_free = v_k + h M^-1 f``, M-orthogonally projected onto
    ``C(q_m) v = 0`` for closed loops (the loop impulse of the step);
 4. active set by gap prediction: a contact takes part when its gap predicted at the end of the
@@ -35,9 +38,11 @@ Known artefacts (measured by the bench section ``simulation`` and the failure at
   first part of the step uses the pre-impact velocity); the maximum is reported as
   ``max_penetration``;
 * the smooth part is explicit in the forces (stable for h below the stiffest smooth time
-  constant, e.g. the slider-crank's speed regulator); theta = 1/2 is second order for
-  positions in free flight under constant forces; theta != 1/2 makes the position update
-  first order, and its energy error does not vanish faster than O(h) per unit time;
+  constant, e.g. the slider-crank's speed regulator). theta = 1/2 is second order in free
+  flight (energy error O(h^2); exact at the grid points under a constant force); any other
+  theta is first order, energy error O(h) (measured on a swinging double pendulum over 2 s:
+  6e-4 for theta = 1/2 against 5e-2 for theta = 1 at h = 5 ms). Unlike the implicit
+  theta-method of Jean's NSCD, theta > 1/2 does not make this explicit variant dissipative;
 * restitution is Newton's at the velocity level on each step: a contact that stays active
   over several steps is treated as plastic after the first (e_eff = 0), which is the
   Moreau–Jean convention, not the event-driven one.
@@ -314,6 +319,12 @@ def simulate_moreau(
         counters["nfev"] += 1
         C = loop_rows(qm)
         cho, A, sfac = _loop_inverse(M, C)
+        if theta_p < 1.0:
+            # forces at t_m with the velocity predicted there (second order for theta = 1/2
+            # with velocity-dependent forces and M(q); one more evaluation per step)
+            v_pred = v + (1.0 - theta_p) * hk * sla.cho_solve(cho, f)
+            f = np.asarray(mech.generalized_forces(tm, qm, v_pred), float)
+            counters["nfev"] += 1
         v_star = v + hk * sla.cho_solve(cho, f)
         if A is not None:
             s = sla.cho_solve(sfac, C @ v_star)
