@@ -38,6 +38,17 @@ from .results import _jsonable
 REGIMES = ("separating", "frictionless", "stick", "slide", "failed")
 
 
+def _fields_as_json(obj) -> dict[str, Any]:
+    """A dataclass's fields as plain JSON, non-finite floats as None."""
+    out = {}
+    for k in obj.__dataclass_fields__:
+        v = getattr(obj, k)
+        if isinstance(v, np.ndarray) and v.dtype.kind == "f":
+            v = np.where(np.isfinite(v), v, None)
+        out[k] = _jsonable(v)
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class Landscape:
     """A law evaluated over a grid: arrays of shape (len(e), len(mu)).
@@ -90,12 +101,7 @@ class Landscape:
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view (NaN becomes None)."""
-        out = {}
-        for k in self.__dataclass_fields__:
-            v = getattr(self, k)
-            if isinstance(v, np.ndarray) and v.dtype.kind == "f":
-                v = np.where(np.isfinite(v), v, None)
-            out[k] = _jsonable(v)
+        out = _fields_as_json(self)
         out["regime_names"] = list(REGIMES)
         out["counts"] = self.counts()
         return out
@@ -417,13 +423,7 @@ class AngleLandscape:
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view (NaN becomes None)."""
-        out = {}
-        for k in self.__dataclass_fields__:
-            v = getattr(self, k)
-            if isinstance(v, np.ndarray) and v.dtype.kind == "f":
-                v = np.where(np.isfinite(v), v, None)
-            out[k] = _jsonable(v)
-        return out
+        return _fields_as_json(self)
 
 
 def angle_landscape(M, Jc, dq, e, mu, alpha, C=None) -> AngleLandscape:
