@@ -10,7 +10,6 @@ Delassus matrix ``W = (u^T M^-1 u) d d^T`` has rank one.
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -20,12 +19,9 @@ from hypothesis import strategies as st
 
 import convimpact as ci
 from convimpact.atlas import (
-    IMPACT_MODES,
     classify_impact,
-    failure_atlas,
     judge_compliant,
     judge_time_stepping,
-    plot_atlas,
     slider_crank_map,
     slider_crank_state,
 )
@@ -268,28 +264,3 @@ def test_compliant_deep_and_stiff_flags_against_hand_penetration():
         assert j["deep"] == (dmax > 1e-3)
     assert judge_compliant(runs[1e9])["step_ratio"] > judge_compliant(runs[1e5])["step_ratio"]
     assert judge_compliant(runs[1e9])["stiff"]
-
-
-def test_quick_atlas_json_and_maps(tmp_path):
-    maps = failure_atlas(quick=True)
-    names = [m.name for m in maps]
-    assert names == ["pendulum_angles", "pendulum_friction", "slider_crank_scene",
-                     "slider_crank_isosceles", "pendulum_drop", "rod_zeno"]
-    for m in maps:
-        d = m.as_dict()
-        json.dumps(d, allow_nan=False)
-        assert set(d["counts"]) == set(m.paths)
-        for p in m.paths:
-            for mode, n in m.counts[p].items():
-                assert (n > 0) == bool(np.any(m.flags[p][mode]))
-    pend = maps[0]
-    assert set(pend.modes) == set(IMPACT_MODES)
-    # the singular lines theta2 = 0, +-pi are the fast paths' singular cells
-    cells = pend.region("coulomb/fast", "singular_delassus")
-    rows = [i for i, y in enumerate(pend.y) if np.any(cells[i])]
-    assert all(min(abs(pend.y[i]), abs(abs(pend.y[i]) - math.pi)) < 1e-12 for i in rows)
-    assert sum(m.counts[p]["unexpected_error"] for m in maps[:4] for p in m.paths) == 0
-    fig = plot_atlas(pend, tmp_path / "a.png")
-    assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    import matplotlib.pyplot as plt
-    plt.close(fig)
