@@ -605,10 +605,12 @@ def failure_atlas(quick: bool = False, progress: Callable[[str], None] | None = 
                               e=(0.5,) if quick else (0.0, 0.5, 1.0), paths=paths,
                               progress=progress),
         slider_crank_map(np.linspace(-np.pi, np.pi, 13 if quick else 73),
-                         np.linspace(0.0, 1.0, 3 if quick else 6), paths=paths,
+                         np.linspace(0.0, 1.0, 3 if quick else 6),
+                         e=(0.83,) if quick else (0.0, 0.5, 0.83, 1.0), paths=paths,
                          progress=progress),
         slider_crank_map(np.linspace(-np.pi, np.pi, 13 if quick else 73),
-                         np.linspace(0.0, 1.0, 3 if quick else 6), geometry="isosceles",
+                         np.linspace(0.0, 1.0, 3 if quick else 6),
+                         e=(0.83,) if quick else (0.0, 0.5, 0.83, 1.0), geometry="isosceles",
                          paths=paths, progress=progress),
     ]
     k = 2 if quick else 6
