@@ -252,7 +252,8 @@ def test_event_driven_zeno_detection_at_the_hand_accumulation_time():
 def test_compliant_deep_and_stiff_flags_against_hand_penetration():
     """Undamped Hertz particle without gravity: delta_max = ((n+1) m v^2 / (2 k))^(1/(n+1));
     at k = 1e5, m = v = 1, n = 1.5 it is (1.25e-5)^0.4 ~ 1.09e-2 m > 1 mm (deep); at
-    k = 1e9 about 2.7e-4 m (not deep). The stiffer contact costs more steps per second of contact."""
+    k = 1e9 about 2.7e-4 m (not deep). The stiffer contact costs more steps per second of
+    contact."""
     pm = PointMass(g=0.0, e=1.0)
     y0 = (np.array([0.0, 0.01]), np.array([0.0, -1.0]))
     runs = {k: simulate_compliant(pm, (0.0, 0.1), y0, stiffness=k, rtol=1e-8, atol=1e-11)
