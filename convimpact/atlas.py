@@ -75,7 +75,7 @@ _PRIORITY = ("unexpected_error", "singular_loop", "singular_delassus",
              "non_positive_effective_mass", "no_convergence", "not_supported", "energy_gain",
              "slip_reversal", "friction_pushes_slip", "missed_impact", "smeared_impact",
              "compliant_deep", "compliant_stiff", "zeno")
-_COLORS = {"ok": "#f2f2f2", "separating": "#d0d0d0", "unexpected_error": "black",
+_COLORS = {"ok": "#f2f2f2", "separating": "#d0d0d0", "not_judged": "white", "unexpected_error": "black",
            "singular_loop": "#6a3d9a", "singular_delassus": "#1f78b4",
            "non_positive_effective_mass": "#e31a1c", "no_convergence": "#ff7f00",
            "not_supported": "#b15928", "energy_gain": "#fb9a99", "slip_reversal": "#33a02c",
@@ -661,7 +661,9 @@ def plot_atlas(atlas_map: AtlasMap, out: str | Path | None = None,
     paths = list(paths or m.paths)
     present = [mode for mode in _PRIORITY if mode in m.modes
                and any(np.any(m.flags[p][mode]) for p in paths)]
-    cats = ["ok", "separating"] + present
+    empty = (np.asarray(m.samples) == 0) if m.samples is not None else None
+    has_empty = empty is not None and bool(np.any(empty))
+    cats = ["ok", "separating"] + present + (["not_judged"] if has_empty else [])
     cmap = ListedColormap([_COLORS[c] for c in cats])
     ncols = min(ncols, len(paths))
     nrows = int(math.ceil(len(paths) / ncols))
@@ -680,6 +682,8 @@ def plot_atlas(atlas_map: AtlasMap, out: str | Path | None = None,
         img[m.all_separating] = 1
         for code, mode in reversed(list(enumerate(present, start=2))):
             img[m.flags[p][mode]] = code
+        if has_empty:  # e.g. a start that penetrates the floor: nothing was run there
+            img[empty] = len(cats) - 1
         ax.pcolormesh(edges(x), edges(y), img, cmap=cmap, vmin=-0.5,
                       vmax=len(cats) - 0.5, shading="flat")
         items = [f"{k.replace('_', ' ')}: {v}" for k, v in m.counts[p].items() if v]
@@ -691,7 +695,8 @@ def plot_atlas(atlas_map: AtlasMap, out: str | Path | None = None,
         ax.set_xlabel(m.x_name, fontsize=8)
     for ax in axes[:, 0]:
         ax.set_ylabel(m.y_name, fontsize=8)
-    handles = [Patch(color=_COLORS[c], label=c.replace("_", " ")) for c in cats]
+    handles = [Patch(facecolor=_COLORS[c], edgecolor="0.6", label=c.replace("_", " "))
+               for c in cats]
     fig.legend(handles=handles, loc="lower center", ncol=min(6, len(handles)), fontsize=8,
                frameon=False)
     fig.suptitle(f"failure atlas: {m.title}\n(cell colour: most severe mode met over "
