@@ -319,9 +319,12 @@ def _pereira_nikravesh_sweep(problem: ImpactProblem, xtol: float = DEFAULT_XTOL,
     """Section 8 algorithm with the seed's search for the spatial sliding direction.
 
     Stick test first (eq. 42/52, closed form); otherwise slide on the cone boundary with
-    pi_n from eq. (38)/(51) along the tangent maximizing T_L: in space by
-    :func:`sweep_direction` (options ``xtol``, ``n_grid``), in the plane by comparing the two
-    tangents alpha = 0 and pi (eq. 55 says alpha = pi; ``extras['agrees_with_eq55']``).
+    pi_n from eq. (38)/(51): in space along the tangent maximizing T_L found by
+    :func:`sweep_direction` (options ``xtol``, ``n_grid``); in the plane along eq. (55),
+    t = -v_t-/|v_t-|, as the law prescribes. The plane's two tangents are both evaluated and
+    ``extras['eq55_is_max_dissipation']`` says whether eq. (55)'s claim of maximal dissipation
+    holds for this impact (it fails in a minority of slides; the opposite tangent's T_L is in
+    ``extras['energy_loss_opposite']``).
     """
     if options:
         raise UnknownOptionError(
@@ -342,25 +345,29 @@ def _pereira_nikravesh_sweep(problem: ImpactProblem, xtol: float = DEFAULT_XTOL,
     c = -(1.0 + e) * float(v[0])
     if problem.planar:
         vt = float(v[1])
-        ref = math.copysign(1.0, vt) if vt != 0.0 else 1.0
-        cands = []
-        for alpha in (0.0, math.pi):
-            s = ref * math.cos(alpha)
-            D = float(W[0, 0] + mu * s * W[0, 1])
-            if D > 1e-12 * float(np.max(np.abs(W))):
-                p = c / D
-                g = np.array([1.0, mu * s])
-                val = -p * float(g @ v) - 0.5 * p * p * float(g @ W @ g)
-                cands.append((val, alpha, p, D, s))
-        if not cands:
-            raise NonPositiveEffectiveMassError(
-                f"sliding denominator c_n^T M^-1 (c_n + mu c_t) <= 0 along both tangents at "
-                f"mu = {mu:g} (Painleve-like jam); use law='coulomb', 'ccp' or 'dissipative'")
-        val, alpha, p, D, s = max(cands)
         eq55 = -math.copysign(1.0, vt) if vt != 0.0 else float(np.sign(stick[1]) or 1.0)
-        extras = {"alpha_m": alpha, "energy_loss_max": val, "normal_impulse": p,
-                  "n_evaluations": 2, "agrees_with_eq55": bool(s == eq55)}
-        return assemble_result(problem, (p * np.array([1.0, mu * s]))[None], ["slide"], law,
+        scale = float(np.max(np.abs(W)))
+
+        def slide(s: float):
+            D = float(W[0, 0] + mu * s * W[0, 1])
+            if not D > 1e-12 * scale:
+                return None
+            p = c / D
+            g = np.array([1.0, mu * s])
+            return -p * float(g @ v) - 0.5 * p * p * float(g @ W @ g), p, D
+
+        chosen, other = slide(eq55), slide(-eq55)
+        if chosen is None:
+            raise NonPositiveEffectiveMassError(
+                f"sliding denominator c_n^T M^-1 (c_n + mu c_t) <= 0 at mu = {mu:g} along "
+                "eq. (55)'s tangent (Painleve-like jam); use law='coulomb', 'ccp' or "
+                "'dissipative'")
+        val, p, D = chosen
+        extras = {"alpha_m": math.pi, "energy_loss_max": val, "normal_impulse": p,
+                  "n_evaluations": 2,
+                  "energy_loss_opposite": None if other is None else other[0],
+                  "eq55_is_max_dissipation": other is None or val >= other[0]}
+        return assemble_result(problem, (p * np.array([1.0, mu * eq55]))[None], ["slide"], law,
                                "sweep", effective_mass=D, tol=1e-12, extras=extras)
     sw = sweep_direction(W, v, e, mu, xtol=xtol, n_grid=n_grid)
     p = sw.normal_impulse
