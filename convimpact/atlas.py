@@ -21,7 +21,10 @@ Problems whose contact does not approach are counted as ``separating`` (not a fa
 
 Simulation (:data:`SIMULATION_MODES`), against an event-driven run of the same start:
 
-* ``missed_impact`` -- an event-driven impact with no Moreau–Jean impact step within 2 h;
+* ``missed_impact`` -- an event-driven impact with no Moreau–Jean impact step within 2 h
+  (missed outright, e.g. the late impacts of an accumulation, which Moreau–Jean settles
+  plastically, or displaced by more than 2 h as the trajectories drift apart after earlier
+  impacts);
 * ``smeared_impact`` -- one event-driven impact answered by several Moreau–Jean impact steps,
   or by one whose post-impact velocity is off by more than ``smear_tol`` (relative);
 * ``compliant_stiff`` -- the compliant run's steps per second of contact exceed
