@@ -40,18 +40,17 @@ import numpy as np
 from scipy.integrate import OdeSolver
 
 from ..errors import (
-    LoopConstraintError,
-    NonFiniteError,
     ParameterError,
     ShapeError,
     SimulationError,
     UnknownOptionError,
 )
 from .canonical import CanonicalEquations
-from .events import PenetrationError, locate_crossing
+from .events import locate_crossing
 from .projection import project_positions, project_velocities
 from .result import SimulationResult
-from .simulate import INITIAL_VELOCITY_RTOL, INTEGRATORS, ONE_STEP, _as_mechanism, _vector
+from .initial import consistent_start, integrator_class, positive, time_span
+from .simulate import ONE_STEP, _as_mechanism, _vector
 
 MODELS = ("hunt-crossley", "lankarani-nikravesh")
 
@@ -315,15 +314,7 @@ def simulate_compliant(
     if model not in MODELS:
         raise UnknownOptionError(f"unknown compliant model {model!r}; choose one of "
                                  f"{', '.join(MODELS)}")
-    if isinstance(integrator, str):
-        if integrator not in INTEGRATORS:
-            raise UnknownOptionError(
-                f"unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
-        solver_cls = INTEGRATORS[integrator]
-    elif isinstance(integrator, type) and issubclass(integrator, OdeSolver):
-        solver_cls = integrator
-    else:
-        raise UnknownOptionError("integrator must be a name or a scipy OdeSolver subclass")
+    solver_cls = integrator_class(integrator)
     ks = _per_contact("stiffness", stiffness, contacts, lambda c: float("nan"))
     es = _per_contact("e", e, contacts, lambda c: mech.contact_parameters(c)[0])
     mus = _per_contact("mu", mu, contacts, lambda c: mech.contact_parameters(c)[1])
@@ -335,23 +326,10 @@ def simulate_compliant(
             raise ParameterError(f"e of contact {c!r} must lie in [0, 1], got {es[c]!r}")
         if not (math.isfinite(mus[c]) and mus[c] >= 0):
             raise ParameterError(f"mu of contact {c!r} must be >= 0, got {mus[c]!r}")
-    for name, val in (("exponent", exponent), ("regularization_velocity",
-                                                regularization_velocity),
-                      ("min_impact_velocity", min_impact_velocity), ("rtol", rtol),
-                      ("atol", atol), ("event_tol", event_tol),
-                      ("projection_tol", projection_tol), ("contact_tol", contact_tol)):
-        if not (np.isfinite(val) and val > 0):
-            raise ParameterError(f"{name} must be a positive finite number, got {val!r}")
-    if t_span is None:
-        if scene is None:
-            raise ShapeError("t_span is required when simulating a bare mechanism")
-        t_span = (0.0, float(scene.t_end))
-    ts = np.asarray(t_span, dtype=float).ravel()
-    if ts.shape != (2,) or not np.all(np.isfinite(ts)):
-        raise ShapeError(f"t_span must be two finite numbers (t0, t1), got {t_span!r}")
-    t0, t1 = float(ts[0]), float(ts[1])
-    if not t1 > t0:
-        raise ParameterError(f"t_span must be increasing (t0 < t1), got ({t0:g}, {t1:g})")
+    positive(exponent=exponent, regularization_velocity=regularization_velocity,
+             min_impact_velocity=min_impact_velocity, rtol=rtol, atol=atol, event_tol=event_tol,
+             projection_tol=projection_tol, contact_tol=contact_tol)
+    t0, t1 = time_span(t_span, scene)
 
     forces = _ContactForces(mech, model, ks, float(exponent), es, mus,
                             float(regularization_velocity), float(min_impact_velocity))
@@ -364,29 +342,8 @@ def simulate_compliant(
         raise ShapeError("y0 must be a tuple (theta0, dtheta0)")
     q = _vector("theta0", y0[0], k)
     v = _vector("dtheta0", y0[1], k)
-    if m:
-        err = float(np.max(np.abs(np.asarray(mech.loop_residual(q), float))))
-        if err > projection_tol:
-            if not assemble:
-                raise LoopConstraintError(
-                    f"the initial theta violates the loop constraints: max |Psi| = {err:.3e}; "
-                    "assemble it first or pass assemble=True")
-            q, _, _ = project_positions(eq.residual, eq.jacobian, mech.mass_matrix(q), q,
-                                        projection_tol)
-        C = eq.jacobian(q)
-        scale = float(np.linalg.norm(C)) * max(float(np.linalg.norm(v)), 1e-300)
-        if float(np.linalg.norm(C @ v)) > INITIAL_VELOCITY_RTOL * scale:
-            if not assemble:
-                raise LoopConstraintError(
-                    "the initial theta_dot violates C theta_dot = 0 (eq. 7); give consistent "
-                    "velocities or pass assemble=True")
-            v = project_velocities(np.asarray(mech.mass_matrix(q), float), C, v)
-    for c in contacts:
-        g = float(mech.contact_gap(c, q))
-        if not np.isfinite(g):
-            raise NonFiniteError(f"the gap of contact {c!r} is not finite at the initial state")
-        if g < -contact_tol:
-            raise PenetrationError(f"the initial state penetrates contact {c!r} (gap {g:.3e})")
+    q, v = consistent_start(mech, q, v, assemble=assemble, projection_tol=projection_tol,
+                            contact_tol=contact_tol)
 
     rows: dict[str, list] = {key: [] for key in ("t", "theta", "dtheta", "p", "sigma", "T", "V",
                                                  "psi", "cdq")}

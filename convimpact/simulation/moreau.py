@@ -61,17 +61,16 @@ import scipy.linalg as sla
 from ..errors import (
     ConvImpactError,
     LoopConstraintError,
-    NonFiniteError,
     ParameterError,
     ShapeError,
     SimulationError,
     UnknownOptionError,
 )
 from ..impact import LAWS, METHODS, resolve_impact
-from .events import PenetrationError
 from .projection import project_positions, project_velocities
 from .result import ImpactEvent, SimulationResult
-from .simulate import INITIAL_VELOCITY_RTOL, _as_mechanism, _vector
+from .initial import consistent_start, positive, time_span
+from .simulate import _as_mechanism, _vector
 
 #: steps beyond which a run is refused (h too small for the span)
 MAX_STEPS = 5_000_000
@@ -213,23 +212,10 @@ def simulate_moreau(
         raise ParameterError(f"the step size h must be a positive finite number, got {h!r}")
     if not (0.0 <= theta_p <= 1.0):
         raise ParameterError(f"theta must lie in [0, 1] (1/2: midpoint rule), got {theta!r}")
-    for name, val in (("projection_tol", projection_tol), ("contact_tol", contact_tol)):
-        if not (np.isfinite(val) and val > 0):
-            raise ParameterError(f"{name} must be a positive finite number, got {val!r}")
+    positive(projection_tol=projection_tol, contact_tol=contact_tol)
     if not (np.isfinite(gap_tol) and rest_velocity >= 0):
         raise ParameterError("gap_tol must be finite and rest_velocity >= 0")
-    if t_span is None:
-        if scene is None:
-            raise ShapeError("t_span is required when simulating a bare mechanism")
-        t_span = (0.0, float(scene.t_end))
-    ts = np.asarray(t_span, dtype=float).ravel()
-    if ts.shape != (2,):
-        raise ShapeError(f"t_span must be (t0, t1), got {t_span!r}")
-    if not np.all(np.isfinite(ts)):
-        raise NonFiniteError(f"t_span must be finite, got {ts.tolist()}")
-    t0, t1 = float(ts[0]), float(ts[1])
-    if not t1 > t0:
-        raise ParameterError(f"t_span must be increasing (t0 < t1), got ({t0:g}, {t1:g})")
+    t0, t1 = time_span(t_span, scene)
     n_steps_total = int(math.ceil((t1 - t0) / h - 1e-9))
     if n_steps_total > MAX_STEPS:
         raise ParameterError(f"h = {h:g} needs {n_steps_total} steps over the span (more than "
@@ -250,31 +236,8 @@ def simulate_moreau(
         return (np.asarray(mech.loop_jacobian(th), float).reshape(m, k) if m
                 else np.zeros((0, k)))
 
-    if m:
-        err = float(np.max(np.abs(np.asarray(mech.loop_residual(q), float))))
-        if err > projection_tol:
-            if not assemble:
-                raise LoopConstraintError(
-                    f"the initial theta violates the loop constraints: max |Psi| = {err:.3e}; "
-                    "assemble it first or pass assemble=True")
-            q, _, _ = project_positions(mech.loop_residual, loop_rows, mech.mass_matrix(q), q,
-                                        projection_tol)
-        C = loop_rows(q)
-        scale = float(np.linalg.norm(C)) * max(float(np.linalg.norm(v)), 1e-300)
-        if float(np.linalg.norm(C @ v)) > INITIAL_VELOCITY_RTOL * scale:
-            if not assemble:
-                raise LoopConstraintError(
-                    "the initial theta_dot violates C theta_dot = 0 (eq. 7); give consistent "
-                    "velocities or pass assemble=True")
-            v = project_velocities(np.asarray(mech.mass_matrix(q), float), C, v)
-    for c in contacts:
-        g = float(mech.contact_gap(c, q))
-        if not np.isfinite(g):
-            raise NonFiniteError(f"the gap of contact {c!r} is not finite at the initial state")
-        if g < -contact_tol:
-            raise PenetrationError(
-                f"the initial state penetrates contact {c!r} (gap {g:.3e}); start with the "
-                "contact open or touching")
+    q, v = consistent_start(mech, q, v, assemble=assemble, projection_tol=projection_tol,
+                            contact_tol=contact_tol)
     params = {c: mech.contact_parameters(c) for c in contacts}
 
     # ---- run ---------------------------------------------------------------------------------

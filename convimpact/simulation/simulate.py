@@ -24,11 +24,10 @@ import time as _time
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
+from scipy.integrate import DOP853, RK23, RK45, OdeSolver, Radau
 
 from ..errors import (
     ConvImpactError,
-    LoopConstraintError,
     NonFiniteError,
     ParameterError,
     ShapeError,
@@ -38,19 +37,16 @@ from ..errors import (
 from ..impact import LAWS, METHODS, resolve_impact
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
-from .events import PenetrationError, locate_crossing, reclosing
+from .events import locate_crossing, reclosing
+from .initial import INTEGRATORS  # noqa: F401  (re-exported)
+from .initial import consistent_start, integrator_class, positive, time_span
 from .projection import project_positions, project_velocities
 from .result import ContactEvent, ImpactEvent, PiecewiseSolution, SimulationResult
 from .zeno import AccumulationDetector
 
-INTEGRATORS: dict[str, type[OdeSolver]] = {
-    "RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
-}
 ZENO_POLICIES = ("persist", "stop")
 #: integrators whose state (y, f) can be replaced after a step without a restart
 ONE_STEP = (RK23, RK45, DOP853, Radau)
-#: relative tolerance on C theta_dot0 = 0 accepted without assembling
-INITIAL_VELOCITY_RTOL = 1e-8
 #: events at one instant beyond which the run is declared chattering (never loops forever)
 MAX_EVENTS_AT_ONE_INSTANT = 50
 
@@ -209,36 +205,15 @@ def simulate(
         raise UnknownOptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if zeno not in ZENO_POLICIES:
         raise UnknownOptionError(f"unknown zeno policy {zeno!r}; choose 'persist' or 'stop'")
-    if isinstance(integrator, str):
-        if integrator not in INTEGRATORS:
-            raise UnknownOptionError(
-                f"unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
-        solver_cls = INTEGRATORS[integrator]
-    elif isinstance(integrator, type) and issubclass(integrator, OdeSolver):
-        solver_cls = integrator
-    else:
-        raise UnknownOptionError("integrator must be a name or a scipy OdeSolver subclass")
-    for name, val in (("rtol", rtol), ("atol", atol), ("event_tol", event_tol),
-                      ("contact_tol", contact_tol), ("projection_tol", projection_tol)):
-        if not (np.isfinite(val) and val > 0):
-            raise ParameterError(f"{name} must be a positive finite number, got {val!r}")
+    solver_cls = integrator_class(integrator)
+    positive(rtol=rtol, atol=atol, event_tol=event_tol, contact_tol=contact_tol,
+             projection_tol=projection_tol)
     if not rest_velocity >= 0:
         raise ParameterError(f"rest_velocity must be >= 0, got {rest_velocity!r}")
     if int(max_impacts) < 0:
         raise ParameterError(f"max_impacts must be >= 0, got {max_impacts!r}")
 
-    if t_span is None:
-        if scene is None:
-            raise ShapeError("t_span is required when simulating a bare mechanism")
-        t_span = (0.0, float(scene.t_end))
-    ts = np.asarray(t_span, dtype=float).ravel()
-    if ts.shape != (2,):
-        raise ShapeError(f"t_span must be (t0, t1), got {t_span!r}")
-    if not np.all(np.isfinite(ts)):
-        raise NonFiniteError(f"t_span must be finite, got {ts.tolist()}")
-    t0, t1 = float(ts[0]), float(ts[1])
-    if not t1 > t0:
-        raise ParameterError(f"t_span must be increasing (t0 < t1), got ({t0:g}, {t1:g})")
+    t0, t1 = time_span(t_span, scene)
     if t_eval is not None:
         t_eval = np.asarray(t_eval, dtype=float).ravel()
         if t_eval.size and (np.any(np.diff(t_eval) < 0) or t_eval[0] < t0 or t_eval[-1] > t1):
@@ -274,36 +249,10 @@ def simulate(
         theta, p = yv[:k], yv[k:]
         dtheta = None
 
-    if m:
-        psi = np.asarray(mech.loop_residual(theta), float)
-        err = float(np.max(np.abs(psi)))
-        if err > projection_tol:
-            if not assemble:
-                raise LoopConstraintError(
-                    f"the initial theta violates the loop constraints: max |Psi| = {err:.3e} "
-                    f"(> {projection_tol:.1e}); assemble it first or pass assemble=True")
-            theta, _, _ = project_positions(eqs0.residual, eqs0.jacobian,
-                                            mech.mass_matrix(theta), theta, projection_tol)
-        if dtheta is not None:
-            C = eqs0.jacobian(theta)
-            cdq = float(np.linalg.norm(C @ dtheta))
-            scale = float(np.linalg.norm(C)) * max(float(np.linalg.norm(dtheta)), 1e-300)
-            if cdq > INITIAL_VELOCITY_RTOL * scale:
-                if not assemble:
-                    raise LoopConstraintError(
-                        f"the initial theta_dot violates C theta_dot = 0 (eq. 7): |C theta_dot| "
-                        f"= {cdq:.3e}; give consistent velocities or pass assemble=True")
-                dtheta = project_velocities(mech.mass_matrix(theta), C, dtheta)
+    theta, dtheta = consistent_start(mech, theta, dtheta, assemble=assemble,
+                                     projection_tol=projection_tol, contact_tol=contact_tol)
     if p is None:
         p = eqs0.momentum(theta, dtheta)  # sigma0 = 0
-    for c in contacts:
-        g = float(mech.contact_gap(c, theta))
-        if not np.isfinite(g):
-            raise NonFiniteError(f"the gap of contact {c!r} is not finite at the initial state")
-        if g < -contact_tol:
-            raise PenetrationError(
-                f"the initial state penetrates contact {c!r} (gap {g:.3e} < -contact_tol = "
-                f"{-contact_tol:.1e}); start with the contact open or touching")
 
     # ---- run ---------------------------------------------------------------------------------
     rec = _Recorder()

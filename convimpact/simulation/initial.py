@@ -1,0 +1,104 @@
+"""Checks shared by every simulation scheme: time span, integrator, a consistent start.
+
+The event-driven, Moreau-Jean and compliant schemes all start the same way: a time span that
+increases, a named scipy integrator, and an initial state on Psi = 0 with C theta_dot = 0
+(eqs. 6-7) that does not penetrate any contact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
+
+from ..errors import (
+    LoopConstraintError,
+    NonFiniteError,
+    ParameterError,
+    PenetrationError,
+    ShapeError,
+    UnknownOptionError,
+)
+from .projection import project_positions, project_velocities
+
+INTEGRATORS: dict[str, type[OdeSolver]] = {
+    "RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
+}
+#: relative tolerance on C theta_dot = 0 for the initial velocities
+INITIAL_VELOCITY_RTOL = 1e-8
+
+
+def integrator_class(integrator) -> type[OdeSolver]:
+    """A scipy ``OdeSolver`` class from its name (or the class itself)."""
+    if isinstance(integrator, str):
+        if integrator not in INTEGRATORS:
+            raise UnknownOptionError(
+                f"unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
+        return INTEGRATORS[integrator]
+    if isinstance(integrator, type) and issubclass(integrator, OdeSolver):
+        return integrator
+    raise UnknownOptionError("integrator must be a name or a scipy OdeSolver subclass")
+
+
+def positive(**values: float) -> None:
+    """Raise ParameterError unless every named value is a positive finite number."""
+    for name, val in values.items():
+        if not (np.isfinite(val) and val > 0):
+            raise ParameterError(f"{name} must be a positive finite number, got {val!r}")
+
+
+def time_span(t_span, scene) -> tuple[float, float]:
+    """(t0, t1) from ``t_span``, or (0, scene.t_end) when it is None."""
+    if t_span is None:
+        if scene is None:
+            raise ShapeError("t_span is required when simulating a bare mechanism")
+        t_span = (0.0, float(scene.t_end))
+    ts = np.asarray(t_span, dtype=float).ravel()
+    if ts.shape != (2,):
+        raise ShapeError(f"t_span must be (t0, t1), got {t_span!r}")
+    if not np.all(np.isfinite(ts)):
+        raise NonFiniteError(f"t_span must be finite, got {ts.tolist()}")
+    t0, t1 = float(ts[0]), float(ts[1])
+    if not t1 > t0:
+        raise ParameterError(f"t_span must be increasing (t0 < t1), got ({t0:g}, {t1:g})")
+    return t0, t1
+
+
+def consistent_start(mech, theta: np.ndarray, dtheta: np.ndarray | None, *, assemble: bool,
+                     projection_tol: float, contact_tol: float):
+    """Check (or, with ``assemble``, restore) Psi = 0 and C theta_dot = 0, and no penetration.
+
+    ``dtheta`` may be None (a start given as momenta); then only the positions are checked.
+    Returns ``(theta, dtheta)``.
+    """
+    k, m = int(mech.n_coordinates), int(mech.n_loop_constraints)
+    if m:
+        def loop_rows(th):
+            return np.asarray(mech.loop_jacobian(th), float).reshape(m, k)
+
+        err = float(np.max(np.abs(np.asarray(mech.loop_residual(theta), float))))
+        if err > projection_tol:
+            if not assemble:
+                raise LoopConstraintError(
+                    f"the initial theta violates the loop constraints: max |Psi| = {err:.3e} "
+                    f"(> {projection_tol:.1e}); assemble it first or pass assemble=True")
+            theta, _, _ = project_positions(mech.loop_residual, loop_rows,
+                                            mech.mass_matrix(theta), theta, projection_tol)
+        if dtheta is not None:
+            C = loop_rows(theta)
+            cdq = float(np.linalg.norm(C @ dtheta))
+            scale = float(np.linalg.norm(C)) * max(float(np.linalg.norm(dtheta)), 1e-300)
+            if cdq > INITIAL_VELOCITY_RTOL * scale:
+                if not assemble:
+                    raise LoopConstraintError(
+                        f"the initial theta_dot violates C theta_dot = 0 (eq. 7): |C theta_dot| "
+                        f"= {cdq:.3e}; give consistent velocities or pass assemble=True")
+                dtheta = project_velocities(np.asarray(mech.mass_matrix(theta), float), C, dtheta)
+    for c in mech.contact_names:
+        g = float(mech.contact_gap(c, theta))
+        if not np.isfinite(g):
+            raise NonFiniteError(f"the gap of contact {c!r} is not finite at the initial state")
+        if g < -contact_tol:
+            raise PenetrationError(
+                f"the initial state penetrates contact {c!r} (gap {g:.3e} < -contact_tol = "
+                f"{-contact_tol:.1e}); start with the contact open or touching")
+    return theta, dtheta
