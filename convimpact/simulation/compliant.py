@@ -48,7 +48,7 @@ from ..errors import (
 from .canonical import CanonicalEquations
 from .events import locate_crossing
 from .projection import project_positions, project_velocities
-from .result import SimulationResult
+from .result import SimulationResult, series_from_rows
 from .initial import consistent_start, integrator_class, positive, time_span
 from .simulate import ONE_STEP, _as_mechanism, _vector
 
@@ -489,15 +489,7 @@ def simulate_compliant(
                 "integrator": solver_cls.__name__, "rtol": rtol, "atol": atol,
                 "t_span": [t0, t1]}
     return CompliantResult(
-        t=np.array(rows["t"], float),
-        theta=np.array(rows["theta"], float).reshape(n, k),
-        dtheta=np.array(rows["dtheta"], float).reshape(n, k),
-        p=np.array(rows["p"], float).reshape(n, k),
-        sigma=np.array(rows["sigma"], float).reshape(n, m),
-        kinetic_energy=np.array(rows["T"], float),
-        potential_energy=np.array(rows["V"], float),
-        loop_residual=np.array(rows["psi"], float),
-        loop_velocity_residual=np.array(rows["cdq"], float),
+        **series_from_rows(rows, k, m),
         held=np.zeros(n, dtype=int),
         impacts=(),
         contact_events=(),

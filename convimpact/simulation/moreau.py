@@ -68,7 +68,7 @@ from ..errors import (
 )
 from ..impact import LAWS, METHODS, resolve_impact
 from .projection import project_positions, project_velocities
-from .result import ImpactEvent, SimulationResult
+from .result import ImpactEvent, SimulationResult, series_from_rows
 from .initial import consistent_start, positive, time_span
 from .simulate import _as_mechanism, _vector
 
@@ -368,15 +368,7 @@ def simulate_moreau(
                 "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
                 "projection_tol": projection_tol, "t_span": [t0, t1]}
     return MoreauResult(
-        t=np.array(rows["t"], float),
-        theta=np.array(rows["theta"], float).reshape(n, k),
-        dtheta=np.array(rows["dtheta"], float).reshape(n, k),
-        p=np.array(rows["p"], float).reshape(n, k),
-        sigma=np.array(rows["sigma"], float).reshape(n, m),
-        kinetic_energy=np.array(rows["T"], float),
-        potential_energy=np.array(rows["V"], float),
-        loop_residual=np.array(rows["psi"], float),
-        loop_velocity_residual=np.array(rows["cdq"], float),
+        **series_from_rows(rows, k, m),
         held=np.zeros(n, dtype=int),
         impacts=tuple(impacts),
         contact_events=(),

@@ -245,3 +245,22 @@ class PiecewiseSolution:
         cols = [np.asarray(self._f[i](ti), float).ravel() for i, ti in zip(idx, ts)]
         out = np.column_stack(cols)
         return out[:, 0] if np.ndim(t) == 0 else out
+
+
+def series_from_rows(rows: Mapping[str, list], k: int, m: int) -> dict[str, np.ndarray]:
+    """The sampled series of a :class:`SimulationResult` from a scheme's recorded rows.
+
+    ``rows`` holds lists under "t", "theta", "dtheta", "p", "sigma", "T", "V", "psi", "cdq".
+    """
+    n = len(rows["t"])
+    return {
+        "t": np.array(rows["t"], float),
+        "theta": np.array(rows["theta"], float).reshape(n, k),
+        "dtheta": np.array(rows["dtheta"], float).reshape(n, k),
+        "p": np.array(rows["p"], float).reshape(n, k),
+        "sigma": np.array(rows["sigma"], float).reshape(n, m),
+        "kinetic_energy": np.array(rows["T"], float),
+        "potential_energy": np.array(rows["V"], float),
+        "loop_residual": np.array(rows["psi"], float),
+        "loop_velocity_residual": np.array(rows["cdq"], float),
+    }

@@ -41,7 +41,8 @@ from .events import locate_crossing, reclosing
 from .initial import INTEGRATORS  # noqa: F401  (re-exported)
 from .initial import consistent_start, integrator_class, positive, time_span
 from .projection import project_positions, project_velocities
-from .result import ContactEvent, ImpactEvent, PiecewiseSolution, SimulationResult
+from .result import (ContactEvent, ImpactEvent, PiecewiseSolution, SimulationResult,
+                     series_from_rows)
 from .zeno import AccumulationDetector
 
 ZENO_POLICIES = ("persist", "stop")
@@ -614,7 +615,6 @@ def simulate(
                 r["psi"].append(0.0)
                 r["cdq"].append(0.0)
         held_series = np.array(held_at, dtype=int)
-    n = len(r["t"])
     nfev = sum(e.nfev for e in eqs_cache.values())
     settings = {
         "law": law, "method": method,
@@ -625,15 +625,7 @@ def simulate(
         "max_impacts": int(max_impacts), "t_span": [t0, t1],
     }
     return SimulationResult(
-        t=np.array(r["t"], float),
-        theta=np.array(r["theta"], float).reshape(n, k),
-        dtheta=np.array(r["dtheta"], float).reshape(n, k),
-        p=np.array(r["p"], float).reshape(n, k),
-        sigma=np.array(r["sigma"], float).reshape(n, m),
-        kinetic_energy=np.array(r["T"], float),
-        potential_energy=np.array(r["V"], float),
-        loop_residual=np.array(r["psi"], float),
-        loop_velocity_residual=np.array(r["cdq"], float),
+        **series_from_rows(r, k, m),
         held=held_series,
         impacts=tuple(impacts),
         contact_events=tuple(contact_events),
