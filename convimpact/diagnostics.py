@@ -88,6 +88,7 @@ def assemble_result(
         u_dir = vt_plus[opposing] / nvt_plus[opposing, None]
         miss = pt[opposing] + (mu * pn)[opposing, None] * u_dir
         coulomb = float(np.max(np.sqrt(np.einsum("ij,ij->i", miss, miss)))) / pi_scale
+    penetration = bool(np.any(v_plus[:, 0] < -tol * 10.0 * v_scale))
     target = -e * np.minimum(v_minus[:, 0], 0.0)  # Newton's law (eq. 21) on approaching contacts
     restitution = float(np.max(np.where(pressed, np.abs(v_plus[:, 0] - target),
                                         np.maximum(0.0, target - v_plus[:, 0])))) / v_scale
@@ -107,12 +108,15 @@ def assemble_result(
         notes.append("friction impulse pushes along the pre-impact slip (pi_t . v_t- > 0)")
     if reversal:
         notes.append("slip reversal: post-impact slip is not opposed by the friction impulse")
+    if penetration:
+        notes.append("penetration: a contact still approaches after the impact (v_n+ < 0)")
     diag = ImpactDiagnostics(
         energy_before=T_minus,
         energy_after=T_plus,
         energy_gained=bool(energy_gained),
         friction_pushes_slip=pushes,
         slip_reversal=reversal,
+        penetration=penetration,
         effective_mass=effective_mass,
         restitution_residual=float(restitution),
         cone_violation=float(cone),

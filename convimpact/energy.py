@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .problem import build_problem, check_mass_matrix, check_restitution
-from .errors import ShapeError
+from .errors import NonFiniteError, SingularSystemError, ShapeError
+from .problem import build_problem, check_friction, check_mass_matrix, check_restitution
 
 
 def energy_loss(M, dq_minus, dq_plus) -> float:
@@ -35,6 +35,10 @@ def central_energy_loss(M, c_n, dq, e: float, C=None) -> float:
     c_n = np.asarray(c_n, float)
     e = float(check_restitution(e)[0])
     m_nn, _, _ = oblique_coefficients(M, c_n, np.zeros_like(c_n), C)
+    if not m_nn > 0.0:
+        raise SingularSystemError(
+            f"c_n^T M^-1 c_n = {m_nn:.3e}: the contact normal moves no mass, eq. (59) is "
+            "undefined; check c_n")
     v_n = float(c_n @ np.asarray(dq, float))
     return (1.0 - e * e) * v_n * v_n / (2.0 * m_nn)
 
@@ -46,9 +50,12 @@ def oblique_energy_loss(M, c_n, c_t, dq, normal_impulse: float, mu: float, C=Non
     v_t- = c_t^T dq- measured along the impulse's tangent t.
     """
     dq = np.asarray(dq, float)
+    mu = float(mu)
+    pn = float(normal_impulse)
+    if not (np.isfinite(mu) and np.isfinite(pn)):
+        raise NonFiniteError(f"mu and normal_impulse must be finite, got {mu!r}, {pn!r}")
     m_nn, m_nt, m_tt = oblique_coefficients(M, c_n, c_t, C)
     v_n, v_t = float(np.asarray(c_n, float) @ dq), float(np.asarray(c_t, float) @ dq)
-    pn = float(normal_impulse)
     return -0.5 * pn * pn * (m_nn + 2 * mu * m_nt + mu * mu * m_tt) - pn * (v_n + mu * v_t)
 
 
@@ -94,7 +101,15 @@ def stiction_interval(M, Jc, dq, mu: float | None = None, C=None,
     P = build_problem(M, Jc, dq, C=C)
     if P.n_contacts != 1:
         raise ShapeError("stiction_interval takes one contact Jacobian")
+    if mu is not None:
+        mu = float(check_friction(mu)[0])
     W, v = P.contact_block(0)
+    lam = np.linalg.eigvalsh(W)
+    if not lam[0] > 1e-12 * lam[-1]:
+        raise SingularSystemError(
+            "the Delassus matrix W is singular: the sticking impulse of eq. (42)/(52) is not "
+            "unique, so no interval of e can be given; check that c_n and c_t are independent "
+            "through the mechanism")
     Winv = np.linalg.inv(W)
     base = np.zeros_like(v)
     base[0] = v[0]

@@ -551,18 +551,19 @@ def _singular(law: str, det: float) -> SingularSystemError:
 
 def _inverse3(w: list, law: str) -> tuple:
     """Symmetric inverse of the 3 x 3 W as (i00, i01, i02, i11, i12, i22, det W / tr(W)^3)."""
-    A, B1, B2 = w[0]
-    C11, C12, C22 = w[1][1], w[1][2], w[2][2]
+    tr = w[0][0] + w[1][1] + w[2][2]
+    g = 1.0 / tr  # work on W / tr(W): no under- or overflow of det for any scale of W
+    A, B1, B2 = w[0][0] * g, w[0][1] * g, w[0][2] * g
+    C11, C12, C22 = w[1][1] * g, w[1][2] * g, w[2][2] * g
     k00 = C11 * C22 - C12 * C12
     k01 = B2 * C12 - B1 * C22
     k02 = B1 * C12 - B2 * C11
-    det = A * k00 + B1 * k01 + B2 * k02
-    tr = A + C11 + C22
-    if not det > SINGULAR_RTOL * tr * tr * tr:
-        raise _singular(law, det)
-    f = 1.0 / det
+    det = A * k00 + B1 * k01 + B2 * k02  # det W / tr(W)^3
+    if not det > SINGULAR_RTOL:
+        raise _singular(law, det * tr * tr * tr)
+    f = g / det  # inv(W) = inv(W / tr) / tr
     return (k00 * f, k01 * f, k02 * f, (A * C22 - B2 * B2) * f, (B1 * B2 - A * C12) * f,
-            (A * C11 - B1 * B1) * f, det / (tr * tr * tr))
+            (A * C11 - B1 * B1) * f, det)
 
 
 def _solve3(inv: tuple, r0: float, r1: float, r2: float) -> tuple[float, float, float]:
@@ -587,15 +588,16 @@ def _linsolve3(w: list, inv: tuple, r0: float, r1: float, r2: float) -> tuple[fl
 def _stick2(w: list, r0: float, r1: float, law: str) -> tuple[float, float]:
     """Solve the 2 x 2 W x = r (adjugate; one refinement step when ill-conditioned)."""
     A, B, C = w[0][0], w[0][1], w[1][1]
-    det = A * C - B * B
-    tr2 = (A + C) * (A + C)
-    if not det > SINGULAR_RTOL * tr2:
-        raise _singular(law, det)
-    f = 1.0 / det
-    x0, x1 = (C * r0 - B * r1) * f, (A * r1 - B * r0) * f
-    if det < 1e-3 * tr2:
+    tr = A + C
+    a, b, c = A / tr, B / tr, C / tr  # W / tr(W): scale-free determinant test
+    det = a * c - b * b  # det W / tr(W)^2
+    if not det > SINGULAR_RTOL:
+        raise _singular(law, det * tr * tr)
+    f = 1.0 / (det * tr)  # 1 / det W, as (1 / det(W / tr)) / tr^2 times tr
+    x0, x1 = (c * r0 - b * r1) * f, (a * r1 - b * r0) * f
+    if det < 1e-3:
         d0, d1 = r0 - (A * x0 + B * x1), r1 - (B * x0 + C * x1)
-        x0, x1 = x0 + (C * d0 - B * d1) * f, x1 + (A * d1 - B * d0) * f
+        x0, x1 = x0 + (c * d0 - b * d1) * f, x1 + (a * d1 - b * d0) * f
     return x0, x1
 
 
@@ -615,6 +617,23 @@ def _sol(impulse: Sequence[float], regime: str, effective_mass: float | None = N
          extras: dict | None = None, warnings: tuple[str, ...] = ()) -> ContactSolution:
     return ContactSolution(np.array(impulse), regime, effective_mass,
                            MappingProxyType(extras or {}), warnings)
+
+
+#: extras of a ContactSolution that are impulses or energies (they scale like pi)
+_IMPULSE_EXTRAS = ("plastic_impulse", "normal_impulse", "energy_loss_max")
+
+
+def _rescaled(sol: ContactSolution, g: float) -> ContactSolution:
+    """A solution computed with W / tr(W), brought back to W (``g = 1 / tr``): impulses,
+    impulse-like extras and energies times ``g``, the sliding denominator over ``g``."""
+    extras = dict(sol.extras)
+    for key in _IMPULSE_EXTRAS:
+        if key in extras and extras[key] is not None:
+            extras[key] = (tuple(g * x for x in extras[key]) if isinstance(extras[key], tuple)
+                           else g * extras[key])
+    mass = None if sol.effective_mass is None else sol.effective_mass / g
+    return ContactSolution(sol.impulse * g, sol.regime, mass, MappingProxyType(extras),
+                           sol.warnings)
 
 
 def _angle_from_slip(v1: float, v2: float, t1: float, t2: float) -> float:
@@ -1069,6 +1088,12 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
         raise SingularSystemError(
             f"W_nn = c_n^T M^-1 c_n = {A:.3e}: the contact normal moves no mass in this "
             "configuration; no impulse can act there")
+    tr = sum(w[i][i] for i in range(d))
+    if not 1e-100 < tr < 1e100:
+        # products of W's entries (quartic coefficients, determinants) would under- or
+        # overflow: solve with W / tr(W); every law is homogeneous, pi scales by 1 / tr
+        scaled = solve_contact([[x / tr for x in row] for row in w], vv, e, mu, law)
+        return _rescaled(scaled, 1.0 / tr)
     if mu == 0.0:
         pi = [0.0] * d
         pi[0] = -(1.0 + e) * vv[0] / A  # eq. (38) with mu = 0 (every law agrees)

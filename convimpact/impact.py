@@ -8,6 +8,7 @@ convimpact`` stays light and the closed form never pays for cvxpy.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from typing import Callable
 
@@ -15,7 +16,12 @@ import numpy as np
 
 from .closed_form import pereira_nikravesh
 from .diagnostics import assemble_result
-from .errors import NotSupportedError, UnknownOptionError
+from .errors import (
+    NonPositiveEffectiveMassError,
+    NotSupportedError,
+    SingularSystemError,
+    UnknownOptionError,
+)
 from .problem import ImpactProblem, build_problem
 from .results import ImpactResult
 
@@ -72,21 +78,30 @@ def _check_names(law: str, method: str) -> None:
             f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
 
 
-def choose_method(problem: ImpactProblem, law: str) -> str:
-    """The cheapest registered method that is exact for this problem (``method="auto"``)."""
+#: methods that treat one contact only
+SINGLE_CONTACT_METHODS = ("closed-form", "fast", "sweep")
+
+
+def _candidates(problem: ImpactProblem, law: str) -> list[str]:
+    """Registered methods exact for this problem, cheapest first."""
     _load_solver_modules()
     single = problem.n_contacts == 1
     if law == "pereira-nikravesh" and single and problem.planar:
-        order = ["closed-form"]
+        order = ["closed-form", "fast", "clarabel", "cvxpy"]
     elif single:
         order = ["fast", "closed-form", "clarabel", "cvxpy"]
     else:
         order = ["clarabel", "cvxpy"]
-    for m in order:
-        if (law, m) in _SOLVERS:
-            return m
-    raise NotSupportedError(
-        f"no solver is registered for law {law!r} on {problem.n_contacts} contact(s)")
+    return [m for m in order if (law, m) in _SOLVERS]
+
+
+def choose_method(problem: ImpactProblem, law: str) -> str:
+    """The cheapest registered method that is exact for this problem (``method="auto"``)."""
+    candidates = _candidates(problem, law)
+    if not candidates:
+        raise NotSupportedError(
+            f"no solver is registered for law {law!r} on {problem.n_contacts} contact(s)")
+    return candidates[0]
 
 
 def _separating(problem: ImpactProblem, law: str, method: str) -> ImpactResult:
@@ -99,19 +114,45 @@ def _separating(problem: ImpactProblem, law: str, method: str) -> ImpactResult:
 
 def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
                   method: str = "auto", **options) -> ImpactResult:
-    """Resolve an already validated :class:`~convimpact.problem.ImpactProblem`."""
+    """Resolve an already validated :class:`~convimpact.problem.ImpactProblem`.
+
+    With ``method="auto"`` the cheapest exact method is tried first; where it cannot treat the
+    problem because the Delassus matrix is singular (the closed forms and ``fast`` invert it),
+    the conic paths, which do not, are tried next and the result says so in its warnings.
+    """
     _check_names(law, method)
-    if not np.any(problem.v_minus[:, 0] < 0.0):
-        return _separating(problem, law, method)
     if method == "auto":
-        method = choose_method(problem, law)
-    _load_solver_modules()
-    solver = _SOLVERS.get((law, method))
-    if solver is None:
-        raise NotSupportedError(
-            f"law {law!r} has no method {method!r}; available: "
-            f"{', '.join(available_methods(law)) or 'none'}")
-    return solver(problem, **options)
+        candidates = _candidates(problem, law)
+        if not candidates:
+            raise NotSupportedError(
+                f"no solver is registered for law {law!r} on {problem.n_contacts} contact(s)")
+    else:
+        _load_solver_modules()
+        if (law, method) not in _SOLVERS:
+            raise NotSupportedError(
+                f"law {law!r} has no method {method!r}; available: "
+                f"{', '.join(available_methods(law)) or 'none'}")
+        if problem.n_contacts > 1 and method in SINGLE_CONTACT_METHODS:
+            raise NotSupportedError(
+                f"method {method!r} treats one contact; for several simultaneous contacts use "
+                "method='clarabel' or 'cvxpy'")
+        candidates = [method]
+    if not np.any(problem.v_minus[:, 0] < 0.0):
+        return _separating(problem, law, candidates[0])
+    for i, name in enumerate(candidates):
+        try:
+            result = _SOLVERS[(law, name)](problem, **options)
+        except SingularSystemError as exc:
+            if (isinstance(exc, NonPositiveEffectiveMassError) or i + 1 == len(candidates)
+                    or candidates[i + 1] not in ("clarabel", "cvxpy")):
+                raise
+            fallback = f"method 'auto': {name} cannot treat this impact ({exc}); used " \
+                       f"{candidates[i + 1]} instead"
+            result = _SOLVERS[(law, candidates[i + 1])](problem, **options)
+            return dataclasses.replace(result, diagnostics=dataclasses.replace(
+                result.diagnostics, warnings=(fallback, *result.diagnostics.warnings)))
+        return result
+    raise AssertionError("unreachable")  # pragma: no cover
 
 
 def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikravesh",

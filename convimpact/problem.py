@@ -34,8 +34,9 @@ ArrayLike = Union[np.ndarray, Sequence[float], float]
 
 #: relative tolerance on the asymmetry of M
 SYMMETRY_RTOL = 1e-10
-#: relative singular-value threshold below which C is declared rank deficient
-LOOP_RANK_RTOL = 1e-10
+#: relative singular-value threshold below which C is declared rank deficient (C M^-1 C^T
+#: squares the ratio, so 1e-7 keeps its condition number below about 1e14)
+LOOP_RANK_RTOL = 1e-7
 #: relative tolerance on C theta_dot = 0 for the pre-impact velocity
 LOOP_VELOCITY_RTOL = 1e-6
 
@@ -185,14 +186,6 @@ class ImpactProblem:
         d = self.dim
         return self.delassus[i * d:(i + 1) * d, i * d:(i + 1) * d], self.v_minus[i]
 
-    def loop_impulse(self, impulse: np.ndarray) -> np.ndarray:
-        """Internal loop impulses Delta sigma for a contact impulse (eqs. 45, 50)."""
-        if self.n_loops == 0:
-            return np.zeros(0)
-        rhs = -self._minv_ct.T @ (self.jacobians.reshape(-1, self.n_coordinates).T
-                                  @ np.ravel(impulse))
-        return sla.cho_solve(self._loop_cho, rhs)
-
     def velocity_jump(self, impulse: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint-velocity jump and loop impulses for contact-frame impulses ``impulse``.
 
@@ -231,7 +224,8 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
     M, L = check_mass_matrix(M)
     k = M.shape[0]
 
-    single = not isinstance(Jc, (list, tuple))
+    # a list or tuple of matrices is several contacts; a nested list of numbers is one matrix
+    single = not (isinstance(Jc, (list, tuple)) and (len(Jc) == 0 or np.ndim(Jc[0]) == 2))
     if not single:
         if len(Jc) == 0 or len({np.shape(j) for j in Jc}) != 1:
             raise ShapeError("Jc must be a (d, k) array or a non-empty list of them, all of one shape")
@@ -295,11 +289,23 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
         Y = _tri_solve(L, C.T)  # L^-1 C^T
         minv_ct = _tri_solve(L, Y, trans=1)
         A = Y.T @ Y
-        loop_cho = sla.cho_factor(A, lower=True)
+        try:
+            loop_cho = sla.cho_factor(A, lower=True)
+        except np.linalg.LinAlgError:
+            raise LoopConstraintError(
+                "C M^-1 C^T is numerically singular: the loop constraints are (nearly) "
+                "dependent in this configuration; remove redundant rows of C or move off the "
+                "singular configuration") from None
         B = Y.T @ X
         W = W - B.T @ sla.cho_solve(loop_cho, B)
     W = 0.5 * (W + W.T)
     v_minus = (Jflat @ dq).reshape(n_contacts, d)
+    with np.errstate(over="ignore", invalid="ignore"):
+        T_minus = 0.5 * float(dq @ M @ dq)
+    if not (np.all(np.isfinite(W)) and np.all(np.isfinite(v_minus)) and np.isfinite(T_minus)):
+        raise NonFiniteError(
+            "the impact overflows double precision (Delassus matrix, contact velocities or "
+            "kinetic energy not finite); rescale the units of M, Jc and dq")
     return ImpactProblem(
         mass_matrix=M, cholesky=L, jacobians=J, dq_minus=dq, restitution=e, friction=mu,
         loop_jacobian=C, single=single, delassus=W, v_minus=v_minus, loop_matrix=A,

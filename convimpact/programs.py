@@ -42,7 +42,8 @@ The laws (``law=``):
     Anitescu's relaxation: minimize 1/2 pi^T W pi + pi^T b over K_mu, ``b = v- + e min(v_n-, 0) n``.
     Exact when sticking; when sliding, ``v_n+`` is lifted by ``mu |v_t+|`` above Newton's value,
     reported as ``extras["normal_velocity_lift"]``. Non-approaching contacts take part with
-    complementarity (b = v- there).
+    their normal only (b = v- there, pi_t = 0): they may be pressed by the others, never
+    kicked along their slip.
 ``"dissipative"``
     The plastic maximal-dissipation impact (ccp with e = 0: minimize T+ over K_mu), its impulse
     scaled by (1 + e_i) per contact (Poisson). With one common e the energy loss is exactly
@@ -189,10 +190,23 @@ def solve_cone_qp(backend: Backend, qp: ConeQP, tol: float = DEFAULT_TOL,
         # an answer the solver itself did not certify is used only when the KKT polish
         # certifies it (residual at round-off on a consistent active set)
         raise SolverError(_status_message(sol.status) + f" (method={backend.name!r})")
+    kkt = kkt_residual(scaled, x)
+    if qp.E.size == 0 and not kkt <= max(KKT_ACCEPT, 1e3 * tol):
+        # a status of "optimal" is not enough: on an unbounded program some front ends return
+        # a huge iterate marked converged; without equality rows the KKT residual is exact
+        # (no multiplier fit), so it tells. (P_N, with equalities, is refined and checked by
+        # its own law afterwards.)
+        raise SolverError(
+            f"the {backend.name} solver reported {sol.status!r} but its answer violates the "
+            f"optimality conditions (relative KKT residual {kkt:.2e}): the program is probably "
+            "unbounded (no impulse in the friction cones can satisfy the law, e.g. a rigid "
+            "pinch) or badly scaled; try law='coulomb' or 'dissipative', or method='clarabel'")
     return QPSolution(x * (sq / sW), sol.status, sol.iterations, sol.solve_time, polished,
-                      kkt_residual(scaled, x), sol.converged)
+                      kkt, sol.converged)
 
 
+#: largest relative KKT residual accepted from a conic solve (or 1e3 x its tolerance)
+KKT_ACCEPT = 1e-6
 #: relative thresholds that classify a conic solution's contacts for the polish
 POLISH_ZERO_RTOL = 1e-4
 POLISH_BOUNDARY_RTOL = 1e-4
@@ -584,11 +598,11 @@ def _regimes_from_slip(P: ImpactProblem, pi: np.ndarray, vplus: np.ndarray,
     return out
 
 
-def _cone_qp(P: ImpactProblem, q: np.ndarray, E=None, f=None) -> ConeQP:
+def _cone_qp(P: ImpactProblem, q: np.ndarray, E=None, f=None, mu=None) -> ConeQP:
     N = P.n_contacts * P.dim
     E = np.zeros((0, N)) if E is None else E
     f = np.zeros(0) if f is None else f
-    return ConeQP(P.delassus, q, P.friction, P.dim, E, f)
+    return ConeQP(P.delassus, q, P.friction if mu is None else mu, P.dim, E, f)
 
 
 def coulomb_residual(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int,
@@ -612,8 +626,11 @@ def coulomb_residual(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int,
             r = max(r, max(0.0, -y[i, 0]) / vs, np.linalg.norm(x[i, 1:]) / ps)
             r = max(r, abs(x[i, 0] * y[i, 0]) / (ps * vs))
         else:
-            r = max(r, max(0.0, mu[i] * np.linalg.norm(y[i, 1:]) - y[i, 0]) / vs)
-            r = max(r, abs(float(x[i] @ y[i])) / (ps * vs))
+            # y_n carries mu |u_t|: measure against mu-scaled velocities, so round-off in u_t
+            # is not magnified by a large mu into a false failure
+            vsi = vs * max(1.0, float(mu[i]))
+            r = max(r, max(0.0, mu[i] * np.linalg.norm(y[i, 1:]) - y[i, 0]) / vsi)
+            r = max(r, abs(float(x[i] @ y[i])) / (ps * vsi))
     return float(r)
 
 
@@ -631,7 +648,11 @@ def solve_ccp(P: ImpactProblem, backend: Backend, opts: ProgramOptions,
     s = np.zeros((P.n_contacts, P.dim))
     s[:, 0] = e * np.minimum(P.v_minus[:, 0], 0.0)
     b = P.v_minus.ravel() + s.ravel()
-    sol = solve_cone_qp(backend, _cone_qp(P, b), opts.tol, opts.max_iter)
+    # a contact that is not approaching takes no friction impulse of its own: it enters with
+    # its normal only (pi_t = 0), so it may be pressed by the others but is never kicked
+    # along its slip (the single-contact rule "not approaching: no impulse")
+    mu = np.where(P.v_minus[:, 0] < 0.0, P.friction, 0.0)
+    sol = solve_cone_qp(backend, _cone_qp(P, b, mu=mu), opts.tol, opts.max_iter)
     return sol.x.reshape(P.n_contacts, P.dim), sol
 
 
@@ -677,13 +698,20 @@ def _dissipative_result(P: ImpactProblem, backend: Backend, method: str,
         "kkt_residual": sol.kkt_residual,
     }
     acc = opts.accuracy(sol.polished)
-    warnings = ()
+    warnings = []
     if np.ptp(P.restitution) > 0 and predicted < 0:
-        warnings = ("different e per contact: Poisson scaling of coupled contacts gains "
-                    "energy here (1/2 |pi_p|_W^2 < 1/2 |E pi_p|_W^2)",)
+        warnings.append("different e per contact: Poisson scaling of coupled contacts gains "
+                        "energy here (1/2 |pi_p|_W^2 < 1/2 |E pi_p|_W^2)")
+    if np.ptp(P.restitution) > 0:
+        lam = np.linalg.eigvalsh(W)
+        if not lam[0] > 1e-10 * lam[-1]:
+            warnings.append(
+                "different e per contact on a singular Delassus matrix: the plastic impulse is "
+                "not unique, so the Poisson-scaled answer (theta_dot+) depends on which plastic "
+                "impulse the solver found; use one e for coupled contacts")
     regimes = _regimes_from_slip(P, plastic, vplus_plastic, acc)
     return assemble_result(P, pi, regimes, "dissipative", method, tol=acc,
-                           extras=extras, warnings=warnings)
+                           extras=extras, warnings=tuple(warnings))
 
 
 # --------------------------------------------------------------------------------------------

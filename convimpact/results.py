@@ -33,6 +33,9 @@ class ImpactDiagnostics:
     slip_reversal : bool
         Some sliding contact ends with a slip the friction impulse does not oppose
         (pi_t . v_t+ > 0): the slide assumption of the law reversed itself.
+    penetration : bool
+        Some contact still approaches after the impact (v_n+ < 0): the law drives it into
+        penetration (e.g. Poisson scaling of coupled contacts in the dissipative law).
     effective_mass : float or None
         The sliding denominator c_n^T M^-1 (c_n + mu c_t) of eq. (38)/(51) when a slide branch
         of the closed form was taken (its inverse is an effective mass); None otherwise.
@@ -67,6 +70,7 @@ class ImpactDiagnostics:
     energy_gained: bool
     friction_pushes_slip: bool
     slip_reversal: bool
+    penetration: bool
     effective_mass: float | None
     restitution_residual: float
     cone_violation: float
@@ -101,6 +105,7 @@ class ImpactDiagnostics:
             "friction_cone": self.cone_violation <= tol,
             "friction_opposes_post_slip": self.coulomb_residual <= tol,
             "energy_not_gained": not self.energy_gained,
+            "no_penetration": not self.penetration,
             "loop_closed": self.loop_residual <= tol,
             "momentum_balance": self.momentum_residual <= tol,
         }
