@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from typing import Callable, Sequence
 
@@ -43,6 +44,10 @@ def _demo(args) -> int:
     from . import LAWS, available_methods, resolve_impact
     from .errors import ConvImpactError
 
+    from .problem import check_friction, check_restitution
+
+    check_restitution(args.e)
+    check_friction(args.mu)
     M, Jc, dq = rod_on_floor(args.angle)
     rows = []
     for law in LAWS:
@@ -115,4 +120,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args._run(args) or 0)
     except ConvImpactError as exc:
         print(f"convimpact: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        # the reader went away (e.g. `convimpact paper --json | head`): stop quietly
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:  # pragma: no cover
+            pass
+        return 0
+    except OSError as exc:
+        print(f"convimpact: error: cannot write output: {exc} (choose another --out)",
+              file=sys.stderr)
         return 2

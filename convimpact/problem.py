@@ -299,6 +299,14 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
         B = Y.T @ X
         W = W - B.T @ sla.cho_solve(loop_cho, B)
     W = 0.5 * (W + W.T)
+    # a contact whose tangent directions move no mass (e.g. a central impact of sliders along
+    # their slide line) cannot take a friction impulse: it would do no work and is
+    # undetermined, so the contact is frictionless whatever mu says
+    idx = np.arange(n_contacts) * d
+    tangential = np.array([float(np.max(np.abs(np.diag(W)[i + 1:i + d]))) for i in idx])
+    immobile = tangential <= 1e-14 * max(float(np.max(np.abs(np.diag(W)))), 1e-300)
+    if np.any(immobile & (mu > 0)):
+        mu = np.where(immobile, 0.0, mu)
     v_minus = (Jflat @ dq).reshape(n_contacts, d)
     with np.errstate(over="ignore", invalid="ignore"):
         T_minus = 0.5 * float(dq @ M @ dq)

@@ -8,6 +8,7 @@ Every module of :mod:`convimpact.problems` (the top-level ``problems/`` folder) 
 from __future__ import annotations
 
 import importlib
+import inspect
 import pkgutil
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -15,7 +16,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .errors import UnknownOptionError
+from .errors import ConvImpactError, ParameterError, UnknownOptionError
 from .mechanism import Mechanism
 
 
@@ -66,4 +67,16 @@ def load_scene(name: str, **params) -> Scene:
         raise UnknownOptionError(
             f"unknown scene {name!r}; available: {', '.join(list_scenes()) or 'none'}")
     mod = importlib.import_module(f"convimpact.problems.{name}")
-    return mod.make_scene(**params)
+    sig = inspect.signature(mod.make_scene)
+    accepts_any = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+    unknown = [k for k in params if k not in sig.parameters and not accepts_any]
+    if unknown:
+        raise UnknownOptionError(
+            f"scene {name!r} has no parameter {', '.join(map(repr, unknown))}; its parameters: "
+            f"{', '.join(sig.parameters) or 'none'}")
+    try:
+        return mod.make_scene(**params)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, ConvImpactError):
+            raise
+        raise ParameterError(f"bad parameter for scene {name!r}: {exc}") from None

@@ -58,15 +58,25 @@ def test_every_error_is_a_convimpact_error_and_a_builtin():
 
 
 def test_singular_delassus_in_sticking_branch():
-    # 1-D particles: the tangential row is zero, so W is singular; with friction the sticking
-    # solve of eq. (42) has no unique answer
+    # the tangent row is parallel to the normal (t = 0.5 n through the mechanism): W is
+    # singular, so the sticking solve of eq. (42) has no unique answer
     Mp = np.diag([1.0, 3.0])
-    Jp = np.array([[-1.0, 1.0], [0.0, 0.0]])
+    Jp = np.array([[-1.0, 1.0], [-0.5, 0.5]])
     with pytest.raises(ci.SingularSystemError, match="singular"):
         ci.resolve_impact(Mp, Jp, [2.0, 0.0], e=0.5, mu=0.3)
     # frictionless needs only m_nn: fine
     r = ci.resolve_impact(Mp, Jp, [2.0, 0.0], e=0.5, mu=0.0)
     assert np.all(np.isfinite(r.dq_plus))
+
+
+def test_tangent_that_moves_no_mass_is_frictionless():
+    # 1-D particles: the tangential row is zero, a friction impulse could do no work; the
+    # impact is the central one whatever mu (hand: common velocity 0.5, e = 0.5)
+    Mp = np.diag([1.0, 3.0])
+    Jp = np.array([[-1.0, 1.0], [0.0, 0.0]])
+    r = ci.resolve_impact(Mp, Jp, [2.0, 0.0], e=0.5, mu=0.3)
+    assert r.regime == "frictionless"
+    np.testing.assert_allclose(r.dq_plus, [-0.25, 0.75], rtol=1e-12)
 
 
 def test_normal_that_moves_no_mass():

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from ..cli import command
-from ..errors import ParameterError
-from ..impact import LAWS, METHODS
+from ..errors import NotSupportedError, ParameterError
+from ..impact import LAWS, METHODS, available_methods
 from ..results import _jsonable
 from ..scenes import list_scenes, load_scene
 from .result import SimulationResult
@@ -167,6 +167,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.scene:
         raise ParameterError("name a scene (see `convimpact simulate --list`)")
+    if args.method != "auto" and args.method not in available_methods(args.law):
+        raise NotSupportedError(
+            f"law {args.law!r} has no method {args.method!r}; available: "
+            f"{', '.join(available_methods(args.law))}")
     scene = load_scene(args.scene, **_parse_params(args.param))
     t_end = float(args.t_end) if args.t_end is not None else float(scene.t_end)
     res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,

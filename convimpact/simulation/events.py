@@ -33,6 +33,34 @@ def locate_crossing(fun: Callable[[float], float], ta: float, tb: float, fa: flo
     return float(root)
 
 
+#: interior samples of a step's interpolant checked for a gap dipping below zero and back
+DIP_SAMPLES = 32
+
+
+def first_dip(fun: Callable[[float], float], ta: float, tb: float, fa: float,
+              n: int = DIP_SAMPLES) -> tuple[float, float, float, float] | None:
+    """First sub-interval of (ta, tb) where ``fun`` (> 0 at ``ta``) dips to <= 0 inside the step.
+
+    A sign test at the two ends of a step misses a gap that goes below zero and comes back
+    within the step (long free-flight steps of a high-order integrator, a fast-spinning body).
+    ``fun`` is sampled at ``n - 1`` equally spaced interior points; the first sample <= 0 and
+    the sample before it (> 0) bracket the earliest crossing that the samples resolve.
+
+    Returns ``(a, b, fun(a), fun(b))`` for :func:`locate_crossing`, or None when every interior
+    sample is > 0 (then only the end values decide, as before).
+    """
+    if not fa > 0.0 or n < 2:
+        return None
+    a, fa_ = ta, fa
+    for j in range(1, n):
+        s = ta + (tb - ta) * j / n
+        fs = fun(s)
+        if fs <= 0.0:
+            return a, s, fa_, fs
+        a, fa_ = s, fs
+    return None
+
+
 def reclosing(fun: Callable[[float], float], ta: float, tb: float, g0: float, v0: float,
               gb: float, xtol: float) -> float | None:
     """Closing of a contact that starts the step touching (just impacted or released).

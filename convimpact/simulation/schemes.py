@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-from ..errors import UnknownOptionError
+from ..errors import ParameterError, UnknownOptionError
 from .compliant import simulate_compliant
 from .moreau import simulate_moreau
 from .result import SimulationResult
@@ -72,4 +72,9 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
     if unknown:
         raise UnknownOptionError(f"scheme {scheme!r} takes no option(s) {', '.join(unknown)}; "
                                  f"its options are {', '.join(accepted)}")
+    required = [p.name for p in inspect.signature(fn).parameters.values()
+                if p.kind == p.KEYWORD_ONLY and p.default is p.empty and p.name not in options]
+    if required:
+        raise ParameterError(f"scheme {scheme!r} needs option(s) {', '.join(required)} "
+                             "(e.g. the step h for moreau-jean, the stiffness for compliant)")
     return fn(system, t_span, y0, **options)

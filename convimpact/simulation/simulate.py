@@ -37,7 +37,7 @@ from ..errors import (
 from ..impact import LAWS, METHODS, resolve_impact
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
-from .events import locate_crossing, reclosing
+from .events import first_dip, locate_crossing, reclosing
 from .initial import INTEGRATORS  # noqa: F401  (re-exported)
 from .initial import consistent_start, integrator_class, positive, time_span
 from .projection import project_positions, project_velocities
@@ -508,7 +508,12 @@ def simulate(
                 def gfun(s, c=c):
                     return gap(c, interp(s)[:k])
 
-                if g_prev[c] > 0.0 and gn <= 0.0:
+                dip = (first_dip(gfun, t_old, t_new, g_prev[c])
+                       if g_prev[c] > 0.0 else None)
+                if dip is not None:
+                    # the gap dips below zero inside the step (and may come back)
+                    found.append((locate_crossing(gfun, *dip, event_tol), "impact", c))
+                elif g_prev[c] > 0.0 and gn <= 0.0:
                     found.append((locate_crossing(gfun, t_old, t_new, g_prev[c], gn, event_tol),
                                   "impact", c))
                 elif g_prev[c] <= 0.0 and gn < 0.0:
