@@ -79,6 +79,20 @@ def scene_report(scene, res: SimulationResult, series: bool = True) -> dict[str,
     return _strict(report)
 
 
+def _coordinate_units(mechanism, k: int) -> list[str]:
+    """'rad' for revolute coordinates, 'm' for prismatic ones ('-' when unknown)."""
+    model = getattr(mechanism, "model", None)
+    motion = getattr(model, "coordinate_motion", None)
+    out = []
+    for j in range(k):
+        try:
+            kind = motion(j).kind if callable(motion) else motion[j].kind
+        except Exception:  # noqa: BLE001 - a user mechanism without joint kinds
+            kind = ""
+        out.append({"revolute": "rad", "prismatic": "m"}.get(kind, "-"))
+    return out
+
+
 def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     """Trajectory and energy/drift plots (matplotlib, Agg backend)."""
     import matplotlib
@@ -88,20 +102,30 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
 
     paths = []
     t_imp = [ev.time for ev in res.impacts]
-    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
+    k = res.theta.shape[1]
     names = list(getattr(scene.mechanism, "coordinate_names", None)
-                 or [f"theta{j + 1}" for j in range(res.theta.shape[1])])
-    for j in range(res.theta.shape[1]):
-        axes[0].plot(res.t, res.theta[:, j], label=names[j])
-        axes[1].plot(res.t, res.dtheta[:, j], label=f"d{names[j]}/dt")
-    axes[0].set_ylabel("theta")
-    axes[1].set_ylabel("theta_dot")
-    axes[1].set_xlabel("t [s]")
-    for ax in axes:
-        for ti in t_imp:
-            ax.axvline(ti, color="0.8", lw=0.5, zorder=0)
-        ax.legend(loc="upper right", fontsize="small")
-    axes[0].set_title(f"{scene.name}: trajectory ({len(t_imp)} impacts)")
+                 or [f"theta{j + 1}" for j in range(k)])
+    units = _coordinate_units(scene.mechanism, k)
+    # sample the dense output on a fine grid (steps of a high-order integrator are long)
+    if res.sol is not None:
+        tt = np.linspace(res.t[0], res.t[-1], 2000)
+        th = np.array([res.sol(ti)[:k] for ti in tt])
+    else:
+        tt, th = res.t, res.theta
+    fig, axes = plt.subplots(k, 2, sharex=True, figsize=(10, 1.9 * k + 1.0), squeeze=False)
+    for j in range(k):
+        axes[j, 0].plot(tt, th[:, j], color=f"C{j}")
+        axes[j, 0].set_ylabel(f"{names[j]} [{units[j]}]")
+        axes[j, 1].plot(res.t, res.dtheta[:, j], ".", ms=2, color=f"C{j}")
+        axes[j, 1].set_ylabel(f"d{names[j]}/dt [{units[j]}/s]")
+        for ax in axes[j]:
+            for ti in t_imp:
+                ax.axvline(ti, color="0.8", lw=0.5, zorder=0)
+    axes[-1, 0].set_xlabel("t [s]")
+    axes[-1, 1].set_xlabel("t [s]")
+    axes[0, 0].set_title("joint coordinates")
+    axes[0, 1].set_title("joint velocities (samples; jumps at impacts)")
+    fig.suptitle(f"{scene.name}: trajectory ({len(t_imp)} impacts, grey lines)")
     fig.tight_layout()
     p = out / "trajectory.png"
     fig.savefig(p, dpi=100)
@@ -175,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
     t_end = float(args.t_end) if args.t_end is not None else float(scene.t_end)
     res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
                    integrator=args.integrator, rtol=args.rtol, atol=args.atol,
-                   zeno=args.zeno, max_impacts=args.max_impacts)
+                   zeno=args.zeno, max_impacts=args.max_impacts, dense_output=True)
     report = scene_report(scene, res)
     written: list[Path] = []
     if args.out is not None or not args.json:
