@@ -34,7 +34,7 @@ def locate_crossing(fun: Callable[[float], float], ta: float, tb: float, fa: flo
 
 
 #: interior samples of a step's interpolant checked for a gap dipping below zero and back
-DIP_SAMPLES = 32
+DIP_SAMPLES = 8
 
 
 def first_dip(fun: Callable[[float], float], ta: float, tb: float, fa: float,

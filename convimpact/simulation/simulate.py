@@ -4,7 +4,9 @@ The integration array ``y = [theta, p]`` (eq. 15) is advanced by one of scipy's 
 classes, step by step. After every accepted step
 
 1. the free contacts' gaps are checked for closing (event functions, terminal, direction -1);
-   the earliest closing is located on the step's interpolant by Brent's method to
+   besides the sign at the two ends of the step, each gap is sampled at 7 interior points of
+   the step's interpolant (a long free-flight step can dip below zero and come back); the
+   earliest closing is located on the step's interpolant by Brent's method to
    ``event_tol``. Every other free contact whose gap is within ``contact_tol`` and that
    approaches at that instant closes *together* with it;
 2. persistent (held) contacts are checked for their normal force turning tensile (release);
@@ -169,6 +171,10 @@ def simulate(
     * Impact times are located by Brent's method on the step's interpolant to ``event_tol``
       (absolute, in s); the interpolant's own accuracy is that of the integrator (rtol, atol).
       The located instant is on the closed side (gap <= 0 up to the interpolation error).
+      A gap that goes below zero and back within one step is caught when one of 7 equally
+      spaced interior samples of the step is <= 0 (:func:`~convimpact.simulation.events.
+      first_dip`); a grazing dip shorter than a sample spacing can still be missed -- bound
+      ``max_step`` for fast-spinning bodies.
     * Contacts whose gap is within ``contact_tol`` and that approach at the located instant
       are resolved together (one call of ``resolve_impact`` with a list of Jacobians).
     * Persistent (held) contacts are bilateral and frictionless in the tangent plane: sustained
