@@ -51,3 +51,77 @@ def test_no_dip_keeps_the_step_end_crossing():
     # vertical rod: the lower end (at centre - L/2) touches after falling h + 0.3 - L/2
     L = scene.parameters["length"]
     assert res.impacts[0].time == pytest.approx(np.sqrt(2 * (h + 0.3 - L / 2) / G), abs=1e-10)
+
+
+# ---------------------------------------------------------------------------------------------
+# 2. accumulation (Zeno) needs several consistent interval ratios; default tolerance absolute
+# ---------------------------------------------------------------------------------------------
+def _times_from_intervals(intervals, t0=1.0):
+    return list(t0 + np.concatenate([[0.0], np.cumsum(intervals)]))
+
+
+def test_double_tap_is_not_an_accumulation():
+    from convimpact.simulation.zeno import AccumulationDetector
+    det = AccumulationDetector(time_tol=1.0, rest_velocity=1e-6)  # generous tolerance
+    # a flight of 0.3 s, then two quick taps: ratios 1e-4 and 6e-4 (then 0.5 once)
+    for t in _times_from_intervals([0.3, 0.3, 3e-5, 1.8e-8]):
+        det.record("end_a", t)
+    verdict = det.check("end_a", separation_speed=0.5)
+    assert not verdict.accumulating and verdict.limit_time is None
+
+
+def test_geometric_sequence_needs_three_consistent_ratios():
+    from convimpact.simulation.zeno import AccumulationDetector
+    e = 0.5
+    det = AccumulationDetector(time_tol=1.0, rest_velocity=1e-6)
+    ts = _times_from_intervals([0.4 * e**j for j in range(4)])  # 5 impacts, 3 ratios = e
+    for t in ts[:4]:
+        det.record("floor", t)
+    assert not det.check("floor", 0.1).accumulating  # only two ratios so far
+    det.record("floor", ts[4])
+    verdict = det.check("floor", 0.1)
+    assert verdict.accumulating and verdict.kind == "accumulation"
+    # t_inf = t_1 + sum of all intervals = t_1 + 0.4 / (1 - e)
+    assert verdict.limit_time == pytest.approx(ts[0] + 0.4 / (1 - e), abs=1e-12)
+    # inconsistent ratios (0.5, 0.5, 0.2): not declared
+    det2 = AccumulationDetector(time_tol=1.0, rest_velocity=1e-6)
+    for t in _times_from_intervals([0.4, 0.2, 0.1, 0.02]):
+        det2.record("floor", t)
+    assert not det2.check("floor", 0.1).accumulating
+
+
+def test_rod_accumulations_are_genuinely_geometric_and_span_independent():
+    scene = ci.load_scene("bouncing_rod")
+    runs = [simulate(scene, (0.0, te)) for te in (3.0, 30.0)]
+    for res in runs:
+        for ce in res.contact_events:
+            if ce.kind != "persist" or ce.accumulation_time is None:
+                continue
+            ts = [ev.time for ev in res.impacts if ce.contact in ev.contacts
+                  and ev.time <= ce.time]
+            d = np.diff(ts[-5:])
+            r = d[1:] / d[:-1]
+            assert len(r) == 3 and np.all((r > 0.05) & (r < 0.98))
+            assert (r.max() - r.min()) / r.mean() < 0.2
+    a, b = runs
+    assert len(a.impacts) == len(b.impacts)
+    np.testing.assert_allclose([c.time for c in a.contact_events],
+                               [c.time for c in b.contact_events], atol=1e-9)
+
+
+def test_ball_hold_does_not_depend_on_t_end():
+    scene = ci.load_scene("bouncing_ball")
+    e = scene.parameters["e"]
+    h = scene.parameters["height"] - scene.parameters["radius"]
+    t1, v1 = np.sqrt(2 * h / G), np.sqrt(2 * G * h)
+    t_inf = t1 + 2 * e * v1 / (G * (1 - e))  # closed form of the bounce sequence
+    runs = [simulate(scene, (0.0, te)) for te in (2.0, 1e5)]
+    holds = []
+    for res in runs:
+        (p,) = [c for c in res.contact_events if c.kind == "persist"]
+        holds.append(p.time)
+        assert 0.0 <= t_inf - p.time <= 2e-6  # default tolerance 1e-6 s (absolute)
+        # the last (plastic) impact is at a tiny speed, not a forced stop of a real bounce
+        assert abs(res.impacts[-1].dtheta_minus[1]) < 1e-4
+    assert len(runs[0].impacts) == len(runs[1].impacts)
+    assert holds[0] == pytest.approx(holds[1], abs=1e-6)

@@ -153,8 +153,10 @@ def simulate(
         as a bilateral constraint until its normal force turns tensile ("persist"), or stop
         the run with status 1 and a report ("stop").
     zeno_time_tol : float, optional
-        Remaining time to the extrapolated accumulation point below which a bouncing contact
-        is declared accumulating; default ``1e-6 * (t1 - t0)``.
+        Remaining time (s) to the extrapolated accumulation point below which a bouncing
+        contact is declared accumulating (once its last three interval ratios agree, see
+        :mod:`convimpact.simulation.zeno`); default ``1e6 * event_tol`` (1e-6 s), independent
+        of the span so that the result does not depend on ``t_end``.
     rest_velocity : float
         Separation speed at or below which a contact is at rest (held) after an impact.
     max_impacts : int
@@ -225,7 +227,7 @@ def simulate(
         t_eval = np.asarray(t_eval, dtype=float).ravel()
         if t_eval.size and (np.any(np.diff(t_eval) < 0) or t_eval[0] < t0 or t_eval[-1] > t1):
             raise ParameterError("t_eval must be sorted and lie within t_span")
-    zeno_tol = 1e-6 * (t1 - t0) if zeno_time_tol is None else float(zeno_time_tol)
+    zeno_tol = 1e6 * event_tol if zeno_time_tol is None else float(zeno_time_tol)
     # one-step methods continue from a projected state; multistep ones must restart, so
     # they are projected only beyond a looser threshold
     in_place = issubclass(solver_cls, ONE_STEP)

@@ -8,20 +8,49 @@ many impacts accumulate before the finite time
 
 (for a particle dropped with impact speed v_1 at t_1: t_inf = t_1 + 2 e v_1 / (a (1 - e))).
 
+Why several ratios: a single ratio proves nothing. A rotating body often taps the floor twice
+in quick succession (rebound, the rotation brings the same point back down a fraction of a
+millisecond later): two intervals with ratio 1e-4 then 6e-4, which a two-interval test reads
+as a sequence converging within microseconds, although the body then flies off. For the
+bounce model above the ratio is *exactly* e at every impact (Delta_j = 2 v_j / a and
+v_{j+1} = e v_j), and for a body whose normal acceleration varies slowly over the shrinking
+intervals it tends to e. So a contact is declared accumulating only when its last
+``MIN_RATIOS`` (three) consecutive interval ratios all lie in ``RATIO_BAND`` (0.05, 0.98) and
+agree: (max - min) / mean < ``RATIO_SPREAD`` (0.2). Then t_inf is extrapolated from the last
+ratio and the contact is held when t_inf - t_j <= ``time_tol``. Restitutions below 0.05 are
+not recognised as geometric (their sequence reaches ``rest_velocity`` after a few impacts);
+above 0.98 the sequence is too slow to extrapolate and ``max_impacts`` bounds the run.
+
+The default ``time_tol`` (see :func:`convimpact.simulation.simulate`) is absolute,
+``1e6 * event_tol`` (1e-6 s by default): it does not depend on the length of the time span,
+so the same bounce sequence is held after the same impact whatever ``t_end`` is.
+
 Policy (documented in :func:`convimpact.simulation.simulate`): a contact is declared
-accumulating when, over its last three impacts, the interval ratio r is in (0, 1) and the
-remaining time Delta_j r / (1 - r) is at most ``time_tol`` -- or when its post-impact
-separation speed is at most ``rest_velocity`` (at rest). A contact at rest is always switched
-to *persistent*: the impact is redone with e = 0 and the gap is held closed as a bilateral
-constraint (frictionless in the tangent plane) until its normal force would turn tensile.
-For an accumulation the simulator does the same (``zeno="persist"``, default) or stops with
-a report (``zeno="stop"``). Either way the run cannot stall: the number of impacts is also
-bounded by ``max_impacts``.
+accumulating as above -- or when its post-impact separation speed is at most
+``rest_velocity`` (at rest). A contact at rest is always switched to *persistent*: the impact
+is redone with e = 0 and the gap is held closed as a bilateral constraint until its normal
+force would turn tensile. For an accumulation the simulator does the same
+(``zeno="persist"``, default) or stops with a report (``zeno="stop"``). Either way the run
+cannot stall: the number of impacts is also bounded by ``max_impacts``.
+
+Limitation -- a held contact carries no friction: it is bilateral in the normal direction and
+frictionless in the tangent plane (sustained Coulomb sliding is not modelled). A held contact
+with mu > 0 that slides therefore keeps its tangential speed without dissipation; the
+simulator reports this in ``SimulationResult.warnings`` (duration and max slip speed).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+import numpy as np
+
+#: consecutive interval ratios that must agree before an accumulation is declared
+MIN_RATIOS = 3
+#: open band each of those ratios must lie in (a bounce sequence has ratio e)
+RATIO_BAND = (0.05, 0.98)
+#: max relative spread (max - min) / mean of those ratios
+RATIO_SPREAD = 0.2
 
 
 @dataclass(frozen=True)
@@ -34,8 +63,9 @@ class Accumulation:
     reason : why (empty when not accumulating).
     kind : "rest" (separation speed below ``rest_velocity``: the contact is held whatever the
         policy) or "accumulation" (geometric sequence: held or stop, per the policy).
-    ratio : last interval ratio r (None with fewer than three impacts).
-    limit_time : extrapolated accumulation time t_inf (None without a geometric sequence).
+    ratio : last interval ratio r (None with fewer than MIN_RATIOS + 2 impacts).
+    limit_time : extrapolated accumulation time t_inf (None unless the last MIN_RATIOS ratios
+        are consistent, see the module docstring).
     """
 
     accumulating: bool
@@ -70,18 +100,26 @@ class AccumulationDetector:
         """Judge ``contact`` right after an impact recorded with :meth:`record`."""
         ts = self.times.get(contact, [])
         ratio = limit = None
-        if len(ts) >= 3:
-            d1, d2 = ts[-2] - ts[-3], ts[-1] - ts[-2]
-            if d1 > 0.0 and 0.0 <= d2 < d1:
-                ratio = d2 / d1
-                limit = ts[-1] + d2 * ratio / (1.0 - ratio)
+        consistent = False
+        if len(ts) >= MIN_RATIOS + 2:
+            d = np.diff(np.asarray(ts[-(MIN_RATIOS + 2):], float))
+            if np.all(d[:-1] > 0.0) and d[-1] >= 0.0:
+                rs = d[1:] / d[:-1]
+                ratio = float(rs[-1])
+                lo, hi = RATIO_BAND
+                if np.all((rs > lo) & (rs < hi)):
+                    spread = float((rs.max() - rs.min()) / rs.mean())
+                    consistent = spread < RATIO_SPREAD
+                if consistent:
+                    limit = ts[-1] + d[-1] * ratio / (1.0 - ratio)
         if separation_speed <= self.rest_velocity:
             return Accumulation(True, f"separation speed {separation_speed:.3e} <= rest_velocity "
                                 f"{self.rest_velocity:.1e}", "rest", ratio, limit)
         if limit is not None and limit - ts[-1] <= self.time_tol:
             return Accumulation(
-                True, f"impacts accumulate geometrically (interval ratio {ratio:.4f}); "
-                f"extrapolated accumulation time t_inf = {limit:.9g}, "
-                f"{limit - ts[-1]:.3e} s ahead (<= zeno_time_tol {self.time_tol:.1e})",
+                True, f"impacts accumulate geometrically (last {MIN_RATIOS} interval ratios "
+                f"consistent, last {ratio:.4f}); extrapolated accumulation time "
+                f"t_inf = {limit:.9g}, {limit - ts[-1]:.3e} s ahead "
+                f"(<= zeno_time_tol {self.time_tol:.1e})",
                 "accumulation", ratio, limit)
         return Accumulation(False, "", "", ratio, limit)
