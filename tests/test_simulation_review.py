@@ -125,3 +125,35 @@ def test_ball_hold_does_not_depend_on_t_end():
         assert abs(res.impacts[-1].dtheta_minus[1]) < 1e-4
     assert len(runs[0].impacts) == len(runs[1].impacts)
     assert holds[0] == pytest.approx(holds[1], abs=1e-6)
+
+
+# ---------------------------------------------------------------------------------------------
+# 3. a held contact is frictionless: sliding with mu > 0 is reported
+# ---------------------------------------------------------------------------------------------
+def test_pendulum_held_tip_sliding_is_warned():
+    scene = ci.load_scene("pendulum_planar")
+    mech = scene.mechanism
+    res = simulate(scene)
+    assert len(res.warnings) == 1 and "'tip'" in res.warnings[0]
+    assert "WARNING" in res.message and "frictionless" in res.message
+    # slip speed of the held tip from the stored series: n-th rows of Jc are the tangents
+    held = res.held > 0
+    vt = np.array([np.linalg.norm(np.asarray(mech.contact_jacobian("tip", th))[1:] @ dth)
+                   for th, dth in zip(res.theta[held], res.dtheta[held])])
+    vmax = float(vt.max())
+    assert vmax > 1.0  # it really slides (about 1.76 for the default scene)
+    assert f"max slip speed {vmax:.4g}" in res.warnings[0]
+    # no dissipation while held and sliding: total energy constant over the held stretch
+    # (friction with mu = 0.3 would remove energy)
+    E = res.total_energy[held]
+    assert np.ptp(E) < 1e-6 * max(1.0, abs(E[0]))
+    # the reported duration is the time spent sliding on consecutive held samples
+    dur = float(res.warnings[0].split("for ")[1].split(" s")[0])
+    t_held = res.t[held]
+    assert dur == pytest.approx(t_held[-1] - t_held[0], rel=1e-3)
+
+
+def test_no_slip_warning_without_friction_or_sliding():
+    ball = simulate(ci.load_scene("bouncing_ball", speed=0.2))  # mu = 0: nothing to warn
+    assert ball.warnings == () and "WARNING" not in ball.message
+    assert ball.as_dict(series=False)["warnings"] == []

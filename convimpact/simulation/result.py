@@ -127,6 +127,8 @@ class SimulationResult:
     wall_time : total wall time (s); impact_time : wall time inside ``resolve_impact`` (s).
     max_loop_residual, max_loop_velocity_residual : max drift over the run (after projection).
     settings : the options used (law, method, integrator, tolerances).
+    warnings : modelling caveats met during the run, e.g. a held (persistent) contact with
+        mu > 0 that slid without friction (held contacts are frictionless); empty when none.
     """
 
     t: np.ndarray
@@ -152,6 +154,7 @@ class SimulationResult:
     wall_time: float
     impact_time: float
     settings: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    warnings: tuple[str, ...] = ()
 
     @property
     def success(self) -> bool:
@@ -199,6 +202,7 @@ class SimulationResult:
             "settings": _jsonable(dict(self.settings)),
             "impacts": [e.as_dict() for e in self.impacts],
             "contact_events": [e.as_dict() for e in self.contact_events],
+            "warnings": list(self.warnings),
         }
         if series:
             out["series"] = {
