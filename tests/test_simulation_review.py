@@ -43,6 +43,46 @@ def test_rod_impact_inside_one_step_is_found():
     assert fine.impacts[0].contacts == first.contacts
 
 
+def test_grazing_dip_shorter_than_the_sample_spacing_is_found():
+    """omega = 40 rad/s: end_a grazes the floor ~0.3 ms into a 70 ms step (a dip far shorter
+    than 1/8 of the step); the normal-velocity (Hermite) check finds it."""
+    scene = ci.load_scene("bouncing_rod")
+    L = scene.parameters["length"]
+    y0, omega = 0.505, 40.0
+    res = simulate(scene.mechanism, (0.0, 0.2), ((0.0, y0, 0.0), (0.0, 0.0, omega)))
+
+    def end_a_height(t):
+        return y0 - 0.5 * G * t * t - 0.5 * L * np.sin(omega * t)
+
+    ts = np.linspace(0.0, 0.2, 200_001)
+    t_first = ts[np.argmax(end_a_height(ts) < 0.0)]  # first sampled time under the floor
+    t_star = brentq(end_a_height, t_first - 1e-6, t_first, xtol=1e-14)
+    assert 0.035 < t_star < 0.04
+    assert res.impacts[0].contacts == ("end_a",)
+    assert res.impacts[0].time == pytest.approx(t_star, abs=1e-9)
+
+
+@pytest.mark.parametrize("omega, vy", [(30.0, 2.0), (30.0, 3.0)])
+def test_fast_spin_from_the_floor_matches_the_closed_form(omega, vy):
+    """The rod starts with end_a on the floor and separating; end_b (0.56 above the floor)
+    comes down within the first long step. Reference: the closed-form free flight."""
+    scene = ci.load_scene("bouncing_rod")
+    L = scene.parameters["length"]
+    phi0 = np.pi - 0.6
+    y0 = 0.5 * L * np.sin(phi0)
+    res = simulate(scene.mechanism, (0.0, 0.5), ((0.0, y0, phi0), (0.0, vy, omega)))
+
+    def end_b_height(t):  # end_b at +L/2 along the rod
+        return y0 + vy * t - 0.5 * G * t * t + 0.5 * L * np.sin(phi0 + omega * t)
+
+    ts = np.linspace(1e-6, 0.1, 100_001)
+    t_first = ts[np.argmax(end_b_height(ts) < 0.0)]
+    t_star = brentq(end_b_height, t_first - 1e-6, t_first, xtol=1e-14)
+    assert 0.04 < t_star < 0.06
+    assert res.impacts and res.impacts[0].contacts == ("end_b",)
+    assert res.impacts[0].time == pytest.approx(t_star, abs=1e-9)
+
+
 def test_no_dip_keeps_the_step_end_crossing():
     """A plain drop (gap monotone in the step): impact time still at the closed form."""
     scene = ci.load_scene("bouncing_rod")

@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from ..errors import PenetrationError  # noqa: F401  (re-exported for convimpact.simulation)
 
@@ -38,7 +38,9 @@ DIP_SAMPLES = 8
 
 
 def first_dip(fun: Callable[[float], float], ta: float, tb: float, fa: float,
-              n: int = DIP_SAMPLES) -> tuple[float, float, float, float] | None:
+              n: int = DIP_SAMPLES,
+              dfun: Callable[[float], float] | None = None,
+              xtol: float = 1e-12) -> tuple[float, float, float, float] | None:
     """First sub-interval of (ta, tb) where ``fun`` (> 0 at ``ta``) dips to <= 0 inside the step.
 
     A sign test at the two ends of a step misses a gap that goes below zero and comes back
@@ -46,18 +48,41 @@ def first_dip(fun: Callable[[float], float], ta: float, tb: float, fa: float,
     ``fun`` is sampled at ``n - 1`` equally spaced interior points; the first sample <= 0 and
     the sample before it (> 0) bracket the earliest crossing that the samples resolve.
 
-    Returns ``(a, b, fun(a), fun(b))`` for :func:`locate_crossing`, or None when every interior
-    sample is > 0 (then only the end values decide, as before).
+    With the derivative ``dfun`` (the contact's normal velocity), a dip shorter than the sample
+    spacing is also caught: on each sub-interval whose two samples are > 0, the cubic Hermite
+    interpolant of the values and slopes is checked for a minimum near or below 0 (below a
+    quarter of the smaller sample, a margin for the cubic's error); if it has one, the
+    minimum of ``fun`` there is located (bounded Brent, to ``xtol``) and a value <= 0 brackets
+    the crossing.
+
+    Returns ``(a, b, fun(a), fun(b))`` for :func:`locate_crossing`, or None when no dip is
+    found (then only the end values decide, as before).
     """
     if not fa > 0.0 or n < 2:
         return None
-    a, fa_ = ta, fa
-    for j in range(1, n):
-        s = ta + (tb - ta) * j / n
-        fs = fun(s)
-        if fs <= 0.0:
-            return a, s, fa_, fs
-        a, fa_ = s, fs
+    a, f_a = ta, fa
+    d_a = dfun(ta) if dfun is not None else None
+    u = np.linspace(0.0, 1.0, 17)[1:-1]
+    h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
+    h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
+    for j in range(1, n + 1):
+        b = ta + (tb - ta) * j / n if j < n else tb
+        f_b = fun(b)
+        if f_b <= 0.0:
+            return (a, b, f_a, f_b) if j < n else None  # at tb: the end-value test decides
+        if dfun is not None:
+            d_b = dfun(b)
+            dt = b - a
+            if d_a < 0.0 < d_b:  # a minimum inside: does the gap reach zero there?
+                cubic = h00 * f_a + h10 * dt * d_a + h01 * f_b + h11 * dt * d_b
+                if np.min(cubic) <= 0.25 * min(f_a, f_b):  # margin for the cubic's error
+                    res = minimize_scalar(fun, bounds=(a, b), method="bounded",
+                                          options={"xatol": xtol})
+                    fm = fun(res.x)
+                    if fm <= 0.0:
+                        return a, float(res.x), f_a, fm
+            d_a = d_b
+        a, f_a = b, f_b
     return None
 
 
@@ -70,17 +95,25 @@ def reclosing(fun: Callable[[float], float], ta: float, tb: float, g0: float, v0
     at ``v0 > 0`` and is negative once the gap has come back to its starting level, so the
     re-closing is bracketed without the start itself being a root.
 
+    When the gap is above its start at ``tb``, interior samples (:func:`first_dip`) still
+    catch a return below the start level inside the step.
+
     Returns the re-closing time in (ta, tb], or None when the gap has not come back.
     """
     dt = tb - ta
     hb = (gb - g0) / dt
-    if hb > 0.0 or v0 <= 0.0:
+    if v0 <= 0.0:
         return None
 
     def h(t: float) -> float:
         return (fun(t) - g0) / (t - ta)
 
     a = ta + 1e-9 * dt
+    if hb > 0.0:
+        # open at the step's end: it may still have come back down and up again inside
+        ha = h(a)
+        dip = first_dip(h, a, tb, ha) if ha > 0.0 else None
+        return None if dip is None else locate_crossing(h, *dip, xtol)
     ha = h(a)
     if ha <= 0.0:  # returns below its start within 1e-9 of the step: use the sampled start
         return a

@@ -5,7 +5,8 @@ classes, step by step. After every accepted step
 
 1. the free contacts' gaps are checked for closing (event functions, terminal, direction -1);
    besides the sign at the two ends of the step, each gap is sampled at 7 interior points of
-   the step's interpolant (a long free-flight step can dip below zero and come back); the
+   the step's interpolant, with its normal velocity for a Hermite check between samples (a
+   long free-flight step can dip below zero and come back); the
    earliest closing is located on the step's interpolant by Brent's method to
    ``event_tol``. Every other free contact whose gap is within ``contact_tol`` and that
    approaches at that instant closes *together* with it;
@@ -176,9 +177,13 @@ def simulate(
       (absolute, in s); the interpolant's own accuracy is that of the integrator (rtol, atol).
       The located instant is on the closed side (gap <= 0 up to the interpolation error).
       A gap that goes below zero and back within one step is caught when one of 7 equally
-      spaced interior samples of the step is <= 0 (:func:`~convimpact.simulation.events.
-      first_dip`); a grazing dip shorter than a sample spacing can still be missed -- bound
-      ``max_step`` for fast-spinning bodies.
+      spaced interior samples of the step is <= 0, or, between two positive samples, when
+      the cubic Hermite fit of the gap and its normal velocity has a minimum near zero and
+      the located minimum of the gap is <= 0 (:func:`~convimpact.simulation.events.
+      first_dip`). A contact separating at the start of a step (just impacted) is checked for
+      coming back below its starting gap at the interior samples too. Two or more extrema of
+      the gap between neighbouring samples can still hide a dip: bound ``max_step`` for very
+      fast-spinning bodies.
     * Contacts whose gap is within ``contact_tol`` and that approach at the located instant
       are resolved together (one call of ``resolve_impact`` with a list of Jacobians).
     * Persistent (held) contacts are bilateral and frictionless in the tangent plane: sustained
@@ -547,23 +552,30 @@ def simulate(
                 def gfun(s, c=c):
                     return gap(c, interp(s)[:k])
 
-                dip = (first_dip(gfun, t_old, t_new, g_prev[c])
-                       if g_prev[c] > 0.0 else None)
+                def vfun(s, c=c):
+                    ys = np.asarray(interp(s), float)
+                    dth_s, _, _ = eq.velocities(ys[:k], ys[k:])
+                    return float(contact_row(c, ys[:k])[0] @ dth_s)
+
+                dip = (first_dip(gfun, t_old, t_new, g_prev[c], dfun=vfun,
+                                 xtol=event_tol) if g_prev[c] > 0.0 else None)
                 if dip is not None:
                     # the gap dips below zero inside the step (and may come back)
                     found.append((locate_crossing(gfun, *dip, event_tol), "impact", c))
                 elif g_prev[c] > 0.0 and gn <= 0.0:
                     found.append((locate_crossing(gfun, t_old, t_new, g_prev[c], gn, event_tol),
                                   "impact", c))
-                elif g_prev[c] <= 0.0 and gn < 0.0:
+                elif g_prev[c] <= 0.0:
                     y_old = np.asarray(interp(t_old), float)
                     dth_old, _, _ = eq.velocities(y_old[:k], y_old[k:])
                     v0 = float(contact_row(c, y_old[:k])[0] @ dth_old)
                     if v0 > 0.0:
+                        # separating from the start (just impacted or released): it may come
+                        # back below its starting level inside the step, even if open at its end
                         te = reclosing(gfun, t_old, t_new, g_prev[c], v0, gn, event_tol)
                         if te is not None:
                             found.append((te, "impact", c))
-                    elif gn < g_prev[c]:
+                    elif gn < 0.0 and gn < g_prev[c]:
                         found.append((t_old, "touch", c))
             nu_new = eq.multipliers(t_new, y_new)[m:] if held else np.zeros(0)
             for i, c in enumerate(held):
