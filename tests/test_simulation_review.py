@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 import convimpact as ci
@@ -200,7 +202,6 @@ def test_no_slip_warning_without_friction_or_sliding():
 
 
 # property: the first impact of a spinning, falling rod is the closed-form first crossing
-from hypothesis import given, settings, strategies as st  # noqa: E402
 
 
 @settings(max_examples=40, deadline=None)

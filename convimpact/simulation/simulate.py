@@ -552,7 +552,7 @@ def simulate(
                 def gfun(s, c=c):
                     return gap(c, interp(s)[:k])
 
-                def vfun(s, c=c):
+                def vfun(s, c=c, interp=interp, eq=eq):
                     ys = np.asarray(interp(s), float)
                     dth_s, _, _ = eq.velocities(ys[:k], ys[k:])
                     return float(contact_row(c, ys[:k])[0] @ dth_s)
