@@ -70,7 +70,8 @@ def available_methods(law: str) -> list[str]:
     return [m for m in METHODS if (law, m) in _SOLVERS]
 
 
-def _check_names(law: str, method: str) -> None:
+def check_law_method(law: str, method: str) -> None:
+    """Raise UnknownOptionError unless ``law`` and ``method`` are known names."""
     if law not in LAWS:
         raise UnknownOptionError(f"unknown impact law {law!r}; choose one of {', '.join(LAWS)}")
     if method not in METHODS:
@@ -120,7 +121,7 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
     problem because the Delassus matrix is singular (the closed forms and ``fast`` invert it),
     the conic paths, which do not, are tried next and the result says so in its warnings.
     """
-    _check_names(law, method)
+    check_law_method(law, method)
     if method == "auto":
         candidates = _candidates(problem, law)
         if not candidates:
@@ -210,7 +211,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     >>> r.regime, np.round(r.v_plus, 3).tolist()
     ('slide', [0.5, 0.55])
     """
-    _check_names(law, method)
+    check_law_method(law, method)
     problem = build_problem(M, Jc, dq, e, mu, C)
     return solve_problem(problem, law, method, **options)
 

@@ -64,9 +64,8 @@ from ..errors import (
     ParameterError,
     ShapeError,
     SimulationError,
-    UnknownOptionError,
 )
-from ..impact import LAWS, METHODS, resolve_impact
+from ..impact import check_law_method, resolve_impact
 from .projection import project_positions, project_velocities
 from .result import ImpactEvent, SimulationResult, series_from_rows
 from .initial import consistent_start, positive, time_span
@@ -199,10 +198,7 @@ def simulate_moreau(
     k = int(mech.n_coordinates)
     m = int(mech.n_loop_constraints)
     contacts = tuple(mech.contact_names)
-    if law not in LAWS:
-        raise UnknownOptionError(f"unknown impact law {law!r}; choose one of {', '.join(LAWS)}")
-    if method not in METHODS:
-        raise UnknownOptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    check_law_method(law, method)
     try:
         h = float(h)
         theta_p = float(theta)

@@ -37,7 +37,7 @@ from ..errors import (
     SimulationError,
     UnknownOptionError,
 )
-from ..impact import LAWS, METHODS, resolve_impact
+from ..impact import check_law_method, resolve_impact
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
 from .events import first_dip, locate_crossing, reclosing
@@ -219,10 +219,7 @@ def simulate(
     contacts = tuple(mech.contact_names)
 
     # ---- options ---------------------------------------------------------------------------
-    if law not in LAWS:
-        raise UnknownOptionError(f"unknown impact law {law!r}; choose one of {', '.join(LAWS)}")
-    if method not in METHODS:
-        raise UnknownOptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    check_law_method(law, method)
     if zeno not in ZENO_POLICIES:
         raise UnknownOptionError(f"unknown zeno policy {zeno!r}; choose 'persist' or 'stop'")
     solver_cls = integrator_class(integrator)
