@@ -41,16 +41,15 @@ from scipy.integrate import OdeSolver
 
 from ..errors import (
     ParameterError,
-    ShapeError,
     SimulationError,
     UnknownOptionError,
 )
 from .canonical import CanonicalEquations
 from .events import locate_crossing
 from .projection import project_positions, project_velocities
-from .result import SimulationResult, series_from_rows
-from .initial import consistent_start, integrator_class, positive, time_span
-from .simulate import ONE_STEP, _as_mechanism, _vector
+from .result import SimulationResult, append_sample, series_from_rows
+from .initial import consistent_start, initial_state, integrator_class, positive, time_span
+from .simulate import ONE_STEP, _as_mechanism
 
 MODELS = ("hunt-crossley", "lankarani-nikravesh")
 
@@ -334,14 +333,7 @@ def simulate_compliant(
     forces = _ContactForces(mech, model, ks, float(exponent), es, mus,
                             float(regularization_velocity), float(min_impact_velocity))
     eq = CanonicalEquations(forces)
-    if y0 is None:
-        if scene is None:
-            raise ShapeError("y0 is required when simulating a bare mechanism")
-        y0 = (scene.theta0, scene.dtheta0)
-    if not (isinstance(y0, tuple) and len(y0) == 2):
-        raise ShapeError("y0 must be a tuple (theta0, dtheta0)")
-    q = _vector("theta0", y0[0], k)
-    v = _vector("dtheta0", y0[1], k)
+    q, v = initial_state(y0, scene, k)
     q, v = consistent_start(mech, q, v, assemble=assemble, projection_tol=projection_tol,
                             contact_tol=contact_tol)
 
@@ -351,19 +343,7 @@ def simulate_compliant(
     def record(t, y):
         th = y[:k]
         dth, sig, _ = eq.velocities(th, y[k:])
-        rows["t"].append(t)
-        rows["theta"].append(th.copy())
-        rows["dtheta"].append(dth)
-        rows["p"].append(y[k:].copy())
-        rows["sigma"].append(sig[:m].copy())
-        rows["T"].append(float(mech.kinetic_energy(th, dth)))
-        rows["V"].append(float(mech.potential_energy(th)))
-        if m:
-            rows["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
-            rows["cdq"].append(float(np.max(np.abs(np.asarray(mech.loop_jacobian(th)) @ dth))))
-        else:
-            rows["psi"].append(0.0)
-            rows["cdq"].append(0.0)
+        append_sample(rows, mech, t, th, dth, y[k:], sig)
 
     def normal_velocity(c, y):
         th = y[:k]

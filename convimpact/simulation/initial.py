@@ -63,6 +63,30 @@ def time_span(t_span, scene) -> tuple[float, float]:
     return t0, t1
 
 
+def initial_state(y0, scene, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(theta0, dtheta0) from ``y0`` given as a tuple, or from the scene when ``y0`` is None."""
+    if y0 is None:
+        if scene is None:
+            raise ShapeError("y0 is required when simulating a bare mechanism")
+        y0 = (scene.theta0, scene.dtheta0)
+    if not (isinstance(y0, tuple) and len(y0) == 2):
+        raise ShapeError("y0 must be a tuple (theta0, dtheta0)")
+    return state_vector("theta0", y0[0], k), state_vector("dtheta0", y0[1], k)
+
+
+def state_vector(name: str, v, k: int) -> np.ndarray:
+    """A finite vector of k joint values, or ShapeError / NonFiniteError."""
+    try:
+        a = np.array(v, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise ShapeError(f"{name} must be numeric, got {type(v).__name__}") from None
+    if a.shape != (k,):
+        raise ShapeError(f"{name} must have {k} entries (one per joint coordinate), got {a.size}")
+    if not np.all(np.isfinite(a)):
+        raise NonFiniteError(f"{name} contains NaN or infinity: {a.tolist()}; pass finite values")
+    return a
+
+
 def consistent_start(mech, theta: np.ndarray, dtheta: np.ndarray | None, *, assemble: bool,
                      projection_tol: float, contact_tol: float):
     """Check (or, with ``assemble``, restore) Psi = 0 and C theta_dot = 0, and no penetration.

@@ -62,14 +62,13 @@ from ..errors import (
     ConvImpactError,
     LoopConstraintError,
     ParameterError,
-    ShapeError,
     SimulationError,
 )
 from ..impact import check_law_method, resolve_impact
 from .projection import project_positions, project_velocities
 from .result import ImpactEvent, SimulationResult, series_from_rows
-from .initial import consistent_start, positive, time_span
-from .simulate import _as_mechanism, _vector
+from .initial import consistent_start, initial_state, positive, time_span
+from .simulate import _as_mechanism
 
 #: steps beyond which a run is refused (h too small for the span)
 MAX_STEPS = 5_000_000
@@ -219,14 +218,7 @@ def simulate_moreau(
     impact_options = dict(impact_options or {})
 
     # ---- initial state ---------------------------------------------------------------------
-    if y0 is None:
-        if scene is None:
-            raise ShapeError("y0 is required when simulating a bare mechanism")
-        y0 = (scene.theta0, scene.dtheta0)
-    if not (isinstance(y0, tuple) and len(y0) == 2):
-        raise ShapeError("y0 must be a tuple (theta0, dtheta0)")
-    q = _vector("theta0", y0[0], k)
-    v = _vector("dtheta0", y0[1], k)
+    q, v = initial_state(y0, scene, k)
 
     def loop_rows(th):
         return (np.asarray(mech.loop_jacobian(th), float).reshape(m, k) if m

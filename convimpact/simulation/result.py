@@ -268,3 +268,23 @@ def series_from_rows(rows: Mapping[str, list], k: int, m: int) -> dict[str, np.n
         "loop_residual": np.array(rows["psi"], float),
         "loop_velocity_residual": np.array(rows["cdq"], float),
     }
+
+
+def append_sample(rows: Mapping[str, list], mech, t: float, theta: np.ndarray,
+                  dtheta: np.ndarray, p: np.ndarray, sigma: np.ndarray) -> None:
+    """Record one sample (state, energies, loop drift) into the rows of
+    :func:`series_from_rows`."""
+    m = int(mech.n_loop_constraints)
+    rows["t"].append(float(t))
+    rows["theta"].append(np.array(theta, float))
+    rows["dtheta"].append(np.array(dtheta, float))
+    rows["p"].append(np.array(p, float))
+    rows["sigma"].append(np.array(sigma[:m], float))
+    rows["T"].append(float(mech.kinetic_energy(theta, dtheta)))
+    rows["V"].append(float(mech.potential_energy(theta)))
+    if m:
+        rows["psi"].append(float(np.max(np.abs(mech.loop_residual(theta)))))
+        rows["cdq"].append(float(np.max(np.abs(np.asarray(mech.loop_jacobian(theta)) @ dtheta))))
+    else:
+        rows["psi"].append(0.0)
+        rows["cdq"].append(0.0)

@@ -31,7 +31,6 @@ from scipy.integrate import DOP853, RK23, RK45, OdeSolver, Radau
 
 from ..errors import (
     ConvImpactError,
-    NonFiniteError,
     ParameterError,
     ShapeError,
     SimulationError,
@@ -42,10 +41,10 @@ from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
 from .events import first_dip, locate_crossing, reclosing
 from .initial import INTEGRATORS  # noqa: F401  (re-exported)
-from .initial import consistent_start, integrator_class, positive, time_span
+from .initial import consistent_start, integrator_class, positive, state_vector, time_span
 from .projection import project_positions, project_velocities
 from .result import (ContactEvent, ImpactEvent, PiecewiseSolution, SimulationResult,
-                     series_from_rows)
+                     append_sample, series_from_rows)
 from .zeno import AccumulationDetector
 
 ZENO_POLICIES = ("persist", "stop")
@@ -66,18 +65,6 @@ def _as_mechanism(system) -> tuple[Mechanism, Any]:
     raise ShapeError(
         f"simulate needs a Mechanism (see convimpact.mechanism) or a Scene, got "
         f"{type(system).__name__}")
-
-
-def _vector(name: str, v, k: int) -> np.ndarray:
-    try:
-        a = np.array(v, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise ShapeError(f"{name} must be numeric, got {type(v).__name__}") from None
-    if a.shape != (k,):
-        raise ShapeError(f"{name} must have {k} entries (one per joint coordinate), got {a.size}")
-    if not np.all(np.isfinite(a)):
-        raise NonFiniteError(f"{name} contains NaN or infinity: {a.tolist()}; pass finite values")
-    return a
 
 
 class _Recorder:
@@ -258,11 +245,11 @@ def simulate(
     if isinstance(y0, tuple):
         if len(y0) != 2:
             raise ShapeError("y0 as a tuple must be (theta0, dtheta0)")
-        theta = _vector("theta0", y0[0], k)
-        dtheta = _vector("dtheta0", y0[1], k)
+        theta = state_vector("theta0", y0[0], k)
+        dtheta = state_vector("dtheta0", y0[1], k)
         p = None
     else:
-        yv = _vector("y0", y0, 2 * k)
+        yv = state_vector("y0", y0, 2 * k)
         theta, p = yv[:k], yv[k:]
         dtheta = None
 
@@ -654,19 +641,7 @@ def simulate(
             th, pp = ys[:k, j], ys[k:, j]
             dth, sig, _ = equations(names).velocities(th, pp)
             held_at.append(len(names))
-            r["t"].append(float(s_t))
-            r["theta"].append(th)
-            r["dtheta"].append(dth)
-            r["p"].append(pp)
-            r["sigma"].append(sig[:m])
-            r["T"].append(float(mech.kinetic_energy(th, dth)))
-            r["V"].append(float(mech.potential_energy(th)))
-            if m:
-                r["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
-                r["cdq"].append(float(np.max(np.abs(np.asarray(mech.loop_jacobian(th)) @ dth))))
-            else:
-                r["psi"].append(0.0)
-                r["cdq"].append(0.0)
+            append_sample(r, mech, s_t, th, dth, pp, sig)
         held_series = np.array(held_at, dtype=int)
     nfev = sum(e.nfev for e in eqs_cache.values())
     warnings = tuple(
