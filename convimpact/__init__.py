@@ -11,28 +11,38 @@ The public API:
 
 from __future__ import annotations
 
-from . import errors
-from .closed_form import (
-    frictionless_impulse,
-    pereira_nikravesh,
-    sliding_impulse,
-    stick_admissible,
-    sticking_impulse,
-)
-from .energy import (
+import sys as _sys
+
+from .impact import (
+    LAWS,
+    METHODS,
+    ImpactDiagnostics,
+    ImpactProblem,
+    ImpactResult,
     StictionInterval,
+    available_methods,
+    build_problem,
     central_energy_loss,
     energy_loss,
+    errors,
+    frictionless_impulse,
     oblique_coefficients,
     oblique_energy_loss,
+    pereira_nikravesh,
+    resolve_impact,
+    solve_problem,
+    stick_admissible,
+    sticking_impulse,
+    sliding_impulse,
     stiction_interval,
 )
-from .errors import *  # noqa: F401,F403  (the exception hierarchy is public)
-from .impact import LAWS, METHODS, available_methods, resolve_impact, solve_problem
-from .problem import ImpactProblem, build_problem
-from .results import ImpactDiagnostics, ImpactResult
+from .impact.errors import *  # noqa: F401,F403  (the exception hierarchy is public)
 from .mechanism import Mechanism
 from .scenes import Scene, list_scenes, load_scene
+
+# the exception hierarchy lives in convimpact.impact.errors; `from convimpact.impact.errors import ...`
+# keeps working for code written against the flat layout
+_sys.modules.setdefault(__name__ + ".errors", errors)
 
 
 def __getattr__(name):

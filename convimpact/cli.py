@@ -42,9 +42,9 @@ def rod_on_floor(angle_deg: float = 30.0, vx: float = 1.0, vy: float = -1.0,
 
 def _demo(args) -> int:
     from . import LAWS, available_methods, resolve_impact
-    from .errors import ConvImpactError
+    from .impact.errors import ConvImpactError
 
-    from .problem import check_friction, check_restitution
+    from .impact.problem import check_friction, check_restitution
 
     check_restitution(args.e)
     check_friction(args.mu)
@@ -90,7 +90,7 @@ command("demo", "resolve one rod-on-floor impact under every law and method")(_d
 def _load_command_modules() -> None:
     import importlib
 
-    for name in ("convimpact.paper", "convimpact.simulation.cli", "convimpact.bench"):
+    for name in ("convimpact.studies.paper", "convimpact.simulation.cli", "convimpact.bench"):
         try:
             importlib.import_module(name)
         except ModuleNotFoundError as exc:
@@ -113,7 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from .errors import ConvImpactError
+    from .impact.errors import ConvImpactError
 
     args = build_parser().parse_args(argv)
     try:

@@ -16,7 +16,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .errors import ConvImpactError, ParameterError, UnknownOptionError
+from .impact.errors import ConvImpactError, ParameterError, UnknownOptionError
 from .mechanism import Mechanism
 
 

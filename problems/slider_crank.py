@@ -40,7 +40,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from convimpact.errors import ParameterError
+from convimpact.impact.errors import ParameterError
 from convimpact.model import Joint, ModelBuilder
 from convimpact.model import impact_arguments as _impact_arguments
 from convimpact.scenes import Scene

@@ -1,15 +1,15 @@
-"""Section ``atlas``: the failure atlas (:mod:`convimpact.atlas`) as counts, regions and maps.
+"""Section ``atlas``: the failure atlas (:mod:`convimpact.studies.atlas`) as counts, regions and maps.
 
-Every map of :func:`convimpact.atlas.failure_atlas` becomes one record (its JSON form: axes,
+Every map of :func:`convimpact.studies.atlas.failure_atlas` becomes one record (its JSON form: axes,
 counts per path and mode, the regions as 0/1 grids, measured values) and one PNG drawn by
-:func:`convimpact.atlas.plot_atlas`. The summary quotes, per map, the modes met by each path.
+:func:`convimpact.studies.atlas.plot_atlas`. The summary quotes, per map, the modes met by each path.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from ..atlas import atlas_counts, failure_atlas, plot_atlas
+from ..studies.atlas import atlas_counts, failure_atlas, plot_atlas
 from .registry import BenchConfig, Progress, SectionResult, register_section
 
 
@@ -35,6 +35,6 @@ def atlas_section(config: BenchConfig, progress: Progress) -> SectionResult:
         summary.append(f"atlas {m.name} ({m.n_samples} samples per path, "
                        f"{m.wall_time:.1f} s): " + "; ".join(parts))
     meta = {"totals": atlas_counts(maps),
-            "definitions": "see convimpact.atlas (modes, thresholds); regions are any-over-"
+            "definitions": "see convimpact.studies.atlas (modes, thresholds); regions are any-over-"
                            "samples per cell, counts are over samples"}
     return SectionResult("atlas", records, figures, summary, meta)

@@ -12,9 +12,9 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
 from ..impact import LAWS, available_methods
-from ..problem import ImpactProblem
+from ..impact.problem import ImpactProblem
 
-#: the conic paths' default tolerance (convimpact.programs.DEFAULT_TOL)
+#: the conic paths' default tolerance (convimpact.impact.conic.programs.DEFAULT_TOL)
 DEFAULT_TOL = 1e-10
 #: tolerance of the tight reference for several contacts
 REFERENCE_TOL = 1e-12
@@ -56,7 +56,7 @@ class SolverPath:
 
 
 def _fast_kernel(problem: ImpactProblem, law: str):
-    from ..fast import solve_contact
+    from ..impact.fast import solve_contact
 
     W, v = problem.contact_block(0)
     e, mu = float(problem.restitution[0]), float(problem.friction[0])
@@ -64,7 +64,7 @@ def _fast_kernel(problem: ImpactProblem, law: str):
 
 
 def _closed_form_kernel(problem: ImpactProblem, law: str):
-    from ..closed_form import pereira_nikravesh
+    from ..impact.laws.pereira_nikravesh import pereira_nikravesh
 
     W, v = problem.contact_block(0)
     e, mu = float(problem.restitution[0]), float(problem.friction[0])

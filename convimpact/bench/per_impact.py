@@ -7,8 +7,8 @@ For each problem of :func:`~convimpact.bench.problems.problem_suite`, each law (
 * ``time_full``: ``solve_problem(problem, law, method, **options)`` on the prebuilt problem
   (median and interquartile range of the per-call time over timed batches after a warm-up);
 * ``time_kernel``: the bare kernel on the contact block where one exists (``fast``:
-  :func:`convimpact.fast.solve_contact`; closed form:
-  :func:`convimpact.closed_form.pereira_nikravesh`; Pinocchio's ADMM/PGS: the solver call);
+  :func:`convimpact.impact.fast.solve_contact`; closed form:
+  :func:`convimpact.impact.laws.pereira_nikravesh.pereira_nikravesh`; Pinocchio's ADMM/PGS: the solver call);
 * ``impulse_error = |pi - pi_ref| / |pi_ref|`` and
   ``velocity_error = |dq+ - dq+_ref| / |dq-|`` against a tight reference: ``fast`` for one
   contact (exact), else Clarabel at tol 1e-12 (then cvxpy at 1e-12, then Clarabel at its
@@ -25,9 +25,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import ConvImpactError
+from ..impact.errors import ConvImpactError
 from ..impact import LAWS, available_methods, solve_problem
-from ..problem import ImpactProblem, build_problem
+from ..impact.problem import ImpactProblem, build_problem
 from . import pinocchio_peers as peers
 from .paths import SolverPath, reference_paths, solver_paths
 from .problems import CLASSES, BenchProblem, problem_suite
@@ -329,7 +329,7 @@ def summarize(aggs: list[dict[str, Any]], records: list[dict[str, Any]]) -> list
                  + (f"; failures (recorded in bench.json): {top}" if n_fail else ""))
     odd = [r for r in n_fail if r.get("unexpected") and not r["peer"]]
     if odd:
-        lines.append(f"WARNING: {len(odd)} solves raised exceptions outside convimpact.errors "
+        lines.append(f"WARNING: {len(odd)} solves raised exceptions outside convimpact.impact.errors "
                      f"(e.g. {odd[0]['law']}/{odd[0]['label']} on {odd[0]['problem']}: "
                      f"{odd[0]['error_type']}: {odd[0]['message'][:120]})")
     return lines

@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import UnknownOptionError
+from ..impact.errors import UnknownOptionError
 
 #: schema version of bench.json
 SCHEMA = 1
@@ -65,7 +65,7 @@ class BenchConfig:
         """Defaults for a full or a quick run (quick: 3 repeats, 0.5 ms batches)."""
         rep = repeat if repeat is not None else (3 if quick else 7)
         if int(rep) < 1:
-            from ..errors import ParameterError
+            from ..impact.errors import ParameterError
             raise ParameterError(f"repeat must be a positive integer, got {rep!r}")
         return cls(out=Path(out), quick=bool(quick), repeat=int(rep),
                    seed=cls.seed if seed is None else int(seed),

@@ -3,9 +3,9 @@
 The state is the paper's planar double pendulum, case (a) of Section 9.2 (the rod-on-floor
 demo of :mod:`convimpact.cli` when the scenes do not import). Measured:
 
-* :func:`convimpact.landscape.closed_form_landscape`, vectorized over a grid of e and signed
+* :func:`convimpact.studies.landscape.closed_form_landscape`, vectorized over a grid of e and signed
   mu (the paper's Figs. 5-7);
-* :func:`convimpact.landscape.law_landscape`, one ``solve_problem`` per point, for every law
+* :func:`convimpact.studies.landscape.law_landscape`, one ``solve_problem`` per point, for every law
   and every method registered for it (mu >= 0).
 
 Each figure is grid points divided by the median wall time of the whole landscape call (a
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..impact import LAWS, available_methods
-from ..landscape import closed_form_landscape, law_landscape
+from ..studies.landscape import closed_form_landscape, law_landscape
 from .registry import BenchConfig, Progress, SectionResult, register_section
 from .timing import time_call
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SingularSystemError
+from ..impact.errors import SingularSystemError
 from .geometry import orthonormal_complement, perp
 from .kinematics import ensure_configuration, point_jacobian, world_point
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import NonFiniteError, ShapeError
+from ..impact.errors import NonFiniteError, ShapeError
 from .geometry import cross3, skew
 from .kinematics import (
     check_vector,

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ModelError, NonFiniteError, ShapeError
+from ..impact.errors import ModelError, NonFiniteError, ShapeError
 from .geometry import cross, cross_ww, rot2, rot3
 
 

@@ -16,7 +16,7 @@ Pinocchio ``model``, ``data``, configuration ``q`` and velocity ``v``:
 Pinocchio (PyPI package ``pin``) is an optional extra: ``pip install convimpact[pinocchio]``.
 It is imported on first use; when it is missing every function raises
 :class:`PinocchioUnavailableError`, which is both a
-:class:`~convimpact.errors.NotSupportedError` and an ``ImportError``.
+:class:`~convimpact.impact.errors.NotSupportedError` and an ``ImportError``.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from typing import Callable, Optional, Sequence, Union
 
 import numpy as np
 
-from ..errors import ModelError, NotSupportedError, ShapeError
+from ..impact.errors import ModelError, NotSupportedError, ShapeError
 from .geometry import orthonormal_complement
 
 FrameRef = Union[str, int]

@@ -21,7 +21,7 @@ from typing import Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from ..errors import SimulationError
+from ..impact.errors import SimulationError
 from ..mechanism import Mechanism
 
 

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from ..cli import command
-from ..errors import NotSupportedError, ParameterError
+from ..impact.errors import NotSupportedError, ParameterError
 from ..impact import LAWS, METHODS, available_methods
-from ..results import _jsonable
+from ..impact.results import _jsonable
 from ..scenes import list_scenes, load_scene
 from .result import SimulationResult
 from .simulate import INTEGRATORS, simulate

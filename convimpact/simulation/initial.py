@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
 
-from ..errors import (
+from ..impact.errors import (
     LoopConstraintError,
     NonFiniteError,
     ParameterError,

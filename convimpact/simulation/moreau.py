@@ -58,7 +58,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from ..errors import (
+from ..impact.errors import (
     ConvImpactError,
     LoopConstraintError,
     ParameterError,
@@ -168,7 +168,7 @@ def simulate_moreau(
         Loop drift max |Psi| above which positions are projected after a step.
     assemble : bool
         Project an initial state that violates the loops (True) or raise
-        :class:`~convimpact.errors.LoopConstraintError` (False).
+        :class:`~convimpact.impact.errors.LoopConstraintError` (False).
     contact_tol : float
         Penetration accepted in the initial state.
     impact_options : mapping, optional

@@ -8,7 +8,7 @@ from typing import Any, Mapping, Union
 
 import numpy as np
 
-from ..results import ImpactResult, _jsonable
+from ..impact.results import ImpactResult, _jsonable
 
 
 @dataclass(frozen=True)
@@ -32,7 +32,7 @@ class ImpactEvent:
         contact's impact is then resolved with e = 0 (the reported result is that one).
     released : held contacts released because the impact pulled on them.
     resolve_time : wall time spent in ``resolve_impact`` (s).
-    result : the law's full :class:`~convimpact.results.ImpactResult` (with diagnostics).
+    result : the law's full :class:`~convimpact.impact.results.ImpactResult` (with diagnostics).
     """
 
     time: float

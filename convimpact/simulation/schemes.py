@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-from ..errors import ParameterError, UnknownOptionError
+from ..impact.errors import ParameterError, UnknownOptionError
 from .compliant import simulate_compliant
 from .moreau import simulate_moreau
 from .result import SimulationResult

@@ -29,7 +29,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from scipy.integrate import DOP853, RK23, RK45, OdeSolver, Radau
 
-from ..errors import (
+from ..impact.errors import (
     ConvImpactError,
     ParameterError,
     ShapeError,
@@ -137,7 +137,7 @@ def simulate(
         restart, and are projected only beyond ``max(projection_tol, 1000 atol)``.
     assemble : bool
         If the initial state violates Psi = 0 or C theta_dot = 0: project it onto the
-        constraints (True) or raise :class:`~convimpact.errors.LoopConstraintError` (False).
+        constraints (True) or raise :class:`~convimpact.impact.errors.LoopConstraintError` (False).
     zeno : {"persist", "stop"}
         Accumulating impacts (see :mod:`convimpact.simulation.zeno`): hold the contact closed
         as a bilateral constraint until its normal force turns tensile ("persist"), or stop

@@ -1,0 +1,75 @@
+"""One impact: the problem, the laws, the solver paths, the result.
+
+The data path inside this package:
+
+* :mod:`~convimpact.impact.problem` validates ``M, Jc, dq, e, mu, C`` and reduces them to
+  contact space (the Delassus matrix W with closed loops folded in, eqs. 43-52);
+* :mod:`~convimpact.impact.resolve` picks a law and a solver path (``resolve_impact``,
+  ``solve_problem``, the registry of ``(law, method)`` solvers);
+* :mod:`~convimpact.impact.laws` holds one module per law: its definition and its exact
+  kernels; :mod:`~convimpact.impact.fast` dispatches one contact to them;
+  :mod:`~convimpact.impact.conic` poses any law's program for Clarabel (directly or through
+  cvxpy); :mod:`~convimpact.impact.sweep` is the paper's own 1-D search of the tangent angle;
+* :mod:`~convimpact.impact.diagnostics` turns an impulse into an
+  :class:`~convimpact.impact.results.ImpactResult` with the law's invariants measured;
+* :mod:`~convimpact.impact.energy` holds the paper's energy formulas (eqs. 58-62);
+* :mod:`~convimpact.impact.errors` is the exception hierarchy the whole library raises.
+"""
+
+from __future__ import annotations
+
+from . import errors
+from .energy import (
+    StictionInterval,
+    central_energy_loss,
+    energy_loss,
+    oblique_coefficients,
+    oblique_energy_loss,
+    stiction_interval,
+)
+from .laws.pereira_nikravesh import (
+    frictionless_impulse,
+    pereira_nikravesh,
+    sliding_impulse,
+    stick_admissible,
+    sticking_impulse,
+)
+from .problem import ImpactProblem, build_problem
+from .resolve import (
+    LAWS,
+    METHODS,
+    available_methods,
+    check_law_method,
+    choose_method,
+    register_solver,
+    resolve_impact,
+    solve_problem,
+)
+from .results import ImpactDiagnostics, ImpactResult
+
+__all__ = [
+    "resolve_impact",
+    "solve_problem",
+    "register_solver",
+    "available_methods",
+    "check_law_method",
+    "choose_method",
+    "LAWS",
+    "METHODS",
+    "ImpactProblem",
+    "build_problem",
+    "ImpactResult",
+    "ImpactDiagnostics",
+    "energy_loss",
+    "central_energy_loss",
+    "oblique_energy_loss",
+    "oblique_coefficients",
+    "stiction_interval",
+    "StictionInterval",
+    "frictionless_impulse",
+    "sticking_impulse",
+    "sliding_impulse",
+    "stick_admissible",
+    "pereira_nikravesh",
+    "errors",
+]

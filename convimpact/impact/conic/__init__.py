@@ -1,0 +1,1 @@
+"""The impact laws as cone programs over the friction cones, and the conic backends."""

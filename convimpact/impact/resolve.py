@@ -1,0 +1,237 @@
+"""``resolve_impact``: validate an impact, pick a law and a solver path, return the jump.
+
+Laws (what physics is imposed) and methods (how it is computed) are separate axes. Each
+``(law, method)`` pair is a solver registered with :func:`register_solver`; modules that
+provide solvers are imported on first use (see ``_SOLVER_MODULES``) so that ``import
+convimpact`` stays light and the closed form never pays for cvxpy.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from typing import Callable
+
+import numpy as np
+
+from .laws.pereira_nikravesh import pereira_nikravesh
+from .diagnostics import assemble_result
+from .errors import (
+    NonPositiveEffectiveMassError,
+    NotSupportedError,
+    SingularSystemError,
+    UnknownOptionError,
+)
+from .problem import ImpactProblem, build_problem
+from .results import ImpactResult
+
+LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative")
+METHODS = ("auto", "closed-form", "sweep", "fast", "clarabel", "cvxpy")
+
+Solver = Callable[..., ImpactResult]
+_SOLVERS: dict[tuple[str, str], Solver] = {}
+#: modules that register further solvers when imported (a module not yet present is skipped)
+_SOLVER_MODULES: tuple[str, ...] = (
+    "convimpact.impact.fast",   # exact single-contact solvers, every law
+    "convimpact.impact.sweep",  # the paper's 1-D search over the tangent angle
+    "convimpact.impact.conic.programs",  # cvxpy programs (DPP, compiled once per shape)
+    "convimpact.impact.conic.clarabel_backend",  # Clarabel's own API, built once and updated
+)
+_loaded = False
+
+
+def register_solver(law: str, method: str) -> Callable[[Solver], Solver]:
+    """Decorator registering ``solver(problem, **options) -> ImpactResult`` for a law/method."""
+    if law not in LAWS or method not in METHODS or method == "auto":
+        raise UnknownOptionError(f"cannot register unknown law/method {law!r}/{method!r}")
+
+    def deco(fn: Solver) -> Solver:
+        _SOLVERS[(law, method)] = fn
+        return fn
+
+    return deco
+
+
+def _load_solver_modules() -> None:
+    global _loaded
+    if not _loaded:
+        for name in _SOLVER_MODULES:
+            try:
+                importlib.import_module(name)
+            except ModuleNotFoundError as exc:
+                if exc.name != name:
+                    raise
+        _loaded = True
+
+
+def available_methods(law: str) -> list[str]:
+    """Solver paths registered for ``law``."""
+    _load_solver_modules()
+    return [m for m in METHODS if (law, m) in _SOLVERS]
+
+
+def check_law_method(law: str, method: str) -> None:
+    """Raise UnknownOptionError unless ``law`` and ``method`` are known names."""
+    if law not in LAWS:
+        raise UnknownOptionError(f"unknown impact law {law!r}; choose one of {', '.join(LAWS)}")
+    if method not in METHODS:
+        raise UnknownOptionError(
+            f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+
+
+#: methods that treat one contact only
+SINGLE_CONTACT_METHODS = ("closed-form", "fast", "sweep")
+
+
+def _candidates(problem: ImpactProblem, law: str) -> list[str]:
+    """Registered methods exact for this problem, cheapest first."""
+    _load_solver_modules()
+    single = problem.n_contacts == 1
+    if law == "pereira-nikravesh" and single and problem.planar:
+        order = ["closed-form", "fast", "clarabel", "cvxpy"]
+    elif single:
+        order = ["fast", "closed-form", "clarabel", "cvxpy"]
+    else:
+        order = ["clarabel", "cvxpy"]
+    return [m for m in order if (law, m) in _SOLVERS]
+
+
+def choose_method(problem: ImpactProblem, law: str) -> str:
+    """The cheapest registered method that is exact for this problem (``method="auto"``)."""
+    candidates = _candidates(problem, law)
+    if not candidates:
+        raise NotSupportedError(
+            f"no solver is registered for law {law!r} on {problem.n_contacts} contact(s)")
+    return candidates[0]
+
+
+def _separating(problem: ImpactProblem, law: str, method: str) -> ImpactResult:
+    n = problem.n_contacts
+    return assemble_result(
+        problem, np.zeros((n, problem.dim)), ["separating"] * n, law, method,
+        warnings=("no contact is approaching (v_n- >= 0): no impulse acts",),
+    )
+
+
+def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
+                  method: str = "auto", **options) -> ImpactResult:
+    """Resolve an already validated :class:`~convimpact.impact.problem.ImpactProblem`.
+
+    With ``method="auto"`` the cheapest exact method is tried first; where it cannot treat the
+    problem because the Delassus matrix is singular (the closed forms and ``fast`` invert it),
+    the conic paths, which do not, are tried next and the result says so in its warnings.
+    """
+    check_law_method(law, method)
+    if method == "auto":
+        candidates = _candidates(problem, law)
+        if not candidates:
+            raise NotSupportedError(
+                f"no solver is registered for law {law!r} on {problem.n_contacts} contact(s)")
+    else:
+        _load_solver_modules()
+        if (law, method) not in _SOLVERS:
+            raise NotSupportedError(
+                f"law {law!r} has no method {method!r}; available: "
+                f"{', '.join(available_methods(law)) or 'none'}")
+        if problem.n_contacts > 1 and method in SINGLE_CONTACT_METHODS:
+            raise NotSupportedError(
+                f"method {method!r} treats one contact; for several simultaneous contacts use "
+                "method='clarabel' or 'cvxpy'")
+        candidates = [method]
+    if not np.any(problem.v_minus[:, 0] < 0.0):
+        return _separating(problem, law, candidates[0])
+    for i, name in enumerate(candidates):
+        try:
+            result = _SOLVERS[(law, name)](problem, **options)
+        except SingularSystemError as exc:
+            if (isinstance(exc, NonPositiveEffectiveMassError) or i + 1 == len(candidates)
+                    or candidates[i + 1] not in ("clarabel", "cvxpy")):
+                raise
+            fallback = f"method 'auto': {name} cannot treat this impact ({exc}); used " \
+                       f"{candidates[i + 1]} instead"
+            result = _SOLVERS[(law, candidates[i + 1])](problem, **options)
+            return dataclasses.replace(result, diagnostics=dataclasses.replace(
+                result.diagnostics, warnings=(fallback, *result.diagnostics.warnings)))
+        return result
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikravesh",
+                   method: str = "auto", **options) -> ImpactResult:
+    """Resolve one impact of a multibody system in joint coordinates.
+
+    Parameters
+    ----------
+    M : (k, k) array_like
+        Generalized mass matrix in joint coordinates (eq. 3); symmetric positive definite.
+    Jc : (d, k) array_like, or a list of them for several simultaneous contacts
+        Contact Jacobian in the contact frame, rows ``n, t`` (planar, d = 2) or ``n, t1, t2``
+        (spatial, d = 3); row i is (frame axis i)^T R with R = D B (eqs. 16-19). The normal
+        points toward body i, so an approaching contact has ``Jc[0] @ dq < 0``.
+    dq : (k,) array_like
+        Joint velocities theta_dot before impact.
+    e : float or per-contact sequence
+        Newton's coefficient of restitution, in [0, 1] (eq. 21).
+    mu : float or per-contact sequence
+        Coulomb's coefficient of friction, >= 0.
+    C : (m, k) array_like, optional
+        Jacobian of the loop constraints (eq. 7) for closed loops; full row rank, C dq = 0.
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
+        The impact law (see the package documentation for exact definitions).
+    method : {"auto", "closed-form", "sweep", "fast", "clarabel", "cvxpy"}
+        The solver path; ``"auto"`` picks the cheapest one exact for the problem.
+    **options
+        Solver options (tolerances, iteration limits), documented per method.
+
+    Returns
+    -------
+    ImpactResult
+        ``dq_plus``, contact-frame ``impulse`` (normal first), ``loop_impulse`` (Delta sigma),
+        ``regime``, ``energy_loss`` (eq. 58), ``v_minus``, ``v_plus``, and ``diagnostics``.
+
+    Raises
+    ------
+    InputError (ShapeError, NonFiniteError, MassMatrixError, ParameterError,
+    UnknownOptionError, LoopConstraintError)
+        for bad input;
+    SingularSystemError, NonPositiveEffectiveMassError
+        when the chosen branch must invert a singular matrix or jams (Painleve-like);
+    SolverError
+        when an iterative or conic solver does not converge;
+    NotSupportedError
+        when the method cannot treat the case (the message names one that can).
+
+    Examples
+    --------
+    A particle of mass 2 hitting the floor at 45 degrees, rows (n, t) of the contact frame:
+
+    >>> import numpy as np, convimpact as ci
+    >>> r = ci.resolve_impact(2 * np.eye(2), np.array([[0., 1.], [1., 0.]]), [1., -1.],
+    ...                       e=0.5, mu=0.3)
+    >>> r.regime, np.round(r.v_plus, 3).tolist()
+    ('slide', [0.5, 0.55])
+    """
+    check_law_method(law, method)
+    problem = build_problem(M, Jc, dq, e, mu, C)
+    return solve_problem(problem, law, method, **options)
+
+
+def _no_options(method: str, options: dict) -> None:
+    if options:
+        raise UnknownOptionError(
+            f"method {method!r} takes no options, got {', '.join(sorted(options))}")
+
+
+@register_solver("pereira-nikravesh", "closed-form")
+def _pereira_nikravesh_closed_form(problem: ImpactProblem, **options) -> ImpactResult:
+    """Section 8 algorithm, one contact, planar or spatial sticking (spatial sliding raises)."""
+    _no_options("closed-form", options)
+    if problem.n_contacts != 1:
+        raise NotSupportedError(
+            "the closed form treats one contact; for several simultaneous contacts use "
+            "method='clarabel' or 'cvxpy'")
+    W, v = problem.contact_block(0)
+    impulse, regime, denom = pereira_nikravesh(
+        W, v, float(problem.restitution[0]), float(problem.friction[0]))
+    return assemble_result(problem, impulse[None], [regime], "pereira-nikravesh", "closed-form",
+                           effective_mass=denom, tol=1e-12)

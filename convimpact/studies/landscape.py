@@ -1,0 +1,497 @@
+"""Dissipation landscapes: one impact state, a law evaluated over grids of e and mu.
+
+:func:`closed_form_landscape` is the paper's Figs. 5-7: the Section 8 algorithm for one planar
+contact over e in [0, 1] and a *signed* mu, vectorized in numpy (no Python loop per point).
+Following the paper, mu > 0 puts the friction impulse along t = -v_t-/|v_t-| (eq. 55) and
+mu < 0 along the slip itself; sticking is admitted where the sticking impulse lies in the cone
+|pi_t| <= |mu| pi_n. Points where the sliding denominator of eq. (38) is not positive (a
+Painleve-like jam) carry NaN *and* are marked in ``jammed``; no NaN appears anywhere else.
+
+:func:`law_landscape` evaluates any law/method of :func:`convimpact.resolve_impact` (mu >= 0)
+point by point on one validated problem, reusing the solver's compiled program, with a
+progress bar on long runs.
+
+:func:`contact_landscape` evaluates any law with the exact single-contact kernels of
+``method="fast"``: the contact-space data are reduced once, one kernel call per point, and
+energy, velocities and the diagnostics' flags are computed in numpy over the grid (a few
+hundred times faster than :func:`law_landscape`, identical flags).
+
+:func:`angle_landscape` evaluates the spatial sliding rule of Section 9.3 over e x mu x alpha
+(the angle of the tangential impulse, Fig. 9), vectorized, with the exact angle of maximal
+dissipation alpha_m per (e, mu).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+
+from ..impact.errors import ConvImpactError, ShapeError
+from ..impact.problem import ImpactProblem, build_problem, check_restitution
+from ..impact.results import _jsonable
+
+REGIMES = ("separating", "frictionless", "stick", "slide", "failed")
+
+
+def _fields_as_json(obj) -> dict[str, Any]:
+    """A dataclass's fields as plain JSON, non-finite floats as None."""
+    out = {}
+    for k in obj.__dataclass_fields__:
+        v = getattr(obj, k)
+        if isinstance(v, np.ndarray) and v.dtype.kind == "f":
+            v = np.where(np.isfinite(v), v, None)
+        out[k] = _jsonable(v)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Landscape:
+    """A law evaluated over a grid: arrays of shape (len(e), len(mu)).
+
+    Attributes
+    ----------
+    e, mu : the grid axes.
+    energy_loss : T_L (eq. 58); negative where energy is gained.
+    energy_loss_fraction : T_L / T-.
+    normal_impulse : pi_n.
+    tangential_impulse : pi_t on the frame's tangent axes, shape (..., d - 1).
+    v_plus : post-impact contact-frame velocity, shape (..., d).
+    tangential_velocity : post-impact slip along the paper's t (planar) or its norm (spatial).
+    regime : integer codes into :data:`REGIMES`.
+    energy_gained, friction_pushes_slip, slip_reversal, jammed, failed : boolean masks.
+    stick_possible : mask of (e, mu) where the sticking impulse is admissible.
+    law, method : what was evaluated. ``meta`` records the impact state.
+    """
+
+    e: np.ndarray
+    mu: np.ndarray
+    energy_loss: np.ndarray
+    energy_loss_fraction: np.ndarray
+    normal_impulse: np.ndarray
+    tangential_impulse: np.ndarray
+    v_plus: np.ndarray
+    tangential_velocity: np.ndarray
+    regime: np.ndarray
+    energy_gained: np.ndarray
+    friction_pushes_slip: np.ndarray
+    slip_reversal: np.ndarray
+    jammed: np.ndarray
+    failed: np.ndarray
+    stick_possible: np.ndarray
+    law: str
+    method: str
+    meta: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+
+    def regime_names(self) -> np.ndarray:
+        """The regime of every point as strings."""
+        return np.asarray(REGIMES, dtype=object)[self.regime]
+
+    def counts(self) -> dict[str, int]:
+        """How many grid points fall in each regime and failure flag."""
+        out = {name: int(np.sum(self.regime == i)) for i, name in enumerate(REGIMES)}
+        for flag in ("energy_gained", "friction_pushes_slip", "slip_reversal", "jammed",
+                     "failed"):
+            out[flag] = int(np.sum(getattr(self, flag)))
+        return out
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-JSON view (NaN becomes None)."""
+        out = _fields_as_json(self)
+        out["regime_names"] = list(REGIMES)
+        out["counts"] = self.counts()
+        return out
+
+
+def _planar_problem(M, Jc, dq, C) -> ImpactProblem:
+    P = build_problem(M, Jc, dq, 0.0, 0.0, C)
+    if P.n_contacts != 1 or not P.planar:
+        raise ShapeError("the closed-form landscape takes one planar contact (Jc of shape 2 x k)")
+    return P
+
+
+def closed_form_landscape(M, Jc, dq, e, mu, C=None) -> Landscape:
+    """Section 8 over a grid of e and signed mu, vectorized (the paper's Figs. 5-7).
+
+    Parameters
+    ----------
+    M, Jc, dq, C : as for :func:`convimpact.resolve_impact`; one planar contact.
+    e : (ne,) array_like of restitution coefficients in [0, 1].
+    mu : (nmu,) array_like of signed friction coefficients (see module docstring).
+    """
+    P = _planar_problem(M, Jc, dq, C)
+    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
+    mu = np.atleast_1d(np.asarray(mu, float))
+    if not np.all(np.isfinite(mu)):
+        raise ShapeError("mu must be finite")
+    W, v = P.contact_block(0)
+    vn, vt = float(v[0]), float(v[1])
+    T_minus = P.kinetic_energy(P.dq_minus)
+    E, MU = np.meshgrid(e, mu, indexing="ij")
+    shape = E.shape
+    if vn >= 0.0:
+        z = np.zeros(shape)
+        f = np.zeros(shape, bool)
+        return Landscape(e, mu, z, z, z, z[..., None], np.broadcast_to(v, shape + (2,)).copy(),
+                         np.full(shape, vt), np.zeros(shape, int), f, f, f, f, f, f,
+                         "pereira-nikravesh", "closed-form", MappingProxyType({"v_minus": v}))
+
+    # sticking impulse, eq. (42)/(52): affine in e
+    from ..impact.laws.pereira_nikravesh import DELASSUS_COND_MAX
+
+    if np.linalg.cond(W) < DELASSUS_COND_MAX:
+        Winv = np.linalg.inv(W)
+        st_n = -(Winv[0, 0] * (1 + E) * vn + Winv[0, 1] * vt)
+        st_t = -(Winv[1, 0] * (1 + E) * vn + Winv[1, 1] * vt)
+        stick = (st_n >= 0) & (np.abs(st_t) <= np.abs(MU) * st_n)
+    elif np.all(mu == 0.0):
+        # frictionless everywhere (e.g. a central impact whose tangent moves no mass):
+        # the sticking solve is never needed
+        st_n = st_t = np.zeros(shape)
+        stick = np.zeros(shape, bool)
+    else:
+        from ..impact.errors import SingularSystemError
+
+        raise SingularSystemError(
+            f"the Delassus matrix W = Jc M^-1 Jc^T is singular (cond = {np.linalg.cond(W):.3e}):"
+            " the sticking solve of eq. (42)/(52) has no unique answer; evaluate this impact "
+            "with mu = 0 only, or use contact_landscape with law='dissipative'")
+    # sliding, eq. (38): t opposite to v_t- for mu > 0 (eq. 55), along it for mu < 0
+    # sign of the slip; with no slip, friction saturates where the sticking impulse pointed
+    s = np.full(shape, np.sign(vt)) if vt != 0.0 else -np.sign(st_t)
+    s = np.where(s == 0, -1.0, s)
+    g_t = -MU * s  # frame-tangent component of (n + mu t)
+    denom = W[0, 0] + W[0, 1] * g_t
+    jam = ~stick & ~(denom > 1e-12 * np.abs(W).max())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sl_n = np.where(jam, np.nan, -(1 + E) * vn / np.where(jam, 1.0, denom))
+    pn = np.where(stick, st_n, sl_n)
+    pt = np.where(stick, st_t, sl_n * g_t)
+    frictionless = MU == 0
+    pn = np.where(frictionless, -(1 + E) * vn / W[0, 0], pn)
+    pt = np.where(frictionless, 0.0, pt)
+    jam = jam & ~frictionless
+    vpn = vn + W[0, 0] * pn + W[0, 1] * pt
+    vpt = vt + W[1, 0] * pn + W[1, 1] * pt
+    TL = -(pn * vn + pt * vt) - 0.5 * (W[0, 0] * pn**2 + 2 * W[0, 1] * pn * pt + W[1, 1] * pt**2)
+    regime = np.where(frictionless, 1, np.where(stick, 2, 3))
+    tol = 1e-12
+    gained = TL < -tol * T_minus
+    pushes = pt * vt > tol * np.abs(pt) * abs(vt)
+    reversal = (regime == 3) & (pt * vpt > tol * np.abs(pt) * np.abs(vpt))
+    return Landscape(
+        e=e, mu=mu, energy_loss=TL, energy_loss_fraction=TL / T_minus, normal_impulse=pn,
+        tangential_impulse=pt[..., None], v_plus=np.stack([vpn, vpt], axis=-1),
+        tangential_velocity=-s * vpt, regime=regime, energy_gained=gained & ~jam,
+        friction_pushes_slip=pushes & ~jam, slip_reversal=reversal & ~jam, jammed=jam,
+        failed=np.zeros(shape, bool), stick_possible=stick & ~frictionless,
+        law="pereira-nikravesh", method="closed-form",
+        meta=MappingProxyType({"v_minus": v.tolist(), "energy_before": T_minus,
+                               "t_sign": "mu > 0: friction along -v_t-/|v_t-| (eq. 55)"}),
+    )
+
+
+class _Progress:
+    """A plain progress bar on stderr, shown only for runs longer than ``after`` seconds."""
+
+    def __init__(self, total: int, label: str, after: float = 2.0, stream=None):
+        self.total, self.label, self.after = total, label, after
+        self.stream = stream or sys.stderr
+        self.start = time.perf_counter()
+        self.shown = False
+
+    def update(self, done: int) -> None:
+        elapsed = time.perf_counter() - self.start
+        if elapsed < self.after and done < self.total:
+            return
+        if not self.shown and done >= self.total and elapsed < self.after:
+            return
+        self.shown = True
+        frac = done / self.total
+        bar = "#" * int(30 * frac)
+        eta = elapsed / max(frac, 1e-9) - elapsed
+        self.stream.write(f"\r{self.label} [{bar:<30}] {done}/{self.total} "
+                          f"{elapsed:5.1f}s eta {eta:5.1f}s")
+        if done >= self.total:
+            self.stream.write("\n")
+        self.stream.flush()
+
+
+def law_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb", method: str = "auto",
+                  progress: bool = True, **options) -> Landscape:
+    """Evaluate ``resolve_impact`` over a grid of e and mu (mu >= 0) for one impact state.
+
+    Points where the law raises a :class:`~convimpact.impact.errors.ConvImpactError` are marked in
+    ``failed`` (and ``jammed`` for a non-positive effective mass) with NaN values there.
+    """
+    from ..impact.errors import NonPositiveEffectiveMassError
+    from ..impact import choose_method, solve_problem
+
+    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
+    mu = np.atleast_1d(np.asarray(mu, float))
+    base = build_problem(M, Jc, dq, 0.0, 0.0, C)
+    d = base.dim
+    if method == "auto":
+        method = choose_method(base, law)
+    shape = (e.size, mu.size)
+    nan = lambda *s: np.full(shape + s, np.nan)  # noqa: E731
+    TL, pn, pt, vp = nan(), nan(), nan(d - 1), nan(d)
+    regime = np.full(shape, REGIMES.index("failed"))
+    flags = {k: np.zeros(shape, bool) for k in ("energy_gained", "friction_pushes_slip",
+                                                "slip_reversal", "jammed", "failed")}
+    stick_possible = np.zeros(shape, bool)
+    bar = _Progress(e.size * mu.size, f"{law}/{method}") if progress else None
+    n = 0
+    for i, ei in enumerate(e):
+        for j, mj in enumerate(mu):
+            P = build_problem(base.mass_matrix, list(base.jacobians) if not base.single
+                              else base.jacobians[0], base.dq_minus, ei, mj,
+                              base.loop_jacobian if base.n_loops else None)
+            try:
+                r = solve_problem(P, law, method, **options)
+            except NonPositiveEffectiveMassError:
+                flags["jammed"][i, j] = flags["failed"][i, j] = True
+            except ConvImpactError:
+                flags["failed"][i, j] = True
+            else:
+                imp = np.atleast_2d(r.impulse)[0]
+                TL[i, j], pn[i, j], pt[i, j] = r.energy_loss, imp[0], imp[1:]
+                vp[i, j] = np.atleast_2d(r.v_plus)[0]
+                reg = r.regime if isinstance(r.regime, str) else r.regime[0]
+                regime[i, j] = REGIMES.index(reg)
+                stick_possible[i, j] = reg == "stick"
+                dg = r.diagnostics
+                flags["energy_gained"][i, j] = dg.energy_gained
+                flags["friction_pushes_slip"][i, j] = dg.friction_pushes_slip
+                flags["slip_reversal"][i, j] = dg.slip_reversal
+            n += 1
+            if bar:
+                bar.update(n)
+    T_minus = base.kinetic_energy(base.dq_minus)
+    vt = base.v_minus[0, 1:]
+    if d == 2:
+        s = np.sign(vt[0]) if vt[0] != 0 else 1.0
+        tangential_velocity = -s * vp[..., 1]
+    else:
+        tangential_velocity = np.linalg.norm(vp[..., 1:], axis=-1)
+    return Landscape(
+        e=e, mu=mu, energy_loss=TL, energy_loss_fraction=TL / T_minus, normal_impulse=pn,
+        tangential_impulse=pt, v_plus=vp, tangential_velocity=tangential_velocity,
+        regime=regime, stick_possible=stick_possible, law=law, method=method,
+        meta=MappingProxyType({"v_minus": base.v_minus[0].tolist(), "energy_before": T_minus}),
+        **flags,
+    )
+
+
+def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
+                      progress: bool = True) -> Landscape:
+    """Any law over a grid of e and mu (mu >= 0) with the exact single-contact kernels.
+
+    The contact-space data (Delassus block ``W`` with the loops folded in, ``v-``) are computed
+    once; each grid point then costs one call of :func:`convimpact.impact.fast.solve_contact` (the
+    kernel of ``method="fast"``, tens of microseconds) and everything after the impulse --
+    energy loss (eq. 58 in contact space), post-impact velocity and the failure flags -- is
+    evaluated in numpy over the whole grid, with the same definitions and tolerance as
+    :func:`convimpact.impact.diagnostics.assemble_result` for ``method="fast"``. Planar or spatial,
+    one contact.
+
+    Parameters
+    ----------
+    M, Jc, dq, C : as for :func:`convimpact.resolve_impact`; one contact.
+    e : (ne,) array_like of restitution coefficients in [0, 1].
+    mu : (nmu,) array_like of friction coefficients >= 0.
+    law : one of :data:`convimpact.LAWS`.
+    progress : show a progress bar on stderr when the run is long.
+
+    Returns
+    -------
+    Landscape
+        ``method="fast"``. Points where the kernel raises are NaN and marked in ``failed``
+        (and in ``jammed`` for a non-positive sliding denominator). ``stick_possible`` marks
+        the points where the law stuck.
+    """
+    from ..impact.errors import NonPositiveEffectiveMassError, UnknownOptionError
+    from ..impact.fast import FAST_LAWS, FAST_TOL, solve_contact
+    from ..impact.problem import check_friction
+
+    if law not in FAST_LAWS:
+        raise UnknownOptionError(f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
+    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
+    mu = check_friction(np.atleast_1d(np.asarray(mu, float)), np.size(mu))
+    P = build_problem(M, Jc, dq, 0.0, 0.0, C)
+    if P.n_contacts != 1:
+        raise ShapeError("contact_landscape takes one contact Jacobian (d x k)")
+    W, v = P.contact_block(0)
+    d = P.dim
+    shape = (e.size, mu.size)
+    pi = np.full(shape + (d,), np.nan)
+    regime = np.full(shape, REGIMES.index("failed"))
+    jam = np.zeros(shape, bool)
+    failed = np.zeros(shape, bool)
+    bar = _Progress(e.size * mu.size, f"{law}/fast") if progress else None
+    n = 0
+    for i, ei in enumerate(e):
+        for j, mj in enumerate(mu):
+            try:
+                sol = solve_contact(W, v, float(ei), float(mj), law)
+            except NonPositiveEffectiveMassError:
+                jam[i, j] = failed[i, j] = True
+            except ConvImpactError:
+                failed[i, j] = True
+            else:
+                pi[i, j] = sol.impulse
+                regime[i, j] = REGIMES.index(sol.regime)
+            n += 1
+            if bar:
+                bar.update(n)
+    return _landscape_from_impulses(P, e, mu, pi, regime, jam, failed, law, "fast", FAST_TOL)
+
+
+def _landscape_from_impulses(P: ImpactProblem, e, mu, pi, regime, jam, failed, law, method,
+                             tol) -> Landscape:
+    """Energy, velocities and the diagnostics' flags of a grid of contact impulses."""
+    W, v = P.contact_block(0)
+    tiny = 1e-300
+    T_minus = P.kinetic_energy(P.dq_minus)
+    ok = ~failed
+    p = np.where(ok[..., None], pi, 0.0)
+    v_plus = v + p @ W.T
+    dT = p @ v + 0.5 * np.einsum("...i,ij,...j->...", p, W, p)
+    TL = np.where(ok, -dT, np.nan)
+    v_plus = np.where(ok[..., None], v_plus, np.nan)
+    gained = ok & (dT > tol * max(T_minus, tiny) * 10.0)
+    pt, vt = p[..., 1:], v[1:]
+    npt = np.linalg.norm(pt, axis=-1)
+    pscale = np.maximum(np.linalg.norm(p, axis=-1), tiny)
+    vscale = max(float(np.max(np.abs(v))), tiny)
+    pushes = ok & (npt > tol * pscale) & (pt @ vt > tol * npt * float(np.linalg.norm(vt)))
+    vtp = np.where(ok[..., None], v_plus[..., 1:], 0.0)
+    nvtp = np.linalg.norm(vtp, axis=-1)
+    slipping = nvtp > tol * 10.0 * vscale
+    reversal = (ok & (regime == REGIMES.index("slide")) & slipping & (npt > tol * pscale)
+                & (np.sum(pt * vtp, axis=-1) > tol * npt * nvtp))
+    if P.planar:
+        s = np.sign(vt[0]) if vt[0] != 0 else 1.0
+        tangential_velocity = -s * v_plus[..., 1]
+    else:
+        tangential_velocity = np.linalg.norm(v_plus[..., 1:], axis=-1)
+    return Landscape(
+        e=e, mu=mu, energy_loss=TL, energy_loss_fraction=TL / T_minus,
+        normal_impulse=np.where(ok, pi[..., 0], np.nan), tangential_impulse=pi[..., 1:],
+        v_plus=v_plus, tangential_velocity=tangential_velocity, regime=regime,
+        energy_gained=gained, friction_pushes_slip=pushes, slip_reversal=reversal, jammed=jam,
+        failed=failed, stick_possible=regime == REGIMES.index("stick"), law=law, method=method,
+        meta=MappingProxyType({"v_minus": v.tolist(), "energy_before": T_minus}),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class AngleLandscape:
+    """The sliding rule of Section 9.3 over e x mu x alpha (the paper's Fig. 9, generalized).
+
+    The tangential impulse slides along ``t(alpha)``, rotated by ``alpha`` counter-clockwise
+    from the pre-impact slip ``v_t-`` in the (t1, t2) plane, with ``pi_n`` from eq. (38)/(51).
+
+    Attributes
+    ----------
+    e, mu, alpha : the grid axes (alpha in radians).
+    energy_loss : T_L(e, mu, alpha) (eq. 60), shape (ne, nmu, nalpha); NaN where excluded.
+    normal_impulse : pi_n(e, mu, alpha) (eq. 38/51); NaN where excluded.
+    admissible : the sliding denominator D(alpha) = c_n^T G (c_n + mu c_t) is positive.
+    energy_gained : admissible directions with T_L < 0 (the paper's sector alpha_0..alpha_1).
+    alpha_m : (ne, nmu) exact angle of maximal dissipation (:func:`fast.max_dissipation_direction`),
+        in [0, 2 pi); NaN for mu = 0.
+    energy_loss_max, normal_impulse_max_dissipation : T_L and pi_n at ``alpha_m``.
+    meta : the impact state (v_minus, energy_before).
+    """
+
+    e: np.ndarray
+    mu: np.ndarray
+    alpha: np.ndarray
+    energy_loss: np.ndarray
+    normal_impulse: np.ndarray
+    admissible: np.ndarray
+    energy_gained: np.ndarray
+    alpha_m: np.ndarray
+    energy_loss_max: np.ndarray
+    normal_impulse_max_dissipation: np.ndarray
+    meta: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-JSON view (NaN becomes None)."""
+        return _fields_as_json(self)
+
+
+def angle_landscape(M, Jc, dq, e, mu, alpha, C=None) -> AngleLandscape:
+    """T_L and pi_n of the Section 9.3 sliding rule over grids of e, mu and alpha, vectorized.
+
+    Parameters
+    ----------
+    M, Jc, dq, C : as for :func:`convimpact.resolve_impact`; one spatial contact (Jc 3 x k)
+        approaching (v_n- < 0).
+    e : (ne,) restitution coefficients in [0, 1].
+    mu : (nmu,) friction coefficients >= 0.
+    alpha : (nalpha,) angles (radians) counter-clockwise from v_t- (from t1 if v_t- = 0).
+
+    Returns
+    -------
+    AngleLandscape
+    """
+    from ..impact.errors import ParameterError
+    from ..impact.fast import max_dissipation_direction
+    from ..impact.problem import check_friction
+
+    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
+    mu = check_friction(np.atleast_1d(np.asarray(mu, float)), np.size(mu))
+    alpha = np.atleast_1d(np.asarray(alpha, float))
+    if not np.all(np.isfinite(alpha)):
+        raise ShapeError("alpha must be finite angles in radians")
+    P = build_problem(M, Jc, dq, 0.0, 0.0, C)
+    if P.n_contacts != 1 or P.planar:
+        raise ShapeError("angle_landscape takes one spatial contact (Jc of shape 3 x k); a "
+                         "planar contact has only the two tangents alpha = 0 and pi")
+    W, v = P.contact_block(0)
+    if not v[0] < 0.0:
+        raise ParameterError(f"the contact is not approaching (v_n- = {v[0]:g} >= 0): no "
+                             "impulse acts, choose an impact state with v_n- < 0")
+    vt = v[1:]
+    nv = float(np.hypot(*vt))
+    ref = vt / nv if nv > 0.0 else np.array([1.0, 0.0])
+    t1 = np.cos(alpha) * ref[0] - np.sin(alpha) * ref[1]
+    t2 = np.cos(alpha) * ref[1] + np.sin(alpha) * ref[0]
+    E = e[:, None, None]
+    MU = mu[None, :, None]
+    wt = W[0, 1] * t1 + W[0, 2] * t2
+    tWt = W[1, 1] * t1 * t1 + 2.0 * W[1, 2] * t1 * t2 + W[2, 2] * t2 * t2
+    D = W[0, 0] + MU * wt  # eq. (38)/(51) denominator
+    ok = np.broadcast_to(D > 1e-12 * float(np.max(np.abs(W))), (e.size, mu.size, alpha.size))
+    pn = -(1.0 + E) * v[0] / np.where(ok, D, 1.0)
+    TL = -pn * (v[0] + MU * (vt[0] * t1 + vt[1] * t2)) - 0.5 * pn * pn * (
+        W[0, 0] + 2.0 * MU * wt + MU * MU * tWt)  # eq. (60)
+    TL = np.where(ok, TL, np.nan)
+    pn = np.where(ok, pn, np.nan)
+    am = np.full((e.size, mu.size), np.nan)
+    tlm = np.full_like(am, np.nan)
+    pnm = np.full_like(am, np.nan)
+    for i, ei in enumerate(e):  # one exact solve per (e, mu), none per angle
+        for j, mj in enumerate(mu):
+            if mj == 0.0:
+                pnm[i, j] = -(1.0 + ei) * v[0] / W[0, 0]
+                tlm[i, j] = 0.5 * (1.0 - ei * ei) * v[0] ** 2 / W[0, 0]  # eq. (59)
+                continue
+            t = max_dissipation_direction(W, v, float(ei), float(mj))
+            am[i, j] = np.arctan2(ref[0] * t[1] - ref[1] * t[0], ref @ t) % (2.0 * np.pi)
+            g = np.array([1.0, mj * t[0], mj * t[1]])
+            p = -(1.0 + ei) * v[0] / float(W[0] @ g)
+            pnm[i, j] = p
+            tlm[i, j] = -p * float(g @ v) - 0.5 * p * p * float(g @ W @ g)
+    return AngleLandscape(
+        e=e, mu=mu, alpha=alpha, energy_loss=TL, normal_impulse=pn, admissible=ok.copy(),
+        energy_gained=ok & (TL < 0.0), alpha_m=am, energy_loss_max=tlm,
+        normal_impulse_max_dissipation=pnm,
+        meta=MappingProxyType({"v_minus": v.tolist(),
+                               "energy_before": P.kinetic_energy(P.dq_minus)}))
