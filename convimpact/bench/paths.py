@@ -12,10 +12,9 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
 from ..impact import LAWS, available_methods
+from ..impact.conic.qp import DEFAULT_TOL  # the conic paths' default tolerance
 from ..impact.problem import ImpactProblem
 
-#: the conic paths' default tolerance (convimpact.impact.conic.programs.DEFAULT_TOL)
-DEFAULT_TOL = 1e-10
 #: tolerance of the tight reference for several contacts
 REFERENCE_TOL = 1e-12
 

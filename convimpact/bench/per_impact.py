@@ -372,7 +372,7 @@ def per_impact_section(config: BenchConfig, progress: Progress) -> SectionResult
             "time_full": "seconds per solve_problem call on the prebuilt ImpactProblem "
                          "(median, quartiles over timed batches after one warm-up call)",
             "time_kernel": "seconds per bare kernel call on the contact block (fast: "
-                           "solve_contact; closed-form: closed_form.pereira_nikravesh; "
+                           "solve_contact; closed-form: laws.pereira_nikravesh.pereira_nikravesh; "
                            "Pinocchio ADMM/PGS: the solver's solve on W)",
             "impulse_error": "|pi - pi_ref| / |pi_ref| (2-norm over all contacts)",
             "velocity_error": "|dq+ - dq+_ref| / |dq-|",

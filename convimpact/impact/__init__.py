@@ -6,10 +6,13 @@ The data path inside this package:
   contact space (the Delassus matrix W with closed loops folded in, eqs. 43-52);
 * :mod:`~convimpact.impact.resolve` picks a law and a solver path (``resolve_impact``,
   ``solve_problem``, the registry of ``(law, method)`` solvers);
-* :mod:`~convimpact.impact.laws` holds one module per law: its definition and its exact
-  kernels; :mod:`~convimpact.impact.fast` dispatches one contact to them;
-  :mod:`~convimpact.impact.conic` poses any law's program for Clarabel (directly or through
-  cvxpy); :mod:`~convimpact.impact.sweep` is the paper's own 1-D search of the tangent angle;
+* :mod:`~convimpact.impact.laws` holds one module per law: its definition, its exact
+  single-contact kernel and its cone program(s); :mod:`~convimpact.impact.fast` dispatches one
+  contact to the kernels, which share :mod:`~convimpact.impact.small_linalg` (2x2, 3x3 solves
+  on floats), :mod:`~convimpact.impact.boundary` (roots on the cone's boundary) and
+  :mod:`~convimpact.impact.max_dissipation` (the direction of eq. 60);
+  :mod:`~convimpact.impact.conic` solves any law's cone program with Clarabel (directly or
+  through cvxpy); :mod:`~convimpact.impact.sweep` is the paper's own 1-D search of the angle;
 * :mod:`~convimpact.impact.diagnostics` turns an impulse into an
   :class:`~convimpact.impact.results.ImpactResult` with the law's invariants measured;
 * :mod:`~convimpact.impact.energy` holds the paper's energy formulas (eqs. 58-62);

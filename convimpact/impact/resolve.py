@@ -14,7 +14,6 @@ from typing import Callable
 
 import numpy as np
 
-from .laws.pereira_nikravesh import pereira_nikravesh
 from .diagnostics import assemble_result
 from .errors import (
     NonPositiveEffectiveMassError,
@@ -22,20 +21,21 @@ from .errors import (
     SingularSystemError,
     UnknownOptionError,
 )
+from .laws import LAW_MODULES
 from .problem import ImpactProblem, build_problem
 from .results import ImpactResult
 
-LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative")
+LAWS = tuple(LAW_MODULES)
 METHODS = ("auto", "closed-form", "sweep", "fast", "clarabel", "cvxpy")
 
 Solver = Callable[..., ImpactResult]
 _SOLVERS: dict[tuple[str, str], Solver] = {}
 #: modules that register further solvers when imported (a module not yet present is skipped)
 _SOLVER_MODULES: tuple[str, ...] = (
-    "convimpact.impact.fast",   # exact single-contact solvers, every law
+    # each law registers its own solvers: the exact single-contact kernel ("fast"), its conic
+    # programs ("clarabel", "cvxpy"), and any closed form of its own
+    *(f"convimpact.impact.laws.{module}" for module in LAW_MODULES.values()),
     "convimpact.impact.sweep",  # the paper's 1-D search over the tangent angle
-    "convimpact.impact.conic.programs",  # cvxpy programs (DPP, compiled once per shape)
-    "convimpact.impact.conic.clarabel_backend",  # Clarabel's own API, built once and updated
 )
 _loaded = False
 
@@ -52,7 +52,8 @@ def register_solver(law: str, method: str) -> Callable[[Solver], Solver]:
     return deco
 
 
-def _load_solver_modules() -> None:
+def load_solver_modules() -> None:
+    """Import the modules that register solvers (once)."""
     global _loaded
     if not _loaded:
         for name in _SOLVER_MODULES:
@@ -66,7 +67,7 @@ def _load_solver_modules() -> None:
 
 def available_methods(law: str) -> list[str]:
     """Solver paths registered for ``law``."""
-    _load_solver_modules()
+    load_solver_modules()
     return [m for m in METHODS if (law, m) in _SOLVERS]
 
 
@@ -85,7 +86,7 @@ SINGLE_CONTACT_METHODS = ("closed-form", "fast", "sweep")
 
 def _candidates(problem: ImpactProblem, law: str) -> list[str]:
     """Registered methods exact for this problem, cheapest first."""
-    _load_solver_modules()
+    load_solver_modules()
     single = problem.n_contacts == 1
     if law == "pereira-nikravesh" and single and problem.planar:
         order = ["closed-form", "fast", "clarabel", "cvxpy"]
@@ -128,7 +129,7 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
             raise NotSupportedError(
                 f"no solver is registered for law {law!r} on {problem.n_contacts} contact(s)")
     else:
-        _load_solver_modules()
+        load_solver_modules()
         if (law, method) not in _SOLVERS:
             raise NotSupportedError(
                 f"law {law!r} has no method {method!r}; available: "
@@ -215,23 +216,3 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     problem = build_problem(M, Jc, dq, e, mu, C)
     return solve_problem(problem, law, method, **options)
 
-
-def _no_options(method: str, options: dict) -> None:
-    if options:
-        raise UnknownOptionError(
-            f"method {method!r} takes no options, got {', '.join(sorted(options))}")
-
-
-@register_solver("pereira-nikravesh", "closed-form")
-def _pereira_nikravesh_closed_form(problem: ImpactProblem, **options) -> ImpactResult:
-    """Section 8 algorithm, one contact, planar or spatial sticking (spatial sliding raises)."""
-    _no_options("closed-form", options)
-    if problem.n_contacts != 1:
-        raise NotSupportedError(
-            "the closed form treats one contact; for several simultaneous contacts use "
-            "method='clarabel' or 'cvxpy'")
-    W, v = problem.contact_block(0)
-    impulse, regime, denom = pereira_nikravesh(
-        W, v, float(problem.restitution[0]), float(problem.friction[0]))
-    return assemble_result(problem, impulse[None], [regime], "pereira-nikravesh", "closed-form",
-                           effective_mass=denom, tol=1e-12)

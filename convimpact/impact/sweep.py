@@ -16,7 +16,7 @@ Fig. 9); :func:`sweep_direction` finds its maximum: a coarse grid brackets every
 maximum, which is then refined by Brent's bounded method to ``xtol`` in alpha. Note that
 ``T_L`` is flat at its maximum, so the achievable accuracy in alpha is about
 ``sqrt(eps |T_L| / |T_L''|)`` (~1e-8) however small ``xtol`` is; T_L itself is accurate to
-round-off. The exact answer is :func:`convimpact.impact.fast.max_dissipation_direction`.
+round-off. The exact answer is :func:`convimpact.impact.max_dissipation.max_dissipation_direction`.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from .errors import (
     SingularSystemError,
     UnknownOptionError,
 )
-from .fast import max_dissipation_direction  # the exact answer, re-exported
+from .max_dissipation import max_dissipation_direction  # the exact answer, re-exported
 from .resolve import register_solver
 from .problem import ImpactProblem
 from .results import ImpactResult

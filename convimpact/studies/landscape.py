@@ -403,7 +403,8 @@ class AngleLandscape:
     normal_impulse : pi_n(e, mu, alpha) (eq. 38/51); NaN where excluded.
     admissible : the sliding denominator D(alpha) = c_n^T G (c_n + mu c_t) is positive.
     energy_gained : admissible directions with T_L < 0 (the paper's sector alpha_0..alpha_1).
-    alpha_m : (ne, nmu) exact angle of maximal dissipation (:func:`fast.max_dissipation_direction`),
+    alpha_m : (ne, nmu) exact angle of maximal dissipation
+        (:func:`~convimpact.impact.max_dissipation.max_dissipation_direction`),
         in [0, 2 pi); NaN for mu = 0.
     energy_loss_max, normal_impulse_max_dissipation : T_L and pi_n at ``alpha_m``.
     meta : the impact state (v_minus, energy_before).
@@ -442,7 +443,7 @@ def angle_landscape(M, Jc, dq, e, mu, alpha, C=None) -> AngleLandscape:
     AngleLandscape
     """
     from ..impact.errors import ParameterError
-    from ..impact.fast import max_dissipation_direction
+    from ..impact.max_dissipation import max_dissipation_direction
     from ..impact.problem import check_friction
 
     e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))

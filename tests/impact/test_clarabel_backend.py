@@ -8,7 +8,7 @@ from hypothesis import given, settings
 
 import convimpact as ci
 from convimpact.impact.conic import clarabel_backend as cd
-from convimpact.impact.conic import programs as pg
+from convimpact.impact.conic.qp import ConeQP, solve_cone_qp
 
 from .convex_systems import ccp_residual, coulomb_conditions, delassus, newton_b, random_system, \
     systems
@@ -100,8 +100,8 @@ def test_solver_built_once_and_updated():
         W = A @ A.T + np.eye(3)
         v = rng.normal(size=3)
         v[0] = -1.0
-        qp = pg.ConeQP(W, v, np.array([0.4]), 3, np.zeros((0, 3)), np.zeros(0))
-        x = pg.solve_cone_qp(backend, qp).x
+        qp = ConeQP(W, v, np.array([0.4]), 3, np.zeros((0, 3)), np.zeros(0))
+        x = solve_cone_qp(backend, qp).x
         answers.append(x)
         assert ccp_residual(W, v, [0.4], 3, x) < 1e-10  # each update solved its own data
     assert len(backend._built) == 1
@@ -116,12 +116,12 @@ def test_default_and_tightened_tolerances_unpolished():
     A = rng.normal(size=(3, 3))
     W = A @ A.T + 0.3 * np.eye(3)
     v = np.array([-1.0, 2.0, -0.7])
-    qp = pg.ConeQP(W, v, np.array([0.3]), 3, np.zeros((0, 3)), np.zeros(0))
-    exact = pg.solve_cone_qp(cd.ClarabelBackend(), qp, tol=1e-10).x
+    qp = ConeQP(W, v, np.array([0.3]), 3, np.zeros((0, 3)), np.zeros(0))
+    exact = solve_cone_qp(cd.ClarabelBackend(), qp, tol=1e-10).x
     assert ccp_residual(W, v, [0.3], 3, exact) < 1e-13
     err = {}
     for tol in (1e-8, 1e-10):
-        raw = pg.solve_cone_qp(cd.ClarabelBackend(), qp, tol=tol, polish=False).x
+        raw = solve_cone_qp(cd.ClarabelBackend(), qp, tol=tol, polish=False).x
         err[tol] = np.abs(raw - exact).max() / np.abs(exact).max()
     assert err[1e-8] < 1e-4
     assert err[1e-10] < 1e-5

@@ -1,4 +1,4 @@
-"""The cone QP of convimpact.impact.conic.programs and its cvxpy path, against independent solutions.
+"""The cone QP of convimpact.impact.conic.qp and its cvxpy path, against independent solutions.
 
 References: a brute-force angle search for one spatial contact (the cone QP minimized over
 the boundary ray family by hand), scipy's SLSQP on the same objective for several contacts,
@@ -11,7 +11,8 @@ from hypothesis import assume, given, settings, strategies as st
 from scipy.optimize import minimize, minimize_scalar
 
 import convimpact as ci
-from convimpact.impact.conic import programs as pg
+from convimpact.impact.conic.cvxpy_backend import CvxpyBackend, psd_factor
+from convimpact.impact.conic.qp import ConeQP, solve_cone_qp
 from convimpact.impact.problem import build_problem
 
 from .convex_systems import ccp_residual, delassus, newton_b, random_system
@@ -101,9 +102,9 @@ def test_hand_solved_frictionless_pair():
     W = np.zeros((4, 4))
     W[np.ix_([0, 2], [0, 2])] = [[2.0, 1.0], [1.0, 2.0]]
     W[1, 1] = W[3, 3] = 1.0
-    qp = pg.ConeQP(W, np.array([-1.0, 0.3, 1.0, 0.0]), np.zeros(2), 2, np.zeros((0, 4)),
+    qp = ConeQP(W, np.array([-1.0, 0.3, 1.0, 0.0]), np.zeros(2), 2, np.zeros((0, 4)),
                    np.zeros(0))
-    sol = pg.solve_cone_qp(pg.CvxpyBackend(), qp)
+    sol = solve_cone_qp(CvxpyBackend(), qp)
     assert np.allclose(sol.x, [0.5, 0.0, 0.0, 0.0], atol=1e-12)
     assert sol.polished and sol.kkt_residual < 1e-14
 
@@ -112,7 +113,7 @@ def test_psd_factor_of_singular_matrix():
     """Two coincident contacts: W = [[A, A], [A, A]] is singular; F^T F = W still holds."""
     A = np.array([[2.0, 0.3, 0.1], [0.3, 1.0, 0.2], [0.1, 0.2, 0.7]])
     W = np.block([[A, A], [A, A]])
-    F = pg.psd_factor(W - 1e-17 * np.eye(6))  # round-off may make eigenvalues negative
+    F = psd_factor(W - 1e-17 * np.eye(6))  # round-off may make eigenvalues negative
     assert np.allclose(F.T @ F, W, atol=1e-14)
     assert np.all(np.isfinite(F))
 
@@ -131,15 +132,15 @@ def test_redundant_contacts_give_the_single_contact_velocities():
 
 
 def test_dpp_program_compiled_once_per_structure():
-    backend = pg.CvxpyBackend()
+    backend = CvxpyBackend()
     rng = np.random.default_rng(0)
     for _ in range(5):
         A = rng.normal(size=(3, 3))
         W = A @ A.T + np.eye(3)
         v = rng.normal(size=3)
         v[0] = -1.0
-        qp = pg.ConeQP(W, v, np.array([rng.uniform(0.1, 1)]), 3, np.zeros((0, 3)), np.zeros(0))
-        pg.solve_cone_qp(backend, qp)
+        qp = ConeQP(W, v, np.array([rng.uniform(0.1, 1)]), 3, np.zeros((0, 3)), np.zeros(0))
+        solve_cone_qp(backend, qp)
     assert len(backend._programs) == 1
     problem = backend._programs[next(iter(backend._programs))][0]
     assert problem.is_dpp()

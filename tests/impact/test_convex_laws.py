@@ -25,8 +25,10 @@ from hypothesis import assume, given, settings, strategies as st
 from scipy.optimize import minimize_scalar
 
 import convimpact as ci
-from convimpact.impact.conic import clarabel_backend as cd
-from convimpact.impact.conic import programs as pg
+from convimpact.impact.conic.clarabel_backend import ClarabelBackend
+from convimpact.impact.conic.paths import ProgramOptions
+from convimpact.impact.conic.qp import ConeQP, solve_cone_qp
+from convimpact.impact.laws.pereira_nikravesh import solve_pn_program
 from convimpact.impact.problem import build_problem
 
 from .convex_systems import (ccp_residual, coulomb_conditions, delassus, newton_b,
@@ -226,7 +228,7 @@ def test_pn_interior_optimum_falls_back_to_the_boundary_search():
     stick = np.linalg.solve(W, -newton_b(v, [e]))
     assert np.linalg.norm(stick[1:]) > mu * stick[0]  # stick test fails
     P = build_problem(M, Jc, dq, e, mu, C)
-    pn, _ = pg.solve_pn_program(P, cd.ClarabelBackend(), pg.ProgramOptions())
+    pn, _ = solve_pn_program(P, ClarabelBackend(), ProgramOptions())
     assert np.linalg.norm(pn[0, 1:]) < mu * pn[0, 0] * 0.999  # interior
     assert np.linalg.norm((v + W @ pn[0])[1:]) > 1e-3 * abs(v[0])  # ... and still slipping
     r = ci.resolve_impact(M, Jc, dq, e=e, mu=mu, law="pereira-nikravesh", method="cvxpy")
@@ -244,7 +246,7 @@ def test_planar_eq55_against_pn():
     P_N optimum the maximal-dissipation tangent points along v_t- instead of against it. Each
     time P_N dissipates strictly more than eq. (55) (when eq. 55 is admissible)."""
     rng = np.random.default_rng(5)
-    backend = cd.ClarabelBackend()
+    backend = ClarabelBackend()
     slides = interior = disagree = 0
     for _ in range(400):
         k = 4
@@ -262,7 +264,7 @@ def test_planar_eq55_against_pn():
             continue
         slides += 1
         P = build_problem(M, J, dq, e, mu)
-        pn, _ = pg.solve_pn_program(P, backend, pg.ProgramOptions())
+        pn, _ = solve_pn_program(P, backend, ProgramOptions())
         pn = pn[0]
         if abs(pn[1]) < mu * pn[0] * (1 - 1e-5):
             interior += 1
@@ -391,12 +393,12 @@ def test_pendulum_plain_fixed_point_cycles(pendulum):
     P = build_problem(a["M"], a["Jc"], a["dq"], 0.7, 0.4, a["C"])
     W, v = P.contact_block(0)
     b = newton_b(v, [0.7])
-    backend = cd.ClarabelBackend()
+    backend = ClarabelBackend()
     s, seen = 0.0, []
     for _ in range(8):
         q = b.copy()
         q[0] += s
-        x = pg.solve_cone_qp(backend, pg.ConeQP(W, q, np.array([0.4]), 3, np.zeros((0, 3)),
+        x = solve_cone_qp(backend, ConeQP(W, q, np.array([0.4]), 3, np.zeros((0, 3)),
                                                 np.zeros(0))).x
         s = 0.4 * np.linalg.norm((W @ x + b)[1:])
         seen.append(s)

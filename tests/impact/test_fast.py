@@ -20,7 +20,9 @@ from scipy.optimize import brentq, minimize_scalar
 
 import convimpact as ci
 from convimpact.impact.laws.pereira_nikravesh import pereira_nikravesh as closed_form_pn
-from convimpact.impact.fast import _candidates, _refine, max_dissipation_direction, solve_contact
+from convimpact.impact.boundary import candidates, refine
+from convimpact.impact.fast import solve_contact
+from convimpact.impact.max_dissipation import max_dissipation_direction
 
 from .convex_systems import ccp_residual, coulomb_conditions, delassus, random_system
 
@@ -382,22 +384,22 @@ def test_jam_direction_always_sticks_in_the_plane():
 
 def test_boundary_root_at_infinity_and_double_root():
     # E = sin th: roots th = 0 and th = pi (tau = infinity, vanishing leading coefficient)
-    _, pts = _candidates(0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+    _, pts = candidates(0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     assert any(abs(x + 1.0) < 1e-15 and abs(y) < 1e-15 for x, y, *_ in pts)
     assert any(abs(x - 1.0) < 1e-15 and abs(y) < 1e-15 for x, y, *_ in pts)
     # E = (cos th - cos 1)^2 = cos^2 - 2 cos1 cos + cos1^2: double roots at th = +-1
     c1 = math.cos(1.0)
-    coeffs, pts = _candidates(c1 * c1, -2 * c1, 0.0, 1.0, 0.0, 0.0)
-    got = [_refine(coeffs, p) for p in pts]
+    coeffs, pts = candidates(c1 * c1, -2 * c1, 0.0, 1.0, 0.0, 0.0)
+    got = [refine(coeffs, p) for p in pts]
     for th in (1.0, -1.0):
         assert min(math.hypot(x - math.cos(th), y - math.sin(th)) for x, y in got) < 1e-7
     # a root just short of tau = infinity (th = pi - 1e-9) is recovered to round-off
     th0 = math.pi - 1e-9
-    coeffs, pts = _candidates(0.0, -math.sin(th0), math.cos(th0), 0.0, 0.0, 0.0)  # sin(th-th0)
-    got = [_refine(coeffs, p) for p in pts]
+    coeffs, pts = candidates(0.0, -math.sin(th0), math.cos(th0), 0.0, 0.0, 0.0)  # sin(th-th0)
+    got = [refine(coeffs, p) for p in pts]
     assert min(math.hypot(x - math.cos(th0), y - math.sin(th0)) for x, y in got) < 1e-14
     # E identically zero: every direction stationary, one candidate
-    assert _candidates(0.0, 0.0, 0.0, 0.0, 0.0, 0.0) == (None, [(1.0, 0.0, 0.0, False)])
+    assert candidates(0.0, 0.0, 0.0, 0.0, 0.0, 0.0) == (None, [(1.0, 0.0, 0.0, False)])
 
 
 def test_kernel_input_errors_and_separation():
@@ -482,7 +484,7 @@ def test_checks_fall_back_to_companion_roots(monkeypatch):
     # if the closed-form quartic lost its roots, each law's certificate (KKT sign, Coulomb
     # conditions, probe directions) sends the solve to numpy's companion-matrix roots; the
     # answers are checked against the independent oracles
-    import convimpact.impact.fast as fast
+    import convimpact.impact.boundary as boundary
 
     rng = np.random.default_rng(5)
     cases = []
@@ -494,8 +496,8 @@ def test_checks_fall_back_to_companion_roots(monkeypatch):
         if solve_contact(W, v, 0.5, 0.8, "coulomb").regime == "slide":
             cases.append((W, v))
     # Ferrari finds nothing and Newton does not move: only th = pi is left as a candidate
-    monkeypatch.setattr(fast, "_quartic_roots", lambda *c: [])
-    monkeypatch.setattr(fast, "_polish", lambda *c: c[-1])
+    monkeypatch.setattr(boundary, "quartic_roots", lambda *c: [])
+    monkeypatch.setattr(boundary, "polish", lambda *c: c[-1])
     e, mu = 0.5, 0.8
     for W, v in cases:
         pn = solve_contact(W, v, e, mu, "pereira-nikravesh")
@@ -509,7 +511,7 @@ def test_checks_fall_back_to_companion_roots(monkeypatch):
         ds = solve_contact(W, v, e, mu, "dissipative")
         assert ccp_residual(W, v, [mu], 3, ds.impulse / (1 + e)) < 1e-10
     # with the fallback sabotaged as well, the certificates turn a wrong root into an error
-    monkeypatch.setattr(fast, "_eigen_roots", lambda *c: [])
+    monkeypatch.setattr(boundary, "eigen_roots", lambda *c: [])
     W, v = cases[0]
     for law in LAWS:
         with pytest.raises(ci.SolverError):

@@ -1,6 +1,6 @@
-"""The four convex impact laws through Clarabel's own Python API (``method="clarabel"``).
+"""The Clarabel backend of the cone QP: Clarabel's own Python API (``method="clarabel"``).
 
-The cone QP of :mod:`convimpact.impact.conic.programs` (``minimize 1/2 x^T W x + q^T x`` s.t. ``E x = f``,
+The cone QP of :mod:`convimpact.impact.conic.qp` (``minimize 1/2 x^T W x + q^T x`` s.t. ``E x = f``,
 ``x_i in K_mu_i``) is written in Clarabel's standard form ``A x + s = b, s in K``:
 
 * rows ``0..m-1``: ``E x + s = f``, s in the zero cone (the Newton equalities of P_N);
@@ -14,12 +14,12 @@ written by hand once per structure; a solver is built once per (structure, toler
 every later call only ``update``s the numeric values of P, q, A, b (presolve off, structural
 zeros kept, as Clarabel requires for data updates).
 
-Tolerances (option ``tol``, default :data:`convimpact.impact.conic.programs.DEFAULT_TOL` = 1e-10) set
+Tolerances (option ``tol``, default :data:`convimpact.impact.conic.qp.DEFAULT_TOL` = 1e-10) set
 Clarabel's ``tol_gap_abs``, ``tol_gap_rel`` and ``tol_feas`` on the scaled problem (unit-size
 data), ``tol_ktratio = 1e-3 sqrt(tol)``; ``max_iter`` its iteration limit. Clarabel's defaults
 (1e-8) give impulses to about 1e-5 on sliding contacts; 1e-10 gives about 1e-9 or better.
 ``Solved`` is accepted; ``AlmostSolved`` only when the KKT polish of
-:func:`convimpact.impact.conic.programs.solve_cone_qp` certifies the answer; any other status raises
+:func:`convimpact.impact.conic.qp.solve_cone_qp` certifies the answer; any other status raises
 :class:`~convimpact.impact.errors.SolverError` with the status in its message.
 """
 
@@ -28,8 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
-from ..resolve import register_solver
-from .programs import LAW_RESULTS, ConeQP, QPSolution, _make, _status_message
+from .qp import ConeQP, QPSolution, status_message
 
 
 class _Built:
@@ -124,7 +123,7 @@ class _Built:
         sol = self.solver.solve()
         status = str(sol.status)
         if sol.status != self._solved and sol.status != self._almost:
-            raise SolverError(_status_message(status) + " (method='clarabel')")
+            raise SolverError(status_message(status) + " (method='clarabel')")
         return QPSolution(np.array(sol.x, dtype=float), status, int(sol.iterations),
                           float(sol.solve_time), converged=sol.status == self._solved)
 
@@ -145,8 +144,3 @@ class ClarabelBackend:
             self._built[key] = built
         return built.solve(qp)
 
-
-_CLARABEL = ClarabelBackend()
-
-for _law in LAW_RESULTS:
-    register_solver(_law, "clarabel")(_make(_law, "clarabel", lambda: _CLARABEL))

@@ -1,10 +1,30 @@
-"""The paper's closed-form impact laws (Sections 5-8), as linear solves in contact space.
+"""The paper's law (Section 8): stick if the sticking impulse lies in the friction cone, else
+slide on the cone's boundary with pi_n from eq. (38)/(51) -- in the plane along eq. (55), in
+space along the direction of maximal dissipation (eq. 60).
 
-All kernels act on one contact's Delassus block ``W`` (d x d, d = 2 planar or 3 spatial; for
-closed loops it is the Schur complement of the bordered matrices of eqs. (51)/(52), so the
-same kernels serve open and closed loops) and its pre-impact contact velocity
-``v = (v_n, v_t...)`` in the contact frame. Impulses come back in the contact frame, normal
-first. ``v_n < 0`` means approaching.
+* The closed forms (:func:`frictionless_impulse`, :func:`sticking_impulse`,
+  :func:`sliding_impulse`, :func:`stick_admissible`, :func:`pereira_nikravesh`) act on one
+  contact's Delassus block ``W`` (d x d, d = 2 planar or 3 spatial; for closed loops it is the
+  Schur complement of the bordered matrices of eqs. (51)/(52), so the same kernels serve open
+  and closed loops) and its pre-impact contact velocity ``v = (v_n, v_t...)`` in the contact
+  frame. Impulses come back in the contact frame, normal first. ``v_n < 0`` means approaching.
+* :func:`contact_kernel` is the exact single-contact kernel (``method="fast"``): in space its
+  sliding direction is :func:`convimpact.impact.max_dissipation.max_dissipation_slide`.
+* :func:`program_result` is the conic path (``method="clarabel"``/``"cvxpy"``). Stick test
+  first: ``W_AA pi_A = -b_A`` with ``b = ((1+e) v_n-, v_t-)`` over the approaching contacts A
+  (v_n- < 0), accepted when every impulse lies in its cone (eq. 53). Otherwise slide: one
+  planar contact uses eq. (55) exactly as the closed form; in space and with several contacts
+  the program P_N: minimize T+ (``q = v-``) subject to ``v_n+ = -e v_n-`` on the approaching
+  contacts and ``pi in K_mu``. Where P_N's optimum lies on the cone boundary its tangent is the
+  seed's maximal-dissipation direction (eq. 60); for one contact the angle is then polished by
+  a bounded 1-D maximization of T_L. P_N's *interior* optimum is not sticking when e > 0, so
+  where it is interior but the stick test failed one contact falls back to
+  :func:`~convimpact.impact.max_dissipation.max_dissipation_direction` and the disagreement is
+  flagged (several contacts: flagged only). Contacts with v_n- >= 0 take no impulse under this
+  law (the seed's law is defined for approaching contacts); if the others' impulses would
+  drive one of them into penetration (v_n+ < 0) a NotSupportedError names the
+  complementarity laws. Infeasible P_N (a Painleve-like jam for one contact, incompatible
+  Newton equalities for several) raises NonPositiveEffectiveMassError / SolverError.
 
 Sign convention: the paper's tangent ``t`` (eq. 55) points opposite to the pre-impact slip and
 its ``pi_t`` is measured along it; here the tangential impulse is expressed on the frame's
@@ -13,10 +33,31 @@ own axes (t or t1, t2), so a friction impulse that opposes the slip has ``pi_t .
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
 import numpy as np
 
-from ..errors import NonPositiveEffectiveMassError, NotSupportedError, SingularSystemError
+from ..conic.paths import ProgramOptions, register_programs
+from ..conic.qp import TINY, Backend, ConeQP, QPSolution, solve_cone_qp
+from ..diagnostics import assemble_result
+from ..errors import (
+    NonPositiveEffectiveMassError,
+    NotSupportedError,
+    SingularSystemError,
+    SolverError,
+    UnknownOptionError,
+)
+from ..fast import ContactSolution, frictionless, in_cone, jam_error, register_kernel, solution
+from ..max_dissipation import max_dissipation_direction, max_dissipation_slide
+from ..problem import ImpactProblem
+from ..resolve import register_solver
+from ..results import ImpactResult
+from ..small_linalg import angle_from_slip, inverse3, linsolve3, solve2
 
+LAW = "pereira-nikravesh"
+#: relative distance from the cone boundary below which a P_N optimum counts as "on it"
+BOUNDARY_RTOL = 1e-5
 #: condition number above which W is treated as singular by the sticking solve
 DELASSUS_COND_MAX = 1e12
 #: relative tolerance of the stick admissibility test |pi_t| <= mu pi_n
@@ -146,3 +187,235 @@ def pereira_nikravesh(W: np.ndarray, v: np.ndarray, e: float, mu: float,
         direction = slide_direction(W, v, e, mu)
     impulse, denom = sliding_impulse(W, v, e, mu, direction)
     return impulse, "slide", denom
+
+
+# --------------------------------------------------------------------------------------------
+# the exact single-contact kernel (method="fast")
+
+
+def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
+    """The seed's law for one contact on plain floats (the ``fast`` kernel)."""
+    if mu == 0.0:
+        return frictionless(w, v, d, e)
+    c = -(1.0 + e) * v[0]
+    if d == 2:
+        pn, pt = solve2(w, c, -v[1], "pereira-nikravesh")  # eq. (42)
+        if in_cone(pn, abs(pt), mu):
+            return solution((pn, pt), "stick")
+        s = -math.copysign(1.0, v[1]) if v[1] != 0.0 else (math.copysign(1.0, pt) if pt else 1.0)
+        D = w[0][0] + mu * s * w[0][1]  # eq. (55) direction, eq. (38) denominator
+        if not D > 1e-12 * max(abs(w[0][0]), abs(w[0][1]), abs(w[1][1])):
+            raise jam_error(mu, D, "pereira-nikravesh")
+        p = c / D
+        return solution((p, mu * s * p), "slide", D)
+    inv = inverse3(w, "pereira-nikravesh")
+    pn, p1, p2 = linsolve3(w, inv, c, -v[1], -v[2])  # eq. (42) in space
+    ptn = math.hypot(p1, p2)
+    if in_cone(pn, ptn, mu):
+        return solution((pn, p1, p2), "stick")
+    t1, t2, tl, p, D, interior = max_dissipation_slide(w, v, c, mu, inv, (p1, p2))
+    extras = {"alpha_m": angle_from_slip(v[1], v[2], t1, t2), "energy_loss_max": tl,
+              "normal_impulse": p, "direction": (t1, t2), "pn_optimum_interior": interior}
+    warns = ()
+    if interior:
+        warns = ("P_N's optimum is interior to the cone (with e > 0 its slip is not zero) while "
+                 "the stick test failed: the seed's boundary maximal-dissipation direction is "
+                 "used",)
+    return solution((p, mu * p * t1, mu * p * t2), "slide", D, extras, warns)
+
+
+# --------------------------------------------------------------------------------------------
+# the conic path: joint stick test, then the program P_N
+
+
+def joint_stick_impulse(P: ImpactProblem) -> np.ndarray | None:
+    """Stick test of several contacts (eqs. 42/52 jointly): impulse or None when not admissible.
+
+    Unknowns: pi_n of every approaching contact and pi_t of its frictional ones; equations:
+    ``v_n+ = -e v_n-`` and ``v_t+ = 0`` there. Contacts with v_n- >= 0 carry no impulse. A singular
+    system is solved in the least-squares sense and accepted only when consistent.
+    """
+    n, d = P.n_contacts, P.dim
+    active = P.v_minus[:, 0] < 0.0
+    sel = np.zeros((n, d), dtype=bool)
+    sel[active, 0] = True
+    sel[active & (P.friction > 0.0), 1:] = True
+    rhs = P.v_minus.copy()
+    rhs[:, 0] *= 1.0 + P.restitution
+    S = sel.ravel()
+    Wss = P.delassus[np.ix_(S, S)]
+    r = -rhs.ravel()[S]
+    if np.linalg.cond(Wss) < DELASSUS_COND_MAX:
+        x = np.linalg.solve(Wss, r)
+    else:
+        x, *_ = np.linalg.lstsq(Wss, r, rcond=None)
+        if np.linalg.norm(Wss @ x - r) > 1e-9 * max(np.linalg.norm(r), TINY):
+            return None
+    pi = np.zeros(n * d)
+    pi[S] = x
+    pi = pi.reshape(n, d)
+    for i in np.flatnonzero(active):
+        if P.friction[i] > 0 and not stick_admissible(pi[i], float(P.friction[i])):
+            return None
+        if P.friction[i] == 0 and pi[i, 0] < 0:
+            return None
+    vplus = P.v_minus + (P.delassus @ pi.ravel()).reshape(n, d)
+    if np.any(vplus[~active, 0] < -1e-12 * max(float(np.max(np.abs(P.v_minus))), TINY)):
+        return None
+    return pi
+
+
+def solve_pn_program(P: ImpactProblem, backend: Backend,
+                     opts: ProgramOptions) -> tuple[np.ndarray, QPSolution]:
+    """The program P_N over the approaching contacts: minimize T+ s.t. v_n+ = -e v_n-, pi in K.
+
+    Contacts with v_n- >= 0 are left out (zero impulse). Returns the full (n_contacts, d)
+    impulse and the solver report; infeasibility raises a typed error naming other laws.
+    """
+    n, d = P.n_contacts, P.dim
+    active = np.flatnonzero(P.v_minus[:, 0] < 0.0)
+    idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in active])
+    W = P.delassus[np.ix_(idx, idx)]
+    v = P.v_minus[active].ravel()
+    nrows = np.arange(0, idx.size, d)
+    E = W[nrows]
+    f = -(1.0 + P.restitution[active]) * P.v_minus[active, 0]
+    qp = ConeQP(W, v, P.friction[active], d, E, f)
+    try:
+        sol = solve_cone_qp(backend, qp, opts.tol, opts.max_iter)
+    except SolverError as exc:
+        if "infeasible" in str(exc).lower() or "Infeasible" in str(exc):
+            if active.size == 1:
+                raise NonPositiveEffectiveMassError(
+                    "P_N is infeasible: no impulse in the friction cone restores v_n+ = -e v_n- "
+                    "(Painleve-like jam, the sliding denominator of eq. (38) is not positive "
+                    "in any admissible direction); use law='coulomb', 'ccp' or 'dissipative'"
+                ) from exc
+            raise SolverError(
+                "P_N is infeasible: Newton's restitution cannot hold at every approaching "
+                "contact with compressive impulses in the friction cones; use law='coulomb', "
+                f"'ccp' or 'dissipative', which allow contacts to separate ({exc})") from exc
+        raise
+    pi = np.zeros((n, d))
+    pi[active] = sol.x.reshape(active.size, d)
+    return pi, sol
+
+
+def _tl_slide(W: np.ndarray, v: np.ndarray, e: float, mu: float, a: float) -> float:
+    """T_L (eq. 60) for a slide along angle a with pi_n from eq. (38); -inf where not defined."""
+    g = np.array([1.0, mu * math.cos(a), mu * math.sin(a)])
+    den = float(W[0] @ g)
+    if den <= 0:
+        return -math.inf
+    pi = (-(1.0 + e) * v[0] / den) * g
+    return -float(pi @ v + 0.5 * pi @ W @ pi)
+
+
+def _polish_direction(W: np.ndarray, v: np.ndarray, e: float, mu: float,
+                      direction: np.ndarray) -> np.ndarray:
+    """Refine the spatial sliding angle near P_N's answer by a bounded maximization of T_L."""
+    from scipy.optimize import minimize_scalar
+
+    a0 = math.atan2(direction[1], direction[0])
+    span = 1e-3
+    res = minimize_scalar(lambda a: -_tl_slide(W, v, e, mu, a), bounds=(a0 - span, a0 + span),
+                          method="bounded", options={"xatol": 1e-13})
+    a = float(res.x)
+    if not res.success or abs(a - a0) > 0.99 * span or \
+            _tl_slide(W, v, e, mu, a) < _tl_slide(W, v, e, mu, a0):
+        return direction
+    return np.array([math.cos(a), math.sin(a)])
+
+
+def program_result(P: ImpactProblem, backend: Backend, method: str,
+                   opts: ProgramOptions) -> ImpactResult:
+    n, d = P.n_contacts, P.dim
+    law = LAW
+    if n == 1 and P.planar:
+        # one planar contact: the law is the closed form (stick test, then eq. 55)
+        W, v = P.contact_block(0)
+        impulse, regime, denom = pereira_nikravesh(W, v, float(P.restitution[0]),
+                                                   float(P.friction[0]))
+        return assemble_result(P, impulse[None], [regime], law, method, effective_mass=denom,
+                               tol=1e-12, extras={"stick_test": regime == "stick",
+                                                  "slide_rule": "eq. (55)"})
+    active = P.v_minus[:, 0] < 0.0
+    stick = joint_stick_impulse(P)
+    if stick is not None:
+        regimes = ["separating" if not active[i] else
+                   ("frictionless" if P.friction[i] == 0 else "stick") for i in range(n)]
+        return assemble_result(P, stick, regimes, law, method, tol=1e-10,
+                               extras={"stick_test": True})
+    pi, sol = solve_pn_program(P, backend, opts)
+    acc = opts.accuracy(sol.polished)
+    warnings: list[str] = []
+    interior = []
+    regimes = []
+    denom = None
+    for i in range(n):
+        if not active[i]:
+            interior.append(False)
+            regimes.append("separating")
+            continue
+        if P.friction[i] == 0:
+            interior.append(False)
+            regimes.append("frictionless")
+            continue
+        pt = np.linalg.norm(pi[i, 1:])
+        interior.append(bool(pt < P.friction[i] * pi[i, 0] * (1.0 - BOUNDARY_RTOL)))
+        regimes.append("slide")
+    extras: dict[str, Any] = {"stick_test": False, "solver_status": sol.status,
+                              "iterations": sol.iterations, "tolerance": opts.tol,
+                              "polished": sol.polished, "kkt_residual": sol.kkt_residual,
+                              "pn_interior": interior, "pn_disagreement": any(interior)}
+    if n == 1 and P.friction[0] > 0:
+        W, v = P.contact_block(0)
+        e, mu = float(P.restitution[0]), float(P.friction[0])
+        if interior[0]:
+            direction = np.asarray(max_dissipation_direction(W, v, e, mu, tol=opts.tol),
+                                   dtype=float)
+            warnings.append("P_N's optimum is interior but the stick test failed: the sliding "
+                            "direction comes from the boundary search (maximal T_L on the cone)")
+            extras["slide_rule"] = "boundary search (sweep)"
+        else:
+            direction = _polish_direction(W, v, e, mu, pi[0, 1:] / np.linalg.norm(pi[0, 1:]))
+            extras["slide_rule"] = "P_N (boundary optimum, polished)"
+        impulse, denom = sliding_impulse(W, v, e, mu, direction)
+        extras["slide_angle"] = math.atan2(direction[1], direction[0])
+        pi = impulse[None]
+        acc = 1e-9
+    elif any(interior):
+        warnings.append("P_N's optimum is interior at some contacts although the joint stick "
+                        "test failed: those contacts slide with friction inside the cone "
+                        "(not Coulomb); compare law='coulomb'")
+    vplus = P.v_minus + (P.delassus @ pi.ravel()).reshape(n, d)
+    vscale = max(float(np.max(np.abs(P.v_minus))), TINY)
+    bad = np.flatnonzero((~active) & (vplus[:, 0] < -1e3 * acc * vscale))
+    if bad.size:
+        raise NotSupportedError(
+            f"law 'pereira-nikravesh' gives no impulse to contacts with v_n- >= 0, and contact(s) "
+            f"{bad.tolist()} would then penetrate (v_n+ < 0); use law='coulomb', 'ccp' or "
+            "'dissipative', which treat every contact with complementarity")
+    return assemble_result(P, pi, regimes, law, method, effective_mass=denom, tol=acc,
+                           extras=extras, warnings=tuple(warnings))
+
+
+@register_solver(LAW, "closed-form")
+def _closed_form(problem: ImpactProblem, **options) -> ImpactResult:
+    """Section 8 algorithm, one contact, planar or spatial sticking (spatial sliding raises)."""
+    if options:
+        raise UnknownOptionError(
+            f"method 'closed-form' takes no options, got {', '.join(sorted(options))}")
+    if problem.n_contacts != 1:
+        raise NotSupportedError(
+            "the closed form treats one contact; for several simultaneous contacts use "
+            "method='clarabel' or 'cvxpy'")
+    W, v = problem.contact_block(0)
+    impulse, regime, denom = pereira_nikravesh(
+        W, v, float(problem.restitution[0]), float(problem.friction[0]))
+    return assemble_result(problem, impulse[None], [regime], LAW, "closed-form",
+                           effective_mass=denom, tol=1e-12)
+
+
+register_kernel(LAW, contact_kernel)
+register_programs(LAW, program_result)

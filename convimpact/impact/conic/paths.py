@@ -1,0 +1,155 @@
+"""The conic solver paths (``method="clarabel"`` and ``"cvxpy"``): options, registration, and
+the contact-space helpers the laws' programs share.
+
+A law module of :mod:`convimpact.impact.laws` writes its program(s) as a function
+``result(problem, backend, method, options) -> ImpactResult`` on the cone QP of
+:mod:`~convimpact.impact.conic.qp` and calls :func:`register_programs`, which registers it on
+both backends (each built lazily on first use, so the closed forms never pay for cvxpy).
+
+Options of both conic paths (keyword arguments of ``resolve_impact``): ``tol`` (the conic
+solver's gap and feasibility tolerance on the scaled problem, default 1e-10), ``max_iter``
+(interior-point iterations, default 200) and, for ``"coulomb"``, ``fixed_point_tol`` (default
+1e-9 relative), ``max_fixed_point_iter`` (default 100), ``anderson_memory`` (default 5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..errors import ParameterError, UnknownOptionError
+from ..problem import ImpactProblem
+from ..resolve import register_solver
+from ..results import ImpactResult
+from .qp import DEFAULT_MAX_ITER, DEFAULT_TOL, TINY, Backend, ConeQP
+
+#: default relative tolerance of the Coulomb fixed point and of its complementarity check
+DEFAULT_FIXED_POINT_TOL = 1e-9
+DEFAULT_MAX_FIXED_POINT_ITER = 100
+DEFAULT_ANDERSON_MEMORY = 5
+
+
+@dataclass(frozen=True)
+class ProgramOptions:
+    """Validated options of the conic solver paths (see the module docstring)."""
+
+    tol: float = DEFAULT_TOL
+    max_iter: int = DEFAULT_MAX_ITER
+    fixed_point_tol: float = DEFAULT_FIXED_POINT_TOL
+    max_fixed_point_iter: int = DEFAULT_MAX_FIXED_POINT_ITER
+    anderson_memory: int = DEFAULT_ANDERSON_MEMORY
+
+    def accuracy(self, polished: bool) -> float:
+        """Relative accuracy claimed for impulses (the ``tol`` passed to assemble_result).
+
+        Polished answers (Newton on the KKT equations) are accurate to round-off, claimed 1e-9;
+        raw interior-point answers on the cone boundary to about sqrt(tol) (measured:
+        1e-6 at tol = 1e-10), claimed 10 sqrt(tol).
+        """
+        return 1e-9 if polished else 10.0 * math.sqrt(self.tol)
+
+
+def parse_options(method: str, options: dict) -> ProgramOptions:
+    """Validate the keyword options of a conic path; unknown names raise UnknownOptionError."""
+    known = ProgramOptions.__dataclass_fields__
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise UnknownOptionError(
+            f"method {method!r} does not know option(s) {', '.join(unknown)}; "
+            f"it accepts {', '.join(known)}")
+    out = ProgramOptions(**options)
+    for name in ("tol", "fixed_point_tol"):
+        v = getattr(out, name)
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and 0.0 < v < 1.0):
+            raise ParameterError(f"option {name} must be a number in (0, 1), got {v!r}")
+    for name in ("max_iter", "max_fixed_point_iter", "anderson_memory"):
+        v = getattr(out, name)
+        if not (isinstance(v, (int, np.integer)) and v >= (0 if name == "anderson_memory" else 1)):
+            raise ParameterError(f"option {name} must be a positive integer, got {v!r}")
+    return out
+
+
+#: a law's conic result: (problem, backend, method, options) -> ImpactResult
+ProgramResult = Callable[[ImpactProblem, Backend, str, ProgramOptions], ImpactResult]
+_BACKENDS: dict[str, Backend] = {}
+
+
+def backend(method: str) -> Backend:
+    """The shared backend of a conic path, built on first use (``"clarabel"`` or ``"cvxpy"``)."""
+    built = _BACKENDS.get(method)
+    if built is None:
+        if method == "clarabel":
+            from .clarabel_backend import ClarabelBackend as make
+        else:
+            from .cvxpy_backend import CvxpyBackend as make
+        built = _BACKENDS[method] = make()
+    return built
+
+
+def register_programs(law: str, result: ProgramResult) -> ProgramResult:
+    """Register law ``law``'s conic ``result`` on both conic paths, "clarabel" and "cvxpy"."""
+    for method in ("clarabel", "cvxpy"):
+        register_solver(law, method)(_conic_solver(law, method, result))
+    return result
+
+
+def _conic_solver(law: str, method: str, result: ProgramResult):
+    def solver(problem: ImpactProblem, **options) -> ImpactResult:
+        return result(problem, backend(method), method, parse_options(method, options))
+
+    solver.__name__ = f"{law.replace('-', '_')}_{method}"
+    solver.__doc__ = f"Law {law!r} by the {method} conic path (see {result.__module__})."
+    return solver
+
+
+# --------------------------------------------------------------------------------------------
+# contact-space helpers shared by the laws' programs
+
+
+def normal_mask(n: int, d: int) -> np.ndarray:
+    m = np.zeros(n * d, dtype=bool)
+    m[::d] = True
+    return m
+
+
+def newton_shift(P: ImpactProblem, restitution: np.ndarray | None = None) -> np.ndarray:
+    """``b - v- = e min(v_n-, 0) n`` per contact, flattened (e: the problem's, or
+    ``restitution``)."""
+    e = P.restitution if restitution is None else restitution
+    s = np.zeros((P.n_contacts, P.dim))
+    s[:, 0] = e * np.minimum(P.v_minus[:, 0], 0.0)
+    return s.ravel()
+
+
+def impulse_scale(P: ImpactProblem) -> float:
+    """Impulse scale |v-| / max|W| for relative thresholds."""
+    return max(float(np.max(np.abs(P.v_minus))), TINY) / max(float(np.max(np.abs(P.delassus))),
+                                                             TINY)
+
+
+def regimes_from_slip(P: ImpactProblem, pi: np.ndarray, vplus: np.ndarray,
+                      tol: float) -> list[str]:
+    """Regime per contact from the impulse and the (law's own) post-impact slip."""
+    pscale = impulse_scale(P)
+    vscale = max(float(np.max(np.abs(P.v_minus))), TINY)
+    out = []
+    for i in range(P.n_contacts):
+        if pi[i, 0] <= tol * pscale:
+            out.append("separating")
+        elif P.friction[i] == 0.0:
+            out.append("frictionless")
+        elif np.linalg.norm(vplus[i, 1:]) <= 10 * tol * vscale:
+            out.append("stick")
+        else:
+            out.append("slide")
+    return out
+
+
+def cone_qp(P: ImpactProblem, q: np.ndarray, E=None, f=None, mu=None) -> ConeQP:
+    N = P.n_contacts * P.dim
+    E = np.zeros((0, N)) if E is None else E
+    f = np.zeros(0) if f is None else f
+    return ConeQP(P.delassus, q, P.friction if mu is None else mu, P.dim, E, f)
