@@ -24,7 +24,7 @@ from ..errors import ParameterError, UnknownOptionError
 from ..problem import ImpactProblem
 from ..resolve import register_solver
 from ..results import ImpactResult
-from .qp import DEFAULT_MAX_ITER, DEFAULT_TOL, TINY, Backend, ConeQP
+from .qp import DEFAULT_MAX_ITER, DEFAULT_TOL, TINY, Backend, ConeQP, QPSolution
 
 #: default relative tolerance of the Coulomb fixed point and of its complementarity check
 DEFAULT_FIXED_POINT_TOL = 1e-9
@@ -107,6 +107,12 @@ def _conic_solver(law: str, method: str, result: ProgramResult):
 
 # --------------------------------------------------------------------------------------------
 # contact-space helpers shared by the laws' programs
+
+
+def solver_report(sol: QPSolution, opts: ProgramOptions) -> dict:
+    """The conic solve's report for a result's extras (status, iterations, polish, KKT)."""
+    return {"solver_status": sol.status, "iterations": sol.iterations, "tolerance": opts.tol,
+            "polished": sol.polished, "kkt_residual": sol.kkt_residual}
 
 
 def normal_mask(n: int, d: int) -> np.ndarray:

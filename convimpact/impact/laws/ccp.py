@@ -22,7 +22,7 @@ import numpy as np
 
 from ..boundary import candidates, det_wq, newton_root, refine, rotate, wp
 from ..conic.paths import (ProgramOptions, cone_qp, newton_shift, register_programs,
-                           regimes_from_slip)
+                           regimes_from_slip, solver_report)
 from ..conic.qp import Backend, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import SolverError
@@ -94,21 +94,34 @@ def ccp_impulse(w: list, v: list, d: int, e: float, mu: float, law: str) -> Cont
                             "direction": (t1, t2)})
 
 
-def _ccp_ray(R: tuple, mu: float, x: float, y: float, converged: bool) -> tuple | None:
-    """(x, y, r, u_n, |u_t|) of the optimal ray pi = r p along t = (x, y), or None."""
-    if not converged:
-        return None
+def _ray(R: tuple, mu: float, x: float, y: float) -> tuple[float, float]:
+    """(p.b, p.W.p) along the boundary ray p = (1, mu t), t = (x, y) in R's basis."""
     A, B1, B2, C11, C12, C22, b0, b1, b2 = R
     pb = b0 + mu * (b1 * x + b2 * y)
     pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
                                                     + C22 * y * y))
-    if not (pb < 0.0 and pWp > 0.0):
-        return None
+    return pb, pWp
+
+
+def _ray_answer(R: tuple, mu: float, x: float, y: float, pb: float,
+                pWp: float) -> tuple[float, float, float, float, float]:
+    """(x, y, r, u_n, |u_t|) of the optimal point r = -p.b / p.W.p of the ray along t."""
+    A, B1, B2, C11, C12, C22, b0, b1, b2 = R
     r = -pb / pWp
     un = b0 + r * (A + mu * (B1 * x + B2 * y))
     slip = math.hypot(b1 + r * (B1 + mu * (C11 * x + C12 * y)),
                       b2 + r * (B2 + mu * (C12 * x + C22 * y)))
     return x, y, r, un, slip
+
+
+def _ccp_ray(R: tuple, mu: float, x: float, y: float, converged: bool) -> tuple | None:
+    """(x, y, r, u_n, |u_t|) of the optimal ray pi = r p along t = (x, y), or None."""
+    if not converged:
+        return None
+    pb, pWp = _ray(R, mu, x, y)
+    if not (pb < 0.0 and pWp > 0.0):
+        return None
+    return _ray_answer(R, mu, x, y, pb, pWp)
 
 
 def _ccp_boundary(R: tuple, mu: float, robust: bool, E: tuple | None = None) -> tuple | None:
@@ -118,15 +131,11 @@ def _ccp_boundary(R: tuple, mu: float, robust: bool, E: tuple | None = None) -> 
     -1/2 (p.b)^2 / p.W.p; the winner maximizes g = (p.b)^2 / (2 p.W.p) over the roots of
     det[W p, b, q] = 0.
     """
-    A, B1, B2, C11, C12, C22, b0, b1, b2 = R
-    coeffs, cands = candidates(*(E or det_wq(wp(R, mu), b0, b1, b2, mu)), robust=robust)
+    coeffs, cands = candidates(*(E or det_wq(wp(R, mu), R[6], R[7], R[8], mu)), robust=robust)
     scored = []
     top = None
     for pt in cands:
-        x, y = pt[0], pt[1]
-        pb = b0 + mu * (b1 * x + b2 * y)
-        pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
-                                                        + C22 * y * y))
+        pb, pWp = _ray(R, mu, pt[0], pt[1])
         if pb < 0.0 and pWp > 0.0:
             g = 0.5 * pb * pb / pWp
             scored.append((g, pt))
@@ -140,23 +149,15 @@ def _ccp_boundary(R: tuple, mu: float, robust: bool, E: tuple | None = None) -> 
         if g0 < cut:
             continue
         x, y = refine(coeffs, pt)
-        pb = b0 + mu * (b1 * x + b2 * y)
-        pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
-                                                        + C22 * y * y))
+        pb, pWp = _ray(R, mu, x, y)
         if not (pb < 0.0 and pWp > 0.0):
             x, y = pt[0], pt[1]
-            pb = b0 + mu * (b1 * x + b2 * y)
-            pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
-                                                            + C22 * y * y))
+            pb, pWp = _ray(R, mu, x, y)
         g = 0.5 * pb * pb / pWp
         if best is None or g > best[0]:
             best = (g, x, y, pb, pWp)
     _, x, y, pb, pWp = best
-    r = -pb / pWp
-    un = b0 + r * (A + mu * (B1 * x + B2 * y))
-    slip = math.hypot(b1 + r * (B1 + mu * (C11 * x + C12 * y)),
-                      b2 + r * (B2 + mu * (C12 * x + C22 * y)))
-    return x, y, r, un, slip
+    return _ray_answer(R, mu, x, y, pb, pWp)
 
 
 # --------------------------------------------------------------------------------------------
@@ -188,11 +189,7 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     extras = {
         "normal_velocity_lift": lift.tolist(),
         "mu_times_slip": (P.friction * slip).tolist(),
-        "solver_status": sol.status,
-        "iterations": sol.iterations,
-        "tolerance": opts.tol,
-        "polished": sol.polished,
-        "kkt_residual": sol.kkt_residual,
+        **solver_report(sol, opts),
     }
     acc = opts.accuracy(sol.polished)
     regimes = regimes_from_slip(P, pi, vplus, acc)

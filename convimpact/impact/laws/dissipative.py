@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..conic.paths import ProgramOptions, register_programs, regimes_from_slip
+from ..conic.paths import ProgramOptions, register_programs, regimes_from_slip, solver_report
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
 from ..fast import ContactSolution, frictionless, register_kernel, solution
@@ -50,11 +50,7 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
         "plastic_energy_loss": 0.5 * float(flat @ W @ flat),
         "predicted_energy_loss": predicted,  # 1/2 (1 - e^2) pi_p^T W pi_p for a common e
         "plastic_normal_velocity_lift": vplus_plastic[:, 0].tolist(),
-        "solver_status": sol.status,
-        "iterations": sol.iterations,
-        "tolerance": opts.tol,
-        "polished": sol.polished,
-        "kkt_residual": sol.kkt_residual,
+        **solver_report(sol, opts),
     }
     acc = opts.accuracy(sol.polished)
     warnings = []

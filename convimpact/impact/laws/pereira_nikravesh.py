@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from ..conic.paths import ProgramOptions, register_programs
+from ..conic.paths import ProgramOptions, register_programs, solver_report
 from ..conic.qp import TINY, Backend, ConeQP, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import (
@@ -364,9 +364,7 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
         pt = np.linalg.norm(pi[i, 1:])
         interior.append(bool(pt < P.friction[i] * pi[i, 0] * (1.0 - BOUNDARY_RTOL)))
         regimes.append("slide")
-    extras: dict[str, Any] = {"stick_test": False, "solver_status": sol.status,
-                              "iterations": sol.iterations, "tolerance": opts.tol,
-                              "polished": sol.polished, "kkt_residual": sol.kkt_residual,
+    extras: dict[str, Any] = {"stick_test": False, **solver_report(sol, opts),
                               "pn_interior": interior, "pn_disagreement": any(interior)}
     if n == 1 and P.friction[0] > 0:
         W, v = P.contact_block(0)
