@@ -40,8 +40,8 @@ from .impact.errors import *  # noqa: F401,F403  (the exception hierarchy is pub
 from .mechanism import Mechanism
 from .scenes import Scene, list_scenes, load_scene
 
-# the exception hierarchy lives in convimpact.impact.errors; `from convimpact.impact.errors import ...`
-# keeps working for code written against the flat layout
+# the exception hierarchy lives in convimpact.impact.errors; ``convimpact.errors`` stays its
+# public name, so `from convimpact.errors import SolverError` keeps working
 _sys.modules.setdefault(__name__ + ".errors", errors)
 
 
