@@ -1,9 +1,10 @@
-"""``convimpact paper``: reproduce the examples and figures of Pereira & Nikravesh (1996).
+"""The reproduction of Pereira & Nikravesh (1996): the examples of Section 9 and their data.
 
 One call of :func:`build_report` computes every number (the impact examples of Section 9 under
 the four laws, the Table 1 analogue, the data of Figs. 3, 5-7, 9 and 10 and the law
-landscapes) as plain JSON; :func:`write_figures` draws the PNG figures from it; :func:`run` is
-the subcommand ``convimpact paper [--out DIR] [--json] [--quick]``.
+landscapes) as plain JSON; :func:`convimpact.studies.paper_figures.write_figures` draws the PNG
+figures from it; :mod:`convimpact.studies.paper_cli` prints its summary and is the subcommand
+``convimpact paper [--out DIR] [--json] [--quick]``.
 
 The paper leaves open some data; the choices are stated in :data:`ASSUMPTIONS` and printed:
 rod masses, the slider-crank geometry (its ref. [7] is unavailable), the sign of the printed
@@ -12,19 +13,13 @@ joint rates, and e, mu of the single-impact examples.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import os
-import re
-import sys
 import time
 from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
-from .. import cli
 from ..impact.errors import ConvImpactError
 from ..impact.results import _jsonable
 
@@ -423,234 +418,5 @@ def build_report(quick: bool = False) -> PaperReport:
                        {k: v for k, v in lands.items()}, law_lands)
 
 
-def _property_table(report: PaperReport) -> dict:
-    table = {}
-    for key, per in report.results.items():
-        ex = report.examples[key]
-        T = 0.5 * float(ex.dq @ ex.M @ ex.dq)
-        row = {}
-        for law, r in per.items():
-            if isinstance(r, str):
-                row[law] = {"error": r}
-            else:
-                row[law] = {"held": r.diagnostics.held(), "regime": r.regime,
-                            "energy_loss_fraction": r.energy_loss / T}
-        table[f"{key}\ne = {ex.e:g}, mu = {ex.mu:g}"] = row
-    return table
-
-
-FIGURES = ("fig3_energy_loss.png", "fig5_tangential_velocity_a.png", "fig6_energy_loss_a.png",
-           "fig7_tangential_velocity_b.png", "fig9_angle_sweep.png", "fig10_tangent_plane.png",
-           "laws_properties.png", "laws_pendulum_a.png", "laws_pendulum_b.png",
-           "laws_pendulum_3d.png")
-
-
-def write_figures(report: PaperReport, out: str) -> list[str]:
-    """Draw the PNG figures of the report into ``out``; returns their paths."""
-    import matplotlib
-
-    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .plotting import (plot_angle_sweep, plot_energy_fraction, plot_landscape,
-                           plot_law_properties, plot_tangent_vectors, plot_velocity_comparison)
-
-    os.makedirs(out, exist_ok=True)
-    paths = []
-
-    def save(fig, name):
-        path = os.path.join(out, name)
-        fig.savefig(path, dpi=110, bbox_inches="tight")
-        plt.close(fig)
-        paths.append(path)
-
-    d = report.data
-    # Fig. 3
-    f3 = d["fig3"]
-    fig, ax = plt.subplots(figsize=(7, 5))
-    plot_energy_fraction(np.array(f3["e"]), {k: v for k, v in f3["cases"].items()}, ax=ax,
-                         title="Fig. 3: slider-crank striking the free slider (central impact)")
-    ax.text(0.02, 0.03, "paper at e = 0: 100 %, 54 %, 32 % (cases 1-3)\n"
-            "our geometry: m4 = 1, 5, 10 x the crank-slider's generalized mass",
-            transform=ax.transAxes, fontsize=7, va="bottom")
-    save(fig, FIGURES[0])
-    # Figs. 5-7
-    slip_label = "outgoing slip along the pre-impact slip [m/s]"
-    for name, key, q, title in (
-            (FIGURES[1], "pendulum_a", "tangential_velocity",
-             "Fig. 5: pendulum (a), outgoing tangential velocity (Section 8)"),
-            (FIGURES[2], "pendulum_a", "energy_loss",
-             "Fig. 6: pendulum (a), energy loss $T_L$ (eq. 60)"),
-            (FIGURES[3], "pendulum_b", "tangential_velocity",
-             "Fig. 7: pendulum (b), outgoing tangential velocity (Section 8)")):
-        L, iv = report.landscapes[key]
-        fig, ax = plt.subplots(figsize=(7.5, 6.6))
-        # positive: the contact still slides the way it came (the paper's "positive v_t+")
-        values = -L.tangential_velocity if q == "tangential_velocity" else None
-        # symmetric colour scale of the velocity maps: the 98th percentile of |v|, at most
-        # 1.5 |v_r-| (the slip blows up near a jam)
-        vlim = None
-        if values is not None:
-            speed = float(np.linalg.norm(L.meta["v_minus"]))
-            fin = np.abs(values[np.isfinite(values)])
-            top = min(1.5 * speed, float(np.percentile(fin, 98.0))) if fin.size else speed
-            vlim = (-top, top)
-        plot_landscape(L, q, ax=ax, title=title, stiction=(iv.lower, iv.upper),
-                       zero_contour=True, values=values,
-                       label=slip_label if values is not None else None, robust=True,
-                       legend="below", limits=vlim)
-        vm = L.meta["v_minus"]
-        ax.text(0.99, 0.01, f"$v_r^-$ = {vm[0]:.3f} n {vm[1]:+.3f} t\n"
-                r"$\mu$ > 0: friction opposes the slip (eq. 55); $\mu$ < 0: along it",
-                transform=ax.transAxes, ha="right", va="bottom", fontsize=7,
-                bbox=dict(fc="w", alpha=0.8, lw=0))
-        save(fig, name)
-    # Fig. 9
-    f9 = d["fig9"]
-    fig, ax = plt.subplots(figsize=(7.5, 5))
-    nanify = lambda a: np.array([np.nan if x is None else x for x in a])  # noqa: E731
-    plot_angle_sweep(np.array(f9["alpha"]), nanify(f9["energy_loss"]),
-                     nanify(f9["normal_impulse"]), alpha_m=f9["alpha_m"], ax=ax,
-                     gain_sectors=f9["energy_gain_sectors"],
-                     alpha_max_normal_impulse=f9["alpha_max_normal_impulse"],
-                     title=f"Fig. 9: 3D pendulum, e = {f9['e']}, $\\mu$ = {f9['mu']} "
-                           f"(sliding along t($\\alpha$), eq. 38/60)")
-    save(fig, FIGURES[4])
-    # Fig. 10
-    f10 = d["fig10"]
-    fig, ax = plt.subplots(figsize=(6, 7.5))
-    plot_tangent_vectors({r"$v_t^-$": f10["v_t_minus"], r"$\Delta v_t$": f10["delta_v_t"],
-                          r"$v_t^+$": f10["v_t_plus"], r"$\pi_t$ [N s]": f10["pi_t"],
-                          r"$t$ of ref. [17] (unit)": f10["t_average"]}, ax=ax, legend=True,
-                         title="Fig. 10: 3D pendulum, tangent plane at maximal dissipation\n"
-                               "(velocities in m/s, impulse in N s)")
-    save(fig, FIGURES[5])
-    # laws side by side
-    fig, ax = plt.subplots(figsize=(13, 7))
-    plot_law_properties(_property_table(report), ax=ax,
-                        title="the examples under each law: properties kept "
-                              "(green: all; red: broken ones listed)")
-    save(fig, FIGURES[6])
-    for name, key in ((FIGURES[7], "pendulum_a"), (FIGURES[8], "pendulum_b")):
-        per = report.law_landscapes[key]
-        fig, axes = plt.subplots(1, len(per), figsize=(5.4 * len(per), 5.6),
-                                 layout="constrained")
-        for ax, (law, L) in zip(axes, per.items()):
-            plot_landscape(L, "energy_loss_fraction", ax=ax, title=f"{law}", levels=21,
-                           limits=(-1.0, 1.0), legend="below")
-        vm = report.examples[key].v_minus
-        fig.suptitle(f"{key} ($v_r^-$ = {vm[0]:.3f} n {vm[1]:+.3f} t): energy loss fraction "
-                     "$T_L/T^-$ under each law (common scale, clipped at -1), failure regions "
-                     "marked", fontsize=12)
-        save(fig, name)
-    comp = {law: r.v_plus for law, r in report.results["pendulum_3d"].items()
-            if not isinstance(r, str)}
-    fig, ax = plt.subplots(figsize=(8, 5))
-    plot_velocity_comparison(comp, reference=np.array(PAPER["pendulum_3d"]["v_plus"]), ax=ax,
-                             reference_label="paper: 0.916 n + 0.675 t1 + 0.41 t2",
-                             title=f"3D pendulum (e = {PENDULUM_3D_E}, mu = {PENDULUM_3D_MU}): "
-                                   "$v_r^+$ under each law")
-    save(fig, FIGURES[9])
-    return paths
-
-
-def format_summary(report: PaperReport) -> str:
-    """The short table printed by ``convimpact paper``."""
-    d = report.data
-    lines = ["Pereira & Nikravesh (1996), Section 9, reproduced by convimpact", "",
-             "Assumptions (the paper leaves these open):"]
-    lines += [f"  - {a}" for a in ASSUMPTIONS]
-    lines += ["", "Approach velocities v_r- (n, t...) [m/s]: ours vs paper"]
-    for key in ("pendulum_a", "pendulum_b", "pendulum_3d"):
-        lines.append(f"  {key:<12} {np.round(d[key]['v_minus'], 3).tolist()}  vs  "
-                     f"{d[key]['paper_v_minus']}")
-    t1 = d["table1"]
-    lines += ["", "Table 1 analogue: slider-crank strikes the free slider (e = 0.83, m4 = m_eff)"]
-    for name, dj in zip(t1["coordinates"], t1["delta_theta_dot"]):
-        lines.append(f"  Delta {name:<34} {dj:12.5f}")
-    ck = t1["checks"]
-    lines.append(f"  impulse pi_n = {t1['normal_impulse']:.5f} N s, loop impulses Delta sigma = "
-                 f"{np.round(t1['loop_impulse'], 5).tolist()}")
-    gen = np.round(ck["generalized_impulse_on_sliders"], 6).tolist()
-    lines.append(f"  checks: generalized impulse on sliders {gen}"
-                 f" (equal and opposite: {ck['equal_and_opposite']}), m4 Delta theta_dot_4 = "
-                 f"{ck['free_slider_momentum_change']:.5f}, v_n+/v_n- = "
-                 f"{-ck['restitution_ratio']:.4f}, |C theta_dot+| = "
-                 f"{ck['loop_velocity_residual']:.1e}")
-    lines.append("  (paper: Delta theta_dot_4 = 41.58, Delta theta_dot_3 = -68.285 for its "
-                 "geometry, not ours)")
-    lines += ["", "Fig. 3: energy loss fraction at e = 0 (law | two-particle closed form | paper)"]
-    for (label, c), paper in zip(d["fig3"]["cases"].items(), (1.0, 0.54, 0.32)):
-        lines.append(f"  {label:<14} {c['fraction_at_e0']:.4f} | {c['fraction_at_e0_two_mass']:.4f}"
-                     f" | {paper:.2f}")
-    f9 = d["fig9"]
-    lines += ["", f"3D pendulum (e = {PENDULUM_3D_E}, mu = {PENDULUM_3D_MU}): alpha_m = "
-              f"{f9['alpha_m_deg']:.2f} deg, pi_n(alpha_m) = {f9['normal_impulse_at_alpha_m']:.4f}"
-              f" N s, energy-gain sectors (deg) "
-              f"{[[round(a, 2) for a in s] for s in f9['energy_gain_sectors_deg']]}"]
-    lines.append("  v_r+ per law vs paper 0.916 n + 0.675 t1 + 0.41 t2:")
-    for law, r in report.results["pendulum_3d"].items():
-        txt = r if isinstance(r, str) else np.round(r.v_plus, 4).tolist()
-        lines.append(f"    {law:<18} {txt}")
-    lines += ["", f"{'example':<21} {'law':<18} {'regime':<12} {'pi_n':>9} {'T_L/T-':>8}  broken"]
-    for key, per in report.results.items():
-        ex = report.examples[key]
-        T = 0.5 * float(ex.dq @ ex.M @ ex.dq)
-        for law, r in per.items():
-            if isinstance(r, str):
-                lines.append(f"{key:<21} {law:<18} error: {r[:60]}")
-                continue
-            broken = [k for k, ok in r.diagnostics.held().items() if not ok]
-            lines.append(f"{key:<21} {law:<18} {r.regime:<12} {float(r.impulse[0]):9.4f} "
-                         f"{r.energy_loss / T:8.4f}  {', '.join(broken) or '-'}")
-    return "\n".join(lines)
-
-
-_INNER_LIST = re.compile(r"\[\s+([^\[\]{}]*?)\s+\]")
-
-
-def dumps(data: Mapping[str, Any]) -> str:
-    """Strict JSON, indented, with every innermost list of numbers or strings on one line."""
-    text = json.dumps(data, indent=1, allow_nan=False)
-    compact = _INNER_LIST.sub(lambda m: "[" + re.sub(r"\s*\n\s*", " ", m.group(1)) + "]", text)
-    # the reformatting only touches whitespace between tokens; keep it only if it round-trips
-    return compact if json.loads(compact) == json.loads(text) else text
-
-
-def run(args) -> int:
-    """``convimpact paper``: compute, write the figures and JSON, print the summary."""
-    t0 = time.perf_counter()
-    report = build_report(quick=args.quick)
-    out = args.out
-    paths = write_figures(report, out)
-    data = dict(report.data)
-    data["figures"] = [os.path.basename(p) for p in paths]
-    data["elapsed_total_s"] = time.perf_counter() - t0
-    text = dumps(data)
-    json_path = os.path.join(out, "paper.json")
-    with open(json_path, "w") as fh:
-        fh.write(text + "\n")
-    if args.json:
-        sys.stdout.write(text + "\n")
-        return 0
-    print(format_summary(report))
-    print(f"\nwrote {len(paths)} figures and {json_path} into {os.path.abspath(out)} "
-          f"in {time.perf_counter() - t0:.1f} s")
-    return 0
-
-
-def _add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", default="convimpact-paper",
-                   help="folder for the PNG figures and paper.json (default ./convimpact-paper/)")
-    p.add_argument("--json", action="store_true",
-                   help="print the JSON document to standard output instead of the table")
-    p.add_argument("--quick", action="store_true", help="coarser grids (for tests and CI)")
-
-
-run.add_arguments = _add_arguments
-cli.command("paper", "reproduce the paper's examples and figures (PNG + JSON)")(run)
-
 __all__ = ["PaperExample", "PaperReport", "paper_examples", "resolve_under_laws", "table1",
-           "fig3_data", "fig9_data", "fig10_data", "build_report", "write_figures",
-           "format_summary", "run", "ASSUMPTIONS", "PAPER", "FIGURES"]
+           "fig3_data", "fig9_data", "fig10_data", "build_report", "ASSUMPTIONS", "PAPER"]

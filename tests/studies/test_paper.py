@@ -16,7 +16,8 @@ import scipy.linalg as sla
 import convimpact as ci
 from convimpact import cli
 from convimpact.studies.landscape import REGIMES, angle_landscape, closed_form_landscape, contact_landscape
-from convimpact.studies.paper import FIGURES, fig3_data, paper_examples, table1
+from convimpact.studies.paper import fig3_data, paper_examples, table1
+from convimpact.studies.paper_figures import FIGURES
 
 
 @pytest.fixture(scope="module")
@@ -270,7 +271,8 @@ def test_pngs_exist_and_are_not_trivial(paper_run):
 
 
 def test_table_printed():
-    from convimpact.studies.paper import build_report, format_summary
+    from convimpact.studies.paper import build_report
+    from convimpact.studies.paper_cli import format_summary
 
     text = format_summary(build_report(quick=True))
     assert "Assumptions" in text and "Table 1 analogue" in text and "alpha_m" in text
