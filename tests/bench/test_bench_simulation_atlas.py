@@ -5,7 +5,7 @@ independently: the event-driven runs converge to the tight reference, Moreau–J
 post-impact error falls with h on the pendulum drop (it is O(h)), the compliant model's
 penetration falls about as k^(-1/(n+1)) (100^(1/2.5) ~ 6.3 between k = 1e5 and 1e7), the
 fast paths' singular cells of the pendulum map lie on the folded/stretched lines
-theta2 in {0, +-pi} (rank-one tip Jacobian, see tests/test_atlas.py).
+theta2 in {0, +-pi} (rank-one tip Jacobian, see tests/studies/test_atlas.py).
 """
 
 from __future__ import annotations
