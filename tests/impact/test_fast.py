@@ -2,7 +2,7 @@
 
 Oracles: the closed form (planar law and every stick), brute-force angle grids refined with
 scipy on eq. (60) written out here, a brute-force scan of the Coulomb sliding conditions, the
-KKT conditions of the SOC programs (tests/convex_systems.py, written from the law
+KKT conditions of the SOC programs (tests/impact/convex_systems.py, written from the law
 definitions), Clarabel through cvxpy on a few cases, and the energy identity of the
 dissipative law. Delassus matrices come from the null-space formula of convex_systems, not
 from convimpact.impact.problem.
