@@ -56,7 +56,7 @@ def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolu
     dmin = 1e-12 * wscale
     vscale = max(abs(v[0]), abs(v[1]), abs(v[-1]))
     if d == 2:
-        pn, pt = solve2(w, c, -v[1], "coulomb")
+        pn, pt = solve2(w, c, -v[1], LAW)
         if in_cone(pn, abs(pt), mu):
             return solution((pn, pt), "stick")
         A, B, C = w[0][0], w[0][1], w[1][1]
@@ -73,7 +73,7 @@ def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolu
                 found.append((tl, s, p, D, ut))
         if not found:
             if jams:
-                raise jam_error(mu, min(jams), "coulomb")
+                raise jam_error(mu, min(jams), LAW)
             raise SolverError("no Coulomb sliding solution exists for this planar contact "
                               "although the stick impulse leaves the cone; use method='clarabel'")
         tl, s, p, D, ut = max(found)
@@ -81,7 +81,7 @@ def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolu
         warns = (("the Coulomb law has several sliding solutions here; the most dissipative "
                   "one is returned",) if len(found) > 1 else ())
         return solution((p, mu * s * p), "slide", D, extras, warns)
-    inv = inverse3(w, "coulomb")
+    inv = inverse3(w, LAW)
     pn, p1, p2 = linsolve3(w, inv, c, -v[1], -v[2])
     if in_cone(pn, math.hypot(p1, p2), mu):
         return solution((pn, p1, p2), "stick")
@@ -165,7 +165,7 @@ def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolu
                 break
     if not found:
         if jams:
-            raise jam_error(mu, min(jams), "coulomb")
+            raise jam_error(mu, min(jams), LAW)
         raise SolverError("no Coulomb sliding solution found for this spatial contact although "
                           "the stick impulse leaves the cone; use method='clarabel'")
     tl, x, y, p, D, sigma = max(found)  # the most dissipative if several

@@ -199,16 +199,16 @@ def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolu
         return frictionless(w, v, d, e)
     c = -(1.0 + e) * v[0]
     if d == 2:
-        pn, pt = solve2(w, c, -v[1], "pereira-nikravesh")  # eq. (42)
+        pn, pt = solve2(w, c, -v[1], LAW)  # eq. (42)
         if in_cone(pn, abs(pt), mu):
             return solution((pn, pt), "stick")
         s = -math.copysign(1.0, v[1]) if v[1] != 0.0 else (math.copysign(1.0, pt) if pt else 1.0)
         D = w[0][0] + mu * s * w[0][1]  # eq. (55) direction, eq. (38) denominator
         if not D > 1e-12 * max(abs(w[0][0]), abs(w[0][1]), abs(w[1][1])):
-            raise jam_error(mu, D, "pereira-nikravesh")
+            raise jam_error(mu, D, LAW)
         p = c / D
         return solution((p, mu * s * p), "slide", D)
-    inv = inverse3(w, "pereira-nikravesh")
+    inv = inverse3(w, LAW)
     pn, p1, p2 = linsolve3(w, inv, c, -v[1], -v[2])  # eq. (42) in space
     ptn = math.hypot(p1, p2)
     if in_cone(pn, ptn, mu):
