@@ -2,7 +2,7 @@
 
 Each cut joint's constraint rows are built from points and body-fixed directions, every one
 carried with its value, Jacobian and Jacobian time derivative; the product rule then gives
-exact rows of C and C_dot (see :class:`~convimpact.model.builder.LoopSpec` for the rows).
+exact rows of C and C_dot (see :class:`~convimpact.model.specs.LoopSpec` for the rows).
 :func:`assemble` and :func:`consistent_velocity` bring an inconsistent state onto
 ``Psi = 0`` and ``C theta_dot = 0`` for any :class:`~convimpact.mechanism.Mechanism`.
 """

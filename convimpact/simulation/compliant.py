@@ -47,7 +47,7 @@ from ..impact.errors import (
 from .canonical import CanonicalEquations
 from .events import locate_crossing
 from .projection import project_positions, project_velocities
-from .result import SimulationResult, append_sample, series_from_rows
+from .result import SERIES, SimulationResult, append_sample, series_from_rows
 from .initial import consistent_start, initial_state, integrator_class, positive, time_span
 from .simulate import ONE_STEP, _as_mechanism
 
@@ -337,8 +337,7 @@ def simulate_compliant(
     q, v = consistent_start(mech, q, v, assemble=assemble, projection_tol=projection_tol,
                             contact_tol=contact_tol)
 
-    rows: dict[str, list] = {key: [] for key in ("t", "theta", "dtheta", "p", "sigma", "T", "V",
-                                                 "psi", "cdq")}
+    rows: dict[str, list] = {key: [] for key in SERIES}
 
     def record(t, y):
         th = y[:k]

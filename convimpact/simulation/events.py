@@ -118,3 +118,31 @@ def reclosing(fun: Callable[[float], float], ta: float, tb: float, g0: float, v0
     if ha <= 0.0:  # returns below its start within 1e-9 of the step: use the sampled start
         return a
     return locate_crossing(h, a, tb, ha, hb, xtol)
+
+
+def gap_event(gap: Callable[[float], float], speed: Callable[[float], float], ta: float,
+              tb: float, ga: float, gb: float, xtol: float) -> tuple[float, str] | None:
+    """The event of a free contact in the step (ta, tb]: ``(time, kind)``, or None.
+
+    ``gap`` and its rate ``speed`` (the normal velocity) are evaluated on the step's
+    interpolant; ``ga`` and ``gb`` are the gap at the two ends. Open at ``ta``: an "impact"
+    where the gap dips to zero inside the step (:func:`first_dip`) or has crossed it at
+    ``tb``. Closed at ``ta`` and separating (just impacted or released): an "impact" where it
+    comes back below its starting level (:func:`reclosing`), even if open at ``tb``. Closed,
+    not separating and sinking deeper: a "touch" at ``ta``.
+    """
+    if ga > 0.0:
+        dip = first_dip(gap, ta, tb, ga, dfun=speed, xtol=xtol)
+        if dip is not None:  # the gap dips below zero inside the step (and may come back)
+            return locate_crossing(gap, *dip, xtol), "impact"
+        if gb <= 0.0:
+            return locate_crossing(gap, ta, tb, ga, gb, xtol), "impact"
+    elif ga <= 0.0:
+        v0 = speed(ta)
+        if v0 > 0.0:
+            te = reclosing(gap, ta, tb, ga, v0, gb, xtol)
+            if te is not None:
+                return te, "impact"
+        elif gb < 0.0 and gb < ga:
+            return ta, "touch"
+    return None

@@ -66,7 +66,7 @@ from ..impact.errors import (
 )
 from ..impact import check_law_method, resolve_impact
 from .projection import project_positions, project_velocities
-from .result import ImpactEvent, SimulationResult, series_from_rows
+from .result import SERIES, ImpactEvent, SimulationResult, series_from_rows
 from .initial import consistent_start, initial_state, positive, time_span
 from .simulate import _as_mechanism
 
@@ -229,8 +229,7 @@ def simulate_moreau(
     params = {c: mech.contact_parameters(c) for c in contacts}
 
     # ---- run ---------------------------------------------------------------------------------
-    rows: dict[str, list] = {key: [] for key in ("t", "theta", "dtheta", "p", "sigma", "T", "V",
-                                                 "psi", "cdq")}
+    rows: dict[str, list] = {key: [] for key in SERIES}
     sigma = np.zeros(m)
     max_pen = 0.0
     impacts: list[ImpactEvent] = []

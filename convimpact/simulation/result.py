@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Mapping, Union
+from typing import Any, Mapping, Sequence, Union
 
 import numpy as np
 
@@ -251,10 +251,14 @@ class PiecewiseSolution:
         return out[:, 0] if np.ndim(t) == 0 else out
 
 
+#: the keys of a scheme's recorded rows (see :func:`series_from_rows`)
+SERIES = ("t", "theta", "dtheta", "p", "sigma", "T", "V", "psi", "cdq")
+
+
 def series_from_rows(rows: Mapping[str, list], k: int, m: int) -> dict[str, np.ndarray]:
     """The sampled series of a :class:`SimulationResult` from a scheme's recorded rows.
 
-    ``rows`` holds lists under "t", "theta", "dtheta", "p", "sigma", "T", "V", "psi", "cdq".
+    ``rows`` holds lists under the keys :data:`SERIES`.
     """
     n = len(rows["t"])
     return {
@@ -288,3 +292,16 @@ def append_sample(rows: Mapping[str, list], mech, t: float, theta: np.ndarray,
     else:
         rows["psi"].append(0.0)
         rows["cdq"].append(0.0)
+
+
+def held_at(contact_events: Sequence[ContactEvent], t: float) -> tuple[str, ...]:
+    """The held set in force at time t (right-continuous), replayed from the switches."""
+    held: list[str] = []
+    for ev in contact_events:
+        if ev.time > t:
+            break
+        if ev.kind == "persist" and ev.contact not in held:
+            held.append(ev.contact)
+        elif ev.kind == "release" and ev.contact in held:
+            held.remove(ev.contact)
+    return tuple(held)

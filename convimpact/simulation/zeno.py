@@ -42,6 +42,7 @@ simulator reports this in ``SimulationResult.warnings`` (duration and max slip s
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
@@ -123,3 +124,26 @@ class AccumulationDetector:
                 f"(<= zeno_time_tol {self.time_tol:.1e})",
                 "accumulation", ratio, limit)
         return Accumulation(False, "", "", ratio, limit)
+
+    def judge_impact(self, t: float, separation_speeds: Mapping[str, float],
+                     ) -> tuple[list[str], dict[str, float | None], list[str], bool]:
+        """Record an impact at ``t`` of the contacts in ``separation_speeds`` (name -> normal
+        speed after it) and judge each with :meth:`check`.
+
+        Returns the contacts to hold, their extrapolated accumulation times, the reasons, and
+        whether one of them accumulates geometrically (rather than being at rest).
+        """
+        persist: list[str] = []
+        limits: dict[str, float | None] = {}
+        reasons = []
+        geometric = False
+        for c, speed in separation_speeds.items():
+            self.record(c, t)
+            verdict = self.check(c, speed)
+            if verdict.accumulating:
+                persist.append(c)
+                limits[c] = verdict.limit_time
+                reasons.append(f"{c}: {verdict.reason}")
+                if verdict.kind == "accumulation":
+                    geometric = True
+        return persist, limits, reasons, geometric
