@@ -97,6 +97,54 @@ class ContactEvent:
         return {k: _jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
 
 
+#: the contact modes of sustained contact, by code: ``contact_mode[j, i]`` indexes this tuple
+MODE_NAMES = ("open", "stick", "slip")
+
+
+@dataclass(frozen=True)
+class ModeInterval:
+    """One interval of a contact's mode timeline: ``mode`` held over [t_start, t_end].
+
+    ``mode`` is "open" (free: unilateral, watched for impacts), "stick" (closed, no slip:
+    rolling or resting) or "slip" (closed, sliding with Coulomb friction mu lambda_n opposing
+    the slip).
+    """
+
+    contact: str
+    mode: str
+    t_start: float
+    t_end: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: _jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True)
+class PainleveEvent:
+    """A sliding contact where the contact force problem has no solution or several.
+
+    Attributes
+    ----------
+    time : the instant.
+    contacts : the closed contacts of the force problem.
+    kind : "inconsistent" (no solution) or "indeterminate" (several solutions).
+    n_solutions : how many distinct solutions (in contact accelerations) were found.
+    effective_mass : per contact, the normal entry of the Delassus matrix in the slip
+        direction, ``c_n^T G (c_n - mu c_t s)`` (<= 0 marks Painleve's paradox).
+    action : what the simulator did ("stopped").
+    """
+
+    time: float
+    contacts: tuple[str, ...]
+    kind: str
+    n_solutions: int
+    effective_mass: tuple[float, ...]
+    action: str = "stopped"
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: _jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
+
+
 @dataclass(frozen=True, eq=False)
 class SimulationResult:
     """Outcome of :func:`convimpact.simulation.simulate` (modelled on scipy's OdeResult).
@@ -119,7 +167,8 @@ class SimulationResult:
     sol : callable ``sol(t) -> y = [theta, p]`` across all segments (right-continuous at
         impacts), or None unless ``dense_output=True``.
     status : 0 reached the end of the span; 1 stopped early by request (accumulation with
-        ``zeno="stop"`` or ``max_impacts`` reached); -1 the integrator failed.
+        ``zeno="stop"`` or ``max_impacts`` reached); 2 stopped at Painleve's paradox (see
+        ``painleve``); -1 the integrator failed.
     message : why it stopped.
     nfev : right-hand-side evaluations (eq. 15); nevents_fev : gap and force evaluations of
         the event location.
@@ -127,8 +176,14 @@ class SimulationResult:
     wall_time : total wall time (s); impact_time : wall time inside ``resolve_impact`` (s).
     max_loop_residual, max_loop_velocity_residual : max drift over the run (after projection).
     settings : the options used (law, method, integrator, tolerances).
-    warnings : modelling caveats met during the run, e.g. a held (persistent) contact with
-        mu > 0 that slid without friction (held contacts are frictionless); empty when none.
+    warnings : modelling caveats met during the run; empty when none.
+    contact_names : the mechanism's contacts, in the order of the contact series' columns.
+    contact_mode : (n, n_contacts) mode codes per sample, indices into :data:`MODE_NAMES`
+        (0 open, 1 stick, 2 slip).
+    contact_force : (n, n_contacts, d) contact forces in the contact frame (normal first, then
+        t or t1, t2), zero while open.
+    mode_intervals : the per-contact mode timeline, :class:`ModeInterval` in time order.
+    painleve : the :class:`PainleveEvent` met (a run stops at the first), empty when none.
     """
 
     t: np.ndarray
@@ -155,6 +210,23 @@ class SimulationResult:
     impact_time: float
     settings: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
     warnings: tuple[str, ...] = ()
+    contact_names: tuple[str, ...] = ()
+    contact_mode: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=int))
+    contact_force: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
+    mode_intervals: tuple[ModeInterval, ...] = ()
+    painleve: tuple[PainleveEvent, ...] = ()
+
+    def modes_of(self, contact: str) -> tuple[ModeInterval, ...]:
+        """The mode timeline of one contact."""
+        return tuple(iv for iv in self.mode_intervals if iv.contact == contact)
+
+    def mode_at(self, contact: str, t: float) -> str:
+        """The mode of ``contact`` at time ``t`` (the latest interval starting at or before t)."""
+        found = "open"
+        for iv in self.mode_intervals:
+            if iv.contact == contact and iv.t_start <= t:
+                found = iv.mode
+        return found
 
     @property
     def success(self) -> bool:
@@ -203,6 +275,9 @@ class SimulationResult:
             "impacts": [e.as_dict() for e in self.impacts],
             "contact_events": [e.as_dict() for e in self.contact_events],
             "warnings": list(self.warnings),
+            "contact_names": list(self.contact_names),
+            "mode_intervals": [iv.as_dict() for iv in self.mode_intervals],
+            "painleve": [ev.as_dict() for ev in self.painleve],
         }
         if series:
             out["series"] = {
@@ -214,6 +289,8 @@ class SimulationResult:
                 "loop_residual": self.loop_residual.tolist(),
                 "loop_velocity_residual": self.loop_velocity_residual.tolist(),
                 "held": self.held.tolist(),
+                "contact_mode": self.contact_mode.tolist(),
+                "contact_force": self.contact_force.tolist(),
             }
         return out
 
