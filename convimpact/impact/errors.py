@@ -82,6 +82,31 @@ class NotSupportedError(ConvImpactError, NotImplementedError):
     """The requested method cannot treat this case; the message names one that can."""
 
 
+
+
+class PainleveError(SimulationError):
+    """Painleve's paradox in sustained contact: the contact force problem of a sliding contact
+    has no solution (inconsistent) or several (indeterminate).
+
+    A sliding contact whose effective normal mass in the slip direction,
+    c_n^T G (c_n - mu c_t s), is not positive can make Coulomb's rigid-body problem ill posed.
+    Lower mu below the critical value, model the contact as compliant
+    (``simulate_with(scheme="compliant")``) or use the time-stepping scheme
+    (``scheme="moreau-jean"``), which resolves it with an impulse.
+
+    Attributes
+    ----------
+    event : the :class:`~convimpact.simulation.result.PainleveEvent`, or None.
+    result : the run's :class:`~convimpact.simulation.result.SimulationResult` up to the
+        paradox (set when the simulator raises it), or None.
+    """
+
+    def __init__(self, message: str, event=None, result=None):
+        super().__init__(message)
+        self.event = event
+        self.result = result
+
+
 __all__ = [
     "ConvImpactError",
     "InputError",
@@ -99,4 +124,5 @@ __all__ = [
     "AssemblyError",
     "SimulationError",
     "NotSupportedError",
+    "PainleveError",
 ]

@@ -1,36 +1,46 @@
 """One run of the event-driven scheme of :func:`convimpact.simulation.simulate`.
 
 :class:`EventDrivenRun` holds the run's state and advances it: it integrates segment by
-segment, locates the events in each step, handles them at their instant (impacts, contacts
-held closed or released) and assembles the :class:`SimulationResult`.
+segment with the contacts' modes fixed, locates the events in each step (a free contact
+closing; a held contact's force leaving its cone or turning tensile; a slip velocity
+reaching zero; the sliding contacts' force system turning singular), handles them at their
+instant (impacts, then the modes selected by the contact force problem,
+:mod:`~convimpact.simulation.sustained`) and assembles the :class:`SimulationResult`.
 """
 
 from __future__ import annotations
 
 import time as _time
+from bisect import bisect_right
 from typing import Any, Collection, Mapping, Sequence
 
 import numpy as np
 
 from ..impact import resolve_impact
-from ..impact.errors import ConvImpactError, SimulationError
+from ..impact.errors import ConvImpactError, PainleveError, SimulationError
 from ..impact.results import ImpactResult
 from ..mechanism import Mechanism
-from .canonical import CanonicalEquations
+from .canonical import CanonicalEquations, HeldMode
+from .contact_forces import solve_contact_forces
 from .events import gap_event, locate_crossing
 from .options import EventDrivenOptions
-from .projection import project_positions, project_velocities
-from .result import (SERIES, ContactEvent, ImpactEvent, PiecewiseSolution, SimulationResult,
-                     append_sample, held_at, series_from_rows)
+from .projection import project_positions
+from .result import (SERIES, ContactEvent, ImpactEvent, PainleveEvent, PiecewiseSolution,
+                     SimulationResult, append_sample, series_from_rows)
+from .run_record import ModeLog, contact_rows, painleve_event, project_onto
+from .sustained import (MARGIN_SLACK, contact_state, held_forces, held_modes,
+                        painleve_indicator, redundant_rows)
 from .zeno import AccumulationDetector
 
 #: events at one instant beyond which the run is declared chattering (never loops forever)
 MAX_EVENTS_AT_ONE_INSTANT = 50
-#: tangential speed of a held contact with mu > 0 above which it counts as sliding (warning)
-SLIP_SPEED = 1e-4
 END_OF_SPAN = "the end of the time span was reached"
+#: per-sample contact series recorded besides the state's
+CONTACT_SERIES = ("held", "mode", "force", "friction")
+#: 4-point Gauss-Legendre nodes and weights on [-1, 1] (the friction work of a step)
+GAUSS4 = np.polynomial.legendre.leggauss(4)
 
-#: an event found in a step: (time, "impact" / "touch" / "release", contact name)
+#: an event found in a step: (time, "impact" / "touch" / "mode", contact name)
 Event = tuple[float, str, str]
 Held = tuple[str, ...]
 
@@ -51,10 +61,10 @@ class EventDrivenRun:
 
     Attributes
     ----------
-    t, y, held : current time, ``[theta, p]`` and the contacts held closed (persistent).
+    t, y : current time and ``[theta, p]``.
+    eq : the canonical equations in force: the held (closed) contacts and their modes.
     rows, segments : the recorded samples, and the integrated steps (for the dense output).
-    impacts, contact_events : the events so far, in time order.
-    slip : sliding of held contacts with mu > 0 (first time, duration, max speed).
+    impacts, contact_events, painleve : the events so far, in time order.
     status, message : None and "" until the run ends, then as in :class:`SimulationResult`.
     """
 
@@ -66,18 +76,22 @@ class EventDrivenRun:
         self.k = int(mechanism.n_coordinates)
         self.m = int(mechanism.n_loop_constraints)
         self.contacts = tuple(mechanism.contact_names)
-        self._equations: dict[Held, CanonicalEquations] = {}
+        self.d = max((len(self.contact_row(c, y0[:self.k])) for c in self.contacts), default=0)
+        self.painleve_error: PainleveError | None = None
+        #: why contacts closing at an impact stay closed: {contact: (reason, t_inf or None)}
+        self.closing_info: dict[str, tuple[str, float | None]] = {}
         self.t = options.t0
         self.y = y0
-        self.held: Held = ()
-        self.rows: dict[str, list] = {key: [] for key in SERIES + ("held",)}
+        self.eq = CanonicalEquations(mechanism)
+        self.eq_log: list[tuple[float, CanonicalEquations]] = [(self.t, self.eq)]
+        self.rows: dict[str, list] = {key: [] for key in SERIES + CONTACT_SERIES}
+        self.dissipated = 0.0  # energy dissipated by sliding friction so far
         self.segments: list = []
         self.impacts: list[ImpactEvent] = []
         self.contact_events: list[ContactEvent] = []
+        self.painleve: list[PainleveEvent] = []
+        self.modes = ModeLog(self.contacts, self.t)
         self.detector = AccumulationDetector(options.zeno_time_tol, options.rest_velocity)
-        # held contacts are frictionless: their sliding is tracked when mu > 0 to warn about it
-        self.mus = {c: float(mechanism.contact_parameters(c)[1]) for c in self.contacts}
-        self.slip: dict[str, dict[str, Any]] = {}
         self.status: int | None = None
         self.message = ""
         self.h_next = options.first_step
@@ -86,13 +100,11 @@ class EventDrivenRun:
         self.n_steps = self.n_projections = self.n_restarts = self.nevents_fev = 0
         self.impact_time = 0.0
 
-    # ---- evaluations ---------------------------------------------------------------------
-    def equations(self, held: Held) -> CanonicalEquations:
-        """The canonical equations with ``held`` closed (built once per held set)."""
-        if held not in self._equations:
-            self._equations[held] = CanonicalEquations(self.mech, held)
-        return self._equations[held]
+    @property
+    def held(self) -> Held:
+        return self.eq.held
 
+    # ---- evaluations ---------------------------------------------------------------------
     def contact_row(self, c: str, th: np.ndarray) -> np.ndarray:
         return np.asarray(self.mech.contact_jacobian(c, th), float)
 
@@ -104,111 +116,118 @@ class EventDrivenRun:
         self.nevents_fev += 1
         return float(self.mech.contact_gap(c, th))
 
-    # ---- samples ---------------------------------------------------------------------------
-    def record(self, t: float, y: np.ndarray, held: Held) -> None:
-        """Store the sample at (t, y) with ``held`` closed, tracking the held contacts' slip."""
-        th, pp = y[:self.k], y[self.k:]
-        dth, sig, _ = self.equations(held).velocities(th, pp)
-        self.track_slip(t, th, dth, held)
-        append_sample(self.rows, self.mech, t, th, dth, pp, sig)
-        self.rows["held"].append(len(held))
-
-    def project_state(self, y: np.ndarray, held: Held, sigma: np.ndarray,
-                      dth: np.ndarray) -> np.ndarray:
-        """Project theta onto Psi = 0 and theta_dot onto C theta_dot = 0; rebuild p (eq. 13)."""
-        eq = self.equations(held)
+    def state(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(theta, theta_dot, sigma) of ``y`` under the equations in force."""
         th = y[:self.k]
+        dth, sig, _ = self.eq.velocities(th, y[self.k:])
+        return th, dth, sig
+
+    def friction_power(self, t: float, y: np.ndarray) -> float:
+        """Power of the sliding contacts' friction forces, sum of lambda_t . v_t (<= 0)."""
+        if not self.eq.slipping:
+            return 0.0
+        th, dth, _ = self.state(y)
+        forces = self.eq.contact_forces(t, y)
+        return sum(float(forces[c][1:] @ (self.contact_row(c, th)[1:] @ dth))
+                   for c, _ in self.eq.slipping)
+
+    def dissipate(self, interp, ta: float, tb: float) -> None:
+        """Add the friction work over [ta, tb] (Gauss-Legendre, 4 points on the interpolant)."""
+        if not self.eq.slipping or tb <= ta:
+            return
+        half, mid = 0.5 * (tb - ta), 0.5 * (tb + ta)
+        work = sum(w * self.friction_power(mid + half * x, np.asarray(interp(mid + half * x),
+                                                                      float))
+                   for x, w in zip(*GAUSS4))
+        self.dissipated -= half * work
+
+    # ---- samples ---------------------------------------------------------------------------
+    def record(self, t: float, y: np.ndarray) -> None:
+        """Store the sample at (t, y): state, energies, contact modes and forces."""
+        th, dth, sig = self.state(y)
+        append_sample(self.rows, self.mech, t, th, dth, y[self.k:], sig)
+        self.rows["friction"].append(self.dissipated)
+        forces, _ = held_forces(self.eq, t, y) if self.held else ({}, 0.0)
+        contact_rows(self.rows, self.contacts, self.eq, forces, self.d)
+
+    def project_state(self, y: np.ndarray) -> np.ndarray:
+        """Project theta onto Psi = 0 (loops, held gaps) and theta_dot onto the velocity
+        constraints; rebuild p (eq. 13) with the loops' sigma kept."""
+        eq = self.eq
+        th, dth, sig = self.state(y)
         if eq.n_constraints:
             M = np.asarray(self.mech.mass_matrix(th), float)
-            th, _, _ = project_positions(eq.residual, eq.jacobian, M, th,
-                                         0.1 * self.opts.projection_tol)
-            M = np.asarray(self.mech.mass_matrix(th), float)
-            dth = project_velocities(M, eq.jacobian(th), dth)
+            if len(eq.residual(th)):
+                th, _, _ = project_positions(eq.residual, eq.position_jacobian, M, th,
+                                             0.1 * self.opts.projection_tol)
+                M = np.asarray(self.mech.mass_matrix(th), float)
+            dth = project_onto(M, eq.jacobian(th), dth)
             self.n_projections += 1
-        return np.concatenate([th, eq.momentum(th, dth, sigma)])
+        return self.pack(th, dth, sig[:self.m])
 
-    # ---- held (persistent) contacts ----------------------------------------------------------
-    def hold(self, t: float, y: np.ndarray, held: Held, candidates: Sequence[str], reason: str,
-             limit: Mapping[str, float | None]) -> tuple[np.ndarray, Held]:
-        """Hold ``candidates`` closed: plastic frictionless correction of their normal velocity,
-        then keep those whose normal force is compressive."""
-        k, m = self.k, self.m
-        th = y[:k]
-        dth, sig, _ = self.equations(held).velocities(th, y[k:])
-        new = tuple(held) + tuple(c for c in candidates if c not in held)
-        while True:
-            eqn = self.equations(new)
-            M = np.asarray(self.mech.mass_matrix(th), float)
-            dth_h = project_velocities(M, eqn.jacobian(th), dth)
-            sig_n = np.concatenate([sig, np.zeros(eqn.n_constraints - len(sig))])
-            yh = np.concatenate([th, eqn.momentum(th, dth_h, sig_n)])
-            nu = eqn.multipliers(t, yh)[m:]
-            new_idx = [i for i, c in enumerate(new) if c in candidates and c not in held]
-            tensile = [(nu[i], i) for i in new_idx if nu[i] <= 0.0]
-            if not tensile:
-                break
-            _, worst = min(tensile)
-            new = tuple(c for i, c in enumerate(new) if i != worst)
+    def pack(self, th: np.ndarray, dth: np.ndarray, sig_loops: np.ndarray) -> np.ndarray:
+        """``[theta, p]`` with p = M theta_dot - C^T sigma, sigma = (loops' sigma, zeros)."""
+        sig = np.concatenate([sig_loops, np.zeros(self.eq.n_constraints - self.m)])
+        return np.concatenate([th, self.eq.momentum(th, dth, sig)])
+
+    # ---- modes of the closed contacts ------------------------------------------------------
+    def select_modes(self, t: float, th: np.ndarray, dth: np.ndarray, sig_loops: np.ndarray,
+                     candidates: Sequence[str], reason: str) -> np.ndarray:
+        """Close ``candidates`` (held and touching at rest) in the modes that the contact
+        force problem selects; returns the new ``[theta, p]``."""
+        o = self.opts
+        candidates = tuple(dict.fromkeys(candidates))
+        before = set(self.held)
+        M = np.asarray(self.mech.mass_matrix(th), float)
         T0 = float(self.mech.kinetic_energy(th, dth))
-        T1 = float(self.mech.kinetic_energy(th, dth_h))
-        for c in new:
+        held, modes, dropped, dims = (), {}, frozenset(), {}
+        if candidates:
+            # plastic frictionless correction of the (tiny, <= rest_velocity) normal speeds
+            normals = CanonicalEquations(self.mech, candidates)
+            dth = project_onto(M, normals.jacobian(th), dth)
+            cs = contact_state(self.mech, t, th, dth, candidates, o.rest_velocity)
+            try:
+                sol = solve_contact_forces(cs.problem)
+            except PainleveError as exc:
+                ev = painleve_event(t, candidates, cs.problem.effective_normal_mass(),
+                                    exc.kind, exc.n_solutions)
+                self.painleve.append(ev)
+                self.status, self.message = 2, str(exc)
+                if o.painleve == "raise":
+                    self.painleve_error = PainleveError(str(exc), event=ev)
+                return self.pack(th, dth, sig_loops)
+            modes = held_modes(cs, sol.modes, sol.direction)
+            held = tuple(c for c in candidates if c in modes)
+            loops = (np.asarray(self.mech.loop_jacobian(th), float).reshape(-1, self.k)
+                     if self.m else None)
+            probe = CanonicalEquations(self.mech, held, modes, dims=cs.dims)
+            dropped = redundant_rows(M, loops, probe.rows, cs.jacobians)
+            dims = cs.dims
+        self.eq = CanonicalEquations(self.mech, held, modes, dropped, dims)
+        self.eq_log.append((t, self.eq))
+        dth = project_onto(M, self.eq.jacobian(th), dth)
+        dT = float(self.mech.kinetic_energy(th, dth)) - T0
+        for c in held:
+            if c not in before:
+                why, limit = self.closing_info.get(c, (reason, None))
+                self.contact_events.append(ContactEvent(t, c, "persist", why, limit, dT))
+        self.closing_info = {}
+        for c in before:
             if c not in held:
-                self.contact_events.append(ContactEvent(t, c, "persist", reason, limit.get(c),
-                                                        T1 - T0))
-        return yh, new
-
-    def release(self, t: float, y: np.ndarray, held: Held, names: Sequence[str],
-                reason: str) -> tuple[np.ndarray, Held]:
-        """Free the held contacts ``names`` (the others keep their multipliers)."""
-        k, m = self.k, self.m
-        th = y[:k]
-        dth, sig, _ = self.equations(held).velocities(th, y[k:])
-        keep = [i for i, c in enumerate(held) if c not in names]
-        new = tuple(held[i] for i in keep)
-        sig_n = np.concatenate([sig[:m], sig[m:][keep]]) if len(sig) else sig
-        for c in names:
-            self.contact_events.append(ContactEvent(t, c, "release", reason))
-            self.detector.forget(c)
-        return np.concatenate([th, self.equations(new).momentum(th, dth, sig_n)]), new
-
-    def track_slip(self, t: float, th: np.ndarray, dth: np.ndarray, held: Held) -> None:
-        """Accumulate the sliding (tangential speed above SLIP_SPEED) of held contacts, mu > 0."""
-        for c in self.contacts:
-            s_c = self.slip.get(c)
-            if c not in held or self.mus[c] <= 0.0:
-                if s_c is not None:
-                    s_c["t_prev"] = None
-                continue
-            J = self.contact_row(c, th)
-            vt = float(np.linalg.norm(J[1:] @ dth)) if len(J) > 1 else 0.0
-            if vt <= SLIP_SPEED:
-                if s_c is not None:
-                    s_c["t_prev"] = None
-                continue
-            if s_c is None:
-                s_c = self.slip[c] = {"first": t, "t_prev": None, "duration": 0.0, "vmax": 0.0}
-            if s_c["t_prev"] is not None:
-                s_c["duration"] += t - s_c["t_prev"]
-            s_c["t_prev"] = t
-            s_c["vmax"] = max(s_c["vmax"], vt)
-
-    def slip_warnings(self) -> tuple[str, ...]:
-        """One warning per held contact with mu > 0 that slid (held contacts are frictionless)."""
-        return tuple(
-            f"held contact {c!r} (mu = {self.mus[c]:g}) slid without friction for "
-            f"{sc['duration']:.4g} s (first at t = {sc['first']:.6g}), max slip speed "
-            f"{sc['vmax']:.4g} (length/s): held (persistent) contacts are frictionless in this "
-            "simulator, so this sliding is not dissipated"
-            for c, sc in self.slip.items() if sc["duration"] > 0.0)
+                self.contact_events.append(ContactEvent(
+                    t, c, "release", "its normal force would turn tensile (the contact force "
+                    "problem opens it)"))
+                self.detector.forget(c)
+        self.modes.update(t, {c: modes[c].kind if c in modes else "open" for c in self.contacts})
+        return self.pack(th, dth, sig_loops)
 
     # ---- impacts ---------------------------------------------------------------------------
     def solve_impact(self, t: float, th: np.ndarray, dth: np.ndarray, M: np.ndarray,
-                     closing: Sequence[str], params: Mapping[str, Any], held: Held,
+                     closing: Sequence[str], params: Mapping[str, Any], C: np.ndarray,
                      plastic: Collection[str] = ()) -> tuple[ImpactResult, list, float]:
-        """One call of ``resolve_impact`` for ``closing`` with ``held`` as constraints (e = 0
-        for the ``plastic`` contacts); returns the result, the contact Jacobians and the wall
-        time spent."""
-        C = self.equations(held).jacobian(th)
+        """One call of ``resolve_impact`` for ``closing`` with the constraint rows ``C``
+        (loops and held normals; e = 0 for the ``plastic`` contacts); returns the result,
+        the contact Jacobians and the wall time spent."""
         Jc = [self.contact_row(c, th) for c in closing]
         es = [0.0 if c in plastic else float(params[c][0]) for c in closing]
         mus = [float(params[c][1]) for c in closing]
@@ -227,92 +246,89 @@ class EventDrivenRun:
             self.impact_time += spent
         return r, Jc, spent
 
-    def impact(self, t: float, y: np.ndarray, held: Held,
-               closing: Sequence[str]) -> tuple[np.ndarray, Held, str | None]:
-        """Resolve the closing contacts together; returns (y, held, stop_message)."""
-        k, m = self.k, self.m
-        th = y[:k]
-        eq = self.equations(held)
-        dth, sig, _ = eq.velocities(th, y[k:])
+    def impact(self, t: float, th: np.ndarray, dth: np.ndarray, sig_loops: np.ndarray,
+               closing: Sequence[str]) -> tuple[np.ndarray, list[str], list[str], str | None]:
+        """Resolve the closing contacts together, the held ones acting as frictionless
+        bilateral normal constraints (released when the impact pulls on them).
+
+        Returns (theta_dot+, the held contacts still closed, the closing contacts that stay
+        closed (v_n+ ~ 0 or accumulating), stop_message).
+        """
+        m, o = self.m, self.opts
         M = np.asarray(self.mech.mass_matrix(th), float)
         params = {c: self.mech.contact_parameters(c) for c in closing}
+        held_now = list(self.held)
         released: list[str] = []
         spent = 0.0
-        held_now = tuple(held)
         while True:
-            r, Jc, dt = self.solve_impact(t, th, dth, M, closing, params, held_now)
+            normals = CanonicalEquations(self.mech, held_now, dropped={
+                r for r in self.eq.dropped if r[1] == 0 and r[0] in held_now})
+            C = normals.jacobian(th)
+            r, Jc, dt = self.solve_impact(t, th, dth, M, closing, params, C)
             spent += dt
             dsig_h = np.asarray(r.loop_impulse, float)[m:]
             scale = max(float(np.max(np.abs(r.impulse))), 1e-300)
-            tens = [i for i, v in enumerate(dsig_h) if v < -1e-9 * scale]
+            tens = [normals.rows[i][0] for i, v in enumerate(dsig_h) if v < -1e-9 * scale]
             if not tens:
                 break
-            # a held contact is pulled: it separates (released) and the impact is redone
-            names = [held_now[i] for i in tens]
-            released.extend(names)
-            yy, held_now = self.release(t, np.concatenate([th, eq.momentum(th, dth, sig)]),
-                                        held_now, names, "impulse of an impact would be tensile")
-            dth, sig, _ = self.equations(held_now).velocities(th, yy[k:])
-            eq = self.equations(held_now)
-        # accumulation check (Zeno) on each contact that bounced
+            released.extend(tens)  # a held contact is pulled: it separates, redo the impact
+            held_now = [c for c in held_now if c not in tens]
         speeds = {c: float(Jc[i][0] @ r.dq_plus) for i, c in enumerate(closing)}
         persist, limits, reasons, zeno_hit = self.detector.judge_impact(t, speeds)
         stop_msg = None
-        if zeno_hit and self.opts.zeno == "stop":
-            stop_msg = ("accumulating impacts detected (zeno='stop'): " + "; ".join(reasons))
+        if zeno_hit and o.zeno == "stop":
+            stop_msg = "accumulating impacts detected (zeno='stop'): " + "; ".join(reasons)
+            persist = []
         elif persist and any(float(params[c][0]) > 0.0 for c in persist):
-            r, Jc, dt = self.solve_impact(t, th, dth, M, closing, params, held_now, set(persist))
+            r, Jc, dt = self.solve_impact(t, th, dth, M, closing, params, C, set(persist))
             spent += dt
         dq_plus = np.asarray(r.dq_plus, float)
-        dsig = np.asarray(r.loop_impulse, float)
-        sig_plus = sig + dsig if len(sig) else sig
+        at_rest = [c for i, c in enumerate(closing)
+                   if c in persist or abs(float(Jc[i][0] @ dq_plus)) <= o.rest_velocity]
+        for c in at_rest:
+            self.closing_info[c] = (("; ".join(reasons) if c in persist else
+                                     "v_n+ ~ 0 after the impact (|v_n+| <= rest_velocity)"),
+                                    limits.get(c))
         impulse = np.asarray(r.impulse, float).reshape(len(closing), -1)
-        gen = np.vstack(Jc).T @ impulse.ravel()  # Delta p = Jc^T pi, eq. (33)
-        T_minus = float(self.mech.kinetic_energy(th, dth))
-        T_plus = float(self.mech.kinetic_energy(th, dq_plus))
         regime = (r.regime,) if isinstance(r.regime, str) else tuple(r.regime)
-        yy = np.concatenate([th, self.equations(held_now).momentum(th, dq_plus, sig_plus)])
-        new_held = held_now
-        if persist and stop_msg is None:
-            yy, new_held = self.hold(t, yy, held_now, persist, "; ".join(reasons), limits)
         self.impacts.append(ImpactEvent(
             time=t, contacts=tuple(closing), held_contacts=tuple(held_now), regime=regime,
-            impulse=impulse, loop_impulse=dsig, generalized_impulse=gen, theta=th.copy(),
-            dtheta_minus=dth.copy(), dtheta_plus=dq_plus.copy(),
-            energy_loss=float(r.energy_loss), kinetic_energy_minus=T_minus,
-            kinetic_energy_plus=T_plus,
-            persistent=tuple(c for c in new_held if c not in held_now),
-            released=tuple(released), resolve_time=spent, result=r))
-        return yy, new_held, stop_msg
+            impulse=impulse, loop_impulse=np.asarray(r.loop_impulse, float),
+            generalized_impulse=np.vstack(Jc).T @ impulse.ravel(),  # Delta p = Jc^T pi (33)
+            theta=th.copy(), dtheta_minus=dth.copy(), dtheta_plus=dq_plus.copy(),
+            energy_loss=float(r.energy_loss),
+            kinetic_energy_minus=float(self.mech.kinetic_energy(th, dth)),
+            kinetic_energy_plus=float(self.mech.kinetic_energy(th, dq_plus)),
+            persistent=tuple(at_rest), released=tuple(released), resolve_time=spent, result=r))
+        return dq_plus, held_now, at_rest, stop_msg
 
     # ---- events ----------------------------------------------------------------------------
-    def handle(self, t: float, y: np.ndarray, held: Held, closing: Sequence[str],
-               touching: Sequence[str],
-               releasing: Sequence[str]) -> tuple[np.ndarray, Held, str | None]:
-        """All events at instant t; returns (y, held, stop_message)."""
-        k, o = self.k, self.opts
-        if releasing:
-            y, held = self.release(t, y, held, releasing, "normal force reached zero (tensile)")
-        th = y[:k]
-        dth, _, _ = self.equations(held).velocities(th, y[k:])
+    def handle(self, t: float, y: np.ndarray, closing: Sequence[str],
+               touching: Sequence[str]) -> tuple[np.ndarray, str | None]:
+        """All events at instant t: impacts, then the modes of the closed contacts."""
+        o = self.opts
+        th, dth, sig = self.state(y)
+        sig_loops = sig[:self.m]
         vn = {}
         for c in self.contacts:
-            if c in held or c in releasing:
+            if c in self.held:
                 continue
             if c in closing or c in touching or self.gap(c, th) <= o.contact_tol:
                 vn[c] = self.normal_speed(c, th, dth)
         group = [c for c, v in vn.items() if v < -o.rest_velocity]
         rest = [c for c, v in vn.items() if abs(v) <= o.rest_velocity]
+        held = list(self.held)
         stop_msg = None
+        reason = "touching at rest (|v_n| <= rest_velocity)"
         if group:
-            y, held, stop_msg = self.impact(t, y, held, group)
-        if rest and stop_msg is None:
-            y, held = self.hold(t, y, held, rest, "touching at rest (|v_n| <= rest_velocity)", {})
-        dth, sig, _ = self.equations(held).velocities(y[:k], y[k:])
-        return self.project_state(y, held, sig, dth), held, stop_msg
+            dth, held, at_rest, stop_msg = self.impact(t, th, dth, sig_loops, group)
+            rest += at_rest
+            reason = "closed at rest by an impact (v_n+ ~ 0, or accumulating impacts)"
+        y = self.select_modes(t, th, dth, sig_loops, held + rest, reason)
+        return self.project_state(y), stop_msg
 
-    def closing_in_step(self, eq: CanonicalEquations, free: Sequence[str], interp,
-                        t_old: float, t_new: float, y_new: np.ndarray,
+    def closing_in_step(self, free: Sequence[str], interp, t_old: float, t_new: float,
+                        y_new: np.ndarray,
                         g_prev: Mapping[str, float]) -> tuple[list[Event], dict[str, float]]:
         """Free contacts closing in the step (see :func:`~.events.gap_event`) and their gaps
         at its end."""
@@ -327,29 +343,44 @@ class EventDrivenRun:
                 return self.gap(c, interp(s)[:k])
 
             def vfun(s, c=c):
-                ys = np.asarray(interp(s), float)
-                dth_s, _, _ = eq.velocities(ys[:k], ys[k:])
-                return self.normal_speed(c, ys[:k], dth_s)
+                th, dth, _ = self.state(np.asarray(interp(s), float))
+                return self.normal_speed(c, th, dth)
 
             event = gap_event(gfun, vfun, t_old, t_new, g_prev[c], gn, self.opts.event_tol)
             if event is not None:
                 found.append((*event, c))
         return found, g_new
 
-    def releasing_in_step(self, eq: CanonicalEquations, interp, t_old: float, t_new: float,
-                          nu_prev: np.ndarray, nu_new: np.ndarray) -> list[Event]:
-        """Held contacts of ``eq`` whose normal force turns tensile in the step (or is)."""
-        m = self.m
+    def watch(self, t: float, y: np.ndarray, anchors: Mapping[str, np.ndarray]) -> dict:
+        """The held contacts' event functions at (t, y): the force margin, the slip
+        velocities along their anchors, and the Painleve indicator."""
+        self.nevents_fev += 1
+        out = {"margin": held_forces(self.eq, t, y)[1] + MARGIN_SLACK}
+        if anchors:
+            th, dth, _ = self.state(y)
+            for c, a in anchors.items():
+                out["slip:" + c] = float((self.contact_row(c, th)[1:] @ dth) @ a)
+            out["painleve"] = painleve_indicator(self.eq, t, y)
+        return out
+
+    def slip_anchors(self, y: np.ndarray) -> dict[str, np.ndarray]:
+        """Per sliding contact with friction, its slip direction now (the event functions of
+        slip reversal are the slip velocities along these)."""
+        th, dth, _ = self.state(y)
+        return {c: self.eq.slip_direction(c, self.contact_row(c, th), dth)
+                for c, _ in self.eq.slipping}
+
+    def held_in_step(self, interp, t_old: float, t_new: float, w_prev: Mapping[str, float],
+                     w_new: Mapping[str, float], anchors) -> list[Event]:
+        """Held contacts whose mode stops being valid in the step."""
         found: list[Event] = []
-        for i, c in enumerate(eq.held):
-            if nu_prev[i] > 0.0 and nu_new[i] <= 0.0:
-                def nfun(s, i=i):
-                    self.nevents_fev += 1
-                    return float(eq.multipliers(s, interp(s))[m + i])
-                found.append((locate_crossing(nfun, t_old, t_new, nu_prev[i], nu_new[i],
-                                              self.opts.event_tol), "release", c))
-            elif nu_prev[i] <= 0.0:
-                found.append((t_old, "release", c))
+        for key, prev in w_prev.items():
+            new = w_new[key]
+            if prev > 0.0 >= new:
+                def fun(s, key=key):
+                    return self.watch(s, np.asarray(interp(s), float), anchors)[key]
+                te = locate_crossing(fun, t_old, t_new, prev, new, self.opts.event_tol)
+                found.append((te, "mode", key))
         return found
 
     def on_events(self, found: Sequence[Event], interp, t_old: float, t_new: float,
@@ -360,8 +391,9 @@ class EventDrivenRun:
         group = [f for f in found if f[0] <= te + o.event_tol]
         if te > t_old:
             self.segments.append((t_old, te, interp))
+            self.dissipate(interp, t_old, te)
         ye = np.asarray(interp(te), float) if te < t_new else y_new
-        self.record(te, ye, self.held)
+        self.record(te, ye)
         self.same_instant = self.same_instant + 1 if (
             self.last_event_t is not None and te - self.last_event_t <= o.event_tol) else 0
         self.last_event_t = te
@@ -370,13 +402,13 @@ class EventDrivenRun:
                 f"{self.same_instant} events at t = {te:.9g} without progress (chattering "
                 f"contacts {sorted({f[2] for f in group})}); loosen contact_tol or "
                 "rest_velocity, or use zeno='stop'")
-        self.y, self.held, stop_msg = self.handle(
-            te, ye, self.held, [f[2] for f in group if f[1] == "impact"],
-            [f[2] for f in group if f[1] == "touch"],
-            [f[2] for f in group if f[1] == "release"])
+        self.y, stop_msg = self.handle(te, ye, [f[2] for f in group if f[1] == "impact"],
+                                       [f[2] for f in group if f[1] == "touch"])
         self.t = te
-        self.record(self.t, self.y, self.held)
+        self.record(self.t, self.y)
         self.h_next = step_size
+        if self.status is not None:
+            return
         if stop_msg:
             self.status, self.message = 1, stop_msg
         elif len(self.impacts) >= o.max_impacts:
@@ -389,14 +421,14 @@ class EventDrivenRun:
     # ---- integration -----------------------------------------------------------------------
     def run(self) -> SimulationResult:
         """Integrate from the initial state to the end of the span (or a stop)."""
-        self.record(self.t, self.y, self.held)
-        # contacts touching at the start
+        self.record(self.t, self.y)
+        # contacts touching at the start: closed when at rest, impacts when approaching
         touching = [c for c in self.contacts
                     if float(self.mech.contact_gap(c, self.y[:self.k])) <= self.opts.contact_tol]
         if touching:
-            self.y, self.held, stop_msg = self.handle(self.t, self.y, self.held, [], touching, [])
-            self.record(self.t, self.y, self.held)
-            if stop_msg:
+            self.y, stop_msg = self.handle(self.t, self.y, [], touching)
+            self.record(self.t, self.y)
+            if stop_msg and self.status is None:
                 self.status, self.message = 1, stop_msg
         while self.status is None:
             if self.t >= self.opts.t1:
@@ -406,18 +438,18 @@ class EventDrivenRun:
         return self.result()
 
     def integrate_segment(self) -> None:
-        """Integrate with the current held set until an event, a restart or the end."""
-        o, k, m = self.opts, self.k, self.m
-        held = self.held
-        eq = self.equations(held)
-        free = [c for c in self.contacts if c not in held]
+        """Integrate with the current modes until an event, a restart or the end."""
+        o, k = self.opts, self.k
+        eq = self.eq
+        free = [c for c in self.contacts if c not in eq.held]
         opts: dict[str, Any] = {"rtol": o.rtol, "atol": o.atol, "max_step": o.max_step}
         if self.h_next is not None and self.h_next > 0:
             opts["first_step"] = min(float(self.h_next), o.t1 - self.t)
         solver = o.solver_cls(eq, self.t, self.y, o.t1, **opts)
         self.n_restarts += 1
         g_prev = {c: self.gap(c, self.y[:k]) for c in free}
-        nu_prev = eq.multipliers(self.t, self.y)[m:] if held else np.zeros(0)
+        anchors = self.slip_anchors(self.y)
+        w_prev = self.watch(self.t, self.y, anchors) if eq.held else {}
         while True:
             msg = solver.step()
             if solver.status == "failed":
@@ -428,21 +460,21 @@ class EventDrivenRun:
             if not np.all(np.isfinite(y_new)):
                 raise SimulationError(f"the state became non-finite at t = {t_new:.9g}")
             interp = solver.dense_output()
-            found, g_new = self.closing_in_step(eq, free, interp, t_old, t_new, y_new, g_prev)
-            nu_new = eq.multipliers(t_new, y_new)[m:] if held else np.zeros(0)
-            found += self.releasing_in_step(eq, interp, t_old, t_new, nu_prev, nu_new)
+            found, g_new = self.closing_in_step(free, interp, t_old, t_new, y_new, g_prev)
+            w_new = self.watch(t_new, y_new, anchors) if eq.held else {}
+            found += self.held_in_step(interp, t_old, t_new, w_prev, w_new, anchors)
             if found:
                 self.on_events(found, interp, t_old, t_new, y_new, solver.step_size)
                 return
             self.segments.append((t_old, t_new, interp))
+            self.dissipate(interp, t_old, t_new)
             self.t, self.y = t_new, y_new
-            if eq.n_constraints:
+            if eq.n_constraints and len(eq.residual(self.y[:k])):
                 drift = float(np.max(np.abs(eq.residual(self.y[:k]))))
                 if drift > o.drift_threshold:
-                    dth, sig, _ = eq.velocities(self.y[:k], self.y[k:])
-                    self.y = self.project_state(self.y, held, sig, dth)
+                    self.y = self.project_state(self.y)
                     if not o.in_place:  # multistep: the history is void, restart
-                        self.record(self.t, self.y, held)
+                        self.record(self.t, self.y)
                         self.h_next = solver.step_size
                         if solver.status == "finished":
                             self.status, self.message = 0, END_OF_SPAN
@@ -451,29 +483,41 @@ class EventDrivenRun:
                     solver.y = self.y.copy()
                     solver.f = solver.fun(self.t, solver.y)
                     g_new = {c: self.gap(c, self.y[:k]) for c in free}
-                    nu_new = eq.multipliers(self.t, self.y)[m:] if held else np.zeros(0)
-            self.record(self.t, self.y, held)
-            g_prev, nu_prev = g_new, nu_new
+            self.record(self.t, self.y)
+            if eq.held:
+                anchors = self.slip_anchors(self.y)
+                w_new = self.watch(self.t, self.y, anchors)
+            g_prev, w_prev = g_new, w_new
             if solver.status == "finished":
                 self.status, self.message = 0, END_OF_SPAN
                 return
 
     # ---- result ----------------------------------------------------------------------------
-    def resample(self, t_eval: np.ndarray,
-                 sol: PiecewiseSolution) -> tuple[dict[str, list], np.ndarray]:
-        """The series and the number of held contacts at ``t_eval``, from the dense output."""
+    def equations_at(self, t: float) -> CanonicalEquations:
+        """The equations in force at time t (right-continuous at events)."""
+        i = bisect_right([e[0] for e in self.eq_log], t) - 1
+        return self.eq_log[max(i, 0)][1]
+
+    def resample(self, t_eval: np.ndarray, sol: PiecewiseSolution) -> dict[str, list]:
+        """The series at ``t_eval``, from the dense output."""
         k = self.k
         t_eval = t_eval[t_eval <= sol.t_max]  # a run stopped early has no state beyond
         ys = sol(t_eval) if t_eval.size else np.zeros((2 * k, 0))
-        rows: dict[str, list] = {key: [] for key in SERIES}
-        n_held = []
-        for j, s_t in enumerate(t_eval):
-            names = held_at(self.contact_events, float(s_t))
-            th, pp = ys[:k, j], ys[k:, j]
-            dth, sig, _ = self.equations(names).velocities(th, pp)
-            n_held.append(len(names))
-            append_sample(rows, self.mech, s_t, th, dth, pp, sig)
-        return rows, np.array(n_held, dtype=int)
+        rows: dict[str, list] = {key: [] for key in SERIES + CONTACT_SERIES}
+        done = np.array(self.rows["t"])
+        work = np.array(self.rows["friction"])
+        keep = self.eq
+        try:
+            for j, s_t in enumerate(t_eval):
+                self.eq = self.equations_at(float(s_t))
+                th, dth, sig = self.state(ys[:, j])
+                append_sample(rows, self.mech, s_t, th, dth, ys[k:, j], sig)
+                rows["friction"].append(float(np.interp(s_t, done, work)))
+                forces, _ = held_forces(self.eq, s_t, ys[:, j]) if self.held else ({}, 0.0)
+                contact_rows(rows, self.contacts, self.eq, forces, self.d)
+        finally:
+            self.eq = keep
+        return rows
 
     def result(self) -> SimulationResult:
         """The :class:`SimulationResult` of the run."""
@@ -481,20 +525,28 @@ class EventDrivenRun:
         wall = _time.perf_counter() - self.started
         sol = PiecewiseSolution(self.segments) if self.segments else None
         rows = self.rows
-        held_series = np.array(rows["held"], dtype=int)
         if o.t_eval is not None and sol is not None:
-            rows, held_series = self.resample(o.t_eval, sol)
-        nfev = sum(e.nfev for e in self._equations.values())
-        warnings = self.slip_warnings()
-        message = self.message
-        if warnings:
-            message = message + "; WARNING: " + "; ".join(warnings)
-        return SimulationResult(
-            **series_from_rows(rows, self.k, self.m), held=held_series,
+            rows = self.resample(o.t_eval, sol)
+        nfev = sum(e.nfev for _, e in self.eq_log)
+        warnings = tuple(f"Painleve's paradox at t = {ev.time:.9g} ({ev.kind}, contacts "
+                         f"{', '.join(ev.contacts)}): the run stopped" for ev in self.painleve)
+        n, d = len(rows["t"]), self.d
+        res = SimulationResult(
+            **series_from_rows(rows, self.k, self.m), held=np.array(rows["held"], dtype=int),
             impacts=tuple(self.impacts), contact_events=tuple(self.contact_events),
-            sol=sol if o.dense_output else None, status=int(self.status), message=message,
+            sol=sol if o.dense_output else None, status=int(self.status), message=self.message,
             nfev=int(nfev), nevents_fev=int(self.nevents_fev), n_steps=int(self.n_steps),
             n_projections=int(self.n_projections), n_restarts=int(self.n_restarts),
             wall_time=float(wall), impact_time=float(self.impact_time),
-            settings=o.settings(), warnings=warnings)
+            settings=o.settings(), warnings=warnings, contact_names=self.contacts,
+            contact_mode=np.array(rows["mode"], dtype=int).reshape(n, len(self.contacts)),
+            contact_force=np.array(rows["force"], float).reshape(n, len(self.contacts), d),
+            mode_intervals=self.modes.intervals(self.t), painleve=tuple(self.painleve),
+            friction_dissipation=np.array(rows["friction"], float))
+        if self.painleve_error is not None:
+            self.painleve_error.result = res
+            raise self.painleve_error
+        return res
 
+
+__all__ = ["EventDrivenRun", "HeldMode"]

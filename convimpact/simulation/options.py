@@ -39,6 +39,7 @@ class EventDrivenOptions:
     zeno_time_tol: float
     rest_velocity: float
     max_impacts: int
+    painleve: str = "stop"
 
     def settings(self) -> dict[str, Any]:
         """The options as reported in :attr:`SimulationResult.settings`."""
@@ -49,5 +50,6 @@ class EventDrivenOptions:
             "event_tol": self.event_tol, "contact_tol": self.contact_tol,
             "projection_tol": self.projection_tol, "zeno": self.zeno,
             "zeno_time_tol": self.zeno_time_tol, "rest_velocity": self.rest_velocity,
-            "max_impacts": int(self.max_impacts), "t_span": [self.t0, self.t1],
+            "max_impacts": int(self.max_impacts), "painleve": self.painleve,
+            "t_span": [self.t0, self.t1],
         }

@@ -184,6 +184,8 @@ class SimulationResult:
         t or t1, t2), zero while open.
     mode_intervals : the per-contact mode timeline, :class:`ModeInterval` in time order.
     painleve : the :class:`PainleveEvent` met (a run stops at the first), empty when none.
+    friction_dissipation : (n,) energy dissipated by sliding friction since the start
+        (cumulative, >= 0; the friction power integrated on each step's interpolant).
     """
 
     t: np.ndarray
@@ -215,6 +217,7 @@ class SimulationResult:
     contact_force: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
     mode_intervals: tuple[ModeInterval, ...] = ()
     painleve: tuple[PainleveEvent, ...] = ()
+    friction_dissipation: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def modes_of(self, contact: str) -> tuple[ModeInterval, ...]:
         """The mode timeline of one contact."""
@@ -291,6 +294,7 @@ class SimulationResult:
                 "held": self.held.tolist(),
                 "contact_mode": self.contact_mode.tolist(),
                 "contact_force": self.contact_force.tolist(),
+                "friction_dissipation": self.friction_dissipation.tolist(),
             }
         return out
 

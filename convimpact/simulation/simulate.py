@@ -10,15 +10,20 @@ classes, step by step. After every accepted step
    earliest closing is located on the step's interpolant by Brent's method to
    ``event_tol``. Every other free contact whose gap is within ``contact_tol`` and that
    approaches at that instant closes *together* with it;
-2. persistent (held) contacts are checked for their normal force turning tensile (release);
+2. the closed (held) contacts are watched: a normal force turning tensile (the contact
+   opens), a sticking force reaching the friction cone's boundary (it starts to slip), a slip
+   velocity reaching zero (the stick test decides between sticking and slipping on in a new
+   direction), and the sliding contacts' force system turning singular (Painleve); each is
+   located on the step's interpolant to ``event_tol``, and the contact force problem
+   (:mod:`convimpact.simulation.contact_forces`) selects the new modes;
 3. the loop drift max |Psi| is checked and, above ``projection_tol``, theta is projected back
    onto Psi = 0 (see :mod:`convimpact.simulation.projection`).
 
 At an impact the integration halts, ``resolve_impact`` (with the chosen ``law`` and
 ``method``; loops and held contacts enter through C) gives the jump in theta_dot and the loop
 impulses, p is updated (``Delta p = Jc^T pi``, eq. 33), the state is projected, and the
-integration restarts. Accumulating impacts are treated as documented in
-:mod:`convimpact.simulation.zeno`.
+integration restarts. A contact left with v_n+ ~ 0 (e = 0, or an accumulation, see
+:mod:`convimpact.simulation.zeno`) stays closed, in the mode the force problem selects.
 
 This module validates the options and the initial state; the run itself is an
 :class:`~convimpact.simulation.event_driven.EventDrivenRun`.
@@ -36,7 +41,7 @@ from ..impact import check_law_method
 from ..impact.errors import ParameterError, ShapeError, UnknownOptionError
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
-from .event_driven import MAX_EVENTS_AT_ONE_INSTANT, SLIP_SPEED  # noqa: F401  (re-exported)
+from .event_driven import MAX_EVENTS_AT_ONE_INSTANT  # noqa: F401  (re-exported)
 from .event_driven import EventDrivenRun
 from .initial import INTEGRATORS  # noqa: F401  (re-exported)
 from .initial import consistent_start, integrator_class, positive, state_vector, time_span
@@ -44,6 +49,7 @@ from .options import EventDrivenOptions
 from .result import SimulationResult
 
 ZENO_POLICIES = ("persist", "stop")
+PAINLEVE_POLICIES = ("stop", "raise")
 #: integrators whose state (y, f) can be replaced after a step without a restart
 ONE_STEP = (RK23, RK45, DOP853, Radau)
 
@@ -81,6 +87,7 @@ def simulate(
     zeno_time_tol: float | None = None,
     rest_velocity: float = 1e-6,
     max_impacts: int = 10_000,
+    painleve: str = "stop",
     impact_options: Mapping[str, Any] | None = None,
 ) -> SimulationResult:
     """Integrate the canonical equations of a mechanism through its impacts.
@@ -129,9 +136,16 @@ def simulate(
         :mod:`convimpact.simulation.zeno`); default ``1e6 * event_tol`` (1e-6 s), independent
         of the span so that the result does not depend on ``t_end``.
     rest_velocity : float
-        Separation speed at or below which a contact is at rest (held) after an impact.
+        Separation speed at or below which a contact is at rest (closed) after an impact or
+        when touching, and slip speed at or below which a closed contact counts as not
+        sliding (the stick test decides its mode).
     max_impacts : int
         The run stops (status 1) after this many impacts.
+    painleve : {"stop", "raise"}
+        Painleve's paradox (the contact force problem of a sliding contact has no solution or
+        several): stop the run with status 2, the event in ``result.painleve`` and a warning
+        ("stop"), or raise :class:`~convimpact.impact.errors.PainleveError` carrying that
+        result as ``.result`` ("raise"). The event-driven scheme never continues past it.
     impact_options : mapping, optional
         Options forwarded to the impact solver.
 
@@ -154,13 +168,13 @@ def simulate(
       fast-spinning bodies.
     * Contacts whose gap is within ``contact_tol`` and that approach at the located instant
       are resolved together (one call of ``resolve_impact`` with a list of Jacobians).
-    * Persistent (held) contacts are bilateral and frictionless in the tangent plane: sustained
-      sliding friction is not modelled. A held contact with mu > 0 that slides (tangential
-      speed above 1e-4 on consecutive stored samples) is reported in
-      ``SimulationResult.warnings`` (and appended to ``message``) with its sliding duration and max slip speed: the motion
-      after such a hold overestimates the sliding (e.g. the default ``pendulum_planar`` tip
-      slides undamped after its impacts accumulate); impacts of other contacts treat them as constraints
-      (rows of C); one that would receive a tensile impulse is released and the impact redone.
+    * Closed (held) contacts carry Coulomb friction: "stick" contacts are bilateral in all
+      their rows (their multipliers are the normal and friction forces), "slip" contacts in
+      the normal row with the friction force -mu lambda_n s along the slip direction s. The
+      modes come from the contact force problem at each event; the result has the timeline
+      (``mode_intervals``) and the forces per sample (``contact_force``). Impacts of other
+      contacts treat the held ones as frictionless bilateral normal constraints (rows of C);
+      one that would receive a tensile impulse is released and the impact redone.
     * Loop drift: C theta_dot = 0 holds to round-off by construction (theta_dot is solved from
       eqs. 7 + 13); max |Psi| is kept below ``projection_tol`` at every stored state by
       projection. Both are reported per sample and as maxima.
@@ -178,7 +192,9 @@ def simulate(
     PenetrationError
         when the initial state penetrates a contact by more than ``contact_tol``;
     SimulationError
-        when the right-hand side becomes non-finite or events chatter at one instant.
+        when the right-hand side becomes non-finite or events chatter at one instant;
+    PainleveError
+        at Painleve's paradox with ``painleve="raise"``.
     """
     wall0 = _time.perf_counter()
     mech, scene = _as_mechanism(system)
@@ -188,6 +204,9 @@ def simulate(
     check_law_method(law, method)
     if zeno not in ZENO_POLICIES:
         raise UnknownOptionError(f"unknown zeno policy {zeno!r}; choose 'persist' or 'stop'")
+    if painleve not in PAINLEVE_POLICIES:
+        raise UnknownOptionError(f"unknown painleve policy {painleve!r}; choose 'stop' or "
+                                 "'raise'")
     solver_cls = integrator_class(integrator)
     positive(rtol=rtol, atol=atol, event_tol=event_tol, contact_tol=contact_tol,
              projection_tol=projection_tol)
@@ -211,7 +230,8 @@ def simulate(
         max_step=max_step, first_step=first_step, event_tol=event_tol, contact_tol=contact_tol,
         projection_tol=projection_tol, in_place=in_place,
         drift_threshold=projection_tol if in_place else max(projection_tol, 1e3 * atol),
-        zeno=zeno, zeno_time_tol=zeno_tol, rest_velocity=rest_velocity, max_impacts=max_impacts)
+        zeno=zeno, zeno_time_tol=zeno_tol, rest_velocity=rest_velocity, max_impacts=max_impacts,
+        painleve=painleve)
 
     # ---- initial state ---------------------------------------------------------------------
     if y0 is None:

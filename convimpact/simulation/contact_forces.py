@@ -1,0 +1,472 @@
+"""The contact force problem of sustained contact: Coulomb friction at the acceleration level.
+
+The closed contacts' accelerations are affine in their forces (loops folded in)::
+
+    a = W lambda + a_free,     W = J G J^T,     a_free = J theta_ddot_free + J_dot theta_dot,
+
+with ``G`` the (loop-constrained) inverse mass matrix, ``J`` the stacked contact Jacobians
+(rows n, t or n, t1, t2 per contact) and ``theta_ddot_free`` the acceleration without contact
+forces. Per contact, with its slip velocity ``v_t``, Coulomb's conditions are
+
+* normal: ``a_n >= 0``, ``lambda_n >= 0``, ``a_n lambda_n = 0`` (the contact opens or presses);
+* sliding (``v_t != 0``): ``lambda_t = -mu lambda_n v_t / |v_t|``;
+* not sliding (``v_t = 0``): either stick, ``a_t = 0`` with ``|lambda_t| <= mu lambda_n``, or
+  start to slip, ``lambda_t = -mu lambda_n s`` with ``a_t = kappa s``, ``kappa >= 0``, ``|s| = 1``.
+
+This is the impact law ``coulomb`` of :mod:`convimpact.impact.laws.coulomb` with ``e = 0``
+written for accelerations and forces instead of velocities and impulses (where v_t = 0).
+
+The solver is exact: it enumerates the contacts' modes (open, stick, slip; planar onsets in
+both directions); each combination is a linear system in ``lambda`` (for a spatial slip onset,
+a one-parameter family in the slip angle, whose roots are bracketed on a scan and refined by
+Brent's method), and a combination is a solution when its inequalities hold. Redundant
+contacts (several rows of ``J`` dependent: a box on two corners sticking) leave the forces
+indeterminate but the accelerations unique; the distribution that maximizes the smallest
+margin of the inequalities is found by a small cone program (Clarabel) over the null space.
+Distinct solutions are counted in accelerations: none or several with a sliding contact is
+Painleve's paradox (:class:`~convimpact.impact.errors.PainleveError`).
+
+For one planar contact :func:`planar_contact_force` gives the same answer in closed form.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from ..impact.errors import NotSupportedError, PainleveError, ShapeError, SolverError
+
+OPEN, STICK, SLIP = "open", "stick", "slip"
+#: largest number of closed contacts enumerated (4^n combinations in the plane)
+MAX_CONTACTS = 7
+#: slip angles scanned to bracket a spatial slip onset
+SCAN = 144
+#: default relative tolerance of the inequalities
+RTOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class ContactForceProblem:
+    """The data of the force problem on ``n`` closed contacts of dimension ``d`` (2 or 3).
+
+    Attributes
+    ----------
+    delassus : (n d, n d) W = J G J^T.
+    free_acceleration : (n d,) contact accelerations without contact forces.
+    mu : (n,) friction coefficients.
+    slip : (n, d - 1) slip velocities v_t (rows of zeros where the contact does not slide).
+    """
+
+    delassus: np.ndarray
+    free_acceleration: np.ndarray
+    mu: np.ndarray
+    slip: np.ndarray
+
+    def __post_init__(self):
+        W = np.asarray(self.delassus, float)
+        b = np.asarray(self.free_acceleration, float).ravel()
+        mu = np.asarray(self.mu, float).ravel()
+        slip = np.asarray(self.slip, float)
+        n = mu.size
+        if n == 0 or b.size % n or b.size // n not in (2, 3):
+            raise ShapeError(f"free_acceleration of size {b.size} does not match {n} contacts "
+                             "of dimension 2 or 3")
+        d = b.size // n
+        if W.shape != (b.size, b.size) or slip.shape != (n, d - 1):
+            raise ShapeError(f"delassus must be {(b.size, b.size)} and slip {(n, d - 1)}, got "
+                             f"{W.shape} and {slip.shape}")
+        if not (np.all(np.isfinite(W)) and np.all(np.isfinite(b)) and np.all(np.isfinite(slip))
+                and np.all(mu >= 0.0)):
+            raise ShapeError("the force problem's data must be finite and mu >= 0")
+        for name, value in (("delassus", W), ("free_acceleration", b), ("mu", mu),
+                            ("slip", slip)):
+            object.__setattr__(self, name, value)
+
+    @property
+    def n(self) -> int:
+        return int(self.mu.size)
+
+    @property
+    def d(self) -> int:
+        return int(self.free_acceleration.size // self.mu.size)
+
+    def sliding(self, i: int) -> bool:
+        return bool(np.any(self.slip[i] != 0.0))
+
+    def effective_normal_mass(self) -> np.ndarray:
+        """Per contact ``W_nn - mu W_nt s`` in its slip direction s (W_nn where not sliding):
+        the normal acceleration per unit normal force of a sliding contact; <= 0 is
+        Painleve's case."""
+        d, W = self.d, self.delassus
+        out = np.empty(self.n)
+        for i in range(self.n):
+            r = i * d
+            s = _unit(self.slip[i])
+            out[i] = W[r, r] - self.mu[i] * float(W[r, r + 1:r + d] @ s)
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class ContactForceSolution:
+    """One solution of the force problem.
+
+    Attributes
+    ----------
+    force : (n, d) contact forces (normal first).
+    acceleration : (n, d) contact accelerations.
+    modes : per contact "open", "stick" or "slip".
+    direction : (n, d - 1) the unit slip direction friction opposes (the slip's, or the
+        onset's); zero rows for open and sticking contacts.
+    margin : the smallest slack of the inequalities, relative to the problem's scale (>= 0
+        up to the tolerance).
+    """
+
+    force: np.ndarray
+    acceleration: np.ndarray
+    modes: tuple[str, ...]
+    direction: np.ndarray
+    margin: float
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    norm = float(np.linalg.norm(v))
+    return v / norm if norm > 0.0 else np.zeros_like(v)
+
+
+def _scales(P: ContactForceProblem) -> tuple[float, float]:
+    """(acceleration scale, force scale) of the problem: the tolerances are relative to them."""
+    diag = np.abs(np.diag(P.delassus))
+    w = float(np.max(diag)) if diag.size and np.max(diag) > 0 else 1.0
+    a = float(np.max(np.abs(P.free_acceleration)))
+    a = a if a > 0.0 else w * 1e-300
+    return a, a / w
+
+
+def _system(P: ContactForceProblem, combo, dirs) -> tuple[np.ndarray, np.ndarray]:
+    """The linear equations E lambda = r of one combination of modes."""
+    d, W, b = P.d, P.delassus, P.free_acceleration
+    N = W.shape[0]
+    E = np.zeros((N, N))
+    r = np.zeros(N)
+    for i, mode in enumerate(combo):
+        rows = slice(i * d, (i + 1) * d)
+        if mode == OPEN:
+            E[rows, rows] = np.eye(d)
+        elif mode == STICK:
+            E[rows] = W[rows]
+            r[rows] = -b[rows]
+        else:  # slip along dirs[i]: a_n = 0, lambda_t = -mu lambda_n s
+            n0 = i * d
+            E[n0] = W[n0]
+            r[n0] = -b[n0]
+            for j in range(d - 1):
+                E[n0 + 1 + j, n0 + 1 + j] = 1.0
+                E[n0 + 1 + j, n0] = P.mu[i] * dirs[i][j]
+    return E, r
+
+
+def _solve(E: np.ndarray, r: np.ndarray, tol: float):
+    """lambda0 and a null-space basis Z of E lambda = r, or None when inconsistent."""
+    U, sv, Vt = np.linalg.svd(E)
+    smax = float(sv[0]) if sv.size else 0.0
+    rank = int(np.sum(sv > 1e-11 * smax)) if smax > 0 else 0
+    coef = (U.T @ r)[:rank] / sv[:rank]
+    lam = Vt[:rank].T @ coef
+    if float(np.max(np.abs(E @ lam - r), initial=0.0)) > tol:
+        return None
+    return lam, Vt[rank:].T
+
+
+def _slacks(P: ContactForceProblem, combo, dirs, lam: np.ndarray, onset) -> np.ndarray:
+    """The inequalities' slacks (>= 0 when satisfied), in force units."""
+    d, mu = P.d, P.mu
+    a = P.delassus @ lam + P.free_acceleration
+    ascale, fscale = _scales(P)
+    to_force = fscale / ascale  # accelerations measured in force units
+    out = []
+    for i, mode in enumerate(combo):
+        n0 = i * d
+        if mode == OPEN:
+            out.append(a[n0] * to_force)
+        elif mode == STICK:
+            out.append(mu[i] * lam[n0] - float(np.linalg.norm(lam[n0 + 1:n0 + d])))
+            out.append(lam[n0])
+        else:
+            out.append(lam[n0])
+            if onset[i]:
+                out.append(float(a[n0 + 1:n0 + d] @ dirs[i]) * to_force)
+    return np.array(out)
+
+
+def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
+                            fscale: float) -> tuple[np.ndarray, float]:
+    """The force distribution in ``lam0 + Z xi`` that maximizes the smallest force margin
+    (stick: mu lambda_n - |lambda_t|, slip: lambda_n): a cone program, solved by Clarabel.
+
+    ``lam0`` (n d,) is one distribution, the columns of ``Z`` span the indeterminate part
+    (redundant contacts), ``combo`` the contacts' modes; returns (lambda, margin).
+    """
+    import clarabel
+    import scipy.sparse as sp
+
+    nz = Z.shape[1]
+    A_rows, b_rows, cones = [], [], []
+    # tau <= fscale keeps the program bounded
+    A_rows.append(np.r_[np.zeros(nz), 1.0][None])
+    b_rows.append([fscale])
+    cones.append(clarabel.NonnegativeConeT(1))
+    for i, mode in enumerate(combo):
+        n0 = i * d
+        if mode == SLIP:  # lambda_n - tau >= 0  ->  s = b - A x
+            A_rows.append(np.r_[-Z[n0], 1.0][None])
+            b_rows.append([lam0[n0]])
+            cones.append(clarabel.NonnegativeConeT(1))
+        elif mode == STICK:  # (mu lambda_n - tau, lambda_t) in SOC
+            block = np.zeros((d, nz + 1))
+            block[0, :nz] = -mu[i] * Z[n0]
+            block[0, nz] = 1.0
+            block[1:, :nz] = -Z[n0 + 1:n0 + d]
+            A_rows.append(block)
+            b_rows.append(np.r_[mu[i] * lam0[n0], lam0[n0 + 1:n0 + d]])
+            cones.append(clarabel.SecondOrderConeT(d))
+    A = sp.csc_matrix(np.vstack(A_rows))  # unknowns (xi, tau) / fscale: order one
+    bb = np.concatenate([np.ravel(x) for x in b_rows]) / fscale
+    q = np.zeros(nz + 1)
+    q[-1] = -1.0
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-11
+    solver = clarabel.DefaultSolver(sp.csc_matrix((nz + 1, nz + 1)), q, A, bb, cones, settings)
+    sol = solver.solve()
+    if str(sol.status) not in ("Solved", "AlmostSolved"):
+        raise SolverError(f"the force distribution of redundant contacts: Clarabel {sol.status}")
+    x = np.asarray(sol.x)
+    return lam0 + Z @ (x[:nz] * fscale), float(x[-1] * fscale)
+
+
+def _candidate(P: ContactForceProblem, combo, dirs, onset, rtol: float):
+    """The solution of one combination with given directions, or None."""
+    ascale, fscale = _scales(P)
+    E, r = _system(P, combo, dirs)
+    solved = _solve(E, r, 1e-9 * max(ascale, float(np.max(np.abs(E))) * fscale))
+    if solved is None:
+        return None
+    lam, Z = solved
+    slack = _slacks(P, combo, dirs, lam, onset)
+    margin = float(np.min(slack, initial=np.inf))
+    if margin < -rtol * fscale and Z.shape[1] and any(m != OPEN for m in combo):
+        lam, margin = max_margin_distribution(P.mu, P.d, combo, lam, Z, fscale)
+        slack = _slacks(P, combo, dirs, lam, onset)
+        margin = min(margin, float(np.min(slack, initial=np.inf)))
+    if margin < -rtol * fscale:
+        return None
+    d = P.d
+    direction = np.zeros((P.n, d - 1))
+    for i, mode in enumerate(combo):
+        if mode == SLIP:
+            direction[i] = dirs[i]
+    a = P.delassus @ lam + P.free_acceleration
+    return ContactForceSolution(force=lam.reshape(P.n, d), acceleration=a.reshape(P.n, d),
+                                modes=tuple(combo), direction=direction,
+                                margin=margin / fscale if fscale > 0 else margin)
+
+
+def _onset_roots(P: ContactForceProblem, combo, dirs, unknown: list[int]) -> list[list]:
+    """Slip angles of the spatial onsets in ``unknown`` where a_t is parallel to s."""
+    def residual(phis):
+        dd = list(dirs)
+        for i, ph in zip(unknown, phis):
+            dd[i] = np.array([math.cos(ph), math.sin(ph)])
+        E, r = _system(P, combo, dd)
+        try:
+            lam = np.linalg.solve(E, r)
+        except np.linalg.LinAlgError:
+            lam = np.linalg.lstsq(E, r, rcond=None)[0]
+        a = P.delassus @ lam + P.free_acceleration
+        out = []
+        for i in unknown:
+            at = a[i * P.d + 1:i * P.d + P.d]
+            out.append(at[0] * dd[i][1] - at[1] * dd[i][0])  # cross(a_t, s)
+        return np.array(out)
+
+    if len(unknown) == 1:
+        grid = np.linspace(0.0, 2 * math.pi, SCAN + 1)
+        vals = [float(residual([g])[0]) for g in grid]
+        roots = []
+        for g0, g1, v0, v1 in zip(grid[:-1], grid[1:], vals[:-1], vals[1:]):
+            if v0 == 0.0:
+                roots.append([g0])
+            elif v0 * v1 < 0.0:
+                roots.append([brentq(lambda x: float(residual([x])[0]), g0, g1, xtol=1e-15)])
+        return roots
+    # several spatial onsets together: Newton (scipy's hybrid) from common directions
+    from scipy.optimize import root
+    roots = []
+    for g in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+        sol = root(residual, np.full(len(unknown), g), tol=1e-14)
+        if sol.success and float(np.max(np.abs(residual(sol.x)))) < 1e-10 * max(
+                _scales(P)[0], 1e-300):
+            roots.append(list(sol.x))
+    return roots
+
+
+def force_solutions(P: ContactForceProblem, rtol: float = RTOL) -> list[ContactForceSolution]:
+    """Every solution of the force problem, distinct in accelerations.
+
+    Where several combinations give the same accelerations (a stick whose force lies on the
+    cone's boundary is also a slip onset with kappa = 0; an open contact with a_n = 0 is also
+    closed with lambda_n = 0) the one with the most closed, then sticking, contacts is kept.
+    """
+    n, d = P.n, P.d
+    if n > MAX_CONTACTS:
+        raise NotSupportedError(
+            f"the force problem enumerates the modes of at most {MAX_CONTACTS} closed contacts "
+            f"at once, got {n}; use simulate_with(scheme='moreau-jean') for larger contact sets")
+    options = []
+    for i in range(n):
+        if P.sliding(i):
+            opts = [(OPEN, None, False), (SLIP, _unit(P.slip[i]), False)]
+        elif P.mu[i] == 0.0:  # frictionless: closed means a_n = 0 and lambda_t = 0
+            opts = [(OPEN, None, False), (SLIP, np.zeros(d - 1), False)]
+        elif d == 2:
+            opts = [(OPEN, None, False), (STICK, None, False), (SLIP, np.array([1.0]), True),
+                    (SLIP, np.array([-1.0]), True)]
+        else:
+            opts = [(OPEN, None, False), (STICK, None, False), (SLIP, None, True)]
+        options.append(opts)
+    found: list[ContactForceSolution] = []
+    for choice in itertools.product(*options):
+        combo = [c[0] for c in choice]
+        dirs = [c[1] if c[1] is not None else np.zeros(d - 1) for c in choice]
+        onset = [c[2] for c in choice]
+        unknown = [i for i, c in enumerate(choice) if c[0] == SLIP and c[1] is None]
+        if unknown:
+            for phis in _onset_roots(P, combo, dirs, unknown):
+                dd = list(dirs)
+                for i, ph in zip(unknown, phis):
+                    dd[i] = np.array([math.cos(ph), math.sin(ph)])
+                cand = _candidate(P, combo, dd, onset, rtol)
+                if cand is not None:
+                    found.append(cand)
+        else:
+            cand = _candidate(P, combo, dirs, onset, rtol)
+            if cand is not None:
+                found.append(cand)
+    sliding = [P.sliding(i) for i in range(n)]
+    found = [_label_frictionless(P.mu, sliding, s) for s in found]
+    return _distinct(found, _scales(P)[0])
+
+
+def _label_frictionless(mu, sliding, s: ContactForceSolution) -> ContactForceSolution:
+    """A frictionless closed contact is "slip" (free along t), its direction that of a_t."""
+    modes = list(s.modes)
+    direction = s.direction.copy()
+    for i, m in enumerate(modes):
+        if mu[i] == 0.0 and m != OPEN:
+            modes[i] = SLIP
+            if not sliding[i]:
+                direction[i] = _unit(s.acceleration[i, 1:])
+    return ContactForceSolution(s.force, s.acceleration, tuple(modes), direction, s.margin)
+
+
+def _rank(s: ContactForceSolution) -> tuple[int, int, float]:
+    return (sum(m == OPEN for m in s.modes), sum(m == SLIP for m in s.modes), -s.margin)
+
+
+def _distinct(found: list[ContactForceSolution], ascale: float) -> list:
+    """One solution per distinct acceleration (relative 1e-7), the best ranked kept."""
+    groups: list[list[ContactForceSolution]] = []
+    for s in found:
+        for g in groups:
+            if np.max(np.abs(g[0].acceleration - s.acceleration)) <= 1e-7 * ascale:
+                g.append(s)
+                break
+        else:
+            groups.append([s])
+    return [min(g, key=_rank) for g in groups]
+
+
+def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL) -> ContactForceSolution:
+    """The unique solution of the force problem (one planar contact: the closed form).
+
+    Raises
+    ------
+    PainleveError
+        No solution (inconsistent) or several (indeterminate): Painleve's paradox.
+    """
+    if P.n == 1 and P.d == 2:
+        sols = planar_contact_force(P.delassus, P.free_acceleration, float(P.mu[0]),
+                                    float(P.slip[0, 0]), rtol)
+    else:
+        sols = force_solutions(P, rtol)
+    if len(sols) == 1:
+        return sols[0]
+    kind = "inconsistent" if not sols else "indeterminate"
+    exc = PainleveError(
+        f"Painleve's paradox: the contact force problem is {kind} ({len(sols)} solutions); "
+        "effective normal masses in the slip direction "
+        f"{np.round(P.effective_normal_mass(), 6).tolist()} (<= 0 is the paradox)")
+    exc.kind, exc.n_solutions = kind, len(sols)
+    raise exc
+
+
+def planar_contact_force(W, b, mu: float, v_t: float,
+                         rtol: float = RTOL) -> list[ContactForceSolution]:
+    """Every solution for one planar contact, in closed form.
+
+    With ``W = [[w_nn, w_nt], [w_nt, w_tt]]`` and ``b = (b_n, b_t)``:
+
+    * open: ``lambda = 0``, valid when ``b_n >= 0``;
+    * sliding (``v_t != 0``, ``s = sign v_t``): ``lambda_n = -b_n / A`` with the effective mass
+      ``A = w_nn - mu s w_nt``, valid when ``lambda_n >= 0``;
+    * at rest in t (``v_t = 0``): stick, ``lambda = -W^-1 b`` with ``|lambda_t| <= mu lambda_n``;
+      or slip onset in direction ``s = +-1``: ``lambda_n = -b_n / A_s``, valid when
+      ``lambda_n >= 0`` and ``a_t s = (w_tn - mu s w_tt) lambda_n s + b_t s >= 0``.
+    """
+    W = np.asarray(W, float)
+    b = np.asarray(b, float)
+    wnn, wnt, wtt = float(W[0, 0]), float(W[0, 1]), float(W[1, 1])
+    bn, bt = float(b[0]), float(b[1])
+    ascale = max(abs(bn), abs(bt), 1e-300 * max(wnn, 1.0))
+    fscale = ascale / max(wnn, wtt, 1e-300)
+    tol_a, tol_f = rtol * ascale, rtol * fscale
+    found = []
+
+    def add(ln, lt, mode, s, margin):
+        a = (wnn * ln + wnt * lt + bn, wnt * ln + wtt * lt + bt)
+        found.append(ContactForceSolution(
+            force=np.array([[ln, lt]]), acceleration=np.array([a]), modes=(mode,),
+            direction=np.array([[s]]), margin=margin / fscale))
+
+    if bn >= -tol_a:
+        add(0.0, 0.0, OPEN, 0.0, bn * fscale / ascale)
+    signs = [1.0 if v_t > 0 else -1.0] if v_t != 0.0 else [1.0, -1.0]
+    if mu == 0.0:
+        signs = [0.0]  # frictionless: closed means a_n = 0, lambda_t = 0
+    if v_t == 0.0 and mu > 0.0:
+        det = wnn * wtt - wnt * wnt
+        if det > 1e-13 * max(wnn * wtt, 1e-300):
+            ln = (-bn * wtt + bt * wnt) / det
+            lt = (-bt * wnn + bn * wnt) / det
+            margin = min(mu * ln - abs(lt), ln)
+            if margin >= -tol_f:
+                add(ln, lt, STICK, 0.0, margin)
+    for s in signs:
+        A = wnn - mu * s * wnt
+        if A == 0.0:
+            continue
+        ln = -bn / A
+        if ln < -tol_f:
+            continue
+        lt = -mu * s * ln
+        onset = v_t == 0.0 and mu > 0.0
+        kappa = ((wnt * ln + wtt * lt + bt) * s) if onset else 0.0
+        if onset and kappa < -tol_a:
+            continue
+        add(ln, lt, SLIP, s, min(ln, kappa * fscale / ascale) if onset else ln)
+    found = [_label_frictionless([mu], [v_t != 0.0], f) for f in found]
+    return _distinct(found, ascale)

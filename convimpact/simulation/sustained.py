@@ -1,0 +1,191 @@
+"""Sustained contact in the event-driven scheme: the force problem at a state, the modes it
+selects, the redundant rows, and the held contacts' forces and margins during a segment.
+
+At every event the simulator poses the contact force problem
+(:mod:`~convimpact.simulation.contact_forces`) on the contacts that are closed or closing at
+rest, and its solution selects each contact's mode: open (released), stick or slip. During a
+segment the modes are fixed (:class:`~.canonical.CanonicalEquations`) and the run watches
+their validity: a normal force turning tensile, a sticking force reaching the friction
+cone's boundary (:func:`held_forces` gives the margin), a slip velocity reaching zero, and
+the sliding contacts' force system turning singular (:func:`painleve_indicator`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+import scipy.linalg as sla
+
+from .canonical import CanonicalEquations, HeldMode, Row
+from .contact_forces import (OPEN, SLIP, STICK, ContactForceProblem, max_margin_distribution)
+
+#: relative slack below which a margin counts as violated (a mode on the cone's boundary, e.g.
+#: a box on an incline with mu = tan(slope) exactly, keeps sticking)
+MARGIN_SLACK = 1e-9
+#: rank tolerance of the held rows (relative to the largest singular value of C M^-1 C^T)
+RANK_RTOL = 1e-10
+
+
+@dataclass(frozen=True, eq=False)
+class ContactState:
+    """The closed-contact data at one state: the force problem and what it was built from."""
+
+    contacts: tuple[str, ...]
+    problem: ContactForceProblem
+    jacobians: Mapping[str, np.ndarray]
+    dims: Mapping[str, int]
+
+
+def contact_state(mech, t: float, theta: np.ndarray, dtheta: np.ndarray,
+                  contacts: Sequence[str], slip_tol: float) -> ContactState:
+    """The force problem of ``contacts`` at (t, theta, theta_dot).
+
+    ``W = J G J^T`` with G the loop-constrained inverse mass matrix; ``a_free`` from the loops'
+    constrained dynamics without contact forces plus ``J_dot theta_dot``; a contact slides
+    when its slip speed exceeds ``slip_tol``.
+    """
+    contacts = tuple(contacts)
+    probe = CanonicalEquations(mech, contacts)  # frictionless: for J and J_dot only
+    jac = probe.contact_jacobians(theta)
+    jdot = probe.contact_jacobians_dot(theta, dtheta)
+    M = np.asarray(mech.mass_matrix(theta), float)
+    cho = sla.cho_factor(M, lower=True)
+    f = np.asarray(mech.generalized_forces(t, theta, dtheta), float)
+    J = np.vstack([jac[c] for c in contacts])
+    Jdot = np.vstack([jdot[c] if jdot[c].shape == jac[c].shape else np.zeros_like(jac[c])
+                      for c in contacts])
+    MiJ = sla.cho_solve(cho, J.T)
+    acc = sla.cho_solve(cho, f)
+    if mech.n_loop_constraints:
+        C = np.asarray(mech.loop_jacobian(theta), float).reshape(-1, M.shape[0])
+        Cdot = np.asarray(mech.loop_jacobian_dot(theta, dtheta), float).reshape(C.shape)
+        MiC = sla.cho_solve(cho, C.T)
+        S = C @ MiC
+        acc = acc - MiC @ np.linalg.solve(S, C @ acc + Cdot @ dtheta)
+        MiJ = MiJ - MiC @ np.linalg.solve(S, C @ MiJ)
+    W = J @ MiJ
+    W = 0.5 * (W + W.T)
+    b = J @ acc + Jdot @ dtheta
+    dims = {c: len(jac[c]) for c in contacts}
+    slip = np.zeros((len(contacts), max(dims.values()) - 1))
+    for i, c in enumerate(contacts):
+        vt = jac[c][1:] @ dtheta
+        if float(np.linalg.norm(vt)) > slip_tol:
+            slip[i] = vt
+    mus = np.array([float(mech.contact_parameters(c)[1]) for c in contacts])
+    return ContactState(contacts, ContactForceProblem(W, b, mus, slip), jac, dims)
+
+
+def held_modes(state: ContactState, modes: Sequence[str],
+               directions: np.ndarray) -> dict[str, HeldMode]:
+    """The :class:`HeldMode` of each closed contact of a force-problem solution."""
+    out = {}
+    for i, c in enumerate(state.contacts):
+        if modes[i] == OPEN:
+            continue
+        mu = float(state.problem.mu[i])
+        if modes[i] == STICK:
+            out[c] = HeldMode("stick", (), mu)
+        else:
+            out[c] = HeldMode("slip", tuple(float(x) for x in directions[i]), mu)
+    return out
+
+
+def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[Row],
+                   jac: Mapping[str, np.ndarray]) -> frozenset:
+    """Rows to leave out so that the constraints are independent: loops first, then normal
+    rows, then tangential rows, each kept when it raises the rank of C M^-1 C^T."""
+    cho = sla.cho_factor(M, lower=True)
+    kept = [] if loop_rows is None else [r for r in np.atleast_2d(loop_rows)]
+    order = sorted(rows, key=lambda r: (r[1] > 0, rows.index(r)))
+    dropped = []
+    scale = max(float(np.max(np.abs(sla.cho_solve(cho, np.eye(len(M)))))), 1e-300)
+    for c, j in order:
+        trial = np.array(kept + [jac[c][j]])
+        S = trial @ sla.cho_solve(cho, trial.T)
+        smin = float(np.linalg.eigvalsh(0.5 * (S + S.T))[0])
+        norm = float(np.sum(jac[c][j] ** 2)) * scale
+        if smin > RANK_RTOL * max(norm, 1e-300):
+            kept.append(jac[c][j])
+        else:
+            dropped.append((c, j))
+    return frozenset(dropped)
+
+
+def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray,
+                ) -> tuple[dict[str, np.ndarray], float]:
+    """The held contacts' forces and their smallest margin, relative to the force scale.
+
+    The margin is ``mu lambda_n - |lambda_t|`` for sticking contacts and ``lambda_n`` for
+    sliding (and frictionless) ones. Where rows were dropped as redundant the distribution
+    among the contacts is indeterminate; the one with the largest smallest margin is taken
+    (:func:`~.contact_forces.max_margin_distribution`), so a sticking group slips only when no
+    distribution keeps every force in its cone.
+    """
+    forces = eq.contact_forces(t, y)
+    if not eq.held:
+        return forces, np.inf
+    d = max(len(v) for v in forces.values())
+    mu = np.array([eq.modes[c].mu for c in eq.held])
+    combo = [STICK if eq.modes[c].kind == "stick" else SLIP for c in eq.held]
+    lam0 = np.concatenate([np.r_[forces[c], np.zeros(d - len(forces[c]))] for c in eq.held])
+    fscale = max(float(np.max(np.abs(lam0))), 1e-300)
+    if eq.dropped:
+        Z = _indeterminate(eq, y, d)
+        if Z.shape[1]:
+            lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
+            forces = {c: lam[i * d:i * d + len(forces[c])] for i, c in enumerate(eq.held)}
+    margins = []
+    for i, c in enumerate(eq.held):
+        lam = forces[c]
+        if combo[i] == STICK and mu[i] > 0.0:
+            margins.append(mu[i] * lam[0] - float(np.linalg.norm(lam[1:])))
+        margins.append(lam[0])
+    return forces, min(margins) / fscale
+
+
+def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
+    """A basis of the held forces (n d,) that produce no generalized force (redundancy)."""
+    k = eq.k
+    theta = y[:k]
+    dtheta, _, _ = eq.velocities(theta, y[k:])
+    jac = eq.contact_jacobians(theta)
+    cols, index = [], []
+    for i, c in enumerate(eq.held):
+        mode = eq.modes[c]
+        if mode.kind == "stick":
+            for j in range(len(jac[c])):
+                cols.append(jac[c][j])
+                index.append([(i * d + j, 1.0)])
+        else:  # the tangential force follows the normal one
+            s = eq.slip_direction(c, jac[c], dtheta) if mode.mu > 0 else np.zeros(len(jac[c]) - 1)
+            cols.append(jac[c][0] - mode.mu * (jac[c][1:].T @ s))
+            index.append([(i * d, 1.0)] + [(i * d + 1 + j, -mode.mu * s[j])
+                                           for j in range(len(s))])
+    B = np.array(cols).T  # (k, n_unknowns)
+    if eq.n_loops:  # loop multipliers are free too
+        B = np.hstack([B, np.asarray(eq.mechanism.loop_jacobian(theta), float).reshape(-1, k).T])
+    _, sv, Vt = np.linalg.svd(B)
+    rank = int(np.sum(sv > 1e-10 * sv[0])) if sv.size else 0
+    N = Vt[rank:].T[:len(cols)]  # null directions restricted to the contact unknowns
+    Z = np.zeros((len(eq.held) * d, N.shape[1]))
+    for u, entries in enumerate(index):
+        for row, coef in entries:
+            Z[row] += coef * N[u]
+    return Z
+
+
+def painleve_indicator(eq: CanonicalEquations, t: float, y: np.ndarray) -> float:
+    """det(C M^-1 (C^T + D)) / det(C M^-1 C^T) of the sliding set: 1 without friction,
+    through zero where the sliding contacts' force system turns singular (Painleve)."""
+    if not eq.slipping:
+        return 1.0
+    k = eq.k
+    theta = y[:k]
+    dtheta, _, (M, cho, C, A, scho) = eq.velocities(theta, y[k:])
+    D = eq.friction_columns(theta, dtheta)
+    S = C @ A
+    K = S + C @ sla.cho_solve(cho, D)
+    return float(np.linalg.det(np.linalg.solve(S, K)))
