@@ -1,9 +1,12 @@
 """``convimpact simulate SCENE``: run a scene of ``problems/`` through its impacts.
 
 Writes ``result.json`` (the scene's parameters, the settings, every impact event and contact
-switch, the energy and constraint-drift series) and PNG plots ``trajectory.png`` and
-``energy.png`` into ``--out`` (default ``./simulate-SCENE``); ``--json`` prints the JSON to
-standard output instead (and writes files only when ``--out`` is given too).
+switch, the contact mode timeline, the energy, drift and contact series) and PNG plots
+``trajectory.png``, ``energy.png`` and ``contacts.png`` (per contact: mode timeline and
+forces) into ``--out`` (default ``./simulate-SCENE``); ``--json`` prints the JSON to
+standard output instead (and writes files only when ``--out`` is given too). ``--animate``
+also writes ``animation.gif``, the mechanism moving with its contacts coloured by mode (models
+built with ModelBuilder only).
 ``convimpact simulate --list`` names the scenes; ``convimpact simulate --bench [SCENE]``
 times them (RHS evaluations per second, wall time per simulated second, impact share).
 """
@@ -23,6 +26,7 @@ from ..impact.errors import NotSupportedError, ParameterError
 from ..impact import LAWS, METHODS, available_methods
 from ..impact.results import _jsonable
 from ..scenes import list_scenes, load_scene
+from .animation import animate, check_animatable, plot_contacts
 from .result import SimulationResult
 from .simulate import INTEGRATORS, simulate
 
@@ -75,6 +79,8 @@ def scene_report(scene, res: SimulationResult, series: bool = True) -> dict[str,
             "loop_residual": res.loop_residual.tolist(),
             "loop_velocity_residual": res.loop_velocity_residual.tolist(),
             "held": res.held.tolist(),
+            "contact_mode": res.contact_mode.tolist(),
+            "contact_force": res.contact_force.tolist(),
         }
     return _strict(report)
 
@@ -94,7 +100,7 @@ def _coordinate_units(mechanism, k: int) -> list[str]:
 
 
 def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
-    """Trajectory and energy/drift plots (matplotlib, Agg backend)."""
+    """Trajectory, energy/drift and (when there are contacts) contact plots (Agg backend)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -160,6 +166,11 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     fig.savefig(p, dpi=100)
     plt.close(fig)
     paths.append(p)
+    if getattr(scene.mechanism, "contact_names", None):
+        p = plot_contacts(res, out / "contacts.png", mechanism=scene.mechanism,
+                          title=f"{scene.name}: contact modes and forces")
+        if p is not None:
+            paths.append(p)
     return paths
 
 
@@ -196,6 +207,8 @@ def run(args: argparse.Namespace) -> int:
             f"law {args.law!r} has no method {args.method!r}; available: "
             f"{', '.join(available_methods(args.law))}")
     scene = load_scene(args.scene, **_parse_params(args.param))
+    if args.animate:
+        check_animatable(scene.mechanism)  # fail before simulating
     t_end = float(args.t_end) if args.t_end is not None else float(scene.t_end)
     res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
                    integrator=args.integrator, rtol=args.rtol, atol=args.atol,
@@ -208,6 +221,10 @@ def run(args: argparse.Namespace) -> int:
         p = out / "result.json"
         p.write_text(json.dumps(report, indent=1))
         written = [p, *write_plots(scene, res, out)]
+    if args.animate:
+        out = Path(args.out) if args.out is not None else Path(f"simulate-{scene.name}")
+        written.append(animate(res, scene.mechanism, out / "animation.gif",
+                               title=f"{scene.name}: t = [0, {t_end:g}] s"))
     if args.json:
         json.dump(report, sys.stdout, indent=1)
         print()
@@ -240,6 +257,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--t-end", type=float, default=None, help="end time (default: the scene's)")
     p.add_argument("--out", default=None, help="output directory (default ./simulate-SCENE)")
     p.add_argument("--json", action="store_true", help="print the JSON report to stdout")
+    p.add_argument("--animate", action="store_true",
+                   help="also write animation.gif (the mechanism moving, contacts coloured by "
+                        "mode; models built with ModelBuilder)")
     p.add_argument("--integrator", default="DOP853", choices=sorted(INTEGRATORS))
     p.add_argument("--rtol", type=float, default=1e-8)
     p.add_argument("--atol", type=float, default=1e-10)
