@@ -34,6 +34,12 @@ class Scene:
     parameters : JSON-ready scene parameters (masses, lengths, e, mu, assumptions).
     impact_state : (theta, dtheta) at the paper's impact instant, or None.
     impact_contact : name of the contact that strikes at ``impact_state``, or None.
+    outlines : per body name, an (n, 2) (planar) or (n, 3) (spatial) array of body-frame
+        points outlining the body, or None: drawing only, the dynamics never read it. The
+        animation (:func:`convimpact.simulation.animation.animate`) draws a planar body as
+        the polygon through its points in order, a spatial one as the convex hull of the
+        projected points; a body without an outline is drawn as the hull of its joints and
+        contact points.
     """
 
     name: str
@@ -45,6 +51,7 @@ class Scene:
     parameters: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
     impact_state: tuple[np.ndarray, np.ndarray] | None = None
     impact_contact: str | None = None
+    outlines: Mapping[str, np.ndarray] | None = None
 
 
 def list_scenes() -> list[str]:

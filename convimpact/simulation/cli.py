@@ -26,7 +26,7 @@ from ..impact.errors import NotSupportedError, ParameterError
 from ..impact import LAWS, METHODS, available_methods
 from ..impact.results import _jsonable
 from ..scenes import list_scenes, load_scene
-from .animation import animate, check_animatable, plot_contacts
+from .animation import animate, check_animatable, check_outlines, plot_contacts
 from .result import SimulationResult
 from .simulate import INTEGRATORS, simulate
 
@@ -208,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
             f"{', '.join(available_methods(args.law))}")
     scene = load_scene(args.scene, **_parse_params(args.param))
     if args.animate:
-        check_animatable(scene.mechanism)  # fail before simulating
+        check_outlines(check_animatable(scene.mechanism), scene.outlines)  # fail early
     t_end = float(args.t_end) if args.t_end is not None else float(scene.t_end)
     res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
                    integrator=args.integrator, rtol=args.rtol, atol=args.atol,
@@ -224,7 +224,8 @@ def run(args: argparse.Namespace) -> int:
     if args.animate:
         out = Path(args.out) if args.out is not None else Path(f"simulate-{scene.name}")
         written.append(animate(res, scene.mechanism, out / "animation.gif",
-                               title=f"{scene.name}: t = [0, {t_end:g}] s"))
+                               title=f"{scene.name}: t = [0, {t_end:g}] s",
+                               outlines=scene.outlines))
     if args.json:
         json.dump(report, sys.stdout, indent=1)
         print()

@@ -9,12 +9,13 @@ import pytest
 from PIL import Image
 
 from convimpact import cli
-from convimpact.impact.errors import NotSupportedError, ParameterError
+from convimpact.impact.errors import NotSupportedError, ParameterError, ShapeError
+from convimpact.model import Joint, ModelBuilder
 from convimpact.scenes import Scene, load_scene
 from convimpact.simulation import simulate
 from convimpact.simulation.animation import (
-    MODE_COLORS, MechanismAnimation, animate, frame_times, interpolate_samples, modes_at,
-    plot_contacts, states_at)
+    MODE_COLORS, MechanismAnimation, animate, convex_hull, frame_times, interpolate_samples,
+    modes_at, plot_contacts, states_at)
 from convimpact.simulation.result import MODE_NAMES, ModeInterval, SimulationResult
 from convimpact.simulation.testing import PointMass
 
@@ -211,3 +212,108 @@ def test_cli_animate_user_mechanism_is_a_clean_error(monkeypatch, tmp_path, caps
     assert cli.main(["simulate", "drop", "--out", str(tmp_path), "--animate"]) == 2
     assert "ModelBuilder" in capsys.readouterr().err
     assert not (tmp_path / "animation.gif").exists()
+
+
+# a planar box (width W, height H) whose only contacts are its two bottom corners
+W, H = 0.4, 0.2
+BOX_CORNERS = np.array([[-W / 2, -H / 2], [W / 2, -H / 2], [W / 2, H / 2], [-W / 2, H / 2]])
+
+
+def box_scene(outlines=True, y0=H / 2 + 0.02) -> Scene:
+    b = ModelBuilder(planar=True)
+    b.add_body("box", "ground", Joint.free(), 1.0, (0.0, 0.0), (W ** 2 + H ** 2) / 12,
+               coordinate_names=["x", "y", "phi"])
+    for name, corner in (("left", BOX_CORNERS[0]), ("right", BOX_CORNERS[1])):
+        b.add_contact(name, body="box", point=corner, normal=(0.0, 1.0),
+                      plane_point=(0.0, 0.0), e=0.0, mu=0.5)
+    return Scene(name="box", description="a box on its bottom corners",
+                 mechanism=b.build().mechanism(), theta0=np.array([0.0, y0, 0.0]),
+                 dtheta0=np.zeros(3), t_end=0.1,
+                 outlines={"box": BOX_CORNERS} if outlines else None)
+
+
+def world(pose, local):
+    x, y, phi = pose
+    R = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
+    return np.array([x, y]) + np.asarray(local) @ R.T
+
+
+def test_box_outline_is_drawn_as_its_rectangle(tmp_path):
+    scene = box_scene()
+    poses = np.array([[0.0, 0.3, 0.2], [0.2, 0.4, -0.5]])
+    res = hand_result([0.0, 1.0], poses)
+    anim = MechanismAnimation(res, scene.mechanism, fps=1, outlines=scene.outlines)
+    hulled = MechanismAnimation(res, scene.mechanism, fps=1)  # no outline: the hull
+    assert len(anim.times) == 2 and anim.body_names == ("box",)
+    inside = np.array([[-0.4 * W, 0.4 * H], [0.4 * W, 0.4 * H]])  # near the top corners
+    for i, pose in enumerate(poses):
+        anim.draw(i)
+        xy = anim.body_polygons["box"].get_xy()
+        assert len(xy) == 5  # the four corners, closed
+        np.testing.assert_allclose(xy[:4], world(pose, BOX_CORNERS), atol=1e-12)
+        hulled.draw(i)
+        tri = hulled.body_polygons["box"].get_xy()  # origin and the two bottom corners
+        assert len(tri) == 4
+        np.testing.assert_allclose(np.sort(tri[:3], axis=0),
+                                   np.sort(world(pose, [[0, 0], *BOX_CORNERS[:2]]), axis=0),
+                                   atol=1e-12)
+        # the top of the box is painted with its outline, background without
+        for a, colour_expected in ((anim, True), (hulled, False)):
+            a.fig.canvas.draw()
+            img = np.asarray(a.fig.canvas.buffer_rgba())[..., :3].astype(int)
+            for col, row in np.round(a.pixel(world(pose, inside))).astype(int):
+                painted = np.any(np.abs(img[row, col] - 255) > 25)
+                assert painted == colour_expected, (i, a is anim, img[row, col])
+    frames = gif_frames(anim.save(tmp_path / "box.gif"))
+    assert len(frames) == 2
+    anim.close()
+    hulled.close()
+
+
+def test_outlines_are_checked():
+    scene = box_scene()
+    res = hand_result([0.0, 1.0], np.tile(scene.theta0, (2, 1)))
+    with pytest.raises(ParameterError, match="unknown body 'lid'"):
+        MechanismAnimation(res, scene.mechanism, outlines={"lid": BOX_CORNERS})
+    with pytest.raises(ShapeError, match="outline of 'box'"):
+        MechanismAnimation(res, scene.mechanism, outlines={"box": np.zeros((4, 3))})
+
+
+def test_spatial_outline_is_the_hull_of_its_projection():
+    pend = load_scene("pendulum_3d")
+    body = pend.mechanism.model.bodies[1]
+    cube = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)])
+    res = hand_result([0.0, 1.0], np.tile(pend.theta0, (2, 1)))
+    anim = MechanismAnimation(res, pend.mechanism, fps=1, view="front",
+                              outlines={body.name: cube})
+    anim.draw(0)
+    R, o = pend.mechanism.body_placement(body.name, pend.theta0)
+    corners = anim.projection(o + cube @ R.T)
+    xy = anim.body_polygons[body.name].get_xy()[:-1]
+    hull = convex_hull(corners)
+    assert len(xy) == len(hull) >= 4  # the outline of the projected cube, not the rod
+    np.testing.assert_allclose(np.sort(xy, axis=0), np.sort(hull, axis=0), atol=1e-12)
+    anim.close()
+
+
+def test_cli_animate_passes_the_scene_outlines(monkeypatch, tmp_path, capsys):
+    import convimpact.simulation.cli as simcli
+
+    seen = {}
+    real = simcli.animate
+
+    def spy(*args, **kwargs):
+        seen.update(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(simcli, "load_scene", lambda name, **params: box_scene())
+    monkeypatch.setattr(simcli, "animate", spy)
+    assert cli.main(["simulate", "box", "--out", str(tmp_path), "--t-end", "0.04",
+                     "--animate"]) == 0
+    assert seen["outlines"]["box"] is BOX_CORNERS
+    assert Image.open(tmp_path / "animation.gif").n_frames == 2
+    bad = dataclasses.replace(box_scene(), outlines={"lid": BOX_CORNERS})
+    monkeypatch.setattr(simcli, "load_scene", lambda name, **params: bad)
+    assert cli.main(["simulate", "box", "--out", str(tmp_path / "bad"), "--animate"]) == 2
+    assert "unknown body 'lid'" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()  # refused before simulating
