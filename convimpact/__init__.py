@@ -51,7 +51,8 @@ def __getattr__(name):
         from .simulation import simulate
 
         return simulate
-    if name in ("impact_arguments", "resolve_mechanism_impact", "ModelBuilder", "Joint"):
+    if name in ("impact_arguments", "resolve_mechanism_impact", "ModelBuilder", "Joint",
+                "place_resting", "rest_velocity"):
         from . import model
 
         return getattr(model, name)
@@ -71,6 +72,8 @@ __all__ = [
     "resolve_mechanism_impact",
     "ModelBuilder",
     "Joint",
+    "place_resting",
+    "rest_velocity",
     "build_problem",
     "available_methods",
     "ImpactProblem",

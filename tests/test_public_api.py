@@ -55,3 +55,10 @@ def test_every_law_is_registered_with_its_paths():
         "closed-form", "sweep", "fast", "clarabel", "cvxpy"]
     for law in ("coulomb", "ccp", "dissipative"):
         assert ci.available_methods(law) == ["fast", "clarabel", "cvxpy"]
+
+
+def test_placement_names_resolve():
+    from convimpact.model import place_resting, rest_velocity
+
+    for name, obj in (("place_resting", place_resting), ("rest_velocity", rest_velocity)):
+        assert getattr(ci, name) is obj and name in ci.__all__

@@ -191,3 +191,150 @@ def test_bouncing_rod_ends_and_frame():
     assert mech.contact_gap("end_a", s.theta0) == pytest.approx(1.0 - 0.5 * np.sin(np.radians(30)))
     assert mech.contact_gap("end_b", s.theta0) == pytest.approx(1.0 + 0.5 * np.sin(np.radians(30)))
     assert np.allclose(mech.mass_matrix(s.theta0), np.diag([1.0, 1.0, 1 / 12]))
+
+
+# -- sustained-contact scenes: bodies placed resting on contacts ------------------------------
+RESTING = {
+    "rocking_block": ({}, ("right_corner",)),
+    "sliding_box": ({}, ("left_corner", "right_corner")),
+    "incline_box": ({}, ("left_corner", "right_corner")),
+    "spinning_ball": ({}, ("floor",)),
+    "rimless_wheel": ({}, ("foot0",)),
+    "painleve_rod": ({}, ("foot",)),
+}
+RESTING_CASES = [(n, p, c) for n, (p, c) in RESTING.items()] + [
+    ("spinning_ball", {"spatial": True}, ("floor",)),
+    ("spinning_ball", {"spatial": True, "omega0": 15.0, "spin_axis_deg": 0.0}, ("floor",)),
+    ("incline_box", {"mu": 0.4, "v0": 1.0}, ("left_corner", "right_corner")),
+]
+
+
+def test_registry_lists_the_sustained_contact_scenes():
+    assert set(RESTING) <= set(list_scenes())
+
+
+@pytest.mark.parametrize("name,params,resting", RESTING_CASES)
+def test_resting_scene_is_well_formed(name, params, resting):
+    s = load_scene(name, **params)
+    mech = s.mechanism
+    k = mech.n_coordinates
+    assert s.name == name and s.theta0.shape == s.dtheta0.shape == (k,)
+    assert 2.0 <= s.t_end <= 3.0 and len(s.description) > 100
+    assert s.parameters.get("assumptions")
+    json.dumps(dict(s.parameters))
+    for c in mech.contact_names:
+        gap = mech.contact_gap(c, s.theta0)
+        if c in resting:
+            assert abs(gap) <= 1e-12  # placed exactly
+            assert abs(mech.contact_jacobian(c, s.theta0)[0] @ s.dtheta0) <= 1e-12
+            assert mech.contact_parameters(c) == (s.parameters["e"], s.parameters["mu"])
+        else:
+            assert gap > 1e-3
+    assert np.linalg.eigvalsh(mech.mass_matrix(s.theta0))[0] > 1e-6
+    assert np.all(np.isfinite(mech.generalized_forces(0.0, s.theta0, s.dtheta0)))
+
+
+def test_rocking_block_constants_and_pose():
+    from tests.simulation import closed_forms as cf
+    s = load_scene("rocking_block")
+    p, mech = s.parameters, s.mechanism
+    alpha, R = np.arctan(0.2), 0.5 * np.hypot(0.2, 1.0)
+    assert p["alpha"] == pytest.approx(alpha) and p["R"] == pytest.approx(R)
+    assert p["p_squared"] == pytest.approx(cf.housner_p2(R))
+    assert p["impact_ratio"] == pytest.approx(cf.housner_restitution(alpha))
+    assert p["first_landing_time_linearized"] == pytest.approx(
+        cf.housner_first_landing_time_linear(0.1, alpha, R))
+    # tilted by 0.1 rad about the right corner: the left corner is w sin(tilt) up
+    assert s.theta0[2] == -0.1
+    assert mech.contact_gap("left_corner", s.theta0) == pytest.approx(0.2 * np.sin(0.1))
+    assert np.allclose(s.dtheta0, 0.0)
+
+
+def test_box_scenes_constants():
+    from tests.simulation import closed_forms as cf
+    s = load_scene("sliding_box")
+    t, d = cf.box_stopping(3.0, 0.3)
+    assert s.parameters["stop_time"] == pytest.approx(t)
+    assert s.parameters["stop_distance"] == pytest.approx(d)
+    assert np.allclose(s.dtheta0, [3.0, 0.0, 0.0]) and s.theta0[1] == pytest.approx(0.1)
+    N = s.parameters["normal_forces_sliding"]
+    assert N["left_corner"] + N["right_corner"] == pytest.approx(9.81)
+    assert N["right_corner"] > N["left_corner"] > 0  # the leading corner carries more
+    a = np.radians(30.0)
+    for mu, v0 in ((0.7, 0.0), (0.4, 0.0), (0.7, 1.0), (0.4, -1.0)):
+        s = load_scene("incline_box", mu=mu, v0=v0)
+        p = s.parameters
+        assert p["holds"] == (mu >= np.tan(a))
+        assert p["acceleration_from_rest"] == pytest.approx(cf.incline(mu, a))
+        ref = cf.incline_stopping(v0, mu, a)
+        if ref is None:
+            assert p["stop_time"] is None
+        else:
+            assert (p["stop_time"], p["stop_distance_down"]) == pytest.approx(ref)
+        down = np.array([-np.cos(a), -np.sin(a)])
+        assert np.allclose(s.dtheta0[:2], v0 * down) and s.theta0[2] == pytest.approx(a)
+
+
+@pytest.mark.parametrize("omega0", [0.0, 10.0, -30.0])
+def test_spinning_ball_constants(omega0):
+    from tests.simulation import closed_forms as cf
+    s = load_scene("spinning_ball", omega0=omega0)
+    t, v = cf.ball_rolling(2.0, omega0, 0.1, 0.2)
+    assert s.parameters["roll_time"] == pytest.approx(t)
+    assert s.parameters["final_speed"] == pytest.approx(v)
+    assert np.allclose(s.dtheta0, [2.0, 0.0, omega0])
+    # the spatial scene: velocity and spin through B, closed forms in vector form
+    s3 = load_scene("spinning_ball", spatial=True, omega0=omega0, direction_deg=30.0)
+    mech = s3.mechanism
+    B = mech.velocity_transformation(s3.theta0)
+    v_w = B @ s3.dtheta0
+    d = np.radians(30.0)
+    u = np.array([np.cos(d), 0.0, np.sin(d)])
+    assert np.allclose(v_w[:3], 2.0 * u)
+    assert np.allclose(v_w[3:], omega0 * np.array([-np.sin(d), 0.0, np.cos(d)]))
+    t3, vf, wf = cf.ball_rolling_spatial(v_w[:3], v_w[3:], 0.1, 0.2)
+    assert s3.parameters["roll_time"] == pytest.approx(t3) and t3 == pytest.approx(t)
+    assert np.allclose(s3.parameters["final_velocity"], vf)
+    assert np.allclose(s3.parameters["final_omega"], wf)
+    # the initial slip, in the contact frame, is along neither tangent
+    slip = mech.contact_jacobian("floor", s3.theta0)[1:] @ s3.dtheta0
+    assert np.min(np.abs(slip)) > 0.1 * np.max(np.abs(slip))
+    assert s3.parameters["max_middle_cardan_angle_deg"] <= 45.0
+
+
+def test_rimless_wheel_constants_and_start():
+    from tests.simulation import closed_forms as cf
+    s = load_scene("rimless_wheel")
+    p, mech = s.parameters, s.mechanism
+    slope = np.radians(5.0)
+    assert p["eta"] == pytest.approx(cf.rimless_wheel_eta(8, 0.1))
+    w_minus, w_plus = cf.rimless_wheel_steady_speed(8, slope, 1.0, 0.1)
+    assert p["omega_minus_steady"] == pytest.approx(w_minus)
+    assert p["omega_plus_steady"] == pytest.approx(w_plus)
+    # standing on foot0, leg vertical, turning about the foot (the foot does not move)
+    assert s.theta0[2] == 0.0 and s.dtheta0[2] == p["omega0"] == 0.7
+    assert np.allclose(mech.contact_jacobian("foot0", s.theta0) @ s.dtheta0, 0.0, atol=1e-14)
+    # the hub is l above the foot: the foot at x = 0 is on the slope y = x tan(slope)
+    assert s.theta0[1] == pytest.approx(1.0)
+    # starting on the limit cycle: the first strike already has the steady w-
+    s2 = load_scene("rimless_wheel", omega0=p["omega_vertical_steady"])
+    assert s2.parameters["omega_minus_first"] == pytest.approx(w_minus)
+
+
+def test_painleve_rod_starts_in_the_paradox():
+    from tests.simulation import closed_forms as cf
+    s = load_scene("painleve_rod")
+    p, mech = s.parameters, s.mechanism
+    th, dth = s.theta0, s.dtheta0
+    A_ref = cf.painleve_effective_mass(np.radians(60.0), 1.5, -1, 1.0, 0.5)
+    assert p["painleve_A"] == pytest.approx(A_ref) and A_ref < 0
+    assert p["regime"] == "inconsistent" and p["normal_free_acceleration"] < 0
+    # the same A from the mechanism: Jn M^-1 (Jn - mu sign(v_t) Jt)
+    Jc = mech.contact_jacobian("foot", th)
+    vt = Jc[1] @ dth
+    assert abs(vt) == pytest.approx(1.0)
+    A = Jc[0] @ np.linalg.solve(mech.mass_matrix(th), Jc[0] - 1.5 * np.sign(vt) * Jc[1])
+    assert A == pytest.approx(A_ref, rel=1e-12)
+    # leaning toward -x: the foot is right of and below the centre
+    foot = mech.contact_frame("foot", th).point
+    assert foot[0] > th[0] and foot[1] == pytest.approx(0.0, abs=1e-12)

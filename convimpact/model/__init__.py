@@ -34,6 +34,7 @@ from .joints import Joint, Motion
 from .kinematics import forward_kinematics, point_jacobian, point_jacobian_dot
 from .loops import assemble, consistent_velocity, loop_jacobian, loop_jacobian_dot, loop_residual
 from .mechanism import ModelMechanism
+from .placement import place_resting, rest_velocity
 
 __all__ = [
     "GROUND", "BodyInfo", "ContactSpec", "LoopSpec", "Model", "ModelBuilder", "Data", "Joint",
@@ -42,5 +43,5 @@ __all__ = [
     "kinetic_energy", "potential_energy", "velocity_transformation", "loop_residual",
     "loop_jacobian", "loop_jacobian_dot", "assemble", "consistent_velocity", "contact_frame",
     "contact_gap", "contact_jacobian", "GAP_TOL", "active_contacts", "impact_arguments",
-    "resolve_mechanism_impact",
+    "resolve_mechanism_impact", "place_resting", "rest_velocity",
 ]

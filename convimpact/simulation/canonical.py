@@ -38,6 +38,8 @@ from ..mechanism import Mechanism
 
 #: a held contact's rows: (contact name, row of its Jacobian: 0 normal, 1.. tangents)
 Row = tuple[str, int]
+#: configurations whose contact Jacobians are remembered (theta and theta +- h theta_dot)
+JACOBIAN_MEMO = 6
 
 
 @dataclass(frozen=True)
@@ -108,12 +110,21 @@ class CanonicalEquations:
         self.n_constraints = self.n_loops + len(self.rows)
         self.nfev = 0
         self._jdot = getattr(mechanism, "contact_jacobian_dot", None)
+        self._jac_memo: dict[bytes, dict[str, np.ndarray]] = {}
 
     # -- contact rows ------------------------------------------------------------------------
     def contact_jacobians(self, theta: np.ndarray) -> dict[str, np.ndarray]:
-        """The full Jacobians (rows n, t...) of the held contacts at theta."""
-        return {c: np.asarray(self.mechanism.contact_jacobian(c, theta), float)
-                for c in self.held}
+        """The full Jacobians (rows n, t...) of the held contacts at theta (the last few
+        configurations are remembered: one right-hand side asks for them several times)."""
+        key = np.asarray(theta, float).tobytes()
+        hit = self._jac_memo.get(key)
+        if hit is None:
+            hit = {c: np.asarray(self.mechanism.contact_jacobian(c, theta), float)
+                   for c in self.held}
+            if len(self._jac_memo) >= JACOBIAN_MEMO:
+                self._jac_memo.pop(next(iter(self._jac_memo)))
+            self._jac_memo[key] = hit
+        return hit
 
     def contact_jacobians_dot(self, theta: np.ndarray,
                               dtheta: np.ndarray) -> dict[str, np.ndarray]:

@@ -275,43 +275,81 @@ def _candidate(P: ContactForceProblem, combo, dirs, onset, rtol: float):
                                 margin=margin / fscale if fscale > 0 else margin)
 
 
-def _onset_roots(P: ContactForceProblem, combo, dirs, unknown: list[int]) -> list[list]:
+def _lam_of(E: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Solutions of stacked systems E[j] lam = r (least squares where E[j] is singular)."""
+    try:
+        return np.linalg.solve(E, r[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        return np.einsum("...ij,...j->...i", np.linalg.pinv(E, rcond=1e-11), r)
+
+
+def _onset_residuals(P: ContactForceProblem, combo, dirs, unknown: list[int],
+                     phis: np.ndarray, along: bool = False) -> np.ndarray:
+    """cross(a_t, s) of the onsets ``unknown`` at the angles ``phis`` (m, len(unknown)); with
+    ``along`` also a_t . s (the onset needs it >= 0) as a second array."""
+    d = P.d
+    E0, r = _system(P, combo, dirs)
+    E = np.broadcast_to(E0, (len(phis),) + E0.shape).copy()
+    for u, i in enumerate(unknown):
+        n0 = i * d
+        E[:, n0 + 1, n0] = P.mu[i] * np.cos(phis[:, u])
+        E[:, n0 + 2, n0] = P.mu[i] * np.sin(phis[:, u])
+    lam = _lam_of(E, np.broadcast_to(r, (len(phis), len(r))))
+    a = lam @ P.delassus.T + P.free_acceleration
+    out = np.empty((len(phis), len(unknown)))
+    dot = np.empty((len(phis), len(unknown)))
+    for u, i in enumerate(unknown):
+        n0 = i * d
+        c, s = np.cos(phis[:, u]), np.sin(phis[:, u])
+        out[:, u] = a[:, n0 + 1] * s - a[:, n0 + 2] * c
+        dot[:, u] = a[:, n0 + 1] * c + a[:, n0 + 2] * s
+    return (out, dot) if along else out
+
+
+def _onset_roots(P: ContactForceProblem, combo, dirs, unknown: list[int]) -> list:
     """Slip angles of the spatial onsets in ``unknown`` where a_t is parallel to s."""
     def residual(phis):
-        dd = list(dirs)
-        for i, ph in zip(unknown, phis):
-            dd[i] = np.array([math.cos(ph), math.sin(ph)])
-        E, r = _system(P, combo, dd)
-        try:
-            lam = np.linalg.solve(E, r)
-        except np.linalg.LinAlgError:
-            lam = np.linalg.lstsq(E, r, rcond=None)[0]
-        a = P.delassus @ lam + P.free_acceleration
-        out = []
-        for i in unknown:
-            at = a[i * P.d + 1:i * P.d + P.d]
-            out.append(at[0] * dd[i][1] - at[1] * dd[i][0])  # cross(a_t, s)
-        return np.array(out)
+        return _onset_residuals(P, combo, dirs, unknown, np.atleast_2d(phis))[0]
 
     if len(unknown) == 1:
         grid = np.linspace(0.0, 2 * math.pi, SCAN + 1)
-        vals = [float(residual([g])[0]) for g in grid]
+        vals, dots = _onset_residuals(P, combo, dirs, unknown, grid[:, None], along=True)
+        vals, dots = vals[:, 0], dots[:, 0]
         roots = []
-        for g0, g1, v0, v1 in zip(grid[:-1], grid[1:], vals[:-1], vals[1:]):
+        for j in range(SCAN):
+            v0, v1 = vals[j], vals[j + 1]
+            if dots[j] < 0.0 and dots[j + 1] < 0.0:
+                continue  # a_t opposes s here: no onset (its root is the antiparallel one)
             if v0 == 0.0:
-                roots.append([g0])
+                roots.append([grid[j]])
             elif v0 * v1 < 0.0:
-                roots.append([brentq(lambda x: float(residual([x])[0]), g0, g1, xtol=1e-15)])
+                f = lambda x: float(residual([x])[0])  # noqa: E731
+                if f(grid[j]) * f(grid[j + 1]) < 0.0:  # (a singular stack solves by pinv)
+                    roots.append([brentq(f, grid[j], grid[j + 1], xtol=1e-14)])
         return roots
-    # several spatial onsets together: Newton (scipy's hybrid) from common directions
-    from scipy.optimize import root
-    roots = []
-    for g in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
-        sol = root(residual, np.full(len(unknown), g), tol=1e-14)
-        if sol.success and float(np.max(np.abs(residual(sol.x)))) < 1e-10 * max(
-                _scales(P)[0], 1e-300):
-            roots.append(list(sol.x))
-    return roots
+    # several spatial onsets together: Newton's method from 16 common directions at once
+    # (a batched finite-difference Jacobian), the converged starts kept
+    m = len(unknown)
+    phis = np.repeat(np.linspace(0.0, 2 * math.pi, 16, endpoint=False)[:, None], m, axis=1)
+    tol = 1e-10 * max(_scales(P)[0], 1e-300)
+    step_h = 1e-7
+    for _ in range(40):
+        R = _onset_residuals(P, combo, dirs, unknown, phis)
+        jac = np.empty((len(phis), m, m))
+        for u in range(m):
+            shifted = phis.copy()
+            shifted[:, u] += step_h
+            jac[:, :, u] = (_onset_residuals(P, combo, dirs, unknown, shifted) - R) / step_h
+        try:
+            step = np.linalg.solve(jac, R[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            step = np.einsum("sij,sj->si", np.linalg.pinv(jac), R)
+        phis = phis - np.clip(step, -0.5, 0.5)
+        if float(np.max(np.abs(step))) < 1e-13:
+            break
+    R = _onset_residuals(P, combo, dirs, unknown, phis)
+    good = np.max(np.abs(R), axis=1) < tol
+    return [list(p) for p in phis[good]]
 
 
 def force_solutions(P: ContactForceProblem, rtol: float = RTOL) -> list[ContactForceSolution]:

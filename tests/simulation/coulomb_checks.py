@@ -26,7 +26,8 @@ def assert_coulomb(res, mech, rtol=1e-7):
         lam = res.contact_force[closed, i]
         scale = max(float(np.max(np.abs(lam))), 1e-12)
         vt = slip_velocity(mech, c, res.theta[closed], res.dtheta[closed])
-        vscale = max(float(np.max(np.abs(res.dtheta))), 1e-12)
+        # a body at rest moves at round-off: speeds are measured against 1 mm/s at least
+        vscale = max(float(np.max(np.abs(res.dtheta))), 1e-3)
         assert np.all(lam[:, 0] >= -rtol * scale), f"{c}: tensile normal force"
         lt = np.linalg.norm(lam[:, 1:], axis=1)
         stick = codes[closed] == 1
