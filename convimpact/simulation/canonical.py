@@ -78,17 +78,22 @@ class CanonicalEquations:
         Redundant rows left out of the constraints.
     dims : mapping of contact name to its number of rows (2 planar, 3 spatial), optional
         (default: read from the contact Jacobian at theta = 0).
+    slip_floor : float
+        Slip speed below which a spatial sliding contact's friction keeps its stored
+        direction (the slip velocity's direction is round-off there); the run updates the
+        stored direction at every accepted step.
     """
 
     def __init__(self, mechanism: Mechanism, held_contacts: Sequence[str] = (),
                  modes: Mapping[str, HeldMode] | None = None, dropped=(),
-                 dims: Mapping[str, int] | None = None):
+                 dims: Mapping[str, int] | None = None, slip_floor: float = 0.0):
         self.mechanism = mechanism
         self.k = int(mechanism.n_coordinates)
         self.n_loops = int(mechanism.n_loop_constraints)
         self.held = tuple(held_contacts)
         modes = dict(modes or {})
         self.modes = {c: modes.get(c, FRICTIONLESS) for c in self.held}
+        self.slip_floor = float(slip_floor)
         self.dropped = frozenset(tuple(r) for r in dropped)
         self.rows: list[Row] = []
         self.position_rows: list[Row] = []
@@ -190,8 +195,7 @@ class CanonicalEquations:
             return stored
         vt = jac[1:] @ dtheta
         norm = float(np.linalg.norm(vt))
-        floor = 1e-10 * float(np.linalg.norm(jac)) * float(np.linalg.norm(dtheta))
-        return vt / norm if norm > floor and norm > 0.0 else stored
+        return vt / norm if norm > self.slip_floor and norm > 0.0 else stored
 
     def friction_columns(self, theta: np.ndarray, dtheta: np.ndarray,
                          jac: Mapping[str, np.ndarray] | None = None) -> np.ndarray:

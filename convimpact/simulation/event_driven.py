@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time as _time
 from bisect import bisect_right
+from dataclasses import replace
 from typing import Any, Collection, Mapping, Sequence
 
 import numpy as np
@@ -203,7 +204,8 @@ class EventDrivenRun:
             probe = CanonicalEquations(self.mech, held, modes, dims=cs.dims)
             dropped = redundant_rows(M, loops, probe.rows, cs.jacobians)
             dims = cs.dims
-        self.eq = CanonicalEquations(self.mech, held, modes, dropped, dims)
+        self.eq = CanonicalEquations(self.mech, held, modes, dropped, dims,
+                                     slip_floor=o.rest_velocity)
         self.eq_log.append((t, self.eq))
         dth = project_onto(M, self.eq.jacobian(th), dth)
         dT = float(self.mech.kinetic_energy(th, dth)) - T0
@@ -365,10 +367,14 @@ class EventDrivenRun:
 
     def slip_anchors(self, y: np.ndarray) -> dict[str, np.ndarray]:
         """Per sliding contact with friction, its slip direction now (the event functions of
-        slip reversal are the slip velocities along these)."""
+        slip reversal are the slip velocities along these); stored as the direction the
+        friction keeps while the slip speed is below the floor."""
         th, dth, _ = self.state(y)
-        return {c: self.eq.slip_direction(c, self.contact_row(c, th), dth)
-                for c, _ in self.eq.slipping}
+        out = {}
+        for c, _ in self.eq.slipping:
+            out[c] = self.eq.slip_direction(c, self.contact_row(c, th), dth)
+            self.eq.modes[c] = replace(self.eq.modes[c], direction=tuple(map(float, out[c])))
+        return out
 
     def held_in_step(self, interp, t_old: float, t_new: float, w_prev: Mapping[str, float],
                      w_new: Mapping[str, float], anchors) -> list[Event]:

@@ -199,3 +199,36 @@ def test_a_contact_touching_at_rest_at_the_start_starts_closed():
     assert [iv.mode for iv in res.modes_of("left_corner")] == ["stick"]
     np.testing.assert_allclose(res.theta, np.broadcast_to(scene.theta0, res.theta.shape),
                                atol=1e-12)
+
+
+def test_spatial_box_on_four_corners_slides_to_rest_in_its_launch_direction():
+    """Four corners, three normal rows' worth of independent constraints: the normal forces
+    are indeterminate (a table on four legs), the motion is not. The box stops after
+    v0^2/(2 mu g) along its launch direction; the normal forces total m g, and at rest each
+    corner carries m g / 4 (the max-margin distribution is the symmetric one)."""
+    from convimpact.model import Joint, ModelBuilder
+    b = ModelBuilder(planar=False)
+    m, a, c, h, mu, v0, psi = 1.0, 0.4, 0.3, 0.2, 0.3, 0.8, 0.5
+    inertia = np.diag([m * (c * c + h * h), m * (a * a + c * c), m * (a * a + h * h)]) / 12
+    b.add_body("box", "ground", Joint.free(), m, (0, 0, 0), inertia, joint_name="float")
+    for i, (sx, sz) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        b.add_contact(f"c{i}", body="box", point=(sx * a / 2, -h / 2, sz * c / 2),
+                      normal=(0, 1, 0), plane_point=(0, 0, 0), e=0.0, mu=mu)
+    mech = b.build().mechanism()
+    th0 = np.zeros(6)
+    th0[1] = h / 2
+    dth0 = np.zeros(6)
+    dth0[[0, 2]] = v0 * np.cos(psi), v0 * np.sin(psi)
+    res = ci.simulate(mech, (0.0, 0.35), (th0, dth0))
+    t_stop, d_stop = cf.box_stopping(v0, mu)
+    for name in mech.contact_names:
+        assert [iv.mode for iv in res.modes_of(name)] == ["slip", "stick"]
+        assert res.modes_of(name)[1].t_start == pytest.approx(t_stop, rel=REL)
+    np.testing.assert_allclose(res.theta[-1, [0, 2]], d_stop * np.array([np.cos(psi), np.sin(psi)]),
+                               rtol=REL)
+    normal = res.contact_force[1:, :, 0]
+    np.testing.assert_allclose(normal.sum(axis=1), m * cf.G, rtol=1e-8)
+    assert np.all(normal > 0.0)
+    np.testing.assert_allclose(normal[res.contact_mode[1:, 0] == 1], m * cf.G / 4, rtol=1e-8)
+    assert_coulomb(res, mech)
+    _energy_never_rises_between_impacts(res)
