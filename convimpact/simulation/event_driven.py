@@ -28,7 +28,7 @@ from .options import EventDrivenOptions
 from .projection import project_positions
 from .result import (SERIES, ContactEvent, ImpactEvent, PainleveEvent, PiecewiseSolution,
                      SimulationResult, append_sample, series_from_rows)
-from .run_record import ModeLog, contact_rows, painleve_event, project_onto
+from .run_record import ModeLog, contact_rows, law_flags, painleve_event, project_onto
 from .sustained import (MARGIN_SLACK, contact_state, held_forces, held_modes,
                         painleve_indicator, redundant_rows)
 from .zeno import AccumulationDetector
@@ -248,23 +248,27 @@ class EventDrivenRun:
             self.impact_time += spent
         return r, Jc, spent
 
-    def impact(self, t: float, th: np.ndarray, dth: np.ndarray, sig_loops: np.ndarray,
-               closing: Sequence[str]) -> tuple[np.ndarray, list[str], list[str], str | None]:
-        """Resolve the closing contacts together, the held ones acting as frictionless
-        bilateral normal constraints (released when the impact pulls on them).
+    def impact(self, t: float, th: np.ndarray, dth: np.ndarray, closing: Sequence[str],
+               constraints: Sequence[str]) -> tuple[np.ndarray, list[str], list[str], str | None]:
+        """Resolve the closing contacts together, the ``constraints`` (closed contacts)
+        acting as frictionless bilateral normal constraints, released when the impact pulls
+        on them (and the impact redone).
 
-        Returns (theta_dot+, the held contacts still closed, the closing contacts that stay
+        Returns (theta_dot+, the constraints still closed, the closing contacts that stay
         closed (v_n+ ~ 0 or accumulating), stop_message).
         """
         m, o = self.m, self.opts
         M = np.asarray(self.mech.mass_matrix(th), float)
         params = {c: self.mech.contact_parameters(c) for c in closing}
-        held_now = list(self.held)
+        held_now = list(constraints)
         released: list[str] = []
         spent = 0.0
+        loops = (np.asarray(self.mech.loop_jacobian(th), float).reshape(-1, self.k)
+                 if self.m else None)
         while True:
-            normals = CanonicalEquations(self.mech, held_now, dropped={
-                r for r in self.eq.dropped if r[1] == 0 and r[0] in held_now})
+            normals = CanonicalEquations(self.mech, held_now)
+            dropped = redundant_rows(M, loops, normals.rows, normals.contact_jacobians(th))
+            normals = CanonicalEquations(self.mech, held_now, dropped=dropped)
             C = normals.jacobian(th)
             r, Jc, dt = self.solve_impact(t, th, dth, M, closing, params, C)
             spent += dt
@@ -307,26 +311,51 @@ class EventDrivenRun:
     # ---- events ----------------------------------------------------------------------------
     def handle(self, t: float, y: np.ndarray, closing: Sequence[str],
                touching: Sequence[str]) -> tuple[np.ndarray, str | None]:
-        """All events at instant t: impacts, then the modes of the closed contacts."""
+        """All events at instant t: impacts, then the modes of the closed contacts.
+
+        ``impacts="simultaneous"``: the approaching contacts are resolved in one impact with
+        the closed and touching-at-rest ones as (unilateral) constraints. ``"sequential"``:
+        the approaching contacts alone, the others free; contacts that approach afterwards
+        are resolved next, at the same instant, until none approaches.
+        """
         o = self.opts
         th, dth, sig = self.state(y)
         sig_loops = sig[:self.m]
-        vn = {}
-        for c in self.contacts:
-            if c in self.held:
-                continue
-            if c in closing or c in touching or self.gap(c, th) <= o.contact_tol:
-                vn[c] = self.normal_speed(c, th, dth)
-        group = [c for c, v in vn.items() if v < -o.rest_velocity]
-        rest = [c for c, v in vn.items() if abs(v) <= o.rest_velocity]
+        near = [c for c in self.contacts if c not in self.held and (
+            c in closing or c in touching or self.gap(c, th) <= o.contact_tol)]
         held = list(self.held)
         stop_msg = None
         reason = "touching at rest (|v_n| <= rest_velocity)"
-        if group:
-            dth, held, at_rest, stop_msg = self.impact(t, th, dth, sig_loops, group)
-            rest += at_rest
+        closed: list[str] = []
+        for _ in range(MAX_EVENTS_AT_ONE_INSTANT):
+            watched = near + (held if o.impacts == "sequential" else [])
+            vn = {c: self.normal_speed(c, th, dth) for c in watched}
+            group = [c for c in watched if vn[c] < -o.rest_velocity]
+            if not group:
+                break
+            if len(self.impacts) >= o.max_impacts:
+                stop_msg = (f"max_impacts = {o.max_impacts} reached at t = {t:.9g} "
+                            f"({', '.join(group)} not resolved); raise it or check for "
+                            "accumulating impacts")
+                break
+            if o.impacts == "simultaneous":
+                rest = [c for c in near if c not in group and abs(vn[c]) <= o.rest_velocity]
+                dth, kept, at_rest, stop_msg = self.impact(t, th, dth, group, held + rest)
+                held = [c for c in held if c in kept]
+                closed += [c for c in rest if c in kept] + at_rest
+            else:
+                dth, _, at_rest, stop_msg = self.impact(t, th, dth, group, [])
+                closed += at_rest
             reason = "closed at rest by an impact (v_n+ ~ 0, or accumulating impacts)"
-        y = self.select_modes(t, th, dth, sig_loops, held + rest, reason)
+            if stop_msg:
+                break
+        else:
+            raise SimulationError(
+                f"{MAX_EVENTS_AT_ONE_INSTANT} impacts at t = {t:.9g} without the contacts "
+                f"{', '.join(near + held)} coming to rest (impacts='{o.impacts}')")
+        candidates = [c for c in dict.fromkeys(held + near + closed)
+                      if abs(self.normal_speed(c, th, dth)) <= o.rest_velocity]
+        y = self.select_modes(t, th, dth, sig_loops, candidates, reason)
         return self.project_state(y), stop_msg
 
     def closing_in_step(self, free: Sequence[str], interp, t_old: float, t_new: float,
@@ -534,8 +563,10 @@ class EventDrivenRun:
         if o.t_eval is not None and sol is not None:
             rows = self.resample(o.t_eval, sol)
         nfev = sum(e.nfev for _, e in self.eq_log)
-        warnings = tuple(f"Painleve's paradox at t = {ev.time:.9g} ({ev.kind}, contacts "
-                         f"{', '.join(ev.contacts)}): the run stopped" for ev in self.painleve)
+        flag_counts, warnings = law_flags(self.impacts, o.law)
+        flag_counts["painleve"] = len(self.painleve)
+        warnings += tuple(f"Painleve's paradox at t = {ev.time:.9g} ({ev.kind}, contacts "
+                          f"{', '.join(ev.contacts)}): the run stopped" for ev in self.painleve)
         n, d = len(rows["t"]), self.d
         res = SimulationResult(
             **series_from_rows(rows, self.k, self.m), held=np.array(rows["held"], dtype=int),
@@ -548,7 +579,7 @@ class EventDrivenRun:
             contact_mode=np.array(rows["mode"], dtype=int).reshape(n, len(self.contacts)),
             contact_force=np.array(rows["force"], float).reshape(n, len(self.contacts), d),
             mode_intervals=self.modes.intervals(self.t), painleve=tuple(self.painleve),
-            friction_dissipation=np.array(rows["friction"], float))
+            friction_dissipation=np.array(rows["friction"], float), law_flags=flag_counts)
         if self.painleve_error is not None:
             self.painleve_error.result = res
             raise self.painleve_error

@@ -40,6 +40,7 @@ class EventDrivenOptions:
     rest_velocity: float
     max_impacts: int
     painleve: str = "stop"
+    impacts: str = "simultaneous"
 
     def settings(self) -> dict[str, Any]:
         """The options as reported in :attr:`SimulationResult.settings`."""
@@ -51,5 +52,6 @@ class EventDrivenOptions:
             "projection_tol": self.projection_tol, "zeno": self.zeno,
             "zeno_time_tol": self.zeno_time_tol, "rest_velocity": self.rest_velocity,
             "max_impacts": int(self.max_impacts), "painleve": self.painleve,
+            "impacts": self.impacts,
             "t_span": [self.t0, self.t1],
         }

@@ -186,6 +186,10 @@ class SimulationResult:
     painleve : the :class:`PainleveEvent` met (a run stops at the first), empty when none.
     friction_dissipation : (n,) energy dissipated by sliding friction since the start
         (cumulative, >= 0; the friction power integrated on each step's interpolant).
+    law_flags : counts over the run of the impacts whose law raised each flag
+        (``energy_gained``, ``penetration``, ``slip_reversal``, ``friction_pushes_slip`` --
+        sliding impacts only) and of Painleve events (``painleve``); each flag raised also
+        gives one entry of ``warnings``.
     """
 
     t: np.ndarray
@@ -218,6 +222,7 @@ class SimulationResult:
     mode_intervals: tuple[ModeInterval, ...] = ()
     painleve: tuple[PainleveEvent, ...] = ()
     friction_dissipation: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    law_flags: Mapping[str, int] = field(default_factory=lambda: MappingProxyType({}))
 
     def modes_of(self, contact: str) -> tuple[ModeInterval, ...]:
         """The mode timeline of one contact."""
@@ -278,6 +283,7 @@ class SimulationResult:
             "impacts": [e.as_dict() for e in self.impacts],
             "contact_events": [e.as_dict() for e in self.contact_events],
             "warnings": list(self.warnings),
+            "law_flags": dict(self.law_flags),
             "contact_names": list(self.contact_names),
             "mode_intervals": [iv.as_dict() for iv in self.mode_intervals],
             "painleve": [ev.as_dict() for ev in self.painleve],

@@ -3,7 +3,7 @@ series, Painleve events, and the velocity projection onto possibly redundant con
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import scipy.linalg as sla
@@ -72,3 +72,48 @@ def project_onto(M: np.ndarray, C: np.ndarray, dtheta: np.ndarray) -> np.ndarray
     A = sla.cho_solve(cho, C.T)
     lam = np.linalg.lstsq(C @ A, C @ dtheta, rcond=1e-12)[0]
     return dtheta - A @ lam
+
+
+#: the impact laws' flags gathered over a run, with what each means
+LAW_FLAGS = {
+    "energy_gained": "the impact law created kinetic energy (T+ > T-)",
+    "penetration": "a contact still approached after the impact (v_n+ < 0)",
+    "slip_reversal": "a sliding contact's slip ended along its friction impulse",
+    "friction_pushes_slip": "a sliding impulse's friction pointed along the pre-impact slip",
+}
+
+
+def law_flags(impacts: Sequence, law: str) -> tuple[dict[str, int], tuple[str, ...]]:
+    """Counts of the law's flags over the impacts of a run, and one warning per flag raised.
+
+    ``friction_pushes_slip`` is counted only for impacts with a sliding contact (a sticking
+    impulse may point along a small pre-impact slip: it stops it). The energy warning names
+    the worst impact (largest T+ - T-).
+    """
+    counts = {k: 0 for k in LAW_FLAGS}
+    worst: dict[str, Any] = {}
+    for ev in impacts:
+        diag = ev.result.diagnostics
+        for k in LAW_FLAGS:
+            if not getattr(diag, k):
+                continue
+            if k == "friction_pushes_slip" and "slide" not in ev.regime:
+                continue
+            counts[k] += 1
+            gain = ev.kinetic_energy_plus - ev.kinetic_energy_minus
+            if k not in worst or (k == "energy_gained" and gain > worst[k][1]):
+                worst[k] = (ev, gain)
+    warnings = []
+    for k, n in counts.items():
+        if not n:
+            continue
+        ev, gain = worst[k]
+        text = (f"{n} of {len(impacts)} impacts: {LAW_FLAGS[k]} (law {law!r}); ")
+        if k == "energy_gained":
+            text += (f"the largest at t = {ev.time:.9g} ({', '.join(ev.contacts)}): T from "
+                     f"{ev.kinetic_energy_minus:.6g} to {ev.kinetic_energy_plus:.6g} "
+                     f"(+{gain:.4g}); law='dissipative' or 'ccp' never create energy")
+        else:
+            text += f"first at t = {ev.time:.9g} ({', '.join(ev.contacts)})"
+        warnings.append(text)
+    return counts, tuple(warnings)

@@ -50,6 +50,7 @@ from .result import SimulationResult
 
 ZENO_POLICIES = ("persist", "stop")
 PAINLEVE_POLICIES = ("stop", "raise")
+IMPACT_POLICIES = ("simultaneous", "sequential")
 #: integrators whose state (y, f) can be replaced after a step without a restart
 ONE_STEP = (RK23, RK45, DOP853, Radau)
 
@@ -88,6 +89,7 @@ def simulate(
     rest_velocity: float = 1e-6,
     max_impacts: int = 10_000,
     painleve: str = "stop",
+    impacts: str = "simultaneous",
     impact_options: Mapping[str, Any] | None = None,
 ) -> SimulationResult:
     """Integrate the canonical equations of a mechanism through its impacts.
@@ -146,6 +148,16 @@ def simulate(
         several): stop the run with status 2, the event in ``result.painleve`` and a warning
         ("stop"), or raise :class:`~convimpact.impact.errors.PainleveError` carrying that
         result as ``.result`` ("raise"). The event-driven scheme never continues past it.
+    impacts : {"simultaneous", "sequential"}
+        How an impact meets contacts that are closed or touching at rest (a chain of touching
+        bodies struck at one end, Newton's cradle): "simultaneous" resolves the approaching
+        contacts in one call of the law with the others as unilateral constraints (released
+        if the impact pulls on them) -- three touching balls struck by a fourth end with
+        ((1 - 2e)/3, (1 + e)/3, (1 + e)/3) v for the struck three; "sequential" resolves the
+        approaching contacts alone, then the contacts that approach afterwards, one impact
+        after another at the same instant -- the cradle's (0, 0, v) for e = 1. Real chains lie
+        between (their contacts are compliant); Moreau-Jean time stepping resolves them
+        simultaneously.
     impact_options : mapping, optional
         Options forwarded to the impact solver.
 
@@ -204,6 +216,9 @@ def simulate(
     check_law_method(law, method)
     if zeno not in ZENO_POLICIES:
         raise UnknownOptionError(f"unknown zeno policy {zeno!r}; choose 'persist' or 'stop'")
+    if impacts not in IMPACT_POLICIES:
+        raise UnknownOptionError(f"unknown impacts policy {impacts!r}; choose 'simultaneous' "
+                                 "or 'sequential'")
     if painleve not in PAINLEVE_POLICIES:
         raise UnknownOptionError(f"unknown painleve policy {painleve!r}; choose 'stop' or "
                                  "'raise'")
@@ -231,7 +246,7 @@ def simulate(
         projection_tol=projection_tol, in_place=in_place,
         drift_threshold=projection_tol if in_place else max(projection_tol, 1e3 * atol),
         zeno=zeno, zeno_time_tol=zeno_tol, rest_velocity=rest_velocity, max_impacts=max_impacts,
-        painleve=painleve)
+        painleve=painleve, impacts=impacts)
 
     # ---- initial state ---------------------------------------------------------------------
     if y0 is None:
