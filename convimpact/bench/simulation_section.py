@@ -124,7 +124,7 @@ def errors_against(res, ref) -> dict[str, float]:
 REPEAT_BELOW = 0.5
 
 
-def _best_of(fn: Callable[[], Any], n: int):
+def best_of(fn: Callable[[], Any], n: int):
     """The fastest of up to n runs (runs slower than REPEAT_BELOW are not repeated)."""
     best = None
     for _ in range(max(1, n)):
@@ -226,7 +226,7 @@ def simulation_section(config: BenchConfig, progress: Progress) -> SectionResult
             rec: dict[str, Any] = {"scene": sc["label"], "scheme": scheme, "setting": label,
                                    "options": dict(opts), "span": list(span)}
             try:
-                res = _best_of(lambda: _run(scheme, scene, span, opts), n_rep)
+                res = best_of(lambda: _run(scheme, scene, span, opts), n_rep)
             except ConvImpactError as exc:
                 rec.update(wall_time=None, error=f"{type(exc).__name__}: {exc}"[:300])
                 records.append(rec)
