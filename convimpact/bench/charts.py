@@ -46,6 +46,7 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
             continue
         fig, axes = plt.subplots(2, 4, figsize=(17, 8.2), sharex=True, sharey=True)
         handles: dict[str, Any] = {}
+        notes: dict[Any, list[dict[str, Any]]] = {}
         for ax, cls in zip(axes.ravel(), classes):
             sub = [a for a in rows if a["class"] == cls]
             ax.set_title(cls, fontsize=10)
@@ -76,15 +77,11 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
                     ax.plot(a["time_kernel_median"], y, **{**style, "mfc": "none"}, alpha=0.9)
                     ax.plot([a["time_kernel_median"], a["time_full_median"]], [y, y],
                             color=style["color"], lw=0.6, alpha=0.5)
-                note = _short_setting(a["setting"])
-                if a["is_reference"]:
-                    note = (note + " ref").strip()
-                if a["n_failed"]:
-                    note += f" ({a['n_failed']}/{a['n_problems']} failed)"
-                if note:
-                    ax.annotate(note, (a["time_full_median"], y), fontsize=6,
-                                color=style["color"], xytext=(4, 3),
-                                textcoords="offset points")
+                notes.setdefault(ax, []).append(
+                    {"x": a["time_full_median"], "y": y, "color": style["color"],
+                     "setting": _short_setting(a["setting"]), "ref": a["is_reference"],
+                     "failed": (f"{a['n_failed']}/{a['n_problems']} failed"
+                                if a["n_failed"] else "")})
         for ax in axes[-1]:
             ax.set_xlabel("median wall time per solve [s]")
         for ax in axes[:, 0]:
@@ -100,11 +97,111 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
         fig.suptitle(f"law '{law}': median impulse error against median wall time per solve "
                      "(labels: tolerance setting; 'ref': the reference path)", fontsize=12)
         fig.tight_layout(rect=(0, 0.06, 1, 0.96))
+        for ax, items in notes.items():
+            _place_labels(fig, ax, _merge_notes(items))
         name = f"per_impact_{law}.png"
         fig.savefig(Path(out) / name, dpi=90)
         plt.close(fig)
         figures.append(name)
     return figures
+
+
+def _merge_notes(items: list[dict[str, Any]], dx: float = 0.3,
+                 dy: float = 0.8) -> list[dict[str, Any]]:
+    """One label per cluster of points of one colour (within ``dx``, ``dy`` decades).
+
+    Several tolerance settings often land on the same time and error; their labels would be
+    drawn on top of each other. A cluster is labelled once, its tolerances as a range
+    (``1e-06..1e-12``), "ref" and failure counts once each.
+    """
+    out: list[dict[str, Any]] = []
+    for it in sorted(items, key=lambda i: (i["color"], i["y"], i["x"])):
+        lx, ly = np.log10(it["x"]), np.log10(it["y"])
+        for c in out:
+            if (c["color"] == it["color"] and abs(np.log10(c["x"]) - lx) < dx
+                    and abs(np.log10(c["y"]) - ly) < dy):
+                c["members"].append(it)
+                break
+        else:
+            out.append({"x": it["x"], "y": it["y"], "color": it["color"], "members": [it]})
+    for c in out:
+        ms = c["members"]
+        tols = [m["setting"] for m in ms if m["setting"]]
+        text = ""
+        if tols:
+            uniq = sorted(set(tols), key=lambda t: (_tol_value(t), t))
+            text = uniq[0] if len(uniq) == 1 else (
+                f"{uniq[-1]}..{uniq[0]}" if all(_tol_value(t) < np.inf for t in uniq)
+                else ", ".join(uniq))
+        if any(m["ref"] for m in ms):
+            text = (text + " ref").strip()
+        failed = sorted({m["failed"] for m in ms if m["failed"]})
+        if failed:
+            text += f" ({', '.join(failed)})"
+        c["text"] = text
+        # anchor at the cluster's upper-right point
+        top = max(ms, key=lambda m: (m["y"], m["x"]))
+        c["x"], c["y"] = top["x"], top["y"]
+    return [c for c in out if c["text"]]
+
+
+def _tol_value(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return np.inf
+
+
+#: label offsets tried in turn (points; horizontal alignment)
+_OFFSETS = ((4, 3, "left"), (4, -9, "left"), (-4, 3, "right"), (-4, -9, "right"),
+            (4, 11, "left"), (4, -17, "left"), (-4, 11, "right"), (-4, -17, "right"),
+            (0, 19, "center"), (0, -25, "center"), (14, 3, "left"), (-14, 3, "right"))
+
+
+def _place_labels(fig, ax, clusters: list[dict[str, Any]]) -> None:
+    """Annotate each cluster where its label overlaps no other label, nor leaves the axes.
+
+    Offsets are tried in the order of ``_OFFSETS``; when none is free, the least overlapping
+    one is kept.
+    """
+    from matplotlib.transforms import Bbox
+
+    renderer = fig.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    placed = []
+    markers = []  # the plotted points, which a label should not cover either
+    for line in ax.lines:
+        if line.get_marker() in (None, "None", "", " "):
+            continue
+        r = 0.5 * line.get_markersize() * fig.dpi / 72.0
+        for px, py in ax.transData.transform(np.column_stack(line.get_data())):
+            if np.isfinite(px) and np.isfinite(py):
+                markers.append(Bbox([[px - r, py - r], [px + r, py + r]]))
+    for c in sorted(clusters, key=lambda c: (-c["y"], c["x"])):
+        best = None
+        for ox, oy, ha in _OFFSETS:
+            t = ax.annotate(c["text"], (c["x"], c["y"]), fontsize=6, color=c["color"],
+                            xytext=(ox, oy), textcoords="offset points", ha=ha)
+            bb = t.get_window_extent(renderer).expanded(1.04, 1.1)
+            overlap = (sum(_overlap(bb, o) for o in placed)
+                       + 0.5 * sum(_overlap(bb, o) for o in markers))
+            outside = bb.width * bb.height - _overlap(bb, frame)
+            cost = overlap + 2.0 * outside
+            if best is None or cost < best[0]:
+                if best is not None:
+                    best[1].remove()
+                best = (cost, t, bb)
+            else:
+                t.remove()
+            if cost == 0.0:
+                break
+        placed.append(best[2])
+
+
+def _overlap(a, b) -> float:
+    w = min(a.x1, b.x1) - max(a.x0, b.x0)
+    h = min(a.y1, b.y1) - max(a.y0, b.y0)
+    return max(w, 0.0) * max(h, 0.0)
 
 
 def _short_setting(setting: str) -> str:
@@ -140,7 +237,10 @@ def throughput_chart(rows: list[dict[str, Any]], out: Path, title: str) -> str:
     ax.set_xscale("log")
     ax.set_xlabel("landscape points per second")
     for i, v in enumerate(vals):
-        ax.text(v, i, f" {v:.3g}", va="center", fontsize=7)
+        ax.text(v, i, " " + f"{v:.3g}".replace("e+0", "e").replace("e+", "e"), va="center",
+                fontsize=7)
+    if vals:  # room for the value labels right of the longest bar (log scale)
+        ax.set_xlim(right=max(vals) * 10.0)
     ax.set_title(title, fontsize=10)
     ax.grid(True, axis="x", alpha=0.3)
     fig.tight_layout()

@@ -19,6 +19,11 @@ hundred times faster than :func:`law_landscape`, identical flags).
 :func:`angle_landscape` evaluates the spatial sliding rule of Section 9.3 over e x mu x alpha
 (the angle of the tangential impulse, Fig. 9), vectorized, with the exact angle of maximal
 dissipation alpha_m per (e, mu).
+
+:func:`stick_boundary` (and :func:`landscape_stick_boundary` for a planar landscape, whose
+``meta`` keeps the sticking impulse) gives the exact boundary of the stick region over (mu, e)
+as a :class:`StickBoundary`: |mu| = |pi_t(e)| / pi_n(e) with the sticking impulse of eq. (42),
+affine in e -- a curve in closed form, not the grid's cells.
 """
 
 from __future__ import annotations
@@ -191,8 +196,132 @@ def closed_form_landscape(M, Jc, dq, e, mu, C=None) -> Landscape:
         failed=np.zeros(shape, bool), stick_possible=stick & ~frictionless,
         law="pereira-nikravesh", method="closed-form",
         meta=MappingProxyType({"v_minus": v.tolist(), "energy_before": T_minus,
-                               "t_sign": "mu > 0: friction along -v_t-/|v_t-| (eq. 55)"}),
+                               "t_sign": "mu > 0: friction along -v_t-/|v_t-| (eq. 55)",
+                               **_sticking_meta(W, v)}),
     )
+
+
+def _sticking_meta(W: np.ndarray, v: np.ndarray) -> dict[str, Any]:
+    """``meta`` entries of a planar landscape: the sticking impulse of eq. (42)/(52) at e = 0
+    and its derivative in e (see :class:`StickBoundary`); none where W is singular."""
+    lam = np.linalg.eigvalsh(W)
+    if not lam[0] > 1e-12 * lam[-1]:
+        return {}
+    Winv = np.linalg.inv(W)
+    return {"sticking_impulse_e0": (-Winv @ v).tolist(),
+            "sticking_impulse_de": (-Winv[:, 0] * v[0]).tolist()}
+
+
+#: laws whose single-contact stick test is the sticking impulse of eq. (42)/(52) in the cone
+_STICK_AT_E = ("pereira-nikravesh", "coulomb", "ccp")
+
+
+@dataclass(frozen=True, eq=False)
+class StickBoundary:
+    """The exact boundary of the stick region of one planar impact over (mu, e).
+
+    The sticking impulse of eq. (42)/(52), pi(e) = -W^-1 ((1 + e) v_n-, v_t-), is affine in e:
+    pi(e) = ``pi0`` + e ``pi1`` (Cramer's rule gives pi_n = D_1/D, pi_t = D_2/D, the
+    determinants of eq. 62). The law sticks where it lies in the cone, |pi_t(e)| <= |mu| pi_n(e),
+    that is where |mu| >= ``mu_star(e)`` = |pi_t(e)| / pi_n(e) (``inf`` where pi_n(e) <= 0: no
+    friction sticks). The boundary is the curve |mu| = mu_star(e): a V through mu = 0 at the
+    e where pi_t(e) = 0, not a staircase of grid cells.
+
+    This holds for the ``pereira-nikravesh``, ``coulomb`` and ``ccp`` laws (each sticks exactly
+    when the sticking impulse is admissible). The ``dissipative`` law's plastic phase sticks
+    when pi(0) is admissible whatever e: its boundary is the vertical line mu = mu_star(0).
+    """
+
+    pi0: np.ndarray
+    pi1: np.ndarray
+    law: str = "pereira-nikravesh"
+
+    def sticking_impulse(self, e) -> np.ndarray:
+        """(pi_n, pi_t) of eq. (42)/(52) at e, shape (..., 2); at e = 0 for ``dissipative``."""
+        e = np.asarray(e, float)
+        if self.law == "dissipative":
+            e = np.zeros_like(e)
+        return self.pi0 + e[..., None] * self.pi1
+
+    def mu_star(self, e) -> np.ndarray:
+        """The least |mu| at which the law sticks at e (``inf`` where it never sticks)."""
+        p = self.sticking_impulse(e)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(p[..., 0] > 0.0, np.abs(p[..., 1]) / p[..., 0], np.inf)
+
+    def e_at(self, mu: float) -> np.ndarray:
+        """The e in [0, 1] where the boundary crosses the column ``mu`` (closed form, sorted).
+
+        Solves |pi_t0 + e pi_t1| = |mu| (pi_n0 + e pi_n1) with pi_n > 0: two linear equations.
+        """
+        c = abs(float(mu))
+        if self.law == "dissipative":
+            return np.array([])  # a vertical line: no crossing of a column unless on it
+        (an, at), (bn, bt) = self.pi0, self.pi1
+        roots = []
+        for sign in (1.0, -1.0):
+            den = bt - sign * c * bn
+            if den != 0.0:
+                e = (sign * c * an - at) / den
+                if 0.0 <= e <= 1.0 and an + bn * e > 0.0:
+                    roots.append(e)
+        return np.unique(np.array(roots, float))
+
+    def curve(self, mu_max: float, n: int = 801) -> tuple[np.ndarray, np.ndarray]:
+        """Points (e, mu_star(e)) of the boundary with 0 <= mu_star <= ``mu_max``, e in [0, 1].
+
+        The set {e : mu_star(e) <= mu_max} is one interval (a second-order-cone condition in
+        e); it is sampled at ``n`` values of e and at the crossings of ``n`` columns of mu
+        (:meth:`e_at`), its exact ends and the kink pi_t(e) = 0 included.
+        Returns empty arrays when the law does not stick for |mu| <= mu_max.
+        """
+        mu_max = abs(float(mu_max))
+        if self.law == "dissipative":
+            m = float(self.mu_star(0.0))
+            if m <= mu_max:
+                return np.array([0.0, 1.0]), np.array([m, m])
+            return np.array([]), np.array([])
+        ends = self.e_at(mu_max)
+        grid = np.linspace(0.0, 1.0, n)
+        at, bt = float(self.pi0[1]), float(self.pi1[1])
+        extra = [-at / bt] if bt != 0.0 and 0.0 <= -at / bt <= 1.0 else []  # the kink
+        # and the crossings of n columns: dense where the curve runs flat in e
+        cols = [self.e_at(m) for m in np.linspace(0.0, mu_max, n)[1:]]
+        e = np.unique(np.concatenate([grid, ends, extra, *cols]))
+        m = self.mu_star(e)
+        keep = m <= mu_max * (1.0 + 1e-12)
+        keep |= np.isin(e, ends)
+        return e[keep], np.minimum(m[keep], mu_max)
+
+
+def stick_boundary(M, Jc, dq, C=None, law: str = "pereira-nikravesh") -> StickBoundary:
+    """The exact stick boundary of one planar contact (see :class:`StickBoundary`).
+
+    Raises :class:`~convimpact.impact.errors.SingularSystemError` where W is singular (the
+    sticking impulse is not unique) and ``UnknownOptionError`` for an unknown law.
+    """
+    from ..impact.errors import SingularSystemError, UnknownOptionError
+
+    if law not in _STICK_AT_E + ("dissipative",):
+        raise UnknownOptionError(f"unknown law {law!r}; choose one of "
+                                 f"{', '.join(_STICK_AT_E + ('dissipative',))}")
+    P = _planar_problem(M, Jc, dq, C)
+    W, v = P.contact_block(0)
+    if not _sticking_meta(W, v):
+        raise SingularSystemError("the Delassus matrix W is singular: the sticking impulse of "
+                                  "eq. (42)/(52) is not unique, so there is no stick boundary")
+    m = _sticking_meta(W, v)
+    return StickBoundary(pi0=np.array(m["sticking_impulse_e0"]),
+                         pi1=np.array(m["sticking_impulse_de"]), law=law)
+
+
+def landscape_stick_boundary(L: "Landscape") -> StickBoundary | None:
+    """The exact :class:`StickBoundary` of a planar landscape (None if it has none: a spatial
+    contact, a singular W, or a law other than the four)."""
+    if "sticking_impulse_e0" not in L.meta or L.law not in _STICK_AT_E + ("dissipative",):
+        return None
+    return StickBoundary(pi0=np.asarray(L.meta["sticking_impulse_e0"], float),
+                         pi1=np.asarray(L.meta["sticking_impulse_de"], float), law=L.law)
 
 
 class _Progress:
@@ -385,7 +514,8 @@ def _landscape_from_impulses(P: ImpactProblem, e, mu, pi, regime, jam, failed, l
         v_plus=v_plus, tangential_velocity=tangential_velocity, regime=regime,
         energy_gained=gained, friction_pushes_slip=pushes, slip_reversal=reversal, jammed=jam,
         failed=failed, stick_possible=regime == REGIMES.index("stick"), law=law, method=method,
-        meta=MappingProxyType({"v_minus": v.tolist(), "energy_before": T_minus}),
+        meta=MappingProxyType({"v_minus": v.tolist(), "energy_before": T_minus,
+                               **(_sticking_meta(W, v) if P.planar else {})}),
     )
 
 

@@ -67,6 +67,30 @@ ASSUMPTIONS = (
 )
 
 
+_UNDEFINED = ("undefined: the sliding denominator of eq. (38) is <= 0 there -- a Painleve-like "
+              "jam in Figs. 5-7 (only at mu < 0, friction along the slip; `jammed` is true at "
+              "exactly these points), an excluded direction in Fig. 9")
+
+#: where ``paper.json`` holds null, and what it means there. Keys are patterns over dotted
+#: paths (``*`` any key; list positions omitted). Values that do not apply (the effective mass
+#: of a law that did not slide, the loop condition number of an open loop) are omitted instead.
+NULL_VALUES = {
+    "fig*.energy_loss": _UNDEFINED,
+    "fig*.energy_loss_fraction": _UNDEFINED,
+    "fig*.normal_impulse": _UNDEFINED,
+    "fig*.tangential_velocity": _UNDEFINED,
+    "fig*.eq62_stiction_interval": "empty: no e in [0, 1] satisfies eq. (62)",
+    "law_landscapes.*.*.energy_loss_fraction": "the law raised at that grid point "
+                                               "(counted in `counts.failed`)",
+    "*.laws.*.diagnostics.delassus_condition": "infinite: W = Jc M^-1 Jc^T is singular (the "
+                                               "slider-crank's contact tangent moves no mass: "
+                                               "its impact is frictionless whatever mu)",
+}
+
+#: diagnostics that are None where they do not apply; omitted from the JSON then
+_NOT_APPLICABLE = ("effective_mass", "loop_condition")
+
+
 @dataclass(frozen=True, eq=False)
 class PaperExample:
     """One impact of Section 9 ready for :func:`convimpact.resolve_impact`.
@@ -234,6 +258,8 @@ def fig3_data(examples: Mapping[str, PaperExample], e: np.ndarray) -> dict[str, 
 
 
 def _landscape_json(L, stiction) -> dict[str, Any]:
+    from .landscape import landscape_stick_boundary
+
     keep = ("e", "mu", "tangential_velocity", "energy_loss", "energy_loss_fraction",
             "normal_impulse", "regime", "stick_possible", "energy_gained", "slip_reversal",
             "friction_pushes_slip", "jammed", "failed")
@@ -242,6 +268,16 @@ def _landscape_json(L, stiction) -> dict[str, Any]:
     out.update(law=L.law, method=L.method, counts=d["counts"], regime_names=d["regime_names"],
                v_minus=list(L.meta["v_minus"]), energy_before=L.meta["energy_before"],
                eq62_stiction_interval=[stiction.lower, stiction.upper])
+    sb = landscape_stick_boundary(L)
+    if sb is not None:
+        m = sb.mu_star(L.e)
+        ok = np.isfinite(m)
+        out["stick_boundary"] = {
+            "definition": "the law sticks where |mu| >= mu_star(e) = |pi_t(e)| / pi_n(e), "
+                          "pi(e) = sticking_impulse_e0 + e sticking_impulse_de (eq. 42); "
+                          "listed at the grid's e where pi_n(e) > 0 (elsewhere it never sticks)",
+            "sticking_impulse_e0": sb.pi0.tolist(), "sticking_impulse_de": sb.pi1.tolist(),
+            "e": L.e[ok].tolist(), "mu_star": m[ok].tolist()}
     return out
 
 
@@ -306,7 +342,8 @@ def fig9_data(example: PaperExample, n_alpha: int) -> dict[str, Any]:
         "energy_gain_sectors": [list(s) for s in sw.energy_gain_sectors],
         "energy_gain_sectors_deg": [[math.degrees(a) for a in s]
                                     for s in sw.energy_gain_sectors],
-        "excluded_sector": None if sw.excluded_sector is None else list(sw.excluded_sector),
+        # [alpha_0, alpha_1] of the directions where eq. (38)'s denominator is <= 0; [] if none
+        "excluded_sector": [] if sw.excluded_sector is None else list(sw.excluded_sector),
         "paper": PAPER["pendulum_3d"],
     }
 
@@ -314,8 +351,10 @@ def fig9_data(example: PaperExample, n_alpha: int) -> dict[str, Any]:
 def fig10_data(result) -> dict[str, Any]:
     """Tangent-plane vectors of the maximal-dissipation answer (Fig. 10).
 
-    ``t_average`` is the tangent of the averaging rule the paper compares with (its ref. [17]):
-    opposite to the mean of the approach and separation slips, as a unit vector.
+    ``t_average`` is the tangent of the averaging rule the paper compares with (its ref. [17],
+    "an averaging process of the tangential components of the approach and separation
+    velocities"; the reference list is not in our copy of the paper): opposite to the mean of
+    v_t- and v_t+, as a unit vector (dimensionless).
     """
     vtm = np.asarray(result.v_minus[1:], float)
     vtp = np.asarray(result.v_plus[1:], float)
@@ -344,7 +383,14 @@ def _example_json(ex: PaperExample, results: Mapping[str, Any]) -> dict[str, Any
         out["paper_v_minus"] = paper_v
     laws = {}
     for law, r in results.items():
-        laws[law] = {"error": r} if isinstance(r, str) else r.as_dict()
+        if isinstance(r, str):
+            laws[law] = {"error": r}
+            continue
+        laws[law] = r.as_dict()
+        diag = laws[law]["diagnostics"]
+        for k in _NOT_APPLICABLE:
+            if diag.get(k) is None:
+                diag.pop(k, None)
     out["laws"] = laws
     return out
 
@@ -366,7 +412,8 @@ class PaperReport:
 
     Attributes
     ----------
-    data : the JSON document (strict JSON: NaN and infinities are None).
+    data : the JSON document (strict JSON: a null is an undefined or infinite value, where
+        :data:`NULL_VALUES` says; values that do not apply are omitted).
     examples : the :class:`PaperExample` of each key.
     results : law -> ImpactResult (or error message) per example.
     landscapes : (Landscape, StictionInterval) of pendulums a and b (Figs. 5-7).
@@ -384,6 +431,8 @@ def build_report(quick: bool = False) -> PaperReport:
     """Compute every number of the reproduction (``quick``: coarser grids)."""
     t0 = time.perf_counter()
     n_land, n_law, n_e, n_alpha = (41, 21, 21, 361) if quick else (101, 51, 101, 1441)
+    # the figures of Figs. 5-7 and of the law landscapes are drawn on finer grids
+    n_fig, n_fig_law = (121, 41) if quick else (301, 101)
     examples = paper_examples()
     results = {k: resolve_under_laws(ex) for k, ex in examples.items()}
     data: dict[str, Any] = {k: _example_json(ex, results[k]) for k, ex in examples.items()}
@@ -412,11 +461,14 @@ def build_report(quick: bool = False) -> PaperReport:
     data["assumptions"] = list(ASSUMPTIONS)
     data["paper"] = PAPER
     data["settings"] = {"quick": quick, "landscape_grid": n_land, "law_landscape_grid": n_law,
-                        "fig3_points": n_e, "fig9_angles": n_alpha}
+                        "fig3_points": n_e, "fig9_angles": n_alpha,
+                        "figure_landscape_grid": n_fig, "figure_law_landscape_grid": n_fig_law}
+    data["null_values"] = dict(NULL_VALUES)
     data["elapsed_compute_s"] = time.perf_counter() - t0
     return PaperReport(_finite_json(_jsonable(data)), examples, results,
                        {k: v for k, v in lands.items()}, law_lands)
 
 
 __all__ = ["PaperExample", "PaperReport", "paper_examples", "resolve_under_laws", "table1",
-           "fig3_data", "fig9_data", "fig10_data", "build_report", "ASSUMPTIONS", "PAPER"]
+           "fig3_data", "fig9_data", "fig10_data", "build_report", "ASSUMPTIONS", "PAPER",
+           "NULL_VALUES"]
