@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -124,12 +125,15 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     else:
         tt, th, dth = res.t, res.theta, res.dtheta
     fig, axes = plt.subplots(k, 2, sharex=True, figsize=(10, 1.9 * k + 1.0), squeeze=False)
-    for j in range(k):
-        axes[j, 0].plot(tt, th[:, j], color=f"C{j}")
-        axes[j, 0].set_ylabel(f"{names[j]} [{units[j]}]")
-        axes[j, 1].plot(tt, dth[:, j], color=f"C{j}", lw=1.0)
-        axes[j, 1].set_ylabel(f"d{names[j]}/dt [{units[j]}/s]")
-        for ax in axes[j]:
+    # panels in natural order of the coordinate names (theta1, theta2, ... theta10)
+    order = sorted(range(k), key=lambda j: [int(p) if p.isdigit() else p
+                                            for p in re.split(r"(\d+)", names[j])])
+    for row, j in enumerate(order):
+        axes[row, 0].plot(tt, th[:, j], color=f"C{j}")
+        axes[row, 0].set_ylabel(f"{names[j]} [{units[j]}]")
+        axes[row, 1].plot(tt, dth[:, j], color=f"C{j}", lw=1.0)
+        axes[row, 1].set_ylabel(f"d{names[j]}/dt [{units[j]}/s]")
+        for ax in axes[row]:
             for ti in t_imp:
                 ax.axvline(ti, color="0.8", lw=0.5, zorder=0)
     axes[-1, 0].set_xlabel("t [s]")
