@@ -292,30 +292,31 @@ def test_pn_several_contacts_hand_cases():
             assert np.allclose(r.impulse[:, 0], [1.6, 1.6], atol=1e-9), (law, method)
 
 
-def test_pn_infeasible_and_penetrating_contacts_raise():
+def test_pn_complementarity_where_equalities_were_infeasible_or_penetrating():
     """Two frictionless normals of a unit particle at 25.8 degrees (n1 . n2 = 0.9) with
-    v_n = (-1, -0.1), e = 0: Newton at both needs W_nn pi = (1, 0.1), W_nn = [[1, .9], [.9, 1]],
-    so pi_2 = (0.1 - 0.9) / 0.19 < 0: P_N is infeasible. Coulomb lets contact 2 separate:
-    pi = (1, 0), v_n2+ = -0.1 + 0.9 = 0.8 > 0."""
+    v_n = (-1, -0.1), e = 0: Newton as equalities at both would need W_nn pi = (1, 0.1),
+    W_nn = [[1, .9], [.9, 1]], so pi_2 = (0.1 - 0.9) / 0.19 < 0 (infeasible). In
+    complementarity form (v_n+ + e min(v_n-, 0) >= 0 _|_ pi_n >= 0) contact 2 separates:
+    pi = (1, 0), v_n2+ = -0.1 + 0.9 = 0.8 > 0 -- the same as Coulomb's law."""
     n1 = np.array([1.0, 0.0])
     n2 = np.array([0.9, math.sqrt(0.19)])
     Jc = [np.array([n1, [0.0, 1.0]]), np.array([n2, [-n2[1], n2[0]]])]
     dq = np.linalg.solve(np.array([n1, n2]), [-1.0, -0.1])
     for method in ("clarabel", "cvxpy"):
-        with pytest.raises(ci.SolverError, match="coulomb"):
-            ci.resolve_impact(np.eye(2), Jc, dq, e=0.0, mu=0.0, law="pereira-nikravesh",
-                              method=method)
-        r = ci.resolve_impact(np.eye(2), Jc, dq, e=0.0, mu=0.0, law="coulomb", method=method)
-        assert np.allclose(r.impulse[:, 0], [1.0, 0.0], atol=1e-10)
-        assert r.v_plus[1, 0] == pytest.approx(0.8, abs=1e-10)
-    # second contact separating before impact (v_n2 = +0.1), pushed into penetration by the
-    # first contact's impulse under P_N's rule (no impulse at non-approaching contacts):
+        for law in ("pereira-nikravesh", "coulomb"):
+            r = ci.resolve_impact(np.eye(2), Jc, dq, e=0.0, mu=0.0, law=law, method=method)
+            assert np.allclose(r.impulse[:, 0], [1.0, 0.0], atol=1e-10)
+            assert r.v_plus[1, 0] == pytest.approx(0.8, abs=1e-10)
+    # second contact separating before impact (v_n2 = +0.1), e = 1: with no impulse it would be
+    # pushed into penetration (v_n2+ = 0.1 - 0.9 * 2 < 0), so it is pressed and leaves at
+    # v_n2+ = 0: [[1, -.9], [-.9, 1]] pi = (2, -0.1) gives pi = (1.91, 1.7) / 0.19
     n2 = np.array([-0.9, math.sqrt(0.19)])
     Jc = [np.array([n1, [0.0, 1.0]]), np.array([n2, [-n2[1], n2[0]]])]
     dq = np.linalg.solve(np.array([n1, n2]), [-1.0, 0.1])
-    with pytest.raises(ci.NotSupportedError, match="penetrate"):
-        ci.resolve_impact(np.eye(2), Jc, dq, e=1.0, mu=0.0, law="pereira-nikravesh",
+    r = ci.resolve_impact(np.eye(2), Jc, dq, e=1.0, mu=0.0, law="pereira-nikravesh",
                           method="clarabel")
+    np.testing.assert_allclose(r.impulse[:, 0], np.array([1.91, 1.7]) / 0.19, rtol=1e-9)
+    np.testing.assert_allclose(r.v_plus[:, 0], [1.0, 0.0], atol=1e-9)
 
 
 def test_bad_input_through_the_conic_paths():

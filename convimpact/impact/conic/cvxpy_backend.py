@@ -81,8 +81,15 @@ class CvxpyBackend:
                 # "may be inaccurate": such answers are used only when the KKT polish of
                 # solve_cone_qp certifies them, otherwise SolverError reports the status
                 warnings.simplefilter("ignore", UserWarning)
-                problem.solve(solver=cp.CLARABEL, tol_gap_abs=tol, tol_gap_rel=tol, tol_feas=tol,
-                              tol_ktratio=1e-3 * tol ** 0.5, max_iter=max_iter)
+                # warm_start=False: cvxpy would otherwise hand the previous call's Clarabel
+                # solver the new data by update(), which assumes the same sparsity pattern;
+                # cvxpy drops the data's exact zeros (a decoupled W, a zero of E), so the
+                # pattern changes between calls and the solver ran on mixed-up data
+                # (measured: 'user_limit' after 200 iterations on a program that fresh
+                # solves in 8)
+                problem.solve(solver=cp.CLARABEL, warm_start=False, tol_gap_abs=tol,
+                              tol_gap_rel=tol, tol_feas=tol, tol_ktratio=1e-3 * tol ** 0.5,
+                              max_iter=max_iter)
         except cp.error.SolverError as exc:
             raise SolverError(f"cvxpy/Clarabel failed on the impact program: {exc}") from exc
         status = str(problem.status)

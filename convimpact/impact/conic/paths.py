@@ -121,6 +121,23 @@ def normal_mask(n: int, d: int) -> np.ndarray:
     return m
 
 
+#: an approach speed below this fraction of max |v-| is round-off (see approaching)
+APPROACH_RTOL = 1e-9
+
+
+def approaching(P: ImpactProblem) -> np.ndarray:
+    """Per contact: approaching by more than round-off, ``v_n- < -APPROACH_RTOL max |v-|``.
+
+    Where a law treats approaching and touching contacts differently (the maximal-dissipation
+    programs give a contact that does not approach no friction of its own; P-N's active sets
+    need an approaching contact), a contact approaching at round-off -- -1e-16 from cos/sin,
+    -1e-12 as an integrator leaves it -- must count as touching, or the answer would jump with
+    the sign of the round-off (a sliding pivot would be kicked at -1e-12 and not at +1e-12).
+    """
+    vscale = float(np.max(np.abs(P.v_minus)))
+    return P.v_minus[:, 0] < -APPROACH_RTOL * vscale
+
+
 def newton_shift(P: ImpactProblem, restitution: np.ndarray | None = None) -> np.ndarray:
     """``b - v- = e min(v_n-, 0) n`` per contact, flattened (e: the problem's, or
     ``restitution``)."""

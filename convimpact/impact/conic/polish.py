@@ -3,11 +3,28 @@
 An interior-point answer on the cone boundary is accurate to about sqrt(tol) only; the polish
 classifies each contact (zero, interior, on the boundary, frictionless-active) and solves the
 KKT equations of that active set by Newton's method, keeping the answer only when the active
-set is consistent. :func:`kkt_residual` measures how far an answer is from optimal.
+set is consistent (then it is an exact KKT point: the optimum of the convex program).
+
+* A contact close to a classification threshold (an impulse barely inside the cone at the
+  stick threshold mu ~ mu*, or barely nonzero) is ambiguous: its kinds across the threshold
+  are tried too, nearest classification first, so the polish is exact on both sides of it.
+* With an ill-conditioned Delassus matrix (a light hub on long spokes: cond(W) up to 1e10
+  and more) the program's objective, the kinetic energy, hardly sees the light directions,
+  and the interior-point method may stop far from the answer (``AlmostSolved``, or
+  penetrating velocities). When no classification near its answer is consistent, every
+  active set of up to :data:`POLISH_EXHAUSTIVE_MAX` combinations is tried (zero, interior,
+  boundary with the tangent of the answer or opposite the slip): the velocities of a
+  consistent active set are exact whatever the interior-point method reached.
+
+Every threshold is relative: impulses to ``X = max |x|``, velocities (``W x + q``) to
+``V = max(|q|, |W x|)``, and the Newton residual to the round-off of forming ``W x + q``
+(``|W| X``; with an ill-conditioned W the impulse is ``|q| / lambda_min(W)`` and cond(W) eps
+is the accuracy any contact-space method reaches, :func:`roundoff_floor`).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import TYPE_CHECKING
 
@@ -17,30 +34,115 @@ if TYPE_CHECKING:  # ConeQP is only annotated here (qp imports this module)
     from .qp import ConeQP
 
 TINY = 1e-300
+EPS = float(np.finfo(float).eps)
 #: relative thresholds that classify a conic solution's contacts for the polish
 POLISH_ZERO_RTOL = 1e-4
 POLISH_BOUNDARY_RTOL = 1e-4
+#: a classification within this factor of its threshold is ambiguous: the other kind is tried
+POLISH_AMBIGUITY = 1e2
 POLISH_MAX_NEWTON = 12
+#: at most this many active sets are tried near the interior-point answer
+POLISH_MAX_TRIES = 16
+#: at most this many active sets are tried when none near the answer is consistent
+POLISH_EXHAUSTIVE_MAX = 256
+#: accepted Newton residual, relative to the round-off scale of W x + q and E x - f
+POLISH_ACCEPT = 1e-11
+#: largest residual of the velocities W x + q, relative to V = max(|q|, |W x|), accepted
+#: whatever the conditioning: round-off leaves cond(W) eps (1e-6 at cond 1e10); a larger one
+#: means no solution (an unbounded program's huge iterate, where the round-off scale |W| X
+#: would excuse anything)
+VELOCITY_RESIDUAL_MAX = 1e-4
+
+#: one contact's kind in an active set: ("zero" | "act" | "int", None) or ("bnd", tangent)
+Kind = tuple
+
+
+def _unit(t: np.ndarray) -> tuple | None:
+    n = float(np.linalg.norm(t))
+    return tuple(float(c) / n for c in t) if n > 0.0 and math.isfinite(n) else None
+
+
+def _contact_kinds(qp: ConeQP, x: np.ndarray) -> list[list[Kind]]:
+    """Per contact, the kinds to try near ``x``: the primary classification first.
+
+    ``zero``: ``|x_i| <= 1e-4 X`` or ``x_n <= 0``; ``act``: a frictionless contact's normal
+    pressing; ``bnd``: ``mu x_n - |x_t| <= 1e-4 |x_i|``; ``int``: strictly inside. A value
+    within a factor :data:`POLISH_AMBIGUITY` of a threshold adds the kind across it.
+    """
+    d = qp.dim
+    X = max(float(np.max(np.abs(x))), TINY)
+    out = []
+    for i, mu in enumerate(qp.mu):
+        xi = x[i * d:(i + 1) * d]
+        nx = float(np.linalg.norm(xi))
+        if mu == 0.0:
+            lives = [("act", None)]
+        else:
+            bnd = ("bnd", _unit(xi[1:]) or (1.0,) + (0.0,) * (d - 2))
+            gap = (mu * xi[0] - np.linalg.norm(xi[1:])) / max(nx, TINY)
+            if gap <= POLISH_BOUNDARY_RTOL:
+                lives = [bnd, ("int", None)]
+            elif gap <= POLISH_BOUNDARY_RTOL * POLISH_AMBIGUITY:
+                lives = [("int", None), bnd]
+            else:
+                lives = [("int", None)]
+        if nx <= POLISH_ZERO_RTOL * X or xi[0] <= 0.0:
+            kinds = [("zero", None)] + (lives if nx > 0.0 else [])
+        else:
+            kinds = list(lives)
+            if nx <= POLISH_ZERO_RTOL * POLISH_AMBIGUITY * X:
+                kinds.append(("zero", None))
+        out.append(kinds)
+    return out
+
+
+def _all_kinds(qp: ConeQP, x: np.ndarray, near: list[list[Kind]]) -> list[list[Kind]]:
+    """Per contact, every kind (primary first): zero, interior, and the boundary with the
+    tangent of ``x`` or opposite the slip of ``W x + q`` (both signs in the plane)."""
+    d = qp.dim
+    u = qp.W @ x + qp.q
+    out = []
+    for i, mu in enumerate(qp.mu):
+        if mu == 0.0:
+            kinds = [("zero", None), ("act", None)]
+        else:
+            kinds = [("zero", None), ("int", None)]
+            for t in (_unit(x[i * d + 1:(i + 1) * d]), _unit(-u[i * d + 1:(i + 1) * d])):
+                if t is not None and ("bnd", t) not in kinds:
+                    kinds.append(("bnd", t))
+            if d == 2:
+                kinds += [k for k in (("bnd", (1.0,)), ("bnd", (-1.0,))) if k not in kinds]
+        first = near[i][0]
+        if first[0] == "bnd":  # the primary boundary kind replaces the one with its tangent
+            kinds = [k for k in kinds if k[0] != "bnd" or k[1] != first[1]]
+        out.append([first] + [k for k in kinds if k != first])
+    return out
 
 
 def classify_contacts(qp: ConeQP, x: np.ndarray) -> list[str]:
-    d = qp.dim
-    X = max(float(np.max(np.abs(x))), TINY)
-    kinds = []
-    for i, mu in enumerate(qp.mu):
-        xi = x[i * d:(i + 1) * d]
-        if np.linalg.norm(xi) <= POLISH_ZERO_RTOL * X or xi[0] <= 0.0:
-            kinds.append("zero")
-        elif mu == 0.0:
-            kinds.append("act")
-        elif mu * xi[0] - np.linalg.norm(xi[1:]) <= POLISH_BOUNDARY_RTOL * np.linalg.norm(xi):
-            kinds.append("bnd")
-        else:
-            kinds.append("int")
-    return kinds
+    """The primary kind of every contact (``zero``, ``act``, ``bnd`` or ``int``)."""
+    return [k[0][0] for k in _contact_kinds(qp, x)]
 
 
-def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False) -> tuple[np.ndarray, bool]:
+def _active_sets(options: list[list[Kind]], limit: int):
+    """Active sets in order of the number of contacts moved off their primary kind."""
+    n = len(options)
+    ambiguous = [i for i in range(n) if len(options[i]) > 1]
+    tries = 0
+    for flips in range(len(ambiguous) + 1):
+        for chosen in itertools.combinations(ambiguous, flips):
+            for alts in itertools.product(*(range(1, len(options[i])) for i in chosen)):
+                kinds = [o[0] for o in options]
+                for i, a in zip(chosen, alts):
+                    kinds[i] = options[i][a]
+                yield kinds
+                tries += 1
+                if tries >= limit:
+                    return
+
+
+def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False,
+                   exhaustive: bool | None = None) -> tuple[np.ndarray, bool]:
     """Newton refinement of an interior-point answer on its active set (KKT equations).
 
     Each contact is classified from ``x0`` as zero, interior, on the cone boundary, or (when
@@ -48,8 +150,12 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False) -> tuple[n
     solved by Newton's method with ``x_i = r (1, mu c)``, ``z_i = kappa (mu, -c)`` on boundary
     contacts (c a unit tangent: the complementary pair of K_mu and its dual), ``z_i = 0`` on
     interior ones and ``x_i = 0`` on zero ones. The answer is kept only when it is consistent
-    (r > 0, kappa >= 0, interior points strictly inside, zero contacts' z in K*) and close to
-    ``x0``; otherwise ``x0`` is returned unchanged.
+    (r > 0, kappa >= 0, interior points inside, zero contacts' z in K*) and close to ``x0``.
+    Contacts near a classification threshold are tried with their alternative kinds (at most
+    :data:`POLISH_MAX_TRIES` active sets); if none is consistent and ``exhaustive`` (default:
+    for the cone QP, not for Coulomb's law, whose fixed point calls the polish on every
+    iterate), every active set (at most :data:`POLISH_EXHAUSTIVE_MAX`) is tried without the
+    closeness test; when none is consistent ``x0`` is returned unchanged.
 
     With ``coulomb=True`` the same active-set Newton solves Coulomb's law instead of the cone
     QP's KKT system (E must be empty): ``u = W x + q`` with ``u_i = 0`` (stick),
@@ -59,49 +165,71 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False) -> tuple[n
     -------
     x, polished (True when the refinement was accepted)
     """
+    if qp.dim * qp.n_contacts + qp.E.shape[0] == 0:
+        return np.zeros(0), True
+    near = _contact_kinds(qp, x0)
+    tried = set()
+    for kinds in _active_sets(near, POLISH_MAX_TRIES):
+        tried.add(tuple(kinds))
+        x, ok = _newton_on_active_set(qp, x0, kinds, coulomb, near=True)
+        if ok:
+            return x, True
+    if not (not coulomb if exhaustive is None else exhaustive):
+        return x0, False
+    for kinds in _active_sets(_all_kinds(qp, x0, near), POLISH_EXHAUSTIVE_MAX):
+        if tuple(kinds) in tried:
+            continue
+        x, ok = _newton_on_active_set(qp, x0, kinds, coulomb, near=False)
+        if ok:
+            return x, True
+    return x0, False
+
+
+def _newton_on_active_set(qp: ConeQP, x0: np.ndarray, kinds: list[Kind], coulomb: bool,
+                          near: bool) -> tuple[np.ndarray, bool]:
+    """Solve the KKT (or Coulomb) equations of one active set from ``x0``; (x, consistent).
+
+    ``near``: also require the answer within 1e-2 max|x0| of ``x0``.
+    """
     d, n, m = qp.dim, qp.n_contacts, qp.E.shape[0]
     N = n * d
-    kinds = classify_contacts(qp, x0)
+    X0 = max(float(np.max(np.abs(x0))), TINY)
     # unknown layout
     slots: list[tuple[int, int]] = []
     u0: list[float] = []
-    for i, k in enumerate(kinds):
+    g0 = qp.W @ x0 + qp.q
+    for i, (k, t) in enumerate(kinds):
         xi = x0[i * d:(i + 1) * d]
         start = len(u0)
         if k == "int":
             u0 += list(xi)
         elif k == "act":
-            u0.append(xi[0])
+            u0.append(max(xi[0], 0.0))
         elif k == "bnd":
-            # kappa estimate from the stationarity residual
-            g = qp.W[i * d:(i + 1) * d] @ x0 + qp.q[i * d:(i + 1) * d]
-            if coulomb:
-                tdir = xi[1:] / max(np.linalg.norm(xi[1:]), TINY)
-                kap = max(-float(g[1:] @ tdir), 0.0)
+            g = g0[i * d:(i + 1) * d]
+            r = max(xi[0], float(np.linalg.norm(xi)) / (1.0 + qp.mu[i]), 0.0)
+            if coulomb:  # kappa from the slip along -t, or from the normal row
+                kap = max(-float(g[1:] @ np.array(t)), 0.0)
             else:
                 kap = max(float(g[0]) / qp.mu[i], 0.0)
-            if d == 3:
-                u0 += [xi[0], math.atan2(xi[2], xi[1]), kap]
-            else:
-                u0 += [xi[0], kap]
+            u0 += [r, math.atan2(t[1], t[0]), kap] if d == 3 else [r, kap]
         slots.append((start, len(u0)))
     n_prim = len(u0)
     if m:
-        Eact = qp.E
-        lam0, *_ = np.linalg.lstsq(Eact.T, qp.W @ x0 + qp.q, rcond=None)
+        lam0, *_ = np.linalg.lstsq(qp.E.T, g0, rcond=None)
         u0 += list(lam0)
     u = np.array(u0, dtype=float)
-    sign = [float(np.sign(x0[i * d + 1])) or 1.0 for i in range(n)] if d == 2 else None
     U = u.size
     if U == 0:
-        return np.zeros(N), True
+        x = np.zeros(N)
+        return x, _consistent(qp, x, qp.q.copy(), kinds, slots, u, coulomb)
 
     def unpack(u):
         x = np.zeros(N)
         z = np.zeros(N)
         Jx = np.zeros((N, U))
         Jz = np.zeros((N, U))
-        for i, k in enumerate(kinds):
+        for i, (k, t) in enumerate(kinds):
             s, e_ = slots[i]
             o = i * d
             mu = qp.mu[i]
@@ -124,7 +252,7 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False) -> tuple[n
                     Jz[o:o + 3, s + 2] = [zn, -c, -sn]
                 else:
                     r, kap = u[s:e_]
-                    sg = sign[i]
+                    sg = t[0]
                     x[o:o + 2] = r * np.array([1.0, mu * sg])
                     Jx[o:o + 2, s] = [1.0, mu * sg]
                     z[o:o + 2] = kap * np.array([zn, -sg])
@@ -132,21 +260,30 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False) -> tuple[n
         return x, z, Jx, Jz
 
     eq_rows = np.zeros(N, dtype=bool)
-    for i, k in enumerate(kinds):
+    for i, (k, _) in enumerate(kinds):
         if k in ("int", "bnd"):
             eq_rows[i * d:(i + 1) * d] = True
         elif k == "act":
             eq_rows[i * d] = True
     Jlam = np.zeros((m, U))
     Jlam[:, n_prim:] = np.eye(m)
+    # round-off scales of the residual blocks (stationarity: velocities; equalities), from
+    # the larger of the start and the current iterate
+    wmax = float(np.max(np.abs(qp.W), initial=0.0))
+    emax = float(np.max(np.abs(qp.E), initial=0.0))
+    qmax = float(np.max(np.abs(qp.q), initial=0.0))
+    fmax = float(np.max(np.abs(qp.f), initial=0.0))
 
     def residual(u):
         x, z, Jx, Jz = unpack(u)
         lam = u[n_prim:]
+        X = max(float(np.max(np.abs(x))), X0 if near else 0.0, TINY)
+        sG, sE = max(qmax, wmax * X, TINY), max(fmax, emax * X, TINY)
+        row_scale = np.concatenate([np.full(int(eq_rows.sum()), sG), np.full(m, sE)])
         G = qp.W @ x + qp.q - qp.E.T @ lam - z
         dG = qp.W @ Jx - qp.E.T @ Jlam - Jz
-        F = np.concatenate([G[eq_rows], qp.E @ x - qp.f])
-        J = np.vstack([dG[eq_rows], qp.E @ Jx])
+        F = np.concatenate([G[eq_rows], qp.E @ x - qp.f]) / row_scale
+        J = np.vstack([dG[eq_rows], qp.E @ Jx]) / row_scale[:, None]
         return F, J, x, G
 
     best = None
@@ -157,44 +294,66 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False) -> tuple[n
         f0 = fn if f0 is None else f0
         if best is None or fn < best[0]:
             best = (fn, u.copy())
-        if fn <= 1e-14 or (it >= 4 and best[0] > 1e-6 * f0):
+        if fn <= 4.0 * EPS or (it >= 4 and best[0] > 1e-6 * f0):
             break  # converged, or not converging quadratically: wrong active set
         # minimum-norm Newton step: the KKT Jacobian is singular when contacts are redundant
         step, *_ = np.linalg.lstsq(J, -F, rcond=1e-13)
+        if not np.all(np.isfinite(step)):
+            break
         u = u + step
     F, J, x, G = residual(best[1])
     u = best[1]
-    if not float(np.max(np.abs(F), initial=0.0)) <= 1e-11:
+    if not float(np.max(np.abs(F), initial=0.0)) <= POLISH_ACCEPT:
         return x0, False
-    # consistency of the active set
-    X = max(float(np.max(np.abs(x0))), TINY)
-    for i, k in enumerate(kinds):
-        s, e_ = slots[i]
-        xi, gi, mu = x[i * d:(i + 1) * d], G[i * d:(i + 1) * d], qp.mu[i]
-        if k == "zero":
-            if mu == 0.0 or coulomb:
-                if gi[0] < -1e-10:
-                    return x0, False
-            elif mu * np.linalg.norm(gi[1:]) > gi[0] + 1e-10:
-                return x0, False
-        elif k == "act" and xi[0] < 0.0:
-            return x0, False
-        elif k == "int" and not np.linalg.norm(xi[1:]) < mu * xi[0]:
-            return x0, False
-        elif k == "bnd" and not (u[s] > 0.0 and u[e_ - 1] >= -1e-12):
-            return x0, False
-    if np.max(np.abs(x - x0)) > 1e-2 * X:
+    V = max(qmax, float(np.max(np.abs(qp.W @ x))), TINY)
+    if float(np.max(np.abs(G[eq_rows]), initial=0.0)) > VELOCITY_RESIDUAL_MAX * V:
+        return x0, False
+    if not _consistent(qp, x, G, kinds, slots, u, coulomb):
+        return x0, False
+    if near and np.max(np.abs(x - x0)) > 1e-2 * X0:
         return x0, False
     return x, True
 
 
+def _consistent(qp: ConeQP, x: np.ndarray, G: np.ndarray, kinds: list[Kind], slots: list,
+                u: np.ndarray, coulomb: bool) -> bool:
+    """Sign conditions of an active set's solution: zero contacts' duals in K* (u_n >= 0 for
+    Coulomb and frictionless ones), pressing normals, interior points in the cone, boundary
+    rays with r > 0 and kappa >= 0; velocities to V times the round-off floor."""
+    d = qp.dim
+    X = max(float(np.max(np.abs(x), initial=0.0)), TINY)
+    V = max(float(np.max(np.abs(qp.q), initial=0.0)), float(np.max(np.abs(qp.W @ x))), TINY)
+    floor = EPS * float(np.max(np.abs(qp.W), initial=0.0)) * X / V
+    vtol = V * max(1e-10, min(1e2 * floor, VELOCITY_RESIDUAL_MAX))
+    for i, (k, _) in enumerate(kinds):
+        s, e_ = slots[i]
+        xi, gi, mu = x[i * d:(i + 1) * d], G[i * d:(i + 1) * d], qp.mu[i]
+        if k == "zero":
+            if mu == 0.0 or coulomb:
+                if gi[0] < -vtol:
+                    return False
+            elif mu * np.linalg.norm(gi[1:]) > gi[0] + vtol:
+                return False
+        elif k == "act" and xi[0] < -1e-12 * X:
+            return False
+        elif k == "int" and not (xi[0] >= 0.0
+                                 and np.linalg.norm(xi[1:]) <= mu * xi[0] + 1e-12 * X):
+            return False
+        elif k == "bnd" and not (u[s] > 0.0 and u[e_ - 1] >= -vtol):
+            return False
+    return True
+
+
 def kkt_residual(qp: ConeQP, x: np.ndarray) -> float:
-    """Relative KKT residual of a cone-QP answer (on scaled, unit-size data).
+    """Relative KKT residual of a cone-QP answer.
 
     The multipliers of ``E x = f`` are fitted by least squares on the rows where the cone
     leaves the stationarity free of a dual (interior and frictionless-normal rows, or all
-    rows when there are none); then ``z = W x + q - E^T lambda`` and the residual is the max of
-    |E x - f|, the cone violation of x, the dual-cone violation of z and |x_i . z_i|.
+    rows when there are none); then ``z = W x + q - E^T lambda``. The residual is the max of
+    |E x - f| (relative to max(|f|, |E| X)), the cone violation of x (relative to
+    X = max |x|), the dual-cone violation of z (relative to V = max(|q|, |W x|)) and
+    |x_i . z_i| (relative to X V). Its floor is the round-off of forming W x + q,
+    :func:`roundoff_floor`.
     """
     d, n, m = qp.dim, qp.n_contacts, qp.E.shape[0]
     g = qp.W @ x + qp.q
@@ -210,13 +369,31 @@ def kkt_residual(qp: ConeQP, x: np.ndarray) -> float:
             rows[:] = True
         lam, *_ = np.linalg.lstsq(qp.E.T[rows], g[rows], rcond=None)
     z = g - qp.E.T @ lam
-    r = float(np.max(np.abs(qp.E @ x - qp.f), initial=0.0))
+    X = max(float(np.max(np.abs(x), initial=0.0)), TINY)
+    V = max(float(np.max(np.abs(qp.q), initial=0.0)), float(np.max(np.abs(qp.W @ x))), TINY)
+    r = 0.0
+    if m:
+        r = float(np.max(np.abs(qp.E @ x - qp.f))) / max(
+            float(np.max(np.abs(qp.f))), float(np.max(np.abs(qp.E))) * X, TINY)
     for i, mu in enumerate(qp.mu):
         xi, zi = x[i * d:(i + 1) * d], z[i * d:(i + 1) * d]
         if mu == 0.0:
-            r = max(r, max(0.0, -xi[0]), float(np.max(np.abs(xi[1:]))), max(0.0, -zi[0]),
-                    abs(xi[0] * zi[0]))
+            r = max(r, max(0.0, -xi[0]) / X, float(np.max(np.abs(xi[1:]))) / X,
+                    max(0.0, -zi[0]) / V, abs(xi[0] * zi[0]) / (X * V))
         else:
-            r = max(r, max(0.0, np.linalg.norm(xi[1:]) - mu * xi[0]),
-                    max(0.0, mu * np.linalg.norm(zi[1:]) - zi[0]), abs(float(xi @ zi)))
+            r = max(r, max(0.0, np.linalg.norm(xi[1:]) - mu * xi[0]) / X,
+                    max(0.0, mu * np.linalg.norm(zi[1:]) - zi[0]) / V,
+                    abs(float(xi @ zi)) / (X * V))
     return r
+
+
+def roundoff_floor(qp: ConeQP, x: np.ndarray) -> float:
+    """The relative residual that round-off alone leaves in W x + q: eps |W| X / V.
+
+    With an ill-conditioned W the impulse X is of order |q| / lambda_min(W), and forming
+    the velocities ``W x + q`` cancels digits: cond(W) eps is the accuracy any contact-space
+    method (closed forms included) reaches there.
+    """
+    X = max(float(np.max(np.abs(x), initial=0.0)), TINY)
+    V = max(float(np.max(np.abs(qp.q), initial=0.0)), float(np.max(np.abs(qp.W @ x))), TINY)
+    return EPS * float(np.max(np.abs(qp.W), initial=0.0)) * X / V

@@ -10,8 +10,9 @@ lifted by ``mu |v_t+|`` above Newton's value, reported as ``extras["normal_veloc
   in tan(th/2) (:mod:`convimpact.impact.boundary`); Newton's root from the unconstrained
   tangent is accepted when the KKT sign certifies it, else every root is compared.
 * :func:`program_result` (``method="clarabel"``/``"cvxpy"``): one cone QP. Non-approaching
-  contacts take part with their normal only (b = v- there, pi_t = 0): they may be pressed by
-  the others, never kicked along their slip.
+  contacts -- and those approaching at round-off, v_n- >= -1e-9 max |v-|
+  (:func:`~convimpact.impact.conic.paths.approaching`) -- take part with their normal only
+  (pi_t = 0): they may be pressed by the others, never kicked along their slip.
 """
 
 from __future__ import annotations
@@ -21,8 +22,8 @@ import math
 import numpy as np
 
 from ..boundary import candidates, det_wq, newton_root, refine, rotate, wp
-from ..conic.paths import (ProgramOptions, cone_qp, newton_shift, register_programs,
-                           regimes_from_slip, solver_report)
+from ..conic.paths import (ProgramOptions, approaching, cone_qp, newton_shift,
+                           register_programs, regimes_from_slip, solver_report)
 from ..conic.qp import Backend, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import SolverError
@@ -173,8 +174,9 @@ def solve_ccp(P: ImpactProblem, backend: Backend, opts: ProgramOptions,
     b = P.v_minus.ravel() + newton_shift(P, restitution)
     # a contact that is not approaching takes no friction impulse of its own: it enters with
     # its normal only (pi_t = 0), so it may be pressed by the others but is never kicked
-    # along its slip (the single-contact rule "not approaching: no impulse")
-    mu = np.where(P.v_minus[:, 0] < 0.0, P.friction, 0.0)
+    # along its slip (the single-contact rule "not approaching: no impulse"); approaching at
+    # round-off counts as touching, so the answer does not jump with its sign
+    mu = np.where(approaching(P), P.friction, 0.0)
     sol = solve_cone_qp(backend, cone_qp(P, b, mu=mu), opts.tol, opts.max_iter)
     return sol.x.reshape(P.n_contacts, P.dim), sol
 

@@ -30,8 +30,8 @@ import numpy as np
 from .. import boundary
 from ..conic.paths import (ProgramOptions, cone_qp, newton_shift, normal_mask, register_programs,
                            regimes_from_slip)
-from ..conic.polish import polish_cone_qp
-from ..conic.qp import TINY, Backend, ConeQP, solve_cone_qp
+from ..conic.polish import EPS, VELOCITY_RESIDUAL_MAX, polish_cone_qp
+from ..conic.qp import TINY, Backend, ConeQP, equilibrated, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import SolverError
 from ..fast import (CONE_RTOL, ROOT_RTOL, ContactSolution, frictionless, in_cone, jam_error,
@@ -311,8 +311,9 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
         return sol, mu * np.linalg.norm(u[:, 1:], axis=1)
 
     sW = max(float(np.max(np.abs(W))), TINY)
-    sb = max(float(np.max(np.abs(b))), TINY)
-    unit = ConeQP(W / sW, b / sb, mu, d, np.zeros((0, n * d)), np.zeros(0))
+    # Coulomb's conditions keep their form under a uniform scaling of each contact's rows, so
+    # the active-set Newton works on the equilibrated program (pi = scale * y)
+    unit, scale = equilibrated(ConeQP(W, b, mu, d, np.zeros((0, n * d)), np.zeros(0)))
     iters = conic_iters = 0
     converged = polished = newton = False
     last_x = None
@@ -334,15 +335,19 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
             status, last_x, polished = sol.status, sol.x, sol.polished
             r = gs - s
             res_norm = float(np.max(np.abs(r))) / vscale
-            if res_norm <= max(opts.fixed_point_tol, opts.accuracy(sol.polished)) or \
-                    not np.any(fric):
+            # mu |u_t| carries the round-off of W pi + b: cond(W) eps where W is
+            # ill-conditioned (the impulse |b| / lambda_min(W) cancels digits), capped
+            roundoff = min(1e2 * EPS * sW * float(np.max(np.abs(sol.x), initial=0.0))
+                           * max(1.0, float(np.max(mu))) / vscale, VELOCITY_RESIDUAL_MAX)
+            if res_norm <= max(opts.fixed_point_tol, opts.accuracy(sol.polished), roundoff) \
+                    or not np.any(fric):
                 converged = True
                 break
             # active-set Newton on Coulomb's conditions from this iterate
             if n > 1:
-                y, ok = polish_cone_qp(unit, sol.x * (sW / sb), coulomb=True)
-                if ok and coulomb_residual(W, b, mu, d, y * (sb / sW)) <= 1e-11:
-                    last_x, converged, newton = y * (sb / sW), True, True
+                y, ok = polish_cone_qp(unit, sol.x / scale, coulomb=True)
+                if ok and coulomb_residual(unit.W, unit.q, mu, d, y) <= 1e-11:
+                    last_x, converged, newton = y * scale, True, True
                     break
             if memory and res_norm > 0.9 * prev and hist_s:  # safeguard: restart, damp
                 hist_s.clear()
@@ -368,10 +373,10 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
     if newton:
         finished = "active-set Newton on Coulomb's conditions"
     elif n > 1:
-        y, ok = polish_cone_qp(unit, pi.ravel() * (sW / sb), coulomb=True)
-        if ok and coulomb_residual(W, b, mu, d, y * (sb / sW)) <= \
-                coulomb_residual(W, b, mu, d, pi.ravel()):
-            pi, newton = (y * (sb / sW)).reshape(n, d), True
+        y, ok = polish_cone_qp(unit, pi.ravel() / scale, coulomb=True)
+        if ok and coulomb_residual(unit.W, unit.q, mu, d, y) <= \
+                coulomb_residual(unit.W, unit.q, mu, d, pi.ravel() / scale):
+            pi, newton = (y * scale).reshape(n, d), True
             finished += ", then active-set Newton"
     n_solutions = None
     if n == 1 and fric[0]:
@@ -384,7 +389,7 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
             pi = cands[k][None]
             finished = "exact single-contact solve"
     acc = opts.accuracy(polished or newton or finished.startswith("exact"))
-    resid = coulomb_residual(W, b, mu, d, pi.ravel())
+    resid = coulomb_residual(unit.W, unit.q, mu, d, pi.ravel() / scale)
     info = {
         "fixed_point_iterations": iters,
         "fixed_point_converged": converged,

@@ -10,21 +10,21 @@ space along the direction of maximal dissipation (eq. 60).
   frame. Impulses come back in the contact frame, normal first. ``v_n < 0`` means approaching.
 * :func:`contact_kernel` is the exact single-contact kernel (``method="fast"``): in space its
   sliding direction is :func:`convimpact.impact.max_dissipation.max_dissipation_slide`.
-* :func:`program_result` is the conic path (``method="clarabel"``/``"cvxpy"``). Stick test
-  first: ``W_AA pi_A = -b_A`` with ``b = ((1+e) v_n-, v_t-)`` over the approaching contacts A
-  (v_n- < 0), accepted when every impulse lies in its cone (eq. 53). Otherwise slide: one
-  planar contact uses eq. (55) exactly as the closed form; in space and with several contacts
-  the program P_N: minimize T+ (``q = v-``) subject to ``v_n+ = -e v_n-`` on the approaching
-  contacts and ``pi in K_mu``. Where P_N's optimum lies on the cone boundary its tangent is the
-  seed's maximal-dissipation direction (eq. 60); for one contact the angle is then polished by
-  a bounded 1-D maximization of T_L. P_N's *interior* optimum is not sticking when e > 0, so
-  where it is interior but the stick test failed one contact falls back to
-  :func:`~convimpact.impact.max_dissipation.max_dissipation_direction` and the disagreement is
-  flagged (several contacts: flagged only). Contacts with v_n- >= 0 take no impulse under this
-  law (the seed's law is defined for approaching contacts); if the others' impulses would
-  drive one of them into penetration (v_n+ < 0) a NotSupportedError names the
-  complementarity laws. Infeasible P_N (a Painleve-like jam for one contact, incompatible
-  Newton equalities for several) raises NonPositiveEffectiveMassError / SolverError.
+* :func:`program_result` is the conic path (``method="clarabel"``/``"cvxpy"``). One planar
+  contact: the closed form (stick test, then eq. 55). One spatial contact: the stick test
+  (eq. 52, admissible by eq. 53), else the program P_N: minimize T+ (``q = v-``) subject to
+  ``v_n+ = -e v_n-`` and ``pi in K_mu``; its boundary optimum's tangent is the seed's
+  maximal-dissipation direction (eq. 60), exact once P_N is KKT-polished (else refined by a
+  bounded 1-D maximization of T_L). P_N's *interior* optimum is not sticking when e > 0, so
+  where it is interior but the stick test failed the law falls back to
+  :func:`~convimpact.impact.max_dissipation.max_dissipation_direction` and flags the
+  disagreement. Infeasible P_N (a Painleve-like jam) raises NonPositiveEffectiveMassError.
+* Several contacts: Newton's law in complementarity form, ``v_n+ + e v_n- >= 0``,
+  ``pi_n >= 0``, complementary (:mod:`~convimpact.impact.laws.pn_complementarity`): the
+  law sticks on the most dissipative admissible set of touching contacts, else slides on
+  the most dissipative admissible one (P_N over that set). A contact approaching at
+  round-off changes nothing; a contact that does not approach may be pressed by the others
+  (then it leaves at v_n+ = 0) instead of penetrating.
 
 Sign convention: the paper's tangent ``t`` (eq. 55) points opposite to the pre-impact slip and
 its ``pi_t`` is measured along it; here the tangential impulse is expressed on the frame's
@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from ..conic.paths import ProgramOptions, register_programs, solver_report
-from ..conic.qp import TINY, Backend, ConeQP, QPSolution, solve_cone_qp
+from ..conic.qp import Backend, ConeQP, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import (
     NonPositiveEffectiveMassError,
@@ -54,6 +54,7 @@ from ..problem import ImpactProblem
 from ..resolve import register_solver
 from ..results import ImpactResult
 from ..small_linalg import angle_from_slip, inverse3, linsolve3, solve2
+from .pn_complementarity import newton_velocity_shift, several_contacts_result, stick_on
 
 LAW = "pereira-nikravesh"
 #: relative distance from the cone boundary below which a P_N optimum counts as "on it"
@@ -228,43 +229,6 @@ def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolu
 # the conic path: joint stick test, then the program P_N
 
 
-def joint_stick_impulse(P: ImpactProblem) -> np.ndarray | None:
-    """Stick test of several contacts (eqs. 42/52 jointly): impulse or None when not admissible.
-
-    Unknowns: pi_n of every approaching contact and pi_t of its frictional ones; equations:
-    ``v_n+ = -e v_n-`` and ``v_t+ = 0`` there. Contacts with v_n- >= 0 carry no impulse. A singular
-    system is solved in the least-squares sense and accepted only when consistent.
-    """
-    n, d = P.n_contacts, P.dim
-    active = P.v_minus[:, 0] < 0.0
-    sel = np.zeros((n, d), dtype=bool)
-    sel[active, 0] = True
-    sel[active & (P.friction > 0.0), 1:] = True
-    rhs = P.v_minus.copy()
-    rhs[:, 0] *= 1.0 + P.restitution
-    S = sel.ravel()
-    Wss = P.delassus[np.ix_(S, S)]
-    r = -rhs.ravel()[S]
-    if np.linalg.cond(Wss) < DELASSUS_COND_MAX:
-        x = np.linalg.solve(Wss, r)
-    else:
-        x, *_ = np.linalg.lstsq(Wss, r, rcond=None)
-        if np.linalg.norm(Wss @ x - r) > 1e-9 * max(np.linalg.norm(r), TINY):
-            return None
-    pi = np.zeros(n * d)
-    pi[S] = x
-    pi = pi.reshape(n, d)
-    for i in np.flatnonzero(active):
-        if P.friction[i] > 0 and not stick_admissible(pi[i], float(P.friction[i])):
-            return None
-        if P.friction[i] == 0 and pi[i, 0] < 0:
-            return None
-    vplus = P.v_minus + (P.delassus @ pi.ravel()).reshape(n, d)
-    if np.any(vplus[~active, 0] < -1e-12 * max(float(np.max(np.abs(P.v_minus))), TINY)):
-        return None
-    return pi
-
-
 def solve_pn_program(P: ImpactProblem, backend: Backend,
                      opts: ProgramOptions) -> tuple[np.ndarray, QPSolution]:
     """The program P_N over the approaching contacts: minimize T+ s.t. v_n+ = -e v_n-, pi in K.
@@ -329,7 +293,7 @@ def _polish_direction(W: np.ndarray, v: np.ndarray, e: float, mu: float,
 
 def program_result(P: ImpactProblem, backend: Backend, method: str,
                    opts: ProgramOptions) -> ImpactResult:
-    n, d = P.n_contacts, P.dim
+    n = P.n_contacts
     law = LAW
     if n == 1 and P.planar:
         # one planar contact: the law is the closed form (stick test, then eq. 55)
@@ -339,12 +303,19 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
         return assemble_result(P, impulse[None], [regime], law, method, effective_mass=denom,
                                tol=1e-12, extras={"stick_test": regime == "stick",
                                                   "slide_rule": "eq. (55)"})
+    if n > 1:
+        # several contacts: Newton's law in complementarity form over the active sets
+        return several_contacts_result(P, backend, method, opts)
+    # one spatial contact: the stick test (eq. 52), else P_N and its boundary direction
     active = P.v_minus[:, 0] < 0.0
-    stick = joint_stick_impulse(P)
-    if stick is not None:
-        regimes = ["separating" if not active[i] else
-                   ("frictionless" if P.friction[i] == 0 else "stick") for i in range(n)]
-        return assemble_result(P, stick, regimes, law, method, tol=1e-10,
+    W0, v0 = P.contact_block(0)
+    if P.friction[0] == 0.0:
+        return assemble_result(P, frictionless_impulse(W0, v0, float(P.restitution[0]))[None],
+                               ["frictionless"], law, method, tol=1e-10,
+                               extras={"stick_test": True})
+    stick = stick_on(P, (0,), newton_velocity_shift(P))  # least squares where W is singular
+    if stick is not None and stick_admissible(stick[0], float(P.friction[0])):
+        return assemble_result(P, stick, ["stick"], law, method, tol=1e-10,
                                extras={"stick_test": True})
     pi, sol = solve_pn_program(P, backend, opts)
     acc = opts.accuracy(sol.polished)
@@ -366,7 +337,7 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
         regimes.append("slide")
     extras: dict[str, Any] = {"stick_test": False, **solver_report(sol, opts),
                               "pn_interior": interior, "pn_disagreement": any(interior)}
-    if n == 1 and P.friction[0] > 0:
+    if P.friction[0] > 0:
         W, v = P.contact_block(0)
         e, mu = float(P.restitution[0]), float(P.friction[0])
         if interior[0]:
@@ -375,25 +346,17 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
             warnings.append("P_N's optimum is interior but the stick test failed: the sliding "
                             "direction comes from the boundary search (maximal T_L on the cone)")
             extras["slide_rule"] = "boundary search (sweep)"
+        elif sol.polished:
+            # the KKT polish solved P_N's boundary optimum exactly: its tangent is eq. (60)'s
+            direction = pi[0, 1:] / np.linalg.norm(pi[0, 1:])
+            extras["slide_rule"] = "P_N (boundary optimum, KKT-polished)"
         else:
             direction = _polish_direction(W, v, e, mu, pi[0, 1:] / np.linalg.norm(pi[0, 1:]))
-            extras["slide_rule"] = "P_N (boundary optimum, polished)"
+            extras["slide_rule"] = "P_N (boundary optimum, angle refined by a 1-D search)"
         impulse, denom = sliding_impulse(W, v, e, mu, direction)
         extras["slide_angle"] = math.atan2(direction[1], direction[0])
         pi = impulse[None]
         acc = 1e-9
-    elif any(interior):
-        warnings.append("P_N's optimum is interior at some contacts although the joint stick "
-                        "test failed: those contacts slide with friction inside the cone "
-                        "(not Coulomb); compare law='coulomb'")
-    vplus = P.v_minus + (P.delassus @ pi.ravel()).reshape(n, d)
-    vscale = max(float(np.max(np.abs(P.v_minus))), TINY)
-    bad = np.flatnonzero((~active) & (vplus[:, 0] < -1e3 * acc * vscale))
-    if bad.size:
-        raise NotSupportedError(
-            f"law 'pereira-nikravesh' gives no impulse to contacts with v_n- >= 0, and contact(s) "
-            f"{bad.tolist()} would then penetrate (v_n+ < 0); use law='coulomb', 'ccp' or "
-            "'dissipative', which treat every contact with complementarity")
     return assemble_result(P, pi, regimes, law, method, effective_mass=denom, tol=acc,
                            extras=extras, warnings=tuple(warnings))
 

@@ -1,0 +1,301 @@
+"""The ``pereira-nikravesh`` law at several simultaneous contacts, in complementarity form.
+
+Newton's law (eq. 21) at several contacts is a complementarity condition, not an equality:
+with the Newton velocity ``u_n = v_n+ + e min(v_n-, 0)`` of each contact,
+
+    u_n >= 0,   pi_n >= 0,   u_n pi_n = 0,                                    (N)
+
+so a contact either carries an impulse and leaves at Newton's velocity (``v_n+ = -e v_n-``,
+or ``v_n+ = 0`` when it was not approaching), or carries none and does not penetrate
+(``v_n+ >= -e v_n-``). Whether a contact approaches at -1e-12 (what an integrator leaves) or
+touches exactly changes nothing: (N) is continuous in ``v_n-``, whereas imposing
+``v_n+ = -e v_n-`` wherever ``v_n- < 0`` makes a rocking block stop dead when its pivot
+approaches at round-off.
+
+The paper's friction rule (Section 8) is kept on the contacts that carry impulse, the
+*active set* A:
+
+1. **Stick.** For every A holding an approaching contact (impulses among contacts that
+   merely touch would be an impact without collision; approaching at round-off,
+   ``v_n- >= -1e-9 max |v-|``, counts as touching): ``u_n = 0`` and ``v_t+ = 0`` on A
+   (eqs. 42/52 jointly), ``pi = 0`` off A. Admissible when every impulse on A lies in its
+   friction cone (eq. 53) and no contact off A penetrates (``u_n >= 0``). If any A is
+   admissible the law sticks on the most dissipative one (smallest T+).
+2. **Slide.** Otherwise, for every such A: one contact slides by the single-contact law
+   (eq. 55 in the plane, the maximal-dissipation direction of eq. 60 in space); several by
+   the program P_N(A): minimize T+ subject to ``u_n = 0`` on A and ``pi in K_mu`` (the seed's
+   maximal dissipation). Admissible when no contact off A penetrates; the law returns the
+   most dissipative admissible one.
+
+An active set is a choice of which contacts keep touching; the law picks, as P-N does for
+one contact, sticking first and maximal dissipation among the admissible choices. (Housner's
+rocking block and McGeer's rimless wheel land sticking on the new corner, the old one
+lifting: the stick tier's answer.) Several
+admissible active sets with different velocities (Newton's law with friction is not unique
+at several contacts) are reported in the warnings. The stick tier solves every active set
+(2^n - 1 linear systems, at most :data:`MAX_CONTACTS` contacts; a NotSupportedError names
+the other laws); the slide tier visits them by increasing lower bound of T+ (the same
+minimum without the cones, :func:`relaxed_bound`) and stops when no remaining set can be
+more dissipative than the best admissible one. An active set whose program fails (not
+converged, a jam) is listed in ``extras["failed_active_sets"]`` and, when it might have
+been more dissipative than the answer, in a warning.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any
+
+import numpy as np
+
+from ..conic.paths import ProgramOptions, approaching, solver_report
+from ..conic.qp import TINY, Backend, ConeQP, solve_cone_qp
+from ..diagnostics import assemble_result
+from ..errors import ConvImpactError, NotSupportedError, SolverError
+from ..fast import solve_contact
+from ..problem import ImpactProblem
+from ..results import ImpactResult
+
+LAW = "pereira-nikravesh"
+#: largest number of simultaneous contacts whose active sets are enumerated
+MAX_CONTACTS = 8
+#: condition number above which a stick system is solved in the least-squares sense
+STICK_COND_MAX = 1e12
+#: relative tolerance of the cone test of a stick impulse
+CONE_RTOL = 1e-9
+#: largest relative round-off allowance on velocities (cond(W) eps, capped)
+VELOCITY_SLACK_MAX = 1e-4
+EPS = float(np.finfo(float).eps)
+
+
+def newton_velocity_shift(P: ImpactProblem) -> np.ndarray:
+    """``b = v- + e min(v_n-, 0) n`` (n_contacts, d): the Newton velocity is ``u = W pi + b``."""
+    b = P.v_minus.copy()
+    b[:, 0] += P.restitution * np.minimum(P.v_minus[:, 0], 0.0)
+    return b
+
+
+def _rows(P: ImpactProblem, A: tuple[int, ...], stick: bool) -> np.ndarray:
+    """Flat indices of the unknowns of active set A: every row of a frictional contact
+    (stick) or its normal only."""
+    d = P.dim
+    out = []
+    for i in A:
+        out.append(i * d)
+        if stick and P.friction[i] > 0.0:
+            out += range(i * d + 1, (i + 1) * d)
+    return np.array(out, dtype=int)
+
+
+def stick_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray) -> np.ndarray | None:
+    """Impulse sticking every contact of A with ``u_n = 0`` (eq. 42/52 jointly), or None.
+
+    A frictionless contact keeps only its normal row. A singular system (redundant
+    contacts) is solved in the least-squares sense and accepted only when consistent.
+    """
+    S = _rows(P, A, stick=True)
+    Wss = P.delassus[np.ix_(S, S)]
+    r = -b.ravel()[S]
+    if np.linalg.cond(Wss) < STICK_COND_MAX:
+        x = np.linalg.solve(Wss, r)
+    else:
+        x, *_ = np.linalg.lstsq(Wss, r, rcond=None)
+        if np.linalg.norm(Wss @ x - r) > 1e-9 * max(float(np.linalg.norm(r)), TINY):
+            return None
+    pi = np.zeros(P.n_contacts * P.dim)
+    pi[S] = x
+    return pi.reshape(P.n_contacts, P.dim)
+
+
+def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backend,
+             opts: ProgramOptions) -> tuple[np.ndarray, dict[str, Any]] | None:
+    """The sliding impulse of active set A, or None where A cannot slide.
+
+    One contact: the single-contact law (eq. 55 / eq. 60, the exact kernel), which needs it
+    approaching. Several: P_N(A), minimize T+ = T- + pi.v- + 1/2 pi.W.pi subject to
+    ``u_n = 0`` on A and pi in the cones (None when infeasible).
+    """
+    n, d = P.n_contacts, P.dim
+    pi = np.zeros((n, d))
+    if len(A) == 1:
+        i = A[0]
+        if not P.v_minus[i, 0] < 0.0:
+            return None  # alone, a contact that does not approach takes no impulse
+        W, v = P.contact_block(i)
+        sol = solve_contact(W, v, float(P.restitution[i]), float(P.friction[i]), LAW)
+        pi[i] = sol.impulse
+        return pi, {"effective_mass": sol.effective_mass, "accuracy": 1e-10,
+                    "warnings": tuple(sol.warnings), "slide_rule": "single-contact law"}
+    idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in A])
+    W = P.delassus[np.ix_(idx, idx)]
+    E = W[::d]
+    f = -b[list(A), 0]
+    qp = ConeQP(W, P.v_minus[list(A)].ravel(), P.friction[list(A)], d, E, f)
+    try:
+        sol = solve_cone_qp(backend, qp, opts.tol, opts.max_iter)
+    except SolverError as exc:
+        if "infeasible" in str(exc).lower():
+            return None
+        raise
+    pi[list(A)] = sol.x.reshape(len(A), d)
+    return pi, {"effective_mass": None, "accuracy": opts.accuracy(sol.polished),
+                "warnings": (), "slide_rule": "P_N over the active set",
+                **solver_report(sol, opts)}
+
+
+def relaxed_bound(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray) -> float:
+    """A lower bound of T+ - T- over every impulse on A with ``u_n = 0`` there: the same
+    minimum without the cones (the KKT system of an equality-constrained QP, by least
+    squares). +inf when the equalities cannot hold; P_N(A) and the single-contact slide
+    satisfy them, so neither can dissipate more than this."""
+    S = _rows(P, A, stick=True)
+    W = P.delassus
+    normals = [i * P.dim for i in A]
+    E = W[np.ix_(normals, S)]
+    m = len(normals)
+    K = np.block([[W[np.ix_(S, S)], E.T], [E, np.zeros((m, m))]])
+    rhs = np.concatenate([-P.v_minus.ravel()[S], -b[list(A), 0]])
+    sol, *_ = np.linalg.lstsq(K, rhs, rcond=None)
+    if np.linalg.norm(K @ sol - rhs) > 1e-8 * max(float(np.linalg.norm(rhs)), TINY):
+        return math.inf
+    pi = np.zeros(P.n_contacts * P.dim)
+    pi[S] = sol[:S.size]
+    return _energy_change(P, pi.reshape(P.n_contacts, P.dim))
+
+
+def _admissible(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, b: np.ndarray,
+                tol: float) -> bool:
+    """(N) and the cones: pi_n >= 0 and |pi_t| <= mu pi_n on A, u_n >= 0 off A, to round-off.
+
+    Contact by contact (their effective masses may lie far apart): a velocity row is allowed
+    ``tol`` of its own size plus the round-off of forming it, ``1e2 eps sum_k |W_jk| |pi_k|``
+    (cond(W) eps of the velocities where W is ill-conditioned), capped at
+    :data:`VELOCITY_SLACK_MAX`; an impulse the same divided by the contact's W_nn.
+    """
+    d = P.dim
+    W = P.delassus
+    flat = pi.ravel()
+    Wpi = W @ flat
+    u = (Wpi + b.ravel()).reshape(P.n_contacts, d)
+    size = np.maximum(np.abs(b.ravel()), np.abs(Wpi)).reshape(P.n_contacts, d).max(axis=1)
+    roundoff = 1e2 * EPS * (np.abs(W) @ np.abs(flat)).reshape(P.n_contacts, d).max(axis=1)
+    slack = np.maximum(tol * size, np.minimum(roundoff, VELOCITY_SLACK_MAX * size))
+    for i in range(P.n_contacts):
+        if i in A:
+            pn, pt = pi[i, 0], float(np.linalg.norm(pi[i, 1:]))
+            ptol = max(tol * float(np.linalg.norm(pi[i])), slack[i] / W[i * d, i * d])
+            if pn < -ptol or pt > P.friction[i] * pn * (1.0 + CONE_RTOL) + ptol:
+                return False
+        elif u[i, 0] < -slack[i]:
+            return False
+    return True
+
+
+def _energy_change(P: ImpactProblem, pi: np.ndarray) -> float:
+    """T+ - T- = pi.v- + 1/2 pi.W.pi (eq. 58 in contact space)."""
+    flat = pi.ravel()
+    return float(flat @ P.v_minus.ravel() + 0.5 * flat @ P.delassus @ flat)
+
+
+def _regimes(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, tol: float) -> list[str]:
+    vplus = P.v_minus + (P.delassus @ pi.ravel()).reshape(P.n_contacts, P.dim)
+    vscale = max(float(np.max(np.abs(P.v_minus))), TINY)
+    out = []
+    for i in range(P.n_contacts):
+        if i not in A:
+            out.append("separating")
+        elif P.friction[i] == 0.0:
+            out.append("frictionless")
+        elif np.linalg.norm(vplus[i, 1:]) <= 10.0 * tol * vscale:
+            out.append("stick")
+        else:
+            out.append("slide")
+    return out
+
+
+def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
+    """The most dissipative candidate, and a warning when others with other velocities exist."""
+    found.sort(key=lambda c: c[0])
+    best = found[0]
+    vs = max(float(np.max(np.abs(P.v_minus))), TINY)
+    vel = (P.delassus @ best[2].ravel())
+    others = [c for c in found[1:]
+              if np.max(np.abs(P.delassus @ c[2].ravel() - vel)) > 1e-8 * vs]
+    notes = []
+    if others:
+        sets = ", ".join(str(list(c[1])) for c in [best, *others])
+        notes.append(f"Newton's law in complementarity form has {len(others) + 1} admissible "
+                     f"active sets here ({sets}) with different velocities; the most "
+                     "dissipative is returned")
+    return best, notes
+
+
+def several_contacts_result(P: ImpactProblem, backend: Backend, method: str,
+                            opts: ProgramOptions) -> ImpactResult:
+    """The law at several contacts (module docstring): stick on the most dissipative
+    admissible active set, else slide on the most dissipative admissible one."""
+    n = P.n_contacts
+    if n > MAX_CONTACTS:
+        raise NotSupportedError(
+            f"law 'pereira-nikravesh' enumerates the 2^n - 1 active sets of its contacts and "
+            f"treats at most {MAX_CONTACTS} simultaneous contacts, got {n}; use law='coulomb', "
+            "'ccp' or 'dissipative'")
+    b = newton_velocity_shift(P)
+    # an active set needs an approaching contact: impulses among contacts that merely touch
+    # would be an impact without collision (one contact alone takes no impulse then either)
+    closing = approaching(P)
+    if not closing.any():  # every approach is round-off: touching contacts, no impact
+        closing = P.v_minus[:, 0] < 0.0
+    subsets = [A for k in range(n, 0, -1) for A in itertools.combinations(range(n), k)
+               if closing[list(A)].any()]
+    stick = []
+    for A in subsets:
+        pi = stick_on(P, A, b)
+        if pi is not None and _admissible(P, A, pi, b, 1e-10):
+            stick.append((_energy_change(P, pi), A, pi, {"accuracy": 1e-10}))
+    tier = "stick"
+    found = stick
+    failures: list[str] = []
+    if not found:
+        # most dissipative first: an active set whose relaxed bound (no cones) cannot beat
+        # the best admissible slide found so far is not solved
+        tier = "slide"
+        energy_scale = max(0.5 * float(np.max(np.abs(P.v_minus))) ** 2 /
+                           float(np.max(np.abs(np.diag(P.delassus)))), TINY)
+        for bound, A in sorted((relaxed_bound(P, A, b), A) for A in subsets):
+            if math.isinf(bound):
+                continue
+            if found and bound > min(c[0] for c in found) + 1e-9 * energy_scale:
+                break
+            try:
+                got = slide_on(P, A, b, backend, opts)
+            except ConvImpactError as exc:  # a jam or an unconverged program of this A
+                failures.append(f"{list(A)}: {exc}")
+                continue
+            if got is not None and _admissible(P, A, got[0], b, got[1]["accuracy"]):
+                found.append((_energy_change(P, got[0]), A, got[0], got[1]))
+    if not found:
+        detail = ("; ".join(failures[:3]) + ("; ..." if len(failures) > 3 else "")
+                  if failures else "every active set is infeasible or lets a contact penetrate")
+        raise SolverError(
+            "P_N has no admissible active set: no choice of touching contacts satisfies "
+            "Newton's law (v_n+ + e v_n- >= 0, pi_n >= 0, complementary) with impulses in the "
+            f"friction cones ({detail}); use law='coulomb', 'ccp' or 'dissipative'")
+    (dT, A, pi, info), notes = _pick(P, found)
+    acc = float(info["accuracy"])
+    extras: dict[str, Any] = {
+        "active_set": list(A), "stick_test": tier == "stick", "tier": tier,
+        "admissible_active_sets": [list(c[1]) for c in found],
+        **{k: v for k, v in info.items() if k not in ("accuracy", "warnings",
+                                                      "effective_mass")}}
+    if failures:
+        extras["failed_active_sets"] = failures
+    warnings = [*info.get("warnings", ()), *notes]
+    if failures:
+        warnings.append(f"{len(failures)} active set(s) could not be solved and might have "
+                        "dissipated more (extras['failed_active_sets']); the answer is the "
+                        "most dissipative of the others")
+    return assemble_result(P, pi, _regimes(P, A, pi, acc), LAW, method,
+                           effective_mass=info.get("effective_mass"), tol=acc, extras=extras,
+                           warnings=tuple(warnings))
