@@ -16,6 +16,9 @@ import sys as _sys
 from .impact import (
     LAWS,
     METHODS,
+    ImpactBatch,
+    contact_impulses,
+    resolve_impacts,
     ImpactDiagnostics,
     ImpactProblem,
     ImpactResult,
@@ -61,6 +64,9 @@ def __getattr__(name):
 __version__ = "0.1.0"
 
 __all__ = [
+    "resolve_impacts",
+    "contact_impulses",
+    "ImpactBatch",
     "resolve_impact",
     "solve_problem",
     "simulate",

@@ -37,6 +37,7 @@ from .laws.pereira_nikravesh import (
     stick_admissible,
     sticking_impulse,
 )
+from .batch import ContactBatch, ImpactBatch, contact_impulses, resolve_impacts
 from .problem import ImpactProblem, build_problem
 from .resolve import (
     LAWS,
@@ -52,6 +53,10 @@ from .results import ImpactDiagnostics, ImpactResult
 
 __all__ = [
     "resolve_impact",
+    "resolve_impacts",
+    "contact_impulses",
+    "ImpactBatch",
+    "ContactBatch",
     "solve_problem",
     "register_solver",
     "available_methods",

@@ -1,0 +1,710 @@
+"""Many single-contact impacts at once: :func:`resolve_impacts` and :func:`contact_impulses`.
+
+``resolve_impacts(M, Jc, dq, e, mu, law=...)`` resolves N independent impacts of one contact
+each -- the same answers as ``resolve_impact(M[i], Jc[i], dq[i], e[i], mu[i], law=law,
+method="fast")`` to round-off -- in one compiled loop (numba, :mod:`.batch_kernels`): per item
+it validates M (finite, symmetric, Cholesky), forms W = Jc M^-1 Jc^T and v- = Jc dq, applies the
+law's exact single-contact kernel (a port of ``contact_kernel`` of each law module, branch for
+branch), maps the impulse back to dq+ and measures the flags of
+:func:`~convimpact.impact.diagnostics.assemble_result`. ``contact_impulses(W, v, e, mu, law)``
+is the lower-level entry on the Delassus blocks and contact velocities directly (the batch
+analogue of :func:`convimpact.impact.fast.solve_contact`).
+
+Shapes: an argument with a leading batch dimension N is per impact, one without it is shared
+by every impact (M (k, k) or (N, k, k); Jc (d, k) or (N, d, k) with d = 2 planar, 3 spatial;
+dq (k,) or (N, k); e, mu scalars or (N,)). Arrays must be real numbers (no strings, no
+booleans, no complex).
+
+Error policy
+------------
+* **Bad input raises**, whatever ``on_error`` says, with the typed error of
+  :func:`~convimpact.resolve_impact` (ShapeError, NonFiniteError, MassMatrixError,
+  ParameterError, UnknownOptionError) and a message naming the first offending impact.
+* **An impact the exact kernel rejects** -- a singular W where the law inverts it (or
+  W_nn <= 0), a Painleve-like jam of a Newton law, no certified solution -- is *flagged* by
+  default (``on_error="flag"``): its ``status`` is :data:`SINGULAR`, :data:`JAM` or
+  :data:`NO_SOLUTION`, its regime :data:`FAILED` (-1), its numbers NaN, its flags False; the
+  others are unaffected. ``on_error="raise"`` raises instead the error ``resolve_impact(...,
+  method="fast")`` raises on the first such impact (SingularSystemError,
+  NonPositiveEffectiveMassError, SolverError), naming its index. ``batch.error(i)`` gives that
+  exception for any flagged item after the fact.
+
+The compiled kernels are built on the first call (numba, ``cache=True``: the machine code is
+kept on disk, so later processes load it in a fraction of a second); :func:`compile_kernels`
+builds them ahead of time and says how long it took. ``import convimpact`` compiles nothing
+and does not import numba. numba is an optional dependency (``pip install
+"convimpact[batch]"``): without it :func:`resolve_impacts`, :func:`contact_impulses` and
+:func:`compile_kernels` raise :class:`~convimpact.impact.errors.NotSupportedError` (a loop over
+``resolve_impact`` gives the same answers).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, ClassVar, Mapping
+
+import numpy as np
+
+from .errors import (
+    ConvImpactError,
+    InputError,
+    MassMatrixError,
+    NonFiniteError,
+    NonPositiveEffectiveMassError,
+    NotSupportedError,
+    ParameterError,
+    ShapeError,
+    SingularSystemError,
+    SolverError,
+    UnknownOptionError,
+)
+
+#: laws of the batch (every law has an exact single-contact kernel), with their codes
+LAW_CODES: Mapping[str, int] = MappingProxyType(
+    {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3})
+#: regime names; ``ImpactBatch.regime`` holds indices into this tuple (FAILED = -1 for
+#: impacts the kernel rejected)
+REGIMES: tuple[str, ...] = ("separating", "frictionless", "stick", "slide")
+FAILED = -1
+#: per-impact status codes
+OK, SINGULAR, JAM, NO_SOLUTION = 0, 1, 2, 3
+#: status code -> name
+STATUS_NAMES: Mapping[int, str] = MappingProxyType(
+    {OK: "ok", SINGULAR: "singular", JAM: "jam", NO_SOLUTION: "no-solution"})
+#: status code -> the typed error resolve_impact raises for such an impact
+STATUS_ERRORS: Mapping[int, type] = MappingProxyType(
+    {SINGULAR: SingularSystemError, JAM: NonPositiveEffectiveMassError,
+     NO_SOLUTION: SolverError})
+ON_ERROR = ("flag", "raise")
+#: relative accuracy of the answers (that of method="fast"; passed to the flags' thresholds)
+BATCH_TOL = 1e-10
+
+_DEFER = 9  # batch_kernels.DEFER: solved by the Python kernel afterwards
+_NO_ITEMS = np.zeros(0, dtype=np.int64)
+_NO_IMPULSES = {2: np.zeros((0, 2)), 3: np.zeros((0, 3))}
+_K = None  # the compiled module, imported on first use
+_COMPILE_SECONDS: dict[str, float] = {}
+
+
+#: the error without numba (an optional dependency: the ``batch`` extra)
+NEEDS_NUMBA = ('resolve_impacts needs numba: pip install "convimpact[batch]" (or a loop over '
+               'resolve_impact)')
+
+
+def _kernels():
+    """The compiled kernels (:mod:`.batch_kernels`), imported on first use; without numba,
+    :class:`NotSupportedError` naming the ``batch`` extra."""
+    global _K
+    if _K is None:
+        t = time.perf_counter()
+        try:
+            import numba  # noqa: F401  (optional: the batch extra)
+        except ImportError as exc:
+            missing = isinstance(exc, ModuleNotFoundError) and exc.name == "numba"
+            raise NotSupportedError(NEEDS_NUMBA if missing else
+                                    f"{NEEDS_NUMBA}; importing numba failed: {exc}") from exc
+        from . import batch_kernels
+
+        _K = batch_kernels
+        _COMPILE_SECONDS["import"] = time.perf_counter() - t
+    return _K
+
+
+# --------------------------------------------------------------------------------------------
+# results
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class ContactBatch:
+    """Impulses of N contacts from (W, v) (:func:`contact_impulses`).
+
+    Attributes
+    ----------
+    impulse : (N, d) contact-frame impulses, normal first (NaN where the kernel failed).
+    regime : (N,) int8 indices into :data:`REGIMES` (-1 = failed).
+    status : (N,) int8 :data:`OK`, :data:`SINGULAR`, :data:`JAM` or :data:`NO_SOLUTION`.
+    effective_mass : (N,) the sliding denominator c_n^T G (c_n + mu c_t) where a Newton law
+        slid (ContactSolution.effective_mass), NaN elsewhere.
+    v_plus : (N, d) post-impact contact velocity v + W pi.
+    energy_loss : (N,) T_L = -(pi.v + 1/2 pi.W.pi).
+    law : the impact law.
+    """
+
+    impulse: np.ndarray
+    regime: np.ndarray
+    status: np.ndarray
+    effective_mass: np.ndarray
+    v_plus: np.ndarray
+    energy_loss: np.ndarray
+    law: str
+    _errors: Mapping[int, ConvImpactError] = field(default=None, repr=False)
+
+    regime_names: ClassVar[tuple[str, ...]] = REGIMES
+
+    def __len__(self) -> int:
+        return self.impulse.shape[0]
+
+    @property
+    def ok(self) -> np.ndarray:
+        """(N,) bool: the kernel solved the item."""
+        return self.status == OK
+
+    @property
+    def failed(self) -> np.ndarray:
+        """Indices of the items the kernel rejected."""
+        return np.flatnonzero(self.status != OK)
+
+    def regimes(self) -> tuple[str, ...]:
+        """Regime names per item ("failed" where the kernel rejected it)."""
+        names = REGIMES + ("failed",)
+        return tuple(names[int(r)] for r in self.regime)
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactBatch:
+    """N single-contact impacts resolved at once (:func:`resolve_impacts`).
+
+    The fields carry :class:`~convimpact.impact.results.ImpactResult`'s names (and its
+    diagnostics' flags) as arrays over the batch; item i equals ``resolve_impact(M[i], Jc[i],
+    dq[i], e[i], mu[i], law=law, method="fast")`` to round-off.
+
+    Attributes
+    ----------
+    dq_plus : (N, k) joint velocities after impact.
+    impulse : (N, d) contact-frame impulses, normal first.
+    regime : (N,) int8 indices into :data:`REGIMES` ("separating", "frictionless", "stick",
+        "slide"); -1 where the kernel rejected the impact.
+    energy_loss : (N,) T- - T+ (eq. 58).
+    v_minus, v_plus : (N, d) contact velocities before and after impact.
+    law, method : the impact law, and "fast" (the exact single-contact kernels).
+    energy_before, energy_after : (N,) T- and T+.
+    energy_gained, friction_pushes_slip, slip_reversal, penetration : (N,) bool, the flags of
+        ImpactDiagnostics (False where the kernel rejected the impact).
+    effective_mass : (N,) the sliding denominator c_n^T M^-1 (c_n + mu c_t) where a Newton
+        law slid (ImpactDiagnostics.effective_mass), NaN elsewhere.
+    delassus : (N, d, d) W = Jc M^-1 Jc^T of each impact.
+    status : (N,) int8 :data:`OK` or the reason the kernel rejected the impact
+        (:data:`SINGULAR`, :data:`JAM`, :data:`NO_SOLUTION`); those items hold NaN.
+    """
+
+    dq_plus: np.ndarray
+    impulse: np.ndarray
+    regime: np.ndarray
+    energy_loss: np.ndarray
+    v_minus: np.ndarray
+    v_plus: np.ndarray
+    law: str
+    method: str
+    energy_before: np.ndarray
+    energy_after: np.ndarray
+    energy_gained: np.ndarray
+    friction_pushes_slip: np.ndarray
+    slip_reversal: np.ndarray
+    penetration: np.ndarray
+    effective_mass: np.ndarray
+    delassus: np.ndarray
+    status: np.ndarray
+    _errors: Mapping[int, ConvImpactError] = field(default=None, repr=False)
+    _friction: Any = field(default=None, repr=False)  # effective mu per item (error())
+    _restitution: Any = field(default=None, repr=False)
+
+    regime_names: ClassVar[tuple[str, ...]] = REGIMES
+    status_names: ClassVar[Mapping[int, str]] = STATUS_NAMES
+
+    def __len__(self) -> int:
+        return self.impulse.shape[0]
+
+    @property
+    def normal_impulse(self) -> np.ndarray:
+        return self.impulse[:, 0]
+
+    @property
+    def tangential_impulse(self) -> np.ndarray:
+        return self.impulse[:, 1:]
+
+    @property
+    def ok(self) -> np.ndarray:
+        """(N,) bool: the kernel solved the impact."""
+        return self.status == OK
+
+    @property
+    def failed(self) -> np.ndarray:
+        """Indices of the impacts the kernel rejected."""
+        return np.flatnonzero(self.status != OK)
+
+    def regimes(self) -> tuple[str, ...]:
+        """Regime names per impact ("failed" where the kernel rejected it)."""
+        names = REGIMES + ("failed",)
+        return tuple(names[int(r)] for r in self.regime)
+
+    def error(self, i: int) -> ConvImpactError | None:
+        """The typed error ``resolve_impact(..., method="fast")`` raises for impact i (None
+        if it was solved)."""
+        i = int(i)
+        if self.status[i] == OK:
+            return None
+        if self._errors and i in self._errors:
+            return self._errors[i]
+        return _kernel_error(self.delassus[i], self.v_minus[i], float(self._restitution[i]),
+                             float(self._friction[i]), self.law, int(self.status[i]), i,
+                             len(self))
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-JSON view (lists; NaN stays NaN)."""
+        out: dict[str, Any] = {}
+        for name in ("dq_plus", "impulse", "regime", "energy_loss", "v_minus", "v_plus",
+                     "energy_before", "energy_after", "energy_gained", "friction_pushes_slip",
+                     "slip_reversal", "penetration", "effective_mass", "status"):
+            out[name] = getattr(self, name).tolist()
+        out.update(law=self.law, method=self.method, regime_names=list(REGIMES),
+                   status_names={str(k): v for k, v in STATUS_NAMES.items()})
+        return out
+
+
+# --------------------------------------------------------------------------------------------
+# validation
+
+
+def _real_array(name: str, value) -> np.ndarray:
+    """A float64 C-contiguous array of real numbers (no strings, booleans, complex, objects)."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ShapeError(f"{name} must be real numbers, got {type(value).__name__} {value!r}")
+    if isinstance(value, np.ndarray):
+        a = value
+    else:
+        try:
+            a = np.asarray(value)
+        except (TypeError, ValueError) as exc:
+            raise ShapeError(f"{name} must be a numeric array, got {type(value).__name__}"
+                             ) from exc
+    if a.dtype.kind not in "iuf":
+        what = {"b": "booleans", "U": "strings", "S": "strings", "O": "objects or ragged "
+                "nested sequences", "c": "complex numbers"}.get(a.dtype.kind, str(a.dtype))
+        raise ShapeError(f"{name} must be real numbers, got an array of {what}")
+    return np.asarray(a, dtype=np.float64, order="C")
+
+
+def _batched(name: str, a: np.ndarray, item_ndim: int, item_shape: str) -> np.ndarray:
+    if a.ndim == item_ndim:
+        return a[None]
+    if a.ndim == item_ndim + 1:
+        return a
+    if item_ndim == 0:
+        raise ShapeError(f"{name} must be a scalar or one value per impact (N,); got shape "
+                         f"{a.shape}")
+    raise ShapeError(f"{name} must have shape {item_shape} (shared by every impact) or "
+                     f"(N, {item_shape[1:-1]}) (one per impact); got {a.shape}")
+
+
+def _batch_size(arrays: dict[str, np.ndarray], shared_ndim: dict[str, bool]) -> int:
+    sizes = {name: a.shape[0] for name, a in arrays.items() if not shared_ndim[name]}
+    if not sizes:
+        return 1
+    n = max(sizes.values())
+    bad = {name: s for name, s in sizes.items() if s != n}
+    if bad:
+        raise ShapeError("the batch dimensions disagree: " + ", ".join(
+            f"{name} has {s}" for name, s in sizes.items()) + "; every per-impact argument "
+            "needs the same N (or drop the batch dimension to share one value)")
+    return n
+
+
+def _check_finite(name: str, a: np.ndarray, per_item: bool) -> None:
+    if a.size and not np.isfinite(a).all():
+        bad = ~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
+        i = int(np.flatnonzero(bad)[0])
+        where = f"{name}[{i}]" if per_item else name
+        raise NonFiniteError(f"{where} contains NaN or infinity (impact {i}); pass finite values"
+                             if per_item else f"{name} contains NaN or infinity; pass finite "
+                             "values")
+
+
+def _check_parameters(e: np.ndarray, mu: np.ndarray, e_shared: bool, mu_shared: bool) -> None:
+    _check_finite("e", e, not e_shared)
+    _check_finite("mu", mu, not mu_shared)
+    bad = np.flatnonzero((e < 0.0) | (e > 1.0))
+    if bad.size:
+        i = int(bad[0])
+        where = f"e[{i}] = {e[i]:g} (impact {i})" if not e_shared else f"e = {e[0]:g}"
+        raise ParameterError(f"coefficient of restitution must lie in [0, 1], got {where}"
+                             + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
+    bad = np.flatnonzero(mu < 0.0)
+    if bad.size:
+        i = int(bad[0])
+        where = f"mu[{i}] = {mu[i]:g} (impact {i})" if not mu_shared else f"mu = {mu[0]:g}"
+        raise ParameterError(f"coefficient of friction must be >= 0, got {where}"
+                             + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
+
+
+def _check_options(law, on_error) -> int:
+    if not isinstance(law, str) or law not in LAW_CODES:
+        raise UnknownOptionError(f"unknown impact law {law!r}; choose one of "
+                                 f"{', '.join(LAW_CODES)}")
+    if not isinstance(on_error, str) or on_error not in ON_ERROR:
+        raise UnknownOptionError(f"on_error must be 'flag' (per-impact status codes) or "
+                                 f"'raise' (the first rejected impact's error), got {on_error!r}")
+    return LAW_CODES[law]
+
+
+# --------------------------------------------------------------------------------------------
+# errors of single items
+
+
+def _status_of(exc: BaseException) -> int:
+    if isinstance(exc, NonPositiveEffectiveMassError):
+        return JAM
+    if isinstance(exc, SingularSystemError):
+        return SINGULAR
+    return NO_SOLUTION
+
+
+def _item_error(exc: ConvImpactError, i: int, n: int) -> ConvImpactError:
+    """The same error type with the impact's index in front of its message."""
+    out = type(exc)(f"impact {i} of the batch of {n}: {exc}")
+    out.__cause__ = exc
+    return out
+
+
+def _kernel_error(W, v, e: float, mu: float, law: str, status: int, i: int,
+                  n: int) -> ConvImpactError:
+    """The error the Python kernel raises on item i (re-run on its W, v)."""
+    from .fast import solve_contact
+
+    try:
+        solve_contact(W, v, e, mu, law)
+    except ConvImpactError as exc:
+        return _item_error(exc, i, n)
+    # unreachable unless the compiled and Python kernels disagree: say so, typed by status
+    return STATUS_ERRORS.get(status, SolverError)(
+        f"impact {i} of the batch of {n}: the compiled kernel rejected it "
+        f"({STATUS_NAMES.get(status, status)}) but the Python kernel solves it; please report")
+
+
+def _raise_first(status: np.ndarray, errors: Mapping[int, ConvImpactError], W, v, e, mu,
+                 law: str) -> None:
+    bad = np.flatnonzero(status != OK)
+    if not bad.size:
+        return
+    i = int(bad[0])
+    exc = errors.get(i) or _kernel_error(W[i], v[i], float(e[i]), float(mu[i]), law,
+                                         int(status[i]), i, status.shape[0])
+    if bad.size > 1:
+        exc.args = (f"{exc.args[0]} ({bad.size} impacts of the batch were rejected; "
+                    "on_error='flag' returns per-impact status codes instead)",)
+    raise exc
+
+
+def _input_error(code: int, i: int, n: int, M: np.ndarray, J: np.ndarray | None = None,
+                 dq: np.ndarray | None = None) -> InputError:
+    K = _kernels()
+    im = i if M.shape[0] > 1 else 0
+    where = f"impact {i} of the batch of {n}" if n > 1 else "the impact"
+    mname = f"M[{i}]" if M.shape[0] > 1 else "M"
+    jname = f"Jc[{i}]" if J is not None and J.shape[0] > 1 else "Jc"
+    qname = f"dq[{i}]" if dq is not None and dq.shape[0] > 1 else "dq"
+    if code == K.BAD_M_FINITE:
+        return NonFiniteError(f"{mname} contains NaN or infinity ({where}); pass finite values")
+    if code == K.BAD_M_SYMMETRY:
+        A = M[im]
+        return MassMatrixError(
+            f"{mname} is not symmetric ({where}: max |M - M^T| = "
+            f"{float(np.max(np.abs(A - A.T))):.3e} for max |M| = {float(np.max(np.abs(A))):.3e}"
+            "); a generalized mass matrix B^T M B (eq. 3) is symmetric: check its assembly")
+    if code == K.BAD_M_DEFINITE:
+        A = M[im]
+        lam = float(np.linalg.eigvalsh(0.5 * (A + A.T))[0])
+        return MassMatrixError(
+            f"{mname} is not positive definite ({where}: smallest eigenvalue {lam:.3e}); every "
+            "body needs positive mass and the joint coordinates must be independent")
+    if code == K.BAD_J_FINITE:
+        return NonFiniteError(f"{jname} contains NaN or infinity ({where}); pass finite values")
+    if code == K.BAD_DQ_FINITE:
+        return NonFiniteError(f"{qname} contains NaN or infinity ({where}); pass finite values")
+    if code == K.BAD_W_FINITE:
+        return NonFiniteError(f"W or v contains NaN or infinity ({where}); pass finite values")
+    return NonFiniteError(
+        f"{where} overflows double precision (Delassus matrix, contact velocities or kinetic "
+        "energy not finite); rescale the units of M, Jc and dq")
+
+
+# --------------------------------------------------------------------------------------------
+# the public entries
+
+
+def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, C=None,
+                    on_error: str = "flag") -> ImpactBatch:
+    """Resolve N single-contact impacts at once (the batch form of ``resolve_impact``).
+
+    Parameters
+    ----------
+    M : (k, k) or (N, k, k) array_like
+        Generalized mass matrices (symmetric positive definite), shared or one per impact.
+    Jc : (d, k) or (N, d, k) array_like
+        Contact Jacobians in the contact frame, rows n, t (d = 2) or n, t1, t2 (d = 3).
+    dq : (k,) or (N, k) array_like
+        Joint velocities before impact.
+    e, mu : float or (N,) array_like
+        Restitution in [0, 1] and friction >= 0, shared or per impact.
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
+        The impact law (as in ``resolve_impact``).
+    C : None
+        Closed loops are not batched: pass ``C`` to ``resolve_impact`` per impact.
+    on_error : {"flag", "raise"}
+        What to do with an impact the exact kernel rejects (singular W, Painleve-like jam, no
+        certified solution): ``"flag"`` (default) records it in ``status`` and fills its
+        numbers with NaN; ``"raise"`` raises the first one's typed error, naming its index.
+        Bad input raises in either case.
+
+    Returns
+    -------
+    ImpactBatch
+        Arrays over the batch with ImpactResult's names: ``dq_plus`` (N, k), ``impulse``,
+        ``v_minus``, ``v_plus`` (N, d), ``regime`` (codes into ``REGIMES``), ``energy_loss``,
+        the diagnostic flags as bool arrays, ``effective_mass``, ``delassus``, ``status``.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError, MassMatrixError, ParameterError, UnknownOptionError
+        for bad input (the message names the first offending impact);
+    NotSupportedError
+        when ``C`` is given, or numba is not installed (``pip install "convimpact[batch]"``);
+    SingularSystemError, NonPositiveEffectiveMassError, SolverError
+        with ``on_error="raise"`` only, for the first impact the kernel rejects.
+
+    Examples
+    --------
+    The README's particle at 45 degrees, and the same particle at three friction values:
+
+    >>> import numpy as np, convimpact as ci
+    >>> from convimpact.impact.batch import resolve_impacts
+    >>> M, Jc = 2.0 * np.eye(2), np.array([[0.0, 1.0], [1.0, 0.0]])
+    >>> b = resolve_impacts(M, Jc, [1.0, -1.0], e=0.5, mu=[0.0, 0.3, 1.0])
+    >>> b.regimes()
+    ('frictionless', 'slide', 'stick')
+    >>> np.round(b.v_plus[1], 3).tolist()
+    [0.5, 0.55]
+    """
+    _kernels()  # NotSupportedError without numba
+    code = _check_options(law, on_error)
+    if C is not None:
+        raise NotSupportedError(
+            "resolve_impacts batches open-loop impacts only; for closed loops (C given) call "
+            "resolve_impact per impact")
+    M = _real_array("M", M)
+    J = _real_array("Jc", Jc)
+    q = _real_array("dq", dq)
+    e_ = _real_array("e", e)
+    mu_ = _real_array("mu", mu)
+    Mb = _batched("M", M, 2, "(k, k)")
+    Jb = _batched("Jc", J, 2, "(d, k)")
+    qb = _batched("dq", q, 1, "(k,)")
+    eb = _batched("e", e_, 0, "")
+    mb = _batched("mu", mu_, 0, "")
+    shared = {"M": M.ndim == 2, "Jc": J.ndim == 2, "dq": q.ndim == 1, "e": e_.ndim == 0,
+              "mu": mu_.ndim == 0}
+    n = _batch_size({"M": Mb, "Jc": Jb, "dq": qb, "e": eb, "mu": mb}, shared)
+    k = Mb.shape[1]
+    if Mb.shape[2] != k or k == 0:
+        raise ShapeError(f"M must be square k x k with k >= 1, got {M.shape[-2:]}")
+    d = Jb.shape[1]
+    if d not in (2, 3) or Jb.shape[2] != k:
+        raise ShapeError(
+            f"each contact Jacobian must be 2 x {k} (planar rows n, t) or 3 x {k} (spatial rows "
+            f"n, t1, t2) to match M ({k} x {k}); got {J.shape[-2:]}")
+    if qb.shape[1] != k:
+        raise ShapeError(f"dq must be a vector of length {k} to match M, got {q.shape[-1:]}")
+    _check_parameters(eb, mb, shared["e"], shared["mu"])
+
+    dq_plus = np.empty((n, k))
+    impulse = np.empty((n, d))
+    v_minus = np.empty((n, d))
+    v_plus = np.empty((n, d))
+    W = np.empty((n, d, d))
+    regime = np.empty(n, np.int8)
+    status = np.empty(n, np.int8)
+    effm = np.empty(n)
+    T0 = np.empty(n)
+    T1 = np.empty(n)
+    flags = np.zeros((n, 4), np.bool_)
+    mu_all = np.empty(n)
+    errors: dict[int, ConvImpactError] = {}
+    if n:
+        K = _kernels()
+        outs = (dq_plus, impulse, v_minus, v_plus, W, regime, status, effm, mu_all, T0, T1,
+                flags)
+        first_bad, ndefer = K.impact_batch(code, Mb, Jb, qb, eb, mb, BATCH_TOL, _NO_ITEMS,
+                                           _NO_IMPULSES[d], *outs)
+        if first_bad >= 0:
+            raise _input_error(int(status[first_bad]), int(first_bad), n, Mb, Jb, qb)
+        e_all = np.broadcast_to(eb, (n,))
+        if ndefer:
+            _solve_deferred(law, code, status, regime, effm, W, v_minus, e_all, mu_all, errors,
+                            lambda idx, pis: K.impact_batch(code, Mb, Jb, qb, eb, mb,
+                                                            BATCH_TOL, idx, pis, *outs))
+        if on_error == "raise":
+            _raise_first(status, errors, W, v_minus, e_all, mu_all, law)
+    else:
+        e_all = np.zeros(0)
+    return ImpactBatch(
+        dq_plus=_frozen(dq_plus), impulse=_frozen(impulse), regime=_frozen(regime),
+        energy_loss=_frozen(T0 - T1), v_minus=_frozen(v_minus), v_plus=_frozen(v_plus),
+        law=law, method="fast", energy_before=_frozen(T0), energy_after=_frozen(T1),
+        energy_gained=_frozen(flags[:, 0].copy()),
+        friction_pushes_slip=_frozen(flags[:, 1].copy()),
+        slip_reversal=_frozen(flags[:, 2].copy()), penetration=_frozen(flags[:, 3].copy()),
+        effective_mass=_frozen(effm), delassus=_frozen(W), status=_frozen(status),
+        _errors=MappingProxyType(errors), _friction=mu_all, _restitution=e_all)
+
+
+def _solve_deferred(law: str, code: int, status, regime, effm, W, v, e, mu, errors,
+                    finish) -> None:
+    """Items the compiled kernel left to the Python kernel (rare branches, rescaling)."""
+    from .fast import solve_contact
+
+    idx = np.flatnonzero(status == _DEFER)
+    done, pis = [], []
+    d = W.shape[1]
+    for i in idx:
+        i = int(i)
+        try:
+            sol = solve_contact(W[i], v[i], float(e[i]), float(mu[i]), law)
+        except InputError:
+            raise
+        except ConvImpactError as exc:
+            status[i] = _status_of(exc)
+            regime[i] = FAILED
+            errors[i] = _item_error(exc, i, status.shape[0])
+            continue
+        status[i] = OK
+        regime[i] = REGIMES.index(sol.regime)
+        effm[i] = math.nan if sol.effective_mass is None else float(sol.effective_mass)
+        done.append(i)
+        pis.append(np.asarray(sol.impulse, dtype=float).reshape(d))
+    if done:
+        finish(np.array(done, dtype=np.int64), np.array(pis))
+
+
+def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
+                     on_error: str = "flag") -> ContactBatch:
+    """Impulses of N single contacts from their Delassus blocks and velocities.
+
+    The batch form of :func:`convimpact.impact.fast.solve_contact`: item i equals
+    ``solve_contact(W[i], v[i], e[i], mu[i], law)``. W is read from its upper triangle (as the
+    kernels do); it is not checked for symmetry or definiteness.
+
+    Parameters
+    ----------
+    W : (d, d) or (N, d, d) array_like
+        Delassus blocks, d = 2 (n, t) or 3 (n, t1, t2).
+    v : (d,) or (N, d) array_like
+        Pre-impact contact velocities; v[..., 0] < 0 approaching.
+    e, mu : float or (N,) array_like
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
+    on_error : {"flag", "raise"}
+        As in :func:`resolve_impacts`.
+
+    Returns
+    -------
+    ContactBatch
+        ``impulse`` (N, d), ``regime``, ``status``, ``effective_mass``, ``v_plus = v + W pi``,
+        ``energy_loss``.
+
+    Examples
+    --------
+    >>> from convimpact.impact.batch import contact_impulses
+    >>> b = contact_impulses([[0.5, 0.0], [0.0, 0.5]], [[-1.0, 1.0], [-1.0, 0.1]], e=0.5, mu=0.3)
+    >>> b.regimes(), b.impulse.round(3).tolist()
+    (('slide', 'stick'), [[3.0, -0.9], [3.0, -0.2]])
+    """
+    _kernels()  # NotSupportedError without numba
+    code = _check_options(law, on_error)
+    Wa = _real_array("W", W)
+    va = _real_array("v", v)
+    e_ = _real_array("e", e)
+    mu_ = _real_array("mu", mu)
+    Wb = _batched("W", Wa, 2, "(d, d)")
+    vb = _batched("v", va, 1, "(d,)")
+    eb = _batched("e", e_, 0, "")
+    mb = _batched("mu", mu_, 0, "")
+    shared = {"W": Wa.ndim == 2, "v": va.ndim == 1, "e": e_.ndim == 0, "mu": mu_.ndim == 0}
+    n = _batch_size({"W": Wb, "v": vb, "e": eb, "mu": mb}, shared)
+    d = vb.shape[1]
+    if d not in (2, 3) or Wb.shape[1:] != (d, d):
+        raise ShapeError(
+            f"a contact needs W of shape (d, d) and v of length d with d = 2 (n, t) or 3 "
+            f"(n, t1, t2); got W {Wa.shape[-2:]} and v {va.shape[-1:]}")
+    _check_parameters(eb, mb, shared["e"], shared["mu"])
+    impulse = np.empty((n, d))
+    regime = np.empty(n, np.int8)
+    status = np.empty(n, np.int8)
+    effm = np.empty(n)
+    vplus = np.empty((n, d))
+    eloss = np.empty(n)
+    errors: dict[int, ConvImpactError] = {}
+    if n:
+        K = _kernels()
+        first_bad, ndefer = K.contact_batch(code, Wb, vb, eb, mb, impulse, regime, status, effm,
+                                            vplus, eloss)
+        if first_bad >= 0:
+            raise _input_error(K.BAD_W_FINITE, int(first_bad), n, Wb)
+        W_all = np.broadcast_to(Wb, (n, d, d))
+        v_all = np.broadcast_to(vb, (n, d))
+        e_all = np.broadcast_to(eb, (n,))
+        mu_all = np.broadcast_to(mb, (n,))
+        if ndefer:
+            def finish(idx, pis):
+                impulse[idx] = pis
+                Wi = np.triu(W_all[idx]) + np.triu(W_all[idx], 1).transpose(0, 2, 1)
+                u = np.einsum("nij,nj->ni", Wi, pis)
+                vplus[idx] = v_all[idx] + u
+                eloss[idx] = -(np.einsum("ni,ni->n", pis, v_all[idx])
+                               + 0.5 * np.einsum("ni,ni->n", pis, u))
+
+            _solve_deferred(law, code, status, regime, effm, W_all, v_all, e_all, mu_all,
+                            errors, finish)
+            failed = status != OK
+            impulse[failed] = np.nan
+            vplus[failed] = np.nan
+            eloss[failed] = np.nan
+        if on_error == "raise":
+            _raise_first(status, errors, W_all, v_all, e_all, mu_all, law)
+    return ContactBatch(impulse=_frozen(impulse), regime=_frozen(regime),
+                        status=_frozen(status), effective_mass=_frozen(effm),
+                        v_plus=_frozen(vplus), energy_loss=_frozen(eloss), law=law,
+                        _errors=MappingProxyType(errors))
+
+
+def compile_kernels() -> dict[str, float]:
+    """Build (or load from numba's on-disk cache) every compiled kernel now.
+
+    Returns seconds per step: ``import`` (numba and the module), ``planar`` and ``spatial``
+    (the first call of each driver on one impact per law). Later calls in this process pay
+    nothing; later processes load the cached machine code. Raises
+    :class:`~convimpact.impact.errors.NotSupportedError` without numba.
+    """
+    t0 = time.perf_counter()
+    _kernels()
+    out = {"import": time.perf_counter() - t0}
+    cases = {"planar": (np.eye(2), [[0.0, 1.0], [1.0, 0.0]], [1.0, -1.0]),
+             "spatial": (np.eye(3), [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                         [1.0, 0.5, -1.0])}
+    for name, (M, Jc, dq) in cases.items():
+        t = time.perf_counter()
+        for law in LAW_CODES:
+            b = resolve_impacts(M, Jc, dq, 0.5, 0.3, law)
+            contact_impulses(b.delassus, b.v_minus, 0.5, 0.3, law)
+        out[name] = time.perf_counter() - t
+    return out
+
+
+__all__ = ["resolve_impacts", "contact_impulses", "ImpactBatch", "ContactBatch", "REGIMES",
+           "LAW_CODES", "STATUS_NAMES", "OK", "SINGULAR", "JAM", "NO_SOLUTION", "FAILED",
+           "compile_kernels"]
