@@ -2,7 +2,10 @@
 
 A mechanism is described once as a :class:`Model` (built with :class:`ModelBuilder`) and
 evaluated at a state (theta, theta_dot) by plain functions that cache per-state quantities in
-a :class:`Data` workspace, in the style of Pinocchio's Model/Data split. ``model.mechanism()``
+a :class:`Data` workspace, in the style of Pinocchio's Model/Data split. The evaluations are
+the compiled recursive algorithms of :mod:`convimpact.model.recursive` (composite rigid
+bodies for M, Newton-Euler for f, one pass for every contact's gap, Jacobian and its rate).
+``model.mechanism()``
 returns a :class:`ModelMechanism`, which satisfies :class:`convimpact.mechanism.Mechanism`
 and is what scenes and simulators use.
 
@@ -19,13 +22,15 @@ and is what scenes and simulators use.
 """
 
 from .builder import GROUND, BodyInfo, ContactSpec, LoopSpec, Model, ModelBuilder
-from .contacts import ContactFrame, contact_frame, contact_gap, contact_jacobian
+from .contacts import (ContactFrame, contact_frame, contact_gap, contact_jacobian,
+                       contact_jacobian_dot)
 from .data import Data
 from .dynamics import (
     generalized_forces,
     kinetic_energy,
     mass_matrix,
     mass_matrix_dot,
+    momentum_rate,
     potential_energy,
     velocity_transformation,
 )
@@ -42,6 +47,7 @@ __all__ = [
     "point_jacobian_dot", "mass_matrix", "mass_matrix_dot", "generalized_forces",
     "kinetic_energy", "potential_energy", "velocity_transformation", "loop_residual",
     "loop_jacobian", "loop_jacobian_dot", "assemble", "consistent_velocity", "contact_frame",
-    "contact_gap", "contact_jacobian", "GAP_TOL", "active_contacts", "impact_arguments",
+    "contact_gap", "contact_jacobian", "contact_jacobian_dot", "momentum_rate", "GAP_TOL",
+    "active_contacts", "impact_arguments",
     "resolve_mechanism_impact", "place_resting", "rest_velocity",
 ]

@@ -5,6 +5,12 @@ a sphere). The frame is ``n`` (from body j toward body i) and ``t`` = n turned b
 (planar) or ``t1``, ``t2 = n x t1`` (spatial). The rows of ``Jc`` are the frame axes applied
 to the relative velocity of the two material contact points, ``Jc = [n t1 t2]^T (J_i - J_j)``
 = the paper's ``[c_n c_t]^T`` (eq. 19), so ``d(gap)/dt = Jc[0] @ theta_dot``.
+``Jc_dot`` (:func:`contact_jacobian_dot`) is its exact time derivative along theta_dot, the
+contact points and the frame moving with the bodies.
+
+Every contact of the model is evaluated in one compiled pass
+(:mod:`convimpact.model.recursive`): ``Jc[r, s] = S_s . (e_r, x x e_r)`` over the joint
+coordinates s that move the contact point x.
 """
 
 from __future__ import annotations
@@ -14,8 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..impact.errors import SingularSystemError
-from .geometry import orthonormal_complement, perp
-from .kinematics import ensure_configuration, point_jacobian, world_point
+from .recursive import CDOT, CONTACT
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,54 +45,59 @@ class ContactFrame:
     jacobian: np.ndarray
 
 
+def _index(model, name: str) -> int:
+    try:
+        return model._contact_index[name]
+    except (KeyError, TypeError):
+        model.contact(name)  # raises ModelError naming the contacts
+        raise
+
+
+def _checked(model, data, c: int, name: str) -> None:
+    if not data.contact_ok[c]:
+        raise SingularSystemError(
+            f"contact {name!r}: the two sphere centres coincide, so the contact normal is "
+            "undefined; move the bodies apart or use a plane contact")
+
+
 def contact_frame(model, data, name: str, theta) -> ContactFrame:
     """Evaluate contact ``name`` at theta (gap, frame and Jacobian)."""
-    spec = model.contact(name)
-    ensure_configuration(model, data, theta)
+    c = _index(model, name)
+    data.compute(CONTACT, theta)
     key = "q:contact:" + name
-    if key in data.cache:
-        return data.cache[key]
-    ci = world_point(data, spec.body, spec.point)
-    if spec.target == "plane":
-        n = data.rotation[spec.other] @ spec.normal
-        o = world_point(data, spec.other, spec.other_point)
-        gap = float(n @ (ci - o)) - spec.radius
-        xi = ci - spec.radius * n
-        xj = xi
-        if model.planar:
-            tangents = perp(n)[None]
-        else:
-            t1 = data.rotation[spec.other] @ spec.tangent
-            tangents = np.stack([t1, np.cross(n, t1)])
-    else:
-        cj = world_point(data, spec.other, spec.other_point)
-        delta = ci - cj
-        dist = float(np.linalg.norm(delta))
-        if dist < 1e-12:
-            raise SingularSystemError(
-                f"contact {name!r}: the two sphere centres coincide, so the contact normal is "
-                "undefined; move the bodies apart or use a plane contact")
-        n = delta / dist
-        gap = dist - spec.radius - spec.other_radius
-        xi = ci - spec.radius * n
-        xj = cj + spec.other_radius * n
-        if model.planar:
-            tangents = perp(n)[None]
-        else:
-            tangents = np.stack(orthonormal_complement(n))
-    Ji, _ = point_jacobian(model, data, spec.body, xi)
-    Jj, _ = point_jacobian(model, data, spec.other, xj)
-    basis = np.vstack([n[None], tangents])
-    frame = ContactFrame(name, gap, xi, n, tangents, basis @ (Ji - Jj))
+    hit = data.cache.get(key)
+    if hit is not None:
+        return hit
+    _checked(model, data, c, name)
+    d = model.dim
+    E = data.contact_basis[c]
+    frame = ContactFrame(name, float(data.gap[c]), data.contact_point[c, 0, :d].copy(),
+                         E[0, :d].copy(), E[1:d, :d].copy(), data.contact_jacobian[c, :d].copy())
     data.cache[key] = frame
     return frame
 
 
 def contact_gap(model, data, name: str, theta) -> float:
     """Signed gap of contact ``name`` at theta."""
-    return contact_frame(model, data, name, theta).gap
+    c = _index(model, name)
+    data.compute(CONTACT, theta)
+    _checked(model, data, c, name)
+    return float(data.gap[c])
 
 
 def contact_jacobian(model, data, name: str, theta) -> np.ndarray:
     """Contact Jacobian ``Jc`` (rows n, t / n, t1, t2) of contact ``name`` at theta, (d, k)."""
-    return contact_frame(model, data, name, theta).jacobian.copy()
+    c = _index(model, name)
+    data.compute(CONTACT, theta)
+    if not data.contact_ok[c]:
+        _checked(model, data, c, name)
+    return data.jacobian_rows[c].copy()
+
+
+def contact_jacobian_dot(model, data, name: str, theta, dtheta) -> np.ndarray:
+    """``d Jc / dt`` along theta_dot (rows n, t / n, t1, t2) of contact ``name``, (d, k)."""
+    c = _index(model, name)
+    data.compute(CDOT, theta, dtheta)
+    if not data.contact_ok[c]:
+        _checked(model, data, c, name)
+    return data.jacobian_rate_rows[c].copy()

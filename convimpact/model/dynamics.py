@@ -10,7 +10,11 @@ B, eq. 1), mass ``m_b`` and world inertia ``I_b = R_b I_b' R_b^T``:
             + Jw^T (w x I - I w x) Jw``                                             (eq. 11)
 
 where g is gravity and ``-w x I w`` the gyroscopic term of the body's generalized force
-vector (zero in the plane).
+vector (zero in the plane). They are evaluated by the recursive algorithms of
+:mod:`convimpact.model.recursive` (composite rigid bodies for M, Newton-Euler for f, the
+differentiated CRBA for M_dot), not by the sums above, which define them: f is
+``-(C(theta, theta_dot) theta_dot + g(theta))`` in Pinocchio's terms, ``-rnea(q, v, 0)``.
+:func:`momentum_rate` gives ``p_dot = f + M_dot theta_dot`` of eq. (11) in one pass.
 """
 
 from __future__ import annotations
@@ -18,22 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..impact.errors import NonFiniteError, ShapeError
-from .geometry import cross3, skew
-from .kinematics import (
-    check_vector,
-    ensure_configuration,
-    forward_kinematics,
-    point_jacobian,
-    point_jacobian_dot,
-)
-
-
-def _world_inertia(model, data, b: int) -> np.ndarray:
-    I = model.bodies[b].inertia
-    if model.planar:
-        return I
-    R = data.rotation[b]
-    return R @ I @ R.T
+from .kinematics import check_vector, ensure_configuration, point_jacobian
+from .recursive import BIAS, MASS, MDOT, POS
 
 
 def _com(data, model, b: int) -> np.ndarray:
@@ -53,14 +43,6 @@ def body_jacobians(model, data) -> list[tuple[np.ndarray, np.ndarray, np.ndarray
     return data.cache[key]
 
 
-def _body_jacobians_dot(model, data) -> list[tuple[np.ndarray, np.ndarray]]:
-    key = "body_jacobians_dot"
-    if key not in data.cache:
-        data.cache[key] = [point_jacobian_dot(model, data, b, c)
-                           for b, (c, _, _) in enumerate(body_jacobians(model, data), start=1)]
-    return data.cache[key]
-
-
 def velocity_transformation(model, data, theta) -> np.ndarray:
     """B of eq. (1): ``v = B theta_dot`` with v stacking (c_dot_b, w_b) per moving body.
 
@@ -71,36 +53,15 @@ def velocity_transformation(model, data, theta) -> np.ndarray:
 
 
 def mass_matrix(model, data, theta) -> np.ndarray:
-    """Generalized mass matrix ``M(theta) = B^T M B`` (eq. 3), (k, k) symmetric."""
-    ensure_configuration(model, data, theta)
-    key = "q:mass_matrix"
-    if key not in data.cache:
-        k = model.n_coordinates
-        M = np.zeros((k, k))
-        for b, (_, Jv, Jw) in enumerate(body_jacobians(model, data), start=1):
-            M += model.bodies[b].mass * (Jv.T @ Jv) + Jw.T @ _world_inertia(model, data, b) @ Jw
-        data.cache[key] = 0.5 * (M + M.T)
-    return data.cache[key].copy()
+    """Generalized mass matrix ``M(theta) = B^T M B`` (eq. 3), (k, k) symmetric (CRBA)."""
+    data.compute(MASS, theta)
+    return data.M.copy()
 
 
 def mass_matrix_dot(model, data, theta, dtheta) -> np.ndarray:
     """``dM/dt`` along theta_dot, (k, k) symmetric (for eq. 11)."""
-    forward_kinematics(model, data, theta, dtheta)
-    key = "mass_matrix_dot"
-    if key not in data.cache:
-        k = model.n_coordinates
-        Md = np.zeros((k, k))
-        for b, ((_, Jv, Jw), (dJv, dJw)) in enumerate(
-                zip(body_jacobians(model, data), _body_jacobians_dot(model, data)), start=1):
-            m = model.bodies[b].mass
-            I = _world_inertia(model, data, b)
-            A = m * (dJv.T @ Jv) + dJw.T @ I @ Jw
-            Md += A + A.T
-            if not model.planar:
-                W = skew(data.omega[b])
-                Md += Jw.T @ (W @ I - I @ W) @ Jw
-        data.cache[key] = Md
-    return data.cache[key].copy()
+    data.compute(MDOT, theta, dtheta)
+    return data.M_dot.copy()
 
 
 def applied_forces(model, t: float, theta: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
@@ -117,35 +78,37 @@ def applied_forces(model, t: float, theta: np.ndarray, dtheta: np.ndarray) -> np
 
 
 def generalized_forces(model, data, t: float, theta, dtheta) -> np.ndarray:
-    """``f = B^T (g - M B_dot theta_dot)`` plus applied joint forces (eq. 4), (k,)."""
-    theta = check_vector(model, theta, "theta")
-    dtheta = check_vector(model, dtheta, "dtheta")
-    forward_kinematics(model, data, theta, dtheta)
-    key = "bias_forces"
-    if key not in data.cache:
-        f = np.zeros(model.n_coordinates)
-        for b, ((_, Jv, Jw), (dJv, dJw)) in enumerate(
-                zip(body_jacobians(model, data), _body_jacobians_dot(model, data)), start=1):
-            m = model.bodies[b].mass
-            I = _world_inertia(model, data, b)
-            f += Jv.T @ (m * (model.gravity - dJv @ dtheta))
-            tau = -I @ (dJw @ dtheta)
-            if not model.planar:
-                w = data.omega[b]
-                tau -= cross3(w, I @ w)
-            f += Jw.T @ tau
-        data.cache[key] = f
-    return data.cache[key] + applied_forces(model, float(t), theta, dtheta)
+    """``f = B^T (g - M B_dot theta_dot)`` plus applied joint forces (eq. 4), (k,) (RNEA)."""
+    data.compute(BIAS, theta, dtheta)
+    f = data.bias.copy()
+    if model.applied_forces is not None:
+        f += applied_forces(model, float(t), data.theta, data.dtheta)
+    return f
+
+
+def momentum_rate(model, data, t: float, theta, dtheta) -> np.ndarray:
+    """``p_dot = f + M_dot theta_dot`` (eq. 11) with the applied forces, (k,), in one pass:
+    ``dT/dtheta - dV/dtheta + Q`` by Lagrange's equations."""
+    data.compute(BIAS, theta, dtheta)
+    p = data.momentum_rate.copy()
+    if model.applied_forces is not None:
+        p += applied_forces(model, float(t), data.theta, data.dtheta)
+    return p
 
 
 def kinetic_energy(model, data, theta, dtheta) -> float:
     """``T = 1/2 theta_dot^T M theta_dot``."""
     dtheta = check_vector(model, dtheta, "dtheta")
-    return 0.5 * float(dtheta @ mass_matrix(model, data, theta) @ dtheta)
+    data.compute(MASS, theta)
+    return 0.5 * float(dtheta @ data.M @ dtheta)
 
 
 def potential_energy(model, data, theta) -> float:
     """Gravitational potential ``V = -sum_b m_b g . c_b`` (zero at the origin)."""
-    ensure_configuration(model, data, theta)
-    return -sum(model.bodies[b].mass * float(model.gravity @ c)
-                for b, (c, _, _) in enumerate(body_jacobians(model, data), start=1))
+    data.compute(POS, theta)
+    key = "q:potential"
+    if key not in data.cache:
+        lay = data.layout
+        c = data.position3 + np.einsum("bij,bj->bi", data.rotation3, lay.body_com)
+        data.cache[key] = -float(lay.body_mass @ (c @ lay.gravity))
+    return data.cache[key]

@@ -4,6 +4,13 @@
 private :class:`~convimpact.model.data.Data` and forwards each protocol method to the
 evaluation functions, so M, f, C and the contact Jacobians at one state share one tree walk.
 Obtain it with ``model.mechanism()``.
+
+The protocol methods validate their input (shape, finiteness: checked by the compiled pass
+itself, at no cost) and return new arrays. The simulator's right-hand side uses the entry
+points :meth:`ModelMechanism.rhs_positions` and :meth:`ModelMechanism.rhs_velocities`
+instead, which hand out the workspace itself (no copies): one compiled pass per configuration
+gives M, its Cholesky factor and every contact's gap and Jacobian; one per velocity gives f,
+p_dot = f + M_dot theta_dot and the contact Jacobians' time derivatives.
 """
 
 from __future__ import annotations
@@ -16,7 +23,13 @@ from . import contacts as _contacts
 from . import dynamics as _dyn
 from . import kinematics as _kin
 from . import loops as _loops
+from . import recursive as _rc
 from .builder import Model
+
+#: stages of one configuration pass of the right-hand side
+RHS_POSITIONS = _rc.MASS | _rc.CHOL | _rc.CONTACT
+#: stages of one velocity pass (CDOT added when contact rates are asked for)
+RHS_VELOCITIES = _rc.BIAS
 
 
 class ModelMechanism:
@@ -63,6 +76,10 @@ class ModelMechanism:
         """f = B^T (g - M B_dot theta_dot) + applied joint forces, (k,) (eq. 4)."""
         return _dyn.generalized_forces(self.model, self.data, t, theta, dtheta)
 
+    def momentum_rate(self, t: float, theta: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
+        """p_dot = f + M_dot theta_dot with the applied forces, (k,) (eq. 11), in one pass."""
+        return _dyn.momentum_rate(self.model, self.data, t, theta, dtheta)
+
     def loop_residual(self, theta: np.ndarray) -> np.ndarray:
         """Psi(theta), (m,) (eq. 6)."""
         return _loops.loop_residual(self.model, self.data, theta)
@@ -83,6 +100,10 @@ class ModelMechanism:
         """Jc of contact ``name``, rows n, t (2, k) or n, t1, t2 (3, k)."""
         return _contacts.contact_jacobian(self.model, self.data, name, theta)
 
+    def contact_jacobian_dot(self, name: str, theta: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
+        """d Jc / dt along theta_dot of contact ``name``, (2, k) or (3, k) (exact)."""
+        return _contacts.contact_jacobian_dot(self.model, self.data, name, theta, dtheta)
+
     def contact_parameters(self, name: str) -> tuple[float, float]:
         """(e, mu) of contact ``name``."""
         spec = self.model.contact(name)
@@ -95,6 +116,36 @@ class ModelMechanism:
     def potential_energy(self, theta: np.ndarray) -> float:
         """Gravitational potential energy."""
         return _dyn.potential_energy(self.model, self.data, theta)
+
+    # -- the simulator's right-hand side: the workspace itself, no copies -----------------
+    def contact_index(self, name: str) -> int:
+        """Position of contact ``name`` in :attr:`contact_names` (and in the Data arrays)."""
+        return _contacts._index(self.model, name)
+
+    def rhs_positions(self, theta: np.ndarray):
+        """M, its lower Cholesky factor and every contact's gap, frame and Jacobian at theta
+        (a float64 C-contiguous (k,) array: the fast path). Returns the
+        :class:`~convimpact.model.data.Data` (its arrays are views, overwritten by the next
+        evaluation at another state; ``data.chol_ok`` False when M is not positive definite)."""
+        self.data.compute(RHS_POSITIONS, theta)
+        return self.data
+
+    def rhs_velocities(self, t: float, theta: np.ndarray, dtheta: np.ndarray,
+                       contact_rates: bool = False):
+        """``(f, p_dot, data)`` at (t, theta, theta_dot): f of eq. (4) and p_dot = f + M_dot
+        theta_dot of eq. (11), both with the applied forces (new arrays; the applied forces
+        are not validated), and the Data holding the contact Jacobians' rates when
+        ``contact_rates``."""
+        d = self.data
+        d.compute(RHS_VELOCITIES | (_rc.CDOT if contact_rates else 0), theta, dtheta)
+        f = d.bias.copy()
+        pdot = d.momentum_rate.copy()
+        applied = self.model.applied_forces
+        if applied is not None:
+            Q = np.asarray(applied(t, theta.copy(), dtheta.copy()), dtype=float)
+            f += Q
+            pdot += Q
+        return f, pdot, d
 
     # -- extras ---------------------------------------------------------------------------
     def contact_frame(self, name: str, theta: np.ndarray) -> _contacts.ContactFrame:

@@ -23,6 +23,15 @@ Contacts that the simulator holds closed enter like loop constraints, by their m
 Only the normal rows (gaps) are position constraints (``residual``, ``position_jacobian``);
 tangential rows constrain velocities. Rows found redundant at the event that formed the set
 (``dropped``: a box on two corners sticking has one tangential row too many) are left out.
+
+One evaluation factors M once (Cholesky) and shares the factor between the velocities, the
+multipliers and the friction columns. For a :class:`~convimpact.model.ModelMechanism` the
+terms come from its compiled passes without copies or conversions (the run validated its
+initial state): one per configuration (M, its factor, every contact Jacobian) and one per
+velocity (f, p_dot = f + M_dot theta_dot by Lagrange's equations, the contact Jacobians'
+exact rates). Any other
+:class:`~convimpact.mechanism.Mechanism` is evaluated through the protocol (f + M_dot
+theta_dot; ``contact_jacobian_dot`` when it has one, else a central difference).
 """
 
 from __future__ import annotations
@@ -31,15 +40,16 @@ from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
-import scipy.linalg as sla
 
-from ..impact.errors import SimulationError
+from ..impact.errors import NonFiniteError, SimulationError
 from ..mechanism import Mechanism
+from ..model import recursive as _rc
 
 #: a held contact's rows: (contact name, row of its Jacobian: 0 normal, 1.. tangents)
 Row = tuple[str, int]
-#: configurations whose contact Jacobians are remembered (theta and theta +- h theta_dot)
-JACOBIAN_MEMO = 6
+#: configurations whose position terms are remembered (an evaluation and the queries that
+#: follow it at the same state ask for them several times)
+POSITION_MEMO = 4
 
 
 @dataclass(frozen=True)
@@ -58,6 +68,60 @@ class HeldMode:
 
 
 FRICTIONLESS = HeldMode()
+
+
+class Factors:
+    """The factorizations of one configuration, shared by everything evaluated there.
+
+    Attributes
+    ----------
+    M : (k, k) mass matrix; ``L`` its lower Cholesky factor.
+    C : (n_constraints, k) loops' C and the held rows.
+    A : (k, n_constraints) ``M^-1 C^T``; ``SL`` the lower Cholesky factor of ``C M^-1 C^T``
+        (None without constraints or until asked for).
+    jac : the held contacts' full Jacobians (rows n, t...).
+    """
+
+    __slots__ = ("M", "L", "C", "A", "SL", "jac")
+
+    def __init__(self, M, L, C, A, SL, jac):
+        self.M, self.L, self.C, self.A, self.SL, self.jac = M, L, C, A, SL, jac
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """``M^-1 b`` for a vector or a (k, m) matrix."""
+        return _cho_solve(self.L, b)
+
+    def solve_constraints(self, b: np.ndarray) -> np.ndarray:
+        """``(C M^-1 C^T)^-1 b``."""
+        return _cho_solve(self.SL, b)
+
+
+def _cho_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
+    b = np.asarray(b, dtype=float)
+    if b.ndim == 1:
+        out = np.empty(b.shape[0])
+        _rc.cho_solve_vec(L, np.ascontiguousarray(b), out)
+        return out
+    out = np.empty(b.shape)
+    _rc.cho_solve_mat(L, np.ascontiguousarray(b), out)
+    return out
+
+
+def _cholesky(M: np.ndarray) -> np.ndarray | None:
+    L = np.zeros(M.shape)
+    return L if _rc.cholesky(np.ascontiguousarray(M, dtype=float), L) else None
+
+
+def _is_model(mechanism) -> bool:
+    """True for a :class:`~convimpact.model.ModelMechanism` evaluated as it is (no subclass
+    overriding the protocol, no wrapper forwarding to one)."""
+    from ..model.mechanism import ModelMechanism
+    if not isinstance(mechanism, ModelMechanism):
+        return False
+    cls = type(mechanism)
+    return all(getattr(cls, m) is getattr(ModelMechanism, m)
+               for m in ("mass_matrix", "mass_matrix_dot", "generalized_forces",
+                         "contact_jacobian", "contact_gap", "rhs_positions", "rhs_velocities"))
 
 
 class CanonicalEquations:
@@ -95,6 +159,7 @@ class CanonicalEquations:
         self.modes = {c: modes.get(c, FRICTIONLESS) for c in self.held}
         self.slip_floor = float(slip_floor)
         self.dropped = frozenset(tuple(r) for r in dropped)
+        self._model = _is_model(mechanism)
         self.rows: list[Row] = []
         self.position_rows: list[Row] = []
         self.slipping: list[tuple[str, int]] = []  # (contact, index of its normal row)
@@ -102,8 +167,13 @@ class CanonicalEquations:
             mode = self.modes[c]
             dim = 1
             if mode.kind == "stick":
-                dim = int(dims[c]) if dims and c in dims else int(
-                    np.asarray(mechanism.contact_jacobian(c, np.zeros(self.k)), float).shape[0])
+                if dims and c in dims:
+                    dim = int(dims[c])
+                elif self._model:
+                    dim = mechanism.data.d
+                else:
+                    dim = int(np.asarray(mechanism.contact_jacobian(c, np.zeros(self.k)),
+                                         float).shape[0])
             for j in range(dim):
                 if (c, j) in self.dropped:
                     continue
@@ -115,50 +185,115 @@ class CanonicalEquations:
         self.n_constraints = self.n_loops + len(self.rows)
         self.nfev = 0
         self._jdot = getattr(mechanism, "contact_jacobian_dot", None)
-        self._jac_memo: dict[bytes, dict[str, np.ndarray]] = {}
+        self._memo: dict[bytes, Factors] = {}
+        if self._model:
+            index = {c: mechanism.contact_index(c) for c in self.held}
+            self._held_index = np.array([index[c] for c in self.held], dtype=np.intp)
+            self._row_contact = np.array([index[c] for c, _ in self.rows], dtype=np.intp)
+            self._row_row = np.array([j for _, j in self.rows], dtype=np.intp)
+            self._d = mechanism.data.d
 
-    # -- contact rows ------------------------------------------------------------------------
-    def contact_jacobians(self, theta: np.ndarray) -> dict[str, np.ndarray]:
-        """The full Jacobians (rows n, t...) of the held contacts at theta (the last few
-        configurations are remembered: one right-hand side asks for them several times)."""
-        key = np.asarray(theta, float).tobytes()
-        hit = self._jac_memo.get(key)
-        if hit is None:
-            hit = {c: np.asarray(self.mechanism.contact_jacobian(c, theta), float)
+    # ---- terms of one configuration ---------------------------------------------------------
+    def factors(self, theta: np.ndarray, constraints: bool = True) -> Factors:
+        """M, its Cholesky factor, the held contacts' Jacobians and C at theta, and with
+        ``constraints`` ``M^-1 C^T`` and the factor of ``C M^-1 C^T`` (the last few
+        configurations are remembered)."""
+        theta = np.ascontiguousarray(theta, dtype=float)
+        key = theta.tobytes()
+        F = self._memo.get(key)
+        if F is None:
+            F = self._positions(theta)
+            if len(self._memo) >= POSITION_MEMO:
+                self._memo.pop(next(iter(self._memo)))
+            self._memo[key] = F
+        if constraints and F.A is None and F.C.shape[0]:
+            A = _cho_solve(F.L, F.C.T)  # M^-1 C^T
+            SL = _cholesky(F.C @ A)  # C M^-1 C^T
+            if SL is None:
+                raise SimulationError(
+                    "the constraint Jacobian (loops and held contacts) lost rank: C M^-1 C^T is "
+                    "singular (a dead-centre configuration or redundant held contacts)")
+            F.A, F.SL = A, SL
+        return F
+
+    def _positions(self, theta: np.ndarray) -> Factors:
+        if self._model:
+            d = self.mechanism.rhs_positions(theta)
+            M = d.M.copy()
+            L = d.L.copy() if d.chol_ok else None
+            rows = d.contact_jacobian[self._row_contact, self._row_row] if self.rows else None
+            jac = {c: d.contact_jacobian[i, :self._d].copy()
+                   for c, i in zip(self.held, self._held_index)}
+        else:
+            M = np.asarray(self.mechanism.mass_matrix(theta), float)
+            L = _cholesky(M)
+            jac = {c: np.asarray(self.mechanism.contact_jacobian(c, theta), float)
                    for c in self.held}
-            if len(self._jac_memo) >= JACOBIAN_MEMO:
-                self._jac_memo.pop(next(iter(self._jac_memo)))
-            self._jac_memo[key] = hit
-        return hit
+            rows = (np.array([jac[c][j] if j < len(jac[c]) else np.zeros(self.k)
+                              for c, j in self.rows]) if self.rows else None)
+        if L is None:
+            raise SimulationError(
+                f"the mass matrix is not positive definite or not finite at theta = "
+                f"{np.round(theta, 6).tolist()}")
+        parts = []
+        if self.n_loops:
+            parts.append(np.asarray(self.mechanism.loop_jacobian(theta), float).reshape(-1, self.k))
+        if rows is not None:
+            parts.append(rows)
+        C = (parts[0] if len(parts) == 1 else np.vstack(parts)) if parts else np.zeros((0, self.k))
+        return Factors(M, L, C, None, None, jac)
+
+    def contact_jacobians(self, theta: np.ndarray) -> dict[str, np.ndarray]:
+        """The full Jacobians (rows n, t...) of the held contacts at theta."""
+        return self.factors(theta, constraints=False).jac
+
+    # ---- terms of one state -----------------------------------------------------------------
+    def _rates(self, t: float, theta: np.ndarray, dtheta: np.ndarray, rates: bool):
+        """(f, p_dot without constraint forces, the held rows' rates or None) at the state."""
+        if self._model:
+            f, pdot, d = self.mechanism.rhs_velocities(t, theta, dtheta, rates and bool(self.rows))
+            Jd = (d.contact_jacobian_dot[self._row_contact, self._row_row]
+                  if rates and self.rows else None)
+            return f, pdot, Jd
+        mech = self.mechanism
+        f = np.asarray(mech.generalized_forces(t, theta, dtheta), float)
+        pdot = f + np.asarray(mech.mass_matrix_dot(theta, dtheta), float) @ dtheta  # eq. (11)
+        Jd = None
+        if rates and self.rows:
+            jd = self.contact_jacobians_dot(theta, dtheta)
+            Jd = np.array([jd[c][j] if j < len(jd[c]) else np.zeros(self.k)
+                           for c, j in self.rows])
+        return f, pdot, Jd
+
+    def generalized_forces(self, t: float, theta: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
+        """f of eq. (4) at the state (the mechanism's, through the fast pass when it has one)."""
+        theta = np.ascontiguousarray(theta, dtype=float)
+        dtheta = np.ascontiguousarray(dtheta, dtype=float)
+        return self._rates(t, theta, dtheta, False)[0]
 
     def contact_jacobians_dot(self, theta: np.ndarray,
                               dtheta: np.ndarray) -> dict[str, np.ndarray]:
-        """d/dt of the held contacts' Jacobians along theta_dot (analytic when the mechanism
+        """d/dt of the held contacts' Jacobians along theta_dot (exact when the mechanism
         has ``contact_jacobian_dot``, else a directional central difference, O(h^2))."""
+        if self._model:
+            theta = np.ascontiguousarray(theta, dtype=float)
+            dtheta = np.ascontiguousarray(dtheta, dtype=float)
+            _, _, d = self.mechanism.rhs_velocities(0.0, theta, dtheta, True)
+            return {c: d.contact_jacobian_dot[i, :self._d].copy()
+                    for c, i in zip(self.held, self._held_index)}
         if self._jdot is not None:
             return {c: np.asarray(self._jdot(c, theta, dtheta), float) for c in self.held}
         speed = float(np.linalg.norm(dtheta))
         if speed == 0.0 or not self.held:
             return {c: np.zeros((1, self.k)) for c in self.held}
         h = 1e-5 * (1.0 + float(np.linalg.norm(theta))) / speed
-        jp = self.contact_jacobians(theta + h * dtheta)
-        jm = self.contact_jacobians(theta - h * dtheta)
+        jp = {c: np.asarray(self.mechanism.contact_jacobian(c, theta + h * dtheta), float)
+              for c in self.held}
+        jm = {c: np.asarray(self.mechanism.contact_jacobian(c, theta - h * dtheta), float)
+              for c in self.held}
         return {c: (jp[c] - jm[c]) / (2.0 * h) for c in self.held}
 
-    def _stack(self, rows: Sequence[Row], jac: Mapping[str, np.ndarray],
-               loops: np.ndarray | None) -> np.ndarray:
-        parts = [] if loops is None else [loops]
-        if rows:
-            parts.append(np.array([jac[c][j] if j < len(jac[c]) else np.zeros(self.k)
-                                   for c, j in rows]))
-        return np.vstack(parts) if parts else np.zeros((0, self.k))
-
-    def _loop_rows(self, theta: np.ndarray) -> np.ndarray | None:
-        if not self.n_loops:
-            return None
-        return np.asarray(self.mechanism.loop_jacobian(theta), float).reshape(-1, self.k)
-
-    # -- constraints -------------------------------------------------------------------------
+    # ---- constraints -------------------------------------------------------------------------
     def residual(self, theta: np.ndarray) -> np.ndarray:
         """Psi(theta) of the loops (eq. 6) followed by the held contacts' gaps."""
         parts = []
@@ -171,20 +306,34 @@ class CanonicalEquations:
 
     def position_jacobian(self, theta: np.ndarray) -> np.ndarray:
         """The Jacobian of :meth:`residual`: loops' C and the held contacts' normal rows."""
-        return self._stack(self.position_rows, self.contact_jacobians(theta),
-                           self._loop_rows(theta))
+        C = self.factors(theta, constraints=False).C
+        if len(self.position_rows) == len(self.rows):
+            return C.copy()
+        keep = list(range(self.n_loops)) + [self.n_loops + i for i, (_, j) in
+                                            enumerate(self.rows) if j == 0]
+        return C[keep]
 
     def jacobian(self, theta: np.ndarray) -> np.ndarray:
         """C(theta) (eq. 7) with the held contacts' rows appended (velocity constraints)."""
-        return self._stack(self.rows, self.contact_jacobians(theta), self._loop_rows(theta))
+        return self.factors(theta, constraints=False).C.copy()
 
     def jacobian_dot(self, theta: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
         """C_dot(theta, theta_dot) (eqs. 8, 14) with the held contacts' rows appended."""
-        loops = None
+        theta = np.ascontiguousarray(theta, dtype=float)
+        dtheta = np.ascontiguousarray(dtheta, dtype=float)
+        _, _, Jd = self._rates(0.0, theta, dtheta, True)
+        return self._cdot(theta, dtheta, Jd)
+
+    def _cdot(self, theta: np.ndarray, dtheta: np.ndarray, Jd) -> np.ndarray:
+        parts = []
         if self.n_loops:
-            loops = np.asarray(self.mechanism.loop_jacobian_dot(theta, dtheta),
-                               float).reshape(-1, self.k)
-        return self._stack(self.rows, self.contact_jacobians_dot(theta, dtheta), loops)
+            parts.append(np.asarray(self.mechanism.loop_jacobian_dot(theta, dtheta),
+                                    float).reshape(-1, self.k))
+        if Jd is not None:
+            parts.append(Jd)
+        if not parts:
+            return np.zeros((0, self.k))
+        return parts[0] if len(parts) == 1 else np.vstack(parts)
 
     def slip_direction(self, c: str, jac: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
         """The unit slip direction of sliding contact ``c`` (tangent basis): the slip
@@ -210,60 +359,41 @@ class CanonicalEquations:
             D[:, self.n_loops + i] = -self.modes[c].mu * (jac[c][1:].T @ s)
         return D
 
-    # -- eqs. (7) + (13) ---------------------------------------------------------------------
-    def _factor(self, theta: np.ndarray):
-        M = np.asarray(self.mechanism.mass_matrix(theta), float)
-        try:
-            cho = sla.cho_factor(M, lower=True, check_finite=True)
-        except (np.linalg.LinAlgError, ValueError) as exc:
-            raise SimulationError(
-                f"the mass matrix is not positive definite or not finite at theta = "
-                f"{np.round(theta, 6).tolist()}: {exc}") from None
-        C = self.jacobian(theta)
-        if C.shape[0] == 0:
-            return M, cho, C, None, None
-        A = sla.cho_solve(cho, C.T)  # M^-1 C^T
-        S = C @ A  # C M^-1 C^T
-        try:
-            scho = sla.cho_factor(S, lower=True)
-        except np.linalg.LinAlgError:
-            raise SimulationError(
-                "the constraint Jacobian (loops and held contacts) lost rank: C M^-1 C^T is "
-                "singular (a dead-centre configuration or redundant held contacts)") from None
-        return M, cho, C, A, scho
-
+    # ---- eqs. (7) + (13) ---------------------------------------------------------------------
     def velocities(self, theta: np.ndarray, p: np.ndarray):
         """theta_dot and sigma from ``M theta_dot - C^T sigma = p``, ``C theta_dot = 0``.
 
         Returns
         -------
-        dtheta, sigma, (M, cho_factor(M), C, M^-1 C^T, cho_factor(C M^-1 C^T))
+        dtheta, sigma, :class:`Factors` of theta
         """
-        M, cho, C, A, scho = self._factor(theta)
-        dtheta = sla.cho_solve(cho, p)  # eq. (10)
-        if A is None:
-            return dtheta, np.zeros(0), (M, cho, C, A, scho)
-        sigma = -sla.cho_solve(scho, C @ dtheta)  # eqs. (7), (13)
-        dtheta = dtheta + A @ sigma
-        return dtheta, sigma, (M, cho, C, A, scho)
+        F = self.factors(theta)
+        dtheta = _cho_solve(F.L, p)  # eq. (10)
+        if not F.C.shape[0]:
+            return dtheta, np.zeros(0), F
+        sigma = -_cho_solve(F.SL, F.C @ dtheta)  # eqs. (7), (13)
+        return dtheta + F.A @ sigma, sigma, F
 
     def momentum(self, theta: np.ndarray, dtheta: np.ndarray,
                  sigma: np.ndarray | None = None) -> np.ndarray:
         """p = M theta_dot - C^T sigma (eq. 13; eq. 10 for open loops)."""
-        p = np.asarray(self.mechanism.mass_matrix(theta), float) @ dtheta
+        if self._model:
+            M = self.mechanism.rhs_positions(np.ascontiguousarray(theta, dtype=float)).M
+        else:
+            M = np.asarray(self.mechanism.mass_matrix(theta), float)
+        p = M @ dtheta
         if sigma is not None and len(sigma):
-            p = p - self.jacobian(theta).T @ sigma
+            p = p - self.factors(theta, constraints=False).C.T @ sigma
         return p
 
-    def _multipliers(self, t: float, theta: np.ndarray, dtheta: np.ndarray, factors, f,
+    def _multipliers(self, t: float, theta: np.ndarray, dtheta: np.ndarray, F: Factors, f,
                      Cdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(nu, D): ``C M^-1 (C^T + D) nu = -(C M^-1 f + C_dot theta_dot)`` (eqs. 8, 9)."""
-        M, cho, C, A, scho = factors
-        D = self.friction_columns(theta, dtheta)
-        rhs = C @ sla.cho_solve(cho, f) + Cdot @ dtheta
+        D = self.friction_columns(theta, dtheta, F.jac)
+        rhs = F.C @ _cho_solve(F.L, f) + Cdot @ dtheta
         if not self.slipping:
-            return -sla.cho_solve(scho, rhs), D
-        K = C @ A + C @ sla.cho_solve(cho, D)
+            return -_cho_solve(F.SL, rhs), D
+        K = F.C @ F.A + F.C @ _cho_solve(F.L, D)
         try:
             nu = -np.linalg.solve(K, rhs)
         except np.linalg.LinAlgError:
@@ -277,18 +407,20 @@ class CanonicalEquations:
         self.nfev += 1
         k = self.k
         theta, p = y[:k], y[k:]
-        dtheta, sigma, factors = self.velocities(theta, p)
-        mech = self.mechanism
-        f = np.asarray(mech.generalized_forces(t, theta, dtheta), float)
-        pdot = f + np.asarray(mech.mass_matrix_dot(theta, dtheta), float) @ dtheta  # eq. (11)
-        if len(sigma):
-            Cdot = self.jacobian_dot(theta, dtheta)
+        try:
+            dtheta, sigma, F = self.velocities(theta, p)
+            constrained = len(sigma) > 0
+            f, pdot, Jd = self._rates(t, theta, dtheta, constrained)  # eq. (11)
+        except NonFiniteError:
+            pdot = None
+        if pdot is not None and constrained:
+            Cdot = self._cdot(theta, dtheta, Jd)
             pdot = pdot - Cdot.T @ sigma  # eq. (14)
             if self.slipping:  # Coulomb friction of the sliding contacts, driven by nu_n
-                nu, D = self._multipliers(t, theta, dtheta, factors, f, Cdot)
+                nu, D = self._multipliers(t, theta, dtheta, F, f, Cdot)
                 pdot = pdot + D @ nu
-        out = np.concatenate([dtheta, pdot])
-        if not np.all(np.isfinite(out)):
+        out = np.concatenate([dtheta, pdot]) if pdot is not None else None
+        if out is None or not _rc.all_finite(out):
             raise SimulationError(
                 f"the right-hand side became non-finite at t = {t:.9g} (theta = "
                 f"{np.round(theta, 6).tolist()}); check the model's forces or reduce max_step")
@@ -302,12 +434,11 @@ class CanonicalEquations:
         """
         k = self.k
         theta, p = y[:k], y[k:]
-        dtheta, _, factors = self.velocities(theta, p)
-        if factors[3] is None:
+        dtheta, _, F = self.velocities(theta, p)
+        if not F.C.shape[0]:
             return np.zeros(0)
-        f = np.asarray(self.mechanism.generalized_forces(t, theta, dtheta), float)
-        nu, _ = self._multipliers(t, theta, dtheta, factors, f,
-                                  self.jacobian_dot(theta, dtheta))
+        f, _, Jd = self._rates(t, np.ascontiguousarray(theta, dtype=float), dtheta, True)
+        nu, _ = self._multipliers(t, theta, dtheta, F, f, self._cdot(theta, dtheta, Jd))
         return nu
 
     def contact_forces(self, t: float, y: np.ndarray) -> dict[str, np.ndarray]:
@@ -316,8 +447,8 @@ class CanonicalEquations:
         k, m = self.k, self.n_loops
         theta = y[:k]
         nu = self.multipliers(t, y)
-        dtheta, _, _ = self.velocities(theta, y[k:])
-        jac = self.contact_jacobians(theta)
+        dtheta, _, F = self.velocities(theta, y[k:])
+        jac = F.jac
         out = {c: np.zeros(len(jac[c])) for c in self.held}
         for i, (c, j) in enumerate(self.rows):
             out[c][j] = nu[m + i]

@@ -48,20 +48,19 @@ def contact_state(mech, t: float, theta: np.ndarray, dtheta: np.ndarray,
     """
     contacts = tuple(contacts)
     probe = CanonicalEquations(mech, contacts)  # frictionless: for J and J_dot only
-    jac = probe.contact_jacobians(theta)
+    F = probe.factors(theta, constraints=False)  # M's factor, the contact Jacobians
+    jac = F.jac
     jdot = probe.contact_jacobians_dot(theta, dtheta)
-    M = np.asarray(mech.mass_matrix(theta), float)
-    cho = sla.cho_factor(M, lower=True)
-    f = np.asarray(mech.generalized_forces(t, theta, dtheta), float)
+    f = probe.generalized_forces(t, theta, dtheta)
     J = np.vstack([jac[c] for c in contacts])
     Jdot = np.vstack([jdot[c] if jdot[c].shape == jac[c].shape else np.zeros_like(jac[c])
                       for c in contacts])
-    MiJ = sla.cho_solve(cho, J.T)
-    acc = sla.cho_solve(cho, f)
+    MiJ = F.solve(J.T)
+    acc = F.solve(f)
     if mech.n_loop_constraints:
-        C = np.asarray(mech.loop_jacobian(theta), float).reshape(-1, M.shape[0])
+        C = np.asarray(mech.loop_jacobian(theta), float).reshape(-1, F.M.shape[0])
         Cdot = np.asarray(mech.loop_jacobian_dot(theta, dtheta), float).reshape(C.shape)
-        MiC = sla.cho_solve(cho, C.T)
+        MiC = F.solve(C.T)
         S = C @ MiC
         acc = acc - MiC @ np.linalg.solve(S, C @ acc + Cdot @ dtheta)
         MiJ = MiJ - MiC @ np.linalg.solve(S, C @ MiJ)
@@ -184,8 +183,8 @@ def painleve_indicator(eq: CanonicalEquations, t: float, y: np.ndarray) -> float
         return 1.0
     k = eq.k
     theta = y[:k]
-    dtheta, _, (M, cho, C, A, scho) = eq.velocities(theta, y[k:])
-    D = eq.friction_columns(theta, dtheta)
-    S = C @ A
-    K = S + C @ sla.cho_solve(cho, D)
+    dtheta, _, F = eq.velocities(theta, y[k:])
+    D = eq.friction_columns(theta, dtheta, F.jac)
+    S = F.C @ F.A
+    K = S + F.C @ F.solve(D)
     return float(np.linalg.det(np.linalg.solve(S, K)))
