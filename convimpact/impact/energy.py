@@ -6,16 +6,34 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import NonFiniteError, SingularSystemError, ShapeError
-from .problem import build_problem, check_friction, check_mass_matrix, check_restitution
+from .errors import NonFiniteError, ShapeError, SingularSystemError, as_real_array, real_number
+from .problem import (_reduce, build_problem, check_friction, check_mass_matrix,
+                      check_restitution)
+
+
+def _vector(name: str, x, k: int) -> np.ndarray:
+    """A finite real (k,) vector, or a typed error naming ``name``."""
+    a = as_real_array(name, x)
+    if a.shape != (k,):
+        raise ShapeError(f"{name} must have length {k} to match M, got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise NonFiniteError(f"{name} contains NaN or infinity; pass finite values")
+    return a
+
+
+def _delassus(M, rows, C=None) -> np.ndarray:
+    """``rows G rows^T`` (G = M^-1, or the loop-constrained inverse for closed loops) for
+    finite rows of matching length, without the contact checks of build_problem (c_t may be
+    zero here)."""
+    M, L = check_mass_matrix(M)
+    return _reduce(L, np.asarray(rows, dtype=float), np.zeros(M.shape[0]), C)[1]
 
 
 def energy_loss(M, dq_minus, dq_plus) -> float:
     """T_L = T- - T+ = 1/2 dq-^T M dq- - 1/2 dq+^T M dq+ (eq. 58)."""
     M, _ = check_mass_matrix(M)
-    a, b = np.asarray(dq_minus, float), np.asarray(dq_plus, float)
-    if a.shape != (M.shape[0],) or b.shape != a.shape:
-        raise ShapeError(f"dq_minus and dq_plus must have length {M.shape[0]}")
+    k = M.shape[0]
+    a, b = _vector("dq_minus", dq_minus, k), _vector("dq_plus", dq_plus, k)
     return 0.5 * float(a @ M @ a) - 0.5 * float(b @ M @ b)
 
 
@@ -24,22 +42,23 @@ def oblique_coefficients(M, c_n, c_t, C=None) -> tuple[float, float, float]:
 
     G = M^-1 for open loops and the loop-constrained inverse for closed ones (Section 6).
     """
-    c_n, c_t = np.asarray(c_n, float), np.asarray(c_t, float)
-    P = build_problem(M, np.vstack([c_n, c_t]), np.zeros_like(c_n), C=C)
-    W = P.delassus
+    M, _ = check_mass_matrix(M)
+    k = M.shape[0]
+    c_n, c_t = _vector("c_n", c_n, k), _vector("c_t", c_t, k)
+    W = _delassus(M, np.vstack([c_n, c_t]), C)
     return float(W[0, 0]), float(W[0, 1]), float(W[1, 1])
 
 
 def central_energy_loss(M, c_n, dq, e: float, C=None) -> float:
     """T_L = (1 - e^2) v_n-^2 / (2 c_n^T M^-1 c_n) for a central/frictionless impact (eq. 59)."""
-    c_n = np.asarray(c_n, float)
     e = float(check_restitution(e)[0])
-    m_nn, _, _ = oblique_coefficients(M, c_n, np.zeros_like(c_n), C)
+    m_nn, _, _ = oblique_coefficients(M, c_n, np.zeros(np.shape(c_n)), C)
+    c_n = as_real_array("c_n", c_n)
     if not m_nn > 0.0:
         raise SingularSystemError(
             f"c_n^T M^-1 c_n = {m_nn:.3e}: the contact normal moves no mass, eq. (59) is "
             "undefined; check c_n")
-    v_n = float(c_n @ np.asarray(dq, float))
+    v_n = float(c_n @ _vector("dq", dq, c_n.shape[0]))
     return (1.0 - e * e) * v_n * v_n / (2.0 * m_nn)
 
 
@@ -49,13 +68,14 @@ def oblique_energy_loss(M, c_n, c_t, dq, normal_impulse: float, mu: float, C=Non
     T_L = -1/2 pi_n^2 (m_nn + 2 mu m_nt + mu^2 m_tt) - pi_n (v_n- + mu v_t-), with
     v_t- = c_t^T dq- measured along the impulse's tangent t.
     """
-    dq = np.asarray(dq, float)
-    mu = float(mu)
-    pn = float(normal_impulse)
+    mu = real_number("mu", mu)
+    pn = real_number("normal_impulse", normal_impulse)
     if not (np.isfinite(mu) and np.isfinite(pn)):
         raise NonFiniteError(f"mu and normal_impulse must be finite, got {mu!r}, {pn!r}")
     m_nn, m_nt, m_tt = oblique_coefficients(M, c_n, c_t, C)
-    v_n, v_t = float(np.asarray(c_n, float) @ dq), float(np.asarray(c_t, float) @ dq)
+    c_n, c_t = as_real_array("c_n", c_n), as_real_array("c_t", c_t)
+    dq = _vector("dq", dq, c_n.shape[0])
+    v_n, v_t = float(c_n @ dq), float(c_t @ dq)
     return -0.5 * pn * pn * (m_nn + 2 * mu * m_nt + mu * mu * m_tt) - pn * (v_n + mu * v_t)
 
 
@@ -99,6 +119,7 @@ def stiction_interval(M, Jc, dq, mu: float | None = None, C=None,
     is one interval, clipped to [0, 1].
     """
     P = build_problem(M, Jc, dq, C=C)
+    tol = real_number("tol", tol)
     if P.n_contacts != 1:
         raise ShapeError("stiction_interval takes one contact Jacobian")
     if mu is not None:

@@ -12,8 +12,16 @@ validates the data, brings W to a safe scale, and calls the law's kernel.
 
 A kernel is ``kernel(w, v, d, e, mu) -> ContactSolution`` on plain Python lists and floats
 (numpy's per-call overhead would dominate: a spatial solve takes some 10-20 microseconds, a
-planar one a few). It is called only with an approaching contact (v_n < 0), W_nn > 0, tr(W)
-within [1e-100, 1e100], e in [0, 1] and a finite mu >= 0 (mu = 0: :func:`frictionless`).
+planar one a few), which it must not modify. It is called only with an approaching contact
+(v_n < 0), W_nn > 0, tr(W) and max |v| within :data:`~convimpact.impact.problem.SAFE_SCALE`
+(about 1e-50 .. 1e50), e in [0, 1] and a finite mu >= 0 (mu = 0: :func:`frictionless`).
+
+Scale: the dispatcher brings W and v into that range by exact powers of two (independently:
+the laws are homogeneous, pi(a W, b v) = (b / a) pi(W, v)), so the kernels' relative
+tolerances see the same numbers whatever the units, and scales the answer back
+(:func:`rescaled`: impulses, velocities and energies among the extras too, by
+:data:`EXTRAS_UNITS`). An impulse that leaves double precision's range raises
+NonFiniteError -- never an inf, a NaN or a silent zero.
 
 Degenerate cases are explicit: v_t- = 0 needs no special branch; a (numerically) singular W
 raises SingularSystemError naming the conic paths; a law whose every sliding root has a
@@ -39,7 +47,7 @@ from .errors import (
     SingularSystemError,
     UnknownOptionError,
 )
-from .problem import ImpactProblem
+from .problem import SAFE_SCALE, TINY_NORMAL, ImpactProblem, real_number
 from .resolve import LAWS, load_solver_modules, register_solver
 from .results import ImpactResult
 from .small_linalg import as_lists
@@ -75,6 +83,8 @@ class ContactSolution:
     warnings: tuple[str, ...] = ()
 
 
+_NO_EXTRAS: Mapping[str, Any] = MappingProxyType({})
+
 #: a law's single-contact kernel: (w, v, d, e, mu) on plain floats -> ContactSolution
 Kernel = Callable[[list, list, int, float, float], ContactSolution]
 _KERNELS: dict[str, Kernel] = {}
@@ -84,7 +94,7 @@ def solution(impulse: Sequence[float], regime: str, effective_mass: float | None
              extras: dict | None = None, warnings: tuple[str, ...] = ()) -> ContactSolution:
     """A :class:`ContactSolution` from plain floats (read-only extras)."""
     return ContactSolution(np.array(impulse), regime, effective_mass,
-                           MappingProxyType(extras or {}), warnings)
+                           MappingProxyType(extras) if extras else _NO_EXTRAS, warnings)
 
 
 def in_cone(pn: float, ptn: float, mu: float) -> bool:
@@ -107,20 +117,60 @@ def frictionless(w: list, v: list, d: int, e: float) -> ContactSolution:
     return solution(pi, "frictionless")
 
 
-#: extras of a ContactSolution that are impulses or energies (they scale like pi)
-_IMPULSE_EXTRAS = ("plastic_impulse", "normal_impulse", "energy_loss_max")
+#: units of the kernels' extras that carry them (the others -- angles, directions, counts,
+#: flags -- are dimensionless); :func:`rescaled` scales these back. A kernel adding an
+#: extra with units must list it here.
+EXTRAS_UNITS = MappingProxyType({
+    "plastic_impulse": "impulse", "normal_impulse": "impulse",
+    "energy_loss_max": "energy",
+    "normal_velocity_lift": "velocity", "post_slip": "velocity", "post_slip_speed": "velocity",
+})
 
 
-def rescaled(sol: ContactSolution, g: float) -> ContactSolution:
-    """A solution computed with W / tr(W), brought back to W (``g = 1 / tr``): impulses,
-    impulse-like extras and energies times ``g``, the sliding denominator over ``g``."""
+def _ldexp(x: float, n: int) -> float:
+    """x 2^n, inf (signed) on overflow instead of OverflowError, 0 on underflow."""
+    try:
+        return math.ldexp(x, n)
+    except OverflowError:
+        return math.copysign(math.inf, x)
+
+
+def _scale_value(x, n: int):
+    if x is None or isinstance(x, bool):
+        return x
+    if isinstance(x, (tuple, list)):
+        return type(x)(_ldexp(y, n) for y in x)
+    return _ldexp(x, n)
+
+
+def rescaled(sol: ContactSolution, pw: int, pv: int) -> ContactSolution:
+    """A solution computed with ``W 2^pw`` and ``v 2^pv``, brought back to W and v: impulses
+    times ``2^(pw - pv)``, velocities times ``2^-pv``, energies times ``2^(pw - 2 pv)``, the
+    sliding denominator times ``2^-pw`` (exact: powers of two).
+
+    Raises
+    ------
+    NonFiniteError
+        when the impulse leaves double precision's range (overflows, or underflows below the
+        smallest normal number while the scaled answer is not zero).
+    """
+    n_pi = pw - pv
+    shifts = {"impulse": n_pi, "velocity": -pv, "energy": pw - 2 * pv}
+    scaled = sol.impulse.tolist()
+    impulse = [_ldexp(x, n_pi) for x in scaled]
+    big = max(map(abs, scaled))
+    top = max(map(abs, impulse))
+    if not math.isfinite(top) or (big > 0.0 and top < TINY_NORMAL):
+        raise NonFiniteError(
+            f"the impulse {'overflows' if n_pi > 0 else 'underflows'} double precision (|pi| "
+            f"~ 1e{math.log10(big) + n_pi * math.log10(2.0):.0f}): the units of M, Jc and dq "
+            "are too far apart; rescale them")
     extras = dict(sol.extras)
-    for key in _IMPULSE_EXTRAS:
-        if key in extras and extras[key] is not None:
-            extras[key] = (tuple(g * x for x in extras[key]) if isinstance(extras[key], tuple)
-                           else g * extras[key])
-    mass = None if sol.effective_mass is None else sol.effective_mass / g
-    return ContactSolution(sol.impulse * g, sol.regime, mass, MappingProxyType(extras),
+    for key, unit in EXTRAS_UNITS.items():
+        if key in extras:
+            extras[key] = _scale_value(extras[key], shifts[unit])
+    mass = None if sol.effective_mass is None else _ldexp(sol.effective_mass, -pw)
+    return ContactSolution(np.array(impulse), sol.regime, mass, MappingProxyType(extras),
                            sol.warnings)
 
 
@@ -133,6 +183,28 @@ def _kernel(law: str) -> Kernel:
             raise UnknownOptionError(
                 f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
     return kernel
+
+
+def dispatch(kernel: Kernel, w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
+    """Run ``kernel`` on validated data (finite, e in [0, 1], mu >= 0): a separating contact
+    takes no impulse, W_nn <= 0 raises, data outside :data:`SAFE_SCALE` are rescaled."""
+    if not v[0] < 0.0:
+        return solution([0.0] * d, "separating")
+    A = w[0][0]
+    if not A > 0.0:
+        raise SingularSystemError(
+            f"W_nn = c_n^T M^-1 c_n = {A:.3e}: the contact normal moves no mass in this "
+            "configuration; no impulse can act there")
+    tr = w[0][0] + w[1][1] + (w[2][2] if d == 3 else 0.0)
+    vs = max(-v[0], abs(v[1]), abs(v[-1]))
+    lo, hi = SAFE_SCALE
+    if lo <= tr <= hi and lo <= vs <= hi:
+        return kernel(w, v, d, e, mu)
+    # homogeneous laws: solve with W 2^pw and v 2^pv, both of order one, and scale back
+    big = max(tr, max(abs(x) for row in w for x in row))  # = tr for a PSD W
+    pw, pv = -math.frexp(big)[1], -math.frexp(vs)[1]
+    ws = [[math.ldexp(x, pw) for x in row] for row in w]
+    return rescaled(kernel(ws, [math.ldexp(x, pv) for x in v], d, e, mu), pw, pv)
 
 
 def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
@@ -164,7 +236,9 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
     Raises
     ------
     ShapeError, UnknownOptionError, NonFiniteError, ParameterError
-        bad shapes, law, non-finite data, e outside [0, 1] or mu < 0.
+        bad shapes or entries (strings, booleans, complex numbers), law, non-finite data, e
+        outside [0, 1] or mu < 0 (or e, mu not real numbers); an impulse beyond double
+        precision's range (NonFiniteError).
     SingularSystemError
         W_nn <= 0, or W singular where the law inverts it.
     NonPositiveEffectiveMassError
@@ -173,27 +247,15 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
         no solution of the law's conditions exists (Coulomb) or was found.
     """
     w, vv, d = as_lists(W, v)
-    e = float(e)
-    mu = float(mu)
+    e = real_number("e", e)
+    mu = real_number("mu", mu)
     kernel = _kernel(law)
-    if not math.isfinite(sum(map(sum, w)) + sum(vv) + e + mu):
+    if not (all(map(math.isfinite, vv)) and all(math.isfinite(x) for row in w for x in row)
+            and math.isfinite(e) and math.isfinite(mu)):
         raise NonFiniteError("W, v, e and mu must be finite; got NaN or infinity")
     if not (0.0 <= e <= 1.0 and mu >= 0.0):
         raise ParameterError(f"need e in [0, 1] and mu >= 0, got e = {e:g}, mu = {mu:g}")
-    if not vv[0] < 0.0:
-        return solution([0.0] * d, "separating")
-    A = w[0][0]
-    if not A > 0.0:
-        raise SingularSystemError(
-            f"W_nn = c_n^T M^-1 c_n = {A:.3e}: the contact normal moves no mass in this "
-            "configuration; no impulse can act there")
-    tr = sum(w[i][i] for i in range(d))
-    if not 1e-100 < tr < 1e100:
-        # products of W's entries (quartic coefficients, determinants) would under- or
-        # overflow: solve with W / tr(W); every law is homogeneous, pi scales by 1 / tr
-        scaled = solve_contact([[x / tr for x in row] for row in w], vv, e, mu, law)
-        return rescaled(scaled, 1.0 / tr)
-    return kernel(w, vv, d, e, mu)
+    return dispatch(kernel, w, vv, d, e, mu)
 
 
 def register_kernel(law: str, kernel: Kernel) -> Kernel:
@@ -208,9 +270,10 @@ def register_kernel(law: str, kernel: Kernel) -> Kernel:
             raise NotSupportedError(
                 f"method='fast' is exact for one contact only; for {problem.n_contacts} "
                 "simultaneous contacts use method='clarabel' or method='cvxpy'")
-        W, v = problem.contact_block(0)
-        sol = solve_contact(W, v, float(problem.restitution[0]), float(problem.friction[0]), law)
-        return assemble_result(problem, sol.impulse[None], [sol.regime], law, "fast",
+        w, v = problem.contact_lists(0)
+        sol = dispatch(kernel, w, v, problem.dim, float(problem.restitution[0]),
+                       float(problem.friction[0]))
+        return assemble_result(problem, sol.impulse, [sol.regime], law, "fast",
                                effective_mass=sol.effective_mass, tol=FAST_TOL,
                                extras=sol.extras, warnings=sol.warnings)
 
@@ -221,4 +284,4 @@ def register_kernel(law: str, kernel: Kernel) -> Kernel:
 
 
 __all__ = ["ContactSolution", "solve_contact", "register_kernel", "frictionless", "FAST_LAWS",
-           "FAST_TOL"]
+           "FAST_TOL", "EXTRAS_UNITS", "dispatch", "rescaled"]

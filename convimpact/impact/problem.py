@@ -12,23 +12,36 @@ once, everything every impact law needs:
 
 Every impact law then works on ``(W, v_minus, e, mu)`` only, and
 :meth:`ImpactProblem.velocity_jump` turns its impulse into ``theta_dot_plus``.
+
+Validation is typed (:func:`~convimpact.impact.errors.as_real_array`): a string, a boolean,
+a complex number or None is a ShapeError (for ``e``, ``mu`` a ParameterError) naming the
+entry. Every tolerance is relative to the data's own scales, so M times ``a`` and dq times
+``b`` change no decision. The common case (float arrays, one contact, no loops) costs a handful
+of LAPACK and numpy calls: the small checks run on Python floats.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Sequence, Union
+import math
+import sys
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, Sequence, Union
 
 import numpy as np
 import scipy.linalg as sla
 
 from .errors import (
+    DegenerateContactError,
     LoopConstraintError,
     MassMatrixError,
     NonFiniteError,
     ParameterError,
     ShapeError,
+    as_real_array,
+    real_number,
 )
+from .small_linalg import cholesky_lower, empty_matrix, tri_solve
 
 ArrayLike = Union[np.ndarray, Sequence[float], float]
 
@@ -39,31 +52,32 @@ SYMMETRY_RTOL = 1e-10
 LOOP_RANK_RTOL = 1e-7
 #: relative tolerance on C theta_dot = 0 for the pre-impact velocity
 LOOP_VELOCITY_RTOL = 1e-6
-
-
-_dtrtrs = sla.lapack.dtrtrs  # LAPACK triangular solve, without scipy's per-call checks
-
-
-def _tri_solve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
-    """Solve L X = B (trans=0) or L^T X = B (trans=1) for lower-triangular L."""
-    X, info = _dtrtrs(L, B, lower=1, trans=trans)
-    if info != 0:  # pragma: no cover - L comes from a successful Cholesky factorization
-        raise MassMatrixError(f"triangular solve failed (LAPACK info {info})")
-    return X
+#: a contact whose tangential Delassus entries are below this fraction of the largest
+#: diagonal entry cannot take a friction impulse (it is treated as frictionless)
+IMMOBILE_RTOL = 1e-14
+#: scales within which products of a contact's W and v of degree <= 3 stay far from under-
+#: and overflow: the single-contact kernels are called unscaled inside, rescaled outside
+SAFE_SCALE = (2.0 ** -166, 2.0 ** 166)  # about 1e-50 .. 1e50
+#: smallest positive normal double (a c_n^T M^-1 c_n below it has underflowed)
+TINY_NORMAL = sys.float_info.min
 
 
 def _finite(name: str, a: np.ndarray) -> np.ndarray:
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise NonFiniteError(f"{name} contains NaN or infinity; pass finite values")
     return a
 
 
-def _as_float_array(name: str, value) -> np.ndarray:
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
-    return a
+def _new(cls, values: dict):
+    """An instance of a frozen dataclass from all its field values, without the per-field
+    ``object.__setattr__`` of its generated ``__init__`` (the public call's hot path)."""
+    obj = object.__new__(cls)
+    obj.__dict__.update(values)
+    return obj
+
+
+# --------------------------------------------------------------------------------------------
+# the checks of each argument
 
 
 def check_mass_matrix(M) -> tuple[np.ndarray, np.ndarray]:
@@ -73,21 +87,34 @@ def check_mass_matrix(M) -> tuple[np.ndarray, np.ndarray]:
     ------
     ShapeError, NonFiniteError, MassMatrixError
     """
-    M = _as_float_array("M", M)
+    M = as_real_array("M", M)
     if M.ndim != 2 or M.shape[0] != M.shape[1] or M.shape[0] == 0:
         raise ShapeError(f"M must be a square k x k matrix with k >= 1, got shape {M.shape}")
-    _finite("M", M)
-    scale = float(np.max(np.abs(M)))
-    asym = float(np.max(np.abs(M - M.T)))
-    if asym > SYMMETRY_RTOL * max(scale, 1e-300):
-        raise MassMatrixError(
-            f"M is not symmetric (max |M - M^T| = {asym:.3e} for max |M| = {scale:.3e}); "
-            "a generalized mass matrix B^T M B (eq. 3) is symmetric: check its assembly"
-        )
-    M = 0.5 * (M + M.T)
-    try:
-        L = np.linalg.cholesky(M)
-    except np.linalg.LinAlgError:
+    m = M.tolist()
+    k = len(m)
+    # exactly symmetric (a NaN fails ==) with a finite diagonal: then an infinite entry
+    # makes the factorization fail or leaves a non-finite last pivot
+    exact = True
+    tr = m[0][0]
+    for i in range(1, k):
+        row = m[i]
+        tr += row[i]
+        for j in range(i):
+            if row[j] != m[j][i]:
+                exact = False
+    if not (exact and math.isfinite(tr)):
+        _finite("M", M)
+        scale = float(np.max(np.abs(M)))
+        asym = float(np.max(np.abs(M - M.T)))
+        if asym > SYMMETRY_RTOL * scale:
+            raise MassMatrixError(
+                f"M is not symmetric (max |M - M^T| = {asym:.3e} for max |M| = {scale:.3e}); "
+                "a generalized mass matrix B^T M B (eq. 3) is symmetric: check its assembly"
+            )
+        M = 0.5 * M + 0.5 * M.T  # as 0.5 (M + M^T), without overflow near the float maximum
+    L, info = cholesky_lower(M)
+    if info != 0 or not math.isfinite(L[k - 1, k - 1]):
+        _finite("M", M)
         lam = float(np.linalg.eigvalsh(M)[0])
         raise MassMatrixError(
             f"M is not positive definite (smallest eigenvalue {lam:.3e}); every body needs "
@@ -96,35 +123,69 @@ def check_mass_matrix(M) -> tuple[np.ndarray, np.ndarray]:
     return M, L
 
 
-def _per_contact(name: str, value, n_contacts: int) -> np.ndarray:
-    a = _as_float_array(name, value)
-    if a.ndim == 0:
-        a = np.full(n_contacts, float(a))
-    if a.shape != (n_contacts,):
-        raise ShapeError(
-            f"{name} must be a scalar or one value per contact ({n_contacts}), got shape {a.shape}"
-        )
-    return _finite(name, a)
+def _per_contact(name: str, value, n: int, upper: float) -> np.ndarray:
+    """e or mu: real, finite, in [0, upper] (upper finite), one per contact."""
+    if type(value) is float and 0.0 <= value <= upper:  # the common case: finite, in range
+        return np.array([value] * n)
+    if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim):
+        a = as_real_array(name, value, ParameterError)
+        if a.shape != (n,):
+            raise ShapeError(
+                f"{name} must be a scalar or one value per contact ({n}), got shape {a.shape}")
+        values = a.tolist()
+    else:
+        values = [real_number(name, value)] * n
+    if not all(map(math.isfinite, values)):
+        raise NonFiniteError(f"{name} contains NaN or infinity; pass finite values")
+    if not (min(values) >= 0.0 and max(values) <= upper):
+        if name == "e":
+            raise ParameterError(
+                f"coefficient of restitution e must lie in [0, 1], got {values}")
+        raise ParameterError(
+            f"coefficient of friction mu must be >= 0, got {values} (the paper's negative "
+            "mu of Figs. 5-7 is a sign convention of its landscapes: use "
+            "convimpact.studies.landscape for those)")
+    return np.array(values)
 
 
 def check_restitution(e, n_contacts: int = 1) -> np.ndarray:
-    """Validate the coefficient(s) of restitution: finite and in [0, 1]."""
-    e = _per_contact("e", e, n_contacts)
-    if np.any(e < 0.0) or np.any(e > 1.0):
-        raise ParameterError(f"coefficient of restitution e must lie in [0, 1], got {e.tolist()}")
-    return e
+    """Validate the coefficient(s) of restitution: real, finite and in [0, 1]."""
+    return _per_contact("e", e, n_contacts, 1.0)
 
 
 def check_friction(mu, n_contacts: int = 1) -> np.ndarray:
-    """Validate the coefficient(s) of friction: finite and non-negative."""
-    mu = _per_contact("mu", mu, n_contacts)
-    if np.any(mu < 0.0):
-        raise ParameterError(
-            f"coefficient of friction mu must be >= 0, got {mu.tolist()} (the paper's negative "
-            "mu of Figs. 5-7 is a sign convention of its landscapes: use "
-            "convimpact.studies.landscape for those)"
+    """Validate the coefficient(s) of friction: real, finite and non-negative."""
+    return _per_contact("mu", mu, n_contacts, sys.float_info.max)
+
+
+def _jacobians(Jc, k: int) -> tuple[np.ndarray, bool]:
+    """The contact Jacobians as a (n_contacts, d, k) float array, and whether one was passed."""
+    if type(Jc) is np.ndarray:
+        J = as_real_array("Jc", Jc)
+        single = J.ndim != 3
+    else:
+        # a list or tuple of matrices is several contacts; a nested list of numbers is one
+        single = not (isinstance(Jc, (list, tuple)) and (len(Jc) == 0 or np.ndim(Jc[0]) == 2))
+        if not single:
+            if len(Jc) == 0 or len({np.shape(j) for j in Jc}) != 1:
+                raise ShapeError(
+                    "Jc must be a (d, k) array or a non-empty list of them, all of one shape")
+            Jc = [as_real_array("Jc", j) for j in Jc]
+        J = as_real_array("Jc", Jc)
+        if single and J.ndim == 3:
+            single = False
+    if J.ndim == 2:
+        J = J[None]
+    if J.ndim != 3 or J.shape[1] not in (2, 3) or J.shape[2] != k:
+        raise ShapeError(
+            f"each contact Jacobian must be 2 x {k} (planar rows n, t) or 3 x {k} (spatial rows "
+            f"n, t1, t2) to match M ({k} x {k}); got {J.shape[1:] if J.ndim == 3 else J.shape}"
         )
-    return mu
+    return J, single
+
+
+# --------------------------------------------------------------------------------------------
+# the validated problem
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,6 +204,9 @@ class ImpactProblem:
     delassus : (n_contacts d, n_contacts d) W = Jc G Jc^T.
     v_minus : (n_contacts, d) contact-frame relative velocities before impact.
     loop_matrix : (m, m) C M^-1 C^T.
+    notes : statements about the data that every result repeats in its warnings (a contact
+        whose normal row is zero can only be "separating").
+    approaching : per contact, v_n- < 0.
     """
 
     mass_matrix: np.ndarray
@@ -156,9 +220,29 @@ class ImpactProblem:
     delassus: np.ndarray
     v_minus: np.ndarray
     loop_matrix: np.ndarray
-    _minv_jt: np.ndarray  # M^-1 Jc^T, (k, n_contacts d)
-    _minv_ct: np.ndarray  # M^-1 C^T, (k, m)
-    _loop_cho: tuple | None  # Cholesky factor of C M^-1 C^T
+    notes: tuple[str, ...] = ()
+    # derived from the fields above (build_problem sets them; __post_init__ otherwise)
+    approaching: tuple[bool, ...] = field(init=False, repr=False)
+    _minv_jt: Any = field(init=False, repr=False)  # M^-1 Jc^T, (k, n_contacts d)
+    _minv_ct: Any = field(init=False, repr=False)  # M^-1 C^T, (k, m)
+    _loop_cho: Any = field(init=False, repr=False)  # Cholesky factor of C M^-1 C^T
+    _lists: Any = field(init=False, repr=False)  # (W, v) as nested Python lists
+    _rows: Any = field(init=False, repr=False)  # the stacked Jacobians, (n_contacts d, k)
+
+    def __post_init__(self):
+        """The derived caches of a problem built field by field (or by dataclasses.replace)."""
+        n, d, k = self.jacobians.shape
+        L, C = self.cholesky, self.loop_jacobian
+        rows = self.jacobians.reshape(n * d, k)
+        v = self.v_minus.ravel().tolist()
+        m = C.shape[0]
+        derived = dict(
+            approaching=tuple(v[i * d] < 0.0 for i in range(n)),
+            _minv_jt=tri_solve(L, tri_solve(L, rows.T), trans=1),
+            _minv_ct=tri_solve(L, tri_solve(L, C.T), trans=1) if m else empty_matrix((k, 0)),
+            _loop_cho=sla.cho_factor(self.loop_matrix, lower=True) if m else None,
+            _lists=(self.delassus.tolist(), v), _rows=rows)
+        self.__dict__.update(derived)
 
     @property
     def n_coordinates(self) -> int:
@@ -181,10 +265,32 @@ class ImpactProblem:
     def planar(self) -> bool:
         return self.dim == 2
 
+    @property
+    def jacobian_rows(self) -> np.ndarray:
+        """The stacked contact Jacobians, (n_contacts d, k)."""
+        return self._rows
+
     def contact_block(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Delassus block ``W_ii`` and ``v_minus[i]`` of contact i."""
         d = self.dim
         return self.delassus[i * d:(i + 1) * d, i * d:(i + 1) * d], self.v_minus[i]
+
+    def contact_lists(self, i: int) -> tuple[list, list]:
+        """``W_ii`` and ``v_minus[i]`` of contact i as Python lists (the kernels' input; they
+        must not be modified)."""
+        if self.n_contacts == 1:
+            return self._lists
+        d = self.dim
+        w, v = self._lists
+        return [row[i * d:(i + 1) * d] for row in w[i * d:(i + 1) * d]], v[i * d:(i + 1) * d]
+
+    def in_safe_range(self, i: int = 0) -> bool:
+        """Whether contact i's tr(W_ii) and max |v_minus[i]| lie within :data:`SAFE_SCALE`,
+        where fixed tolerances and products of the data cannot under- or overflow."""
+        w, v = self.contact_lists(i)
+        lo, hi = SAFE_SCALE
+        return (lo <= sum(w[j][j] for j in range(len(v))) <= hi
+                and lo <= max(abs(x) for x in v) <= hi)
 
     def velocity_jump(self, impulse: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint-velocity jump and loop impulses for contact-frame impulses ``impulse``.
@@ -192,17 +298,140 @@ class ImpactProblem:
         ``Delta theta_dot = M^-1 (Jc^T pi + C^T Delta sigma)`` (eqs. 29, 44), with
         ``Delta sigma`` such that ``C Delta theta_dot = 0`` (eq. 43).
         """
-        pi = np.ravel(impulse)
-        d_dq = self._minv_jt @ pi
-        dsigma = np.zeros(0)
-        if self.n_loops:
-            dsigma = -sla.cho_solve(self._loop_cho, self.loop_jacobian @ d_dq)
-            d_dq = d_dq + self._minv_ct @ dsigma
-        return d_dq, dsigma
+        d_dq = self._minv_jt @ (impulse.ravel() if type(impulse) is np.ndarray
+                                else np.ravel(impulse))
+        if self._loop_cho is None:
+            return d_dq, np.zeros(0)
+        dsigma = -sla.cho_solve(self._loop_cho, self.loop_jacobian @ d_dq)
+        return d_dq + self._minv_ct @ dsigma, dsigma
+
+    @cached_property
+    def _mass_scale(self) -> float:
+        return float(np.max(np.abs(self.mass_matrix)))
 
     def kinetic_energy(self, dq: np.ndarray) -> float:
-        """T = 1/2 dq^T M dq (eq. 58)."""
-        return 0.5 * float(dq @ self.mass_matrix @ dq)
+        """T = 1/2 dq^T M dq (eq. 58); ``inf`` (or 0) where T itself leaves double precision's
+        range although M and dq do not."""
+        dq = np.asarray(dq, dtype=float)
+        ds = float(np.max(np.abs(dq))) if dq.size else 0.0
+        ms = self._mass_scale
+        if 1e-100 <= ds <= 1e100 and 1e-100 <= ms <= 1e100:
+            return 0.5 * float(dq @ self.mass_matrix @ dq)
+        if ds == 0.0:
+            return 0.0
+        u = dq / ds
+        return 0.5 * float(u @ (self.mass_matrix / ms) @ u) * ms * ds * ds
+
+
+def _check_contacts(J: np.ndarray, w: list, mu: np.ndarray) -> tuple[np.ndarray, tuple]:
+    """Degenerate contacts: a zero (or underflowed) normal row raises, unless only the normal
+    row is exactly zero (then the contact cannot approach: noted); a contact whose tangents
+    move no mass is frictionless. Returns mu and the notes."""
+    n, d, _ = J.shape
+    if n == 1 and w[0][0] >= TINY_NORMAL:  # the common case: one contact, its normal moving
+        wt = w[1][1] if d == 2 or w[1][1] >= w[2][2] else w[2][2]
+        if wt <= IMMOBILE_RTOL * w[0][0] and mu[0] > 0.0:
+            mu = np.zeros(1)
+        return mu, ()
+    diag = [w[i][i] for i in range(n * d)]
+    big = max(diag)
+    notes = []
+    immobile = []
+    for i in range(n):
+        wn, wt = diag[i * d], max(diag[i * d + 1:(i + 1) * d])
+        if not wn >= TINY_NORMAL:
+            zero_row = not J[i, 0].any()
+            if not (zero_row and wt >= TINY_NORMAL):
+                where = "" if n == 1 else f" of contact {i}"
+                what = ("is zero, and so are its tangent rows" if zero_row else
+                        f"is numerically zero relative to M's scale (c_n^T M^-1 c_n = {wn:.3e} "
+                        "underflows double precision)")
+                raise DegenerateContactError(
+                    f"the contact Jacobian's normal row{where} {what}: the contact cannot "
+                    "approach or take an impulse; check the contact normal and the Jacobian "
+                    "(or rescale units), or leave the contact out")
+            notes.append(
+                f"contact {i}: the contact Jacobian's normal row is zero (the contact point "
+                "cannot move along its normal here, e.g. a grazing contact at a singular "
+                "configuration): it cannot approach and takes no impulse")
+        immobile.append(wt <= IMMOBILE_RTOL * big)
+    # a contact whose tangent directions move no mass (e.g. a central impact of sliders along
+    # their slide line) cannot take a friction impulse: it would do no work and is
+    # undetermined, so the contact is frictionless whatever mu says
+    if any(immobile) and mu.max() > 0.0:
+        mu = np.where(immobile, 0.0, mu)
+    return mu, tuple(notes)
+
+
+def _loops(C, L: np.ndarray, X: np.ndarray, W: np.ndarray, dq: np.ndarray, k: int) -> tuple:
+    """Validate C and fold the loops into W: (C, W, C M^-1 C^T, M^-1 C^T, its Cholesky)."""
+    C = as_real_array("C", C).copy()  # owned (see build_problem)
+    if C.ndim == 1 and C.size == k:
+        C = C[None]
+    if C.ndim != 2 or C.shape[1] != k:
+        raise ShapeError(f"C must be an m x {k} loop-constraint Jacobian, got shape {C.shape}")
+    _finite("C", C)
+    m = C.shape[0]
+    if not m:
+        return empty_matrix((0, k)), W, empty_matrix((0, 0)), empty_matrix((k, 0)), None
+    if m >= k:
+        raise LoopConstraintError(
+            f"C has {m} rows for {k} joint coordinates: a loop Jacobian needs fewer "
+            "constraints than coordinates (drop redundant rows)"
+        )
+    s = np.linalg.svd(C, compute_uv=False)
+    if s[-1] <= LOOP_RANK_RTOL * s[0]:
+        raise LoopConstraintError(
+            f"C is rank deficient (singular values {s[0]:.3e} ... {s[-1]:.3e}): the loop "
+            "closure is singular here (e.g. a dead-centre configuration) or has redundant "
+            "rows; remove redundant constraints or move off the singular configuration"
+        )
+    ds = float(np.max(np.abs(dq)))
+    u = dq / ds if ds > 0.0 else dq  # C dq relative to |C| |dq|, free of under/overflow
+    resid = float(np.linalg.norm(C @ u))
+    if resid > LOOP_VELOCITY_RTOL * s[0] * float(np.linalg.norm(u)):
+        raise LoopConstraintError(
+            f"dq violates the loop constraints: |C dq| = {resid * ds:.3e} (eq. 7 requires 0); "
+            "project dq onto the null space of C before the impact"
+        )
+    Y = tri_solve(L, C.T)  # L^-1 C^T
+    A = Y.T @ Y
+    try:
+        loop_cho = sla.cho_factor(A, lower=True)
+    except np.linalg.LinAlgError:
+        raise LoopConstraintError(
+            "C M^-1 C^T is numerically singular: the loop constraints are (nearly) "
+            "dependent in this configuration; remove redundant rows of C or move off the "
+            "singular configuration") from None
+    B = Y.T @ X
+    W = W - B.T @ sla.cho_solve(loop_cho, B)
+    return C, W, A, tri_solve(L, Y, trans=1), loop_cho
+
+
+def _symmetrize(W: np.ndarray) -> list:
+    """W <- (W + W^T) / 2 in place (bit for bit), and W as nested lists."""
+    w = W.tolist()
+    r = len(w)
+    for i in range(1, r):
+        for j in range(i):
+            a, b = w[i][j], w[j][i]
+            if a != b:
+                w[i][j] = w[j][i] = W[i, j] = W[j, i] = (a + b) * 0.5
+    return w
+
+
+def _reduce(L: np.ndarray, rows: np.ndarray, dq: np.ndarray, C) -> tuple:
+    """Contact space of ``rows`` (r, k): (L^-1 rows^T, W (symmetrized) and its lists, rows dq,
+    C, C M^-1 C^T, M^-1 C^T, the Cholesky factor of C M^-1 C^T)."""
+    k = L.shape[0]
+    X = tri_solve(L, rows.T)  # L^-1 Jc^T
+    W = X.T @ X
+    v = rows @ dq
+    if C is None:
+        C, A, minv_ct, loop_cho = empty_matrix((0, k)), empty_matrix((0, 0)), empty_matrix((k, 0)), None
+    else:
+        C, W, A, minv_ct, loop_cho = _loops(C, L, X, W, dq, k)
+    return X, W, _symmetrize(W), v, C, A, minv_ct, loop_cho
 
 
 def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
@@ -214,108 +443,55 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
         Generalized mass matrix in joint coordinates (eq. 3), symmetric positive definite.
     Jc : (d, k) array_like, or a sequence of them, or a (n_contacts, d, k) array
         Contact Jacobian(s) in the contact frame, rows n, t (planar) or n, t1, t2 (spatial).
+        A contact's normal row may be zero only if its tangent rows are not (the contact then
+        cannot approach), and may not be numerically zero relative to M's scale.
     dq : (k,) array_like
         Joint velocities before impact.
     e, mu : float or per-contact sequence
-        Coefficients of restitution (in [0, 1]) and friction (>= 0).
+        Coefficients of restitution (in [0, 1]) and friction (>= 0): real numbers, not
+        strings or booleans.
     C : (m, k) array_like, optional
         Loop-constraint Jacobian (eq. 7); must have full row rank and satisfy C dq = 0.
+
+    Returns
+    -------
+    ImpactProblem
+
+    Raises
+    ------
+    ShapeError, NonFiniteError, MassMatrixError, ParameterError, DegenerateContactError,
+    LoopConstraintError
     """
-    M, L = check_mass_matrix(M)
-    k = M.shape[0]
-
-    # a list or tuple of matrices is several contacts; a nested list of numbers is one matrix
-    single = not (isinstance(Jc, (list, tuple)) and (len(Jc) == 0 or np.ndim(Jc[0]) == 2))
-    if not single:
-        if len(Jc) == 0 or len({np.shape(j) for j in Jc}) != 1:
-            raise ShapeError("Jc must be a (d, k) array or a non-empty list of them, all of one shape")
-        Jc = [np.asarray(j, dtype=float) for j in Jc]
-    J = _as_float_array("Jc", Jc)
-    if single and J.ndim == 3:
-        single = False
-    if J.ndim == 2:
-        J = J[None]
-    if J.ndim != 3 or J.shape[1] not in (2, 3) or J.shape[2] != k:
-        raise ShapeError(
-            f"each contact Jacobian must be 2 x {k} (planar rows n, t) or 3 x {k} (spatial rows "
-            f"n, t1, t2) to match M ({k} x {k}); got {J.shape[1:] if J.ndim == 3 else J.shape}"
-        )
-    _finite("Jc", J)
-    n_contacts, d, _ = J.shape
-
-    dq = _as_float_array("dq", dq)
-    if dq.shape != (k,):
-        raise ShapeError(f"dq must be a vector of length {k} to match M, got shape {dq.shape}")
-    _finite("dq", dq)
-    e = check_restitution(e, n_contacts)
-    mu = check_friction(mu, n_contacts)
-
-    Jflat = J.reshape(n_contacts * d, k)
-    X = _tri_solve(L, Jflat.T)  # L^-1 Jc^T
-    minv_jt = _tri_solve(L, X, trans=1)  # M^-1 Jc^T
-    W = X.T @ X
-
-    if C is None:
-        C = np.zeros((0, k))
-    C = _as_float_array("C", C)
-    if C.ndim == 1 and C.size == k:
-        C = C[None]
-    if C.ndim != 2 or C.shape[1] != k:
-        raise ShapeError(f"C must be an m x {k} loop-constraint Jacobian, got shape {C.shape}")
-    _finite("C", C)
-    m = C.shape[0]
-    loop_cho = None
-    minv_ct = np.zeros((k, 0))
-    A = np.zeros((0, 0))
-    if m:
-        if m >= k:
-            raise LoopConstraintError(
-                f"C has {m} rows for {k} joint coordinates: a loop Jacobian needs fewer "
-                "constraints than coordinates (drop redundant rows)"
-            )
-        s = np.linalg.svd(C, compute_uv=False)
-        if s[-1] <= LOOP_RANK_RTOL * s[0]:
-            raise LoopConstraintError(
-                f"C is rank deficient (singular values {s[0]:.3e} ... {s[-1]:.3e}): the loop "
-                "closure is singular here (e.g. a dead-centre configuration) or has redundant "
-                "rows; remove redundant constraints or move off the singular configuration"
-            )
-        resid = float(np.linalg.norm(C @ dq))
-        if resid > LOOP_VELOCITY_RTOL * s[0] * max(float(np.linalg.norm(dq)), 1e-300):
-            raise LoopConstraintError(
-                f"dq violates the loop constraints: |C dq| = {resid:.3e} (eq. 7 requires 0); "
-                "project dq onto the null space of C before the impact"
-            )
-        Y = _tri_solve(L, C.T)  # L^-1 C^T
-        minv_ct = _tri_solve(L, Y, trans=1)
-        A = Y.T @ Y
-        try:
-            loop_cho = sla.cho_factor(A, lower=True)
-        except np.linalg.LinAlgError:
-            raise LoopConstraintError(
-                "C M^-1 C^T is numerically singular: the loop constraints are (nearly) "
-                "dependent in this configuration; remove redundant rows of C or move off the "
-                "singular configuration") from None
-        B = Y.T @ X
-        W = W - B.T @ sla.cho_solve(loop_cho, B)
-    W = 0.5 * (W + W.T)
-    # a contact whose tangent directions move no mass (e.g. a central impact of sliders along
-    # their slide line) cannot take a friction impulse: it would do no work and is
-    # undetermined, so the contact is frictionless whatever mu says
-    idx = np.arange(n_contacts) * d
-    tangential = np.array([float(np.max(np.abs(np.diag(W)[i + 1:i + d]))) for i in idx])
-    immobile = tangential <= 1e-14 * max(float(np.max(np.abs(np.diag(W)))), 1e-300)
-    if np.any(immobile & (mu > 0)):
-        mu = np.where(immobile, 0.0, mu)
-    v_minus = (Jflat @ dq).reshape(n_contacts, d)
-    with np.errstate(over="ignore", invalid="ignore"):
-        T_minus = 0.5 * float(dq @ M @ dq)
-    if not (np.all(np.isfinite(W)) and np.all(np.isfinite(v_minus)) and np.isfinite(T_minus)):
-        raise NonFiniteError(
-            "the impact overflows double precision (Delassus matrix, contact velocities or "
-            "kinetic energy not finite); rescale the units of M, Jc and dq")
-    return ImpactProblem(
+    Mf, L = check_mass_matrix(M)
+    k = Mf.shape[0]
+    J, single = _jacobians(Jc, k)
+    n, d, _ = J.shape
+    dqf = as_real_array("dq", dq)
+    if dqf.shape != (k,):
+        raise ShapeError(f"dq must be a vector of length {k} to match M, got shape {dqf.shape}")
+    e = check_restitution(e, n)
+    mu = check_friction(mu, n)
+    # the problem owns its arrays: the caller may change theirs in place afterwards (before
+    # the diagnostics, measured on first access, are read)
+    M = Mf.copy() if Mf is M else Mf
+    dq = dqf.copy() if dqf is dq else dqf
+    if type(Jc) is np.ndarray:
+        J = J.copy()
+    rows = J.reshape(n * d, k)
+    X, W, w, v, C, A, minv_ct, loop_cho = _reduce(L, rows, dq, C)
+    vl = v.tolist()
+    if not math.isfinite(sum(map(sum, w)) + sum(vl)):  # NaN or inf input, or an overflow
+        _finite("M", M)
+        _finite("Jc", J)
+        _finite("dq", dq)
+        if not (np.isfinite(W).all() and np.isfinite(v).all()):
+            raise NonFiniteError(
+                "the impact overflows double precision (Delassus matrix or contact velocities "
+                "not finite); rescale the units of M, Jc and dq")
+    mu, notes = _check_contacts(J, w, mu)
+    return _new(ImpactProblem, dict(
         mass_matrix=M, cholesky=L, jacobians=J, dq_minus=dq, restitution=e, friction=mu,
-        loop_jacobian=C, single=single, delassus=W, v_minus=v_minus, loop_matrix=A,
-        _minv_jt=minv_jt, _minv_ct=minv_ct, _loop_cho=loop_cho,
-    )
+        loop_jacobian=C, single=single, delassus=W, v_minus=v.reshape(n, d), loop_matrix=A,
+        notes=notes, approaching=tuple(vl[i * d] < 0.0 for i in range(n)),
+        _minv_jt=tri_solve(L, X, trans=1), _minv_ct=minv_ct, _loop_cho=loop_cho,
+        _lists=(w, vl), _rows=rows))

@@ -47,6 +47,7 @@ def register_solver(law: str, method: str) -> Callable[[Solver], Solver]:
 
     def deco(fn: Solver) -> Solver:
         _SOLVERS[(law, method)] = fn
+        _CANDIDATES.clear()
         return fn
 
     return deco
@@ -84,17 +85,30 @@ def check_law_method(law: str, method: str) -> None:
 SINGLE_CONTACT_METHODS = ("closed-form", "fast", "sweep")
 
 
+_CANDIDATES: dict[tuple, list[str]] = {}
+
+
 def _candidates(problem: ImpactProblem, law: str) -> list[str]:
-    """Registered methods exact for this problem, cheapest first."""
-    load_solver_modules()
+    """Registered methods exact for this problem, cheapest first.
+
+    One planar contact under the paper's law goes to its closed form while the contact's W
+    and v lie within :data:`~convimpact.impact.problem.SAFE_SCALE`, where its fixed
+    tolerances are exact; outside, to ``fast``, which rescales before it solves.
+    """
     single = problem.n_contacts == 1
-    if law == "pereira-nikravesh" and single and problem.planar:
-        order = ["closed-form", "fast", "clarabel", "cvxpy"]
-    elif single:
-        order = ["fast", "closed-form", "clarabel", "cvxpy"]
-    else:
-        order = ["clarabel", "cvxpy"]
-    return [m for m in order if (law, m) in _SOLVERS]
+    key = (law, single, single and law == "pereira-nikravesh" and problem.planar
+           and problem.in_safe_range(0))
+    order = _CANDIDATES.get(key)
+    if order is None:
+        load_solver_modules()
+        if key[2]:
+            names = ("closed-form", "fast", "clarabel", "cvxpy")
+        elif single:
+            names = ("fast", "closed-form", "clarabel", "cvxpy")
+        else:
+            names = ("clarabel", "cvxpy")
+        order = _CANDIDATES[key] = [m for m in names if (law, m) in _SOLVERS]
+    return order
 
 
 def choose_method(problem: ImpactProblem, law: str) -> str:
@@ -139,7 +153,7 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
                 f"method {method!r} treats one contact; for several simultaneous contacts use "
                 "method='clarabel' or 'cvxpy'")
         candidates = [method]
-    if not np.any(problem.v_minus[:, 0] < 0.0):
+    if not any(problem.approaching):
         return _separating(problem, law, candidates[0])
     for i, name in enumerate(candidates):
         try:
@@ -151,8 +165,8 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
             fallback = f"method 'auto': {name} cannot treat this impact ({exc}); used " \
                        f"{candidates[i + 1]} instead"
             result = _SOLVERS[(law, candidates[i + 1])](problem, **options)
-            return dataclasses.replace(result, diagnostics=dataclasses.replace(
-                result.diagnostics, warnings=(fallback, *result.diagnostics.warnings)))
+            return dataclasses.replace(result,
+                                       diagnostics=result.diagnostics.with_notes(fallback))
         return result
     raise AssertionError("unreachable")  # pragma: no cover
 
@@ -188,13 +202,19 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     -------
     ImpactResult
         ``dq_plus``, contact-frame ``impulse`` (normal first), ``loop_impulse`` (Delta sigma),
-        ``regime``, ``energy_loss`` (eq. 58), ``v_minus``, ``v_plus``, and ``diagnostics``.
+        ``regime``, ``energy_loss`` (eq. 58), ``v_minus``, ``v_plus``, and ``diagnostics``
+        (measured on first access). Every decision and flag is scale-free: M times ``a`` and
+        dq times ``b`` give the same regime, the impulse times ``a b`` and the velocities
+        times ``b``.
 
     Raises
     ------
     InputError (ShapeError, NonFiniteError, MassMatrixError, ParameterError,
-    UnknownOptionError, LoopConstraintError)
-        for bad input;
+    DegenerateContactError, UnknownOptionError, LoopConstraintError)
+        for bad input: wrong shapes, entries that are not real numbers (a string, a boolean,
+        a complex number: ShapeError, or ParameterError for e and mu), NaN or infinity, a
+        contact Jacobian that is zero, and units so far apart that the impulse or the energy
+        change leaves double precision's range (NonFiniteError);
     SingularSystemError, NonPositiveEffectiveMassError
         when the chosen branch must invert a singular matrix or jams (Painleve-like);
     SolverError

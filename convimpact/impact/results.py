@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from types import MappingProxyType
 from typing import Any, Mapping, Union
@@ -15,17 +15,38 @@ Regime = str  # "separating", "frictionless", "stick" or "slide"
 DEFAULT_HOLD_TOL = 1e-6
 
 
-@dataclass(frozen=True, eq=False)
+#: the diagnostics measured on first access (all at once), in the order of :meth:`as_dict`
+MEASURED = ("energy_before", "energy_after", "energy_gained", "friction_pushes_slip",
+            "slip_reversal", "penetration", "restitution_residual", "cone_violation",
+            "coulomb_residual", "loop_residual", "momentum_residual")
+
+
+def _measured(name: str, doc: str) -> property:
+    def get(self):
+        return self._values[name]
+
+    get.__name__ = name
+    return property(get, doc=doc)
+
+
+@dataclass(frozen=True, eq=False, repr=False)
 class ImpactDiagnostics:
     """What the impact law did, measured on its answer.
 
     Flags (booleans) say when the law misbehaved; residuals (relative, dimensionless, >= 0)
-    say how well each physical property held. A residual of 0 means exactly held.
+    say how well each physical property held. A residual of 0 means exactly held. Every
+    threshold is relative to the data's own scales (impulses, velocities, energies), so
+    changing the units of M and dq changes no flag.
+
+    Everything below except ``effective_mass``, ``warnings``' solver part and ``extras`` is
+    measured on first access -- all at once, then cached -- so an impact solve does not pay
+    for diagnostics nobody reads; the condition numbers are computed on their own first access.
 
     Attributes
     ----------
     energy_before, energy_after : float
-        Kinetic energies T- and T+ (eq. 58).
+        Kinetic energies T- and T+ (eq. 58); ``inf`` where T itself exceeds double precision's
+        range (the warnings say so).
     energy_gained : bool
         T+ > T- beyond round-off: the law created energy.
     friction_pushes_slip : bool
@@ -45,8 +66,6 @@ class ImpactDiagnostics:
         Condition number of C M^-1 C^T (closed loops), None for open loops.
     mass_condition : float
         Condition number of M.
-        (The three condition numbers are computed on first access, so an impact solve does
-        not pay for SVDs nobody reads.)
     restitution_residual : float
         Max over contacts of |v_n+ + e v_n-| / |v_n-| where the contact carries an impulse, and
         of the negative part of (v_n+ + e v_n-) where it carries none (separation condition).
@@ -60,29 +79,57 @@ class ImpactDiagnostics:
     momentum_residual : float
         |M Delta theta_dot - Jc^T pi - C^T Delta sigma| relative to |Jc^T pi| (eqs. 33, 44).
     warnings : tuple of str
-        Human-readable statements of each flag raised.
+        Human-readable statements: the solver's and the data's (``notes``), then one per flag
+        raised.
+    notes : tuple of str
+        The statements made when the result was built (solver path, data).
     extras : mapping
         Law-specific figures (e.g. the CCP normal-velocity lift, sweep angle, iterations).
     """
 
-    energy_before: float
-    energy_after: float
-    energy_gained: bool
-    friction_pushes_slip: bool
-    slip_reversal: bool
-    penetration: bool
-    effective_mass: float | None
-    restitution_residual: float
-    cone_violation: float
-    coulomb_residual: float
-    loop_residual: float
-    momentum_residual: float
-    warnings: tuple[str, ...] = ()
+    effective_mass: float | None = None
+    notes: tuple[str, ...] = ()
     extras: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    # the measurement: a callable returning the MEASURED values and "flag_warnings" (or
+    # such a mapping itself), evaluated on first access
+    _source: Any = field(default=None, repr=False)
     # matrices behind the condition numbers (W, M, C M^-1 C^T), kept for lazy evaluation
     _delassus: Any = field(default=None, repr=False)
     _mass: Any = field(default=None, repr=False)
     _loop: Any = field(default=None, repr=False)
+
+    @cached_property
+    def _values(self) -> Mapping[str, Any]:
+        src = self._source
+        if src is None:  # nothing to measure: every property held
+            return MappingProxyType({**dict.fromkeys(MEASURED, 0.0), **dict.fromkeys(
+                ("energy_gained", "friction_pushes_slip", "slip_reversal", "penetration"),
+                False), "flag_warnings": ()})
+        return MappingProxyType(dict(src() if callable(src) else src))
+
+    energy_before = _measured("energy_before", "Kinetic energy T- (eq. 58).")
+    energy_after = _measured("energy_after", "Kinetic energy T+ (eq. 58).")
+    energy_gained = _measured("energy_gained", "T+ > T- beyond round-off.")
+    friction_pushes_slip = _measured("friction_pushes_slip", "pi_t . v_t- > 0 somewhere.")
+    slip_reversal = _measured("slip_reversal", "A slide ends with unopposed slip.")
+    penetration = _measured("penetration", "v_n+ < 0 somewhere.")
+    restitution_residual = _measured("restitution_residual", "Newton's law, relative.")
+    cone_violation = _measured("cone_violation", "Friction cone violation, relative.")
+    coulomb_residual = _measured("coulomb_residual", "Coulomb's post-slip law, relative.")
+    loop_residual = _measured("loop_residual", "|C theta_dot+|, relative.")
+    momentum_residual = _measured("momentum_residual", "Momentum balance, relative.")
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The notes, then a statement of each flag raised."""
+        return self.notes + self._values["flag_warnings"]
+
+    def with_notes(self, *notes: str) -> "ImpactDiagnostics":
+        """A copy with ``notes`` put before the existing ones (measurements kept)."""
+        new = replace(self, notes=(*notes, *self.notes))
+        if "_values" in self.__dict__:
+            new.__dict__["_values"] = self.__dict__["_values"]
+        return new
 
     @cached_property
     def delassus_condition(self) -> float:
@@ -112,14 +159,20 @@ class ImpactDiagnostics:
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view."""
-        out = {k: getattr(self, k) for k in self.__dataclass_fields__
-               if k != "extras" and not k.startswith("_")}
+        out = {k: getattr(self, k) for k in MEASURED[:6]}
+        out["effective_mass"] = self.effective_mass
+        out.update((k, getattr(self, k)) for k in MEASURED[6:])
         for k in ("delassus_condition", "loop_condition", "mass_condition"):
             out[k] = getattr(self, k)
         out["warnings"] = list(self.warnings)
         out["extras"] = {k: _jsonable(v) for k, v in self.extras.items()}
         out["held"] = self.held()
         return out
+
+    def __repr__(self) -> str:
+        shown = ", ".join(f"{k}={getattr(self, k)!r}" for k in MEASURED)
+        return (f"ImpactDiagnostics({shown}, effective_mass={self.effective_mass!r}, "
+                f"warnings={self.warnings!r})")
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,38 +1,84 @@
-"""Small dense linear algebra on plain Python floats for the single-contact kernels.
+"""Small dense linear algebra: on plain Python floats for the single-contact kernels, and the
+direct LAPACK calls of the public path.
 
 One contact's Delassus block is 2 x 2 (planar) or 3 x 3 (spatial); numpy's per-call overhead
 would dominate such solves, so they are written out: the adjugate inverse with one step of
 iterative refinement when ill-conditioned, and a scale-free singularity test
 (det W / tr(W)^d <= :data:`SINGULAR_RTOL`) that raises a typed error naming the conic paths.
+:func:`cholesky_lower` and :func:`tri_solve` call LAPACK without the per-call wrapping of
+numpy.linalg and scipy.linalg (a few microseconds each, which a small impact cannot afford).
 """
 
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
+import scipy.linalg as sla
 
-from .errors import ShapeError, SingularSystemError
+from .errors import MassMatrixError, ShapeError, SingularSystemError, as_real_array
 
 #: relative determinant below which W is treated as singular: det W <= tol * trace(W)^d
 #: (in the plane det/trace^2 ~ 1/cond(W), matching the closed form's cond(W) >= 1e12)
 SINGULAR_RTOL = 1e-12
 
 
+_dpotrf = sla.lapack.dpotrf  # LAPACK Cholesky: the positive-definiteness test
+_dtrtrs = sla.lapack.dtrtrs  # LAPACK triangular solve, without scipy's per-call checks
+try:  # numpy.linalg.cholesky's own kernel, without its per-call error-state wrapping
+    from numpy.linalg import _umath_linalg
+
+    _numpy_cholesky = _umath_linalg.cholesky_lo
+except (ImportError, AttributeError):  # pragma: no cover - other numpy layouts
+    _numpy_cholesky = None
+
+
+def cholesky_lower(M: np.ndarray) -> tuple[np.ndarray, int]:
+    """Lower Cholesky factor of M and LAPACK's info (0: positive definite).
+
+    scipy's dpotrf decides; the factor is then numpy's (the one np.linalg.cholesky returns,
+    so that results stay bit for bit those of numpy's factorization), dpotrf's where numpy's
+    is unavailable or disagrees at the edge of positive definiteness.
+    """
+    L, info = _dpotrf(M, lower=1, clean=1)
+    if info == 0 and _numpy_cholesky is not None:
+        Ln = _numpy_cholesky(M, signature="d->d")
+        k = M.shape[0] - 1
+        if Ln[k, k] == Ln[k, k]:  # not NaN
+            return Ln, 0
+    return L, info
+
+
+def tri_solve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
+    """Solve L X = B (trans=0) or L^T X = B (trans=1) for lower-triangular L."""
+    X, info = _dtrtrs(L, B, lower=1, trans=trans)
+    if info != 0:  # pragma: no cover - L comes from a successful Cholesky factorization
+        raise MassMatrixError(f"triangular solve failed (LAPACK info {info})")
+    return X
+
+
+@lru_cache(maxsize=64)
+def empty_matrix(shape: tuple[int, int]) -> np.ndarray:
+    """A shared read-only empty matrix (no loops: C, C M^-1 C^T and M^-1 C^T)."""
+    a = np.zeros(shape)
+    a.flags.writeable = False
+    return a
+
+
 def as_lists(W, v) -> tuple[list, list, int]:
-    if type(W) is np.ndarray and type(v) is np.ndarray:
-        d = v.shape[0] if v.ndim == 1 else 0
-        if d in (2, 3) and W.shape == (d, d):
-            return W.tolist(), v.tolist(), d
-    else:
-        try:
-            w = [[float(x) for x in row] for row in W]
-            vv = [float(x) for x in v]
-        except (TypeError, ValueError):
-            w, vv = [], []
-        d = len(vv)
-        if d in (2, 3) and len(w) == d and all(len(r) == d for r in w):
-            return w, vv, d
+    """One contact's W (d x d) and v (d,) as Python lists, d = 2 or 3.
+
+    Raises
+    ------
+    ShapeError
+        for other shapes, or entries that are not real numbers (strings, booleans, complex).
+    """
+    W = as_real_array("W", W)
+    v = as_real_array("v", v)
+    d = v.shape[0] if v.ndim == 1 else 0
+    if d in (2, 3) and W.shape == (d, d):
+        return W.tolist(), v.tolist(), d
     raise ShapeError(
         f"a single contact needs W of shape (d, d) and v of length d with d = 2 (n, t) or "
         f"3 (n, t1, t2); got W {np.shape(W)} and v {np.shape(v)}")
