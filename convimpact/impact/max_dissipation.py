@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from .boundary import candidates, det_wq, newton_root, refine, rotate
-from .errors import SingularSystemError, SolverError
+from .errors import SingularSystemError, SolverError, real_number
 from .fast import in_cone
 from .small_linalg import as_lists, inverse3, solve3, unit_or
 
@@ -107,6 +107,8 @@ def max_dissipation_direction(W, v, e: float, mu: float, tol: float = 1e-10) -> 
     ------
     SingularSystemError if W_nn <= 0; ShapeError for bad shapes.
     """
+    e = real_number("e", e)
+    mu = real_number("mu", mu)
     w, vv, d = as_lists(W, v)
     if not w[0][0] > 0.0:
         raise SingularSystemError(

@@ -30,6 +30,8 @@ from scipy.optimize import brentq, minimize_scalar
 from .laws.pereira_nikravesh import frictionless_impulse, stick_admissible, sticking_impulse
 from .diagnostics import assemble_result
 from .errors import (
+    as_real_array,
+    real_number,
     NonPositiveEffectiveMassError,
     NotSupportedError,
     ParameterError,
@@ -134,6 +136,10 @@ def energy_loss_versus_angle(W, v, e: float, mu: float, alpha) -> EnergyLossCurv
     -------
     EnergyLossCurve
     """
+    W = as_real_array("W", W)
+    v = as_real_array("v", v)
+    e = real_number("e", e)
+    mu = real_number("mu", mu)
     W, v, ref = _spatial_data(W, v)
     alpha = np.asarray(alpha, dtype=float)
     t1, t2 = _tangent(ref, alpha)
@@ -181,6 +187,10 @@ def sweep_direction(W, v, e: float, mu: float, xtol: float = DEFAULT_XTOL,
     -------
     SweepResult
     """
+    W = as_real_array("W", W)
+    v = as_real_array("v", v)
+    e = real_number("e", e)
+    mu = real_number("mu", mu)
     W, v, ref = _spatial_data(W, v)
     if not (xtol > 0.0 and math.isfinite(xtol)):
         raise ParameterError(f"xtol must be a positive finite angle tolerance, got {xtol!r}")

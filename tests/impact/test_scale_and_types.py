@@ -304,3 +304,38 @@ def test_real_numpy_types_are_accepted(convert):
 def test_every_public_entry_types_its_input(call, err, msg):
     with pytest.raises(err, match=msg):
         call()
+
+
+# ---- the public closed-form helpers take the same typed inputs as resolve_impact ----------
+def test_closed_form_helpers_reject_strings_booleans_and_complex():
+    import convimpact.impact as imp
+    from convimpact.impact.max_dissipation import max_dissipation_direction
+    from convimpact.impact.sweep import energy_loss_versus_angle, sweep_direction
+
+    W2, v2 = np.array([[2.0, 0.3], [0.3, 1.0]]), np.array([-1.0, 0.5])
+    W3, v3 = np.diag([2.0, 1.0, 1.5]), np.array([-1.0, 0.5, 0.2])
+    # the particle W = I/2 (mass 2) hitting at v = (-1, 0): pi_n = (1 + e) * 2 (hand value)
+    assert imp.frictionless_impulse(np.eye(2) / 2, [-1.0, 0.0], 0.5)[0] == pytest.approx(3.0)
+    bad_e = ("0.5", True, np.bool_(False), 0.5 + 1j)
+    for e in bad_e:
+        with pytest.raises(ci.ParameterError):
+            imp.frictionless_impulse(W2, v2, e)
+        with pytest.raises(ci.ParameterError):
+            imp.sticking_impulse(W2, v2, e)
+        with pytest.raises(ci.ParameterError):
+            imp.pereira_nikravesh(W2, v2, e, 0.3)
+        with pytest.raises(ci.ParameterError):
+            imp.pereira_nikravesh(W2, v2, 0.5, e)
+        with pytest.raises(ci.ParameterError):
+            max_dissipation_direction(W3, v3, e, 0.3)
+        with pytest.raises(ci.ParameterError):
+            sweep_direction(W3, v3, 0.5, e)
+        with pytest.raises(ci.ParameterError):
+            energy_loss_versus_angle(W3, v3, e, 0.3, [0.0])
+        with pytest.raises(ci.ParameterError):
+            imp.stick_admissible(np.array([1.0, 0.1]), e)
+    for v in (["-1", "0.5"], [True, False], [-1.0 + 1j, 0.5]):
+        with pytest.raises(ci.ShapeError):
+            imp.sticking_impulse(W2, v, 0.5)
+        with pytest.raises(ci.ShapeError):
+            imp.sliding_impulse(W2, v, 0.5, 0.3, np.array([1.0]))

@@ -42,6 +42,8 @@ from ..conic.paths import ProgramOptions, register_programs, solver_report
 from ..conic.qp import Backend, ConeQP, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import (
+    as_real_array,
+    real_number,
     NonPositiveEffectiveMassError,
     NotSupportedError,
     SingularSystemError,
@@ -67,6 +69,9 @@ STICK_RTOL = 1e-12
 
 def frictionless_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
     """Frictionless (or central) impulse: eq. (38) with mu = 0, pi_n = -(1+e) v_n / m_nn."""
+    W = as_real_array("W", W)
+    v = as_real_array("v", v)
+    e = real_number("e", e)
     w_nn = float(W[0, 0])
     if not w_nn > 0.0:
         raise SingularSystemError(
@@ -88,6 +93,9 @@ def sticking_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
     SingularSystemError
         when W is singular (contact directions dependent through the mechanism).
     """
+    W = as_real_array("W", W)
+    v = as_real_array("v", v)
+    e = real_number("e", e)
     lam = np.linalg.eigvalsh(W)  # W is symmetric positive semi-definite
     cond = lam[-1] / lam[0] if lam[0] > 0 else np.inf
     if not cond < DELASSUS_COND_MAX:
@@ -123,6 +131,10 @@ def sliding_impulse(W: np.ndarray, v: np.ndarray, e: float, mu: float,
         when that denominator is not positive (Painleve-like jam): no finite compressive
         normal impulse slides the contact along t.
     """
+    W = as_real_array("W", W)
+    v = as_real_array("v", v)
+    e = real_number("e", e)
+    mu = real_number("mu", mu)
     g = np.empty(W.shape[0])
     g[0] = 1.0
     g[1:] = mu * np.asarray(direction, dtype=float)
@@ -141,6 +153,8 @@ def sliding_impulse(W: np.ndarray, v: np.ndarray, e: float, mu: float,
 
 def stick_admissible(impulse: np.ndarray, mu: float, rtol: float = STICK_RTOL) -> bool:
     """Contact law (53): the stick impulse lies in the friction cone, |pi_t| <= mu pi_n."""
+    impulse = as_real_array("impulse", impulse)
+    mu = real_number("mu", mu)
     pn = float(impulse[0])
     return pn >= 0.0 and float(np.linalg.norm(impulse[1:])) <= mu * pn * (1.0 + rtol)
 
@@ -171,6 +185,10 @@ def pereira_nikravesh(W: np.ndarray, v: np.ndarray, e: float, mu: float,
     -------
     impulse, regime, sliding denominator (None unless sliding)
     """
+    W = as_real_array("W", W)
+    v = as_real_array("v", v)
+    e = real_number("e", e)
+    mu = real_number("mu", mu)
     if mu == 0.0:
         return frictionless_impulse(W, v, e), "frictionless", None
     stick = sticking_impulse(W, v, e)
