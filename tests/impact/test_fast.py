@@ -51,14 +51,28 @@ def energy_loss_eq60(W, v, e, mu, t):
 
 
 def brute_max_dissipation(W, v, e, mu):
-    """Grid over the circle, then scipy's bounded Brent around the best grid angle."""
-    tl = energy_loss_eq60(W, v, e, mu, tangent(GRID))
+    """Grid over the circle, densified geometrically toward the poles of pi_n (where the
+    denominator w_nn + mu w_nt . t of eq. 38 vanishes, T_L can peak in a sliver narrower than
+    the grid), then scipy's bounded Brent around the best sample."""
+    angles = [GRID]
+    r = math.hypot(W[0, 1], W[0, 2])
+    if mu * r > W[0, 0]:  # the denominator has zeros: alpha = phi +- acos(-w_nn / (mu r))
+        phi, half = math.atan2(W[0, 2], W[0, 1]), math.acos(-W[0, 0] / (mu * r))
+        offsets = np.geomspace(1e-13, GRID[1], 60)
+        for pole in (phi + half, phi - half):
+            angles += [pole + offsets, pole - offsets]
+    grid = np.concatenate(angles)
+    tl = energy_loss_eq60(W, v, e, mu, tangent(grid))
     k = int(np.argmax(tl))
-    h = GRID[1]
     f = lambda a: -float(energy_loss_eq60(W, v, e, mu, tangent(a))[0])  # noqa: E731
-    res = minimize_scalar(f, bounds=(GRID[k] - h, GRID[k] + h), method="bounded",
-                          options={"xatol": 1e-12})
-    return -res.fun, float(res.x)
+    near = np.sort(np.abs(np.angle(np.exp(1j * (grid - grid[k])))))
+    h = max(float(near[1]), 1e-15) if near.size > 1 else GRID[1]
+    res = minimize_scalar(f, bounds=(grid[k] - h, grid[k] + h), method="bounded",
+                          options={"xatol": 1e-15})
+    best = -res.fun
+    if tl[k] > best:
+        return float(tl[k]), float(grid[k])
+    return best, float(res.x)
 
 
 def brute_coulomb_slides(W, v, e, mu):
