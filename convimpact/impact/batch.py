@@ -122,8 +122,30 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return a
 
 
+class _BatchStatus:
+    """What both batch results answer from their ``impulse``, ``status`` and ``regime``."""
+
+    def __len__(self) -> int:
+        return self.impulse.shape[0]
+
+    @property
+    def ok(self) -> np.ndarray:
+        """(N,) bool: the kernel solved the item."""
+        return self.status == OK
+
+    @property
+    def failed(self) -> np.ndarray:
+        """Indices of the items the kernel rejected."""
+        return np.flatnonzero(self.status != OK)
+
+    def regimes(self) -> tuple[str, ...]:
+        """Regime names per item ("failed" where the kernel rejected it)."""
+        names = REGIMES + ("failed",)
+        return tuple(names[int(r)] for r in self.regime)
+
+
 @dataclass(frozen=True, eq=False)
-class ContactBatch:
+class ContactBatch(_BatchStatus):
     """Impulses of N contacts from (W, v) (:func:`contact_impulses`).
 
     Attributes
@@ -149,27 +171,10 @@ class ContactBatch:
 
     regime_names: ClassVar[tuple[str, ...]] = REGIMES
 
-    def __len__(self) -> int:
-        return self.impulse.shape[0]
-
-    @property
-    def ok(self) -> np.ndarray:
-        """(N,) bool: the kernel solved the item."""
-        return self.status == OK
-
-    @property
-    def failed(self) -> np.ndarray:
-        """Indices of the items the kernel rejected."""
-        return np.flatnonzero(self.status != OK)
-
-    def regimes(self) -> tuple[str, ...]:
-        """Regime names per item ("failed" where the kernel rejected it)."""
-        names = REGIMES + ("failed",)
-        return tuple(names[int(r)] for r in self.regime)
 
 
 @dataclass(frozen=True, eq=False)
-class ImpactBatch:
+class ImpactBatch(_BatchStatus):
     """N single-contact impacts resolved at once (:func:`resolve_impacts`).
 
     The fields carry :class:`~convimpact.impact.results.ImpactResult`'s names (and its
@@ -219,9 +224,6 @@ class ImpactBatch:
     regime_names: ClassVar[tuple[str, ...]] = REGIMES
     status_names: ClassVar[Mapping[int, str]] = STATUS_NAMES
 
-    def __len__(self) -> int:
-        return self.impulse.shape[0]
-
     @property
     def normal_impulse(self) -> np.ndarray:
         return self.impulse[:, 0]
@@ -230,20 +232,6 @@ class ImpactBatch:
     def tangential_impulse(self) -> np.ndarray:
         return self.impulse[:, 1:]
 
-    @property
-    def ok(self) -> np.ndarray:
-        """(N,) bool: the kernel solved the impact."""
-        return self.status == OK
-
-    @property
-    def failed(self) -> np.ndarray:
-        """Indices of the impacts the kernel rejected."""
-        return np.flatnonzero(self.status != OK)
-
-    def regimes(self) -> tuple[str, ...]:
-        """Regime names per impact ("failed" where the kernel rejected it)."""
-        names = REGIMES + ("failed",)
-        return tuple(names[int(r)] for r in self.regime)
 
     def error(self, i: int) -> ConvImpactError | None:
         """The typed error ``resolve_impact(..., method="fast")`` raises for impact i (None
