@@ -28,6 +28,16 @@ def _plt():
     return plt
 
 
+def save_chart(fig, out, name: str, dpi: int = 90) -> str:
+    """Write ``fig`` as ``out/name`` (the folder made if missing), close it, return ``name``."""
+    import matplotlib.pyplot as plt
+
+    Path(out).mkdir(parents=True, exist_ok=True)
+    fig.savefig(Path(out) / name, dpi=dpi)
+    plt.close(fig)
+    return name
+
+
 def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str],
                       classes: Sequence[str]) -> list[str]:
     """One work-precision figure per law: error against time, one panel per problem class.

@@ -17,7 +17,7 @@ TITLES = {"M": "mass matrix M (ours: CRBA; pinocchio.crba)",
 
 def scaling_chart(records: list[dict[str, Any]], out: Path) -> str:
     """Four log-log panels (M, f, Jc, simulation): time against the number of bodies."""
-    from .charts import _plt
+    from .charts import _plt, save_chart
 
     plt = _plt()
     from matplotlib.lines import Line2D
@@ -58,7 +58,4 @@ def scaling_chart(records: list[dict[str, Any]], out: Path) -> str:
                  "convimpact.model, validated and copied unless 'unchecked')", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.93))
     name = "model_scaling.png"
-    Path(out).mkdir(parents=True, exist_ok=True)
-    fig.savefig(Path(out) / name, dpi=90)
-    plt.close(fig)
-    return name
+    return save_chart(fig, out, name)

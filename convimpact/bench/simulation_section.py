@@ -138,7 +138,7 @@ def best_of(fn: Callable[[], Any], n: int):
 
 def work_precision_chart(records: list[dict[str, Any]], scene: str, out: Path) -> str:
     """Three log-log panels (impact velocity, final state, energy): error against wall time."""
-    from .charts import _plt
+    from .charts import _plt, save_chart
 
     plt = _plt()
     rows = [r for r in records if r["scene"] == scene and r.get("wall_time")]
@@ -170,10 +170,7 @@ def work_precision_chart(records: list[dict[str, Any]], scene: str, out: Path) -
                  "h, stiffness k)", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.94))
     name = f"simulation_{scene.replace(' ', '_').replace('-', '_')}.png"
-    Path(out).mkdir(parents=True, exist_ok=True)
-    fig.savefig(Path(out) / name, dpi=90)
-    plt.close(fig)
-    return name
+    return save_chart(fig, out, name)
 
 
 def _cheapest_below(rows, key: str, level: float):

@@ -36,7 +36,7 @@ def _sparse_log_formatter(every: int):
 def work_precision_chart(records: list[dict[str, Any]], labels: Mapping[str, str],
                          out: Path) -> str:
     """One log-log panel per scene: error against wall time, both schemes."""
-    from .charts import _plt
+    from .charts import _plt, save_chart
 
     plt = _plt()
     keys = list(labels)
@@ -91,10 +91,7 @@ def work_precision_chart(records: list[dict[str, Any]], labels: Mapping[str, str
                  "Moreau–Jean h; errors below 1e-16 drawn at 1e-16)", fontsize=10)
     fig.tight_layout(rect=(0, 0.05, 1, 0.95))
     name = "sustained_work_precision.png"
-    Path(out).mkdir(parents=True, exist_ok=True)
-    fig.savefig(Path(out) / name, dpi=90)
-    plt.close(fig)
-    return name
+    return save_chart(fig, out, name)
 
 
 def _minor_h_formatter():
@@ -112,7 +109,7 @@ def _minor_h_formatter():
 def convergence_chart(records: list[dict[str, Any]], labels: Mapping[str, str],
                       out: Path) -> str:
     """Moreau–Jean's errors against h, all scenes, with slope-1 and slope-2 guides."""
-    from .charts import _plt
+    from .charts import _plt, save_chart
 
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(15, 5.2))
@@ -154,7 +151,4 @@ def convergence_chart(records: list[dict[str, Any]], labels: Mapping[str, str],
                  "(round-off floor 1e-16)", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.94))
     name = "sustained_convergence.png"
-    Path(out).mkdir(parents=True, exist_ok=True)
-    fig.savefig(Path(out) / name, dpi=90)
-    plt.close(fig)
-    return name
+    return save_chart(fig, out, name)
