@@ -104,13 +104,15 @@ def _deviation(b, data: dict[str, np.ndarray], law: str, n: int) -> tuple[float,
 
 
 def compile_times(cold: bool) -> dict[str, Any]:
-    """Seconds of :func:`convimpact.impact.batch.compile_kernels` in fresh subprocesses: with
-    an empty numba cache (``cold``, when asked) and then with the cache it wrote (warm); plus
-    the import of convimpact with and without the batch module."""
+    """Seconds of :func:`convimpact.impact.lane.compile_lane` (resolve_impact's compiled lane,
+    numba imported by it) and :func:`convimpact.impact.batch.compile_kernels` in fresh
+    subprocesses: with an empty numba cache (``cold``, when asked) and then with the cache it
+    wrote (warm); plus the import of convimpact."""
     code = ("import json, time; t = time.perf_counter(); import convimpact; "
             "t1 = time.perf_counter() - t; "
+            "from convimpact.impact.lane import compile_lane; lane = compile_lane(); "
             "from convimpact.impact.batch import compile_kernels; "
-            "print(json.dumps({'import_convimpact': t1, **compile_kernels()}))")
+            "print(json.dumps({'import_convimpact': t1, 'lane': lane, **compile_kernels()}))")
     out: dict[str, Any] = {}
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ)
@@ -243,6 +245,9 @@ def aggregates(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
             for path in ("loop solve_contact", "loop resolve_impact"):
                 m = agg[path]["median"]
                 agg[f"ratio_vs_{path.replace(' ', '_')}"] = b / m if b and m else None
+            # the public per-impact path against its kernel (issue 13: within 2x)
+            pub, ker = agg["loop resolve_impact"]["median"], agg["loop solve_contact"]["median"]
+            agg["public_over_kernel"] = ker / pub if pub and ker else None
             devs = [r["max_deviation_vs_resolve_impact"] for r in rows
                     if r["max_deviation_vs_resolve_impact"] is not None]
             agg["max_deviation_vs_resolve_impact"] = max(devs) if devs else None
@@ -250,6 +255,10 @@ def aggregates(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                                             if r["path"] == "resolve_impacts")
             out.append(agg)
     return out
+
+
+def _ratio(x) -> str:
+    return "n/a x" if x is None else f"{x:.2f}x"
 
 
 def summary_sentences(aggs: list[dict[str, Any]], compile_info: dict[str, Any]) -> list[str]:
@@ -265,7 +274,9 @@ def summary_sentences(aggs: list[dict[str, Any]], compile_info: dict[str, Any]) 
             f"{a['ratio_vs_loop_solve_contact']:.3g}x a Python loop over solve_contact "
             f"({a['loop solve_contact']['median']:.3g}/s) and "
             f"{a['ratio_vs_loop_resolve_impact']:.3g}x a loop over resolve_impact "
-            f"({a['loop resolve_impact']['median']:.3g}/s); largest deviation from "
+            f"({a['loop resolve_impact']['median']:.3g}/s; one resolve_impact costs "
+            f"{_ratio(a.get('public_over_kernel'))} its kernel solve_contact); largest "
+            f"deviation from "
             f"resolve_impact {a['max_deviation_vs_resolve_impact']:.1e}, "
             f"{a['failure_mismatches']} failure mismatches")
     spatial = [a for a in aggs if a["d"] == 3]
@@ -287,8 +298,9 @@ def summary_sentences(aggs: list[dict[str, Any]], compile_info: dict[str, Any]) 
         c = compile_info.get(name)
         if c and "error" not in c:
             parts.append(f"{name} numba cache: build {c['planar'] + c['spatial']:.1f} s "
-                         f"(+ {c['import']:.2f} s importing numba), import convimpact "
-                         f"{c['import_convimpact']:.2f} s")
+                         f"(+ {c['import']:.2f} s importing numba), resolve_impact's "
+                         f"compiled lane {c.get('lane', float('nan')):.2f} s, import "
+                         f"convimpact {c['import_convimpact']:.2f} s")
     out.append("compiled kernels: " + "; ".join(parts))
     return out
 

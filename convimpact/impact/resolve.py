@@ -21,6 +21,7 @@ from .errors import (
     SingularSystemError,
     UnknownOptionError,
 )
+from .lane import resolve_one
 from .laws import LAW_MODULES
 from .problem import ImpactProblem, build_problem
 from .results import ImpactResult
@@ -91,19 +92,15 @@ _CANDIDATES: dict[tuple, list[str]] = {}
 def _candidates(problem: ImpactProblem, law: str) -> list[str]:
     """Registered methods exact for this problem, cheapest first.
 
-    One planar contact under the paper's law goes to its closed form while the contact's W
-    and v lie within :data:`~convimpact.impact.problem.SAFE_SCALE`, where its fixed
-    tolerances are exact; outside, to ``fast``, which rescales before it solves.
+    One contact goes to its law's exact kernel (``fast``, which rescales data far from unit
+    scale before it solves), then to the law's closed form or conic programs.
     """
     single = problem.n_contacts == 1
-    key = (law, single, single and law == "pereira-nikravesh" and problem.planar
-           and problem.in_safe_range(0))
+    key = (law, single)
     order = _CANDIDATES.get(key)
     if order is None:
         load_solver_modules()
-        if key[2]:
-            names = ("closed-form", "fast", "clarabel", "cvxpy")
-        elif single:
+        if single:
             names = ("fast", "closed-form", "clarabel", "cvxpy")
         else:
             names = ("clarabel", "cvxpy")
@@ -233,6 +230,31 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     ('slide', [0.5, 0.55])
     """
     check_law_method(law, method)
+    if C is None and not options and type(Jc) is np.ndarray and Jc.ndim == 2 \
+            and (method == "auto" or method == "fast"):
+        # one open-loop contact: the compiled lane (convimpact.impact.lane), which hands
+        # every case but the plain one back to the full path below
+        kernel = _fast_kernel(law)
+        if kernel is not None:
+            result = resolve_one(M, Jc, dq, e, mu, law, kernel)
+            if result is not None:
+                return result
     problem = build_problem(M, Jc, dq, e, mu, C)
     return solve_problem(problem, law, method, **options)
+
+
+def _fast_kernel(law: str):
+    """The law's exact single-contact kernel (method "fast"), or None if it has none."""
+    kernel = _FAST_KERNELS.get(law)
+    if kernel is None:
+        from .fast import _KERNELS  # fast imports this module: not at the top
+
+        load_solver_modules()
+        _FAST_KERNELS.update(_KERNELS)
+        kernel = _FAST_KERNELS.get(law)
+    return kernel
+
+
+#: the laws' single-contact kernels (a copy of fast's registry, filled on first use)
+_FAST_KERNELS: dict = {}
 

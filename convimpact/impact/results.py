@@ -29,6 +29,14 @@ def _measured(name: str, doc: str) -> property:
     return property(get, doc=doc)
 
 
+def _condition(matrix) -> float:
+    """2-norm condition number of ``matrix`` (or of ``matrix()``, a matrix built on first
+    access); 1.0 for None."""
+    if callable(matrix):
+        matrix = matrix()
+    return float(np.linalg.cond(matrix)) if matrix is not None else 1.0
+
+
 @dataclass(frozen=True, eq=False, repr=False)
 class ImpactDiagnostics:
     """What the impact law did, measured on its answer.
@@ -94,6 +102,7 @@ class ImpactDiagnostics:
     # such a mapping itself), evaluated on first access
     _source: Any = field(default=None, repr=False)
     # matrices behind the condition numbers (W, M, C M^-1 C^T), kept for lazy evaluation
+    # (or callables returning them)
     _delassus: Any = field(default=None, repr=False)
     _mass: Any = field(default=None, repr=False)
     _loop: Any = field(default=None, repr=False)
@@ -133,11 +142,11 @@ class ImpactDiagnostics:
 
     @cached_property
     def delassus_condition(self) -> float:
-        return float(np.linalg.cond(self._delassus)) if self._delassus is not None else 1.0
+        return _condition(self._delassus)
 
     @cached_property
     def mass_condition(self) -> float:
-        return float(np.linalg.cond(self._mass)) if self._mass is not None else 1.0
+        return _condition(self._mass)
 
     @cached_property
     def loop_condition(self) -> float | None:
