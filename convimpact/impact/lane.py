@@ -41,7 +41,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .diagnostics import _Answer, measure, restitution_works
+from .diagnostics import assemble_result
 from .errors import ConvImpactError, as_real_array
 from .problem import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL, _new, build_problem
 from .results import ImpactDiagnostics, ImpactResult
@@ -229,15 +229,15 @@ def layout(k: int, d: int) -> tuple[int, ...]:
 
 
 class _LaneAnswer:
-    """The diagnostics' measurement of a lane answer: the problem is built (from the private
-    copies of the data in the workspace) on first access only, then measured as
-    :func:`~convimpact.impact.diagnostics.assemble_result`'s answers are."""
+    """The diagnostics' measurement of a lane answer: on first access only, the problem is
+    built from the private copies of the data in the workspace and the answer measured by
+    :func:`~convimpact.impact.diagnostics.assemble_result`, as the full path measures it."""
 
-    __slots__ = ("ws", "k", "d", "e", "mu", "pi", "regime", "dT", "extras")
+    __slots__ = ("ws", "k", "d", "e", "mu", "pi", "regime", "law", "extras")
 
-    def __init__(self, ws, k, d, e, mu, pi, regime, dT, extras):
+    def __init__(self, ws, k, d, e, mu, pi, regime, law, extras):
         self.ws, self.k, self.d, self.e, self.mu = ws, k, d, e, mu
-        self.pi, self.regime, self.dT, self.extras = pi, regime, dT, extras
+        self.pi, self.regime, self.law, self.extras = pi, regime, law, extras
 
     def mass(self) -> np.ndarray:
         k, oc = self.k, layout(self.k, self.d)[4]
@@ -253,8 +253,9 @@ class _LaneAnswer:
         J = self.ws[oc + k * k:oc + k * k + d * k].reshape(d, k)
         dq = self.ws[oc + k * k + d * k:oc + k * k + d * k + k]
         P = build_problem(self.mass(), J, dq, self.e, self.mu)
-        return measure(_Answer(P, self.pi.reshape(1, d), (self.regime,), LANE_TOL, self.dT,
-                               restitution_works(self.extras, 1)))
+        full = assemble_result(P, self.pi.reshape(1, d), [self.regime], self.law, "fast",
+                               tol=LANE_TOL, extras=self.extras)
+        return full.diagnostics._values
 
 
 def _number(x) -> float | None:
@@ -314,7 +315,7 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
     if dT != dT:
         return None  # beyond plain arithmetic: the full path normalizes or raises
     extras = sol.extras
-    answer = _LaneAnswer(ws, k, d, e_, mu_, pi, sol.regime, dT, extras)
+    answer = _LaneAnswer(ws, k, d, e_, mu_, pi, sol.regime, law, extras)
     diag = _new(ImpactDiagnostics, dict(
         effective_mass=sol.effective_mass, notes=sol.warnings,
         extras=extras if extras else _NO_EXTRAS, _source=answer, _delassus=answer.delassus,
