@@ -48,11 +48,12 @@ def test_model_names_resolve():
 
 
 def test_every_law_is_registered_with_its_paths():
-    # the four laws, each on the exact kernel and both conic paths; the paper's law also on
+    # the five laws, each on the exact kernel and both conic paths; the paper's law also on
     # its closed form and its own angle sweep
-    assert ci.LAWS == ("pereira-nikravesh", "coulomb", "ccp", "dissipative")
+    assert ci.LAWS == ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge")
     assert ci.available_methods("pereira-nikravesh") == [
         "closed-form", "sweep", "fast", "clarabel", "cvxpy"]
+    assert ci.available_methods("stronge") == ["fast", "clarabel", "cvxpy"]
     for law in ("coulomb", "ccp", "dissipative"):
         assert ci.available_methods(law) == ["fast", "clarabel", "cvxpy"]
 

@@ -30,6 +30,7 @@ from ..impact import LAWS, available_methods, solve_problem
 from ..impact.problem import ImpactProblem, build_problem
 from . import pinocchio_peers as peers
 from .paths import SolverPath, reference_paths, solver_paths
+from .per_impact_laws import law_speed_chart, law_speed_summary
 from .problems import CLASSES, BenchProblem, problem_suite
 from .registry import BenchConfig, Progress, SectionResult, register_section
 from .timing import time_call
@@ -367,6 +368,7 @@ def per_impact_section(config: BenchConfig, progress: Progress) -> SectionResult
                 records += _measure_peers(bp, law, ref, ref_label, config)
     aggs = aggregate(records)
     figures = per_impact_charts(aggs, config.out, BENCH_LAWS, CLASSES)
+    figures = [*figures, *law_speed_chart(aggs, config.out, BENCH_LAWS)]
     meta = {
         "definitions": {
             "time_full": "seconds per solve_problem call on the prebuilt ImpactProblem "
@@ -394,4 +396,5 @@ def per_impact_section(config: BenchConfig, progress: Progress) -> SectionResult
         "notes": notes,
         "aggregates": aggs,
     }
-    return SectionResult("per-impact", records, figures, summarize(aggs, records), meta)
+    summary = summarize(aggs, records) + law_speed_summary(aggs, BENCH_LAWS)
+    return SectionResult("per-impact", records, figures, summary, meta)

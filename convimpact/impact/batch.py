@@ -64,7 +64,13 @@ from .errors import (
 
 #: laws of the batch (every law has an exact single-contact kernel), with their codes
 LAW_CODES: Mapping[str, int] = MappingProxyType(
-    {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3})
+    {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4})
+#: laws whose *spatial* items have no compiled kernel: the compiled loop validates the data,
+#: forms W and v, and defers each spatial item to the law's Python kernel
+#: (:func:`convimpact.impact.fast.solve_contact`, one call per item), then maps the impulse
+#: back and measures the flags. ``stronge`` integrates a curved spatial slip (DOP853 steps on
+#: plain floats), not ported; its planar kernel (exact, piecewise linear) is compiled.
+PYTHON_SPATIAL_LAWS: tuple[str, ...] = ("stronge",)
 #: regime names; ``ImpactBatch.regime`` holds indices into this tuple (FAILED = -1 for
 #: impacts the kernel rejected)
 REGIMES: tuple[str, ...] = ("separating", "frictionless", "stick", "slide")
@@ -441,8 +447,9 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         Joint velocities before impact.
     e, mu : float or (N,) array_like
         Restitution in [0, 1] and friction >= 0, shared or per impact.
-    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
-        The impact law (as in ``resolve_impact``).
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge"}
+        The impact law (as in ``resolve_impact``). ``"stronge"``: planar items compiled,
+        spatial items solved one by one by its Python kernel (:data:`PYTHON_SPATIAL_LAWS`).
     C : None
         Closed loops are not batched: pass ``C`` to ``resolve_impact`` per impact.
     on_error : {"flag", "raise"}
@@ -595,7 +602,8 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     v : (d,) or (N, d) array_like
         Pre-impact contact velocities; v[..., 0] < 0 approaching.
     e, mu : float or (N,) array_like
-    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge"}
+        ``"stronge"``: spatial items by its Python kernel (:data:`PYTHON_SPATIAL_LAWS`).
     on_error : {"flag", "raise"}
         As in :func:`resolve_impacts`.
 

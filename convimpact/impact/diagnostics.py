@@ -64,11 +64,12 @@ class _Answer:
     the problem (which owns its arrays) and a private copy of the impulse, from which the
     velocities are recomputed exactly as :func:`assemble_result` computed them."""
 
-    __slots__ = ("problem", "pi", "regimes", "tol", "dT")
+    __slots__ = ("problem", "pi", "regimes", "tol", "dT", "works")
 
     def __init__(self, problem: ImpactProblem, pi: np.ndarray, regimes: tuple, tol: float,
-                 dT: float):
+                 dT: float, works: np.ndarray | None = None):
         self.problem, self.pi, self.regimes, self.tol, self.dT = problem, pi, regimes, tol, dT
+        self.works = works  # energetic restitution's normal works, see restitution_works
 
     def __call__(self) -> dict[str, Any]:
         return measure(self)
@@ -94,6 +95,37 @@ def _energy_flags(a: _Answer, dq_plus, sp: float, sv: float, p, vm, vp) -> tuple
     That = 0.5 * float(u @ (P.mass_matrix / ms) @ u) * math.exp(
         math.log(ms) + 2.0 * math.log(ds) - math.log(sp) - math.log(sv))
     return T_minus, T_plus, dTh > tol * 10.0 * That
+
+
+# --- energetic restitution (law "stronge", issue 16) -------------------------------------
+def restitution_works(extras: Mapping[str, Any] | None, n: int) -> np.ndarray | None:
+    """(n, 2) normal works (W_c, W_r) per contact -- the work of the normal impulse in
+    compression and in restitution -- when the answer's ``extras`` state them (a law with
+    energetic restitution: ``normal_work_compression`` / ``normal_work_restitution``, per
+    contact under ``extras["contacts"]`` for several), else None (Newton's restitution)."""
+    if not extras:
+        return None
+    rows = [extras] if "normal_work_compression" in extras else extras.get("contacts")
+    if not rows or len(rows) != n:
+        return None
+    works = np.zeros((n, 2))
+    for i, row in enumerate(rows):
+        if "normal_work_compression" not in row:
+            return None
+        works[i] = row["normal_work_compression"], row["normal_work_restitution"]
+    return works
+
+
+def energetic_residual(works: np.ndarray, e: np.ndarray) -> float:
+    """Max over contacts of |W_r + e^2 W_c| / |W_c| (Stronge's energetic restitution:
+    the normal impulse's work in restitution is -e^2 times its work in compression); 0 for a
+    contact that did no work in compression (no impulse)."""
+    wc, wr = works[:, 0], works[:, 1]
+    scale = np.abs(wc)
+    res = np.where(scale > 0.0, np.abs(wr + e * e * wc) / np.where(scale > 0.0, scale, 1.0),
+                   0.0)
+    return float(np.max(res)) if res.size else 0.0
+# --- end energetic restitution ----------------------------------------------------------
 
 
 def measure(a: _Answer) -> dict[str, Any]:
@@ -141,6 +173,10 @@ def measure(a: _Answer) -> dict[str, Any]:
     target = -e * np.minimum(vm[:, 0], 0.0)  # Newton's law (eq. 21) on approaching contacts
     restitution = float(np.max(np.where(pressed, np.abs(vp[:, 0] - target),
                                         np.maximum(0.0, target - vp[:, 0])))) / v_scale
+    # --- energetic restitution (law "stronge", issue 16) ---------------------------------
+    if a.works is not None:
+        restitution = energetic_residual(a.works, e)
+    # --- end energetic restitution ----------------------------------------------------------
 
     C = P.loop_jacobian
     loop_res = 0.0
@@ -235,7 +271,8 @@ def assemble_result(
         effective_mass=effective_mass,
         notes=(*P.notes, *warnings),
         extras=MappingProxyType(dict(extras)) if extras else _NO_EXTRAS,
-        _source=_Answer(P, pi.copy(), tuple(regimes), tol, dT),
+        _source=_Answer(P, pi.copy(), tuple(regimes), tol, dT,
+                        restitution_works(extras, n)),  # energetic restitution (issue 16)
         _delassus=P.delassus,
         _mass=P.mass_matrix,
         _loop=P.loop_matrix if P.n_loops else None,

@@ -124,6 +124,10 @@ EXTRAS_UNITS = MappingProxyType({
     "plastic_impulse": "impulse", "normal_impulse": "impulse",
     "energy_loss_max": "energy",
     "normal_velocity_lift": "velocity", "post_slip": "velocity", "post_slip_speed": "velocity",
+    # law "stronge": the impulse-space path and the works of the normal impulse and friction
+    "compression_impulse": "impulse", "phase_impulses": "impulse",
+    "normal_work_compression": "energy", "normal_work_restitution": "energy",
+    "friction_work": "energy",
 })
 
 

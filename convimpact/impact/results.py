@@ -76,7 +76,9 @@ class ImpactDiagnostics:
         Condition number of M.
     restitution_residual : float
         Max over contacts of |v_n+ + e v_n-| / |v_n-| where the contact carries an impulse, and
-        of the negative part of (v_n+ + e v_n-) where it carries none (separation condition).
+        of the negative part of (v_n+ + e v_n-) where it carries none (separation condition);
+        for law "stronge" (energetic restitution) instead max |W_r + e^2 W_c| / |W_c| over the
+        normal impulse's works in compression W_c and restitution W_r stated in ``extras``.
     cone_violation : float
         Max over contacts of max(0, |pi_t| - mu pi_n, -pi_n) / |pi|.
     coulomb_residual : float

@@ -35,7 +35,8 @@ SIMULATION_MODES = ("missed_impact", "smeared_impact", "compliant_stiff", "compl
 DEFAULT_PATHS = (("pereira-nikravesh", "closed-form"), ("pereira-nikravesh", "fast"),
                  ("pereira-nikravesh", "clarabel"), ("coulomb", "fast"),
                  ("coulomb", "clarabel"), ("ccp", "fast"), ("ccp", "clarabel"),
-                 ("dissipative", "fast"), ("dissipative", "clarabel"))
+                 ("dissipative", "fast"), ("dissipative", "clarabel"), ("stronge", "fast"),
+                 ("stronge", "clarabel"))
 #: joint rates of the double pendulum tried in each cell (rad/s)
 PENDULUM_RATES = ((1.0, 1.0), (1.0, -1.0), (-1.0, 2.0))
 

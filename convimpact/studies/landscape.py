@@ -12,9 +12,11 @@ point by point on one validated problem, reusing the solver's compiled program, 
 progress bar on long runs.
 
 :func:`contact_landscape` evaluates any law with the exact single-contact kernels of
-``method="fast"``: the contact-space data are reduced once, one kernel call per point, and
-energy, velocities and the diagnostics' flags are computed in numpy over the grid (a few
-hundred times faster than :func:`law_landscape`, identical flags).
+``method="fast"``: the contact-space data are reduced once, the grid is solved by the
+compiled batch (:func:`convimpact.impact.batch.contact_impulses`; one Python kernel call per
+point only where the batch has no compiled kernel, or without numba), and energy, velocities
+and the diagnostics' flags are computed in numpy over the grid (identical flags to
+:func:`law_landscape`).
 
 :func:`angle_landscape` evaluates the spatial sliding rule of Section 9.3 over e x mu x alpha
 (the angle of the tangential impulse, Fig. 9), vectorized, with the exact angle of maximal
@@ -209,11 +211,16 @@ def _sticking_meta(W: np.ndarray, v: np.ndarray) -> dict[str, Any]:
         return {}
     Winv = np.linalg.inv(W)
     return {"sticking_impulse_e0": (-Winv @ v).tolist(),
-            "sticking_impulse_de": (-Winv[:, 0] * v[0]).tolist()}
+            "sticking_impulse_de": (-Winv[:, 0] * v[0]).tolist(),
+            # law "stronge": the stick ratio |W_tn| / W_tt and the pre-impact slip's sign
+            "stick_ratio": abs(float(W[0, 1])) / float(W[1, 1]),
+            "slip_sign": float(np.sign(v[1]))}
 
 
 #: laws whose single-contact stick test is the sticking impulse of eq. (42)/(52) in the cone
 _STICK_AT_E = ("pereira-nikravesh", "coulomb", "ccp")
+#: laws with an exact stick boundary (:class:`StickBoundary`)
+_STICK_LAWS = _STICK_AT_E + ("dissipative", "stronge")
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,11 +237,21 @@ class StickBoundary:
     This holds for the ``pereira-nikravesh``, ``coulomb`` and ``ccp`` laws (each sticks exactly
     when the sticking impulse is admissible). The ``dissipative`` law's plastic phase sticks
     when pi(0) is admissible whatever e: its boundary is the vertical line mu = mu_star(0).
+
+    ``stronge`` (mu >= 0) ends in stick when its first slip (friction -mu s, s = sgn v_t-,
+    a single linear phase whose normal impulse would end at (1 + e) p_c) stops before the
+    collision ends, and sticking is then admissible, mu >= ``stick_ratio`` = |W_tn| / W_tt.
+    The stop comes first iff |v_t| (W_nn - mu s W_tn) <= (1 + e) |v_n| (mu W_tt - s W_tn),
+    i.e. mu pi_n(e) >= -s pi_t(e) with the same sticking impulse: so
+    mu_star(e) = max(``stick_ratio``, -s pi_t(e) / pi_n(e)) (where pi_n(e) > 0; ``inf``
+    elsewhere), and ``stick_ratio`` alone with no pre-impact slip (s = 0).
     """
 
     pi0: np.ndarray
     pi1: np.ndarray
     law: str = "pereira-nikravesh"
+    stick_ratio: float = 0.0
+    slip_sign: float = 1.0
 
     def sticking_impulse(self, e) -> np.ndarray:
         """(pi_n, pi_t) of eq. (42)/(52) at e, shape (..., 2); at e = 0 for ``dissipative``."""
@@ -246,6 +263,12 @@ class StickBoundary:
     def mu_star(self, e) -> np.ndarray:
         """The least |mu| at which the law sticks at e (``inf`` where it never sticks)."""
         p = self.sticking_impulse(e)
+        if self.law == "stronge":
+            if self.slip_sign == 0.0:
+                return np.full(p.shape[:-1], self.stick_ratio)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                q = np.where(p[..., 0] > 0.0, -self.slip_sign * p[..., 1] / p[..., 0], np.inf)
+            return np.maximum(q, self.stick_ratio)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(p[..., 0] > 0.0, np.abs(p[..., 1]) / p[..., 0], np.inf)
 
@@ -259,7 +282,12 @@ class StickBoundary:
             return np.array([])  # a vertical line: no crossing of a column unless on it
         (an, at), (bn, bt) = self.pi0, self.pi1
         roots = []
-        for sign in (1.0, -1.0):
+        signs = (1.0, -1.0)
+        if self.law == "stronge":  # -s pi_t(e) = mu pi_n(e), on or right of the stick ratio
+            if self.slip_sign == 0.0 or c < self.stick_ratio:
+                return np.array([])
+            signs = (-self.slip_sign,)
+        for sign in signs:
             den = bt - sign * c * bn
             if den != 0.0:
                 e = (sign * c * an - at) / den
@@ -285,6 +313,8 @@ class StickBoundary:
         grid = np.linspace(0.0, 1.0, n)
         at, bt = float(self.pi0[1]), float(self.pi1[1])
         extra = [-at / bt] if bt != 0.0 and 0.0 <= -at / bt <= 1.0 else []  # the kink
+        if self.law == "stronge":  # its kink: where the curve meets the stick ratio
+            extra = list(self.e_at(self.stick_ratio))
         # and the crossings of n columns: dense where the curve runs flat in e
         cols = [self.e_at(m) for m in np.linspace(0.0, mu_max, n)[1:]]
         e = np.unique(np.concatenate([grid, ends, extra, *cols]))
@@ -302,9 +332,9 @@ def stick_boundary(M, Jc, dq, C=None, law: str = "pereira-nikravesh") -> StickBo
     """
     from ..impact.errors import SingularSystemError, UnknownOptionError
 
-    if law not in _STICK_AT_E + ("dissipative",):
+    if law not in _STICK_LAWS:
         raise UnknownOptionError(f"unknown law {law!r}; choose one of "
-                                 f"{', '.join(_STICK_AT_E + ('dissipative',))}")
+                                 f"{', '.join(_STICK_LAWS)}")
     P = _planar_problem(M, Jc, dq, C)
     W, v = P.contact_block(0)
     if not _sticking_meta(W, v):
@@ -312,16 +342,19 @@ def stick_boundary(M, Jc, dq, C=None, law: str = "pereira-nikravesh") -> StickBo
                                   "eq. (42)/(52) is not unique, so there is no stick boundary")
     m = _sticking_meta(W, v)
     return StickBoundary(pi0=np.array(m["sticking_impulse_e0"]),
-                         pi1=np.array(m["sticking_impulse_de"]), law=law)
+                         pi1=np.array(m["sticking_impulse_de"]), law=law,
+                         stick_ratio=m["stick_ratio"], slip_sign=m["slip_sign"])
 
 
 def landscape_stick_boundary(L: "Landscape") -> StickBoundary | None:
     """The exact :class:`StickBoundary` of a planar landscape (None if it has none: a spatial
-    contact, a singular W, or a law other than the four)."""
-    if "sticking_impulse_e0" not in L.meta or L.law not in _STICK_AT_E + ("dissipative",):
+    contact, a singular W, or a law without one)."""
+    if "sticking_impulse_e0" not in L.meta or L.law not in _STICK_LAWS:
         return None
     return StickBoundary(pi0=np.asarray(L.meta["sticking_impulse_e0"], float),
-                         pi1=np.asarray(L.meta["sticking_impulse_de"], float), law=L.law)
+                         pi1=np.asarray(L.meta["sticking_impulse_de"], float), law=L.law,
+                         stick_ratio=float(L.meta.get("stick_ratio", 0.0)),
+                         slip_sign=float(L.meta.get("slip_sign", 1.0)))
 
 
 class _Progress:
@@ -421,12 +454,16 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     """Any law over a grid of e and mu (mu >= 0) with the exact single-contact kernels.
 
     The contact-space data (Delassus block ``W`` with the loops folded in, ``v-``) are computed
-    once; each grid point then costs one call of :func:`convimpact.impact.fast.solve_contact` (the
-    kernel of ``method="fast"``, tens of microseconds) and everything after the impulse --
-    energy loss (eq. 58 in contact space), post-impact velocity and the failure flags -- is
-    evaluated in numpy over the whole grid, with the same definitions and tolerance as
-    :func:`convimpact.impact.diagnostics.assemble_result` for ``method="fast"``. Planar or spatial,
-    one contact.
+    once; the whole grid is then solved in one call of the compiled batch
+    :func:`convimpact.impact.batch.contact_impulses` (item for item the kernel of
+    ``method="fast"``, :func:`convimpact.impact.fast.solve_contact`, to round-off), and
+    everything after the impulse -- energy loss (eq. 58 in contact space), post-impact velocity
+    and the failure flags -- is evaluated in numpy over the whole grid, with the same
+    definitions and tolerance as :func:`convimpact.impact.diagnostics.assemble_result` for
+    ``method="fast"``. Planar or spatial, one contact. Where the batch has no compiled kernel
+    (``"stronge"`` in space, whose curved slip is integrated) it solves the points one at a time
+    with the Python kernel; without numba every law falls back to one
+    :func:`~convimpact.impact.fast.solve_contact` call per point (same answers).
 
     Parameters
     ----------
@@ -434,17 +471,17 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     e : (ne,) array_like of restitution coefficients in [0, 1].
     mu : (nmu,) array_like of friction coefficients >= 0.
     law : one of :data:`convimpact.LAWS`.
-    progress : show a progress bar on stderr when the run is long.
+    progress : show a progress bar on stderr when the per-point loop is long.
 
     Returns
     -------
     Landscape
         ``method="fast"``. Points where the kernel raises are NaN and marked in ``failed``
-        (and in ``jammed`` for a non-positive sliding denominator). ``stick_possible`` marks
-        the points where the law stuck.
+        (and in ``jammed`` for a non-positive sliding denominator or a jammed collision).
+        ``stick_possible`` marks the points where the law stuck.
     """
-    from ..impact.errors import NonPositiveEffectiveMassError, UnknownOptionError
-    from ..impact.fast import FAST_LAWS, FAST_TOL, solve_contact
+    from ..impact.errors import UnknownOptionError
+    from ..impact.fast import FAST_LAWS, FAST_TOL
     from ..impact.problem import check_friction
 
     if law not in FAST_LAWS:
@@ -455,29 +492,66 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     if P.n_contacts != 1:
         raise ShapeError("contact_landscape takes one contact Jacobian (d x k)")
     W, v = P.contact_block(0)
-    d = P.dim
     shape = (e.size, mu.size)
-    pi = np.full(shape + (d,), np.nan)
-    regime = np.full(shape, REGIMES.index("failed"))
-    jam = np.zeros(shape, bool)
-    failed = np.zeros(shape, bool)
-    bar = _Progress(e.size * mu.size, f"{law}/fast") if progress else None
-    n = 0
-    for i, ei in enumerate(e):
-        for j, mj in enumerate(mu):
+    solved = _batch_grid(W, v, e, mu, law)
+    if solved is None:
+        solved = _loop_grid(W, v, e, mu, law, progress)
+    pi, regime, jam, failed = solved
+    return _landscape_from_impulses(P, e, mu, pi.reshape(shape + (P.dim,)),
+                                    regime.reshape(shape), jam.reshape(shape),
+                                    failed.reshape(shape), law, "fast", FAST_TOL)
+
+
+def _batch_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law: str):
+    """(pi, regime, jam, failed) over the flattened grid from the compiled batch, or None when
+    the batch does not treat ``law`` or numba is missing."""
+    from ..impact.errors import NotSupportedError
+
+    try:
+        from ..impact import batch
+    except ImportError:  # pragma: no cover - the module itself imports nothing optional
+        return None
+    if law not in batch.LAW_CODES:
+        return None
+    E, MU = np.meshgrid(e, mu, indexing="ij")
+    try:
+        b = batch.contact_impulses(W, v, E.ravel(), MU.ravel(), law)
+    except NotSupportedError:  # no numba: the per-point loop gives the same answers
+        return None
+    failed = b.status != batch.OK
+    regime = np.where(failed, REGIMES.index("failed"), b.regime).astype(int)
+    pi = np.where(failed[:, None], np.nan, b.impulse)
+    return pi, regime, b.status == batch.JAM, failed
+
+
+def _loop_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law: str,
+               progress: bool):
+    """(pi, regime, jam, failed) over the flattened grid, one kernel call per point."""
+    from ..impact.errors import NonPositiveEffectiveMassError
+    from ..impact.fast import solve_contact
+
+    n = e.size * mu.size
+    pi = np.full((n, v.size), np.nan)
+    regime = np.full(n, REGIMES.index("failed"))
+    jam = np.zeros(n, bool)
+    failed = np.zeros(n, bool)
+    bar = _Progress(n, f"{law}/fast") if progress else None
+    k = 0
+    for ei in e:
+        for mj in mu:
             try:
                 sol = solve_contact(W, v, float(ei), float(mj), law)
             except NonPositiveEffectiveMassError:
-                jam[i, j] = failed[i, j] = True
+                jam[k] = failed[k] = True
             except ConvImpactError:
-                failed[i, j] = True
+                failed[k] = True
             else:
-                pi[i, j] = sol.impulse
-                regime[i, j] = REGIMES.index(sol.regime)
-            n += 1
+                pi[k] = sol.impulse
+                regime[k] = REGIMES.index(sol.regime)
+            k += 1
             if bar:
-                bar.update(n)
-    return _landscape_from_impulses(P, e, mu, pi, regime, jam, failed, law, "fast", FAST_TOL)
+                bar.update(k)
+    return pi, regime, jam, failed
 
 
 def _landscape_from_impulses(P: ImpactProblem, e, mu, pi, regime, jam, failed, law, method,

@@ -180,13 +180,14 @@ def plot_landscape(L: Landscape, quantity: str = "tangential_velocity", ax=None,
             if ok.sum() >= 2:
                 ax.plot(np.where(ok, x, np.nan), e_c, **stick_style)
                 drawn = True
+        rule = (r"$\mu \geq \max(|W_{tn}|/W_{tt}, -s\,\pi_t/\pi_n)$" if L.law == "stronge"
+                else r"$|\mu| \geq |\pi_t|/\pi_n$ of eq. (42)")
         if drawn:
-            handles.append(plt.Line2D(
-                [], [], **stick_style,
-                label=r"stick boundary: sticks where $|\mu| \geq |\pi_t|/\pi_n$ of eq. (42)"))
+            handles.append(plt.Line2D([], [], **stick_style,
+                                      label=f"stick boundary: sticks where {rule}"))
         else:
             handles.append(Patch(facecolor="none", edgecolor="none",
-                                 label=rf"never sticks for $|\mu| \leq$ {mu_edge:g} (eq. 42)"))
+                                 label=rf"never sticks for $|\mu| \leq$ {mu_edge:g} ({rule})"))
     elif L.stick_possible.any() and not L.stick_possible.all():
         ax.contour(MU, E, L.stick_possible.astype(float), levels=[0.5], colors="crimson",
                    linewidths=2.0)

@@ -400,3 +400,61 @@ def test_bench_section_batch_runs(tmp_path):
         assert agg["failure_mismatches"] == 0
     assert (tmp_path / sec["figures"][0]).stat().st_size > 0
     assert any("impacts/s" in s for s in sec["summary"])
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_stronge_batch_equals_resolve_impact(d):
+    """law 'stronge': planar items by the compiled port of the exact piecewise-linear kernel,
+    spatial ones deferred to the Python kernel -- item i equals resolve_impact(...,
+    method="fast") (to the round-off of W formed by a different Cholesky), rejected items
+    flagged with their typed error."""
+    items = random_impacts(700 + d, 60, d, k=4)
+    M, Jc, dq = (np.array([it[j] for it in items]) for j in range(3))
+    e, mu = (np.array([it[j] for it in items]) for j in (3, 4))
+    b = resolve_impacts(M, Jc, dq, e, mu, "stronge")
+    assert b.law == "stronge"
+    for i in range(len(b)):
+        ref = reference(M[i], Jc[i], dq[i], e[i], mu[i], "stronge")
+        if isinstance(ref, Exception):
+            compare_item(b, i, ref, "stronge", dq[i])
+            continue
+        assert b.status[i] == batch.OK and b.regimes()[i] == ref.regime
+        # W formed by two Cholesky orders: cond(W) amplifies their round-off (as compare_item)
+        D = ref.diagnostics
+        tol = 1e-9 * max(1.0, 1e-4 * D.delassus_condition * D.mass_condition ** 0.5)
+        scale = max(float(np.max(np.abs(ref.dq_plus))), float(np.max(np.abs(dq[i]))))
+        assert np.max(np.abs(b.dq_plus[i] - ref.dq_plus)) <= tol * scale, i
+        assert b.energy_gained[i] == ref.diagnostics.energy_gained
+        assert b.slip_reversal[i] == ref.diagnostics.slip_reversal
+    c = contact_impulses(b.delassus, b.v_minus, e, mu, "stronge")
+    ok = b.status == batch.OK
+    np.testing.assert_array_equal(c.status, b.status)
+    np.testing.assert_allclose(c.impulse[ok], b.impulse[ok], rtol=0, atol=0)
+    assert not b.energy_gained.any()
+
+
+def test_stronge_planar_compiled_kernel_is_the_python_kernel_bit_for_bit():
+    """The compiled planar port takes the same branches with the same expressions: on the
+    same W and v it returns the Python kernel's impulse exactly (slip, stick, reversal, onset,
+    jams and singular W included)."""
+    rng = np.random.default_rng(811)
+    n = 400
+    A = rng.normal(size=(n, 2, 2))
+    W = A @ A.transpose(0, 2, 1) + rng.uniform(0.0, 0.1, (n, 1, 1)) * np.eye(2)
+    v = rng.normal(size=(n, 2))
+    v[::9, 1] = 0.0  # from rest: stick or onset
+    e = rng.choice([0.0, 0.3, 0.5, 1.0], n)
+    mu = rng.choice(MUS, n)
+    b = contact_impulses(W, v, e, mu, "stronge")
+    seen = set()
+    for i in range(n):
+        try:
+            s = solve_contact(W[i], v[i], e[i], mu[i], "stronge")
+        except ci.ConvImpactError as exc:
+            assert b.status[i] != batch.OK and isinstance(exc, STATUS_ERRORS[int(b.status[i])])
+            seen.add(type(exc).__name__)
+            continue
+        assert b.status[i] == batch.OK and REGIMES[b.regime[i]] == s.regime
+        np.testing.assert_array_equal(b.impulse[i], s.impulse)
+        seen.add(s.regime)
+    assert {"separating", "frictionless", "stick", "slide"} <= seen

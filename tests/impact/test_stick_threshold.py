@@ -74,7 +74,7 @@ def hand_impulse(law: str, e: float, mu: float, vn: float, s: np.ndarray) -> np.
         pi_n, pi_t = k * m * abs(vn), -k * (2.0 * m / 7.0) * s if plastic else \
             -(2.0 * m / 7.0) * s
         return np.concatenate([[pi_n], pi_t])
-    if law in ("pereira-nikravesh", "coulomb"):
+    if law in ("pereira-nikravesh", "coulomb", "stronge"):  # stronge: W_tn = 0, Newton + Coulomb
         pi_n = k * m * abs(vn)
     elif law == "ccp":
         pi_n = m * (k * abs(vn) + mu * ns) / (1.0 + 3.5 * mu * mu)

@@ -22,7 +22,6 @@ path (median 1e-14); the planar kernel agrees with the closed form to round-off.
 
 from __future__ import annotations
 
-import importlib
 import math
 
 import numpy as np
@@ -31,25 +30,16 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
 import convimpact as ci
-from convimpact.impact import resolve as _resolve
-from convimpact.impact.errors import NotSupportedError, SingularSystemError
+from convimpact.impact.errors import SingularSystemError
 from convimpact.impact.fast import solve_contact
 from convimpact.impact.laws.stronge import contact_kernel
 
 from .convex_systems import delassus, random_system
 
 
-@pytest.fixture(scope="module", autouse=True)
-def stronge_law():
-    """Make law='stronge' known to the dispatcher for these tests (until LAW_MODULES lists
-    it), and register its solvers."""
-    saved = _resolve.LAWS
-    if "stronge" not in saved:
-        _resolve.LAWS = (*saved, "stronge")
-    module = importlib.import_module("convimpact.impact.laws.stronge")
-    module.register()
-    yield module
-    _resolve.LAWS = saved
+def test_law_is_registered():
+    assert "stronge" in ci.LAWS
+    assert ci.available_methods("stronge") == ["fast", "clarabel", "cvxpy"]
 
 
 def kernel(W, v, e, mu):
@@ -596,12 +586,14 @@ def test_several_contacts_independent_and_coupled():
         np.testing.assert_allclose(r.impulse[i], kernel(Wi, J @ dq, e, 0.4).impulse,
                                    rtol=1e-13)
     assert "independent contacts" in r.diagnostics.extras["formulation"]
-    # coupled contacts (a rod on two corners): not supported, said clearly
+    # coupled contacts (a rod on two corners): the two-phase formulation
+    # (tests/impact/test_stronge_contacts.py), which never gains energy
     Mr = np.diag([1.0, 1.0, 0.2])
     Ja = np.array([[0.0, 1.0, 0.5], [1.0, 0.0, 0.0]])
     Jb = np.array([[0.0, 1.0, -0.5], [1.0, 0.0, 0.0]])
-    with pytest.raises(NotSupportedError, match="coupled"):
-        ci.resolve_impact(Mr, [Ja, Jb], [0.1, -1.0, 0.3], e=0.5, mu=0.3, law="stronge")
+    rod = ci.resolve_impact(Mr, [Ja, Jb], [0.1, -1.0, 0.3], e=0.5, mu=0.3, law="stronge")
+    assert "compression then expansion" in rod.diagnostics.extras["formulation"]
+    assert rod.energy_loss > 0.0
 
 
 def test_singular_delassus_raises_typed_error():

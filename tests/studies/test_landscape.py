@@ -81,3 +81,65 @@ def test_landscape_rejects_spatial_and_bad_e():
         closed_form_landscape(M, np.eye(3), [0, 0, -1.0], [0.5], [0.1])
     with pytest.raises(ci.ParameterError):
         closed_form_landscape(*_rod(30.0, [1.0, -1.0, 0.0]), [1.5], [0.1])
+
+
+@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("law", ci.LAWS)
+def test_contact_landscape_batch_equals_the_per_point_kernel(law, d):
+    """contact_landscape solves its grid with the compiled batch; the per-point kernel (the
+    library's own fallback loop) gives the same impulses to 1e-10, regimes and failures."""
+    from convimpact.impact.problem import build_problem
+    from convimpact.studies.landscape import _loop_grid, contact_landscape
+
+    rng = np.random.default_rng(300 + d)
+    for _ in range(3):
+        A = rng.normal(size=(4, 4))
+        M = A @ A.T + 0.5 * np.eye(4)
+        Jc = rng.normal(size=(d, 4))
+        dq = rng.normal(size=4)
+        if Jc[0] @ dq > 0:
+            Jc[0] *= -1.0
+        e, mu = np.linspace(0, 1, 6), np.linspace(0, 1.5, 7)
+        L = contact_landscape(M, Jc, dq, e, mu, law=law, progress=False)
+        W, v = build_problem(M, Jc, dq, 0.0, 0.0).contact_block(0)
+        pi, regime, jam, failed = _loop_grid(W, v, e, mu, law, False)
+        shape = (e.size, mu.size)
+        np.testing.assert_array_equal(L.failed, failed.reshape(shape))
+        np.testing.assert_array_equal(L.jammed, jam.reshape(shape))
+        np.testing.assert_array_equal(L.regime, regime.reshape(shape))
+        ok = ~L.failed
+        got = np.concatenate([L.normal_impulse[..., None], L.tangential_impulse], axis=-1)
+        scale = np.max(np.abs(pi[ok.ravel()]))
+        np.testing.assert_allclose(got[ok], pi.reshape(shape + (d,))[ok], rtol=0,
+                                   atol=1e-10 * scale)
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_stronge_landscape_against_resolve_impact(d):
+    """law 'stronge' (not in the batch: the per-point loop) against resolve_impact at every
+    point: impulse, energy loss, flags; and it never gains energy."""
+    from convimpact.studies.landscape import contact_landscape
+
+    rng = np.random.default_rng(410 + d)
+    A = rng.normal(size=(3, 3))
+    M = A @ A.T + 0.5 * np.eye(3)
+    Jc = rng.normal(size=(d, 3))
+    dq = rng.normal(size=3)
+    if Jc[0] @ dq > 0:
+        Jc[0] *= -1.0
+    e, mu = np.linspace(0, 1, 4), np.linspace(0, 1.2, 4)
+    L = contact_landscape(M, Jc, dq, e, mu, law="stronge", progress=False)
+    assert not L.energy_gained.any()
+    for i, ei in enumerate(e):
+        for j, mj in enumerate(mu):
+            try:
+                r = ci.resolve_impact(M, Jc, dq, e=ei, mu=mj, law="stronge")
+            except ci.ConvImpactError:
+                assert L.failed[i, j]
+                continue
+            assert REGIMES[L.regime[i, j]] == r.regime
+            np.testing.assert_allclose(
+                [L.normal_impulse[i, j], *L.tangential_impulse[i, j]], r.impulse, rtol=1e-12,
+                atol=1e-14)
+            assert L.energy_loss[i, j] == pytest.approx(r.energy_loss, rel=1e-9, abs=1e-12)
+            assert L.slip_reversal[i, j] == r.diagnostics.slip_reversal

@@ -20,7 +20,8 @@ Layout
 * :mod:`.common`: the ``njit`` options, status/regime/law codes, tolerances, scalar helpers;
 * :mod:`.algebra`: 2 x 2 and 3 x 3 solves, polynomial roots, the cone-boundary directions;
 * one module per law: :mod:`.pereira_nikravesh` (with max_dissipation), :mod:`.coulomb`,
-  :mod:`.ccp`, :mod:`.dissipative`;
+  :mod:`.ccp`, :mod:`.dissipative`, :mod:`.stronge` (planar: its exact piecewise-linear path;
+  a spatial ``stronge`` item, whose curved slip is integrated, is deferred to Python);
 * :mod:`.loop`: one contact's dispatch and the drivers :func:`contact_batch` and
   :func:`impact_batch` (the two entries :mod:`convimpact.impact.batch` calls).
 

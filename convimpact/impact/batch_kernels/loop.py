@@ -3,7 +3,8 @@
 * ``_planar_item`` / ``_spatial_item``: :func:`convimpact.impact.fast.solve_contact` after
   validation -- separating, W_nn > 0, the safe range of W's trace and v (else the item is
   deferred to the Python dispatcher, which rescales), mu = 0 (frictionless), then the law's
-  kernel (:mod:`.pereira_nikravesh`, :mod:`.coulomb`, :mod:`.ccp`, :mod:`.dissipative`);
+  kernel (:mod:`.pereira_nikravesh`, :mod:`.coulomb`, :mod:`.ccp`, :mod:`.dissipative`,
+  :mod:`.stronge` in the plane; a spatial ``stronge`` contact is deferred to Python);
 * :func:`contact_batch`: every item from (W, v), with v+ and the energy loss;
 * :func:`impact_batch`: every item from (M, Jc, dq): validates M (finite, symmetric,
   Cholesky), forms W = Jc M^-1 Jc^T and v- = Jc dq, solves, maps the impulse back to dq+ and
@@ -45,6 +46,7 @@ from .common import (
 from .coulomb import _coulomb_planar, _coulomb_spatial
 from .dissipative import _dissipative_planar, _dissipative_spatial
 from .pereira_nikravesh import _pn_planar, _pn_spatial
+from .stronge import STRONGE, _stronge_planar
 
 
 # --------------------------------------------------------------------------------------------
@@ -76,6 +78,8 @@ def _planar_item(law, w00, w01, w11, v0, v1, e, mu):
         return _pn_planar(w00, w01, w11, v0, v1, e, mu)
     if law == COULOMB:
         return _coulomb_planar(w00, w01, w11, v0, v1, e, mu)
+    if law == STRONGE:
+        return _stronge_planar(w00, w01, w11, v0, v1, e, mu)
     return _ccp_planar(w00, w01, w11, v0, v1, e, mu)
 
 
@@ -98,6 +102,8 @@ def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu):
         return _pn_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
     if law == COULOMB:
         return _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
+    if law == STRONGE:  # a curved slip is integrated: the Python kernel
+        return DEFER, FAILED, _NAN, _NAN, _NAN, _NAN
     return _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
 
 

@@ -15,4 +15,5 @@ LAW_MODULES = {
     "coulomb": "coulomb",                      # Coulomb friction on the post-impact slip
     "ccp": "ccp",                              # Anitescu's cone complementarity relaxation
     "dissipative": "dissipative",              # plastic maximal dissipation x Poisson
+    "stronge": "stronge",                      # Stronge's energetic law (impulse space)
 }

@@ -78,12 +78,12 @@ which the contact re-approaches (``v_n < 0``) during restitution before the ener
 is met. A singular W where the stick / onset decision needs ``C^-1 b`` or ``det W / det C``
 raises :class:`SingularSystemError`.
 
-Several contacts. No several-contact formulation is implemented yet: impacts whose contacts
-are dynamically independent (the off-diagonal blocks of W vanish, |W_ij| <= 1e-12 times the
-diagonal scale) are resolved exactly, contact by contact (every several-contact energetic
-model reduces to that); coupled contacts raise :class:`NotSupportedError` naming the laws
-that treat them. The conic entry points (``method="clarabel"``/``"cvxpy"``) go through the
-same exact kernel (no cone program is solved; ``extras["formulation"]`` says so).
+Several contacts. Impacts whose contacts are dynamically independent (the off-diagonal
+blocks of W vanish, |W_ij| <= 1e-12 times the diagonal scale) are resolved exactly, contact by
+contact, through the same exact kernel (no cone program is solved; ``extras["formulation"]``
+says so). Coupled contacts go to the two-phase formulation of
+:mod:`convimpact.impact.laws.stronge_contacts` (compression by a cone program, expansion by
+Poisson's normal impulses with maximal-dissipation friction; never creates energy).
 
 ``extras`` of the result: ``phases`` (their kinds in order: ``"slip"``, ``"stick"``,
 ``"reversal"`` (planar slip after a stop), ``"onset"`` (slip from rest, in the selected
@@ -113,8 +113,7 @@ import numpy as np
 from ..conic.paths import ProgramOptions, register_programs
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
-from ..errors import NonPositiveEffectiveMassError, NotSupportedError, SingularSystemError, \
-    SolverError
+from ..errors import NonPositiveEffectiveMassError, SingularSystemError, SolverError
 from ..fast import FAST_TOL, ContactSolution, frictionless, register_kernel, solution, \
     solve_contact
 from ..problem import ImpactProblem
@@ -603,9 +602,11 @@ def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolu
 
 def program_result(P: ImpactProblem, backend: Backend, method: str,
                    opts: ProgramOptions) -> ImpactResult:
-    """Several contacts: exact when they are dynamically independent, else NotSupportedError.
+    """Several contacts: exact, contact by contact, when they are dynamically independent;
+    coupled contacts by the two-phase formulation of
+    :mod:`convimpact.impact.laws.stronge_contacts` (on the conic path ``method``).
 
-    ``backend`` and ``opts`` are not used (no cone program is solved).
+    ``backend`` and ``opts`` serve the coupled formulation's compression program only.
     """
     n, d = P.n_contacts, P.dim
     W = P.delassus
@@ -616,13 +617,8 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
             bound = DECOUPLED_RTOL * max(float(np.max(diag[i * d:(i + 1) * d])), 1e-300) * \
                 max(float(np.max(diag[j * d:(j + 1) * d])), 1e-300)
             if np.max(np.abs(block)) > bound:
-                raise NotSupportedError(
-                    f"law 'stronge' treats one contact, or several dynamically independent "
-                    f"ones; contacts {i} and {j} are coupled through the mechanism "
-                    f"(|W_ij| = {float(np.max(np.abs(block))):.3e}), and no several-contact "
-                    "energetic formulation is implemented yet; for simultaneous coupled "
-                    "contacts use law='dissipative' (it never gains energy with one common "
-                    "e) or 'ccp'")
+                from .stronge_contacts import coupled_result
+                return coupled_result(P, backend, method, opts)
     pi = np.zeros((n, d))
     regimes = []
     per_contact = []
