@@ -90,7 +90,8 @@ command("demo", "resolve one rod-on-floor impact under every law and method")(_d
 def _load_command_modules() -> None:
     import importlib
 
-    for name in ("convimpact.studies.paper_cli", "convimpact.simulation.cli", "convimpact.bench"):
+    for name in ("convimpact.studies.paper_cli", "convimpact.simulation.cli", "convimpact.bench",
+                 "convimpact.studies.study_cli"):
         try:
             importlib.import_module(name)
         except ModuleNotFoundError as exc:

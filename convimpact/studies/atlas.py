@@ -44,6 +44,10 @@ The modes, their classification and the map type are in :mod:`convimpact.studies
 the impact maps in :mod:`convimpact.studies.atlas_impact_maps`, the simulation maps in
 :mod:`convimpact.studies.atlas_simulation_maps` and the drawing in
 :mod:`convimpact.studies.atlas_plot`; every public name is importable from here.
+:func:`failure_atlas` builds the maps in this process; the same maps run as studies (chunks
+on local processes or a Dask cluster, a resumable Zarr store per map) through
+:func:`convimpact.studies.atlas_study.run_atlas` and ``convimpact atlas --out DIR``, and come out
+equal but for their wall times.
 """
 
 from __future__ import annotations
