@@ -6,26 +6,40 @@ from pathlib import Path
 from typing import Any
 
 #: colour per implementation, marker per planar/spatial, line style per chain/tree
-COLORS = {"ours": "tab:blue", "ours (unchecked)": "tab:cyan", "pinocchio": "black"}
+COLORS = {"ours": "tab:blue", "ours (unchecked)": "tab:cyan", "pinocchio": "black",
+          "pinocchio aba": "tab:orange"}
 MARKERS = {"planar": "o", "spatial": "s"}
 STYLES = {"chain": "-", "tree": "--"}
 TITLES = {"M": "mass matrix M (ours: CRBA; pinocchio.crba)",
           "f": "f of eq. 4 (ours: Newton-Euler; pinocchio.rnea)",
           "Jc": "contact Jacobian (pinocchio.computeFrameJacobian)",
-          "simulation": "one simulated second of the dropped chain"}
+          "simulation": "one simulated second with contacts\n(chains dropped, trees swinging; "
+                        "pinocchio: PinocchioMechanism)",
+          "free motion": "one simulated second without contacts\n(pinocchio aba: ABA + "
+                         "DOP853, same tolerances)"}
+PANELS = ("M", "f", "Jc", "simulation", "free motion", "per evaluation")
+#: the last panel: one right-hand-side evaluation of the simulations (line style: quantity)
+PER_EVALUATION = {"simulation": "-", "free motion": ":"}
 
 
 def scaling_chart(records: list[dict[str, Any]], out: Path) -> str:
-    """Four log-log panels (M, f, Jc, simulation): time against the number of bodies."""
+    """Five log-log panels (M, f, Jc, simulation with and without contacts): time against
+    the number of bodies; each panel's legend gives the growth exponents (log-log slopes)."""
     from .charts import _plt, save_chart
 
     plt = _plt()
     from matplotlib.lines import Line2D
-    from matplotlib.ticker import FixedLocator, NullFormatter, ScalarFormatter
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter, ScalarFormatter
 
-    fig, axes = plt.subplots(1, 4, figsize=(19, 4.8))
+    from .model_section import exponent
+
+    fig, grid = plt.subplots(2, 3, figsize=(18, 9.5))
+    axes = grid.ravel()
     ns = sorted({r["n_bodies"] for r in records})
-    for ax, qty in zip(axes, ("M", "f", "Jc", "simulation")):
+    for ax, qty in zip(axes, PANELS):
+        if qty == "per evaluation":
+            _per_evaluation(ax, records, ns)
+            continue
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.grid(True, which="both", alpha=0.25)
@@ -39,16 +53,22 @@ def scaling_chart(records: list[dict[str, Any]], out: Path) -> str:
                              key=lambda r: r["n_bodies"])
                 if not sub:
                     continue
-                scale = 1.0 if qty == "simulation" else 1e6
+                scale = 1e6 if qty in ("M", "f", "Jc") else 1.0
                 ax.plot([r["n_bodies"] for r in sub], [scale * r["median"] for r in sub],
                         color=color, marker=MARKERS[dim], ls=STYLES[shape], ms=4, lw=1.2,
                         alpha=0.85)
         ax.xaxis.set_major_locator(FixedLocator(ns))
         ax.xaxis.set_major_formatter(ScalarFormatter())
         ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.yaxis.set_major_formatter(ScalarFormatter())
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda y, _: f"{y:g}"))
         ax.yaxis.set_minor_formatter(NullFormatter())
-        ax.set_ylabel("s per simulated s" if qty == "simulation" else "us per call (median)")
+        ax.set_ylabel("us per call (median)" if qty in ("M", "f", "Jc") else "s per simulated s")
+        slopes = [f"{impl}: n^{x:.2f}" for impl in COLORS
+                  if (x := exponent(rows, qty, impl)) is not None]
+        if slopes:
+            ax.text(0.98, 0.02, "growth " + ", ".join(slopes), transform=ax.transAxes,
+                    ha="right", va="bottom", fontsize=7,
+                    bbox=dict(facecolor="white", alpha=0.8, lw=0))
     handles = ([Line2D([], [], color=c, lw=2, label=impl) for impl, c in COLORS.items()]
                + [Line2D([], [], color="gray", marker=m, ls="none", label=dim)
                   for dim, m in MARKERS.items()]
@@ -56,6 +76,35 @@ def scaling_chart(records: list[dict[str, Any]], out: Path) -> str:
     axes[0].legend(handles=handles, fontsize=7, loc="upper left")
     fig.suptitle("model evaluation cost against the number of bodies (same run; ours: "
                  "convimpact.model, validated and copied unless 'unchecked')", fontsize=11)
-    fig.tight_layout(rect=(0, 0, 1, 0.93))
+    fig.tight_layout(rect=(0, 0, 1, 0.95))
     name = "model_scaling.png"
     return save_chart(fig, out, name)
+
+
+def _per_evaluation(ax, records: list[dict[str, Any]], ns) -> None:
+    """Wall time per right-hand-side evaluation of the simulated seconds (median over kinds)."""
+    import numpy as np
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter, ScalarFormatter
+
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.grid(True, which="both", alpha=0.25)
+    ax.set_title("one right-hand-side evaluation of the simulations\n(median over the kinds; "
+                 "solid: with contacts, dotted: free motion)", fontsize=9.5)
+    ax.set_xlabel("number of bodies n")
+    ax.set_ylabel("us per evaluation (wall / nfev)")
+    for qty, ls in PER_EVALUATION.items():
+        for impl, color in COLORS.items():
+            rows = [r for r in records if r["quantity"] == qty and r["implementation"] == impl
+                    and r.get("wall_per_evaluation")]
+            sizes = sorted({r["n_bodies"] for r in rows})
+            if not sizes:
+                continue
+            med = [1e6 * float(np.median([r["wall_per_evaluation"] for r in rows
+                                          if r["n_bodies"] == n])) for n in sizes]
+            ax.plot(sizes, med, color=color, ls=ls, marker="o", ms=4, lw=1.4)
+    ax.xaxis.set_major_locator(FixedLocator(ns))
+    ax.xaxis.set_major_formatter(ScalarFormatter())
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda y, _: f"{y:g}"))
+    ax.yaxis.set_minor_formatter(NullFormatter())

@@ -10,10 +10,12 @@ dropped on the floor, with their Pinocchio twins
   the pivot, then revolute joints alternately about z and y), released from rest at 0.3 rad
   (and 0.2 rad about y in space) below the horizontal; the tip, a point contact with e = 0.5
   and mu = 0.3, strikes the floor 0.6 m below the pivot (several impacts in the first second);
-* :func:`pinocchio_twin`: the Pinocchio model of one of ours with a frame at the contact
-  point (a material point of the contact's body), and for :func:`dropped_chain` a
-  :class:`~convimpact.model.pinocchio_adapter.PinocchioMechanism` with the same contact, so
-  the same event-driven simulator runs on either backend.
+* :func:`swinging_tree`: a random revolute tree released from rest, with a contact plane
+  below it; :func:`without_contacts`: a model's bodies alone (free motion);
+* :func:`pinocchio_twin`: the Pinocchio model of one of ours with a frame at each contact
+  point (a material point of the contact's body), and a
+  :class:`~convimpact.model.pinocchio_mechanism.PinocchioMechanism` with the same contacts,
+  so the same event-driven simulator runs on either backend.
 """
 
 from __future__ import annotations
@@ -85,13 +87,34 @@ def dropped_chain(n: int, planar: bool, e: float = 0.5, mu: float = 0.3):
     return model, theta, np.zeros(model.n_coordinates)
 
 
+def swinging_tree(n: int, planar: bool, seed: int):
+    """(model, theta0, theta_dot0) of a random revolute tree of ``n`` bodies
+    (:func:`random_mechanism`) released from rest under gravity; its contact ("tip", e = 0.5,
+    mu = 0.3) is a plane 3 m below the root, which some trees reach."""
+    model, theta, _ = random_mechanism(n, planar, False, seed)
+    b = _rebuild(model)
+    spec = model.contacts[0]
+    b.add_contact(spec.name, model.bodies[spec.body].name, spec.point, normal=spec.normal,
+                  plane_point=spec.other_point, e=0.5, mu=0.3)
+    model = b.build()
+    return model, np.asarray(theta, dtype=float), np.zeros(model.n_coordinates)
+
+
+def without_contacts(model):
+    """``model`` with its contacts removed (the free motion of the same bodies)."""
+    return _rebuild(model).build()
+
+
 def pinocchio_twin(model) -> dict[str, Any]:
     """Pinocchio's model of ``model`` with a frame "x:<contact>" at each contact point of
-    body i (at theta = 0), the coordinate permutation, and for a single plane contact on
-    the ground a PinocchioMechanism (``mechanism``; None otherwise)."""
+    body i (at theta = 0), the coordinate permutation (``q = theta[permutation]``), and,
+    when every contact is a point against a plane fixed in the world, the
+    :class:`~convimpact.model.pinocchio_mechanism.PinocchioMechanism` with the same contacts
+    over Pinocchio's coordinates (``mechanism``; None otherwise)."""
     import pinocchio as pin
 
     from ..model import pinocchio_adapter as pa
+    from ..model.pinocchio_mechanism import PinocchioMechanism
 
     pm, perm = pa.to_pinocchio(model)
     lift = ((lambda v: np.array([v[0], v[1], 0.0])) if model.planar
@@ -104,13 +127,11 @@ def pinocchio_twin(model) -> dict[str, Any]:
         frames[spec.name] = pm.addFrame(pin.Frame("x:" + spec.name, f0.parentJoint,
                                                   f0.placement * local, pin.FrameType.OP_FRAME))
     mech = None
-    if (not model.planar and len(model.contacts) == 1 and model.contacts[0].other == 0
-            and model.contacts[0].target == "plane" and model.contacts[0].radius == 0.0
-            and np.array_equal(perm, np.arange(len(perm)))):
-        spec = model.contacts[0]
-        contact = pa.PinocchioContact(spec.name, "x:" + spec.name, normal=spec.normal,
-                                      plane_point=spec.other_point, tangent=spec.tangent,
-                                      e=spec.restitution, mu=spec.friction)
-        mech = pa.PinocchioMechanism(pm, contacts=[contact])
+    if all(s.other == 0 and s.target == "plane" and s.radius == 0.0 for s in model.contacts):
+        contacts = [pa.PinocchioContact(s.name, "x:" + s.name, normal=s.normal,
+                                        plane_point=s.other_point, tangent=s.tangent,
+                                        e=s.restitution, mu=s.friction)
+                    for s in model.contacts]
+        mech = PinocchioMechanism(pm, contacts=contacts, planar=model.planar)
     return {"model": pm, "data": pm.createData(), "permutation": np.asarray(perm),
             "frames": frames, "mechanism": mech}

@@ -8,8 +8,9 @@ Pinocchio ``model``, ``data``, configuration ``q`` and velocity ``v``:
 * :func:`point_loop_jacobian`: C of a point-coincidence loop closure between two frames (the
   position part of a revolute or spherical cut joint), with :func:`point_loop_jacobian_dot`;
 * :func:`impact_arguments`: the keyword arguments of :func:`convimpact.resolve_impact`;
-* :class:`PinocchioMechanism`: a :class:`~convimpact.mechanism.Mechanism` (for simulation),
-  with plane contacts on frames and point loop closures;
+* :class:`PinocchioMechanism` (defined in :mod:`convimpact.model.pinocchio_mechanism`,
+  importable from here): a :class:`~convimpact.mechanism.Mechanism` for simulation, with
+  loaders for URDF and MJCF files, plane contacts on frames and point loop closures;
 * :func:`to_pinocchio`: our :class:`~convimpact.model.builder.Model` as a Pinocchio model
   (planar models embedded in the x-y plane), used by the tests as an independent check.
 
@@ -22,7 +23,7 @@ It is imported on first use; when it is missing every function raises
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Optional, Sequence, Union
+from typing import Optional, Sequence, Union
 
 import numpy as np
 
@@ -66,7 +67,7 @@ def _vec(model, a, n: int, name: str) -> np.ndarray:
 def mass_matrix(model, data, q) -> np.ndarray:
     """Joint-space mass matrix M(q) by CRBA (Pinocchio fills one triangle; we symmetrize)."""
     pin = _pin()
-    M = np.array(pin.crba(model, data, _vec(model, q, model.nq, "q")))
+    M = np.array(pin.crba(model, data, _vec(model, q, model.nq, "q"))).reshape(model.nv, model.nv)
     return np.triu(M) + np.triu(M, 1).T
 
 
@@ -78,7 +79,7 @@ def _frame_point_jacobian(pin, model, data, fid: int, local_point) -> tuple[np.n
         placement = placement * pin.SE3(np.eye(3), np.asarray(local_point, dtype=float))
     J = pin.getFrameJacobian(model, data, frame.parentJoint, placement, pin.LOCAL_WORLD_ALIGNED)
     x = (data.oMi[frame.parentJoint] * placement).translation
-    return np.array(x), np.array(J[:3])
+    return np.array(x), np.asarray(J).reshape(6, model.nv)[:3].copy()
 
 
 def contact_basis(normal, tangent=None, planar: bool = False) -> np.ndarray:
@@ -178,7 +179,8 @@ class PinocchioContact:
     """A point of a Pinocchio frame against a plane fixed in the world.
 
     ``normal`` (world, toward the robot's body) and ``plane_point`` define the plane; the gap
-    is ``n . (p - plane_point)``; ``tangent`` is the optional t1; e and mu the coefficients.
+    is ``n . (p - plane_point)`` with p the frame's origin, shifted by ``local_point`` (in the
+    frame's axes) when given; ``tangent`` is the optional t1; e and mu the coefficients.
     """
 
     name: str
@@ -188,6 +190,7 @@ class PinocchioContact:
     tangent: Optional[Sequence[float]] = None
     e: float = 0.0
     mu: float = 0.0
+    local_point: Optional[Sequence[float]] = None
 
 
 def impact_arguments(model, data, q, v, contacts: Sequence[PinocchioContact],
@@ -202,114 +205,13 @@ def impact_arguments(model, data, q, v, contacts: Sequence[PinocchioContact],
     q = _vec(model, q, model.nq, "q")
     v = _vec(model, v, model.nv, "v")
     data_M = mass_matrix(model, data, q)
-    Jc = [contact_jacobian(model, data, q, c.frame, c.normal, c.tangent) for c in contacts]
+    Jc = [contact_jacobian(model, data, q, c.frame, c.normal, c.tangent,
+                           local_point=c.local_point) for c in contacts]
     C = None
     if loops:
         C = np.vstack([point_loop_jacobian(model, data, q, a, b) for a, b in loops])
     return dict(M=data_M, Jc=Jc, dq=v.copy(), C=C, e=[c.e for c in contacts],
                 mu=[c.mu for c in contacts])
-
-
-class PinocchioMechanism:
-    """A Pinocchio model through the :class:`~convimpact.mechanism.Mechanism` protocol.
-
-    Parameters
-    ----------
-    model : pinocchio.Model with ``nq == nv`` (joint velocities are the time derivatives of
-        the coordinates, as eqs. (1)-(14) assume; quaternion joints are refused).
-    contacts : plane contacts on frames.
-    loops : pairs of frames whose origins coincide (point loop closures).
-    applied_forces : optional ``(t, q, v) -> (nv,)`` joint forces.
-    """
-
-    def __init__(self, model, contacts: Sequence[PinocchioContact] = (),
-                 loops: Sequence[tuple[FrameRef, FrameRef]] = (),
-                 applied_forces: Optional[Callable] = None):
-        pin = _pin()
-        if model.nq != model.nv:
-            raise NotSupportedError(
-                f"this Pinocchio model has nq = {model.nq} != nv = {model.nv} (quaternion or "
-                "unbounded joints); the Mechanism protocol needs theta_dot = d theta/dt. Use "
-                "convimpact.model.pinocchio_adapter.impact_arguments for single impacts instead")
-        self.model = model
-        self.data = model.createData()
-        self._pin = pin
-        self.contacts = {c.name: c for c in contacts}
-        for c in contacts:
-            _frame_id(model, c.frame)
-        self.loops = tuple(loops)
-        for a, b in self.loops:
-            _frame_id(model, a), _frame_id(model, b)
-        self.applied_forces = applied_forces
-        self.n_coordinates = model.nv
-        self.n_loop_constraints = 3 * len(self.loops)
-        self.contact_names = tuple(self.contacts)
-
-    def _contact(self, name: str) -> PinocchioContact:
-        try:
-            return self.contacts[name]
-        except KeyError:
-            raise ModelError(f"unknown contact {name!r}; contacts are "
-                             f"{', '.join(self.contact_names) or 'none'}") from None
-
-    def mass_matrix(self, theta):
-        return mass_matrix(self.model, self.data, theta)
-
-    def mass_matrix_dot(self, theta, dtheta):
-        Cor = np.array(self._pin.computeCoriolisMatrix(self.model, self.data, theta, dtheta))
-        return Cor + Cor.T  # M_dot = C + C^T (Pinocchio's Coriolis factorization)
-
-    def generalized_forces(self, t, theta, dtheta):
-        f = -np.array(self._pin.nonLinearEffects(self.model, self.data, theta, dtheta))
-        if self.applied_forces is not None:
-            f = f + np.asarray(self.applied_forces(t, theta, dtheta), dtype=float)
-        return f
-
-    def _loop_positions(self, theta):
-        pin = self._pin
-        pin.framesForwardKinematics(self.model, self.data, theta)
-        return [(self.data.oMf[_frame_id(self.model, a)].translation,
-                 self.data.oMf[_frame_id(self.model, b)].translation) for a, b in self.loops]
-
-    def loop_residual(self, theta):
-        if not self.loops:
-            return np.zeros(0)
-        return np.concatenate([pa - pb for pa, pb in self._loop_positions(theta)])
-
-    def loop_jacobian(self, theta):
-        if not self.loops:
-            return np.zeros((0, self.n_coordinates))
-        return np.vstack([point_loop_jacobian(self.model, self.data, theta, a, b)
-                          for a, b in self.loops])
-
-    def loop_jacobian_dot(self, theta, dtheta):
-        if not self.loops:
-            return np.zeros((0, self.n_coordinates))
-        return np.vstack([point_loop_jacobian_dot(self.model, self.data, theta, dtheta, a, b)
-                          for a, b in self.loops])
-
-    def contact_gap(self, name, theta):
-        c = self._contact(name)
-        self._pin.framesForwardKinematics(self.model, self.data, theta)
-        p = self.data.oMf[_frame_id(self.model, c.frame)].translation
-        n = np.asarray(c.normal, dtype=float)
-        n = n / np.linalg.norm(n)
-        return float(n @ (p - np.asarray(c.plane_point, dtype=float)))
-
-    def contact_jacobian(self, name, theta):
-        c = self._contact(name)
-        return contact_jacobian(self.model, self.data, theta, c.frame, c.normal, c.tangent)
-
-    def contact_parameters(self, name):
-        c = self._contact(name)
-        return float(c.e), float(c.mu)
-
-    def kinetic_energy(self, theta, dtheta):
-        dtheta = np.asarray(dtheta, dtype=float)
-        return 0.5 * float(dtheta @ self.mass_matrix(theta) @ dtheta)
-
-    def potential_energy(self, theta):
-        return float(self._pin.computePotentialEnergy(self.model, self.data, theta))
 
 
 def to_pinocchio(model):
@@ -376,6 +278,14 @@ def to_pinocchio(model):
         pm.appendBodyToJoint(jid, pin.Inertia(b.mass, lift(b.com), I3), body_off)
         pm.addFrame(pin.Frame(b.name, jid, body_off, pin.FrameType.OP_FRAME))
     return pm, np.array(permutation, dtype=int)
+
+
+def __getattr__(name: str):
+    # PinocchioMechanism lives in its own module, which imports this one
+    if name == "PinocchioMechanism":
+        from .pinocchio_mechanism import PinocchioMechanism
+        return PinocchioMechanism
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = [

@@ -16,8 +16,9 @@ import pytest
 
 from convimpact.bench import BenchConfig, section_names
 from convimpact.bench.model_problems import dropped_chain, pinocchio_twin, random_mechanism
-from convimpact.bench.model_section import (KINDS, QUANTITIES, chain_sizes, evaluation_calls,
-                                            run_model, sizes)
+from convimpact.bench.model_section import (KINDS, QUANTITIES, SIM_KINDS, aba_free_motion,
+                                            chain_sizes, evaluation_calls, exponent, run_model,
+                                            sizes, tree_sizes)
 from convimpact.bench.registry import strict_json
 from convimpact.bench.threads import blas_threads
 
@@ -47,16 +48,27 @@ def test_records_chart_and_summary(run):
                 impls = {r["implementation"] for r in res.records if r["kind"] == kind
                          and r["n_bodies"] == n and r["quantity"] == qty}
                 assert impls == {"ours", "ours (unchecked)", "pinocchio"}
-    sims = [r for r in res.records if r["quantity"] == "simulation"]
-    assert {(r["kind"], r["implementation"]) for r in sims} == {
-        ("planar chain", "ours"), ("spatial chain", "ours"), ("spatial chain", "pinocchio")}
+    sims = [r for r in res.records if r["quantity"] in ("simulation", "free motion")]
+    assert {(r["kind"], r["quantity"], r["implementation"]) for r in sims} == {
+        (kind, qty, impl) for kind in SIM_KINDS for qty, impl in
+        [("simulation", "ours"), ("simulation", "pinocchio"), ("free motion", "ours"),
+         ("free motion", "pinocchio aba")]}
     assert all(r["median"] > 0 and r["nfev"] > 0 for r in sims)
-    assert len(sims) == 3 * len(chain_sizes(True))
+    n_sizes = 2 * len(chain_sizes(True)) + 2 * len(tree_sizes(True))
+    assert len(sims) == 4 * n_sizes
+    # both backends of the simulator and ABA follow the same motion (small n: not chaotic)
+    for r in sims:
+        if r["n_bodies"] <= 5 and "final_state_difference" in r:
+            assert r["final_state_difference"] < 1e-5, r
+    assert sum("final_state_difference" in r for r in sims) == 3 * n_sizes
     for qty in QUANTITIES:
         assert any(s.startswith(f"{qty}: ours") and "ratio ours/Pinocchio" in s
                    for s in res.summary)
-    assert any("dropped chain" in s for s in res.summary)
-    assert set(res.meta["ratios"]) >= set(QUANTITIES)
+    assert any(s.startswith("one simulated second with contacts") for s in res.summary)
+    assert any(s.startswith("one simulated second of the free motion") for s in res.summary)
+    assert any("growth exponent" in s for s in res.summary)
+    assert set(res.meta["ratios"]) >= set(QUANTITIES) | {"simulation", "free motion"}
+    assert set(res.meta["exponents"]["M"]) >= {"ours", "pinocchio"}
     json.dumps(strict_json(res.records))
     assert any("compiling" in m for m in messages)
 
@@ -94,3 +106,25 @@ def test_the_dropped_chain_runs_alike_on_both_backends():
     assert len(ours.impacts) == len(theirs.impacts) >= 1
     assert np.allclose(ours.theta[-1], theirs.theta[-1], atol=1e-7)
     assert np.allclose(ours.dtheta[-1], theirs.dtheta[-1], atol=1e-6)
+
+
+def test_exponent_is_the_log_log_slope():
+    # time = 3 n^1.5 in one kind, 2 n^0.5 in another: the median of the slopes is 1.0
+    recs = [{"kind": kind, "n_bodies": n, "quantity": "M", "implementation": "ours",
+             "median": c * n ** p} for kind, c, p in (("a", 3.0, 1.5), ("b", 2.0, 0.5))
+            for n in (2, 5, 10, 50)]
+    assert exponent(recs, "M", "ours") == pytest.approx(1.0, abs=1e-12)
+    assert exponent(recs[:2], "M", "ours") is None  # fewer than three sizes
+
+
+def test_aba_free_motion_is_the_closed_form_pendulum_for_small_swings():
+    # one uniform link (1 m, 1 kg) on a pivot, hanging at theta = -pi/2, released at a = 1e-3
+    # rad from it: theta(t) = -pi/2 + a cos(w t), w^2 = m g (L/2) / (m L^2 / 3), up to O(a^3)
+    from convimpact.bench.model_problems import without_contacts
+    model, _, _ = dropped_chain(1, True)
+    twin = pinocchio_twin(without_contacts(model))
+    a, t1 = 1e-3, 0.7
+    w = np.sqrt(9.81 * 0.5 / (1.0 / 3.0))
+    wall, nfev, q_end = aba_free_motion(twin, np.array([-np.pi / 2 + a]), np.zeros(1), (0.0, t1))
+    assert wall > 0 and nfev > 0
+    assert q_end[0] == pytest.approx(-np.pi / 2 + a * np.cos(w * t1), abs=1e-8)
