@@ -147,6 +147,25 @@ class ModelMechanism:
             pdot += Q
         return f, pdot, d
 
+    def rhs_free(self, t: float, theta: np.ndarray, p: np.ndarray, out: np.ndarray) -> bool:
+        """The canonical equations' rate with no constraint in force, written into ``out``
+        (2k,): ``out[:k] = theta_dot = M^-1 p`` and ``out[k:] = p_dot = f + M_dot theta_dot``
+        (eqs. 10, 11, with the applied forces). ``theta``, ``p`` and ``out`` float64
+        C-contiguous. Returns False (``out`` undefined) when M is not positive definite."""
+        d = self.data
+        d.compute(RHS_POSITIONS, theta)
+        if not d.chol_ok:
+            return False
+        k = theta.shape[0]
+        dtheta = out[:k]
+        _rc.cho_solve_vec(d.L, p, dtheta)
+        d.compute(RHS_VELOCITIES, theta, dtheta)
+        out[k:] = d.momentum_rate
+        applied = self.model.applied_forces
+        if applied is not None:
+            out[k:] += np.asarray(applied(t, theta.copy(), dtheta.copy()), dtype=float)
+        return True
+
     # -- extras ---------------------------------------------------------------------------
     def contact_frame(self, name: str, theta: np.ndarray) -> _contacts.ContactFrame:
         """Gap, contact point, normal, tangents and Jc of contact ``name``."""

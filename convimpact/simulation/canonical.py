@@ -407,6 +407,10 @@ class CanonicalEquations:
         self.nfev += 1
         k = self.k
         theta, p = y[:k], y[k:]
+        if self._model and not self.n_constraints:  # free motion: two compiled passes
+            out = self._free_rate(t, theta, p)
+            if out is not None:
+                return out
         try:
             dtheta, sigma, F = self.velocities(theta, p)
             constrained = len(sigma) > 0
@@ -425,6 +429,19 @@ class CanonicalEquations:
                 f"the right-hand side became non-finite at t = {t:.9g} (theta = "
                 f"{np.round(theta, 6).tolist()}); check the model's forces or reduce max_step")
         return out
+
+    def _free_rate(self, t: float, theta: np.ndarray, p: np.ndarray) -> np.ndarray | None:
+        """y_dot with no constraint in force (the model's two compiled passes,
+        :meth:`~convimpact.model.mechanism.ModelMechanism.rhs_free`): the general path's
+        numbers without its factor cache; None where that path must decide (M not positive
+        definite, a non-finite state or rate)."""
+        out = np.empty(2 * self.k)
+        try:
+            ok = self.mechanism.rhs_free(t, np.ascontiguousarray(theta, dtype=float),
+                                         np.ascontiguousarray(p, dtype=float), out)
+        except NonFiniteError:
+            return None
+        return out if ok and _rc.all_finite(out) else None
 
     def multipliers(self, t: float, y: np.ndarray) -> np.ndarray:
         """Constraint forces nu = sigma_dot (eq. 9): loops first, then the held rows.

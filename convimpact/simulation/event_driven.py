@@ -13,15 +13,16 @@ from __future__ import annotations
 import time as _time
 from bisect import bisect_right
 from dataclasses import replace
+from functools import partial
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from ..impact.errors import PainleveError, SimulationError
 from ..mechanism import Mechanism
-from .canonical import CanonicalEquations, HeldMode
+from .canonical import CanonicalEquations, HeldMode, _cho_solve
 from .contact_events import MAX_EVENTS_AT_ONE_INSTANT, ContactEvents
-from .events import gap_event, locate_crossing
+from .events import DIP_SAMPLES, fast_interpolant, gap_event, locate_crossing
 from .options import EventDrivenOptions
 from .projection import project_positions
 from .result import (SERIES, ContactEvent, ImpactEvent, PainleveEvent, PiecewiseSolution,
@@ -39,6 +40,45 @@ GAUSS4 = np.polynomial.legendre.leggauss(4)
 #: an event found in a step: (time, "impact" / "touch" / "mode", contact name)
 Event = tuple[float, str, str]
 Held = tuple[str, ...]
+
+
+class StepSamples:
+    """The free contacts' gaps and normal speeds on one step's interpolant.
+
+    The event functions of :func:`~.events.gap_event` sample every free contact at the same
+    instants (the interior points of :func:`~.events.first_dip`); here each instant's state
+    is interpolated once (the interior points in one vectorized call) and its gaps and normal
+    speeds evaluated once for all contacts, the values those of separate evaluations.
+    """
+
+    def __init__(self, run: "EventDrivenRun", free: Sequence[str], interp, t_old: float,
+                 t_new: float, n: int = DIP_SAMPLES):
+        self.run, self.free, self.interp, self.k = run, tuple(free), interp, run.k
+        times = [t_old + (t_new - t_old) * j / n for j in range(1, n)]
+        self.y: dict[float, np.ndarray] = {}
+        if self.free and times:
+            Y = np.asarray(interp(np.array(times)), float)
+            self.y = {t: np.ascontiguousarray(Y[:, i]) for i, t in enumerate(times)}
+        self._gaps: dict[float, dict[str, float]] = {}
+        self._speeds: dict[float, dict[str, float]] = {}
+
+    def state(self, s: float) -> np.ndarray:
+        y = self.y.get(s)
+        if y is None:
+            y = self.y[s] = np.asarray(self.interp(s), float)
+        return y
+
+    def gap(self, c: str, s: float) -> float:
+        g = self._gaps.get(s)
+        if g is None:
+            g = self._gaps[s] = self.run.gaps(self.free, self.state(s)[:self.k])
+        return g[c]
+
+    def speed(self, c: str, s: float) -> float:
+        v = self._speeds.get(s)
+        if v is None:
+            v = self._speeds[s] = self.run.normal_speeds(self.free, self.state(s))
+        return v[c]
 
 
 class EventDrivenRun(ContactEvents):
@@ -72,6 +112,7 @@ class EventDrivenRun(ContactEvents):
         self.k = int(mechanism.n_coordinates)
         self.m = int(mechanism.n_loop_constraints)
         self.contacts = tuple(mechanism.contact_names)
+        self.contact_at = {c: i for i, c in enumerate(self.contacts)}
         self.d = max((len(self.contact_row(c, y0[:self.k])) for c in self.contacts), default=0)
         self.painleve_error: PainleveError | None = None
         #: why contacts closing at an impact stay closed: {contact: (reason, t_inf or None)}
@@ -170,25 +211,39 @@ class EventDrivenRun(ContactEvents):
                         y_new: np.ndarray,
                         g_prev: Mapping[str, float]) -> tuple[list[Event], dict[str, float]]:
         """Free contacts closing in the step (see :func:`~.events.gap_event`) and their gaps
-        at its end."""
-        k = self.k
+        at its end (the step's samples shared by the contacts, :class:`StepSamples`)."""
         found: list[Event] = []
-        g_new = {}
+        g_new = self.gaps(free, y_new[:self.k])
+        samples = StepSamples(self, free, interp, t_old, t_new)
         for c in free:
-            gn = self.gap(c, y_new[:k])
-            g_new[c] = gn
-
-            def gfun(s, c=c):
-                return self.gap(c, interp(s)[:k])
-
-            def vfun(s, c=c):
-                th, dth, _ = self.state(np.asarray(interp(s), float))
-                return self.normal_speed(c, th, dth)
-
-            event = gap_event(gfun, vfun, t_old, t_new, g_prev[c], gn, self.opts.event_tol)
+            event = gap_event(partial(samples.gap, c), partial(samples.speed, c), t_old, t_new,
+                              g_prev[c], g_new[c], self.opts.event_tol)
             if event is not None:
                 found.append((*event, c))
         return found, g_new
+
+    def gaps(self, contacts: Sequence[str], th: np.ndarray) -> dict[str, float]:
+        """The gaps of ``contacts`` at theta (one compiled pass for all of them on a model),
+        counted as event-function evaluations."""
+        self.nevents_fev += len(contacts)
+        if self.eq._model and contacts:
+            d = self.mech.rhs_positions(np.ascontiguousarray(th, dtype=float))
+            idx = [self.contact_at[c] for c in contacts]
+            if all(d.contact_ok[idx]):  # else contact_gap raises the typed error
+                return {c: float(d.gap[i]) for c, i in zip(contacts, idx)}
+        return {c: float(self.mech.contact_gap(c, th)) for c in contacts}
+
+    def normal_speeds(self, contacts: Sequence[str], y: np.ndarray) -> dict[str, float]:
+        """The normal velocities of ``contacts`` at the state ``y``: on a model with no
+        constraint in force, theta_dot = M^-1 p and the Jacobians from one compiled pass."""
+        if self.eq._model and contacts and not self.eq.n_constraints:
+            d = self.mech.rhs_positions(np.ascontiguousarray(y[:self.k], dtype=float))
+            if d.chol_ok:
+                dth = _cho_solve(d.L, y[self.k:])
+                J = d.contact_jacobian
+                return {c: float(J[self.contact_at[c], 0] @ dth) for c in contacts}
+        th, dth, _ = self.state(y)
+        return {c: self.normal_speed(c, th, dth) for c in contacts}
 
     def watch(self, t: float, y: np.ndarray, anchors: Mapping[str, np.ndarray]) -> dict:
         """The held contacts' event functions at (t, y): the force margin, the slip
@@ -290,7 +345,7 @@ class EventDrivenRun(ContactEvents):
             opts["first_step"] = min(float(self.h_next), o.t1 - self.t)
         solver = o.solver_cls(eq, self.t, self.y, o.t1, **opts)
         self.n_restarts += 1
-        g_prev = {c: self.gap(c, self.y[:k]) for c in free}
+        g_prev = self.gaps(free, self.y[:k])
         anchors = self.slip_anchors(self.y)
         w_prev = self.watch(self.t, self.y, anchors) if eq.held else {}
         while True:
@@ -302,7 +357,7 @@ class EventDrivenRun(ContactEvents):
             t_old, t_new, y_new = solver.t_old, solver.t, solver.y.copy()
             if not np.all(np.isfinite(y_new)):
                 raise SimulationError(f"the state became non-finite at t = {t_new:.9g}")
-            interp = solver.dense_output()
+            interp = fast_interpolant(solver.dense_output())
             found, g_new = self.closing_in_step(free, interp, t_old, t_new, y_new, g_prev)
             w_new = self.watch(t_new, y_new, anchors) if eq.held else {}
             found += self.held_in_step(interp, t_old, t_new, w_prev, w_new, anchors)
@@ -325,7 +380,7 @@ class EventDrivenRun(ContactEvents):
                     # one-step method: continue from the projected state, same step size
                     solver.y = self.y.copy()
                     solver.f = solver.fun(self.t, solver.y)
-                    g_new = {c: self.gap(c, self.y[:k]) for c in free}
+                    g_new = self.gaps(free, self.y[:k])
             self.record(self.t, self.y)
             if eq.held:
                 anchors = self.slip_anchors(self.y)

@@ -37,6 +37,58 @@ def locate_crossing(fun: Callable[[float], float], ta: float, tb: float, fa: flo
 DIP_SAMPLES = 8
 
 
+class FastInterpolant:
+    """A one-step integrator's dense output evaluated as one weighted sum.
+
+    scipy's ``Dop853DenseOutput`` and ``RkDenseOutput`` evaluate their polynomial with a
+    Python loop of array operations (tens of microseconds per call); event location calls
+    them hundreds of times per run. Here the polynomial's weights are computed on Python
+    floats and applied in one product: the same polynomial, equal to scipy's to rounding.
+    Scalars give ``(n,)``, 1-D arrays of times ``(n, len(t))``, as scipy's.
+    """
+
+    def __init__(self, interp):
+        self.t_old, self.t, self.h = interp.t_old, interp.t, interp.h
+        self.y_old = interp.y_old
+        dop = hasattr(interp, "F")
+        self._dop = dop
+        self._C = np.ascontiguousarray(interp.F if dop else interp.Q.T * interp.h)
+        self._n = self._C.shape[0]
+
+    def _weights(self, x):
+        """The polynomial's weights at x (a float, or an array of them: then per column)."""
+        n = self._n
+        w = [x] * n
+        if not self._dop:  # RK: h Q [x, x^2, ...]
+            for i in range(1, n):
+                w[i] = w[i - 1] * x
+            return w
+        # DOP853: y = (((F[-1] x + F[-2]) (1 - x) + F[-3]) x + ...): F[-1-i] carries the
+        # product of the multipliers from the i-th on (x for even i, 1 - x for odd)
+        prod = 1.0
+        for i in range(n - 1, -1, -1):
+            prod = prod * (x if i % 2 == 0 else 1.0 - x)
+            w[n - 1 - i] = prod
+        return w
+
+    def __call__(self, t):
+        if np.ndim(t) == 0:
+            x = (float(t) - self.t_old) / self.h
+            return np.dot(self._weights(x), self._C) + self.y_old
+        x = (np.asarray(t, dtype=float) - self.t_old) / self.h
+        return self._C.T @ np.array(self._weights(x)) + self.y_old[:, None]
+
+
+def fast_interpolant(interp):
+    """:class:`FastInterpolant` of scipy's DOP853 / RK23 / RK45 dense output, else
+    ``interp`` itself."""
+    from scipy.integrate._ivp.rk import Dop853DenseOutput, RkDenseOutput
+
+    if type(interp) in (Dop853DenseOutput, RkDenseOutput):
+        return FastInterpolant(interp)
+    return interp
+
+
 def first_dip(fun: Callable[[float], float], ta: float, tb: float, fa: float,
               n: int = DIP_SAMPLES,
               dfun: Callable[[float], float] | None = None,
