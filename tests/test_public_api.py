@@ -54,8 +54,9 @@ def test_every_law_is_registered_with_its_paths():
     assert ci.available_methods("pereira-nikravesh") == [
         "closed-form", "sweep", "fast", "clarabel", "cvxpy"]
     assert ci.available_methods("stronge") == ["fast", "clarabel", "cvxpy"]
+    # the other laws also on the exact several-contact solver
     for law in ("coulomb", "ccp", "dissipative"):
-        assert ci.available_methods(law) == ["fast", "clarabel", "cvxpy"]
+        assert ci.available_methods(law) == ["fast", "interior", "clarabel", "cvxpy"]
 
 
 def test_placement_names_resolve():

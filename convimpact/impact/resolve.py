@@ -19,6 +19,7 @@ from .errors import (
     NonPositiveEffectiveMassError,
     NotSupportedError,
     SingularSystemError,
+    SolverError,
     UnknownOptionError,
 )
 from .lane import resolve_one
@@ -27,7 +28,7 @@ from .problem import ImpactProblem, build_problem
 from .results import ImpactResult
 
 LAWS = tuple(LAW_MODULES)
-METHODS = ("auto", "closed-form", "sweep", "fast", "clarabel", "cvxpy")
+METHODS = ("auto", "closed-form", "sweep", "fast", "interior", "clarabel", "cvxpy")
 
 Solver = Callable[..., ImpactResult]
 _SOLVERS: dict[tuple[str, str], Solver] = {}
@@ -37,6 +38,7 @@ _SOLVER_MODULES: tuple[str, ...] = (
     # programs ("clarabel", "cvxpy"), and any closed form of its own
     *(f"convimpact.impact.laws.{module}" for module in LAW_MODULES.values()),
     "convimpact.impact.sweep",  # the paper's 1-D search over the tangent angle
+    "convimpact.impact.several_contacts",  # the exact several-contact solver ("interior")
 )
 _loaded = False
 
@@ -87,6 +89,10 @@ SINGLE_CONTACT_METHODS = ("closed-form", "fast", "sweep")
 
 
 _CANDIDATES: dict[tuple, list[str]] = {}
+#: laws whose several contacts go to the exact solver "interior" first under method="auto":
+#: their programs are convex, so the velocities are unique; Coulomb's law may have several
+#: solutions at several contacts and keeps its conic fixed point's choice by default
+INTERIOR_FIRST = ("ccp", "dissipative")
 
 
 def _candidates(problem: ImpactProblem, law: str) -> list[str]:
@@ -102,6 +108,8 @@ def _candidates(problem: ImpactProblem, law: str) -> list[str]:
         load_solver_modules()
         if single:
             names = ("fast", "closed-form", "clarabel", "cvxpy")
+        elif law in INTERIOR_FIRST:
+            names = ("interior", "clarabel", "cvxpy")
         else:
             names = ("clarabel", "cvxpy")
         order = _CANDIDATES[key] = [m for m in names if (law, m) in _SOLVERS]
@@ -148,16 +156,19 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
         if problem.n_contacts > 1 and method in SINGLE_CONTACT_METHODS:
             raise NotSupportedError(
                 f"method {method!r} treats one contact; for several simultaneous contacts use "
-                "method='clarabel' or 'cvxpy'")
+                "method='interior', 'clarabel' or 'cvxpy'")
         candidates = [method]
     if not any(problem.approaching):
         return _separating(problem, law, candidates[0])
     for i, name in enumerate(candidates):
         try:
             result = _SOLVERS[(law, name)](problem, **options)
-        except SingularSystemError as exc:
+        except (SingularSystemError, SolverError) as exc:
+            # a singular W the exact kernels cannot invert, or an interior-point answer that
+            # failed its certificate: the conic paths treat the impact or report it themselves
             if (isinstance(exc, NonPositiveEffectiveMassError) or i + 1 == len(candidates)
-                    or candidates[i + 1] not in ("clarabel", "cvxpy")):
+                    or candidates[i + 1] not in ("clarabel", "cvxpy")
+                    or (not isinstance(exc, SingularSystemError) and name != "interior")):
                 raise
             fallback = f"method 'auto': {name} cannot treat this impact ({exc}); used " \
                        f"{candidates[i + 1]} instead"
@@ -190,7 +201,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         Jacobian of the loop constraints (eq. 7) for closed loops; full row rank, C dq = 0.
     law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
         The impact law (see the package documentation for exact definitions).
-    method : {"auto", "closed-form", "sweep", "fast", "clarabel", "cvxpy"}
+    method : {"auto", "closed-form", "sweep", "fast", "interior", "clarabel", "cvxpy"}
         The solver path; ``"auto"`` picks the cheapest one exact for the problem.
     **options
         Solver options (tolerances, iteration limits), documented per method.

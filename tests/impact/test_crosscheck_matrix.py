@@ -68,9 +68,9 @@ def test_every_path_agrees_with_every_other(seed, k, d, loops, e, mu, law):
 def test_matrix_covers_every_registered_path():
     expected = {
         "pereira-nikravesh": {"closed-form", "fast", "sweep", "clarabel", "cvxpy"},
-        "coulomb": {"fast", "clarabel", "cvxpy"},
-        "ccp": {"fast", "clarabel", "cvxpy"},
-        "dissipative": {"fast", "clarabel", "cvxpy"},
+        "coulomb": {"fast", "interior", "clarabel", "cvxpy"},
+        "ccp": {"fast", "interior", "clarabel", "cvxpy"},
+        "dissipative": {"fast", "interior", "clarabel", "cvxpy"},
     }
     for law, methods in expected.items():
         assert set(available_methods(law)) == methods

@@ -1,0 +1,330 @@
+"""An exact solver for the laws at several contacts (``method="interior"``): ``ccp`` and
+``dissipative`` (one convex cone program), and ``coulomb`` (a cone complementarity problem).
+
+The laws ``ccp`` and ``dissipative`` reduce at several contacts to one convex program over the
+product of the friction cones (:mod:`convimpact.impact.laws.ccp`,
+:mod:`convimpact.impact.laws.dissipative`),
+
+    minimize 1/2 pi^T W pi + b^T pi   over   pi_i in K_mu_i,
+
+with ``b = v- + e min(v_n-, 0) n`` (ccp) or ``b = v-`` (the dissipative law's plastic phase,
+then scaled by 1 + e per contact), and contacts that do not approach entering with their
+normal only (``pi_t = 0``: pressed by the others, never kicked along their slip). The answer
+of the law is the program's KKT point,
+
+    K ∋ pi  ⊥  z = W pi + b ∈ K*,
+
+which is what this path computes and certifies, in compiled code
+(:mod:`convimpact.impact.several_kernels`, :mod:`convimpact.impact.several_newton`):
+
+1. a primal-dual interior point (Mehrotra's predictor-corrector with Nesterov-Todd scaling,
+   one dense Cholesky factorization per iteration) on the program written over standard
+   second-order cones, each contact equilibrated by its own effective mass, to a
+   complementarity gap and residual of 1e-9 (10-20 iterations);
+2. a semismooth Newton finish on the natural map ``pi - Proj_K(pi - z) = 0`` from there
+   (quadratic convergence: two or three steps to round-off; a singular W -- a box on four
+   corners -- is handled by basic solutions of the Newton systems);
+3. the law's KKT certificate on the original data (:func:`~.several_newton.ccp_certificate`:
+   cone and dual-cone violations and per-contact complementarity, relative to the impulse
+   and velocity scales, as the conic paths' :func:`~convimpact.impact.conic.polish.kkt_residual`
+   measures them). The answer is returned only when the certificate is at most ``tol``
+   (default 1e-10) or, for an ill-conditioned W, 1e3 times the round-off floor
+   ``eps max|W| max|pi| / max|z|`` capped at
+   :data:`~convimpact.impact.conic.polish.VELOCITY_RESIDUAL_MAX` (the conic paths' rule);
+   otherwise :class:`CertificateError`, a :class:`~convimpact.impact.errors.SolverError`
+   (under ``method="auto"``, Clarabel takes over and the result's notes say so).
+
+``coulomb`` (Coulomb's law with Newton's restitution, ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*``,
+``u = W pi + b``, every contact with its friction) is not a convex program: it is solved by the
+same semismooth Newton on its own natural map, started from the CCP answer (the start of the
+conic path's fixed point), and accepted on Coulomb's conditions
+(:func:`~convimpact.impact.laws.coulomb.coulomb_residual`, compiled as
+:func:`~.several_newton.coulomb_certificate`) to ``tol``. It is not tried first under
+``method="auto"`` (:data:`convimpact.impact.resolve.INTERIOR_FIRST`): at several contacts the
+law may have several solutions (a box on four corners has a family of them), and the default
+stays the conic path's choice.
+
+Options (keyword arguments of ``resolve_impact``): ``tol`` (the certificate's acceptance
+tolerance, default 1e-10), ``max_iter`` (interior-point iterations, default 100),
+``newton_iter`` (Newton steps, default 20).
+
+The kernels compile on their first call (numba, ``cache=True``; :func:`compile_kernels`
+builds them ahead of time and says how long it took): measured 27 s once per machine, then
+1.2 s in a fresh process from numba's cache (``convimpact bench --sections several``);
+``import convimpact`` compiles nothing, and one-contact impacts never load them.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .conic.polish import VELOCITY_RESIDUAL_MAX
+from .diagnostics import assemble_result
+from .errors import ParameterError, SolverError, UnknownOptionError
+from .problem import ImpactProblem
+from .resolve import register_solver
+from .results import ImpactResult
+
+METHOD = "interior"
+#: laws this path solves
+LAWS = ("ccp", "dissipative", "coulomb")
+#: gap and residual at which the interior point hands over to the Newton finish
+HANDOVER_TOL = 1e-9
+#: accuracy claimed for certified answers (the tol passed to assemble_result)
+CERTIFIED_ACCURACY = 1e-9
+_STATUS = {0: "converged", 1: "iteration limit", 2: "stalled", 3: "trivial"}
+_KERNELS = None
+
+
+class CertificateError(SolverError):
+    """The interior path's answer failed its certificate (a
+    :class:`~convimpact.impact.errors.SolverError`). Under ``method="auto"`` the impact is
+    handed to the conic path, which the result's notes say: where the certificate fails the
+    Delassus matrix is nearly singular or the program has no solution, which the conic path
+    treats or reports itself."""
+
+
+@dataclass(frozen=True)
+class InteriorOptions:
+    """Validated options of ``method="interior"`` (see the module docstring)."""
+
+    tol: float = 1e-10
+    max_iter: int = 100
+    newton_iter: int = 20
+
+
+@dataclass(frozen=True)
+class CertifiedImpulse:
+    """A certified answer of the cone complementarity problem.
+
+    Attributes
+    ----------
+    impulse : (n_contacts, d) contact-frame impulse.
+    kkt_residual : the certificate (relative KKT residual on the original data).
+    accepted_residual : the largest certificate accepted for these data.
+    interior_iterations, newton_steps : work done by the two phases.
+    interior_status : how the interior point stopped ("converged", "iteration limit", ...).
+    """
+
+    impulse: np.ndarray
+    kkt_residual: float
+    accepted_residual: float
+    interior_iterations: int
+    newton_steps: int
+    interior_status: str
+
+
+DEFAULT_OPTIONS = InteriorOptions()
+
+
+def kernels():
+    """The compiled kernels (:mod:`convimpact.impact.several_newton` and the interior point of
+    :mod:`convimpact.impact.several_kernels`), imported on first use."""
+    global _KERNELS
+    if _KERNELS is None:
+        from . import several_newton
+
+        _KERNELS = several_newton
+    return _KERNELS
+
+
+def compile_kernels() -> dict[str, float]:
+    """Build (or load from numba's on-disk cache) the kernels now; seconds per step.
+
+    ``import`` (numba and the module) and ``first_call`` (compiling, or loading the cached
+    machine code of, the interior point, the Newton finish and the certificate).
+    """
+    t0 = time.perf_counter()
+    K = kernels()
+    out = {"import": time.perf_counter() - t0}
+    t = time.perf_counter()
+    W = np.eye(6)
+    b = -np.ones(6)
+    mu = np.array([0.5, 0.0])
+    for kernel, certificate in ((K.ccp_kernel, K.ccp_certificate),
+                                (K.coulomb_kernel, K.coulomb_certificate)):
+        pi, *_ = kernel(W, b, mu, 3, HANDOVER_TOL, 100, 20)
+        certificate(W, b, mu, 3, pi)
+    out["first_call"] = time.perf_counter() - t
+    return out
+
+
+def parse_options(options: dict) -> InteriorOptions:
+    """Validate the keyword options of ``method="interior"``."""
+    if not options:
+        return DEFAULT_OPTIONS
+    known = InteriorOptions.__dataclass_fields__
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise UnknownOptionError(
+            f"method {METHOD!r} does not know option(s) {', '.join(unknown)}; "
+            f"it accepts {', '.join(known)}")
+    out = InteriorOptions(**options)
+    tol = out.tol
+    if isinstance(tol, bool) or not (isinstance(tol, (int, float, np.floating))
+                                     and math.isfinite(tol) and 0.0 < tol < 1.0):
+        raise ParameterError(f"option tol must be a number in (0, 1), got {tol!r}")
+    for name in ("max_iter", "newton_iter"):
+        v = getattr(out, name)
+        if isinstance(v, bool) or not (isinstance(v, (int, np.integer))
+                                       and v >= (1 if name == "max_iter" else 0)):
+            raise ParameterError(f"option {name} must be a "
+                                 f"{'positive' if name == 'max_iter' else 'non-negative'} "
+                                 f"integer, got {v!r}")
+    return out
+
+
+def solve_cone_complementarity(W: np.ndarray, b: np.ndarray, mu: np.ndarray, dim: int,
+                               opts: InteriorOptions = DEFAULT_OPTIONS,
+                               coulomb: bool = False) -> CertifiedImpulse:
+    """The certified answer of a law's cone complementarity problem on contact data.
+
+    ``coulomb=False``: the KKT point of ``min 1/2 pi^T W pi + b^T pi`` over ``pi_i in K_mu_i``
+    (``K ∋ pi ⊥ W pi + b ∈ K*``); ``coulomb=True``: Coulomb's law
+    ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*``, ``u = W pi + b``, by Newton from the former.
+
+    Parameters
+    ----------
+    W : (n d, n d) symmetric positive semidefinite Delassus matrix.
+    b : (n d,) linear term (contact velocities with the law's shift).
+    mu : (n,) friction coefficients; ``mu_i = 0`` keeps contact i's normal only.
+    dim : d, 2 (planar) or 3 (spatial).
+    opts : tolerances and iteration limits.
+    coulomb : solve Coulomb's law instead of the convex program.
+
+    Raises
+    ------
+    CertificateError (a SolverError)
+        when the answer fails its certificate (the program has no solution -- a rigid pinch
+        through a singular W -- or the iterations did not reach one).
+    """
+    K = kernels()
+    W = np.ascontiguousarray(W, dtype=float)
+    b = np.ascontiguousarray(b, dtype=float)
+    mu = np.ascontiguousarray(mu, dtype=float)
+    kernel = K.coulomb_kernel if coulomb else K.ccp_kernel
+    certificate = K.coulomb_certificate if coulomb else K.ccp_certificate
+    pi, status, iters, steps, _r1, _r2 = kernel(W, b, mu, int(dim), HANDOVER_TOL,
+                                                int(opts.max_iter), int(opts.newton_iter))
+    if status == K.TRIVIAL:
+        return CertifiedImpulse(pi.reshape(mu.shape[0], dim), 0.0, opts.tol, 0, 0, "trivial")
+    # a non-finite impulse gives a NaN or infinite certificate, which the test below rejects
+    residual, floor = certificate(W, b, mu, int(dim), pi)
+    accepted = max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX))
+    if not residual <= accepted:
+        what = ("Coulomb's conditions" if coulomb else "the law's KKT certificate")
+        hint = ("Newton on Coulomb's law did not reach a solution from the CCP answer; use "
+                "method='clarabel' (its safeguarded fixed point)" if coulomb else
+                "the program probably has no solution (no impulse in the friction cones "
+                "satisfies the law, e.g. a rigid pinch through a singular Delassus matrix) or "
+                "is badly conditioned; raise max_iter, or use method='clarabel'")
+        raise CertificateError(
+            f"method {METHOD!r}: the answer fails {what} (certificate: relative residual "
+            f"{residual:.2e} > {accepted:.1e}; interior point {_STATUS.get(status, status)} "
+            f"after {iters} iterations, {steps} Newton steps): {hint}")
+    return CertifiedImpulse(pi.reshape(mu.shape[0], dim), float(residual), float(accepted),
+                            int(iters), int(steps), _STATUS.get(status, str(status)))
+
+
+def _report(sol: CertifiedImpulse, opts: InteriorOptions) -> dict:
+    return {"solver_status": "certified", "interior_status": sol.interior_status,
+            "iterations": sol.interior_iterations, "newton_steps": sol.newton_steps,
+            "tolerance": opts.tol, "polished": True, "kkt_residual": sol.kkt_residual}
+
+
+#: regime names of the kernels' codes (:func:`~.several_newton.result_data`)
+REGIMES = ("separating", "frictionless", "stick", "slide")
+
+
+def _program(P: ImpactProblem, opts: InteriorOptions, newton: bool = True,
+             coulomb: bool = False) -> CertifiedImpulse:
+    """The law's program on P, posed as :func:`convimpact.impact.laws.ccp.solve_ccp` (and
+    :func:`convimpact.impact.laws.coulomb.solve_coulomb`) pose it: ``b = v- + e min(v_n-, 0) n``
+    (``newton``), contacts that do not approach without friction of their own (unless
+    ``coulomb``)."""
+    v = P.v_minus.ravel()
+    b, mu = kernels().law_data(v, P.restitution, P.friction, P.dim, newton, coulomb)
+    return solve_cone_complementarity(P.delassus, b, mu, P.dim, opts, coulomb=coulomb)
+
+
+def _outcome(P: ImpactProblem, impulse: np.ndarray) -> tuple[np.ndarray, np.ndarray, list]:
+    """(v+ (n, d), |v_t+| (n,), regimes) of an impulse, by the conic paths' regime rule."""
+    vplus, slip, codes = kernels().result_data(P.delassus, P.v_minus.ravel(), impulse.ravel(),
+                                               P.friction, P.dim, CERTIFIED_ACCURACY)
+    return vplus.reshape(P.n_contacts, P.dim), slip, [REGIMES[c] for c in codes.tolist()]
+
+
+def ccp_result(P: ImpactProblem, **options) -> ImpactResult:
+    """Law ``ccp`` by the interior point with its KKT certificate (the same result as the
+    conic path's :func:`convimpact.impact.laws.ccp.program_result`)."""
+    opts = parse_options(options)
+    sol = _program(P, opts)
+    pi = sol.impulse
+    vplus, slip, regimes = _outcome(P, pi)
+    newton = -P.restitution * np.minimum(P.v_minus[:, 0], 0.0)
+    extras = {
+        "normal_velocity_lift": (vplus[:, 0] - newton).tolist(),
+        "mu_times_slip": (P.friction * slip).tolist(),
+        **_report(sol, opts),
+    }
+    return assemble_result(P, pi, regimes, "ccp", METHOD, tol=CERTIFIED_ACCURACY, extras=extras)
+
+
+def dissipative_result(P: ImpactProblem, **options) -> ImpactResult:
+    """Law ``dissipative`` by the interior point with its KKT certificate (the same result as
+    the conic path's :func:`convimpact.impact.laws.dissipative.program_result`)."""
+    opts = parse_options(options)
+    sol = _program(P, opts, newton=False)
+    plastic = sol.impulse
+    pi = plastic * (1.0 + P.restitution)[:, None]  # Poisson's hypothesis
+    flat = plastic.ravel()
+    W = P.delassus
+    Ep = (plastic * P.restitution[:, None]).ravel()
+    predicted = 0.5 * float(flat @ W @ flat) - 0.5 * float(Ep @ W @ Ep)
+    vplus_plastic, _, regimes = _outcome(P, plastic)
+    extras = {
+        "plastic_impulse": plastic.tolist(),
+        "plastic_energy_loss": 0.5 * float(flat @ W @ flat),
+        "predicted_energy_loss": predicted,
+        "plastic_normal_velocity_lift": vplus_plastic[:, 0].tolist(),
+        **_report(sol, opts),
+    }
+    warnings = []
+    if np.ptp(P.restitution) > 0 and predicted < 0:
+        warnings.append("different e per contact: Poisson scaling of coupled contacts gains "
+                        "energy here (1/2 |pi_p|_W^2 < 1/2 |E pi_p|_W^2)")
+    if np.ptp(P.restitution) > 0:
+        lam = np.linalg.eigvalsh(W)
+        if not lam[0] > 1e-10 * lam[-1]:
+            warnings.append(
+                "different e per contact on a singular Delassus matrix: the plastic impulse is "
+                "not unique, so the Poisson-scaled answer (theta_dot+) depends on which plastic "
+                "impulse the solver found; use one e for coupled contacts")
+    return assemble_result(P, pi, regimes, "dissipative", METHOD, tol=CERTIFIED_ACCURACY,
+                           extras=extras, warnings=tuple(warnings))
+
+
+def coulomb_result(P: ImpactProblem, **options) -> ImpactResult:
+    """Law ``coulomb`` by Newton on its natural map from the CCP answer, accepted on Coulomb's
+    conditions (:func:`~convimpact.impact.laws.coulomb.coulomb_residual`, compiled). Where the
+    law has several solutions (several contacts, a singular W) the one Newton reaches from the
+    CCP answer is returned -- possibly another than the conic path's fixed point's, which is
+    why ``method="auto"`` keeps the conic path for this law."""
+    opts = parse_options(options)
+    sol = _program(P, opts, coulomb=True)
+    pi = sol.impulse
+    _, _, regimes = _outcome(P, pi)
+    extras = {"finished_by": "Newton on Coulomb's natural map from the CCP answer",
+              "complementarity_residual": sol.kkt_residual, "accuracy": CERTIFIED_ACCURACY,
+              **_report(sol, opts)}
+    return assemble_result(P, pi, regimes, "coulomb", METHOD, tol=CERTIFIED_ACCURACY,
+                           extras=extras)
+
+
+register_solver("ccp", METHOD)(ccp_result)
+register_solver("coulomb", METHOD)(coulomb_result)
+register_solver("dissipative", METHOD)(dissipative_result)

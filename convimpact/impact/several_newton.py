@@ -1,0 +1,511 @@
+"""Compiled (numba) Newton finish, drivers and certificates of the several-contact solver.
+
+On the data scaled by :func:`scaled_program` (standard second-order cones, every contact
+equilibrated by its own effective mass, unit-size data; ``pi = S x``), both laws of the
+``interior`` path are complementarity problems over the product K of second-order cones:
+
+* ``ccp`` (and the dissipative law's plastic phase): ``K ∋ x ⊥ w = P x + q ∈ K``, a monotone
+  problem, started by the interior point of :mod:`convimpact.impact.several_kernels`;
+* ``coulomb`` (De Saxce's form of Coulomb's law with Newton's restitution):
+  ``K ∋ x ⊥ w + |w_t| e ∈ K`` per contact -- in the scaled variables the shift
+  ``mu |u_t| n`` of the contact-space law becomes ``|w_t|`` whatever mu (the scaling carries
+  mu), a problem that is not monotone, started from the CCP answer (the same start as the
+  conic path's fixed point).
+
+Both are finished by a semismooth Newton method on the natural map
+``F(x) = x - Proj_K(x - y(x))`` (Hayashi, Yamashita & Fukushima, SIAM J. Optim. 15, 2005,
+for second-order cone complementarity problems), whose generalized Jacobian is
+``I - D (I - dy/dx)`` with D the Jacobian of the projection; a singular system (redundant
+contacts) is solved for a basic solution. The answer is judged by the certificates below on
+the original data, never by the iteration's own measures.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .several_kernels import EPS, STALLED, TINY, TRIVIAL, _jit, cone_lcp
+
+
+@_jit
+def _project(u, o, m, out, D, jac):
+    """out[o:o+m] = the projection of u's block onto the second-order cone; with ``jac``,
+    its (generalized) Jacobian into D[o:o+m, o:o+m]."""
+    if jac:
+        for a in range(o, o + m):
+            for c in range(o, o + m):
+                D[a, c] = 0.0
+    t = 0.0
+    for j in range(o + 1, o + m):
+        t += u[j] * u[j]
+    t = math.sqrt(t)
+    u0 = u[o]
+    if t <= u0:  # inside the cone
+        for j in range(o, o + m):
+            out[j] = u[j]
+        if jac:
+            for j in range(o, o + m):
+                D[j, j] = 1.0
+    elif t <= -u0:  # inside the polar cone
+        for j in range(o, o + m):
+            out[j] = 0.0
+    else:
+        h = 0.5 * (u0 + t)
+        out[o] = h
+        for j in range(o + 1, o + m):
+            out[j] = h * u[j] / t
+        if jac:
+            D[o, o] = 0.5
+            r = u0 / t
+            for j in range(o + 1, o + m):
+                wj = u[j] / t
+                D[o, j] = 0.5 * wj
+                D[j, o] = 0.5 * wj
+                for k in range(o + 1, o + m):
+                    D[j, k] = -0.5 * r * wj * u[k] / t
+                D[j, j] += 0.5 * (1.0 + r)
+
+
+@_jit
+def _basic_solve(A, rhs, out, perm):
+    """A basic solution of ``A out = rhs`` by Gaussian elimination with complete pivoting,
+    in place (A and rhs are overwritten). Pivots below 1e-12 of the largest are treated as
+    zero: their unknowns are set to 0 (the Jacobian is singular where contacts are
+    redundant, and the system is then consistent on the remaining ones)."""
+    n = rhs.shape[0]
+    cols = perm
+    for i in range(n):
+        cols[i] = i
+    big = 0.0
+    for i in range(n):
+        for j in range(n):
+            if abs(A[i, j]) > big:
+                big = abs(A[i, j])
+    rank = n
+    for k in range(n):
+        # complete pivoting on the remaining block
+        pr, pc, pv = k, k, 0.0
+        for i in range(k, n):
+            for j in range(k, n):
+                if abs(A[i, j]) > pv:
+                    pv, pr, pc = abs(A[i, j]), i, j
+        if not pv > 1e-12 * big:
+            rank = k
+            break
+        if pr != k:
+            for j in range(n):
+                A[k, j], A[pr, j] = A[pr, j], A[k, j]
+            rhs[k], rhs[pr] = rhs[pr], rhs[k]
+        if pc != k:
+            for i in range(n):
+                A[i, k], A[i, pc] = A[i, pc], A[i, k]
+            cols[k], cols[pc] = cols[pc], cols[k]
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            f = A[i, k] * inv
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+                rhs[i] -= f * rhs[k]
+    y = np.zeros(n)
+    for k in range(rank - 1, -1, -1):
+        s = rhs[k]
+        for j in range(k + 1, rank):
+            s -= A[k, j] * y[j]
+        y[k] = s / A[k, k]
+    for k in range(n):
+        out[cols[k]] = y[k]
+
+
+@_jit
+def _natural_map(P, q, x, starts, sizes, F, D, G, jac, coulomb, u, proj):
+    """F = x - Proj_K(x - y), y = P x + q (+ |w_t| e per cone for Coulomb's law); with
+    ``jac``, D = the projection's Jacobian and G = dy/dx."""
+    N = q.shape[0]
+    for i in range(N):
+        s = q[i]
+        for j in range(N):
+            s += P[i, j] * x[j]
+        u[i] = s  # y, shifted below
+    if jac:
+        for i in range(N):
+            for j in range(N):
+                G[i, j] = P[i, j]
+    if coulomb:
+        for c in range(starts.shape[0]):
+            o, m = starts[c], sizes[c]
+            if m == 1:
+                continue
+            t = 0.0
+            for j in range(o + 1, o + m):
+                t += u[j] * u[j]
+            t = math.sqrt(t)
+            if jac and t > 0.0:
+                for j in range(o + 1, o + m):
+                    f = u[j] / t
+                    for k in range(N):
+                        G[o, k] += f * P[j, k]
+            u[o] += t
+    for i in range(N):
+        u[i] = x[i] - u[i]
+    for c in range(starts.shape[0]):
+        _project(u, starts[c], sizes[c], proj, D, jac)
+    fmax = 0.0
+    for i in range(N):
+        F[i] = x[i] - proj[i]
+        if abs(F[i]) > fmax:
+            fmax = abs(F[i])
+    return fmax
+
+
+@_jit
+def natural_map_newton(P, q, x, starts, sizes, max_iter, coulomb):
+    """Semismooth Newton on the natural map ``F(x) = x - Proj_K(x - y(x))`` from ``x``.
+
+    Steps are basic solutions of ``(I - D (I - G)) dx = -F`` (G = dy/dx may be singular:
+    redundant contacts), damped by halving until |F| drops. Returns ``(x, |F|_inf, steps)``
+    with x replaced by ``Proj_K(x - y)``, which lies in K exactly.
+    """
+    N = q.shape[0]
+    F = np.empty(N)
+    Fn = np.empty(N)
+    D = np.zeros((N, N))
+    G = np.empty((N, N))
+    J = np.empty((N, N))
+    u = np.empty(N)
+    proj = np.empty(N)
+    xn = np.empty(N)
+    rhs = np.empty(N)
+    dx = np.empty(N)
+    perm = np.empty(N, dtype=np.int64)
+    fmax = _natural_map(P, q, x, starts, sizes, F, D, G, True, coulomb, u, proj)
+    steps = 0
+    for steps in range(max_iter):
+        if fmax <= 4.0 * EPS:
+            break
+        for i in range(N):
+            for j in range(N):
+                s = 0.0
+                for k in range(N):
+                    s += D[i, k] * ((1.0 if k == j else 0.0) - G[k, j])
+                J[i, j] = (1.0 if i == j else 0.0) - s
+            rhs[i] = -F[i]
+        _basic_solve(J, rhs, dx, perm)
+        t = 1.0
+        accepted = False
+        for _ in range(12):
+            for i in range(N):
+                xn[i] = x[i] + t * dx[i]
+            fn = _natural_map(P, q, xn, starts, sizes, Fn, D, G, False, coulomb, u, proj)
+            if fn < fmax:
+                accepted = True
+                break
+            t *= 0.5
+        if not accepted:
+            # proj holds the last trial's projection: take it again at x
+            fmax = _natural_map(P, q, x, starts, sizes, F, D, G, False, coulomb, u, proj)
+            break
+        for i in range(N):
+            x[i] = xn[i]
+        fmax = _natural_map(P, q, x, starts, sizes, F, D, G, True, coulomb, u, proj)
+    for i in range(N):
+        x[i] = proj[i]
+    return x, fmax, steps
+
+
+@_jit
+def scaled_program(W, b, mu, d):
+    """The cone program in standard second-order cones and unit-size data.
+
+    Per contact the unknowns are every row of a frictional contact (pi = diag(1/mu, 1, ..) y,
+    y in the standard cone) or the normal of a frictionless one (a cone of dimension one);
+    each contact is scaled by its own effective mass (unit largest diagonal), then W and b
+    by their largest entries. Returns ``(P, q, idx, scale, starts, sizes, f, trivial)`` with
+    ``pi[idx] = scale * f * x``; ``trivial`` when b = 0 or W = 0.
+    """
+    n = mu.shape[0]
+    N = n * d
+    idx = np.empty(N, dtype=np.int64)
+    scale = np.empty(N)
+    starts = np.empty(n, dtype=np.int64)
+    sizes = np.empty(n, dtype=np.int64)
+    M = 0
+    for i in range(n):
+        starts[i] = M
+        if mu[i] > 0.0:
+            sizes[i] = d
+            wmax = 0.0
+            for j in range(d):
+                f = 1.0 / mu[i] if j == 0 else 1.0
+                w = W[i * d + j, i * d + j] * f * f
+                if w > wmax:
+                    wmax = w
+            c = 1.0 / math.sqrt(wmax) if wmax > 0.0 else 1.0
+            for j in range(d):
+                idx[M] = i * d + j
+                scale[M] = (c / mu[i]) if j == 0 else c
+                M += 1
+        else:
+            sizes[i] = 1
+            w = W[i * d, i * d]
+            idx[M] = i * d
+            scale[M] = 1.0 / math.sqrt(w) if w > 0.0 else 1.0
+            M += 1
+    idx = idx[:M]
+    scale = scale[:M]
+    P = np.empty((M, M))
+    q = np.empty(M)
+    sW = 0.0
+    sq = 0.0
+    for a in range(M):
+        q[a] = scale[a] * b[idx[a]]
+        if abs(q[a]) > sq:
+            sq = abs(q[a])
+        for c in range(M):
+            P[a, c] = scale[a] * W[idx[a], idx[c]] * scale[c]
+            if abs(P[a, c]) > sW:
+                sW = abs(P[a, c])
+    if sq == 0.0 or sW == 0.0:
+        return P, q, idx, scale, starts, sizes, 0.0, True
+    for a in range(M):
+        q[a] /= sq
+        for c in range(M):
+            P[a, c] /= sW
+    return P, q, idx, scale, starts, sizes, sq / sW, False
+
+
+@_jit
+def _unscale(x, idx, scale, f, N):
+    pi = np.zeros(N)
+    for a in range(idx.shape[0]):
+        pi[idx[a]] = scale[a] * f * x[a]
+    return pi
+
+
+@_jit
+def _trivial_status(b):
+    """TRIVIAL when b = 0 (pi = 0 is the answer), else STALLED (W = 0: nothing moves)."""
+    for i in range(b.shape[0]):
+        if b[i] != 0.0:
+            return STALLED
+    return TRIVIAL
+
+
+@_jit
+def ccp_kernel(W, b, mu, d, tol, max_iter, newton_iter):
+    """The CCP program ``min 1/2 pi^T W pi + b^T pi`` over ``pi_i in K_mu_i``, on contact data.
+
+    ``mu_i = 0`` keeps contact i's normal only (pi_t = 0). The interior point runs to ``tol``
+    (at most ``max_iter`` iterations), then at most ``newton_iter`` Newton steps on the
+    natural map. Returns the impulse (N,), the interior point's status, its iterations, the
+    Newton steps, its final gap and the natural map's final |F|_inf (scaled problem).
+    """
+    N = mu.shape[0] * d
+    P, q, idx, scale, starts, sizes, f, trivial = scaled_program(W, b, mu, d)
+    if trivial:
+        return np.zeros(N), _trivial_status(b), 0, 0, 0.0, 0.0
+    x, z, status, it, gap, res = cone_lcp(P, q, starts, sizes, tol, max_iter)
+    x, res, steps = natural_map_newton(P, q, x, starts, sizes, newton_iter, False)
+    return _unscale(x, idx, scale, f, N), status, it, steps, gap, res
+
+
+@_jit
+def coulomb_kernel(W, b, mu, d, tol, max_iter, newton_iter):
+    """Coulomb's law ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*`` (u = W pi + b) on contact data: the CCP
+    answer (interior point and Newton), then Newton on Coulomb's natural map from it.
+
+    Returns the impulse (N,), the interior point's status, its iterations, the Newton steps
+    (both phases), and the final |F|_inf of the CCP and of Coulomb's natural maps.
+    """
+    N = mu.shape[0] * d
+    P, q, idx, scale, starts, sizes, f, trivial = scaled_program(W, b, mu, d)
+    if trivial:
+        return np.zeros(N), _trivial_status(b), 0, 0, 0.0, 0.0
+    x, z, status, it, gap, res = cone_lcp(P, q, starts, sizes, tol, max_iter)
+    x, res, steps = natural_map_newton(P, q, x, starts, sizes, newton_iter, False)
+    x, res2, steps2 = natural_map_newton(P, q, x, starts, sizes, newton_iter, True)
+    steps += steps2
+    return _unscale(x, idx, scale, f, N), status, it, steps, res, res2
+
+
+@_jit
+def _finite(x):
+    for i in range(x.shape[0]):
+        if not math.isfinite(x[i]):
+            return False
+    return True
+
+
+@_jit
+def ccp_certificate(W, b, mu, d, pi):
+    """Relative KKT residual of ``K ∋ pi ⊥ W pi + b ∈ K*`` (frictionless: pi_t = 0).
+
+    The max over contacts of the cone violation of pi (relative to X = max |pi|), the
+    dual-cone violation of ``z = W pi + b`` (relative to V = max(|b|, |W pi|)) and
+    ``|pi_i . z_i|`` (relative to X V), as :func:`convimpact.impact.conic.polish.kkt_residual`
+    measures a conic answer; also returns the round-off floor ``eps max|W| X / V``. An
+    impulse that is not finite has an infinite residual.
+    """
+    n = mu.shape[0]
+    N = n * d
+    if not _finite(pi):
+        return np.inf, 0.0
+    z = np.empty(N)
+    X = TINY
+    V = TINY
+    wmax = 0.0
+    for i in range(N):
+        s = b[i]
+        t = 0.0
+        for j in range(N):
+            s += W[i, j] * pi[j]
+            t += W[i, j] * pi[j]
+            if abs(W[i, j]) > wmax:
+                wmax = abs(W[i, j])
+        z[i] = s
+        V = max(V, abs(b[i]), abs(t))
+        X = max(X, abs(pi[i]))
+    r = 0.0
+    for i in range(n):
+        o = i * d
+        pt = 0.0
+        zt = 0.0
+        dot = pi[o] * z[o]
+        for j in range(o + 1, o + d):
+            pt += pi[j] * pi[j]
+            zt += z[j] * z[j]
+            dot += pi[j] * z[j]
+        pt = math.sqrt(pt)
+        zt = math.sqrt(zt)
+        if mu[i] == 0.0:
+            r = max(r, max(0.0, -pi[o]) / X, pt / X, max(0.0, -z[o]) / V,
+                    abs(pi[o] * z[o]) / (X * V))
+        else:
+            r = max(r, max(0.0, pt - mu[i] * pi[o]) / X, max(0.0, mu[i] * zt - z[o]) / V,
+                    abs(dot) / (X * V))
+    return r, EPS * wmax * X / V
+
+
+@_jit
+def coulomb_certificate(W, b, mu, d, pi):
+    """Relative residual of Coulomb's law ``K ∋ pi ⊥ y = u + mu |u_t| n ∈ K*``, u = W pi + b:
+    :func:`convimpact.impact.laws.coulomb.coulomb_residual` compiled (the same terms and
+    scales), and the round-off floor ``eps max|W| max|pi| max(1, mu) / |b|``."""
+    n = mu.shape[0]
+    N = n * d
+    if not _finite(pi):
+        return np.inf, 0.0
+    u = np.empty(N)
+    ps = 0.0
+    bn = 0.0
+    wmax = 0.0
+    for i in range(N):
+        s = b[i]
+        for j in range(N):
+            s += W[i, j] * pi[j]
+            if abs(W[i, j]) > wmax:
+                wmax = abs(W[i, j])
+        u[i] = s
+        ps += pi[i] * pi[i]
+        bn += b[i] * b[i]
+    ps = max(math.sqrt(ps), TINY)
+    vs = max(math.sqrt(bn), wmax * ps, TINY)
+    r = 0.0
+    mumax = 1.0
+    for i in range(n):
+        o = i * d
+        ut = 0.0
+        pt = 0.0
+        for j in range(o + 1, o + d):
+            ut += u[j] * u[j]
+            pt += pi[j] * pi[j]
+        ut = math.sqrt(ut)
+        pt = math.sqrt(pt)
+        yn = u[o] + mu[i] * ut
+        r = max(r, max(0.0, pt - mu[i] * pi[o], -pi[o]) / ps)
+        if mu[i] == 0.0:
+            r = max(r, max(0.0, -yn) / vs, pt / ps, abs(pi[o] * yn) / (ps * vs))
+        else:
+            mumax = max(mumax, mu[i])
+            vsi = vs * max(1.0, mu[i])
+            r = max(r, max(0.0, mu[i] * ut - yn) / vsi)
+            dot = pi[o] * yn
+            for j in range(o + 1, o + d):
+                dot += pi[j] * u[j]
+            r = max(r, abs(dot) / (ps * vsi))
+    return r, EPS * wmax * ps * mumax / max(math.sqrt(bn), TINY)
+
+
+#: a contact approaching slower than this fraction of max |v-| counts as touching
+#: (:data:`convimpact.impact.conic.paths.APPROACH_RTOL`)
+APPROACH_RTOL = 1e-9
+
+
+@_jit
+def law_data(v, e, friction, d, newton, all_friction):
+    """The linear term b and the friction vector of a law's program from the contact data.
+
+    ``b = v- + e min(v_n-, 0) n`` (``newton``; else b = v-, the dissipative law's plastic
+    phase) and ``mu = friction`` (``all_friction``: Coulomb's law) or, for the
+    maximal-dissipation programs, zero at contacts that do not approach by more than
+    round-off (:func:`convimpact.impact.conic.paths.approaching`).
+    """
+    n = friction.shape[0]
+    b = v.copy()
+    mu = friction.copy()
+    vscale = 0.0
+    for i in range(v.shape[0]):
+        if abs(v[i]) > vscale:
+            vscale = abs(v[i])
+    for i in range(n):
+        vn = v[i * d]
+        if newton and vn < 0.0:
+            b[i * d] = vn + e[i] * vn
+        if not all_friction and not vn < -APPROACH_RTOL * vscale:
+            mu[i] = 0.0
+    return b, mu
+
+
+@_jit
+def result_data(W, v, pi, friction, d, tol):
+    """Post-impact velocities, slip speeds and regime codes of an impulse.
+
+    ``v+ = v- + W pi``; per contact |v_t+| and the regime (0 separating, 1 frictionless,
+    2 stick, 3 slide) by the rule of :func:`convimpact.impact.conic.paths.regimes_from_slip`:
+    separating when ``pi_n <= tol |v-| / |W|``, frictionless when mu = 0, stick when
+    ``|v_t+| <= 10 tol |v-|`` (max norms).
+    """
+    n = friction.shape[0]
+    N = n * d
+    vplus = np.empty(N)
+    vscale = TINY
+    wscale = TINY
+    for i in range(N):
+        s = v[i]
+        for j in range(N):
+            s += W[i, j] * pi[j]
+            if abs(W[i, j]) > wscale:
+                wscale = abs(W[i, j])
+        vplus[i] = s
+        if abs(v[i]) > vscale:
+            vscale = abs(v[i])
+    slip = np.empty(n)
+    codes = np.empty(n, dtype=np.int64)
+    pscale = vscale / wscale
+    for i in range(n):
+        o = i * d
+        t = 0.0
+        for j in range(o + 1, o + d):
+            t += vplus[j] * vplus[j]
+        slip[i] = math.sqrt(t)
+        if pi[o] <= tol * pscale:
+            codes[i] = 0
+        elif friction[i] == 0.0:
+            codes[i] = 1
+        elif slip[i] <= 10.0 * tol * vscale:
+            codes[i] = 2
+        else:
+            codes[i] = 3
+    return vplus, slip, codes
