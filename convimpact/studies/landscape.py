@@ -43,6 +43,9 @@ from ..impact.problem import ImpactProblem, build_problem, check_restitution
 from ..impact.results import _jsonable
 
 REGIMES = ("separating", "frictionless", "stick", "slide", "failed")
+#: grids from this many points on go to the compiled batch (a Python loop over the kernel,
+#: about 3e4 points/s, costs less below it than the batch's compilation, about 20 s once)
+BATCH_MIN_POINTS = 20_000
 
 
 def _fields_as_json(obj) -> dict[str, Any]:
@@ -454,7 +457,8 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     """Any law over a grid of e and mu (mu >= 0) with the exact single-contact kernels.
 
     The contact-space data (Delassus block ``W`` with the loops folded in, ``v-``) are computed
-    once; the whole grid is then solved in one call of the compiled batch
+    once; a grid of at least :data:`BATCH_MIN_POINTS` points is then solved in one call of the
+    compiled batch
     :func:`convimpact.impact.batch.contact_impulses` (item for item the kernel of
     ``method="fast"``, :func:`convimpact.impact.fast.solve_contact`, to round-off), and
     everything after the impulse -- energy loss (eq. 58 in contact space), post-impact velocity
@@ -462,8 +466,10 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     definitions and tolerance as :func:`convimpact.impact.diagnostics.assemble_result` for
     ``method="fast"``. Planar or spatial, one contact. Where the batch has no compiled kernel
     (``"stronge"`` in space, whose curved slip is integrated) it solves the points one at a time
-    with the Python kernel; without numba every law falls back to one
-    :func:`~convimpact.impact.fast.solve_contact` call per point (same answers).
+    with the Python kernel; a smaller grid, or any grid without numba, takes one
+    :func:`~convimpact.impact.fast.solve_contact` call per point (same answers to round-off;
+    below that size the loop costs less than the batch's one-time compilation, so a first
+    ``convimpact paper`` compiles nothing for its landscapes).
 
     Parameters
     ----------
@@ -493,7 +499,7 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
         raise ShapeError("contact_landscape takes one contact Jacobian (d x k)")
     W, v = P.contact_block(0)
     shape = (e.size, mu.size)
-    solved = _batch_grid(W, v, e, mu, law)
+    solved = _batch_grid(W, v, e, mu, law) if e.size * mu.size >= BATCH_MIN_POINTS else None
     if solved is None:
         solved = _loop_grid(W, v, e, mu, law, progress)
     pi, regime, jam, failed = solved

@@ -85,11 +85,15 @@ def test_landscape_rejects_spatial_and_bad_e():
 
 @pytest.mark.parametrize("d", [2, 3])
 @pytest.mark.parametrize("law", ci.LAWS)
-def test_contact_landscape_batch_equals_the_per_point_kernel(law, d):
-    """contact_landscape solves its grid with the compiled batch; the per-point kernel (the
-    library's own fallback loop) gives the same impulses to 1e-10, regimes and failures."""
+def test_contact_landscape_batch_equals_the_per_point_kernel(law, d, monkeypatch):
+    """contact_landscape solves a large grid with the compiled batch (forced here on a small
+    one); the per-point kernel (the library's loop for small grids) gives the same impulses to
+    1e-10, regimes and failures."""
     from convimpact.impact.problem import build_problem
+    from convimpact.studies import landscape
     from convimpact.studies.landscape import _loop_grid, contact_landscape
+
+    monkeypatch.setattr(landscape, "BATCH_MIN_POINTS", 0)
 
     rng = np.random.default_rng(300 + d)
     for _ in range(3):
