@@ -65,6 +65,7 @@ import numpy as np
 from .conic.polish import VELOCITY_RESIDUAL_MAX
 from .diagnostics import assemble_result
 from .errors import ParameterError, SolverError, UnknownOptionError
+from .laws.dissipative import poisson_warnings
 from .problem import ImpactProblem
 from .resolve import register_solver
 from .results import ImpactResult
@@ -293,17 +294,7 @@ def dissipative_result(P: ImpactProblem, **options) -> ImpactResult:
         "plastic_normal_velocity_lift": vplus_plastic[:, 0].tolist(),
         **_report(sol, opts),
     }
-    warnings = []
-    if np.ptp(P.restitution) > 0 and predicted < 0:
-        warnings.append("different e per contact: Poisson scaling of coupled contacts gains "
-                        "energy here (1/2 |pi_p|_W^2 < 1/2 |E pi_p|_W^2)")
-    if np.ptp(P.restitution) > 0:
-        lam = np.linalg.eigvalsh(W)
-        if not lam[0] > 1e-10 * lam[-1]:
-            warnings.append(
-                "different e per contact on a singular Delassus matrix: the plastic impulse is "
-                "not unique, so the Poisson-scaled answer (theta_dot+) depends on which plastic "
-                "impulse the solver found; use one e for coupled contacts")
+    warnings = poisson_warnings(P, W, predicted)
     return assemble_result(P, pi, regimes, "dissipative", METHOD, tol=CERTIFIED_ACCURACY,
                            extras=extras, warnings=tuple(warnings))
 

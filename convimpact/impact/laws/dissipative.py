@@ -53,6 +53,19 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
         **solver_report(sol, opts),
     }
     acc = opts.accuracy(sol.polished)
+    warnings = poisson_warnings(P, W, predicted)
+    regimes = regimes_from_slip(P, plastic, vplus_plastic, acc)
+    return assemble_result(P, pi, regimes, LAW, method, tol=acc,
+                           extras=extras, warnings=tuple(warnings))
+
+
+register_kernel(LAW, contact_kernel)
+register_programs(LAW, program_result)
+
+
+def poisson_warnings(P, W: np.ndarray, predicted: float) -> list[str]:
+    """The statements of Poisson's scaling with different e per coupled contact: an energy gain
+    (``predicted`` energy loss < 0), and a plastic impulse that is not unique (singular W)."""
     warnings = []
     if np.ptp(P.restitution) > 0 and predicted < 0:
         warnings.append("different e per contact: Poisson scaling of coupled contacts gains "
@@ -64,10 +77,4 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
                 "different e per contact on a singular Delassus matrix: the plastic impulse is "
                 "not unique, so the Poisson-scaled answer (theta_dot+) depends on which plastic "
                 "impulse the solver found; use one e for coupled contacts")
-    regimes = regimes_from_slip(P, plastic, vplus_plastic, acc)
-    return assemble_result(P, pi, regimes, LAW, method, tol=acc,
-                           extras=extras, warnings=tuple(warnings))
-
-
-register_kernel(LAW, contact_kernel)
-register_programs(LAW, program_result)
+    return warnings
