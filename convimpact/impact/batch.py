@@ -41,6 +41,7 @@ and does not import numba. numba is an optional dependency (``pip install
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -126,6 +127,50 @@ def _kernels():
 def _frozen(a: np.ndarray) -> np.ndarray:
     a.flags.writeable = False
     return a
+
+
+# --------------------------------------------------------------------------------------------
+# threads: the compiled drivers release the GIL (nogil), so slices of a batch run in parallel
+
+#: batches of at least this many items are split over threads (below, one call is cheaper)
+PARALLEL_MIN = 8192
+_POOL = None
+
+
+def _thread_count(threads) -> int:
+    """``threads`` validated: None -> the cores this process may use; else a positive int."""
+    if threads is None:
+        try:
+            return max(1, len(os.sched_getaffinity(0)))
+        except AttributeError:  # pragma: no cover - not on Linux
+            return max(1, os.cpu_count() or 1)
+    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) \
+            or threads < 1:
+        raise ParameterError(f"threads must be a positive integer or None, got {threads!r}")
+    return int(threads)
+
+
+def _in_slices(run, n: int, threads: int) -> tuple[int, int]:
+    """Run ``run(lo, hi) -> (first bad item in the slice or -1, deferred count)`` over the
+    batch: in one call, or in ``threads`` contiguous slices on a thread pool. Every item is
+    computed alone (a shared M is factored once per slice), so the answers do not depend on
+    the split. Returns (first bad item or -1, deferred count) over the whole batch."""
+    global _POOL
+    if threads <= 1 or n < PARALLEL_MIN:
+        return run(0, n)
+    from concurrent.futures import ThreadPoolExecutor
+
+    if _POOL is None or _POOL._max_workers < threads:
+        _POOL = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="convimpact-batch")
+    bounds = [(c * n // threads, (c + 1) * n // threads) for c in range(threads)]
+    results = list(_POOL.map(lambda b: run(*b), bounds))
+    bad = [lo + fb for (lo, _), (fb, _) in zip(bounds, results) if fb >= 0]
+    return (min(bad) if bad else -1), sum(nd for _, nd in results)
+
+
+def _part(a: np.ndarray, n: int, lo: int, hi: int) -> np.ndarray:
+    """Items lo..hi of a batched argument (one shared by every item stays whole)."""
+    return a[lo:hi] if a.shape[0] == n and n > 1 else a
 
 
 class _BatchStatus:
@@ -434,7 +479,7 @@ def _input_error(code: int, i: int, n: int, M: np.ndarray, J: np.ndarray | None 
 
 
 def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, C=None,
-                    on_error: str = "flag") -> ImpactBatch:
+                    on_error: str = "flag", threads: int | None = None) -> ImpactBatch:
     """Resolve N single-contact impacts at once (the batch form of ``resolve_impact``).
 
     Parameters
@@ -457,6 +502,10 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         certified solution): ``"flag"`` (default) records it in ``status`` and fills its
         numbers with NaN; ``"raise"`` raises the first one's typed error, naming its index.
         Bad input raises in either case.
+    threads : int or None
+        Threads a batch of at least :data:`PARALLEL_MIN` items is split over (the compiled
+        loop releases the GIL); None: every core this process may use, 1: this thread only
+        (e.g. inside a process pool). The answers do not depend on it.
 
     Returns
     -------
@@ -489,6 +538,7 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     """
     _kernels()  # NotSupportedError without numba
     code = _check_options(law, on_error)
+    nthreads = _thread_count(threads)
     if C is not None:
         raise NotSupportedError(
             "resolve_impacts batches open-loop impacts only; for closed loops (C given) call "
@@ -535,8 +585,13 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         K = _kernels()
         outs = (dq_plus, impulse, v_minus, v_plus, W, regime, status, effm, mu_all, T0, T1,
                 flags)
-        first_bad, ndefer = K.impact_batch(code, Mb, Jb, qb, eb, mb, BATCH_TOL, _NO_ITEMS,
-                                           _NO_IMPULSES[d], *outs)
+
+        def run(lo, hi):
+            return K.impact_batch(code, *(_part(a, n, lo, hi) for a in (Mb, Jb, qb, eb, mb)),
+                                  BATCH_TOL, _NO_ITEMS, _NO_IMPULSES[d],
+                                  *(o[lo:hi] for o in outs))
+
+        first_bad, ndefer = _in_slices(run, n, nthreads)
         if first_bad >= 0:
             raise _input_error(int(status[first_bad]), int(first_bad), n, Mb, Jb, qb)
         e_all = np.broadcast_to(eb, (n,))
@@ -588,7 +643,7 @@ def _solve_deferred(law: str, code: int, status, regime, effm, W, v, e, mu, erro
 
 
 def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
-                     on_error: str = "flag") -> ContactBatch:
+                     on_error: str = "flag", threads: int | None = None) -> ContactBatch:
     """Impulses of N single contacts from their Delassus blocks and velocities.
 
     The batch form of :func:`convimpact.impact.fast.solve_contact`: item i equals
@@ -606,6 +661,8 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         ``"stronge"``: spatial items by its Python kernel (:data:`PYTHON_SPATIAL_LAWS`).
     on_error : {"flag", "raise"}
         As in :func:`resolve_impacts`.
+    threads : int or None
+        As in :func:`resolve_impacts`.
 
     Returns
     -------
@@ -622,6 +679,7 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     """
     _kernels()  # NotSupportedError without numba
     code = _check_options(law, on_error)
+    nthreads = _thread_count(threads)
     Wa = _real_array("W", W)
     va = _real_array("v", v)
     e_ = _real_array("e", e)
@@ -647,8 +705,13 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     errors: dict[int, ConvImpactError] = {}
     if n:
         K = _kernels()
-        first_bad, ndefer = K.contact_batch(code, Wb, vb, eb, mb, impulse, regime, status, effm,
-                                            vplus, eloss)
+        outs = (impulse, regime, status, effm, vplus, eloss)
+
+        def run(lo, hi):
+            return K.contact_batch(code, *(_part(a, n, lo, hi) for a in (Wb, vb, eb, mb)),
+                                   *(o[lo:hi] for o in outs))
+
+        first_bad, ndefer = _in_slices(run, n, nthreads)
         if first_bad >= 0:
             raise _input_error(K.BAD_W_FINITE, int(first_bad), n, Wb)
         W_all = np.broadcast_to(Wb, (n, d, d))

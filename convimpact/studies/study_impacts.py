@@ -154,8 +154,9 @@ class ImpactsKind(StudyKind):
             out[f] = np.zeros(n, bool)
         for name in sorted(set(law.tolist())):
             sel = np.nonzero(law == name)[0]
+            # one thread: the study runs its chunks in parallel processes already
             b = resolve_impacts(Ms[index[sel]], Js[index[sel]], dtheta[sel], e[sel], mu[sel],
-                                law=str(name))
+                                law=str(name), threads=1)
             out["regime"][sel] = b.regime
             out["status"][sel] = b.status
             out["energy_before"][sel] = b.energy_before

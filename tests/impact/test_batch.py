@@ -392,8 +392,8 @@ def test_bench_section_batch_runs(tmp_path):
                        lambda message: None)
     sec = report["sections"]["batch"]
     paths = {r["path"] for r in sec["records"]}
-    assert paths == {"resolve_impacts", "contact_impulses", "loop solve_contact",
-                     "loop resolve_impact"}
+    assert paths == {"resolve_impacts", "resolve_impacts 1 thread", "contact_impulses",
+                     "loop solve_contact", "loop resolve_impact"}
     assert all(r["impacts_per_second"] > 0 for r in sec["records"])
     for agg in sec["meta"]["aggregates"]:
         assert agg["max_deviation_vs_resolve_impact"] < 1e-10
@@ -458,3 +458,29 @@ def test_stronge_planar_compiled_kernel_is_the_python_kernel_bit_for_bit():
         np.testing.assert_array_equal(b.impulse[i], s.impulse)
         seen.add(s.regime)
     assert {"separating", "frictionless", "stick", "slide"} <= seen
+
+
+def test_threads_split_the_batch_without_changing_a_bit():
+    """A batch above PARALLEL_MIN split over threads equals the one-thread batch bit for bit,
+    and a bad item in the second slice is still the one the error names."""
+    rng = np.random.default_rng(77)
+    n, k = batch.PARALLEL_MIN + 1001, 4
+    A = rng.normal(size=(n, k, k))
+    M = A @ A.transpose(0, 2, 1) + 0.5 * np.eye(k)
+    J = rng.normal(size=(n, 3, k))
+    dq = rng.normal(size=(n, k))
+    e, mu = rng.uniform(size=n), rng.uniform(0, 1.5, size=n)
+    one = batch.resolve_impacts(M, J, dq, e, mu, law="coulomb", threads=1)
+    two = batch.resolve_impacts(M, J, dq, e, mu, law="coulomb", threads=2)
+    for name in ("dq_plus", "impulse", "v_plus", "regime", "status", "energy_loss"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+    c1 = batch.contact_impulses(one.delassus, one.v_minus, e, mu, "ccp", threads=1)
+    c2 = batch.contact_impulses(one.delassus, one.v_minus, e, mu, "ccp", threads=3)
+    np.testing.assert_array_equal(c1.impulse, c2.impulse)
+    bad = M.copy()
+    bad[n - 5, 0, 0] = np.nan
+    with pytest.raises(ci.NonFiniteError, match=f"impact {n - 5}"):
+        batch.resolve_impacts(bad, J, dq, e, mu, threads=2)
+    for wrong in (0, True, 1.5, "2"):
+        with pytest.raises(ci.ParameterError):
+            batch.resolve_impacts(M[:3], J[:3], dq[:3], e[:3], mu[:3], threads=wrong)
