@@ -111,32 +111,27 @@ def study_section(config: BenchConfig, progress: Progress) -> SectionResult:
         serial_rate = ref.points_per_second
         records.append(_record(ref, "serial", default, startup, None, True))
         progress(f"study serial: {serial_rate:.3g} impacts/s")
-        with ProcessExecutor(cores) as ex:
-            t = time.perf_counter()
+        def chunk_sweep(ex, name: str, started: float) -> None:
+            """Warm the executor's workers, then run the study at every chunk size."""
             _run(warm, ex, root, "warm")
-            startup = time.perf_counter() - t
+            startup = time.perf_counter() - started
             for c in chunks:
                 s = spec if c == default else spec_from_dict(study_dict(n1, n2, nl, c))
-                run = _run(s, ex, root, f"p{c}")
-                records.append(_record(run, "processes", c, startup, serial_rate,
+                run = _run(s, ex, root, f"{name}{c}")
+                records.append(_record(run, name, c, startup, serial_rate,
                                        _same(run.dataset, ref.dataset)))
-                progress(f"study processes chunk {c}: {run.points_per_second:.3g} impacts/s,"
-                         f" overhead {100 * run.overhead_fraction:.1f} %")
+                progress(f"study {name} chunk {c}: {run.points_per_second:.3g} impacts/s, "
+                         f"overhead {100 * run.overhead_fraction:.1f} %")
+
+        t = time.perf_counter()
+        with ProcessExecutor(cores) as ex:
+            chunk_sweep(ex, "processes", t)
         t = time.perf_counter()
         with LocalCluster(n_workers=cores, threads_per_worker=1, processes=True,
                           dashboard_address=None) as cluster, Client(cluster) as client:
             from ..studies.executors import DaskExecutor
 
-            ex = DaskExecutor(client=client)
-            _run(warm, ex, root, "warm")
-            startup = time.perf_counter() - t
-            for c in chunks:
-                s = spec if c == default else spec_from_dict(study_dict(n1, n2, nl, c))
-                run = _run(s, ex, root, f"d{c}")
-                records.append(_record(run, "dask", c, startup, serial_rate,
-                                       _same(run.dataset, ref.dataset)))
-                progress(f"study dask chunk {c}: {run.points_per_second:.3g} impacts/s, "
-                         f"overhead {100 * run.overhead_fraction:.1f} %")
+            chunk_sweep(DaskExecutor(client=client), "dask", t)
     finally:
         shutil.rmtree(root, ignore_errors=True)
     figures = [_chart(records, config.out, spec.n_points, cores)]

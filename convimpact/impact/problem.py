@@ -284,14 +284,6 @@ class ImpactProblem:
         w, v = self._lists
         return [row[i * d:(i + 1) * d] for row in w[i * d:(i + 1) * d]], v[i * d:(i + 1) * d]
 
-    def in_safe_range(self, i: int = 0) -> bool:
-        """Whether contact i's tr(W_ii) and max |v_minus[i]| lie within :data:`SAFE_SCALE`,
-        where fixed tolerances and products of the data cannot under- or overflow."""
-        w, v = self.contact_lists(i)
-        lo, hi = SAFE_SCALE
-        return (lo <= sum(w[j][j] for j in range(len(v))) <= hi
-                and lo <= max(abs(x) for x in v) <= hi)
-
     def velocity_jump(self, impulse: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint-velocity jump and loop impulses for contact-frame impulses ``impulse``.
 

@@ -132,6 +132,33 @@ def _cho_solve(L, rhs, out):
 
 
 @_jit
+def _direction(L, P, r, tmp, rhs, dx, dz):
+    """A Newton direction: L L^T dx = r + tmp, then dz = P dx - r."""
+    N = r.shape[0]
+    for i in range(N):
+        rhs[i] = r[i] + tmp[i]
+    _cho_solve(L, rhs, dx)
+    for i in range(N):
+        s = -r[i]
+        for j in range(N):
+            s += P[i, j] * dx[j]
+        dz[i] = s
+
+
+@_jit
+def _max_step(x, dx, z, dz, starts, sizes, amax):
+    """The largest step (at most ``amax``) keeping x + a dx and z + a dz in every cone."""
+    for c in range(starts.shape[0]):
+        a1 = _step_to_boundary(x, dx, starts[c], sizes[c])
+        a2 = _step_to_boundary(z, dz, starts[c], sizes[c])
+        if a1 < amax:
+            amax = a1
+        if a2 < amax:
+            amax = a2
+    return amax
+
+
+@_jit
 def _nt_scaling(x, z, o, m, wbar, beta):
     """Nesterov-Todd scaling of block [o, o + m): v (into wbar[o:o+m]) and beta.
 
@@ -313,22 +340,8 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
             dc[i] = -lam[i]
         for c in range(nc):
             _apply_t(wbar, beta, starts[c], sizes[c], dc, tmp, True)
-        for i in range(N):
-            rhs[i] = r[i] + tmp[i]
-        _cho_solve(L, rhs, dxa)
-        for i in range(N):
-            s = -r[i]
-            for j in range(N):
-                s += P[i, j] * dxa[j]
-            dza[i] = s
-        amax = 1.0
-        for c in range(nc):
-            a1 = _step_to_boundary(x, dxa, starts[c], sizes[c])
-            a2 = _step_to_boundary(z, dza, starts[c], sizes[c])
-            if a1 < amax:
-                amax = a1
-            if a2 < amax:
-                amax = a2
+        _direction(L, P, r, tmp, rhs, dxa, dza)
+        amax = _max_step(x, dxa, z, dza, starts, sizes, 1.0)
         gap_aff = 0.0
         for i in range(N):
             gap_aff += (x[i] + amax * dxa[i]) * (z[i] + amax * dza[i])
@@ -349,22 +362,8 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
                 rc[j] = -2.0 * lam[o] * lam[j] - (tmp[o] * u[j] + u[o] * tmp[j])
             _jordan_solve(lam, rc, o, m, dc)
             _apply_t(wbar, beta, o, m, dc, tmp, True)
-        for i in range(N):
-            rhs[i] = r[i] + tmp[i]
-        _cho_solve(L, rhs, dx)
-        for i in range(N):
-            s = -r[i]
-            for j in range(N):
-                s += P[i, j] * dx[j]
-            dz[i] = s
-        amax = np.inf
-        for c in range(nc):
-            a1 = _step_to_boundary(x, dx, starts[c], sizes[c])
-            a2 = _step_to_boundary(z, dz, starts[c], sizes[c])
-            if a1 < amax:
-                amax = a1
-            if a2 < amax:
-                amax = a2
+        _direction(L, P, r, tmp, rhs, dx, dz)
+        amax = _max_step(x, dx, z, dz, starts, sizes, np.inf)
         alpha = min(1.0, 0.99 * amax)
         for i in range(N):
             x[i] += alpha * dx[i]
