@@ -1,243 +1,166 @@
-"""The public call's fast lane: one open-loop contact, validated and reduced in compiled code.
+"""The public call's fast lane: one open-loop contact, validated, reduced and solved in compiled
+code.
 
 ``resolve_impact(M, Jc, dq, e, mu, law=...)`` with one contact (``Jc`` a 2-D array), no loop
 constraints, ``method="auto"`` or ``"fast"`` and no options spent most of its time around the
 law rather than in it: checking M, factoring it, forming the contact space, mapping the
-impulse back, building the diagnostics. This lane does that work in two small compiled calls
-(numba) around the law's exact kernel -- the very kernel of ``method="fast"``
-(:func:`convimpact.impact.fast.dispatch` on plain floats):
+impulse back, building the diagnostics. This lane does all of it in one compiled call (numba,
+:func:`convimpact.impact.batch_kernels.single.lane_solve`):
 
-1. :func:`reduce_one` checks M (exactly symmetric, finite) and factors it, ``M = L L^T``; then
-   ``X = L^-1 Jc^T``, ``W = X^T X`` (eq. 29's Delassus block) and ``v- = Jc dq``, all finite.
-2. The law's kernel gives the contact impulse ``pi`` from ``(W, v-, e, mu)``.
-3. :func:`finish_one` maps it back: ``dq+ = dq + L^-T X pi`` (eq. 29), ``v+ = v- + W pi`` and
-   ``T+ - T- = pi.v- + 1/2 pi.W.pi`` (eq. 58).
+1. M is checked (exactly symmetric, finite) and factored, ``M = L L^T``; then
+   ``X = L^-1 Jc^T``, ``W = X^T X`` (eq. 29's Delassus block) and ``v- = Jc dq``, all finite;
+2. the law's exact kernel gives the contact impulse ``pi`` from ``(W, v-, e, mu)`` -- the
+   compiled port of the law's ``contact_kernel`` that :func:`~convimpact.impact.batch.
+   resolve_impacts` runs, branch for branch the kernel of ``method="fast"``;
+3. ``dq+ = dq + L^-T X pi`` (eq. 29), ``v+ = v- + W pi`` and ``T+ - T- = pi.v- + 1/2 pi.W.pi``
+   (eq. 58).
 
 The lane takes only the plain case of :func:`~convimpact.impact.problem.build_problem`: real
 float data of the right shapes, M exactly symmetric and safely positive definite (every
 Cholesky pivot above ``PIVOT_RTOL`` times its diagonal entry), a normal that moves mass and
 approaches, e in [0, 1] and mu >= 0 given as numbers, every figure finite and within
 1e-100 .. 1e100. Anything else -- bad input, a separating or degenerate contact, an M the
-full path symmetrizes, a kernel that raises (a singular W that ``method="auto"`` hands to the
+full path symmetrizes, a kernel that refuses (a singular W that ``method="auto"`` hands to the
 conic paths, a jam) -- returns None, and :func:`~convimpact.impact.resolve.resolve_impact`
 takes its full path, which raises the same typed errors and writes the same notes as before.
+The rare branches the compiled kernels do not port (polynomial roots by companion matrix)
+are solved by the law's Python kernel on the lane's W and v-.
 
 The answer is ``method="fast"``'s to round-off (the factorization is not LAPACK's, so the
-last bits of W may differ). The diagnostics -- residuals, flags, condition numbers -- are
-measured on first access, as on the full path, from a problem built then on private copies
-of the data.
+last bits of W may differ). Everything but the impulse, the velocities, the regime, the
+energy loss and the effective mass is measured on first access: the diagnostics (residuals,
+flags, condition numbers) from a problem built then on private copies of the data, as on the
+full path; the law's ``notes`` and ``extras`` (e.g. the CCP normal-velocity lift, Stronge's
+phases) from the law's Python kernel run then on the lane's W and v-.
 
-The compiled functions are built on the first call (about 1-3 s, then cached on disk by
-numba: later processes load them in milliseconds); :func:`compile_lane` builds them ahead
-of time and returns the seconds it took. Without numba the lane is off and every call takes
-the full path.
+Compilation, in two tiers so that a short session never waits for it:
+
+* **tier 1** (first call): the reduction and the map back compiled (:func:`reduce_one`,
+  :func:`finish_one`, about 2-3 s once per machine, then milliseconds from numba's disk
+  cache) around the law's Python kernel;
+* **tier 2**: the whole call compiled (:func:`lane_solve`, every law's kernel in it: about
+  18 s once per machine, 0.3 s from the disk cache), taken at once when numba's cache on disk
+  holds it, else after ``HOT_CALLS`` lane calls in the process -- a loop, not a handful of
+  impacts -- or when :func:`compile_lane` is called.
+
+The two tiers run the same branches with the same floating-point expressions: their answers
+agree to round-off. Without numba the lane is off and every call takes the full path.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from functools import cached_property
 from types import MappingProxyType
 
 import numpy as np
 
 from .diagnostics import assemble_result
 from .errors import ConvImpactError, as_real_array
-from .problem import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL, _new, build_problem
+from .problem import _new, build_problem
 from .results import ImpactDiagnostics, ImpactResult
 
-#: a Cholesky pivot at or below this fraction of its diagonal entry sends M to the full
-#: path (whose LAPACK factorization decides positive definiteness at the edge)
-PIVOT_RTOL = 1e-12
-#: figures the lane computes in plain arithmetic (outside, the full path normalizes them)
-PLAIN = (1e-100, 1e100)
 #: relative accuracy recorded for the answers (that of ``method="fast"``)
 LANE_TOL = 1e-10
+#: lane calls in a process after which the whole call is compiled (tier 2), when numba's disk
+#: cache does not hold it already
+HOT_CALLS = 200
+#: the compiled kernels' regime codes -> names (batch_kernels.common)
+_REGIMES = ("separating", "frictionless", "stick", "slide")
+#: the compiled kernels' law codes (batch.LAW_CODES)
+_LAW_CODES = {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4}
 
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
 _NO_EXTRAS = MappingProxyType({})
 _F64 = np.dtype(np.float64)
-#: the compiled functions (None: not built yet; False: numba missing, the lane is off)
+#: tier 1: (reduce_one, finish_one) (None: not built yet; False: numba missing, lane off)
 _COMPILED = None
+#: tier 2: lane_solve (None: not built yet)
+_SOLVE = None
+_CALLS = 0
+#: the compiled module (batch_kernels.single), imported by _build
+_S = None
 COMPILE_SECONDS: dict[str, float] = {}
 
 
 def _build():
-    """Compile (or load from numba's disk cache) :func:`reduce_one` and :func:`finish_one`."""
-    global _COMPILED
+    """Tier 1: compile (or load from numba's disk cache) reduce_one and finish_one; take tier 2
+    at once when numba's disk cache already holds it."""
+    global _COMPILED, _S
     t = time.perf_counter()
     try:
-        import numba
-    except ImportError:
+        from .batch_kernels import single
+    except ImportError:  # numba missing
         _COMPILED = False
         return _COMPILED
-    jit = numba.njit(cache=True, nogil=True)
-    _COMPILED = (jit(reduce_one), jit(finish_one))
+    _S = single
     # compile for the one signature the lane uses (C-contiguous float64 arrays)
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([0.0, -1.0])
-    ws = np.empty(layout(2, 2)[-1])
-    _COMPILED[0](M, J, dq, ws)
-    _COMPILED[1](ws, 2, 2, np.zeros(2), dq)
+    ws = np.empty(single.layout(2, 2)[-1])
+    single.reduce_one(M, J, dq, ws)
+    single.finish_one(ws, 2, 2, np.zeros(2), dq)
+    _COMPILED = (single.reduce_one, single.finish_one)
     COMPILE_SECONDS["lane"] = time.perf_counter() - t
+    if _cached(single.lane_solve):
+        _build_solve()
     return _COMPILED
 
 
+def _cached(dispatcher) -> bool:
+    """Whether numba's disk cache holds machine code of ``dispatcher`` for this source."""
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:  # a numba without this layout: decide by the call count alone
+        return False
+
+
+def _build_solve():
+    """Tier 2: compile (or load from numba's disk cache) lane_solve."""
+    global _SOLVE
+    t = time.perf_counter()
+    M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
+    ws = np.empty(_S.layout(2, 2)[-1])
+    _S.lane_solve(0, M, J, dq, 0.5, 0.3, ws)
+    _SOLVE = _S.lane_solve
+    COMPILE_SECONDS["lane_solve"] = time.perf_counter() - t
+    return _SOLVE
+
+
 def compile_lane() -> float:
-    """Build the lane's compiled functions now; the seconds it took (0.0 without numba)."""
+    """Build both tiers of the lane now; the seconds it took (0.0 without numba)."""
     if _COMPILED is None:
         _build()
-    return COMPILE_SECONDS.get("lane", 0.0)
-
-
-def reduce_one(M, J, dq, ws):  # compiled by _build
-    """Check and reduce one contact into ``ws`` (layout: :func:`layout`). Returns 0 when the
-    data are the plain case, else a code > 0: the full path must take them."""
-    k = M.shape[0]
-    d = J.shape[0]
-    oX = k * k
-    oW = oX + k * d
-    ov = oW + d * d
-    oc = ov + d + k + d + 3
-    # private copies of the data (the diagnostics measure them on first access)
-    for i in range(k):
-        for j in range(k):
-            ws[oc + i * k + j] = M[i, j]
-        ws[oc + k * k + d * k + i] = dq[i]
-    for c in range(d):
-        for i in range(k):
-            ws[oc + k * k + c * k + i] = J[c, i]
-    # M exactly symmetric and finite (the full path symmetrizes or rejects the others)
-    for i in range(k):
-        if not math.isfinite(M[i, i]):
-            return 1
-        for j in range(i):
-            if M[i, j] != M[j, i] or not math.isfinite(M[i, j]):
-                return 1
-    # Cholesky M = L L^T, every pivot safely positive
-    for i in range(k * k):
-        ws[i] = 0.0
-    for j in range(k):
-        s = M[j, j]
-        for p in range(j):
-            s -= ws[j * k + p] * ws[j * k + p]
-        if not s > PIVOT_RTOL * M[j, j]:
-            return 2
-        r = math.sqrt(s)
-        ws[j * k + j] = r
-        for i in range(j + 1, k):
-            s = M[i, j]
-            for p in range(j):
-                s -= ws[i * k + p] * ws[j * k + p]
-            ws[i * k + j] = s / r
-    # X = L^-1 J^T (forward substitution, column by column), W = X^T X, v = J dq
-    for c in range(d):
-        for i in range(k):
-            s = J[c, i]
-            for p in range(i):
-                s -= ws[i * k + p] * ws[oX + p * d + c]
-            ws[oX + i * d + c] = s / ws[i * k + i]
-    total = 0.0
-    for a in range(d):
-        for b in range(a + 1):
-            s = 0.0
-            for i in range(k):
-                s += ws[oX + i * d + a] * ws[oX + i * d + b]
-            ws[oW + a * d + b] = s
-            ws[oW + b * d + a] = s
-            total += s
-        s = 0.0
-        for i in range(k):
-            if not math.isfinite(J[a, i]):
-                return 3
-            s += J[a, i] * dq[i]
-        ws[ov + a] = s
-        total += s
-    if not math.isfinite(total):
-        return 3
-    vs = 0.0
-    tr = 0.0
-    for a in range(d):
-        vs = max(vs, abs(ws[ov + a]))
-        tr += ws[oW + a * d + a]
-    if not (ws[oW] >= TINY_NORMAL and ws[ov] < 0.0):
-        return 4  # a degenerate normal, or a contact that does not approach
-    if not (SAFE_SCALE[0] <= tr <= SAFE_SCALE[1] and SAFE_SCALE[0] <= vs <= SAFE_SCALE[1]):
-        return 5  # far from unit scale: the full path rescales
-    wt = ws[oW + d + 1]
-    if d == 3 and ws[oW + 8] > wt:
-        wt = ws[oW + 8]
-    if wt <= IMMOBILE_RTOL * ws[oW]:
-        return -1  # tangents that move no mass: plain, but frictionless (as build_problem)
-    return 0
-
-
-def finish_one(ws, k, d, pi, dq):  # compiled by _build
-    """Map the impulse back into ``ws``: dq+ (k), v+ (d), T+ - T-, max |pi|, max |v-|.
-    Returns T+ - T-, or NaN when a figure is not finite or |pi| is outside 1e-100 .. 1e100
-    (the full path normalizes or raises)."""
-    oX = k * k
-    oW = oX + k * d
-    ov = oW + d * d
-    oo = ov + d
-    # y = X pi, then dq+ = dq + L^-T y (back substitution)
-    for i in range(k):
-        s = 0.0
-        for c in range(d):
-            s += ws[oX + i * d + c] * pi[c]
-        ws[oo + i] = s
-    for i in range(k - 1, -1, -1):
-        s = ws[oo + i]
-        for p in range(i + 1, k):
-            s -= ws[p * k + i] * ws[oo + p]
-        ws[oo + i] = s / ws[i * k + i]
-    for i in range(k):
-        ws[oo + i] += dq[i]
-    dT = 0.0
-    ps = 0.0
-    vs = 0.0
-    for a in range(d):
-        s = ws[ov + a]
-        q = 0.0
-        for b in range(d):
-            q += ws[oW + a * d + b] * pi[b]
-        ws[oo + k + a] = s + q
-        dT += pi[a] * s + 0.5 * pi[a] * q
-        ps = max(ps, abs(pi[a]))
-        vs = max(vs, abs(s))
-    ws[oo + k + d] = dT
-    ws[oo + k + d + 1] = ps
-    ws[oo + k + d + 2] = vs
-    total = dT
-    for i in range(k + d):
-        total += ws[oo + i]
-    if not math.isfinite(total) or not (ps == 0.0 or PLAIN[0] <= ps <= PLAIN[1]):
-        return math.nan
-    return dT
+    if _COMPILED and _SOLVE is None:
+        _build_solve()
+    return COMPILE_SECONDS.get("lane", 0.0) + COMPILE_SECONDS.get("lane_solve", 0.0)
 
 
 def layout(k: int, d: int) -> tuple[int, ...]:
-    """Offsets into the lane's workspace: L (k*k, row-major lower), X (k*d), W (d*d), v- (d),
-    dq+ (k), v+ (d), [T+ - T-, max |pi|, max |v-|], then copies of M (k*k), Jc (d*k), dq (k);
-    the last entry is the size."""
+    """Offsets into the lane's workspace (:func:`convimpact.impact.batch_kernels.single.layout`):
+    L, X, W, v-, dq+, v+, [T+ - T-, max |pi|, max |v-|], copies of M, Jc, dq, pi and [status,
+    regime code, effective mass, mu used]; the last entry is the size."""
     oX = k * k
     oW = oX + k * d
     ov = oW + d * d
     oo = ov + d
     oc = oo + k + d + 3
-    return oX, oW, ov, oo, oc, oc + k * k + d * k + k
+    op = oc + k * k + d * k + k
+    return oX, oW, ov, oo, oc, op, op + 7
 
 
 class _LaneAnswer:
-    """The diagnostics' measurement of a lane answer: on first access only, the problem is
+    """What a lane answer measures on first access only: the law's kernel solution (notes,
+    extras) when the compiled kernel gave the impulse, and the diagnostics -- the problem
     built from the private copies of the data in the workspace and the answer measured by
     :func:`~convimpact.impact.diagnostics.assemble_result`, as the full path measures it."""
 
-    __slots__ = ("ws", "k", "d", "e", "mu", "pi", "regime", "law", "extras")
+    __slots__ = ("ws", "k", "d", "e", "mu", "mu_used", "pi", "regime", "law", "kernel", "sol")
 
-    def __init__(self, ws, k, d, e, mu, pi, regime, law, extras):
-        self.ws, self.k, self.d, self.e, self.mu = ws, k, d, e, mu
-        self.pi, self.regime, self.law, self.extras = pi, regime, law, extras
+    def __init__(self, ws, k, d, e, mu, mu_used, pi, regime, law, kernel, sol):
+        self.ws, self.k, self.d, self.e, self.mu, self.mu_used = ws, k, d, e, mu, mu_used
+        self.pi, self.regime, self.law, self.kernel, self.sol = pi, regime, law, kernel, sol
 
     def mass(self) -> np.ndarray:
         k, oc = self.k, layout(self.k, self.d)[4]
@@ -247,6 +170,16 @@ class _LaneAnswer:
         oW, d = layout(self.k, self.d)[1], self.d
         return self.ws[oW:oW + d * d].reshape(d, d)
 
+    def solution(self):
+        """The law's Python kernel on the lane's (W, v-): its notes and extras."""
+        if self.sol is None:
+            d = self.d
+            oW = layout(self.k, d)[1]
+            wv = self.ws[oW:oW + d * d + d].tolist()
+            w = [wv[0:3], wv[3:6], wv[6:9]] if d == 3 else [wv[0:2], wv[2:4]]
+            self.sol = self.kernel(w, wv[d * d:], d, self.e, self.mu_used)
+        return self.sol
+
     def __call__(self) -> dict:
         k, d = self.k, self.d
         oc = layout(k, d)[4]
@@ -254,8 +187,23 @@ class _LaneAnswer:
         dq = self.ws[oc + k * k + d * k:oc + k * k + d * k + k]
         P = build_problem(self.mass(), J, dq, self.e, self.mu)
         full = assemble_result(P, self.pi.reshape(1, d), [self.regime], self.law, "fast",
-                               tol=LANE_TOL, extras=self.extras)
+                               tol=LANE_TOL, extras=self.solution().extras)
         return full.diagnostics._values
+
+
+class LaneDiagnostics(ImpactDiagnostics):
+    """:class:`~convimpact.impact.results.ImpactDiagnostics` of a compiled lane answer: the
+    law's ``notes`` and ``extras`` too are measured on first access (by the law's Python
+    kernel on the same W and v-; see the module's docstring)."""
+
+    @cached_property
+    def notes(self) -> tuple[str, ...]:
+        return tuple(self._source.solution().warnings)
+
+    @cached_property
+    def extras(self):
+        extras = self._source.solution().extras
+        return extras if extras else _NO_EXTRAS
 
 
 def _number(x) -> float | None:
@@ -274,6 +222,7 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
     ``kernel`` is the law's single-contact kernel (``fast._KERNELS[law]``); ``Jc`` is a
     2-D numpy array (checked by the caller).
     """
+    global _CALLS
     lane = _COMPILED
     if not lane:
         if lane is False:
@@ -300,22 +249,49 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
     oW = k * k + k * d
     ov = oW + d * d
     oo = ov + d
-    ws = np.empty(oo + k + d + 3 + k * k + d * k + k)  # layout(k, d)
-    code = lane[0](Mf, Jf, qf, ws)
-    if code > 0:
-        return None
-    wv = ws[oW:oo].tolist()  # W (row-major), then v-
-    w = [wv[0:3], wv[3:6], wv[6:9]] if d == 3 else [wv[0:2], wv[2:4]]
+    op = oo + k + d + 3 + k * k + d * k + k
+    ws = np.empty(op + 7)  # layout(k, d)
+    solve = _SOLVE
+    if solve is None:
+        _CALLS += 1
+        if _CALLS >= HOT_CALLS:
+            solve = _build_solve()
+    sol = None
+    if solve is not None:
+        code = solve(_LAW_CODES[law], Mf, Jf, qf, e_, mu_, ws)
+        if code == 0:
+            tail = ws[op + 3:op + 7].tolist()  # status, regime, effective mass, mu used
+            regime = _REGIMES[int(tail[1])]
+            effm = tail[2]
+            answer = _LaneAnswer(ws, k, d, e_, mu_, tail[3], ws[op:op + d], regime, law,
+                                 kernel, None)
+            diag = _new(LaneDiagnostics, dict(
+                effective_mass=None if effm != effm else effm, _source=answer,
+                _delassus=answer.delassus, _mass=answer.mass, _loop=None))
+            return _new(ImpactResult, dict(
+                dq_plus=ws[oo:oo + k], impulse=answer.pi, loop_impulse=_EMPTY, regime=regime,
+                energy_loss=-ws[oo + k + d], v_minus=ws[ov:oo], v_plus=ws[oo + k:oo + k + d],
+                law=law, method="fast", diagnostics=diag))
+        if code != _S.DEFERRED:
+            return None
+        mu_used = ws[op + 6]
+    else:
+        code = lane[0](Mf, Jf, qf, ws)
+        if code > 0:
+            return None
+        mu_used = 0.0 if code else mu_
+    # tier 1, or a rare branch of tier 2: the law's Python kernel on the lane's W and v-
+    answer = _LaneAnswer(ws, k, d, e_, mu_, mu_used, None, None, law, kernel, None)
     try:
-        sol = kernel(w, wv[d * d:], d, e_, 0.0 if code else mu_)
+        sol = answer.solution()
     except ConvImpactError:
         return None  # the full path raises it, or (method="auto") tries the conic paths
-    pi = sol.impulse
+    pi = answer.pi = sol.impulse
+    answer.regime = sol.regime
     dT = lane[1](ws, k, d, pi, qf)
     if dT != dT:
         return None  # beyond plain arithmetic: the full path normalizes or raises
     extras = sol.extras
-    answer = _LaneAnswer(ws, k, d, e_, mu_, pi, sol.regime, law, extras)
     diag = _new(ImpactDiagnostics, dict(
         effective_mass=sol.effective_mass, notes=sol.warnings,
         extras=extras if extras else _NO_EXTRAS, _source=answer, _delassus=answer.delassus,

@@ -106,3 +106,61 @@ def test_a_kernel_refusal_under_auto_falls_back_to_the_conic_path():
 def test_compile_lane_reports_seconds():
     assert lane.compile_lane() >= 0.0
     assert lane._COMPILED  # numba is a core dependency
+
+
+ALL_LAWS = LAWS + ("stronge",)
+
+
+def _tier1(monkeypatch, *args, **kwargs):
+    """resolve_impact through tier 1 (compiled reduction, the law's Python kernel)."""
+    with monkeypatch.context() as m:
+        m.setattr(lane, "_SOLVE", None)
+        m.setattr(lane, "_CALLS", -10 ** 9)
+        return ci.resolve_impact(*args, **kwargs)
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_the_compiled_law_kernels_agree_with_the_python_kernels(monkeypatch, d):
+    """Tier 2 (the whole call compiled) against tier 1 (the law's Python kernel, a separate
+    implementation): the same impulse to round-off, regime, effective mass, and the same notes
+    and extras (which tier 2 measures on first access)."""
+    lane.compile_lane()
+    assert lane._SOLVE is not None
+    rng = np.random.default_rng(40 + d)
+    for law in ALL_LAWS:
+        for _ in range(8 if (law == "stronge" and d == 3) else 60):
+            M, J, dq = random_impact(rng, d, int(rng.integers(d, 7)))
+            e, mu = float(rng.uniform()), float(rng.uniform(0, 1.5))
+            try:
+                fast = ci.resolve_impact(M, J, dq, e=e, mu=mu, law=law)
+            except ci.ConvImpactError as exc:
+                with pytest.raises(type(exc)):
+                    _tier1(monkeypatch, M, J, dq, e=e, mu=mu, law=law)
+                continue
+            slow = _tier1(monkeypatch, M, J, dq, e=e, mu=mu, law=law)
+            scale = np.abs(slow.impulse).max()
+            assert np.abs(fast.impulse - slow.impulse).max() <= 1e-13 * scale
+            assert fast.regime == slow.regime
+            a, b = fast.diagnostics, slow.diagnostics
+            assert (a.effective_mass is None) == (b.effective_mass is None)
+            if b.effective_mass is not None:
+                assert a.effective_mass == pytest.approx(b.effective_mass, rel=1e-12)
+            assert a.notes == b.notes and a.warnings == b.warnings
+            assert set(a.extras) == set(b.extras)
+            assert a.restitution_residual == pytest.approx(b.restitution_residual, abs=1e-12)
+
+
+def test_tier_two_is_taken_after_hot_calls(monkeypatch):
+    """Without numba's disk cache the whole call is compiled only once the lane is hot."""
+    lane.compile_lane()
+    solve = lane._SOLVE
+    monkeypatch.setattr(lane, "_SOLVE", None)
+    monkeypatch.setattr(lane, "_CALLS", 0)
+    monkeypatch.setattr(lane, "HOT_CALLS", 3)
+    J = np.array([[0.0, 1.0], [1.0, 0.0]])
+    for expected in (None, None, solve):
+        r = ci.resolve_impact(2.0 * np.eye(2), J, [1.0, -1.0], e=0.5, mu=0.3)
+        assert lane._SOLVE is expected
+        # the README's particle, by hand: W = I/2, pi_n = (1 + e) 1 / W_nn = 3, slide with
+        # pi_t = -mu pi_n = -0.9, so v+ = (-1 + 3/2, 1 - 0.9/2) = (0.5, 0.55)
+        np.testing.assert_allclose(r.v_plus, [0.5, 0.55], rtol=1e-14)
