@@ -4,7 +4,13 @@ Maps over configurations of the paper's mechanisms mark, per (law, method) or pe
 every *failure mode* met in a cell (any over the velocities, e and mu swept in that cell),
 and count the modes over all the individual problems:
 
-Impact laws (one :func:`convimpact.solve_problem` per problem; :data:`IMPACT_MODES`):
+Impact laws (:data:`IMPACT_MODES`): one :func:`convimpact.solve_problem` per problem and path,
+except on the open-loop pendulum maps, whose ``"fast"`` paths judge all the map's problems in
+one compiled batch per path (:func:`convimpact.impact.batch.resolve_impacts`; a rejected item's
+status is named by the typed error ``resolve_impact(..., method="fast")`` raises for it). The
+answers, and so the maps, are the same: the problems whose W is within
+:data:`~convimpact.studies.atlas_modes.FRAGILE_RTOL` of singular (their answer hinges on W's
+last bit, which the batch forms in another order), loops, and runs without numba go per problem.
 
 * ``energy_gain``, ``slip_reversal``, ``friction_pushes_slip`` -- the diagnostics' flags;
 * ``non_positive_effective_mass`` --

@@ -1,6 +1,12 @@
 """Impact maps of the failure atlas: the impact laws over the configurations of the double
 pendulum (:func:`pendulum_angle_map`, :func:`pendulum_friction_map`) and of the slider-crank
-(:func:`slider_crank_map`, its states by :func:`slider_crank_state`)."""
+(:func:`slider_crank_map`, its states by :func:`slider_crank_state`).
+
+Each map first collects its samples (cell, M, Jc, dq, e, mu, C), then judges them all under
+every path (:func:`~convimpact.studies.atlas_modes._classify_samples`: the ``"fast"`` paths of
+the open-loop pendulum maps in one compiled batch per path, the others per sample), then
+accumulates the judgments cell by cell in sample order.
+"""
 
 from __future__ import annotations
 
@@ -10,9 +16,8 @@ from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
-from ..impact.problem import build_problem
-from .atlas_modes import (DEFAULT_PATHS, IMPACT_MODES, PENDULUM_RATES, AtlasMap, _classify,
-                          _label, _MapBuilder)
+from .atlas_modes import (DEFAULT_PATHS, IMPACT_MODES, PENDULUM_RATES, AtlasMap, _label,
+                          _classify_samples, _MapBuilder, _Sample)
 
 
 def _pendulum_mechanism(mass: float = 1.0, length: float = 1.0):
@@ -22,6 +27,23 @@ def _pendulum_mechanism(mass: float = 1.0, length: float = 1.0):
     from convimpact.problems._double_pendulum import build
 
     return build(True, mass, length, -2.0 * length, 0.5, 0.3).mechanism()
+
+
+def _judge_into(b: _MapBuilder, samples: list[_Sample], paths,
+                marks: list[tuple[int, str]], progress: Callable[[str], None] | None) -> None:
+    """Judge ``samples`` under ``paths`` and add them to ``b`` in order; ``marks`` are
+    (samples judged, message) pairs passed to ``progress`` once that many are judged."""
+    pending = list(marks) if progress else []
+
+    def after(i: int) -> None:
+        while pending and pending[0][0] <= i + 1:
+            progress(pending.pop(0)[1])
+
+    judged = _classify_samples(samples, paths, after=after if pending else None)
+    for _, msg in pending:  # marks with no sample after them
+        progress(msg)
+    for s, j in zip(samples, judged):
+        b.add(s.iy, s.ix, j)
 
 
 def pendulum_angle_map(theta1: Sequence[float] | None = None,
@@ -43,6 +65,8 @@ def pendulum_angle_map(theta1: Sequence[float] | None = None,
     b = _MapBuilder(labels, IMPACT_MODES, (th2.size, th1.size))
     cond = np.full((th2.size, th1.size), np.nan)
     t0 = time.perf_counter()
+    samples: list[_Sample] = []
+    marks: list[tuple[int, str]] = []
     for iy, b2 in enumerate(th2):
         for ix, a1 in enumerate(th1):
             th = np.array([a1, b2])
@@ -53,11 +77,9 @@ def pendulum_angle_map(theta1: Sequence[float] | None = None,
             for rate in rates:
                 for ee in e:
                     for mm in mu:
-                        b.add(iy, ix, _classify(
-                            lambda: build_problem(M, J, np.asarray(rate, float), ee, mm),
-                            paths))
-        if progress:
-            progress(f"atlas pendulum theta1 x theta2: row {iy + 1}/{th2.size}")
+                        samples.append(_Sample(iy, ix, M, J, np.asarray(rate, float), ee, mm))
+        marks.append((len(samples), f"atlas pendulum theta1 x theta2: row {iy + 1}/{th2.size}"))
+    _judge_into(b, samples, paths, marks, progress)
     return b.build("pendulum_angles", "planar double pendulum, tip on the floor: theta1 x "
                    "theta2", "theta1 (rod 1 from +x) [rad]", "theta2 (rod 2 relative) [rad]",
                    th1, th2, {"delassus_condition": cond},
@@ -78,6 +100,8 @@ def pendulum_friction_map(theta2: Sequence[float] | None = None,
     labels = [_label(p) for p in paths]
     b = _MapBuilder(labels, IMPACT_MODES, (mus.size, th2.size))
     t0 = time.perf_counter()
+    samples: list[_Sample] = []
+    marks: list[tuple[int, str]] = []
     for ix, b2 in enumerate(th2):
         th = np.array([theta1, b2])
         M = np.asarray(mech.mass_matrix(th), float)
@@ -85,10 +109,11 @@ def pendulum_friction_map(theta2: Sequence[float] | None = None,
         for iy, mm in enumerate(mus):
             for rate in rates:
                 for ee in e:
-                    b.add(iy, ix, _classify(
-                        lambda: build_problem(M, J, np.asarray(rate, float), ee, mm), paths))
-        if progress and ix % 4 == 0:
-            progress(f"atlas pendulum theta2 x mu: column {ix + 1}/{th2.size}")
+                    samples.append(_Sample(iy, ix, M, J, np.asarray(rate, float), ee, mm))
+        if ix % 4 == 0:
+            marks.append((len(samples), f"atlas pendulum theta2 x mu: column {ix + 1}/"
+                          f"{th2.size}"))
+    _judge_into(b, samples, paths, marks, progress)
     return b.build("pendulum_friction", f"planar double pendulum at theta1 = "
                    f"{math.degrees(theta1):.0f} deg: theta2 x mu", "theta2 (rod 2 relative) "
                    "[rad]", "mu", th2, mus, {},
@@ -156,6 +181,8 @@ def slider_crank_map(crank_angle: Sequence[float] | None = None,
     b = _MapBuilder(labels, IMPACT_MODES, (mus.size, ang.size))
     loop_cond = np.full((mus.size, ang.size), np.nan)
     t0 = time.perf_counter()
+    samples: list[_Sample] = []
+    marks: list[tuple[int, str]] = []
     for ix, a in enumerate(ang):
         for v4 in slider_speeds:
             th, dq = slider_crank_state(mech, a, slider_speed=v4, geometry=geometry)
@@ -168,9 +195,11 @@ def slider_crank_map(crank_angle: Sequence[float] | None = None,
             loop_cond[:, ix] = sv[0] / sv[-1] if sv[-1] > 0 else np.inf
             for iy, mm in enumerate(mus):
                 for ee in e:
-                    b.add(iy, ix, _classify(lambda: build_problem(M, J, dq, ee, mm, C), paths))
-        if progress and ix % 6 == 0:
-            progress(f"atlas slider-crank ({geometry}) angle x mu: column {ix + 1}/{ang.size}")
+                    samples.append(_Sample(iy, ix, M, J, dq, ee, mm, C))
+        if ix % 6 == 0:
+            marks.append((len(samples), f"atlas slider-crank ({geometry}) angle x mu: column "
+                          f"{ix + 1}/{ang.size}"))
+    _judge_into(b, samples, paths, marks, progress)
     title = ("slider-crank striking the free slider" if geometry == "scene" else
              "isosceles slider-crank (r = l, change points at +-90 deg)")
     return b.build(f"slider_crank_{geometry}", f"{title}: crank angle x mu",

@@ -1,8 +1,11 @@
 """The failure modes of the atlas, the classification of one impact into them, and the map type.
 
 :func:`classify_impact` judges one impact under one (law, method); :func:`classify_error` names the
-mode of a typed error; :class:`AtlasMap` holds one map of the atlas. The modes and thresholds are
-defined in :mod:`convimpact.studies.atlas`; the maps are built in
+mode of a typed error; :class:`AtlasMap` holds one map of the atlas. A map judges all its samples
+at once (:func:`_classify_samples`): the ``"fast"`` paths on open-loop single-contact samples go
+through one compiled batch per path (:func:`convimpact.impact.batch.resolve_impacts`, same
+answers as one ``resolve_impact(..., method="fast")`` per sample), the other paths per sample.
+The modes and thresholds are defined in :mod:`convimpact.studies.atlas`; the maps are built in
 :mod:`convimpact.studies.atlas_impact_maps` and :mod:`convimpact.studies.atlas_simulation_maps`.
 """
 
@@ -149,31 +152,188 @@ def classify_impact(M, Jc, dq, e, mu, C=None, law: str = "pereira-nikravesh",
                      options)[_label((law, method))][0]
 
 
-def _classify(make_problem: Callable[[], Any], paths, options=None):
-    """{path label: (modes, message)} for one problem under every path."""
-    options = options or {}
-    out = {}
+def _error_judgment(exc: BaseException) -> tuple[tuple[str, ...], str]:
+    """(modes, message) of an exception met while posing or solving an impact."""
+    mode = classify_error(exc) if isinstance(exc, ConvImpactError) else "unexpected_error"
+    return (mode,), f"{type(exc).__name__}: {exc}"
+
+
+def _prepare(make_problem: Callable[[], Any], paths):
+    """(problem, None) for an approaching impact, else (None, the judgment of every path):
+    its error when the problem itself is ill-posed, ``separating`` when no contact approaches."""
     try:
         problem = make_problem()
     except Exception as exc:  # the problem itself is ill-posed: every path meets it
-        mode = classify_error(exc) if isinstance(exc, ConvImpactError) else "unexpected_error"
-        return {_label(p): ((mode,), f"{type(exc).__name__}: {exc}") for p in paths}
+        judged = _error_judgment(exc)
+        return None, {_label(p): judged for p in paths}
     if not np.any(problem.v_minus[:, 0] < 0.0):
-        return {_label(p): (("separating",), "") for p in paths}
-    for law, method in paths:
+        return None, {_label(p): (("separating",), "") for p in paths}
+    return problem, None
+
+
+def _solve_one(problem, law: str, method: str, options) -> tuple[tuple[str, ...], str]:
+    """(modes, message) of one approaching problem under one (law, method)."""
+    try:
+        r = solve_problem(problem, law, method, **options)
+    except Exception as exc:
+        return _error_judgment(exc)
+    d = r.diagnostics
+    return tuple(m for m, flag in (("energy_gain", d.energy_gained),
+                                   ("slip_reversal", d.slip_reversal),
+                                   ("friction_pushes_slip", d.friction_pushes_slip))
+                 if flag), ""
+
+
+def _classify(make_problem: Callable[[], Any], paths, options=None):
+    """{path label: (modes, message)} for one problem under every path."""
+    options = options or {}
+    problem, judged = _prepare(make_problem, paths)
+    if judged is not None:
+        return judged
+    return {_label((law, method)): _solve_one(problem, law, method, options)
+            for law, method in paths}
+
+
+@dataclass(frozen=True, eq=False)
+class _Sample:
+    """One impact of a map: its cell (iy, ix) and its data (as :func:`build_problem` takes)."""
+
+    iy: int
+    ix: int
+    M: np.ndarray
+    Jc: np.ndarray
+    dq: np.ndarray
+    e: float
+    mu: float
+    C: np.ndarray | None = None
+
+
+#: det W / tr(W)^d at or below which a batch answer is left to the per-sample path: the batch
+#: forms W = Jc M^-1 Jc^T in another operation order than :func:`build_problem` (the two differ
+#: in the last bit), and on a (near) rank-one W -- a stretched or folded pendulum -- whether a
+#: law's exact kernel inverts W, and which branch it takes, is decided by that round-off. Four
+#: orders of magnitude above the kernels' own singularity test (det W / tr(W)^d <= 1e-12).
+FRAGILE_RTOL = 1e-8
+
+
+def _relative_det(W: np.ndarray) -> np.ndarray:
+    """det W / tr(W)^d per block of an (N, d, d) stack (NaN where it is not finite)."""
+    d = W.shape[-1]
+    with np.errstate(all="ignore"):
+        return np.linalg.det(W) / np.trace(W, axis1=-2, axis2=-1) ** d
+
+
+def _batch_fast(law: str, samples: Sequence[_Sample], todo: Sequence[int]
+                ) -> tuple[dict[int, tuple[tuple[str, ...], str]], set[int]]:
+    """Judgments of the samples ``todo`` (approaching, open-loop, one contact) under
+    (law, "fast") through :func:`convimpact.impact.batch.resolve_impacts`, one batch per shape
+    of (M, Jc), on this thread only (``threads=1``: the atlas's studies already run maps in
+    parallel processes); item i equals ``resolve_impact(..., method="fast")`` to round-off.
+
+    A rejected item (status SINGULAR, JAM, NO_SOLUTION) is named by :func:`classify_error` of
+    the typed error ``resolve_impact`` raises for it (``ImpactBatch.error``; its message is the
+    kernel's own, without the batch index). An item whose W (or, spatial, whose tangent block)
+    is within :data:`FRAGILE_RTOL` of singular is *fragile*: its answer may hinge on W's last
+    bit, so the caller judges it per sample. Samples whose batch cannot run (numba missing:
+    NotSupportedError; input the batch refuses) get no judgment either.
+
+    Returns
+    -------
+    judged : dict
+        ``{sample index: (modes, message)}``.
+    fragile : set of int
+        The sample indices (among ``judged``) to judge per sample instead.
+    """
+    from ..impact import batch as B
+
+    groups: dict[tuple, list[int]] = {}
+    for i in todo:
+        s = samples[i]
+        groups.setdefault((np.shape(s.M), np.shape(s.Jc)), []).append(i)
+    out: dict[int, tuple[tuple[str, ...], str]] = {}
+    fragile: set[int] = set()
+    for idx in groups.values():
         try:
-            r = solve_problem(problem, law, method, **options)
-        except Exception as exc:
-            mode = (classify_error(exc) if isinstance(exc, ConvImpactError)
-                    else "unexpected_error")
-            out[_label((law, method))] = ((mode,), f"{type(exc).__name__}: {exc}")
+            b = B.resolve_impacts(np.array([samples[i].M for i in idx], float),
+                                  np.array([samples[i].Jc for i in idx], float),
+                                  np.array([samples[i].dq for i in idx], float),
+                                  np.array([samples[i].e for i in idx], float),
+                                  np.array([samples[i].mu for i in idx], float),
+                                  law=law, on_error="flag", threads=1)
+        except NotSupportedError:  # no numba: no group can run
+            return out, fragile
+        except ConvImpactError:  # input the batch refuses: this group goes per sample
             continue
-        d = r.diagnostics
-        modes = tuple(m for m, flag in (("energy_gain", d.energy_gained),
-                                        ("slip_reversal", d.slip_reversal),
-                                        ("friction_pushes_slip", d.friction_pushes_slip))
-                      if flag)
-        out[_label((law, method))] = (modes, "")
+        W = b.delassus
+        sure = _relative_det(W) > FRAGILE_RTOL
+        if W.shape[-1] == 3:
+            sure &= _relative_det(W[:, 1:, 1:]) > FRAGILE_RTOL
+        fragile.update(i for i, ok in zip(idx, sure.tolist()) if not ok)
+        status = b.status.tolist()
+        flags = list(zip(b.energy_gained.tolist(), b.slip_reversal.tolist(),
+                         b.friction_pushes_slip.tolist()))
+        for j, i in enumerate(idx):
+            if status[j] != B.OK:
+                err = b.error(j)
+                cause = err.__cause__
+                out[i] = _error_judgment(cause if type(cause) is type(err) else err)
+            else:
+                out[i] = tuple(m for m, flag in zip(("energy_gain", "slip_reversal",
+                                                     "friction_pushes_slip"), flags[j])
+                               if flag), ""
+    return out, fragile
+
+
+def _classify_samples(samples: Sequence[_Sample], paths, options=None,
+                      after: Callable[[int], None] | None = None
+                      ) -> list[dict[str, tuple[tuple[str, ...], str]]]:
+    """Judge every sample under every path: ``[_classify(sample, paths)]`` in sample order.
+
+    Each sample's problem is posed once (an ill-posed or separating one is judged so on every
+    path). The paths with method ``"fast"`` judge the approaching open-loop single-contact
+    samples in one compiled batch per path (:func:`_batch_fast`); every other path, and every
+    sample the batch cannot take (a loop Jacobian C, several contacts, solver ``options``,
+    no numba) or answers on a W within :data:`FRAGILE_RTOL` of singular, calls
+    :func:`convimpact.solve_problem` per sample, as :func:`_classify` does. The judgments are
+    those of :func:`_classify` sample by sample.
+
+    Parameters
+    ----------
+    samples : the impacts, in the order their judgments are wanted.
+    paths : (law, method) pairs.
+    options : solver options (passed to every per-sample solve; none: batches allowed).
+    after : called with the sample's index once it is judged (progress).
+
+    Returns
+    -------
+    list of dict
+        Per sample, ``{path label: (modes, message)}`` with the labels in ``paths`` order.
+    """
+    options = options or {}
+    paths = [tuple(p) for p in paths]
+    prepared = [_prepare(lambda s=s: build_problem(s.M, s.Jc, s.dq, s.e, s.mu, s.C), paths)
+                for s in samples]
+    batched: dict[str, dict[int, tuple[tuple[str, ...], str]]] = {}
+    if not options:
+        todo = [i for i, (problem, _) in enumerate(prepared) if problem is not None
+                and samples[i].C is None and np.ndim(samples[i].Jc) == 2]
+        for law, method in paths:
+            if method == "fast" and todo:
+                judged, fragile = _batch_fast(law, samples, todo)
+                batched[_label((law, method))] = {i: j for i, j in judged.items()
+                                                  if i not in fragile}
+    out = []
+    for i, (problem, judged) in enumerate(prepared):
+        if judged is None:
+            judged = {}
+            for law, method in paths:
+                label = _label((law, method))
+                got = batched.get(label, {}).get(i)
+                judged[label] = (got if got is not None
+                                 else _solve_one(problem, law, method, options))
+        out.append(judged)
+        if after is not None:
+            after(i)
     return out
 
 
