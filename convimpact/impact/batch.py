@@ -66,12 +66,12 @@ from .errors import (
 #: laws of the batch (every law has an exact single-contact kernel), with their codes
 LAW_CODES: Mapping[str, int] = MappingProxyType(
     {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4})
-#: laws whose *spatial* items have no compiled kernel: the compiled loop validates the data,
-#: forms W and v, and defers each spatial item to the law's Python kernel
-#: (:func:`convimpact.impact.fast.solve_contact`, one call per item), then maps the impulse
-#: back and measures the flags. ``stronge`` integrates a curved spatial slip (DOP853 steps on
-#: plain floats), not ported; its planar kernel (exact, piecewise linear) is compiled.
-PYTHON_SPATIAL_LAWS: tuple[str, ...] = ("stronge",)
+#: laws whose *spatial* items have no compiled kernel (the compiled loop would validate the
+#: data, form W and v, and defer each spatial item to the law's Python kernel,
+#: :func:`convimpact.impact.fast.solve_contact`): none. Every law's planar and spatial kernels
+#: are compiled, ``stronge``'s spatial one included (its curved slip's DOP853 integration,
+#: :mod:`.batch_kernels.stronge_spatial`); only rare branches and errors are deferred per item.
+PYTHON_SPATIAL_LAWS: tuple[str, ...] = ()
 #: regime names; ``ImpactBatch.regime`` holds indices into this tuple (FAILED = -1 for
 #: impacts the kernel rejected)
 REGIMES: tuple[str, ...] = ("separating", "frictionless", "stick", "slide")
@@ -493,8 +493,8 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     e, mu : float or (N,) array_like
         Restitution in [0, 1] and friction >= 0, shared or per impact.
     law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge"}
-        The impact law (as in ``resolve_impact``). ``"stronge"``: planar items compiled,
-        spatial items solved one by one by its Python kernel (:data:`PYTHON_SPATIAL_LAWS`).
+        The impact law (as in ``resolve_impact``); every law's planar and spatial items are
+        compiled (``"stronge"``'s spatial ones too: its curved slip's integration).
     C : None
         Closed loops are not batched: pass ``C`` to ``resolve_impact`` per impact.
     on_error : {"flag", "raise"}
@@ -658,7 +658,7 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         Pre-impact contact velocities; v[..., 0] < 0 approaching.
     e, mu : float or (N,) array_like
     law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge"}
-        ``"stronge"``: spatial items by its Python kernel (:data:`PYTHON_SPATIAL_LAWS`).
+        Every law's planar and spatial items are compiled (as in :func:`resolve_impacts`).
     on_error : {"flag", "raise"}
         As in :func:`resolve_impacts`.
     threads : int or None

@@ -12,16 +12,18 @@ Branches are taken in the same order and with the same floating-point expression
 Python kernels, so the answers agree to round-off. The rare branches of the Python kernels
 that use numpy's companion-matrix roots (``robust=True``), the rescaling of W and v outside
 [2^-166, 2^166] (:func:`convimpact.impact.fast.dispatch`), and the "no solution found" errors
-are not ported: the kernel returns :data:`DEFER` and :mod:`convimpact.impact.batch` solves
-those items with the Python kernel itself (:func:`convimpact.impact.fast.solve_contact`).
+(spatial ``stronge``: its step-size underflow) are not ported: the kernel returns
+:data:`DEFER` and :mod:`convimpact.impact.batch` solves those items with the Python kernel
+itself (:func:`convimpact.impact.fast.solve_contact`).
 
 Layout
 ------
 * :mod:`.common`: the ``njit`` options, status/regime/law codes, tolerances, scalar helpers;
 * :mod:`.algebra`: 2 x 2 and 3 x 3 solves, polynomial roots, the cone-boundary directions;
 * one module per law: :mod:`.pereira_nikravesh` (with max_dissipation), :mod:`.coulomb`,
-  :mod:`.ccp`, :mod:`.dissipative`, :mod:`.stronge` (planar: its exact piecewise-linear path;
-  a spatial ``stronge`` item, whose curved slip is integrated, is deferred to Python);
+  :mod:`.ccp`, :mod:`.dissipative`, :mod:`.stronge` (planar: its exact piecewise-linear path)
+  and :mod:`.stronge_spatial` (spatial: the same path with its curved slip integrated by the
+  Python kernel's own DOP853 step loop, event location and hand-over, ported);
 * :mod:`.loop`: one contact's dispatch and the drivers :func:`contact_batch` and
   :func:`impact_batch` (the two entries :mod:`convimpact.impact.batch` calls).
 

@@ -4,7 +4,7 @@
   validation -- separating, W_nn > 0, the safe range of W's trace and v (else the item is
   deferred to the Python dispatcher, which rescales), mu = 0 (frictionless), then the law's
   kernel (:mod:`.pereira_nikravesh`, :mod:`.coulomb`, :mod:`.ccp`, :mod:`.dissipative`,
-  :mod:`.stronge` in the plane; a spatial ``stronge`` contact is deferred to Python);
+  :mod:`.stronge` in the plane, :mod:`.stronge_spatial` in space);
 * :func:`contact_batch`: every item from (W, v), with v+ and the energy loss;
 * :func:`impact_batch`: every item from (M, Jc, dq): validates M (finite, symmetric,
   Cholesky), forms W = Jc M^-1 Jc^T and v- = Jc dq, solves, maps the impulse back to dq+ and
@@ -47,6 +47,7 @@ from .coulomb import _coulomb_planar, _coulomb_spatial
 from .dissipative import _dissipative_planar, _dissipative_spatial
 from .pereira_nikravesh import _pn_planar, _pn_spatial
 from .stronge import STRONGE, _stronge_planar
+from .stronge_spatial import _stronge_spatial
 
 
 # --------------------------------------------------------------------------------------------
@@ -102,8 +103,8 @@ def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu):
         return _pn_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
     if law == COULOMB:
         return _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
-    if law == STRONGE:  # a curved slip is integrated: the Python kernel
-        return DEFER, FAILED, _NAN, _NAN, _NAN, _NAN
+    if law == STRONGE:
+        return _stronge_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
     return _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
 
 

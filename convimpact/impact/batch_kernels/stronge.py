@@ -7,8 +7,8 @@ compression (``v_n = 0``) or of restitution (the normal impulse's work in restit
 ``-e^2`` times its work in compression: the smaller positive root of a quadratic, written
 cancellation-free). Returns ``(status, regime, p0, p1, p2, effective_mass)``.
 
-A spatial contact (a curved slip is integrated, not ported) is deferred to the Python kernel
-by :mod:`.loop`. The tolerances mirror :mod:`convimpact.impact.laws.stronge`.
+A spatial contact (its slip curves and is integrated in impulse space) is
+:mod:`.stronge_spatial`'s. The tolerances mirror :mod:`convimpact.impact.laws.stronge`.
 """
 
 from __future__ import annotations
