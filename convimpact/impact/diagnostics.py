@@ -52,7 +52,7 @@ def energy_change(p: np.ndarray, v: np.ndarray, W: np.ndarray, pl: list, vl: lis
     if ps == 0.0:
         return 0.0
     vs = max(map(abs, vl)) or 1.0
-    if _plain(ps) and _plain(vs):
+    if 1e-100 <= ps <= 1e100 and 1e-100 <= vs <= 1e100:  # _plain(ps) and _plain(vs)
         return float(p @ v + 0.5 * p @ W @ p)
     ph = p / ps
     q = float(ph @ (v / vs) + 0.5 * ph @ ((W @ ph) * (ps / vs)))
@@ -245,24 +245,27 @@ def assemble_result(
         when the impulse or the velocity jump is not finite (beyond double precision's range).
     """
     P = problem
-    n, d = P.n_contacts, P.dim
+    n, d, _ = P.jacobians.shape
     if type(impulse) is not np.ndarray or impulse.dtype != np.float64:
         impulse = np.asarray(impulse, dtype=float)
     pi = impulse.reshape(n, d)
     flat = pi.ravel()
     pl = flat.tolist()
-    d_dq, dsigma = P.velocity_jump(flat)
+    if P._loop_cho is None:  # P.velocity_jump(flat) of an open loop, without the call
+        d_dq, dsigma = P._minv_jt @ flat, np.zeros(0)
+    else:
+        d_dq, dsigma = P.velocity_jump(flat)
     dq_plus = P.dq_minus + d_dq
-    v_plus = (P._rows @ dq_plus).reshape(n, d)
-    if not (math.isfinite(sum(pl)) and math.isfinite(sum(dq_plus.tolist()))
-            and math.isfinite(sum(v_plus.ravel().tolist()))):
+    v_flat = P._rows @ dq_plus
+    v_plus = v_flat.reshape(n, d)
+    # one sum of every figure: finite only if each is (else the exact test below decides)
+    if not math.isfinite(sum(pl) + sum(dq_plus.tolist()) + sum(v_flat.tolist())):
         if not (all(map(math.isfinite, pl)) and np.isfinite(dq_plus).all()
                 and np.isfinite(v_plus).all()):
             raise NonFiniteError(
                 "the impulse or the velocity jump is not finite: it exceeds double precision's "
                 "range for these units of M, Jc and dq; rescale them")
-    vm = P.v_minus
-    dT = energy_change(flat, vm.ravel(), P.delassus, pl, P._lists[1])
+    dT = energy_change(flat, P.v_minus.ravel(), P.delassus, pl, P._vl)
     if not math.isfinite(dT):
         raise NonFiniteError(
             f"the energy change of the impact overflows double precision (T+ - T- = {dT}): "
@@ -275,7 +278,7 @@ def assemble_result(
                         restitution_works(extras, n)),  # energetic restitution (issue 16)
         _delassus=P.delassus,
         _mass=P.mass_matrix,
-        _loop=P.loop_matrix if P.n_loops else None,
+        _loop=None if P._loop_cho is None else P.loop_matrix,
     ))
     if P.single:
         return _new(ImpactResult, dict(

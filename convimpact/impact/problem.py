@@ -17,7 +17,11 @@ Validation is typed (:func:`~convimpact.impact.errors.as_real_array`): a string,
 a complex number or None is a ShapeError (for ``e``, ``mu`` a ParameterError) naming the
 entry. Every tolerance is relative to the data's own scales, so M times ``a`` and dq times
 ``b`` change no decision. The common case (float arrays, one contact, no loops) costs a handful
-of LAPACK and numpy calls: the small checks run on Python floats.
+of LAPACK and numpy calls: the small checks run on Python floats. For several contacts the
+checks on W and v- (exact symmetry, finiteness, degenerate normals, immobile tangents) run in
+one compiled call (:func:`~convimpact.impact.several_kernels.contact_checks`), which hands
+every case but the plain one to the Python checks; W's nested lists are then formed on first
+use.
 """
 
 from __future__ import annotations
@@ -33,7 +37,6 @@ import scipy.linalg as sla
 
 from .errors import (
     DegenerateContactError,
-    LoopConstraintError,
     MassMatrixError,
     NonFiniteError,
     ParameterError,
@@ -41,31 +44,29 @@ from .errors import (
     as_real_array,
     real_number,
 )
-from .small_linalg import cholesky_lower, empty_matrix, tri_solve
+from .reduction import (  # noqa: F401  (re-exported: the tolerances are this module's API)
+    _LOOP_MAX,
+    IMMOBILE_RTOL,
+    LOOP_RANK_RTOL,
+    LOOP_VELOCITY_RTOL,
+    TINY_NORMAL,
+    _cholesky,
+    _contact_space,
+    _finite,
+    _plain_contacts,
+    _symmetrize,
+    _tri,
+)
+from .small_linalg import empty_matrix, tri_solve
 
 ArrayLike = Union[np.ndarray, Sequence[float], float]
 
 #: relative tolerance on the asymmetry of M
 SYMMETRY_RTOL = 1e-10
-#: relative singular-value threshold below which C is declared rank deficient (C M^-1 C^T
-#: squares the ratio, so 1e-7 keeps its condition number below about 1e14)
-LOOP_RANK_RTOL = 1e-7
-#: relative tolerance on C theta_dot = 0 for the pre-impact velocity
-LOOP_VELOCITY_RTOL = 1e-6
-#: a contact whose tangential Delassus entries are below this fraction of the largest
-#: diagonal entry cannot take a friction impulse (it is treated as frictionless)
-IMMOBILE_RTOL = 1e-14
 #: scales within which products of a contact's W and v of degree <= 3 stay far from under-
 #: and overflow: the single-contact kernels are called unscaled inside, rescaled outside
 SAFE_SCALE = (2.0 ** -166, 2.0 ** 166)  # about 1e-50 .. 1e50
-#: smallest positive normal double (a c_n^T M^-1 c_n below it has underflowed)
-TINY_NORMAL = sys.float_info.min
-
-
-def _finite(name: str, a: np.ndarray) -> np.ndarray:
-    if not np.isfinite(a).all():
-        raise NonFiniteError(f"{name} contains NaN or infinity; pass finite values")
-    return a
+_F64 = np.dtype(np.float64)
 
 
 def _new(cls, values: dict):
@@ -90,18 +91,23 @@ def check_mass_matrix(M) -> tuple[np.ndarray, np.ndarray]:
     M = as_real_array("M", M)
     if M.ndim != 2 or M.shape[0] != M.shape[1] or M.shape[0] == 0:
         raise ShapeError(f"M must be a square k x k matrix with k >= 1, got shape {M.shape}")
-    m = M.tolist()
-    k = len(m)
+    k = M.shape[0]
     # exactly symmetric (a NaN fails ==) with a finite diagonal: then an infinite entry
-    # makes the factorization fail or leaves a non-finite last pivot
-    exact = True
-    tr = m[0][0]
-    for i in range(1, k):
-        row = m[i]
-        tr += row[i]
-        for j in range(i):
-            if row[j] != m[j][i]:
-                exact = False
+    # makes the factorization fail or leaves a non-finite last pivot (on Python floats for
+    # small M, one vectorized comparison for larger ones)
+    if k > _LOOP_MAX:
+        exact = bool((M == M.T).all())
+        tr = float(M.trace())
+    else:
+        m = M.tolist()
+        exact = True
+        tr = m[0][0]
+        for i in range(1, k):
+            row = m[i]
+            tr += row[i]
+            for j in range(i):
+                if row[j] != m[j][i]:
+                    exact = False
     if not (exact and math.isfinite(tr)):
         _finite("M", M)
         scale = float(np.max(np.abs(M)))
@@ -112,7 +118,7 @@ def check_mass_matrix(M) -> tuple[np.ndarray, np.ndarray]:
                 "a generalized mass matrix B^T M B (eq. 3) is symmetric: check its assembly"
             )
         M = 0.5 * M + 0.5 * M.T  # as 0.5 (M + M^T), without overflow near the float maximum
-    L, info = cholesky_lower(M)
+    L, info = _cholesky(M)
     if info != 0 or not math.isfinite(L[k - 1, k - 1]):
         _finite("M", M)
         lam = float(np.linalg.eigvalsh(M)[0])
@@ -127,6 +133,10 @@ def _per_contact(name: str, value, n: int, upper: float) -> np.ndarray:
     """e or mu: real, finite, in [0, upper] (upper finite), one per contact."""
     if type(value) is float and 0.0 <= value <= upper:  # the common case: finite, in range
         return np.array([value] * n)
+    if type(value) is list and len(value) == n and all(type(x) is float for x in value) \
+            and math.isfinite(sum(value)) and min(value) >= 0.0 and max(value) <= upper:
+        # a list of finite floats in range (a NaN or an infinity makes the sum non-finite)
+        return np.array(value)
     if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim):
         a = as_real_array(name, value, ParameterError)
         if a.shape != (n,):
@@ -158,11 +168,27 @@ def check_friction(mu, n_contacts: int = 1) -> np.ndarray:
     return _per_contact("mu", mu, n_contacts, sys.float_info.max)
 
 
+def _float_matrices(Jc: list) -> bool:
+    """Whether ``Jc`` is a non-empty list of float64 matrices, all of one shape."""
+    if not Jc:
+        return False
+    shape = Jc[0].shape if type(Jc[0]) is np.ndarray else None
+    for j in Jc:
+        if type(j) is not np.ndarray or j.dtype is not _F64 or j.shape != shape \
+                or len(shape) != 2:
+            return False
+    return True
+
+
 def _jacobians(Jc, k: int) -> tuple[np.ndarray, bool]:
     """The contact Jacobians as a (n_contacts, d, k) float array, and whether one was passed."""
     if type(Jc) is np.ndarray:
         J = as_real_array("Jc", Jc)
         single = J.ndim != 3
+    elif type(Jc) is list and _float_matrices(Jc):
+        # the common case of several contacts: a list of float matrices of one shape
+        J = np.array(Jc)
+        single = False
     else:
         # a list or tuple of matrices is several contacts; a nested list of numbers is one
         single = not (isinstance(Jc, (list, tuple)) and (len(Jc) == 0 or np.ndim(Jc[0]) == 2))
@@ -226,7 +252,7 @@ class ImpactProblem:
     _minv_jt: Any = field(init=False, repr=False)  # M^-1 Jc^T, (k, n_contacts d)
     _minv_ct: Any = field(init=False, repr=False)  # M^-1 C^T, (k, m)
     _loop_cho: Any = field(init=False, repr=False)  # Cholesky factor of C M^-1 C^T
-    _lists: Any = field(init=False, repr=False)  # (W, v) as nested Python lists
+    _vl: Any = field(init=False, repr=False)  # v_minus as a flat Python list
     _rows: Any = field(init=False, repr=False)  # the stacked Jacobians, (n_contacts d, k)
 
     def __post_init__(self):
@@ -241,8 +267,14 @@ class ImpactProblem:
             _minv_jt=tri_solve(L, tri_solve(L, rows.T), trans=1),
             _minv_ct=tri_solve(L, tri_solve(L, C.T), trans=1) if m else empty_matrix((k, 0)),
             _loop_cho=sla.cho_factor(self.loop_matrix, lower=True) if m else None,
-            _lists=(self.delassus.tolist(), v), _rows=rows)
+            _vl=v, _lists=(self.delassus.tolist(), v), _rows=rows)
         self.__dict__.update(derived)
+
+    @cached_property
+    def _lists(self) -> tuple[list, list]:
+        """(W, v) as nested Python lists (set by :func:`build_problem` where it formed them,
+        else on first access)."""
+        return self.delassus.tolist(), self._vl
 
     @property
     def n_coordinates(self) -> int:
@@ -355,77 +387,6 @@ def _check_contacts(J: np.ndarray, w: list, mu: np.ndarray) -> tuple[np.ndarray,
     return mu, tuple(notes)
 
 
-def _loops(C, L: np.ndarray, X: np.ndarray, W: np.ndarray, dq: np.ndarray, k: int) -> tuple:
-    """Validate C and fold the loops into W: (C, W, C M^-1 C^T, M^-1 C^T, its Cholesky)."""
-    C = as_real_array("C", C).copy()  # owned (see build_problem)
-    if C.ndim == 1 and C.size == k:
-        C = C[None]
-    if C.ndim != 2 or C.shape[1] != k:
-        raise ShapeError(f"C must be an m x {k} loop-constraint Jacobian, got shape {C.shape}")
-    _finite("C", C)
-    m = C.shape[0]
-    if not m:
-        return empty_matrix((0, k)), W, empty_matrix((0, 0)), empty_matrix((k, 0)), None
-    if m >= k:
-        raise LoopConstraintError(
-            f"C has {m} rows for {k} joint coordinates: a loop Jacobian needs fewer "
-            "constraints than coordinates (drop redundant rows)"
-        )
-    s = np.linalg.svd(C, compute_uv=False)
-    if s[-1] <= LOOP_RANK_RTOL * s[0]:
-        raise LoopConstraintError(
-            f"C is rank deficient (singular values {s[0]:.3e} ... {s[-1]:.3e}): the loop "
-            "closure is singular here (e.g. a dead-centre configuration) or has redundant "
-            "rows; remove redundant constraints or move off the singular configuration"
-        )
-    ds = float(np.max(np.abs(dq)))
-    u = dq / ds if ds > 0.0 else dq  # C dq relative to |C| |dq|, free of under/overflow
-    resid = float(np.linalg.norm(C @ u))
-    if resid > LOOP_VELOCITY_RTOL * s[0] * float(np.linalg.norm(u)):
-        raise LoopConstraintError(
-            f"dq violates the loop constraints: |C dq| = {resid * ds:.3e} (eq. 7 requires 0); "
-            "project dq onto the null space of C before the impact"
-        )
-    Y = tri_solve(L, C.T)  # L^-1 C^T
-    A = Y.T @ Y
-    try:
-        loop_cho = sla.cho_factor(A, lower=True)
-    except np.linalg.LinAlgError:
-        raise LoopConstraintError(
-            "C M^-1 C^T is numerically singular: the loop constraints are (nearly) "
-            "dependent in this configuration; remove redundant rows of C or move off the "
-            "singular configuration") from None
-    B = Y.T @ X
-    W = W - B.T @ sla.cho_solve(loop_cho, B)
-    return C, W, A, tri_solve(L, Y, trans=1), loop_cho
-
-
-def _symmetrize(W: np.ndarray) -> list:
-    """W <- (W + W^T) / 2 in place (bit for bit), and W as nested lists."""
-    w = W.tolist()
-    r = len(w)
-    for i in range(1, r):
-        for j in range(i):
-            a, b = w[i][j], w[j][i]
-            if a != b:
-                w[i][j] = w[j][i] = W[i, j] = W[j, i] = (a + b) * 0.5
-    return w
-
-
-def _reduce(L: np.ndarray, rows: np.ndarray, dq: np.ndarray, C) -> tuple:
-    """Contact space of ``rows`` (r, k): (L^-1 rows^T, W (symmetrized) and its lists, rows dq,
-    C, C M^-1 C^T, M^-1 C^T, the Cholesky factor of C M^-1 C^T)."""
-    k = L.shape[0]
-    X = tri_solve(L, rows.T)  # L^-1 Jc^T
-    W = X.T @ X
-    v = rows @ dq
-    if C is None:
-        C, A, minv_ct, loop_cho = empty_matrix((0, k)), empty_matrix((0, 0)), empty_matrix((k, 0)), None
-    else:
-        C, W, A, minv_ct, loop_cho = _loops(C, L, X, W, dq, k)
-    return X, W, _symmetrize(W), v, C, A, minv_ct, loop_cho
-
-
 def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
     """Validate raw impact data and reduce it to contact space.
 
@@ -470,20 +431,30 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
     if type(Jc) is np.ndarray:
         J = J.copy()
     rows = J.reshape(n * d, k)
-    X, W, w, v, C, A, minv_ct, loop_cho = _reduce(L, rows, dq, C)
+    X, W, v, C, A, minv_ct, loop_cho = _contact_space(L, rows, dq, C)
     vl = v.tolist()
-    if not math.isfinite(sum(map(sum, w)) + sum(vl)):  # NaN or inf input, or an overflow
-        _finite("M", M)
-        _finite("Jc", J)
-        _finite("dq", dq)
-        if not (np.isfinite(W).all() and np.isfinite(v).all()):
-            raise NonFiniteError(
-                "the impact overflows double precision (Delassus matrix or contact velocities "
-                "not finite); rescale the units of M, Jc and dq")
-    mu, notes = _check_contacts(J, w, mu)
-    return _new(ImpactProblem, dict(
+    notes = ()
+    lists = None
+    # several contacts: W symmetrized and the plain case recognized in one compiled call
+    # (W's lists are then formed on first use); else, and for one contact, the checks below
+    if n == 1 or not _plain_contacts(W, v, d):
+        w = _symmetrize(W)
+        if not math.isfinite(sum(map(sum, w)) + sum(vl)):  # NaN or inf input, or an overflow
+            _finite("M", M)
+            _finite("Jc", J)
+            _finite("dq", dq)
+            if not (np.isfinite(W).all() and np.isfinite(v).all()):
+                raise NonFiniteError(
+                    "the impact overflows double precision (Delassus matrix or contact "
+                    "velocities not finite); rescale the units of M, Jc and dq")
+        mu, notes = _check_contacts(J, w, mu)
+        lists = (w, vl)
+    derived = dict(
         mass_matrix=M, cholesky=L, jacobians=J, dq_minus=dq, restitution=e, friction=mu,
         loop_jacobian=C, single=single, delassus=W, v_minus=v.reshape(n, d), loop_matrix=A,
-        notes=notes, approaching=tuple(vl[i * d] < 0.0 for i in range(n)),
-        _minv_jt=tri_solve(L, X, trans=1), _minv_ct=minv_ct, _loop_cho=loop_cho,
-        _lists=(w, vl), _rows=rows))
+        notes=notes, approaching=tuple([vl[i] < 0.0 for i in range(0, n * d, d)]),
+        _minv_jt=_tri(L, X, 1), _minv_ct=minv_ct, _loop_cho=loop_cho, _vl=vl,
+        _rows=rows)
+    if lists is not None:
+        derived["_lists"] = lists
+    return _new(ImpactProblem, derived)

@@ -48,6 +48,11 @@ Options (keyword arguments of ``resolve_impact``): ``tol`` (the certificate's ac
 tolerance, default 1e-10), ``max_iter`` (interior-point iterations, default 100),
 ``newton_iter`` (Newton steps, default 20).
 
+On the public path (``resolve_impact``, :func:`ccp_result` and its siblings) the law's data,
+the kernel, the certificate and the answer's velocities and regimes come from one compiled
+call (:func:`~.several_newton.solve_law`), the same kernels and certificate as
+:func:`solve_cone_complementarity` with no dispatch between them.
+
 The kernels compile on their first call (numba, ``cache=True``; :func:`compile_kernels`
 builds them ahead of time and says how long it took): measured 27 s once per machine, then
 1.2 s in a fresh process from numba's cache (``convimpact bench --sections several``);
@@ -137,7 +142,8 @@ def compile_kernels() -> dict[str, float]:
     """Build (or load from numba's on-disk cache) the kernels now; seconds per step.
 
     ``import`` (numba and the module) and ``first_call`` (compiling, or loading the cached
-    machine code of, the interior point, the Newton finish and the certificate).
+    machine code of, the interior point, the Newton finish and the certificate, alone and
+    as the public path's single call).
     """
     t0 = time.perf_counter()
     K = kernels()
@@ -150,6 +156,8 @@ def compile_kernels() -> dict[str, float]:
                                 (K.coulomb_kernel, K.coulomb_certificate)):
         pi, *_ = kernel(W, b, mu, 3, HANDOVER_TOL, 100, 20)
         certificate(W, b, mu, 3, pi)
+    for mode in range(3):  # the public path's single call (several_newton.solve_law)
+        K.solve_law(W, b, mu, mu, 3, mode, HANDOVER_TOL, 100, 20, CERTIFIED_ACCURACY)
     out["first_call"] = time.perf_counter() - t
     return out
 
@@ -215,6 +223,21 @@ def solve_cone_complementarity(W: np.ndarray, b: np.ndarray, mu: np.ndarray, dim
         return CertifiedImpulse(pi.reshape(mu.shape[0], dim), 0.0, opts.tol, 0, 0, "trivial")
     # a non-finite impulse gives a NaN or infinite certificate, which the test below rejects
     residual, floor = certificate(W, b, mu, int(dim), pi)
+    accepted = _accepted(residual, floor, opts, status, iters, steps, coulomb)
+    return CertifiedImpulse(pi.reshape(mu.shape[0], dim), float(residual), float(accepted),
+                            int(iters), int(steps), _STATUS.get(status, str(status)))
+
+
+def _accepted(residual: float, floor: float, opts: InteriorOptions, status: int, iters: int,
+              steps: int, coulomb: bool) -> float:
+    """The largest certificate accepted for these data (``tol``, or 1e3 times the round-off
+    floor capped at :data:`~convimpact.impact.conic.polish.VELOCITY_RESIDUAL_MAX`).
+
+    Raises
+    ------
+    CertificateError
+        when ``residual`` exceeds it (a NaN or infinite residual always does).
+    """
     accepted = max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX))
     if not residual <= accepted:
         what = ("Coulomb's conditions" if coulomb else "the law's KKT certificate")
@@ -227,72 +250,81 @@ def solve_cone_complementarity(W: np.ndarray, b: np.ndarray, mu: np.ndarray, dim
             f"method {METHOD!r}: the answer fails {what} (certificate: relative residual "
             f"{residual:.2e} > {accepted:.1e}; interior point {_STATUS.get(status, status)} "
             f"after {iters} iterations, {steps} Newton steps): {hint}")
-    return CertifiedImpulse(pi.reshape(mu.shape[0], dim), float(residual), float(accepted),
-                            int(iters), int(steps), _STATUS.get(status, str(status)))
-
-
-def _report(sol: CertifiedImpulse, opts: InteriorOptions) -> dict:
-    return {"solver_status": "certified", "interior_status": sol.interior_status,
-            "iterations": sol.interior_iterations, "newton_steps": sol.newton_steps,
-            "tolerance": opts.tol, "polished": True, "kkt_residual": sol.kkt_residual}
+    return accepted
 
 
 #: regime names of the kernels' codes (:func:`~.several_newton.result_data`)
 REGIMES = ("separating", "frictionless", "stick", "slide")
+#: the laws' modes of :func:`~.several_newton.solve_law`
+_MODES = {"ccp": 0, "dissipative": 1, "coulomb": 2}
+#: regime names of the codes as :func:`~.several_newton.solve_law` returns them (floats)
+_REGIME_OF = {float(code): name for code, name in enumerate(REGIMES)}
 
 
-def _program(P: ImpactProblem, opts: InteriorOptions, newton: bool = True,
-             coulomb: bool = False) -> CertifiedImpulse:
-    """The law's program on P, posed as :func:`convimpact.impact.laws.ccp.solve_ccp` (and
+def _solve(P: ImpactProblem, opts: InteriorOptions, law: str) -> tuple:
+    """The law's program on P in one compiled call, posed as
+    :func:`convimpact.impact.laws.ccp.solve_ccp` (and
     :func:`convimpact.impact.laws.coulomb.solve_coulomb`) pose it: ``b = v- + e min(v_n-, 0) n``
-    (``newton``), contacts that do not approach without friction of their own (unless
-    ``coulomb``)."""
-    v = P.v_minus.ravel()
-    b, mu = kernels().law_data(v, P.restitution, P.friction, P.dim, newton, coulomb)
-    return solve_cone_complementarity(P.delassus, b, mu, P.dim, opts, coulomb=coulomb)
+    (not for the dissipative law's plastic phase), contacts that do not approach without
+    friction of their own (unless ``coulomb``); certified as
+    :func:`solve_cone_complementarity` certifies it.
 
+    Returns
+    -------
+    (the kernel's impulse (n, d), the solver's report for the extras, the regimes of that
+    impulse by the conic paths' rule, and as lists per contact its normal velocity lift
+    ``v_n+ + e min(v_n-, 0)``, ``mu |v_t+|`` and ``v_n+``)
 
-def _outcome(P: ImpactProblem, impulse: np.ndarray) -> tuple[np.ndarray, np.ndarray, list]:
-    """(v+ (n, d), |v_t+| (n,), regimes) of an impulse, by the conic paths' regime rule."""
-    vplus, slip, codes = kernels().result_data(P.delassus, P.v_minus.ravel(), impulse.ravel(),
-                                               P.friction, P.dim, CERTIFIED_ACCURACY)
-    return vplus.reshape(P.n_contacts, P.dim), slip, [REGIMES[c] for c in codes.tolist()]
+    Raises
+    ------
+    CertificateError
+    """
+    n, d = P.jacobians.shape[:2]
+    K = kernels()
+    status, iters, steps, residual, floor, out = K.solve_law(
+        np.ascontiguousarray(P.delassus, dtype=float), P.v_minus.reshape(-1), P.restitution,
+        P.friction, d, _MODES[law], HANDOVER_TOL, int(opts.max_iter), int(opts.newton_iter),
+        CERTIFIED_ACCURACY)
+    if status == K.TRIVIAL:  # b = 0: pi = 0 is the answer
+        kkt, name = 0.0, "trivial"
+    else:
+        if not residual <= max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX)):
+            _accepted(residual, floor, opts, status, iters, steps, law == "coulomb")  # raises
+        kkt, name = float(residual), _STATUS.get(status, str(status))
+    report = {"solver_status": "certified", "interior_status": name, "iterations": iters,
+              "newton_steps": steps, "tolerance": opts.tol, "polished": True,
+              "kkt_residual": kkt}
+    N = n * d
+    per = out[N:].tolist()
+    return (out[:N].reshape(n, d), report, [_REGIME_OF[c] for c in per[:n]],
+            per[n:2 * n], per[2 * n:3 * n], per[3 * n:])
 
 
 def ccp_result(P: ImpactProblem, **options) -> ImpactResult:
     """Law ``ccp`` by the interior point with its KKT certificate (the same result as the
     conic path's :func:`convimpact.impact.laws.ccp.program_result`)."""
-    opts = parse_options(options)
-    sol = _program(P, opts)
-    pi = sol.impulse
-    vplus, slip, regimes = _outcome(P, pi)
-    newton = -P.restitution * np.minimum(P.v_minus[:, 0], 0.0)
-    extras = {
-        "normal_velocity_lift": (vplus[:, 0] - newton).tolist(),
-        "mu_times_slip": (P.friction * slip).tolist(),
-        **_report(sol, opts),
-    }
+    opts = parse_options(options) if options else DEFAULT_OPTIONS
+    pi, report, regimes, lift, mu_slip, _ = _solve(P, opts, "ccp")
+    extras = {"normal_velocity_lift": lift, "mu_times_slip": mu_slip, **report}
     return assemble_result(P, pi, regimes, "ccp", METHOD, tol=CERTIFIED_ACCURACY, extras=extras)
 
 
 def dissipative_result(P: ImpactProblem, **options) -> ImpactResult:
     """Law ``dissipative`` by the interior point with its KKT certificate (the same result as
     the conic path's :func:`convimpact.impact.laws.dissipative.program_result`)."""
-    opts = parse_options(options)
-    sol = _program(P, opts, newton=False)
-    plastic = sol.impulse
+    opts = parse_options(options) if options else DEFAULT_OPTIONS
+    plastic, report, regimes, _, _, vn_plus = _solve(P, opts, "dissipative")
     pi = plastic * (1.0 + P.restitution)[:, None]  # Poisson's hypothesis
     flat = plastic.ravel()
     W = P.delassus
     Ep = (plastic * P.restitution[:, None]).ravel()
     predicted = 0.5 * float(flat @ W @ flat) - 0.5 * float(Ep @ W @ Ep)
-    vplus_plastic, _, regimes = _outcome(P, plastic)
     extras = {
         "plastic_impulse": plastic.tolist(),
         "plastic_energy_loss": 0.5 * float(flat @ W @ flat),
         "predicted_energy_loss": predicted,
-        "plastic_normal_velocity_lift": vplus_plastic[:, 0].tolist(),
-        **_report(sol, opts),
+        "plastic_normal_velocity_lift": vn_plus,
+        **report,
     }
     warnings = poisson_warnings(P, W, predicted)
     return assemble_result(P, pi, regimes, "dissipative", METHOD, tol=CERTIFIED_ACCURACY,
@@ -305,13 +337,11 @@ def coulomb_result(P: ImpactProblem, **options) -> ImpactResult:
     law has several solutions (several contacts, a singular W) the one Newton reaches from the
     CCP answer is returned -- possibly another than the conic path's fixed point's, which is
     why ``method="auto"`` keeps the conic path for this law."""
-    opts = parse_options(options)
-    sol = _program(P, opts, coulomb=True)
-    pi = sol.impulse
-    _, _, regimes = _outcome(P, pi)
+    opts = parse_options(options) if options else DEFAULT_OPTIONS
+    pi, report, regimes, _, _, _ = _solve(P, opts, "coulomb")
     extras = {"finished_by": "Newton on Coulomb's natural map from the CCP answer",
-              "complementarity_residual": sol.kkt_residual, "accuracy": CERTIFIED_ACCURACY,
-              **_report(sol, opts)}
+              "complementarity_residual": report["kkt_residual"],
+              "accuracy": CERTIFIED_ACCURACY, **report}
     return assemble_result(P, pi, regimes, "coulomb", METHOD, tol=CERTIFIED_ACCURACY,
                            extras=extras)
 

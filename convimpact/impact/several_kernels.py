@@ -373,3 +373,45 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
         # iterate (smallest max(residual, gap)); the Newton finish and the certificate decide
         return xbest, zbest, status, it, gap, res
     return x, z, status, it, gap, res
+
+
+@_jit
+def contact_checks(W, v, d, immobile_rtol, tiny_normal):
+    """The contact-space checks of :func:`convimpact.impact.problem.build_problem` for several
+    contacts, in one compiled call.
+
+    Makes W exactly symmetric in place (``W_ij = W_ji = (W_ij + W_ji) / 2`` where they differ,
+    bit for bit as :func:`~convimpact.impact.reduction._symmetrize`), then returns 0 when the
+    problem is the plain case -- the entries of W and v sum to a finite number, every
+    contact's normal moves mass (``W_nn >= tiny_normal``) and every contact's tangents do
+    (largest tangent diagonal entry above ``immobile_rtol`` times W's largest diagonal
+    entry) -- else 1: the Python checks then decide (and raise or note, as before).
+    """
+    r = W.shape[0]
+    for i in range(r):
+        for j in range(i):
+            a = W[i, j]
+            b = W[j, i]
+            if a != b:
+                s = (a + b) * 0.5
+                W[i, j] = s
+                W[j, i] = s
+    total = 0.0
+    for i in range(r):
+        for j in range(r):
+            total += W[i, j]
+        total += v[i]
+    if not math.isfinite(total):
+        return 1
+    big = W[0, 0]
+    for i in range(1, r):
+        big = max(big, W[i, i])
+    for o in range(0, r, d):
+        if not W[o, o] >= tiny_normal:
+            return 1
+        wt = W[o + 1, o + 1]
+        for j in range(o + 2, o + d):
+            wt = max(wt, W[j, j])
+        if wt <= immobile_rtol * big:
+            return 1
+    return 0

@@ -509,3 +509,42 @@ def result_data(W, v, pi, friction, d, tol):
         else:
             codes[i] = 3
     return vplus, slip, codes
+
+
+@_jit
+def solve_law(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
+    """One law on contact data in one compiled call (the public path's: no dispatch between
+    the steps): :func:`law_data`, the law's kernel, its certificate and :func:`result_data`.
+
+    ``mode`` 0 is ``ccp`` (Newton's shift), 1 the dissipative law's plastic phase (b = v-),
+    2 ``coulomb``. Returns the kernel's status, iterations and Newton steps, the certificate
+    and its round-off floor (both 0 for a trivial program), and one array (a single one to
+    box) holding the kernel's impulse (N) and, per contact (n each), the regime code of that
+    impulse at ``accuracy``, the lift ``v_n+ - (-e min(v_n-, 0))``, ``mu |v_t+|`` and
+    ``v_n+`` (elementwise, as numpy forms them).
+    """
+    coulomb = mode == 2
+    b, mu = law_data(v, e, friction, d, mode != 1, coulomb)
+    if coulomb:
+        pi, status, it, steps, r1, r2 = coulomb_kernel(W, b, mu, d, tol, max_iter, newton_iter)
+    else:
+        pi, status, it, steps, r1, r2 = ccp_kernel(W, b, mu, d, tol, max_iter, newton_iter)
+    residual = 0.0
+    floor = 0.0
+    if status != TRIVIAL:
+        if coulomb:
+            residual, floor = coulomb_certificate(W, b, mu, d, pi)
+        else:
+            residual, floor = ccp_certificate(W, b, mu, d, pi)
+    vplus, slip, codes = result_data(W, v, pi, friction, d, accuracy)
+    n = friction.shape[0]
+    N = n * d
+    out = np.empty(N + 4 * n)
+    out[:N] = pi
+    for i in range(n):
+        vn = v[i * d]
+        out[N + i] = codes[i]
+        out[N + n + i] = vplus[i * d] - (-e[i]) * (vn if vn < 0.0 else 0.0)
+        out[N + 2 * n + i] = friction[i] * slip[i]
+        out[N + 3 * n + i] = vplus[i * d]
+    return status, it, steps, residual, floor, out
