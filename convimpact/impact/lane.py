@@ -98,7 +98,7 @@ def _build():
     _S = single
     # compile for the one signature the lane uses (C-contiguous float64 arrays)
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([0.0, -1.0])
-    ws = np.empty(single.layout(2, 2)[-1])
+    ws = np.empty(layout(2, 2)[-1])
     single.reduce_one(M, J, dq, ws)
     single.finish_one(ws, 2, 2, np.zeros(2), dq)
     _COMPILED = (single.reduce_one, single.finish_one)
@@ -121,7 +121,7 @@ def _build_solve():
     global _SOLVE
     t = time.perf_counter()
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
-    ws = np.empty(_S.layout(2, 2)[-1])
+    ws = np.empty(layout(2, 2)[-1])
     _S.lane_solve(0, M, J, dq, 0.5, 0.3, ws)
     _SOLVE = _S.lane_solve
     COMPILE_SECONDS["lane_solve"] = time.perf_counter() - t
@@ -138,9 +138,10 @@ def compile_lane() -> float:
 
 
 def layout(k: int, d: int) -> tuple[int, ...]:
-    """Offsets into the lane's workspace (:func:`convimpact.impact.batch_kernels.single.layout`):
-    L, X, W, v-, dq+, v+, [T+ - T-, max |pi|, max |v-|], copies of M, Jc, dq, pi and [status,
-    regime code, effective mass, mu used]; the last entry is the size."""
+    """Offsets into the lane's workspace (shared with its compiled side,
+    :mod:`convimpact.impact.batch_kernels.single`): L, X, W, v-, dq+, v+, [T+ - T-, max |pi|,
+    max |v-|], copies of M, Jc, dq, pi and [status, regime code, effective mass, mu used]; the
+    last entry is the size."""
     oX = k * k
     oW = oX + k * d
     ov = oW + d * d

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 
+from ..lane import layout  # noqa: F401  (the workspace's offsets, for callers of this module)
 from ..problem import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
 from .common import DEFER, OK, _jit
 from .loop import _planar_item, _spatial_item
@@ -32,20 +33,6 @@ PLAIN = (1e-100, 1e100)
 #: lane_solve's codes beyond reduce_one's (1-5): the kernel refused (status SINGULAR/JAM),
 #: deferred to the Python kernel (DEFER), or a result outside plain arithmetic
 REFUSED, DEFERRED, NOT_PLAIN = 6, 7, 8
-
-
-def layout(k: int, d: int) -> tuple[int, ...]:
-    """Offsets into the lane's workspace: L (k*k, row-major lower), X (k*d), W (d*d), v- (d),
-    dq+ (k), v+ (d), [T+ - T-, max |pi|, max |v-|], copies of M (k*k), Jc (d*k), dq (k), then
-    pi (3) and [status, regime code, effective mass, mu used] (4); the last entry is the
-    size."""
-    oX = k * k
-    oW = oX + k * d
-    ov = oW + d * d
-    oo = ov + d
-    oc = oo + k + d + 3
-    op = oc + k * k + d * k + k
-    return oX, oW, ov, oo, oc, op, op + 7
 
 
 @_jit
