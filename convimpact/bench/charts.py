@@ -62,7 +62,6 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
             ax.set_title(cls, fontsize=10)
             ax.set_xscale("log")
             ax.set_yscale("log")
-            ax.axhline(ERROR_FLOOR, color="0.7", lw=0.8, ls="--")
             ax.grid(True, which="major", alpha=0.3)
             if not sub:
                 failed = [a for a in every if a["class"] == cls]
@@ -92,6 +91,9 @@ def per_impact_charts(aggs: list[dict[str, Any]], out: Path, laws: Sequence[str]
                      "setting": _short_setting(a["setting"]), "ref": a["is_reference"],
                      "failed": (f"{a['n_failed']}/{a['n_problems']} failed"
                                 if a["n_failed"] else "")})
+        for ax in axes.ravel():  # after the data: a log axis without data has no range yet
+            if ax.lines:
+                ax.axhline(ERROR_FLOOR, color="0.7", lw=0.8, ls="--")
         for ax in axes[-1]:
             ax.set_xlabel("median wall time per solve [s]")
         for ax in axes[:, 0]:
