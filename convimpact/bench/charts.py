@@ -16,7 +16,7 @@ _MARKERS = {"closed-form": "D", "fast": "*", "sweep": "v", "clarabel": "o", "cvx
 _COLORS = {"closed-form": "tab:purple", "fast": "tab:red", "sweep": "tab:brown",
            "clarabel": "tab:blue", "cvxpy": "tab:green", "pinocchio impulseDynamics": "black",
            "pinocchio ADMM ccp": "tab:orange", "pinocchio ADMM ncp": "tab:orange",
-           "pinocchio PGS": "tab:pink"}
+           "pinocchio PGS": "tab:pink", "batch": "tab:olive"}
 
 
 def _plt():

@@ -5,6 +5,9 @@ demo of :mod:`convimpact.cli` when the scenes do not import). Measured:
 
 * :func:`convimpact.studies.landscape.closed_form_landscape`, vectorized over a grid of e and signed
   mu (the paper's Figs. 5-7);
+* :func:`convimpact.studies.landscape.contact_landscape` for every law on a grid large enough
+  for the compiled batch (:data:`~convimpact.studies.landscape.BATCH_MIN_POINTS` points or more:
+  one :func:`~convimpact.impact.batch.contact_impulses` call, then numpy over the grid);
 * :func:`convimpact.studies.landscape.law_landscape`, one ``solve_problem`` per point, for every law
   and every method registered for it (mu >= 0).
 
@@ -19,7 +22,8 @@ from typing import Any
 import numpy as np
 
 from ..impact import LAWS, available_methods
-from ..studies.landscape import closed_form_landscape, law_landscape
+from ..studies.landscape import (BATCH_MIN_POINTS, closed_form_landscape, contact_landscape,
+                                 law_landscape)
 from .registry import BenchConfig, Progress, SectionResult, register_section
 from .timing import time_call
 
@@ -71,6 +75,22 @@ def landscape_section(config: BenchConfig, progress: Progress) -> SectionResult:
                     "failed_points": int(np.sum(L.failed)), "jammed_points": int(np.sum(L.jammed))})
     progress(f"landscape closed-form vectorized: {ne_cf * nmu_cf / wall:.3g} points/s")
 
+    nb = 150 if config.quick else 201  # at least BATCH_MIN_POINTS points: the batch
+    e_b, mu_b = np.linspace(0.0, 1.0, nb), np.linspace(0.0, 1.0, nb)
+    assert nb * nb >= BATCH_MIN_POINTS
+    for law in LAWS:
+        def batch_call(law=law):
+            return contact_landscape(**state, e=e_b, mu=mu_b, law=law, progress=False)
+
+        wall, iqr, L = _time_landscape(batch_call, config)
+        records.append({"label": f"{law} / batch", "law": law, "method": "batch",
+                        "function": "contact_landscape", "grid": [nb, nb], "points": nb * nb,
+                        "wall_time": wall, "wall_time_iqr": iqr,
+                        "points_per_second": nb * nb / wall,
+                        "failed_points": int(np.sum(L.failed)),
+                        "jammed_points": int(np.sum(L.jammed)), "error": None})
+        progress(f"landscape {law}/batch (contact_landscape): {nb * nb / wall:.3g} points/s")
+
     e = np.linspace(0.0, 1.0, ne)
     mu = np.linspace(0.0, 1.0, nmu)
     for law in LAWS:
@@ -111,6 +131,17 @@ def landscape_section(config: BenchConfig, progress: Progress) -> SectionResult:
             f"points/s, {cf['points_per_second'] / pn_cf['points_per_second']:.3g}x the "
             f"per-point closed form through law_landscape ({pn_cf['points_per_second']:.3g} "
             "points/s)")
+    batch = {r["law"]: r for r in per_point if r["method"] == "batch"}
+    fast = {r["law"]: r for r in per_point if r["method"] == "fast"}
+    if batch:
+        rates = [r["points_per_second"] for r in batch.values()]
+        gains = [batch[law]["points_per_second"] / fast[law]["points_per_second"]
+                 for law in batch if law in fast]
+        summary.append(
+            f"contact_landscape on the compiled batch ({batch[next(iter(batch))]['points']} "
+            f"points, every law): {min(rates):.3g}..{max(rates):.3g} points/s ("
+            + ", ".join(f"{law} {r['points_per_second']:.3g}" for law, r in batch.items())
+            + f"), {min(gains):.3g}..{max(gains):.3g}x the per-point fast landscape")
     for law in ("ccp", "coulomb", "dissipative"):
         rows = {r["method"]: r for r in per_point if r["law"] == law}
         if "fast" in rows and "clarabel" in rows:
