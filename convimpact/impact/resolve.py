@@ -250,8 +250,30 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
             result = resolve_one(M, Jc, dq, e, mu, law, kernel)
             if result is not None:
                 return result
+    elif C is None and not options and type(Jc) is list \
+            and (method == "auto" or method == "interior") and law in INTERIOR_FIRST:
+        # several open-loop contacts, a law "interior" takes first: the compiled lane
+        # (convimpact.impact.several_lane), which hands every case but the plain one back
+        result = _several_lane()(M, Jc, dq, e, mu, law)
+        if result is not None:
+            return result
     problem = build_problem(M, Jc, dq, e, mu, C)
     return solve_problem(problem, law, method, **options)
+
+
+def _several_lane():
+    """The several-contact lane's entry (:func:`convimpact.impact.several_lane.resolve_several`),
+    imported on first use."""
+    global _SEVERAL_LANE
+    lane = _SEVERAL_LANE
+    if lane is None:
+        from .several_lane import resolve_several as lane
+
+        _SEVERAL_LANE = lane
+    return lane
+
+
+_SEVERAL_LANE = None
 
 
 def _fast_kernel(law: str):

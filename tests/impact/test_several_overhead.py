@@ -79,8 +79,11 @@ def test_problem_equals_plain_numpy_and_its_field_by_field_twin(name):
         assert np.array_equal(a.dq_plus, b.dq_plus) and a.regime == b.regime
         assert a.energy_loss == b.energy_loss
         assert a.diagnostics.as_dict() == b.diagnostics.as_dict()
+    # the public call takes the compiled lane (its own Cholesky, not LAPACK's): the same
+    # velocities to round-off (dq+ is unique even where W is singular and pi is not)
     r = ci.resolve_impact(**args, law="ccp")
-    assert np.array_equal(r.dq_plus, solve_problem(P, "ccp").dq_plus)
+    full = solve_problem(P, "ccp")
+    assert _relative(r.dq_plus, full.dq_plus) <= 1e-12 and r.regime == full.regime
 
 
 def test_immobile_tangents_and_a_zero_normal_row_keep_their_rules():

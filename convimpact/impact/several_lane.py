@@ -1,0 +1,266 @@
+"""The public call's lane for several open-loop contacts: laws ``ccp`` and ``dissipative`` by
+the exact interior solver, validated, reduced, solved and mapped back in one compiled call.
+
+``resolve_impact(M, [J1, ..., Jn], dq, e, mu, law=...)`` with ``law`` "ccp" or "dissipative",
+no loop constraints, ``method="auto"`` or ``"interior"`` and no options goes to
+``method="interior"`` (:mod:`convimpact.impact.several_contacts`), whose kernel is one
+compiled call; around it the full path spent as long again building the problem (LAPACK
+Cholesky, the contact space, the checks) and the result. This lane does all of it in one
+compiled call (:func:`convimpact.impact.several_lane_kernels.lane_solve`): M checked and
+factored, ``X = L^-1 Jc^T``, ``W = X^T X``, ``v- = Jc dq``, the plain-case contact checks, the
+law's program by :func:`~convimpact.impact.several_newton.solve_law` (the interior path's own
+call) accepted on its certificate by the interior path's rule, Poisson's scaling for the
+dissipative law, and ``dq+``, ``v+`` and ``T+ - T-``.
+
+It takes only the plain case: e and mu given as numbers, or one float per contact (a list, or
+a float64 array) in range, Jc a list of n >= 2 float64 (d, k) arrays of one shape, M a float64
+(k, k) array exactly symmetric and safely positive definite (every Cholesky pivot above
+1e-12 times its diagonal entry), dq a float64 (k,) array (M and dq copied to C order when
+they are strided or read-only: the compiled call has one signature), every
+contact's normal and tangents moving mass, some contact approaching, the figures within
+1e-100 .. 1e100, and an answer that passes its certificate. Anything else returns None and
+:func:`~convimpact.impact.resolve.resolve_impact` takes its full path, which raises the same
+typed errors, writes the same notes and (``method="auto"``) hands an uncertified answer to
+Clarabel as before.
+
+The answer is the full path's to round-off (the factorization is not LAPACK's). The result
+has the same fields and extras (regimes, ``normal_velocity_lift``, ``mu_times_slip``, the
+solver's report; for the dissipative law ``plastic_impulse``, ``plastic_energy_loss``,
+``predicted_energy_loss``, ``plastic_normal_velocity_lift``); its diagnostics -- and the
+dissipative law's notes, which need the problem -- are measured on first access, by
+:func:`~convimpact.impact.diagnostics.assemble_result` on a problem built then from private
+copies of the data, as on the full path.
+
+The compiled call is built on the first lane call (numba, ``cache=True``; see
+:data:`COMPILE_SECONDS`). Without numba the lane is off.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from functools import cached_property
+from types import MappingProxyType
+
+import numpy as np
+
+from .diagnostics import assemble_result
+from .problem import _new, build_problem
+from .results import ImpactDiagnostics, ImpactResult
+
+_F64 = np.dtype(np.float64)
+_EMPTY = np.zeros(0)
+_EMPTY.flags.writeable = False
+_MODES = {"ccp": 0, "dissipative": 1}
+_REGIME_OF = {0.0: "separating", 1.0: "frictionless", 2.0: "stick", 3.0: "slide"}
+_STATUS = {0: "converged", 1: "iteration limit", 2: "stalled", 3: "trivial"}
+#: the compiled lane_solve (None: not built yet; False: numba missing, lane off)
+_SOLVE = None
+COMPILE_SECONDS: dict[str, float] = {}
+#: several_contacts' names, bound on the first call
+CERTIFIED_ACCURACY = 1e-9
+DEFAULT_TOL = 1e-10
+_poisson_warnings = None
+
+
+def _build():
+    """Compile (or load from numba's disk cache) lane_solve."""
+    global _SOLVE, CERTIFIED_ACCURACY, DEFAULT_TOL, _poisson_warnings
+    t = time.perf_counter()
+    try:
+        from . import several_lane_kernels as K
+        from .laws.dissipative import poisson_warnings
+        from .several_contacts import CERTIFIED_ACCURACY as acc, DEFAULT_OPTIONS, HANDOVER_TOL
+    except ImportError:  # numba missing
+        _SOLVE = False
+        return _SOLVE
+    o = DEFAULT_OPTIONS
+    if (K.CERTIFIED_ACCURACY, K.HANDOVER_TOL, K.DEFAULT_TOL, K.MAX_ITER, K.NEWTON_ITER) != (
+            acc, HANDOVER_TOL, o.tol, o.max_iter, o.newton_iter):
+        # the compiled call's frozen copies of the interior path's constants are stale: the
+        # lane would not be that path's answer, so it stays off
+        _SOLVE = False
+        return _SOLVE
+    CERTIFIED_ACCURACY, DEFAULT_TOL = acc, DEFAULT_OPTIONS.tol
+    _poisson_warnings = poisson_warnings
+    J = np.zeros((2, 2, 3))
+    J[0, 0, 2] = J[1, 0, 2] = 1.0
+    J[0, 1, 0] = J[1, 1, 1] = 1.0
+    M, dq = np.eye(3), np.array([0.1, 0.2, -1.0])
+    for mode in (0, 1):
+        ws = np.empty(K.layout(2, 2, 3)[-1])
+        K.lane_solve(mode, M, J, dq, np.full(2, 0.5), np.full(2, 0.3), ws)
+    _SOLVE = K.lane_solve
+    COMPILE_SECONDS["several_lane"] = time.perf_counter() - t
+    return _SOLVE
+
+
+def compile_lane() -> float:
+    """Build the lane now; the seconds it took (0.0 without numba)."""
+    if _SOLVE is None:
+        _build()
+    return COMPILE_SECONDS.get("several_lane", 0.0)
+
+
+def _coefficients(x, n: int, upper: float) -> np.ndarray | None:
+    """e or mu: a number, or n floats (a list, or a float64 array of shape (n,)), in
+    [0, upper] and finite (a private copy), else None."""
+    t = type(x)
+    if t is float or t is int or t is np.float64:
+        x = float(x)
+        if 0.0 <= x <= upper and x != math.inf:
+            return np.array([x] * n)
+        return None
+    if t is np.ndarray and x.dtype is _F64 and x.shape == (n,):
+        x = x.tolist()
+        t = list
+    if t is list and len(x) == n:
+        for a in x:
+            if type(a) is not float or not (0.0 <= a <= upper) or a == math.inf:
+                return None
+        return np.array(x)
+    return None
+
+
+class _Answer:
+    """What a lane answer measures on first access: the problem built from the private copies
+    of the data and the answer assembled by :func:`assemble_result`, as the full path does."""
+
+    __slots__ = ("ws", "n", "d", "k", "e", "mu", "pi", "regimes", "law", "extras",
+                 "predicted", "_full")
+
+    def __init__(self, ws, n, d, k, e, mu, pi, regimes, law, extras, predicted):
+        self.ws, self.n, self.d, self.k, self.e, self.mu = ws, n, d, k, e, mu
+        self.pi, self.regimes, self.law, self.extras = pi, regimes, law, extras
+        self.predicted, self._full = predicted, None
+
+    def _offsets(self):
+        from .several_lane_kernels import layout
+
+        return layout(self.n, self.d, self.k)
+
+    def mass(self) -> np.ndarray:
+        k = self.k
+        ocM = self._offsets()[8]
+        return self.ws[ocM:ocM + k * k].reshape(k, k)
+
+    def delassus(self) -> np.ndarray:
+        N = self.n * self.d
+        return self.ws[:N * N].reshape(N, N)
+
+    def full(self) -> ImpactResult:
+        """The result :func:`assemble_result` builds on the problem (cached)."""
+        if self._full is None:
+            n, d, k = self.n, self.d, self.k
+            off = self._offsets()
+            ocJ, ocq = off[9], off[10]
+            J = self.ws[ocJ:ocJ + n * d * k].reshape(n, d, k)
+            dq = self.ws[ocq:ocq + k]
+            P = build_problem(self.mass(), J, dq, self.e.tolist(), self.mu.tolist())
+            warnings = ()
+            if self.law == "dissipative":
+                warnings = tuple(_poisson_warnings(P, P.delassus, self.predicted))
+            self._full = assemble_result(P, self.pi, self.regimes, self.law, "interior",
+                                         tol=CERTIFIED_ACCURACY, extras=self.extras,
+                                         warnings=warnings)
+        return self._full
+
+    def __call__(self) -> dict:
+        return self.full().diagnostics._values
+
+
+class SeveralLaneDiagnostics(ImpactDiagnostics):
+    """:class:`~convimpact.impact.results.ImpactDiagnostics` of a lane answer whose ``notes``
+    (the dissipative law's Poisson statements, which need the problem) are measured on first
+    access too."""
+
+    @cached_property
+    def notes(self) -> tuple[str, ...]:
+        return self._source.full().diagnostics.notes
+
+
+def resolve_several(M, Jc, dq, e, mu, law: str) -> ImpactResult | None:
+    """Several contacts through the lane, or None when the full path must take them.
+
+    ``Jc`` is a list (checked by the caller); ``law`` is "ccp" or "dissipative".
+    """
+    solve = _SOLVE
+    if not solve:
+        if solve is False:
+            return None
+        solve = _build()
+        if not solve:
+            return None
+    mode = _MODES.get(law)
+    n = len(Jc)
+    if mode is None:
+        return None
+    if n < 2 or type(M) is not np.ndarray or M.dtype is not _F64 or type(dq) is not np.ndarray \
+            or dq.dtype is not _F64 or dq.ndim != 1:
+        return None
+    k = dq.shape[0]
+    if M.shape != (k, k) or k == 0:
+        return None
+    J0 = Jc[0]
+    if type(J0) is not np.ndarray:
+        return None
+    shape = J0.shape
+    if len(shape) != 2 or shape[1] != k or not (shape[0] == 2 or shape[0] == 3):
+        return None
+    for j in Jc:
+        if type(j) is not np.ndarray or j.dtype is not _F64 or j.shape != shape:
+            return None
+    ev = _coefficients(e, n, 1.0)
+    if ev is None:
+        return None
+    mv = _coefficients(mu, n, 1.7976931348623157e308)
+    if mv is None:
+        return None
+    # the compiled call's one signature: C-contiguous writeable arrays (others would compile
+    # another specialization on first sight): copy the others
+    if not (M.flags.c_contiguous and M.flags.writeable):
+        M = np.array(M, order="C")
+    if not (dq.flags.c_contiguous and dq.flags.writeable):
+        dq = np.array(dq, order="C")
+    d = shape[0]
+    N = n * d
+    J = np.array(Jc)
+    # layout(n, d, k) (several_lane_kernels)
+    ov = N * N
+    odq = ov + N
+    ovp = odq + k
+    opl = ovp + 3 * N  # v+, pi, the private copy of pi (N each), then the plastic impulse
+    oout = opl + N
+    osc = oout + 4 * n
+    ws = np.empty(osc + 8 + k * k + N * k + k)
+    if solve(mode, M, J, dq, ev, mv, ws) != 0:
+        return None
+    per = ws[oout:osc + 8].tolist()
+    sc = per[4 * n:]
+    status = int(sc[0])
+    report = {"solver_status": "certified", "interior_status": _STATUS.get(status, str(status)),
+              "iterations": int(sc[1]), "newton_steps": int(sc[2]), "tolerance": DEFAULT_TOL,
+              "polished": True, "kkt_residual": sc[3]}
+    regimes = tuple([_REGIME_OF[c] for c in per[:n]])
+    if law == "ccp":
+        extras = {"normal_velocity_lift": per[n:2 * n], "mu_times_slip": per[2 * n:3 * n],
+                  **report}
+        predicted = None
+    else:
+        predicted = sc[7]
+        extras = {"plastic_impulse": ws[opl:oout].reshape(n, d).tolist(),
+                  "plastic_energy_loss": sc[6], "predicted_energy_loss": predicted,
+                  "plastic_normal_velocity_lift": per[3 * n:4 * n], **report}
+    vpc = ws[ovp:opl].reshape(3, n, d)  # v+, pi and the private copy of pi
+    answer = _Answer(ws, n, d, k, ev, mv, vpc[2], regimes, law, extras, predicted)
+    values = dict(effective_mass=None, extras=MappingProxyType(extras), _source=answer,
+                  _delassus=answer.delassus, _mass=answer.mass, _loop=None)
+    if law == "ccp":  # no notes: the plain case has none, and the law states none
+        values["notes"] = ()
+        diag = _new(ImpactDiagnostics, values)
+    else:
+        diag = _new(SeveralLaneDiagnostics, values)
+    return _new(ImpactResult, dict(
+        dq_plus=ws[odq:ovp], impulse=vpc[1], loop_impulse=_EMPTY, regime=regimes,
+        energy_loss=-sc[5], v_minus=ws[ov:odq].reshape(n, d), v_plus=vpc[0], law=law,
+        method="interior", diagnostics=diag))
