@@ -7,8 +7,10 @@ impacts of 2-8 contacts, planar and spatial. Two laws, each against the peers th
 * ``ccp`` (Anitescu's program; Pinocchio's ADMM with ``solve_ncp=False``): ``interior`` --
   :func:`convimpact.impact.several_contacts.solve_cone_complementarity` on (W, b, mu), the
   compiled interior point, its Newton finish and the KKT certificate (the solver against the
-  peers' solvers, which also start from W); ``interior (ImpactResult)`` -- ``solve_problem``
-  on the validated problem, the same plus the result's assembly; ``clarabel`` at tol 1e-8 and
+  peers' solvers, which also start from W); ``resolve_impact`` -- the public call from the raw
+  data (M, the list of Jc, dq, e, mu; ``method="interior"``): validation, the reduction to W,
+  the solve and the ImpactResult (for ``ccp`` its compiled lane,
+  :mod:`convimpact.impact.several_lane`; ``coulomb`` takes the full path); ``clarabel`` at tol 1e-8 and
   1e-10 (the conic path, equilibrated and KKT-polished); Pinocchio ADMM at 1e-6, 1e-8, 1e-10.
 * ``coulomb`` (Coulomb's law; Pinocchio's ADMM with ``solve_ncp=True`` and PGS): the same
   paths (the conic path is its safeguarded fixed point over CCP programs).
@@ -98,9 +100,11 @@ def _compile_times(full: bool) -> dict[str, Any]:
     return out
 
 
-def _paths(P, law: str, quick: bool, peers: bool) -> list[tuple[str, Callable[[], Any]]]:
-    """(label, call returning the impulse) per timed path of ``law`` on ``P``."""
-    from convimpact.impact import solve_problem
+def _paths(P, law: str, quick: bool, peers: bool,
+           raw: tuple) -> list[tuple[str, Callable[[], Any]]]:
+    """(label, call returning the impulse) per timed path of ``law`` on ``P`` (built from the
+    ``raw`` arguments of resolve_impact: M, Jc, dq, e, mu, C)."""
+    from convimpact.impact import resolve_impact, solve_problem
     from convimpact.impact.conic.paths import approaching, newton_shift
     from convimpact.impact.several_contacts import solve_cone_complementarity
 
@@ -111,7 +115,7 @@ def _paths(P, law: str, quick: bool, peers: bool) -> list[tuple[str, Callable[[]
     d = P.dim
     out = [
         ("interior", lambda: solve_cone_complementarity(W, b, mu, d, coulomb=coulomb).impulse),
-        ("interior (ImpactResult)", lambda: solve_problem(P, law, "interior").impulse),
+        ("resolve_impact", lambda: resolve_impact(*raw, law=law, method="interior").impulse),
     ]
     for tol in ((1e-10,) if quick else (1e-8, 1e-10)):
         out.append((f"clarabel tol {tol:.0e}",
@@ -192,7 +196,8 @@ def several_contacts_section(config: BenchConfig, progress: Progress) -> Section
         P = build_problem(args["M"], args["Jc"], args["dq"], args["e"], args["mu"], args["C"])
         for law in LAWS:
             ref = _vplus(P, solve_problem(P, law, "clarabel", tol=REFERENCE_TOL).impulse)
-            paths = _paths(P, law, config.quick, peers)
+            raw = (args["M"], args["Jc"], args["dq"], args["e"], args["mu"], args["C"])
+            paths = _paths(P, law, config.quick, peers, raw)
             timed, failed = interleaved_times(paths, config.repeat, config.min_batch_time)
             for label, _ in paths:
                 base = {"problem": name, "kind": kind, "law": law, "path": label,
@@ -242,7 +247,7 @@ def _table(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 continue
             item: dict[str, Any] = {"problem": name, "law": law}
             measure = "law_residual" if law == "coulomb" else "error"
-            for key, path in (("interior", "interior"), ("result", "interior (ImpactResult)"),
+            for key, path in (("interior", "interior"), ("result", "resolve_impact"),
                               ("admm", ADMM), ("pgs", "pinocchio PGS tol 1e-10"),
                               ("clarabel", "clarabel tol 1e-10")):
                 if path in row:
@@ -266,7 +271,7 @@ def _summary(table: list[dict[str, Any]], compile_times: dict[str, Any]) -> list
     for t in table:
         what = "residual" if t["law"] == "coulomb" else "error"
         s = (f"{t['problem']}, {t['law']}: interior {_us(t['interior_time'])} ({what} "
-             f"{t['interior_accuracy']:.0e}; {_us(t['result_time'])} with the ImpactResult)")
+             f"{t['interior_accuracy']:.0e}; {_us(t['result_time'])} through resolve_impact)")
         if "admm_time" in t:
             s += (f", Pinocchio ADMM 1e-10 {_us(t['admm_time'])} ({what} "
                   f"{t['admm_accuracy']:.0e}): ratio {t['interior_over_admm']:.2f}")
@@ -283,7 +288,8 @@ def _summary(table: list[dict[str, Any]], compile_times: dict[str, Any]) -> list
             f = [t["result_over_admm"] for t in rows]
             lines.append(
                 f"{law}: interior / Pinocchio ADMM at 1e-10 {min(r):.2f}-{max(r):.2f} (median "
-                f"{float(np.median(r)):.2f}; with the ImpactResult {min(f):.2f}-{max(f):.2f}) "
+                f"{float(np.median(r)):.2f}; through resolve_impact {min(f):.2f}-{max(f):.2f}, "
+                f"median {float(np.median(f)):.2f}) "
                 f"over {len(r)} problems; largest interior "
                 f"{'residual' if law == 'coulomb' else 'error'} "
                 f"{max(t['interior_accuracy'] for t in rows):.1e}")
@@ -299,7 +305,7 @@ def _summary(table: list[dict[str, Any]], compile_times: dict[str, Any]) -> list
     return lines
 
 
-STYLES = {"interior": ("C0", "o"), "interior (ImpactResult)": ("C0", "s"),
+STYLES = {"interior": ("C0", "o"), "resolve_impact": ("C0", "s"),
           "clarabel": ("C2", "^"), "pinocchio ADMM": ("C3", "D"), "pinocchio PGS": ("C1", "v")}
 
 

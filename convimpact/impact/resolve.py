@@ -93,6 +93,8 @@ _CANDIDATES: dict[tuple, list[str]] = {}
 #: their programs are convex, so the velocities are unique; Coulomb's law may have several
 #: solutions at several contacts and keeps its conic fixed point's choice by default
 INTERIOR_FIRST = ("ccp", "dissipative")
+#: laws whose several open-loop contacts the compiled lane of method "interior" takes
+INTERIOR_LANE = ("ccp", "dissipative", "coulomb")
 
 
 def _candidates(problem: ImpactProblem, law: str) -> list[str]:
@@ -250,9 +252,10 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
             result = resolve_one(M, Jc, dq, e, mu, law, kernel)
             if result is not None:
                 return result
-    elif C is None and not options and type(Jc) is list \
-            and (method == "auto" or method == "interior") and law in INTERIOR_FIRST:
-        # several open-loop contacts, a law "interior" takes first: the compiled lane
+    elif C is None and not options and type(Jc) is list and (
+            (method == "auto" and law in INTERIOR_FIRST)
+            or (method == "interior" and law in INTERIOR_LANE)):
+        # several open-loop contacts on the interior path: the compiled lane
         # (convimpact.impact.several_lane), which hands every case but the plain one back
         result = _several_lane()(M, Jc, dq, e, mu, law)
         if result is not None:

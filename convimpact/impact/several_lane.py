@@ -1,8 +1,10 @@
-"""The public call's lane for several open-loop contacts: laws ``ccp`` and ``dissipative`` by
-the exact interior solver, validated, reduced, solved and mapped back in one compiled call.
+"""The public call's lane for several open-loop contacts: laws ``ccp``, ``dissipative`` and
+``coulomb`` by the exact interior solver, validated, reduced, solved and mapped back in one
+compiled call.
 
-``resolve_impact(M, [J1, ..., Jn], dq, e, mu, law=...)`` with ``law`` "ccp" or "dissipative",
-no loop constraints, ``method="auto"`` or ``"interior"`` and no options goes to
+``resolve_impact(M, [J1, ..., Jn], dq, e, mu, law=...)`` with ``law`` "ccp" or "dissipative"
+and ``method="auto"`` or ``"interior"`` (or ``law="coulomb"`` and ``method="interior"``:
+under auto Coulomb's law keeps the conic path), no loop constraints and no options goes to
 ``method="interior"`` (:mod:`convimpact.impact.several_contacts`), whose kernel is one
 compiled call; around it the full path spent as long again building the problem (LAPACK
 Cholesky, the contact space, the checks) and the result. This lane does all of it in one
@@ -25,7 +27,8 @@ Clarabel as before.
 
 The answer is the full path's to round-off (the factorization is not LAPACK's). The result
 has the same fields and extras (regimes, ``normal_velocity_lift``, ``mu_times_slip``, the
-solver's report; for the dissipative law ``plastic_impulse``, ``plastic_energy_loss``,
+solver's report; for Coulomb's law ``finished_by`` and ``complementarity_residual``; for the
+dissipative law ``plastic_impulse``, ``plastic_energy_loss``,
 ``predicted_energy_loss``, ``plastic_normal_velocity_lift``); its diagnostics -- and the
 dissipative law's notes, which need the problem -- are measured on first access, by
 :func:`~convimpact.impact.diagnostics.assemble_result` on a problem built then from private
@@ -51,7 +54,7 @@ from .results import ImpactDiagnostics, ImpactResult
 _F64 = np.dtype(np.float64)
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
-_MODES = {"ccp": 0, "dissipative": 1}
+_MODES = {"ccp": 0, "dissipative": 1, "coulomb": 2}
 _REGIME_OF = {0.0: "separating", 1.0: "frictionless", 2.0: "stick", 3.0: "slide"}
 _STATUS = {0: "converged", 1: "iteration limit", 2: "stalled", 3: "trivial"}
 #: the compiled lane_solve (None: not built yet; False: numba missing, lane off)
@@ -182,7 +185,8 @@ class SeveralLaneDiagnostics(ImpactDiagnostics):
 def resolve_several(M, Jc, dq, e, mu, law: str) -> ImpactResult | None:
     """Several contacts through the lane, or None when the full path must take them.
 
-    ``Jc`` is a list (checked by the caller); ``law`` is "ccp" or "dissipative".
+    ``Jc`` is a list (checked by the caller); ``law`` is "ccp", "dissipative" or (for
+    ``method="interior"``) "coulomb".
     """
     solve = _SOLVE
     if not solve:
@@ -242,10 +246,14 @@ def resolve_several(M, Jc, dq, e, mu, law: str) -> ImpactResult | None:
               "iterations": int(sc[1]), "newton_steps": int(sc[2]), "tolerance": DEFAULT_TOL,
               "polished": True, "kkt_residual": sc[3]}
     regimes = tuple([_REGIME_OF[c] for c in per[:n]])
+    predicted = None
     if law == "ccp":
         extras = {"normal_velocity_lift": per[n:2 * n], "mu_times_slip": per[2 * n:3 * n],
                   **report}
-        predicted = None
+    elif law == "coulomb":  # as several_contacts.coulomb_result
+        extras = {"finished_by": "Newton on Coulomb's natural map from the CCP answer",
+                  "complementarity_residual": report["kkt_residual"],
+                  "accuracy": CERTIFIED_ACCURACY, **report}
     else:
         predicted = sc[7]
         extras = {"plastic_impulse": ws[opl:oout].reshape(n, d).tolist(),
@@ -255,7 +263,7 @@ def resolve_several(M, Jc, dq, e, mu, law: str) -> ImpactResult | None:
     answer = _Answer(ws, n, d, k, ev, mv, vpc[2], regimes, law, extras, predicted)
     values = dict(effective_mass=None, extras=MappingProxyType(extras), _source=answer,
                   _delassus=answer.delassus, _mass=answer.mass, _loop=None)
-    if law == "ccp":  # no notes: the plain case has none, and the law states none
+    if law != "dissipative":  # no notes: the plain case has none, and the law states none
         values["notes"] = ()
         diag = _new(ImpactDiagnostics, values)
     else:

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
+from convimpact.impact.several_contacts import CertificateError
 from convimpact.bench.several_problems import four_corner_box, random_several
 from convimpact.impact import resolve as resolve_module
 from convimpact.impact import several_lane
@@ -74,12 +75,32 @@ def _same_extras(r, f, rtol):
             _close(mine, value, rtol, scale)
 
 
-@pytest.mark.parametrize("law", LAWS)
+@pytest.mark.parametrize("law", LAWS + ("coulomb",))
 def test_the_lane_is_the_full_path_to_round_off(law):
+    """ccp and dissipative under auto; Coulomb's law by method="interior" (auto keeps its
+    conic path)."""
     taken = 0
     for args in CASES:
-        r = ci.resolve_impact(**args, law=law)
-        f = _full(args, law)
+        try:
+            r = ci.resolve_impact(**args, law=law,
+                                  method="auto" if law in LAWS else "interior")
+        except CertificateError:  # Newton missed Coulomb's law: the full path's error too
+            assert law == "coulomb"
+            with pytest.raises(CertificateError):
+                _full(args, law)
+            continue
+        try:
+            f = _full(args, law)
+        except CertificateError:
+            # Newton on Coulomb's law from the CCP answer may miss on W's last bits: the
+            # lane's answer must then hold Coulomb's conditions itself (measured on the
+            # problem built by LAPACK, by the diagnostics)
+            assert law == "coulomb"
+            assert r.diagnostics.coulomb_residual <= 1e-9
+            assert r.diagnostics.cone_violation <= 1e-9
+            assert r.diagnostics.momentum_residual <= 1e-9
+            taken += 1
+            continue
         assert r.method == "interior" and r.law == law
         # the lane answered (not the full path): its diagnostics are the lane's
         assert type(r.diagnostics._source).__name__ == "_Answer"
@@ -109,7 +130,7 @@ def test_the_lane_is_the_full_path_to_round_off(law):
                                    f.diagnostics.delassus_condition, rtol=1e-6)
         np.testing.assert_allclose(r.diagnostics.mass_condition,
                                    f.diagnostics.mass_condition, rtol=1e-10)
-    assert taken == len(CASES)
+    assert taken >= len(CASES) - (2 if law == "coulomb" else 0)
 
 
 @pytest.mark.parametrize("law", LAWS)
