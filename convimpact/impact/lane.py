@@ -35,13 +35,14 @@ phases) from the law's Python kernel run then on the lane's W and v-.
 
 Compilation, in two tiers so that a short session never waits for it:
 
-* **tier 1** (first call): the reduction and the map back compiled (:func:`~.batch_kernels.single.reduce_one`,
-  :func:`~.batch_kernels.single.finish_one`: measured 1.9 s once per machine, 0.8 s from numba's disk cache with
-  numba's import) around the law's Python kernel;
-* **tier 2**: the whole call compiled (:func:`~.batch_kernels.single.lane_solve`, every law's kernel in it: measured
-  19 s once per machine, 0.02 s from the disk cache), taken at once when numba's cache on disk
-  holds it, else after ``HOT_CALLS`` lane calls in the process -- a loop, not a handful of
-  impacts -- or when :func:`compile_lane` is called.
+* **tier 1** (first call): the reduction and the map back compiled
+  (:func:`~.batch_kernels.single.reduce_one`, :func:`~.batch_kernels.single.finish_one`:
+  measured 2.6 s once per machine, 0.9 s from numba's disk cache with numba's import) around
+  the law's Python kernel;
+* **tier 2**: the whole call compiled (:func:`~.batch_kernels.single.lane_solve`, every
+  law's kernel in it: measured 20 s once per machine, 0.03 s from the disk cache), taken at
+  once when numba's cache on disk holds it, else after ``HOT_CALLS`` lane calls in the
+  process -- a loop, not a handful of impacts -- or when :func:`compile_lane` is called.
 
 The two tiers run the same branches with the same floating-point expressions: their answers
 agree to round-off. Without numba the lane is off and every call takes the full path.
