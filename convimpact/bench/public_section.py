@@ -24,8 +24,8 @@ the compiled one) for the Newton laws whose answers are not conic programs
 contact (its kernel lists them in ``extras["n_slide_solutions"]``; Clarabel's fixed point and
 Pinocchio may land on another): its accuracy is Coulomb's own residual
 (:func:`convimpact.impact.laws.coulomb.coulomb_residual`: cone, dual cone and
-complementarity, relative), which every solution zeroes. The issue's targets are checked and stated: the public
-call at most 15 µs planar and 25 µs spatial, and within 2x of its kernel.
+complementarity, relative), which every solution zeroes. The issue's targets are checked and
+stated: the public call at most 15 µs planar and 25 µs spatial, and within 2x of its kernel.
 """
 
 from __future__ import annotations

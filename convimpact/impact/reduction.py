@@ -4,8 +4,8 @@ From the Cholesky factor L of M (``M = L L^T``) and the stacked contact rows, :f
 forms ``X = L^-1 Jc^T``, the Delassus matrix ``W = X^T X`` -- with closed loops the Schur
 complement ``W - B^T A^-1 B`` with ``B = (L^-1 C^T)^T X`` and ``A = C M^-1 C^T``, which
 eliminates the loop impulses Delta sigma from the bordered matrices of eqs. (51)/(52) --
-symmetrized bit for bit, and ``v- = Jc dq`` (eq. 17). :func:`_loops` validates the loop Jacobian C (shape,
-rank, ``C dq = 0``) on the way. :func:`_plain_contacts` recognizes the plain case of several
+symmetrized bit for bit, and ``v- = Jc dq`` (eq. 17). :func:`_loops` validates the loop
+Jacobian C (shape, rank, ``C dq = 0``) on the way. :func:`_plain_contacts` recognizes the plain case of several
 contacts in one compiled call. :mod:`convimpact.impact.problem` validates the raw input and
 calls these.
 """
