@@ -43,49 +43,35 @@ from __future__ import annotations
 import math
 import os
 import time
-from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
-from .errors import (
-    ConvImpactError,
-    InputError,
-    MassMatrixError,
-    NonFiniteError,
-    NonPositiveEffectiveMassError,
-    NotSupportedError,
-    ParameterError,
-    ShapeError,
-    SingularSystemError,
-    SolverError,
-    UnknownOptionError,
+from .errors import ConvImpactError, InputError, NotSupportedError, ParameterError, ShapeError
+from .batch_checks import (  # noqa: F401  (the batch API's names)
+    FAILED,
+    JAM,
+    LAW_CODES,
+    NO_SOLUTION,
+    OK,
+    ON_ERROR,
+    PYTHON_SPATIAL_LAWS,
+    REGIMES,
+    SINGULAR,
+    STATUS_ERRORS,
+    STATUS_NAMES,
+    _batch_size,
+    _batched,
+    _check_options,
+    _check_parameters,
+    _input_error,
+    _item_error,
+    _raise_first,
+    _real_array,
+    _status_of,
 )
+from .batch_results import ContactBatch, ImpactBatch  # noqa: F401
 
-#: laws of the batch (every law has an exact single-contact kernel), with their codes
-LAW_CODES: Mapping[str, int] = MappingProxyType(
-    {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4})
-#: laws whose *spatial* items have no compiled kernel (the compiled loop would validate the
-#: data, form W and v, and defer each spatial item to the law's Python kernel,
-#: :func:`convimpact.impact.fast.solve_contact`): none. Every law's planar and spatial kernels
-#: are compiled, ``stronge``'s spatial one included (its curved slip's DOP853 integration,
-#: :mod:`.batch_kernels.stronge_spatial`); only rare branches and errors are deferred per item.
-PYTHON_SPATIAL_LAWS: tuple[str, ...] = ()
-#: regime names; ``ImpactBatch.regime`` holds indices into this tuple (FAILED = -1 for
-#: impacts the kernel rejected)
-REGIMES: tuple[str, ...] = ("separating", "frictionless", "stick", "slide")
-FAILED = -1
-#: per-impact status codes
-OK, SINGULAR, JAM, NO_SOLUTION = 0, 1, 2, 3
-#: status code -> name
-STATUS_NAMES: Mapping[int, str] = MappingProxyType(
-    {OK: "ok", SINGULAR: "singular", JAM: "jam", NO_SOLUTION: "no-solution"})
-#: status code -> the typed error resolve_impact raises for such an impact
-STATUS_ERRORS: Mapping[int, type] = MappingProxyType(
-    {SINGULAR: SingularSystemError, JAM: NonPositiveEffectiveMassError,
-     NO_SOLUTION: SolverError})
-ON_ERROR = ("flag", "raise")
 #: relative accuracy of the answers (that of method="fast"; passed to the flags' thresholds)
 BATCH_TOL = 1e-10
 
@@ -171,307 +157,6 @@ def _in_slices(run, n: int, threads: int) -> tuple[int, int]:
 def _part(a: np.ndarray, n: int, lo: int, hi: int) -> np.ndarray:
     """Items lo..hi of a batched argument (one shared by every item stays whole)."""
     return a[lo:hi] if a.shape[0] == n and n > 1 else a
-
-
-class _BatchStatus:
-    """What both batch results answer from their ``impulse``, ``status`` and ``regime``."""
-
-    def __len__(self) -> int:
-        return self.impulse.shape[0]
-
-    @property
-    def ok(self) -> np.ndarray:
-        """(N,) bool: the kernel solved the item."""
-        return self.status == OK
-
-    @property
-    def failed(self) -> np.ndarray:
-        """Indices of the items the kernel rejected."""
-        return np.flatnonzero(self.status != OK)
-
-    def regimes(self) -> tuple[str, ...]:
-        """Regime names per item ("failed" where the kernel rejected it)."""
-        names = REGIMES + ("failed",)
-        return tuple(names[int(r)] for r in self.regime)
-
-
-@dataclass(frozen=True, eq=False)
-class ContactBatch(_BatchStatus):
-    """Impulses of N contacts from (W, v) (:func:`contact_impulses`).
-
-    Attributes
-    ----------
-    impulse : (N, d) contact-frame impulses, normal first (NaN where the kernel failed).
-    regime : (N,) int8 indices into :data:`REGIMES` (-1 = failed).
-    status : (N,) int8 :data:`OK`, :data:`SINGULAR`, :data:`JAM` or :data:`NO_SOLUTION`.
-    effective_mass : (N,) the sliding denominator c_n^T G (c_n + mu c_t) where a Newton law
-        slid (ContactSolution.effective_mass), NaN elsewhere.
-    v_plus : (N, d) post-impact contact velocity v + W pi.
-    energy_loss : (N,) T_L = -(pi.v + 1/2 pi.W.pi).
-    law : the impact law.
-    """
-
-    impulse: np.ndarray
-    regime: np.ndarray
-    status: np.ndarray
-    effective_mass: np.ndarray
-    v_plus: np.ndarray
-    energy_loss: np.ndarray
-    law: str
-    _errors: Mapping[int, ConvImpactError] = field(default=None, repr=False)
-
-    regime_names: ClassVar[tuple[str, ...]] = REGIMES
-
-
-
-@dataclass(frozen=True, eq=False)
-class ImpactBatch(_BatchStatus):
-    """N single-contact impacts resolved at once (:func:`resolve_impacts`).
-
-    The fields carry :class:`~convimpact.impact.results.ImpactResult`'s names (and its
-    diagnostics' flags) as arrays over the batch; item i equals ``resolve_impact(M[i], Jc[i],
-    dq[i], e[i], mu[i], law=law, method="fast")`` to round-off.
-
-    Attributes
-    ----------
-    dq_plus : (N, k) joint velocities after impact.
-    impulse : (N, d) contact-frame impulses, normal first.
-    regime : (N,) int8 indices into :data:`REGIMES` ("separating", "frictionless", "stick",
-        "slide"); -1 where the kernel rejected the impact.
-    energy_loss : (N,) T- - T+ (eq. 58).
-    v_minus, v_plus : (N, d) contact velocities before and after impact.
-    law, method : the impact law, and "fast" (the exact single-contact kernels).
-    energy_before, energy_after : (N,) T- and T+.
-    energy_gained, friction_pushes_slip, slip_reversal, penetration : (N,) bool, the flags of
-        ImpactDiagnostics (False where the kernel rejected the impact).
-    effective_mass : (N,) the sliding denominator c_n^T M^-1 (c_n + mu c_t) where a Newton
-        law slid (ImpactDiagnostics.effective_mass), NaN elsewhere.
-    delassus : (N, d, d) W = Jc M^-1 Jc^T of each impact.
-    status : (N,) int8 :data:`OK` or the reason the kernel rejected the impact
-        (:data:`SINGULAR`, :data:`JAM`, :data:`NO_SOLUTION`); those items hold NaN.
-    """
-
-    dq_plus: np.ndarray
-    impulse: np.ndarray
-    regime: np.ndarray
-    energy_loss: np.ndarray
-    v_minus: np.ndarray
-    v_plus: np.ndarray
-    law: str
-    method: str
-    energy_before: np.ndarray
-    energy_after: np.ndarray
-    energy_gained: np.ndarray
-    friction_pushes_slip: np.ndarray
-    slip_reversal: np.ndarray
-    penetration: np.ndarray
-    effective_mass: np.ndarray
-    delassus: np.ndarray
-    status: np.ndarray
-    _errors: Mapping[int, ConvImpactError] = field(default=None, repr=False)
-    _friction: Any = field(default=None, repr=False)  # effective mu per item (error())
-    _restitution: Any = field(default=None, repr=False)
-
-    regime_names: ClassVar[tuple[str, ...]] = REGIMES
-    status_names: ClassVar[Mapping[int, str]] = STATUS_NAMES
-
-    @property
-    def normal_impulse(self) -> np.ndarray:
-        return self.impulse[:, 0]
-
-    @property
-    def tangential_impulse(self) -> np.ndarray:
-        return self.impulse[:, 1:]
-
-
-    def error(self, i: int) -> ConvImpactError | None:
-        """The typed error ``resolve_impact(..., method="fast")`` raises for impact i (None
-        if it was solved)."""
-        i = int(i)
-        if self.status[i] == OK:
-            return None
-        if self._errors and i in self._errors:
-            return self._errors[i]
-        return _kernel_error(self.delassus[i], self.v_minus[i], float(self._restitution[i]),
-                             float(self._friction[i]), self.law, int(self.status[i]), i,
-                             len(self))
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain-JSON view (lists; NaN stays NaN)."""
-        out: dict[str, Any] = {}
-        for name in ("dq_plus", "impulse", "regime", "energy_loss", "v_minus", "v_plus",
-                     "energy_before", "energy_after", "energy_gained", "friction_pushes_slip",
-                     "slip_reversal", "penetration", "effective_mass", "status"):
-            out[name] = getattr(self, name).tolist()
-        out.update(law=self.law, method=self.method, regime_names=list(REGIMES),
-                   status_names={str(k): v for k, v in STATUS_NAMES.items()})
-        return out
-
-
-# --------------------------------------------------------------------------------------------
-# validation
-
-
-def _real_array(name: str, value) -> np.ndarray:
-    """A float64 C-contiguous array of real numbers (no strings, booleans, complex, objects)."""
-    if isinstance(value, (str, bytes, bool, np.bool_)):
-        raise ShapeError(f"{name} must be real numbers, got {type(value).__name__} {value!r}")
-    if isinstance(value, np.ndarray):
-        a = value
-    else:
-        try:
-            a = np.asarray(value)
-        except (TypeError, ValueError) as exc:
-            raise ShapeError(f"{name} must be a numeric array, got {type(value).__name__}"
-                             ) from exc
-    if a.dtype.kind not in "iuf":
-        what = {"b": "booleans", "U": "strings", "S": "strings", "O": "objects or ragged "
-                "nested sequences", "c": "complex numbers"}.get(a.dtype.kind, str(a.dtype))
-        raise ShapeError(f"{name} must be real numbers, got an array of {what}")
-    return np.asarray(a, dtype=np.float64, order="C")
-
-
-def _batched(name: str, a: np.ndarray, item_ndim: int, item_shape: str) -> np.ndarray:
-    if a.ndim == item_ndim:
-        return a[None]
-    if a.ndim == item_ndim + 1:
-        return a
-    if item_ndim == 0:
-        raise ShapeError(f"{name} must be a scalar or one value per impact (N,); got shape "
-                         f"{a.shape}")
-    raise ShapeError(f"{name} must have shape {item_shape} (shared by every impact) or "
-                     f"(N, {item_shape[1:-1]}) (one per impact); got {a.shape}")
-
-
-def _batch_size(arrays: dict[str, np.ndarray], shared_ndim: dict[str, bool]) -> int:
-    sizes = {name: a.shape[0] for name, a in arrays.items() if not shared_ndim[name]}
-    if not sizes:
-        return 1
-    n = max(sizes.values())
-    bad = {name: s for name, s in sizes.items() if s != n}
-    if bad:
-        raise ShapeError("the batch dimensions disagree: " + ", ".join(
-            f"{name} has {s}" for name, s in sizes.items()) + "; every per-impact argument "
-            "needs the same N (or drop the batch dimension to share one value)")
-    return n
-
-
-def _check_finite(name: str, a: np.ndarray, per_item: bool) -> None:
-    if a.size and not np.isfinite(a).all():
-        bad = ~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
-        i = int(np.flatnonzero(bad)[0])
-        where = f"{name}[{i}]" if per_item else name
-        raise NonFiniteError(f"{where} contains NaN or infinity (impact {i}); pass finite values"
-                             if per_item else f"{name} contains NaN or infinity; pass finite "
-                             "values")
-
-
-def _check_parameters(e: np.ndarray, mu: np.ndarray, e_shared: bool, mu_shared: bool) -> None:
-    _check_finite("e", e, not e_shared)
-    _check_finite("mu", mu, not mu_shared)
-    bad = np.flatnonzero((e < 0.0) | (e > 1.0))
-    if bad.size:
-        i = int(bad[0])
-        where = f"e[{i}] = {e[i]:g} (impact {i})" if not e_shared else f"e = {e[0]:g}"
-        raise ParameterError(f"coefficient of restitution must lie in [0, 1], got {where}"
-                             + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
-    bad = np.flatnonzero(mu < 0.0)
-    if bad.size:
-        i = int(bad[0])
-        where = f"mu[{i}] = {mu[i]:g} (impact {i})" if not mu_shared else f"mu = {mu[0]:g}"
-        raise ParameterError(f"coefficient of friction must be >= 0, got {where}"
-                             + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
-
-
-def _check_options(law, on_error) -> int:
-    if not isinstance(law, str) or law not in LAW_CODES:
-        raise UnknownOptionError(f"unknown impact law {law!r}; choose one of "
-                                 f"{', '.join(LAW_CODES)}")
-    if not isinstance(on_error, str) or on_error not in ON_ERROR:
-        raise UnknownOptionError(f"on_error must be 'flag' (per-impact status codes) or "
-                                 f"'raise' (the first rejected impact's error), got {on_error!r}")
-    return LAW_CODES[law]
-
-
-# --------------------------------------------------------------------------------------------
-# errors of single items
-
-
-def _status_of(exc: BaseException) -> int:
-    if isinstance(exc, NonPositiveEffectiveMassError):
-        return JAM
-    if isinstance(exc, SingularSystemError):
-        return SINGULAR
-    return NO_SOLUTION
-
-
-def _item_error(exc: ConvImpactError, i: int, n: int) -> ConvImpactError:
-    """The same error type with the impact's index in front of its message."""
-    out = type(exc)(f"impact {i} of the batch of {n}: {exc}")
-    out.__cause__ = exc
-    return out
-
-
-def _kernel_error(W, v, e: float, mu: float, law: str, status: int, i: int,
-                  n: int) -> ConvImpactError:
-    """The error the Python kernel raises on item i (re-run on its W, v)."""
-    from .fast import solve_contact
-
-    try:
-        solve_contact(W, v, e, mu, law)
-    except ConvImpactError as exc:
-        return _item_error(exc, i, n)
-    # unreachable unless the compiled and Python kernels disagree: say so, typed by status
-    return STATUS_ERRORS.get(status, SolverError)(
-        f"impact {i} of the batch of {n}: the compiled kernel rejected it "
-        f"({STATUS_NAMES.get(status, status)}) but the Python kernel solves it; please report")
-
-
-def _raise_first(status: np.ndarray, errors: Mapping[int, ConvImpactError], W, v, e, mu,
-                 law: str) -> None:
-    bad = np.flatnonzero(status != OK)
-    if not bad.size:
-        return
-    i = int(bad[0])
-    exc = errors.get(i) or _kernel_error(W[i], v[i], float(e[i]), float(mu[i]), law,
-                                         int(status[i]), i, status.shape[0])
-    if bad.size > 1:
-        exc.args = (f"{exc.args[0]} ({bad.size} impacts of the batch were rejected; "
-                    "on_error='flag' returns per-impact status codes instead)",)
-    raise exc
-
-
-def _input_error(code: int, i: int, n: int, M: np.ndarray, J: np.ndarray | None = None,
-                 dq: np.ndarray | None = None) -> InputError:
-    K = _kernels()
-    im = i if M.shape[0] > 1 else 0
-    where = f"impact {i} of the batch of {n}" if n > 1 else "the impact"
-    mname = f"M[{i}]" if M.shape[0] > 1 else "M"
-    jname = f"Jc[{i}]" if J is not None and J.shape[0] > 1 else "Jc"
-    qname = f"dq[{i}]" if dq is not None and dq.shape[0] > 1 else "dq"
-    if code == K.BAD_M_FINITE:
-        return NonFiniteError(f"{mname} contains NaN or infinity ({where}); pass finite values")
-    if code == K.BAD_M_SYMMETRY:
-        A = M[im]
-        return MassMatrixError(
-            f"{mname} is not symmetric ({where}: max |M - M^T| = "
-            f"{float(np.max(np.abs(A - A.T))):.3e} for max |M| = {float(np.max(np.abs(A))):.3e}"
-            "); a generalized mass matrix B^T M B (eq. 3) is symmetric: check its assembly")
-    if code == K.BAD_M_DEFINITE:
-        A = M[im]
-        lam = float(np.linalg.eigvalsh(0.5 * (A + A.T))[0])
-        return MassMatrixError(
-            f"{mname} is not positive definite ({where}: smallest eigenvalue {lam:.3e}); every "
-            "body needs positive mass and the joint coordinates must be independent")
-    if code == K.BAD_J_FINITE:
-        return NonFiniteError(f"{jname} contains NaN or infinity ({where}); pass finite values")
-    if code == K.BAD_DQ_FINITE:
-        return NonFiniteError(f"{qname} contains NaN or infinity ({where}); pass finite values")
-    if code == K.BAD_W_FINITE:
-        return NonFiniteError(f"W or v contains NaN or infinity ({where}); pass finite values")
-    return NonFiniteError(
-        f"{where} overflows double precision (Delassus matrix, contact velocities or kinetic "
-        "energy not finite); rescale the units of M, Jc and dq")
 
 
 # --------------------------------------------------------------------------------------------

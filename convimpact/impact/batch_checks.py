@@ -1,0 +1,215 @@
+"""The batch API's input checks and typed errors (:mod:`convimpact.impact.batch`).
+
+Its constants (law codes, regime names, per-impact status codes and the typed error of each),
+the validation of the arguments of :func:`~convimpact.impact.batch.resolve_impacts` and
+:func:`~convimpact.impact.batch.contact_impulses` (real arrays of consistent batched or shared
+shapes, e and mu in range, the options), and the errors: bad input found by the compiled
+drivers (:func:`_input_error`, naming the impact) and the error the law's Python kernel raises
+on an item the compiled kernel rejected (:func:`_kernel_error`).
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+from .errors import (
+    ConvImpactError,
+    InputError,
+    MassMatrixError,
+    NonFiniteError,
+    NonPositiveEffectiveMassError,
+    ParameterError,
+    ShapeError,
+    SingularSystemError,
+    SolverError,
+    UnknownOptionError,
+)
+
+#: laws of the batch (every law has an exact single-contact kernel), with their codes
+LAW_CODES: Mapping[str, int] = MappingProxyType(
+    {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4})
+#: laws whose *spatial* items have no compiled kernel (the compiled loop would validate the
+#: data, form W and v, and defer each spatial item to the law's Python kernel,
+#: :func:`convimpact.impact.fast.solve_contact`): none. Every law's planar and spatial kernels
+#: are compiled, ``stronge``'s spatial one included (its curved slip's DOP853 integration,
+#: :mod:`.batch_kernels.stronge_spatial`); only rare branches and errors are deferred per item.
+PYTHON_SPATIAL_LAWS: tuple[str, ...] = ()
+#: regime names; ``ImpactBatch.regime`` holds indices into this tuple (FAILED = -1 for
+#: impacts the kernel rejected)
+REGIMES: tuple[str, ...] = ("separating", "frictionless", "stick", "slide")
+FAILED = -1
+#: per-impact status codes
+OK, SINGULAR, JAM, NO_SOLUTION = 0, 1, 2, 3
+#: status code -> name
+STATUS_NAMES: Mapping[int, str] = MappingProxyType(
+    {OK: "ok", SINGULAR: "singular", JAM: "jam", NO_SOLUTION: "no-solution"})
+#: status code -> the typed error resolve_impact raises for such an impact
+STATUS_ERRORS: Mapping[int, type] = MappingProxyType(
+    {SINGULAR: SingularSystemError, JAM: NonPositiveEffectiveMassError,
+     NO_SOLUTION: SolverError})
+ON_ERROR = ("flag", "raise")
+
+def _real_array(name: str, value) -> np.ndarray:
+    """A float64 C-contiguous array of real numbers (no strings, booleans, complex, objects)."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ShapeError(f"{name} must be real numbers, got {type(value).__name__} {value!r}")
+    if isinstance(value, np.ndarray):
+        a = value
+    else:
+        try:
+            a = np.asarray(value)
+        except (TypeError, ValueError) as exc:
+            raise ShapeError(f"{name} must be a numeric array, got {type(value).__name__}"
+                             ) from exc
+    if a.dtype.kind not in "iuf":
+        what = {"b": "booleans", "U": "strings", "S": "strings", "O": "objects or ragged "
+                "nested sequences", "c": "complex numbers"}.get(a.dtype.kind, str(a.dtype))
+        raise ShapeError(f"{name} must be real numbers, got an array of {what}")
+    return np.asarray(a, dtype=np.float64, order="C")
+
+
+def _batched(name: str, a: np.ndarray, item_ndim: int, item_shape: str) -> np.ndarray:
+    if a.ndim == item_ndim:
+        return a[None]
+    if a.ndim == item_ndim + 1:
+        return a
+    if item_ndim == 0:
+        raise ShapeError(f"{name} must be a scalar or one value per impact (N,); got shape "
+                         f"{a.shape}")
+    raise ShapeError(f"{name} must have shape {item_shape} (shared by every impact) or "
+                     f"(N, {item_shape[1:-1]}) (one per impact); got {a.shape}")
+
+
+def _batch_size(arrays: dict[str, np.ndarray], shared_ndim: dict[str, bool]) -> int:
+    sizes = {name: a.shape[0] for name, a in arrays.items() if not shared_ndim[name]}
+    if not sizes:
+        return 1
+    n = max(sizes.values())
+    bad = {name: s for name, s in sizes.items() if s != n}
+    if bad:
+        raise ShapeError("the batch dimensions disagree: " + ", ".join(
+            f"{name} has {s}" for name, s in sizes.items()) + "; every per-impact argument "
+            "needs the same N (or drop the batch dimension to share one value)")
+    return n
+
+
+def _check_finite(name: str, a: np.ndarray, per_item: bool) -> None:
+    if a.size and not np.isfinite(a).all():
+        bad = ~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
+        i = int(np.flatnonzero(bad)[0])
+        where = f"{name}[{i}]" if per_item else name
+        raise NonFiniteError(f"{where} contains NaN or infinity (impact {i}); pass finite values"
+                             if per_item else f"{name} contains NaN or infinity; pass finite "
+                             "values")
+
+
+def _check_parameters(e: np.ndarray, mu: np.ndarray, e_shared: bool, mu_shared: bool) -> None:
+    _check_finite("e", e, not e_shared)
+    _check_finite("mu", mu, not mu_shared)
+    bad = np.flatnonzero((e < 0.0) | (e > 1.0))
+    if bad.size:
+        i = int(bad[0])
+        where = f"e[{i}] = {e[i]:g} (impact {i})" if not e_shared else f"e = {e[0]:g}"
+        raise ParameterError(f"coefficient of restitution must lie in [0, 1], got {where}"
+                             + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
+    bad = np.flatnonzero(mu < 0.0)
+    if bad.size:
+        i = int(bad[0])
+        where = f"mu[{i}] = {mu[i]:g} (impact {i})" if not mu_shared else f"mu = {mu[0]:g}"
+        raise ParameterError(f"coefficient of friction must be >= 0, got {where}"
+                             + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
+
+
+def _check_options(law, on_error) -> int:
+    if not isinstance(law, str) or law not in LAW_CODES:
+        raise UnknownOptionError(f"unknown impact law {law!r}; choose one of "
+                                 f"{', '.join(LAW_CODES)}")
+    if not isinstance(on_error, str) or on_error not in ON_ERROR:
+        raise UnknownOptionError(f"on_error must be 'flag' (per-impact status codes) or "
+                                 f"'raise' (the first rejected impact's error), got {on_error!r}")
+    return LAW_CODES[law]
+
+
+# --------------------------------------------------------------------------------------------
+# errors of single items
+
+
+def _status_of(exc: BaseException) -> int:
+    if isinstance(exc, NonPositiveEffectiveMassError):
+        return JAM
+    if isinstance(exc, SingularSystemError):
+        return SINGULAR
+    return NO_SOLUTION
+
+
+def _item_error(exc: ConvImpactError, i: int, n: int) -> ConvImpactError:
+    """The same error type with the impact's index in front of its message."""
+    out = type(exc)(f"impact {i} of the batch of {n}: {exc}")
+    out.__cause__ = exc
+    return out
+
+
+def _kernel_error(W, v, e: float, mu: float, law: str, status: int, i: int,
+                  n: int) -> ConvImpactError:
+    """The error the Python kernel raises on item i (re-run on its W, v)."""
+    from .fast import solve_contact
+
+    try:
+        solve_contact(W, v, e, mu, law)
+    except ConvImpactError as exc:
+        return _item_error(exc, i, n)
+    # unreachable unless the compiled and Python kernels disagree: say so, typed by status
+    return STATUS_ERRORS.get(status, SolverError)(
+        f"impact {i} of the batch of {n}: the compiled kernel rejected it "
+        f"({STATUS_NAMES.get(status, status)}) but the Python kernel solves it; please report")
+
+
+def _raise_first(status: np.ndarray, errors: Mapping[int, ConvImpactError], W, v, e, mu,
+                 law: str) -> None:
+    bad = np.flatnonzero(status != OK)
+    if not bad.size:
+        return
+    i = int(bad[0])
+    exc = errors.get(i) or _kernel_error(W[i], v[i], float(e[i]), float(mu[i]), law,
+                                         int(status[i]), i, status.shape[0])
+    if bad.size > 1:
+        exc.args = (f"{exc.args[0]} ({bad.size} impacts of the batch were rejected; "
+                    "on_error='flag' returns per-impact status codes instead)",)
+    raise exc
+
+
+def _input_error(code: int, i: int, n: int, M: np.ndarray, J: np.ndarray | None = None,
+                 dq: np.ndarray | None = None) -> InputError:
+    from . import batch_kernels as K  # numba is loaded: the drivers ran
+
+    im = i if M.shape[0] > 1 else 0
+    where = f"impact {i} of the batch of {n}" if n > 1 else "the impact"
+    mname = f"M[{i}]" if M.shape[0] > 1 else "M"
+    jname = f"Jc[{i}]" if J is not None and J.shape[0] > 1 else "Jc"
+    qname = f"dq[{i}]" if dq is not None and dq.shape[0] > 1 else "dq"
+    if code == K.BAD_M_FINITE:
+        return NonFiniteError(f"{mname} contains NaN or infinity ({where}); pass finite values")
+    if code == K.BAD_M_SYMMETRY:
+        A = M[im]
+        return MassMatrixError(
+            f"{mname} is not symmetric ({where}: max |M - M^T| = "
+            f"{float(np.max(np.abs(A - A.T))):.3e} for max |M| = {float(np.max(np.abs(A))):.3e}"
+            "); a generalized mass matrix B^T M B (eq. 3) is symmetric: check its assembly")
+    if code == K.BAD_M_DEFINITE:
+        A = M[im]
+        lam = float(np.linalg.eigvalsh(0.5 * (A + A.T))[0])
+        return MassMatrixError(
+            f"{mname} is not positive definite ({where}: smallest eigenvalue {lam:.3e}); every "
+            "body needs positive mass and the joint coordinates must be independent")
+    if code == K.BAD_J_FINITE:
+        return NonFiniteError(f"{jname} contains NaN or infinity ({where}); pass finite values")
+    if code == K.BAD_DQ_FINITE:
+        return NonFiniteError(f"{qname} contains NaN or infinity ({where}); pass finite values")
+    if code == K.BAD_W_FINITE:
+        return NonFiniteError(f"W or v contains NaN or infinity ({where}); pass finite values")
+    return NonFiniteError(
+        f"{where} overflows double precision (Delassus matrix, contact velocities or kinetic "
+        "energy not finite); rescale the units of M, Jc and dq")
