@@ -253,3 +253,14 @@ def _jsonable(v):
     if isinstance(v, Mapping):
         return {str(k): _jsonable(x) for k, x in v.items()}
     return v
+
+
+def _fields_as_json(obj) -> dict[str, Any]:
+    """A dataclass's fields as plain JSON, non-finite floats as None."""
+    out = {}
+    for k in obj.__dataclass_fields__:
+        v = getattr(obj, k)
+        if isinstance(v, np.ndarray) and v.dtype.kind == "f":
+            v = np.where(np.isfinite(v), v, None)
+        out[k] = _jsonable(v)
+    return out
