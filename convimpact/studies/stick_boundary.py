@@ -1,0 +1,178 @@
+"""The exact boundary of the stick region of one planar impact over (mu, e):
+:class:`StickBoundary`, :func:`stick_boundary` and :func:`landscape_stick_boundary` (part of
+the landscapes' API; :mod:`convimpact.studies.landscape` re-exports them), with the sticking
+impulse of eq. (42)/(52) the landscapes keep in their ``meta``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..impact.errors import ShapeError
+from ..impact.problem import ImpactProblem, build_problem
+
+if TYPE_CHECKING:
+    from .landscape import Landscape
+
+
+def _planar_problem(M, Jc, dq, C) -> ImpactProblem:
+    P = build_problem(M, Jc, dq, 0.0, 0.0, C)
+    if P.n_contacts != 1 or not P.planar:
+        raise ShapeError("the closed-form landscape takes one planar contact (Jc of shape 2 x k)")
+    return P
+
+
+def _sticking_meta(W: np.ndarray, v: np.ndarray) -> dict[str, Any]:
+    """``meta`` entries of a planar landscape: the sticking impulse of eq. (42)/(52) at e = 0
+    and its derivative in e (see :class:`StickBoundary`); none where W is singular."""
+    lam = np.linalg.eigvalsh(W)
+    if not lam[0] > 1e-12 * lam[-1]:
+        return {}
+    Winv = np.linalg.inv(W)
+    return {"sticking_impulse_e0": (-Winv @ v).tolist(),
+            "sticking_impulse_de": (-Winv[:, 0] * v[0]).tolist(),
+            # law "stronge": the stick ratio |W_tn| / W_tt and the pre-impact slip's sign
+            "stick_ratio": abs(float(W[0, 1])) / float(W[1, 1]),
+            "slip_sign": float(np.sign(v[1]))}
+
+
+#: laws whose single-contact stick test is the sticking impulse of eq. (42)/(52) in the cone
+_STICK_AT_E = ("pereira-nikravesh", "coulomb", "ccp")
+#: laws with an exact stick boundary (:class:`StickBoundary`)
+_STICK_LAWS = _STICK_AT_E + ("dissipative", "stronge")
+
+
+@dataclass(frozen=True, eq=False)
+class StickBoundary:
+    """The exact boundary of the stick region of one planar impact over (mu, e).
+
+    The sticking impulse of eq. (42)/(52), pi(e) = -W^-1 ((1 + e) v_n-, v_t-), is affine in e:
+    pi(e) = ``pi0`` + e ``pi1`` (Cramer's rule gives pi_n = D_1/D, pi_t = D_2/D, the
+    determinants of eq. 62). The law sticks where it lies in the cone, |pi_t(e)| <= |mu| pi_n(e),
+    that is where |mu| >= ``mu_star(e)`` = |pi_t(e)| / pi_n(e) (``inf`` where pi_n(e) <= 0: no
+    friction sticks). The boundary is the curve |mu| = mu_star(e): a V through mu = 0 at the
+    e where pi_t(e) = 0, not a staircase of grid cells.
+
+    This holds for the ``pereira-nikravesh``, ``coulomb`` and ``ccp`` laws (each sticks exactly
+    when the sticking impulse is admissible). The ``dissipative`` law's plastic phase sticks
+    when pi(0) is admissible whatever e: its boundary is the vertical line mu = mu_star(0).
+
+    ``stronge`` (mu >= 0) ends in stick when its first slip (friction -mu s, s = sgn v_t-,
+    a single linear phase whose normal impulse would end at (1 + e) p_c) stops before the
+    collision ends, and sticking is then admissible, mu >= ``stick_ratio`` = |W_tn| / W_tt.
+    The stop comes first iff |v_t| (W_nn - mu s W_tn) <= (1 + e) |v_n| (mu W_tt - s W_tn),
+    i.e. mu pi_n(e) >= -s pi_t(e) with the same sticking impulse: so
+    mu_star(e) = max(``stick_ratio``, -s pi_t(e) / pi_n(e)) (where pi_n(e) > 0; ``inf``
+    elsewhere), and ``stick_ratio`` alone with no pre-impact slip (s = 0).
+    """
+
+    pi0: np.ndarray
+    pi1: np.ndarray
+    law: str = "pereira-nikravesh"
+    stick_ratio: float = 0.0
+    slip_sign: float = 1.0
+
+    def sticking_impulse(self, e) -> np.ndarray:
+        """(pi_n, pi_t) of eq. (42)/(52) at e, shape (..., 2); at e = 0 for ``dissipative``."""
+        e = np.asarray(e, float)
+        if self.law == "dissipative":
+            e = np.zeros_like(e)
+        return self.pi0 + e[..., None] * self.pi1
+
+    def mu_star(self, e) -> np.ndarray:
+        """The least |mu| at which the law sticks at e (``inf`` where it never sticks)."""
+        p = self.sticking_impulse(e)
+        if self.law == "stronge":
+            if self.slip_sign == 0.0:
+                return np.full(p.shape[:-1], self.stick_ratio)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                q = np.where(p[..., 0] > 0.0, -self.slip_sign * p[..., 1] / p[..., 0], np.inf)
+            return np.maximum(q, self.stick_ratio)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(p[..., 0] > 0.0, np.abs(p[..., 1]) / p[..., 0], np.inf)
+
+    def e_at(self, mu: float) -> np.ndarray:
+        """The e in [0, 1] where the boundary crosses the column ``mu`` (closed form, sorted).
+
+        Solves |pi_t0 + e pi_t1| = |mu| (pi_n0 + e pi_n1) with pi_n > 0: two linear equations.
+        """
+        c = abs(float(mu))
+        if self.law == "dissipative":
+            return np.array([])  # a vertical line: no crossing of a column unless on it
+        (an, at), (bn, bt) = self.pi0, self.pi1
+        roots = []
+        signs = (1.0, -1.0)
+        if self.law == "stronge":  # -s pi_t(e) = mu pi_n(e), on or right of the stick ratio
+            if self.slip_sign == 0.0 or c < self.stick_ratio:
+                return np.array([])
+            signs = (-self.slip_sign,)
+        for sign in signs:
+            den = bt - sign * c * bn
+            if den != 0.0:
+                e = (sign * c * an - at) / den
+                if 0.0 <= e <= 1.0 and an + bn * e > 0.0:
+                    roots.append(e)
+        return np.unique(np.array(roots, float))
+
+    def curve(self, mu_max: float, n: int = 801) -> tuple[np.ndarray, np.ndarray]:
+        """Points (e, mu_star(e)) of the boundary with 0 <= mu_star <= ``mu_max``, e in [0, 1].
+
+        The set {e : mu_star(e) <= mu_max} is one interval (a second-order-cone condition in
+        e); it is sampled at ``n`` values of e and at the crossings of ``n`` columns of mu
+        (:meth:`e_at`), its exact ends and the kink pi_t(e) = 0 included.
+        Returns empty arrays when the law does not stick for |mu| <= mu_max.
+        """
+        mu_max = abs(float(mu_max))
+        if self.law == "dissipative":
+            m = float(self.mu_star(0.0))
+            if m <= mu_max:
+                return np.array([0.0, 1.0]), np.array([m, m])
+            return np.array([]), np.array([])
+        ends = self.e_at(mu_max)
+        grid = np.linspace(0.0, 1.0, n)
+        at, bt = float(self.pi0[1]), float(self.pi1[1])
+        extra = [-at / bt] if bt != 0.0 and 0.0 <= -at / bt <= 1.0 else []  # the kink
+        if self.law == "stronge":  # its kink: where the curve meets the stick ratio
+            extra = list(self.e_at(self.stick_ratio))
+        # and the crossings of n columns: dense where the curve runs flat in e
+        cols = [self.e_at(m) for m in np.linspace(0.0, mu_max, n)[1:]]
+        e = np.unique(np.concatenate([grid, ends, extra, *cols]))
+        m = self.mu_star(e)
+        keep = m <= mu_max * (1.0 + 1e-12)
+        keep |= np.isin(e, ends)
+        return e[keep], np.minimum(m[keep], mu_max)
+
+
+def stick_boundary(M, Jc, dq, C=None, law: str = "pereira-nikravesh") -> StickBoundary:
+    """The exact stick boundary of one planar contact (see :class:`StickBoundary`).
+
+    Raises :class:`~convimpact.impact.errors.SingularSystemError` where W is singular (the
+    sticking impulse is not unique) and ``UnknownOptionError`` for an unknown law.
+    """
+    from ..impact.errors import SingularSystemError, UnknownOptionError
+
+    if law not in _STICK_LAWS:
+        raise UnknownOptionError(f"unknown law {law!r}; choose one of "
+                                 f"{', '.join(_STICK_LAWS)}")
+    P = _planar_problem(M, Jc, dq, C)
+    W, v = P.contact_block(0)
+    if not _sticking_meta(W, v):
+        raise SingularSystemError("the Delassus matrix W is singular: the sticking impulse of "
+                                  "eq. (42)/(52) is not unique, so there is no stick boundary")
+    m = _sticking_meta(W, v)
+    return StickBoundary(pi0=np.array(m["sticking_impulse_e0"]),
+                         pi1=np.array(m["sticking_impulse_de"]), law=law,
+                         stick_ratio=m["stick_ratio"], slip_sign=m["slip_sign"])
+
+
+def landscape_stick_boundary(L: "Landscape") -> StickBoundary | None:
+    """The exact :class:`StickBoundary` of a planar landscape (None if it has none: a spatial
+    contact, a singular W, or a law without one)."""
+    if "sticking_impulse_e0" not in L.meta or L.law not in _STICK_LAWS:
+        return None
+    return StickBoundary(pi0=np.asarray(L.meta["sticking_impulse_e0"], float),
+                         pi1=np.asarray(L.meta["sticking_impulse_de"], float), law=L.law,
+                         stick_ratio=float(L.meta.get("stick_ratio", 0.0)),
+                         slip_sign=float(L.meta.get("slip_sign", 1.0)))
