@@ -201,10 +201,13 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         Coulomb's coefficient of friction, >= 0.
     C : (m, k) array_like, optional
         Jacobian of the loop constraints (eq. 7) for closed loops; full row rank, C dq = 0.
-    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge"}
         The impact law (see the package documentation for exact definitions).
     method : {"auto", "closed-form", "sweep", "fast", "interior", "clarabel", "cvxpy"}
-        The solver path; ``"auto"`` picks the cheapest one exact for the problem.
+        The solver path; ``"auto"`` picks the cheapest one exact for the problem. One
+        open-loop contact (``fast``) and several under ``interior`` run in compiled lanes
+        (:mod:`convimpact.impact.lane`, :mod:`convimpact.impact.several_lane`) when the data
+        are plain; any other case takes the full path, with the same answers to round-off.
     **options
         Solver options (tolerances, iteration limits), documented per method.
 
