@@ -57,8 +57,10 @@ _EMPTY.flags.writeable = False
 _MODES = {"ccp": 0, "dissipative": 1, "coulomb": 2}
 _REGIME_OF = {0.0: "separating", 1.0: "frictionless", 2.0: "stick", 3.0: "slide"}
 _STATUS = {0: "converged", 1: "iteration limit", 2: "stalled", 3: "trivial"}
-#: the compiled lane_solve (None: not built yet; False: numba missing, lane off)
+#: the compiled lane_solve (None: not built yet; False: numba missing, lane off) and the
+#: offsets of its workspace (several_lane_kernels.layout)
 _SOLVE = None
+_LAYOUT = None
 COMPILE_SECONDS: dict[str, float] = {}
 #: several_contacts' names, bound on the first call
 CERTIFIED_ACCURACY = 1e-9
@@ -68,7 +70,7 @@ _poisson_warnings = None
 
 def _build():
     """Compile (or load from numba's disk cache) lane_solve."""
-    global _SOLVE, CERTIFIED_ACCURACY, DEFAULT_TOL, _poisson_warnings
+    global _SOLVE, _LAYOUT, CERTIFIED_ACCURACY, DEFAULT_TOL, _poisson_warnings
     t = time.perf_counter()
     try:
         from . import several_lane_kernels as K
@@ -94,6 +96,7 @@ def _build():
         ws = np.empty(K.layout(2, 2, 3)[-1])
         K.lane_solve(mode, M, J, dq, np.full(2, 0.5), np.full(2, 0.3), ws)
     _SOLVE = K.lane_solve
+    _LAYOUT = K.layout
     COMPILE_SECONDS["several_lane"] = time.perf_counter() - t
     return _SOLVE
 
@@ -138,9 +141,7 @@ class _Answer:
         self.predicted, self._full = predicted, None
 
     def _offsets(self):
-        from .several_lane_kernels import layout
-
-        return layout(self.n, self.d, self.k)
+        return _LAYOUT(self.n, self.d, self.k)
 
     def mass(self) -> np.ndarray:
         k = self.k
@@ -227,16 +228,9 @@ def resolve_several(M, Jc, dq, e, mu, law: str) -> ImpactResult | None:
     if not (dq.flags.c_contiguous and dq.flags.writeable):
         dq = np.array(dq, order="C")
     d = shape[0]
-    N = n * d
     J = np.array(Jc)
-    # layout(n, d, k) (several_lane_kernels)
-    ov = N * N
-    odq = ov + N
-    ovp = odq + k
-    opl = ovp + 3 * N  # v+, pi, the private copy of pi (N each), then the plastic impulse
-    oout = opl + N
-    osc = oout + 4 * n
-    ws = np.empty(osc + 8 + k * k + N * k + k)
+    ov, odq, ovp, _, _, opl, oout, osc, _, _, _, size = _LAYOUT(n, d, k)
+    ws = np.empty(size)
     if solve(mode, M, J, dq, ev, mv, ws) != 0:
         return None
     per = ws[oout:osc + 8].tolist()

@@ -4,8 +4,9 @@
 :func:`lane_solve` does, into one flat workspace (:func:`layout`):
 
 1. M checked (exactly symmetric, finite) and factored, ``M = L L^T``, every pivot above
-   ``PIVOT_RTOL`` times its diagonal entry; ``X = L^-1 Jc^T``, ``W = X^T X`` (the upper
-   triangle computed, the lower mirrored: symmetric by construction) and ``v- = Jc dq``;
+   ``PIVOT_RTOL`` times its diagonal entry; ``X = L^-1 Jc^T``, ``W = X^T X`` (symmetric by
+   construction) and ``v- = Jc dq`` (:func:`convimpact.impact.lane_algebra.reduce_rows`, shared
+   with the one-contact lane);
 2. the plain-case contact checks of :func:`convimpact.impact.problem.build_problem`
    (:func:`~convimpact.impact.several_kernels.contact_checks`), some contact approaching, and
    the velocities within 1e-100 .. 1e100;
@@ -28,14 +29,13 @@ import math
 import numpy as np
 
 from .conic.polish import VELOCITY_RESIDUAL_MAX
+from .lane_algebra import NOT_FINITE, PLAIN, map_back, reduce_rows, velocity_jump
 from .reduction import IMMOBILE_RTOL, TINY_NORMAL
 from .several_kernels import TRIVIAL, _jit, contact_checks
 from .several_newton import solve_law
 
-#: a Cholesky pivot at or below this fraction of its diagonal entry sends M to the full path
-PIVOT_RTOL = 1e-12
 #: figures computed in plain arithmetic (outside, the full path normalizes them)
-PLAIN_LO, PLAIN_HI = 1e-100, 1e100
+PLAIN_LO, PLAIN_HI = PLAIN
 #: several_contacts' constants (HANDOVER_TOL, CERTIFIED_ACCURACY, the default options)
 HANDOVER_TOL = 1e-9
 CERTIFIED_ACCURACY = 1e-9
@@ -46,12 +46,13 @@ NEWTON_ITER = 20
 #: data not the plain case (non-finite, degenerate or immobile contacts), no contact
 #: approaching, velocities outside plain arithmetic, the certificate failed, a result
 #: outside plain arithmetic
-BAD_M, BAD_PIVOT, NOT_PLAIN_CONTACTS, SEPARATING, SCALE, CERTIFICATE, NOT_PLAIN = range(1, 8)
+NOT_PLAIN_CONTACTS, SEPARATING, SCALE, CERTIFICATE, NOT_PLAIN = range(3, 8)
 #: scalars slot names (see layout)
 N_SCALARS = 8
 
 
-def layout(n: int, d: int, k: int) -> tuple[int, ...]:
+@_jit
+def layout(n, d, k):
     """Offsets into the workspace: W (N*N), v- (N), dq+ (k), v+ (N), pi (N), a private copy
     of pi (N), the plastic impulse (N), per contact (n each) regime code, lift, mu |v_t+|,
     v_n+, then [status, iterations, Newton steps, certificate, floor, T+ - T-, plastic energy
@@ -80,17 +81,7 @@ def lane_solve(mode, M, J, dq, e, friction, ws):
     d = J.shape[1]
     k = J.shape[2]
     N = n * d
-    ov = N * N
-    odq = ov + N
-    ovp = odq + k
-    opi = ovp + N
-    opc = opi + N
-    opl = opc + N
-    oout = opl + N
-    osc = oout + 4 * n
-    ocM = osc + 8
-    ocJ = ocM + k * k
-    ocq = ocJ + N * k
+    ov, odq, ovp, opi, opc, opl, oout, osc, ocM, ocJ, ocq, _ = layout(n, d, k)
     # private copies of the data (the diagnostics measure them on first access)
     for i in range(k):
         for j in range(k):
@@ -100,51 +91,16 @@ def lane_solve(mode, M, J, dq, e, friction, ws):
         for b in range(d):
             for i in range(k):
                 ws[ocJ + (a * d + b) * k + i] = J[a, b, i]
-    # M exactly symmetric and finite (the full path symmetrizes or rejects the others)
-    for i in range(k):
-        if not math.isfinite(M[i, i]):
-            return BAD_M
-        for j in range(i):
-            if M[i, j] != M[j, i] or not math.isfinite(M[i, j]):
-                return BAD_M
-    # Cholesky M = L L^T, every pivot safely positive
-    L = np.zeros((k, k))
-    for j in range(k):
-        s = M[j, j]
-        for p in range(j):
-            s -= L[j, p] * L[j, p]
-        if not s > PIVOT_RTOL * M[j, j]:
-            return BAD_PIVOT
-        r = math.sqrt(s)
-        L[j, j] = r
-        for i in range(j + 1, k):
-            s = M[i, j]
-            for p in range(j):
-                s -= L[i, p] * L[j, p]
-            L[i, j] = s / r
-    # X = L^-1 Jc^T (forward substitution), W = X^T X (upper triangle, mirrored), v = Jc dq
+    # M checked and factored, X = L^-1 Jc^T, W = X^T X, v = Jc dq (lane_algebra)
+    L = np.empty((k, k))
     X = np.empty((k, N))
-    v = np.empty(N)
-    for a in range(n):
-        for b in range(d):
-            c = a * d + b
-            s = 0.0
-            for i in range(k):
-                s += J[a, b, i] * dq[i]
-            v[c] = s
-            for i in range(k):
-                s = J[a, b, i]
-                for p in range(i):
-                    s -= L[i, p] * X[p, c]
-                X[i, c] = s / L[i, i]
     W = np.empty((N, N))
-    for a in range(N):
-        for b in range(a, N):
-            s = 0.0
-            for i in range(k):
-                s += X[i, a] * X[i, b]
-            W[a, b] = s
-            W[b, a] = s
+    v = np.empty(N)
+    code = reduce_rows(M, J.reshape((N, k)), dq, L, X, W, v)
+    if code == NOT_FINITE:
+        return NOT_PLAIN_CONTACTS  # a contact row, W or v- not finite
+    if code != 0:
+        return code  # lane_algebra.BAD_M or BAD_PIVOT (1, 2)
     # the plain case of build_problem's contact checks (finite, normals and tangents moving)
     if contact_checks(W, v, d, IMMOBILE_RTOL, TINY_NORMAL) != 0:
         return NOT_PLAIN_CONTACTS
@@ -194,33 +150,14 @@ def lane_solve(mode, M, J, dq, e, friction, ws):
     else:
         for c in range(N):
             pi[c] = out[c]
-    # dq+ = dq + L^-T X pi (y = X pi, back substitution)
-    y = np.empty(k)
-    for i in range(k):
-        s = 0.0
-        for c in range(N):
-            s += X[i, c] * pi[c]
-        y[i] = s
-    for i in range(k - 1, -1, -1):
-        s = y[i]
-        for p in range(i + 1, k):
-            s -= L[p, i] * y[p]
-        y[i] = s / L[i, i]
+    # dq+ = dq + L^-T X pi, v+ = v- + W pi, T+ - T- = pi.v- + 1/2 pi.W.pi (lane_algebra)
+    map_back(L, X, pi, dq, ws[odq:ovp])
+    dT, ps, _ = velocity_jump(W, v, pi, ws[ovp:opi])
     total = 0.0
     for i in range(k):
-        ws[odq + i] = dq[i] + y[i]
         total += ws[odq + i]
-    # v+ = v- + W pi, T+ - T- = pi.v- + 1/2 pi.W.pi
-    dT = 0.0
-    ps = 0.0
     for a in range(N):
-        q = 0.0
-        for b in range(N):
-            q += W[a, b] * pi[b]
-        ws[ovp + a] = v[a] + q
         total += ws[ovp + a]
-        dT += pi[a] * v[a] + 0.5 * pi[a] * q
-        ps = max(ps, abs(pi[a]))
         ws[opi + a] = pi[a]
         ws[opc + a] = pi[a]
         ws[ov + a] = v[a]

@@ -4,15 +4,17 @@
 :func:`convimpact.impact.lane.resolve_one` in one compiled call:
 
 1. :func:`reduce_one` checks M (exactly symmetric, finite) and factors it, ``M = L L^T``;
-   then ``X = L^-1 Jc^T``, ``W = X^T X`` (eq. 29's Delassus block) and ``v- = Jc dq``;
+   then ``X = L^-1 Jc^T``, ``W = X^T X`` (eq. 29's Delassus block) and ``v- = Jc dq``
+   (:func:`convimpact.impact.lane_algebra.reduce_rows`, shared with the several-contact lane),
+   and checks the contact: approaching, a normal that moves mass, near unit scale;
 2. the law's exact kernel -- the compiled port of ``contact_kernel`` of each law module
    (:func:`.loop._planar_item`, :func:`.loop._spatial_item`, the batch's own) -- gives the
    contact impulse ``pi`` from ``(W, v-, e, mu)``;
 3. :func:`finish_one` maps it back: ``dq+ = dq + L^-T X pi`` (eq. 29), ``v+ = v- + W pi`` and
-   ``T+ - T- = pi.v- + 1/2 pi.W.pi`` (eq. 58).
+   ``T+ - T- = pi.v- + 1/2 pi.W.pi`` (eq. 58) (:mod:`convimpact.impact.lane_algebra`).
 
-Everything is written into one flat workspace (:func:`layout`), so the call from Python
-passes seven arguments and allocates one array. A case the lane does not take (see
+Everything is written into one flat workspace (:func:`convimpact.impact.lane.layout`), so the
+call from Python passes seven arguments and allocates one array. A case the lane does not take (see
 :mod:`convimpact.impact.lane`) returns a code > 0 and the full path takes it.
 """
 
@@ -20,16 +22,11 @@ from __future__ import annotations
 
 import math
 
-from ..lane import layout  # noqa: F401  (the workspace's offsets, for callers of this module)
+from ..lane_algebra import PLAIN, map_back, reduce_rows, velocity_jump
 from ..problem import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
 from .common import DEFER, OK, _jit
 from .loop import _planar_item, _spatial_item
 
-#: a Cholesky pivot at or below this fraction of its diagonal entry sends M to the full
-#: path (whose LAPACK factorization decides positive definiteness at the edge)
-PIVOT_RTOL = 1e-12
-#: figures the lane computes in plain arithmetic (outside, the full path normalizes them)
-PLAIN = (1e-100, 1e100)
 #: lane_solve's codes beyond reduce_one's (1-5): the kernel refused (status SINGULAR/JAM),
 #: deferred to the Python kernel (DEFER), or a result outside plain arithmetic
 REFUSED, DEFERRED, NOT_PLAIN = 6, 7, 8
@@ -37,8 +34,9 @@ REFUSED, DEFERRED, NOT_PLAIN = 6, 7, 8
 
 @_jit
 def reduce_one(M, J, dq, ws):
-    """Check and reduce one contact into ``ws`` (layout: :func:`layout`). Returns 0 when the
-    data are the plain case, else a code > 0: the full path must take them."""
+    """Check and reduce one contact into ``ws`` (:func:`convimpact.impact.lane.layout`).
+    Returns 0 when the data are the plain case, else a code > 0: the full path must take
+    them."""
     k = M.shape[0]
     d = J.shape[0]
     oX = k * k
@@ -53,54 +51,11 @@ def reduce_one(M, J, dq, ws):
     for c in range(d):
         for i in range(k):
             ws[oc + k * k + c * k + i] = J[c, i]
-    # M exactly symmetric and finite (the full path symmetrizes or rejects the others)
-    for i in range(k):
-        if not math.isfinite(M[i, i]):
-            return 1
-        for j in range(i):
-            if M[i, j] != M[j, i] or not math.isfinite(M[i, j]):
-                return 1
-    # Cholesky M = L L^T, every pivot safely positive
-    for i in range(k * k):
-        ws[i] = 0.0
-    for j in range(k):
-        s = M[j, j]
-        for p in range(j):
-            s -= ws[j * k + p] * ws[j * k + p]
-        if not s > PIVOT_RTOL * M[j, j]:
-            return 2
-        r = math.sqrt(s)
-        ws[j * k + j] = r
-        for i in range(j + 1, k):
-            s = M[i, j]
-            for p in range(j):
-                s -= ws[i * k + p] * ws[j * k + p]
-            ws[i * k + j] = s / r
-    # X = L^-1 J^T (forward substitution, column by column), W = X^T X, v = J dq
-    for c in range(d):
-        for i in range(k):
-            s = J[c, i]
-            for p in range(i):
-                s -= ws[i * k + p] * ws[oX + p * d + c]
-            ws[oX + i * d + c] = s / ws[i * k + i]
-    total = 0.0
-    for a in range(d):
-        for b in range(a + 1):
-            s = 0.0
-            for i in range(k):
-                s += ws[oX + i * d + a] * ws[oX + i * d + b]
-            ws[oW + a * d + b] = s
-            ws[oW + b * d + a] = s
-            total += s
-        s = 0.0
-        for i in range(k):
-            if not math.isfinite(J[a, i]):
-                return 3
-            s += J[a, i] * dq[i]
-        ws[ov + a] = s
-        total += s
-    if not math.isfinite(total):
-        return 3
+    # M checked and factored, X = L^-1 J^T, W = X^T X, v = J dq (lane_algebra's codes 1-3)
+    code = reduce_rows(M, J, dq, ws[:oX].reshape((k, k)), ws[oX:oW].reshape((k, d)),
+                       ws[oW:ov].reshape((d, d)), ws[ov:ov + d])
+    if code != 0:
+        return code
     vs = 0.0
     tr = 0.0
     for a in range(d):
@@ -127,31 +82,8 @@ def finish_one(ws, k, d, pi, dq):
     oW = oX + k * d
     ov = oW + d * d
     oo = ov + d
-    # y = X pi, then dq+ = dq + L^-T y (back substitution)
-    for i in range(k):
-        s = 0.0
-        for c in range(d):
-            s += ws[oX + i * d + c] * pi[c]
-        ws[oo + i] = s
-    for i in range(k - 1, -1, -1):
-        s = ws[oo + i]
-        for p in range(i + 1, k):
-            s -= ws[p * k + i] * ws[oo + p]
-        ws[oo + i] = s / ws[i * k + i]
-    for i in range(k):
-        ws[oo + i] += dq[i]
-    dT = 0.0
-    ps = 0.0
-    vs = 0.0
-    for a in range(d):
-        s = ws[ov + a]
-        q = 0.0
-        for b in range(d):
-            q += ws[oW + a * d + b] * pi[b]
-        ws[oo + k + a] = s + q
-        dT += pi[a] * s + 0.5 * pi[a] * q
-        ps = max(ps, abs(pi[a]))
-        vs = max(vs, abs(s))
+    map_back(ws[:oX].reshape((k, k)), ws[oX:oW].reshape((k, d)), pi, dq, ws[oo:oo + k])
+    dT, ps, vs = velocity_jump(ws[oW:ov].reshape((d, d)), ws[ov:oo], pi, ws[oo + k:oo + k + d])
     ws[oo + k + d] = dT
     ws[oo + k + d + 1] = ps
     ws[oo + k + d + 2] = vs
@@ -165,9 +97,10 @@ def finish_one(ws, k, d, pi, dq):
 
 @_jit
 def lane_solve(law, M, J, dq, e, mu, ws):
-    """Reduce, solve and map back one contact into ``ws`` (:func:`layout`). Returns 0 (done),
-    or reduce_one's code (1-5), REFUSED (the kernel's status in ws: SINGULAR or JAM), DEFERRED
-    (a rare branch the Python kernel solves: W and v- are in ws) or NOT_PLAIN."""
+    """Reduce, solve and map back one contact into ``ws`` (:func:`convimpact.impact.lane.layout`).
+    Returns 0 (done), or reduce_one's code (1-5), REFUSED (the kernel's status in ws:
+    SINGULAR or JAM), DEFERRED (a rare branch the Python kernel solves: W and v- are in ws) or
+    NOT_PLAIN."""
     k = M.shape[0]
     d = J.shape[0]
     code = reduce_one(M, J, dq, ws)
