@@ -50,14 +50,12 @@ from .reduction import (  # noqa: F401  (re-exported: the tolerances are this mo
     LOOP_RANK_RTOL,
     LOOP_VELOCITY_RTOL,
     TINY_NORMAL,
-    _cholesky,
     _contact_space,
     _finite,
     _plain_contacts,
     _symmetrize,
-    _tri,
 )
-from .small_linalg import empty_matrix, tri_solve
+from .small_linalg import cholesky_lower, empty_matrix, tri_solve
 
 ArrayLike = Union[np.ndarray, Sequence[float], float]
 
@@ -118,7 +116,7 @@ def check_mass_matrix(M) -> tuple[np.ndarray, np.ndarray]:
                 "a generalized mass matrix B^T M B (eq. 3) is symmetric: check its assembly"
             )
         M = 0.5 * M + 0.5 * M.T  # as 0.5 (M + M^T), without overflow near the float maximum
-    L, info = _cholesky(M)
+    L, info = cholesky_lower(M)
     if info != 0 or not math.isfinite(L[k - 1, k - 1]):
         _finite("M", M)
         lam = float(np.linalg.eigvalsh(M)[0])
@@ -453,7 +451,7 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
         mass_matrix=M, cholesky=L, jacobians=J, dq_minus=dq, restitution=e, friction=mu,
         loop_jacobian=C, single=single, delassus=W, v_minus=v.reshape(n, d), loop_matrix=A,
         notes=notes, approaching=tuple([vl[i] < 0.0 for i in range(0, n * d, d)]),
-        _minv_jt=_tri(L, X, 1), _minv_ct=minv_ct, _loop_cho=loop_cho, _vl=vl,
+        _minv_jt=tri_solve(L, X, trans=1), _minv_ct=minv_ct, _loop_cho=loop_cho, _vl=vl,
         _rows=rows)
     if lists is not None:
         derived["_lists"] = lists

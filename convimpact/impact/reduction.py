@@ -17,8 +17,8 @@ import sys
 import numpy as np
 import scipy.linalg as sla
 
-from .errors import LoopConstraintError, MassMatrixError, NonFiniteError, ShapeError, as_real_array
-from .small_linalg import _dpotrf, _dtrtrs, _numpy_cholesky, empty_matrix, tri_solve
+from .errors import LoopConstraintError, NonFiniteError, ShapeError, as_real_array
+from .small_linalg import empty_matrix, tri_solve
 
 #: relative singular-value threshold below which C is declared rank deficient (C M^-1 C^T
 #: squares the ratio, so 1e-7 keeps its condition number below about 1e14)
@@ -39,27 +39,6 @@ def _finite(name: str, a: np.ndarray) -> np.ndarray:
     if not np.isfinite(a).all():
         raise NonFiniteError(f"{name} contains NaN or infinity; pass finite values")
     return a
-
-
-def _cholesky(M: np.ndarray) -> tuple[np.ndarray, int]:
-    """:func:`~convimpact.impact.small_linalg.cholesky_lower` -- the same calls, the same
-    factor and decision (scipy's dpotrf decides, the factor is numpy's) -- without keyword
-    parsing on the public call's path."""
-    L, info = _dpotrf(M, 1, 1)
-    if info == 0 and _numpy_cholesky is not None:
-        Ln = _numpy_cholesky(M)  # float64 input: its d->d loop
-        k = M.shape[0] - 1
-        if Ln[k, k] == Ln[k, k]:  # not NaN
-            return Ln, 0
-    return L, info
-
-
-def _tri(L: np.ndarray, B: np.ndarray, trans: int) -> np.ndarray:
-    """:func:`~convimpact.impact.small_linalg.tri_solve` (the same LAPACK call, positional)."""
-    X, info = _dtrtrs(L, B, 1, trans)
-    if info != 0:  # pragma: no cover - L comes from a successful Cholesky factorization
-        raise MassMatrixError(f"triangular solve failed (LAPACK info {info})")
-    return X
 
 
 def _loops(C, L: np.ndarray, X: np.ndarray, W: np.ndarray, dq: np.ndarray, k: int) -> tuple:
@@ -124,7 +103,7 @@ def _symmetrize(W: np.ndarray) -> list:
 def _contact_space(L: np.ndarray, rows: np.ndarray, dq: np.ndarray, C) -> tuple:
     """Contact space of ``rows`` (r, k): (L^-1 rows^T, W (not yet symmetrized), rows dq, C,
     C M^-1 C^T, M^-1 C^T, the Cholesky factor of C M^-1 C^T)."""
-    X = _tri(L, rows.T, 0)  # L^-1 Jc^T
+    X = tri_solve(L, rows.T)  # L^-1 Jc^T
     W = X.T @ X
     v = rows @ dq
     k = L.shape[0]

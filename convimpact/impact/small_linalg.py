@@ -41,9 +41,9 @@ def cholesky_lower(M: np.ndarray) -> tuple[np.ndarray, int]:
     so that results stay bit for bit those of numpy's factorization), dpotrf's where numpy's
     is unavailable or disagrees at the edge of positive definiteness.
     """
-    L, info = _dpotrf(M, lower=1, clean=1)
+    L, info = _dpotrf(M, 1, 1)  # lower, clean (positional: the public call's hot path)
     if info == 0 and _numpy_cholesky is not None:
-        Ln = _numpy_cholesky(M, signature="d->d")
+        Ln = _numpy_cholesky(M)  # M is float64 (validated): numpy's d->d loop
         k = M.shape[0] - 1
         if Ln[k, k] == Ln[k, k]:  # not NaN
             return Ln, 0
@@ -52,7 +52,7 @@ def cholesky_lower(M: np.ndarray) -> tuple[np.ndarray, int]:
 
 def tri_solve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
     """Solve L X = B (trans=0) or L^T X = B (trans=1) for lower-triangular L."""
-    X, info = _dtrtrs(L, B, lower=1, trans=trans)
+    X, info = _dtrtrs(L, B, 1, trans)  # lower (positional: the public call's hot path)
     if info != 0:  # pragma: no cover - L comes from a successful Cholesky factorization
         raise MassMatrixError(f"triangular solve failed (LAPACK info {info})")
     return X
