@@ -291,13 +291,36 @@ def _solve(P: ImpactProblem, opts: InteriorOptions, law: str) -> tuple:
         if not residual <= max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX)):
             _accepted(residual, floor, opts, status, iters, steps, law == "coulomb")  # raises
         kkt, name = float(residual), _STATUS.get(status, str(status))
-    report = {"solver_status": "certified", "interior_status": name, "iterations": iters,
-              "newton_steps": steps, "tolerance": opts.tol, "polished": True,
-              "kkt_residual": kkt}
+    report = solver_report(name, iters, steps, kkt, opts.tol)
     N = n * d
     per = out[N:].tolist()
     return (out[:N].reshape(n, d), report, [_REGIME_OF[c] for c in per[:n]],
             per[n:2 * n], per[2 * n:3 * n], per[3 * n:])
+
+
+def solver_report(interior_status: str, iterations: int, newton_steps: int, kkt: float,
+                  tol: float) -> dict:
+    """The solver's part of a certified answer's extras."""
+    return {"solver_status": "certified", "interior_status": interior_status,
+            "iterations": iterations, "newton_steps": newton_steps, "tolerance": tol,
+            "polished": True, "kkt_residual": kkt}
+
+
+def law_extras(law: str, report: dict, lift=None, mu_slip=None, plastic=None,
+               plastic_energy_loss=None, predicted=None, plastic_lift=None) -> dict:
+    """A certified answer's extras for ``law`` (``report``: :func:`solver_report`): for
+    ``ccp`` the normal-velocity lift and ``mu |v_t+|`` per contact; for ``coulomb`` how it was
+    finished and its residual; for ``dissipative`` the plastic phase (impulse, energy loss,
+    the predicted loss after Poisson's scaling, its normal-velocity lift)."""
+    if law == "ccp":
+        return {"normal_velocity_lift": lift, "mu_times_slip": mu_slip, **report}
+    if law == "coulomb":
+        return {"finished_by": "Newton on Coulomb's natural map from the CCP answer",
+                "complementarity_residual": report["kkt_residual"],
+                "accuracy": CERTIFIED_ACCURACY, **report}
+    return {"plastic_impulse": plastic, "plastic_energy_loss": plastic_energy_loss,
+            "predicted_energy_loss": predicted, "plastic_normal_velocity_lift": plastic_lift,
+            **report}
 
 
 def ccp_result(P: ImpactProblem, **options) -> ImpactResult:
@@ -305,7 +328,7 @@ def ccp_result(P: ImpactProblem, **options) -> ImpactResult:
     conic path's :func:`convimpact.impact.laws.ccp.program_result`)."""
     opts = parse_options(options) if options else DEFAULT_OPTIONS
     pi, report, regimes, lift, mu_slip, _ = _solve(P, opts, "ccp")
-    extras = {"normal_velocity_lift": lift, "mu_times_slip": mu_slip, **report}
+    extras = law_extras("ccp", report, lift=lift, mu_slip=mu_slip)
     return assemble_result(P, pi, regimes, "ccp", METHOD, tol=CERTIFIED_ACCURACY, extras=extras)
 
 
@@ -319,13 +342,9 @@ def dissipative_result(P: ImpactProblem, **options) -> ImpactResult:
     W = P.delassus
     Ep = (plastic * P.restitution[:, None]).ravel()
     predicted = 0.5 * float(flat @ W @ flat) - 0.5 * float(Ep @ W @ Ep)
-    extras = {
-        "plastic_impulse": plastic.tolist(),
-        "plastic_energy_loss": 0.5 * float(flat @ W @ flat),
-        "predicted_energy_loss": predicted,
-        "plastic_normal_velocity_lift": vn_plus,
-        **report,
-    }
+    extras = law_extras("dissipative", report, plastic=plastic.tolist(),
+                        plastic_energy_loss=0.5 * float(flat @ W @ flat),
+                        predicted=predicted, plastic_lift=vn_plus)
     warnings = poisson_warnings(P, W, predicted)
     return assemble_result(P, pi, regimes, "dissipative", METHOD, tol=CERTIFIED_ACCURACY,
                            extras=extras, warnings=tuple(warnings))
@@ -339,9 +358,7 @@ def coulomb_result(P: ImpactProblem, **options) -> ImpactResult:
     why ``method="auto"`` keeps the conic path for this law."""
     opts = parse_options(options) if options else DEFAULT_OPTIONS
     pi, report, regimes, _, _, _ = _solve(P, opts, "coulomb")
-    extras = {"finished_by": "Newton on Coulomb's natural map from the CCP answer",
-              "complementarity_residual": report["kkt_residual"],
-              "accuracy": CERTIFIED_ACCURACY, **report}
+    extras = law_extras("coulomb", report)
     return assemble_result(P, pi, regimes, "coulomb", METHOD, tol=CERTIFIED_ACCURACY,
                            extras=extras)
 

@@ -48,46 +48,48 @@ from types import MappingProxyType
 import numpy as np
 
 from .diagnostics import assemble_result
+from .laws.dissipative import poisson_warnings
 from .problem import _new, build_problem
 from .results import ImpactDiagnostics, ImpactResult
+from .several_contacts import (
+    _MODES,
+    _REGIME_OF,
+    _STATUS,
+    CERTIFIED_ACCURACY,
+    DEFAULT_OPTIONS,
+    HANDOVER_TOL,
+    law_extras,
+    solver_report,
+)
 
 _F64 = np.dtype(np.float64)
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
-_MODES = {"ccp": 0, "dissipative": 1, "coulomb": 2}
-_REGIME_OF = {0.0: "separating", 1.0: "frictionless", 2.0: "stick", 3.0: "slide"}
-_STATUS = {0: "converged", 1: "iteration limit", 2: "stalled", 3: "trivial"}
 #: the compiled lane_solve (None: not built yet; False: numba missing, lane off) and the
 #: offsets of its workspace (several_lane_kernels.layout)
 _SOLVE = None
 _LAYOUT = None
 COMPILE_SECONDS: dict[str, float] = {}
-#: several_contacts' names, bound on the first call
-CERTIFIED_ACCURACY = 1e-9
-DEFAULT_TOL = 1e-10
-_poisson_warnings = None
+DEFAULT_TOL = DEFAULT_OPTIONS.tol
 
 
 def _build():
     """Compile (or load from numba's disk cache) lane_solve."""
-    global _SOLVE, _LAYOUT, CERTIFIED_ACCURACY, DEFAULT_TOL, _poisson_warnings
+    global _SOLVE, _LAYOUT
     t = time.perf_counter()
     try:
         from . import several_lane_kernels as K
-        from .laws.dissipative import poisson_warnings
-        from .several_contacts import CERTIFIED_ACCURACY as acc, DEFAULT_OPTIONS, HANDOVER_TOL
     except ImportError:  # numba missing
         _SOLVE = False
         return _SOLVE
     o = DEFAULT_OPTIONS
     if (K.CERTIFIED_ACCURACY, K.HANDOVER_TOL, K.DEFAULT_TOL, K.MAX_ITER, K.NEWTON_ITER) != (
-            acc, HANDOVER_TOL, o.tol, o.max_iter, o.newton_iter):
-        # the compiled call's frozen copies of the interior path's constants are stale: the
-        # lane would not be that path's answer, so it stays off
+            CERTIFIED_ACCURACY, HANDOVER_TOL, o.tol, o.max_iter, o.newton_iter):
+        # the compiled call's frozen copies of the interior path's constants (numba's cache
+        # keeps them with the machine code) are stale: the lane would not be that path's
+        # answer, so it stays off
         _SOLVE = False
         return _SOLVE
-    CERTIFIED_ACCURACY, DEFAULT_TOL = acc, DEFAULT_OPTIONS.tol
-    _poisson_warnings = poisson_warnings
     J = np.zeros((2, 2, 3))
     J[0, 0, 2] = J[1, 0, 2] = 1.0
     J[0, 1, 0] = J[1, 1, 1] = 1.0
@@ -163,7 +165,7 @@ class _Answer:
             P = build_problem(self.mass(), J, dq, self.e.tolist(), self.mu.tolist())
             warnings = ()
             if self.law == "dissipative":
-                warnings = tuple(_poisson_warnings(P, P.delassus, self.predicted))
+                warnings = tuple(poisson_warnings(P, P.delassus, self.predicted))
             self._full = assemble_result(P, self.pi, self.regimes, self.law, "interior",
                                          tol=CERTIFIED_ACCURACY, extras=self.extras,
                                          warnings=warnings)
@@ -236,23 +238,14 @@ def resolve_several(M, Jc, dq, e, mu, law: str) -> ImpactResult | None:
     per = ws[oout:osc + 8].tolist()
     sc = per[4 * n:]
     status = int(sc[0])
-    report = {"solver_status": "certified", "interior_status": _STATUS.get(status, str(status)),
-              "iterations": int(sc[1]), "newton_steps": int(sc[2]), "tolerance": DEFAULT_TOL,
-              "polished": True, "kkt_residual": sc[3]}
+    report = solver_report(_STATUS.get(status, str(status)), int(sc[1]), int(sc[2]), sc[3],
+                           DEFAULT_TOL)
     regimes = tuple([_REGIME_OF[c] for c in per[:n]])
-    predicted = None
-    if law == "ccp":
-        extras = {"normal_velocity_lift": per[n:2 * n], "mu_times_slip": per[2 * n:3 * n],
-                  **report}
-    elif law == "coulomb":  # as several_contacts.coulomb_result
-        extras = {"finished_by": "Newton on Coulomb's natural map from the CCP answer",
-                  "complementarity_residual": report["kkt_residual"],
-                  "accuracy": CERTIFIED_ACCURACY, **report}
-    else:
-        predicted = sc[7]
-        extras = {"plastic_impulse": ws[opl:oout].reshape(n, d).tolist(),
-                  "plastic_energy_loss": sc[6], "predicted_energy_loss": predicted,
-                  "plastic_normal_velocity_lift": per[3 * n:4 * n], **report}
+    predicted = sc[7] if law == "dissipative" else None
+    extras = law_extras(law, report, lift=per[n:2 * n], mu_slip=per[2 * n:3 * n],
+                        plastic=ws[opl:oout].reshape(n, d).tolist() if predicted is not None
+                        else None, plastic_energy_loss=sc[6], predicted=predicted,
+                        plastic_lift=per[3 * n:4 * n])
     vpc = ws[ovp:opl].reshape(3, n, d)  # v+, pi and the private copy of pi
     answer = _Answer(ws, n, d, k, ev, mv, vpc[2], regimes, law, extras, predicted)
     values = dict(effective_mass=None, extras=MappingProxyType(extras), _source=answer,
