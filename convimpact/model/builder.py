@@ -24,8 +24,10 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..impact.errors import ModelError
+from .data import Data
 from .geometry import orthonormal_complement, rot2
 from .joints import Joint, Motion
+from .mechanism import ModelMechanism
 from .specs import BodyInfo, ContactSpec, LoopSpec
 
 GROUND = "ground"
@@ -124,14 +126,12 @@ class Model:
             raise ModelError(f"unknown contact {name!r}; contacts are "
                              f"{', '.join(self.contact_names) or 'none'}") from None
 
-    def create_data(self):
+    def create_data(self) -> Data:
         """A fresh :class:`~convimpact.model.data.Data` workspace for this model."""
-        from .data import Data
         return Data(self)
 
-    def mechanism(self):
+    def mechanism(self) -> ModelMechanism:
         """This model as a :class:`convimpact.mechanism.Mechanism` (a :class:`ModelMechanism`)."""
-        from .mechanism import ModelMechanism
         return ModelMechanism(self)
 
 

@@ -24,7 +24,6 @@ from . import dynamics as _dyn
 from . import kinematics as _kin
 from . import loops as _loops
 from . import recursive as _rc
-from .builder import Model
 
 #: stages of one configuration pass of the right-hand side
 RHS_POSITIONS = _rc.MASS | _rc.CHOL | _rc.CONTACT
@@ -37,7 +36,8 @@ class ModelMechanism:
 
     Parameters
     ----------
-    model : the model to evaluate.
+    model : the :class:`~convimpact.model.builder.Model` to evaluate (``model.mechanism()``
+        builds this object).
 
     Attributes
     ----------
@@ -46,7 +46,7 @@ class ModelMechanism:
     n_coordinates, n_loop_constraints, contact_names, coordinate_names : as in the model.
     """
 
-    def __init__(self, model: Model):
+    def __init__(self, model):
         self.model = model
         self.data = model.create_data()
         self.n_coordinates: int = model.n_coordinates
