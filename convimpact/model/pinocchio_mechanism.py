@@ -7,7 +7,7 @@ accept it:
 
 * M(theta) by CRBA, f = -nonLinearEffects (+ applied forces), M_dot = C + C^T from Pinocchio's
   Coriolis matrix;
-* contacts declared on frames (:class:`~convimpact.model.pinocchio_adapter.PinocchioContact`):
+* contacts declared on frames (:class:`~convimpact.model.pinocchio_terms.PinocchioContact`):
   a point of a frame against a plane fixed in the world, gap = signed distance, Jacobian rows
   (n, t1, t2) in space or (n, t) for a planar model (embedded in the x-y plane), and their
   exact time derivative along theta_dot;
@@ -38,10 +38,10 @@ from typing import Callable, Optional, Sequence, Union
 
 import numpy as np
 
-from ..impact.errors import ModelError, NotSupportedError, ParameterError, ShapeError
-from .pinocchio_adapter import (FrameRef, PinocchioContact, _frame_id, _pin, _skew,
-                                contact_basis, mass_matrix, point_loop_jacobian,
-                                point_loop_jacobian_dot)
+from ..impact.errors import (ModelError, NonFiniteError, NotSupportedError, ParameterError,
+                             ShapeError)
+from .pinocchio_terms import (FrameRef, PinocchioContact, _frame_id, _pin, _skew, contact_basis,
+                              mass_matrix, point_loop_jacobian, point_loop_jacobian_dot)
 
 ROOT_JOINTS = ("fixed", "free", "planar")
 
@@ -311,7 +311,6 @@ class PinocchioMechanism:
         if q.shape != (self.n_coordinates,):
             raise ShapeError(f"{name} must have shape ({self.n_coordinates},), got {q.shape}")
         if not np.all(np.isfinite(q)):
-            from ..impact.errors import NonFiniteError
             raise NonFiniteError(f"{name} has a non-finite entry: {q.tolist()}")
         return q
 
