@@ -44,9 +44,9 @@ from ..impact.results import _fields_as_json
 from .angle_landscape import AngleLandscape, angle_landscape  # noqa: F401  (this API)
 from .stick_boundary import (  # noqa: F401  (this API)
     StickBoundary,
+    _boundary_from_meta,
     _planar_problem,
     _sticking_meta,
-    landscape_stick_boundary,
     stick_boundary,
 )
 
@@ -114,6 +114,22 @@ class Landscape:
         out["regime_names"] = list(REGIMES)
         out["counts"] = self.counts()
         return out
+
+
+def landscape_stick_boundary(L: Landscape) -> StickBoundary | None:
+    """The exact stick boundary of a planar landscape, from the sticking impulse its
+    ``meta`` keeps.
+
+    Parameters
+    ----------
+    L : a landscape of this module.
+
+    Returns
+    -------
+    StickBoundary or None
+        None where it has none: a spatial contact, a singular W, or a law without one.
+    """
+    return _boundary_from_meta(L.meta, L.law)
 
 
 def closed_form_landscape(M, Jc, dq, e, mu, C=None) -> Landscape:

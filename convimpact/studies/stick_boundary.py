@@ -1,20 +1,19 @@
 """The exact boundary of the stick region of one planar impact over (mu, e):
-:class:`StickBoundary`, :func:`stick_boundary` and :func:`landscape_stick_boundary` (part of
-the landscapes' API; :mod:`convimpact.studies.landscape` re-exports them), with the sticking
-impulse of eq. (42)/(52) the landscapes keep in their ``meta``."""
+:class:`StickBoundary` and :func:`stick_boundary` (part of the landscapes' API;
+:mod:`convimpact.studies.landscape` re-exports them), with the sticking impulse of
+eq. (42)/(52) that the landscapes keep in their ``meta`` (:func:`_sticking_meta` writes it,
+:func:`_boundary_from_meta` reads it back; a landscape's own boundary is
+:func:`convimpact.studies.landscape.landscape_stick_boundary`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Mapping
 
 import numpy as np
 
 from ..impact.errors import ShapeError
 from ..impact.problem import ImpactProblem, build_problem
-
-if TYPE_CHECKING:
-    from .landscape import Landscape
 
 
 def _planar_problem(M, Jc, dq, C) -> ImpactProblem:
@@ -158,21 +157,19 @@ def stick_boundary(M, Jc, dq, C=None, law: str = "pereira-nikravesh") -> StickBo
                                  f"{', '.join(_STICK_LAWS)}")
     P = _planar_problem(M, Jc, dq, C)
     W, v = P.contact_block(0)
-    if not _sticking_meta(W, v):
+    meta = _sticking_meta(W, v)
+    if not meta:
         raise SingularSystemError("the Delassus matrix W is singular: the sticking impulse of "
                                   "eq. (42)/(52) is not unique, so there is no stick boundary")
-    m = _sticking_meta(W, v)
-    return StickBoundary(pi0=np.array(m["sticking_impulse_e0"]),
-                         pi1=np.array(m["sticking_impulse_de"]), law=law,
-                         stick_ratio=m["stick_ratio"], slip_sign=m["slip_sign"])
+    return _boundary_from_meta(meta, law)
 
 
-def landscape_stick_boundary(L: "Landscape") -> StickBoundary | None:
-    """The exact :class:`StickBoundary` of a planar landscape (None if it has none: a spatial
-    contact, a singular W, or a law without one)."""
-    if "sticking_impulse_e0" not in L.meta or L.law not in _STICK_LAWS:
+def _boundary_from_meta(meta: Mapping[str, Any], law: str) -> StickBoundary | None:
+    """The :class:`StickBoundary` of law ``law`` from the entries :func:`_sticking_meta`
+    wrote (None without them, or for a law without an exact boundary)."""
+    if "sticking_impulse_e0" not in meta or law not in _STICK_LAWS:
         return None
-    return StickBoundary(pi0=np.asarray(L.meta["sticking_impulse_e0"], float),
-                         pi1=np.asarray(L.meta["sticking_impulse_de"], float), law=L.law,
-                         stick_ratio=float(L.meta.get("stick_ratio", 0.0)),
-                         slip_sign=float(L.meta.get("slip_sign", 1.0)))
+    return StickBoundary(pi0=np.asarray(meta["sticking_impulse_e0"], float),
+                         pi1=np.asarray(meta["sticking_impulse_de"], float), law=law,
+                         stick_ratio=float(meta.get("stick_ratio", 0.0)),
+                         slip_sign=float(meta.get("slip_sign", 1.0)))
