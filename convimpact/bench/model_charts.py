@@ -22,16 +22,28 @@ PANELS = ("M", "f", "Jc", "simulation", "free motion", "per evaluation")
 PER_EVALUATION = {"simulation": "-", "free motion": ":"}
 
 
-def scaling_chart(records: list[dict[str, Any]], out: Path) -> str:
-    """Five log-log panels (M, f, Jc, simulation with and without contacts): time against
-    the number of bodies; each panel's legend gives the growth exponents (log-log slopes)."""
+def scaling_chart(records: list[dict[str, Any]], out: Path,
+                  exponents: dict[str, dict[str, float]]) -> str:
+    """Five log-log panels (M, f, Jc, simulation with and without contacts) of time against
+    the number of bodies, and a sixth of one right-hand-side evaluation.
+
+    Parameters
+    ----------
+    records : the section's records (one per quantity, kind, size and implementation).
+    out : the folder the chart is written to.
+    exponents : per quantity and implementation, the growth exponent (log-log slope) that
+        the panel's legend quotes (:func:`convimpact.bench.model_section.exponent`).
+
+    Returns
+    -------
+    str
+        the chart's file name, ``model_scaling.png``.
+    """
     from .charts import _plt, save_chart
 
     plt = _plt()
     from matplotlib.lines import Line2D
     from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter, ScalarFormatter
-
-    from .model_section import exponent
 
     fig, grid = plt.subplots(2, 3, figsize=(18, 9.5))
     axes = grid.ravel()
@@ -64,7 +76,7 @@ def scaling_chart(records: list[dict[str, Any]], out: Path) -> str:
         ax.yaxis.set_minor_formatter(NullFormatter())
         ax.set_ylabel("us per call (median)" if qty in ("M", "f", "Jc") else "s per simulated s")
         slopes = [f"{impl}: n^{x:.2f}" for impl in COLORS
-                  if (x := exponent(rows, qty, impl)) is not None]
+                  if (x := exponents.get(qty, {}).get(impl)) is not None]
         if slopes:
             ax.text(0.98, 0.02, "growth " + ", ".join(slopes), transform=ax.transAxes,
                     ha="right", va="bottom", fontsize=7,

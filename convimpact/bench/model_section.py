@@ -54,6 +54,7 @@ import numpy as np
 from ..impact.errors import ConvImpactError
 from ..model import contact_jacobian, generalized_forces, mass_matrix
 from ..model import recursive as rc
+from .model_charts import scaling_chart
 from .model_problems import (dropped_chain, pinocchio_twin, random_mechanism, swinging_tree,
                              without_contacts)
 from .registry import BenchConfig, Progress, SectionResult, register_section
@@ -418,23 +419,22 @@ def summary_sentences(records: list[dict[str, Any]]) -> list[str]:
 
 def run_model(config: BenchConfig, progress: Progress) -> SectionResult:
     """Measure and chart (see the module docstring)."""
-    from .model_charts import scaling_chart
-
     progress("model: compiling the recursive algorithms (cached after the first run)")
     model, theta, dtheta = random_mechanism(2, True, True, config.seed)
     model.mechanism().generalized_forces(0.0, theta, dtheta)
     records = measure_evaluations(config, progress)
     records += measure_simulations(config, progress)
-    figures = [scaling_chart(records, config.out)]
+    exponents = {q: {impl: x for impl in
+                     ("ours", "ours (unchecked)", "pinocchio", "pinocchio aba")
+                     if (x := exponent(records, q, impl)) is not None}
+                 for q in QUANTITIES + SIM_QUANTITIES}
+    figures = [scaling_chart(records, config.out, exponents)]
     pin = _pinocchio()
     meta = {
         "pinocchio": None if pin is None else str(pin.__version__),
         "sizes": list(sizes(config.quick)), "chain_sizes": list(chain_sizes(config.quick)),
         "tree_sizes": list(tree_sizes(config.quick)),
-        "exponents": {q: {impl: exponent(records, q, impl) for impl in
-                          ("ours", "ours (unchecked)", "pinocchio", "pinocchio aba")
-                          if exponent(records, q, impl) is not None}
-                      for q in QUANTITIES + SIM_QUANTITIES},
+        "exponents": exponents,
         "ratios": {q: {str(n): v for n, v in r.items()} for q, r in ratio_table(records).items()},
         "ratios_unchecked": {q: {str(n): v for n, v in r.items()}
                              for q, r in ratio_table(records, "ours (unchecked)").items()},
