@@ -26,12 +26,10 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:  # ConeQP is only annotated here (qp imports this module)
-    from .qp import ConeQP
+from .program import ConeQP
 
 TINY = 1e-300
 EPS = float(np.finfo(float).eps)

@@ -10,7 +10,8 @@ several instances of
 
 solved by a *backend* (:mod:`~convimpact.impact.conic.clarabel_backend`,
 :mod:`~convimpact.impact.conic.cvxpy_backend`). A frictionless contact (mu_i = 0) is posed as
-``pi_n >= 0, pi_t = 0`` rather than as a degenerate cone.
+``pi_n >= 0, pi_t = 0`` rather than as a degenerate cone. The program is a
+:class:`~convimpact.impact.conic.program.ConeQP` (importable from here).
 
 Accuracy. Every program is equilibrated (each contact's impulse scaled by its own effective
 mass, then the whole to unit data: :func:`equilibrated`), solved by the interior-point
@@ -33,6 +34,7 @@ import numpy as np
 
 from ..errors import SolverError
 from .polish import VELOCITY_RESIDUAL_MAX, kkt_residual, polish_cone_qp, roundoff_floor
+from .program import ConeQP
 
 #: default conic tolerance (gap and feasibility, on the scaled problem)
 DEFAULT_TOL = 1e-10
@@ -41,37 +43,6 @@ DEFAULT_MAX_ITER = 200
 #: largest relative KKT residual accepted from a conic solve (or 1e3 x its tolerance)
 KKT_ACCEPT = 1e-6
 TINY = 1e-300
-
-
-@dataclass(frozen=True, eq=False)
-class ConeQP:
-    """``minimize 1/2 x^T W x + q^T x  s.t.  E x = f,  x_i in K_mu_i`` in contact space.
-
-    Attributes
-    ----------
-    W : (N, N) symmetric positive semidefinite, N = n_contacts d.
-    q : (N,) linear term.
-    mu : (n_contacts,) friction coefficients; mu_i = 0 poses pi_n >= 0, pi_t = 0.
-    dim : d, 2 (planar) or 3 (spatial).
-    E, f : (m, N), (m,) equality constraints (m may be 0).
-    """
-
-    W: np.ndarray
-    q: np.ndarray
-    mu: np.ndarray
-    dim: int
-    E: np.ndarray
-    f: np.ndarray
-
-    @property
-    def n_contacts(self) -> int:
-        return self.mu.shape[0]
-
-    @property
-    def structure(self) -> tuple:
-        """What fixes the compiled program: sizes, which contacts are frictionless, m."""
-        return (self.n_contacts, self.dim, tuple(bool(m == 0.0) for m in self.mu),
-                self.E.shape[0])
 
 
 @dataclass(frozen=True)
