@@ -30,7 +30,7 @@ from .energy import (
     oblique_energy_loss,
     stiction_interval,
 )
-from .laws.pereira_nikravesh import (
+from .closed_forms import (
     frictionless_impulse,
     pereira_nikravesh,
     sliding_impulse,

@@ -99,9 +99,9 @@ def _kernels():
             missing = isinstance(exc, ModuleNotFoundError) and exc.name == "numba"
             raise NotSupportedError(NEEDS_NUMBA if missing else
                                     f"{NEEDS_NUMBA}; importing numba failed: {exc}") from exc
-        from . import batch_kernels
+        from .batch_kernels import loop
 
-        _K = batch_kernels
+        _K = loop
         _COMPILE_SECONDS["import"] = time.perf_counter() - t
     return _K
 

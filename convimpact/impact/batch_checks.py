@@ -183,7 +183,7 @@ def _raise_first(status: np.ndarray, errors: Mapping[int, ConvImpactError], W, v
 
 def _input_error(code: int, i: int, n: int, M: np.ndarray, J: np.ndarray | None = None,
                  dq: np.ndarray | None = None) -> InputError:
-    from . import batch_kernels as K  # numba is loaded: the drivers ran
+    from .batch_kernels import common as K  # numba is loaded: the drivers ran
 
     im = i if M.shape[0] > 1 else 0
     where = f"impact {i} of the batch of {n}" if n > 1 else "the impact"

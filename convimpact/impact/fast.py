@@ -41,6 +41,7 @@ import numpy as np
 from .diagnostics import assemble_result
 from .errors import (
     NonFiniteError,
+    SolverError,
     NonPositiveEffectiveMassError,
     NotSupportedError,
     ParameterError,
@@ -50,7 +51,7 @@ from .errors import (
 from .problem import SAFE_SCALE, TINY_NORMAL, ImpactProblem, real_number
 from .resolve import LAWS, load_solver_modules, register_solver
 from .results import ImpactResult
-from .small_linalg import as_lists
+from .small_linalg import as_lists, singular_error
 
 #: laws treated by :func:`solve_contact` (every law has an exact single-contact kernel)
 FAST_LAWS = LAWS
@@ -262,6 +263,59 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
     return dispatch(kernel, w, vv, d, e, mu)
 
 
+#: regime codes of the compiled kernels (batch_kernels.common) -> names
+_REGIME_NAMES = ("separating", "frictionless", "stick", "slide")
+#: the extras of a law's compiled kernel: (out, regime, impulse, w, v, d, e, mu) -> (extras,
+#: warnings), ``out`` the float64 scratch the kernel wrote (its layout is the law's)
+Extras = Callable[..., tuple]
+
+
+def _no_extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
+    return None, ()
+
+
+def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extras = _no_extras,
+                    no_solution: str = "", frictionless_inside: bool = False) -> Kernel:
+    """The Python entry ``(w, v, d, e, mu) -> ContactSolution`` of a law's compiled kernels.
+
+    ``planar(w00, w01, w11, v0, v1, e, mu, out)`` and ``spatial(w00, w01, w02, w11, w12, w22,
+    v0, v1, v2, e, mu, out)`` return ``(status, regime, p0, p1, p2, effective_mass)`` (codes of
+    :mod:`convimpact.impact.batch_kernels.common`) and write the law's extras into ``out``;
+    this turns a status into the typed error (SINGULAR: SingularSystemError, JAM:
+    NonPositiveEffectiveMassError, NO_SOLUTION: SolverError with the law's ``no_solution``
+    message) and ``out`` into the solution's extras and warnings by ``extras``. mu = 0 is
+    Newton's frictionless impulse unless the law's kernels treat it (``frictionless_inside``).
+    """
+    from .batch_kernels.common import JAM, NO_SOLUTION, OK, OUT_SIZE, SINGULAR
+
+    def kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
+        if mu == 0.0 and not frictionless_inside:
+            return frictionless(w, v, d, e)
+        out = np.zeros(OUT_SIZE)
+        if d == 2:
+            st, rg, p0, p1, p2, D = planar(w[0][0], w[0][1], w[1][1], v[0], v[1], e, mu, out)
+        else:
+            st, rg, p0, p1, p2, D = spatial(w[0][0], w[0][1], w[0][2], w[1][1], w[1][2],
+                                            w[2][2], v[0], v[1], v[2], e, mu, out)
+        if st != OK:
+            if st == SINGULAR:
+                raise singular_error(law, float(np.linalg.det(np.array(w))))
+            if st == JAM:
+                raise jam_error(mu, D, law)
+            if st == NO_SOLUTION:
+                raise SolverError(no_solution or f"law {law!r} found no solution for this "
+                                  "contact; use method='clarabel'")
+            raise SolverError(f"law {law!r}: the compiled kernel returned status {st}")
+        impulse = (p0, p1) if d == 2 else (p0, p1, p2)
+        regime = _REGIME_NAMES[rg]
+        ex, warns = extras(out, regime, impulse, w, v, d, e, mu)
+        return solution(impulse, regime, D if D == D else None, ex, warns)
+
+    kernel.__name__ = f"{law.replace('-', '_')}_kernel"
+    kernel.__doc__ = f"The compiled single-contact kernel of law {law!r} on plain floats."
+    return kernel
+
+
 def register_kernel(law: str, kernel: Kernel) -> Kernel:
     """Register ``kernel`` as law ``law``'s exact single-contact solver (``method="fast"``)."""
     _KERNELS[law] = kernel
@@ -287,5 +341,6 @@ def register_kernel(law: str, kernel: Kernel) -> Kernel:
     return kernel
 
 
-__all__ = ["ContactSolution", "solve_contact", "register_kernel", "frictionless", "FAST_LAWS",
+__all__ = ["ContactSolution", "solve_contact", "register_kernel", "compiled_kernel",
+           "frictionless", "FAST_LAWS",
            "FAST_TOL", "EXTRAS_UNITS", "dispatch", "rescaled"]

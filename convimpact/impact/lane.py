@@ -81,6 +81,8 @@ _COMPILED = None
 #: tier 2: lane_solve (None: not built yet)
 _SOLVE = None
 _CALLS = 0
+#: the law kernels' extras scratch of tier 2 (read lazily through the law's kernel instead)
+_OUT = np.empty(32)
 #: the compiled module (batch_kernels.single), imported by _build
 _S = None
 COMPILE_SECONDS: dict[str, float] = {}
@@ -123,7 +125,7 @@ def _build_solve():
     t = time.perf_counter()
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
     ws = np.empty(layout(2, 2)[-1])
-    _S.lane_solve(0, M, J, dq, 0.5, 0.3, ws)
+    _S.lane_solve(0, M, J, dq, 0.5, 0.3, ws, _OUT)
     _SOLVE = _S.lane_solve
     COMPILE_SECONDS["lane_solve"] = time.perf_counter() - t
     return _SOLVE
@@ -260,7 +262,7 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
             solve = _build_solve()
     sol = None
     if solve is not None:
-        code = solve(_LAW_CODES[law], Mf, Jf, qf, e_, mu_, ws)
+        code = solve(_LAW_CODES[law], Mf, Jf, qf, e_, mu_, ws, _OUT)
         if code == 0:
             tail = ws[op + 3:op + 7].tolist()  # status, regime, effective mass, mu used
             regime = _REGIMES[int(tail[1])]

@@ -7,13 +7,17 @@
   equation in (cos th, sin th) (the tangent half-angle quartic), W and v rotated to a tangent
   basis, and the determinant equation ``det_wq``.
 
-Every function is a port of the Python function named in its docstring, with the same branches
-and floating-point expressions; the companion-matrix roots (``robust=True``) are not ported.
+These are the only implementation of this algebra: the laws' kernels call them compiled, and
+the same code runs as plain Python under ``NUMBA_DISABLE_JIT=1``. The candidates' fallback
+(``robust=True``) takes the quartic's roots from its companion matrix's eigenvalues
+(:func:`_eigen_quartic`), as numpy's ``roots`` does.
 """
 
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from .common import SINGULAR_RTOL, _jit, _pmax2, _tset4, _tset5
 
@@ -223,6 +227,37 @@ def _quartic(c4, c3, c2, c1, c0):
 
 
 @_jit
+def _eigen_quartic(c4, c3, c2, c1, c0):
+    """(n, r0, r1, r2, r3): the real parts of the nearly real roots of the quartic, from the
+    eigenvalues of its companion matrix (leading coefficients below 1e-13 of the largest
+    dropped); n = -1 if the quartic is zero. The fallback of :func:`_quartic`."""
+    scale = _pmax2(_pmax2(_pmax2(_pmax2(abs(c4), abs(c3)), abs(c2)), abs(c1)), abs(c0))
+    if scale == 0.0:
+        return -1, 0.0, 0.0, 0.0, 0.0
+    c = np.array([c4, c3, c2, c1, c0])
+    first = 0
+    while abs(c[first]) <= 1e-13 * scale:
+        first += 1
+    deg = 4 - first
+    out = (0.0, 0.0, 0.0, 0.0)
+    if deg == 0:
+        return 0, 0.0, 0.0, 0.0, 0.0
+    comp = np.zeros((deg, deg), dtype=np.complex128)  # complex: numba keeps the domain
+    for j in range(deg):
+        comp[0, j] = -c[first + 1 + j] / c[first]
+    for j in range(1, deg):
+        comp[j, j - 1] = 1.0
+    z = np.linalg.eigvals(comp)
+    n = 0
+    for j in range(deg):
+        zr, zi = z[j].real, z[j].imag
+        if abs(zi) <= 1e-6 * (1.0 + math.hypot(zr, zi)):
+            out = _tset4(out, n, zr)
+            n += 1
+    return n, out[0], out[1], out[2], out[3]
+
+
+@_jit
 def _polish(c4, c3, c2, c1, c0, t):
     """Safeguarded Newton on the quartic (boundary.polish)."""
     f = (((c4 * t + c3) * t + c2) * t + c1) * t + c0
@@ -251,9 +286,24 @@ def _polish(c4, c3, c2, c1, c0, t):
 
 
 @_jit
-def _candidates(e0, ex, ey, exx, eyy, exy):
-    """boundary.candidates (robust=False): the points (x, y, chart value, reversed) as four
-    5-tuples. Returns (has_coeffs, c4, c3, c2, c1, c0, cp, sp, n, xs, ys, ts, revs)."""
+def _candidates(e0, ex, ey, exx, eyy, exy, robust=False):
+    """Unpolished points (x, y, chart value, reversed) where E(th) vanishes, as 5-tuples.
+
+    E is first written in harmonics, a0 + a1 cos th + b1 sin th + a2 cos 2th + b2 sin 2th,
+    and measured from a reference angle phi at which neither E(phi) nor E(phi + pi) nearly
+    vanishes: those are the constant and leading coefficients of the quartic in
+    tau = tan((th - phi)/2), so its roots stay bounded away from 0 and infinity and Ferrari's
+    closed form stays accurate (phi = 0 unless min(|E(0)|, |E(pi)|) < 1e-2 max |c|). Each
+    root is kept in the chart where it is small: tau itself for |tau| <= 1, s = 1/tau (the
+    reversed quartic) otherwise; th = phi + pi is added when the leading coefficient is still
+    small or no root was found. ``robust=True`` takes the roots from the companion matrix
+    (:func:`_eigen_quartic`) instead of Ferrari and always adds th = phi + pi: the callers'
+    fallback when a check fails. :func:`_refine` polishes a point.
+
+    Returns (has_coeffs, c4, c3, c2, c1, c0, cp, sp, n, xs, ys, ts, revs); has_coeffs is False
+    when E vanishes identically (every direction is then stationary and the single candidate
+    th = 0 is exact).
+    """
     z5 = (0.0, 0.0, 0.0, 0.0, 0.0)
     a0 = e0 + 0.5 * (exx + eyy)
     a1, b1, a2, b2 = ex, ey, 0.5 * (exx - eyy), 0.5 * exy
@@ -285,7 +335,10 @@ def _candidates(e0, ex, ey, exx, eyy, exy):
     c3 = 2.0 * (b1 - 2.0 * b2)
     c2 = 2.0 * a0 - 6.0 * a2
     c1 = 2.0 * (b1 + 2.0 * b2)
-    nr, q0, q1, q2, q3 = _quartic(c4, c3, c2, c1, c0)
+    if robust:
+        nr, q0, q1, q2, q3 = _eigen_quartic(c4, c3, c2, c1, c0)
+    else:
+        nr, q0, q1, q2, q3 = _quartic(c4, c3, c2, c1, c0)
     if nr < 0:
         return (False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1, _tset5(z5, 0, 1.0), z5, z5, z5)
     xs, ys, ts, rs = z5, z5, z5, z5
@@ -307,7 +360,7 @@ def _candidates(e0, ex, ey, exx, eyy, exy):
         rs = _tset5(rs, n, rev)
         n += 1
     top = _pmax2(_pmax2(_pmax2(abs(c3), abs(c2)), abs(c1)), abs(c0))
-    if n == 0 or abs(c4) <= 1e-6 * top:
+    if robust or n == 0 or abs(c4) <= 1e-6 * top:
         xs = _tset5(xs, n, -cp)
         ys = _tset5(ys, n, -sp)
         ts = _tset5(ts, n, 0.0)

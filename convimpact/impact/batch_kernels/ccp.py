@@ -51,7 +51,7 @@ def _ccp_un(A, B1, B2, b0, mu, x, y, pb, pWp):
 
 
 @_jit
-def _ccp_planar(w00, w01, w11, v0, v1, e, mu):
+def _ccp_planar(w00, w01, w11, v0, v1, e, mu, out):
     """laws.ccp.ccp_impulse, d = 2, mu > 0."""
     b0 = (1.0 + e) * v0
     b1 = v1
@@ -80,7 +80,7 @@ def _ccp_planar(w00, w01, w11, v0, v1, e, mu):
 
 
 @_jit
-def _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu):
+def _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
     """laws.ccp.ccp_impulse, d = 3, mu > 0."""
     b0 = (1.0 + e) * v0
     b1 = v1

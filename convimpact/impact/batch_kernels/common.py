@@ -9,16 +9,19 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
-#: every kernel: compiled on its first call, machine code cached beside its module (cache=True)
-_jit = njit(cache=True, nogil=True, error_model="numpy")
+from ...compiled import jit as _jit  # every kernel's njit options, and its cache
 
 # status codes of one item (see convimpact.impact.batch for the public names)
 OK = 0
 SINGULAR = 1  # SingularSystemError: W_nn <= 0, or W singular where the law inverts it
 JAM = 2  # NonPositiveEffectiveMassError: every sliding denominator <= 0 (Newton laws)
-DEFER = 9  # solved afterwards by the Python kernel (rare branches, rescaling, errors)
+NO_SOLUTION = 3  # SolverError: no answer of the law's conditions found (certificates failed)
+DEFER = 9  # W or v outside [SAFE_LO, SAFE_HI]: rescaled by the Python dispatcher, solved again
+
+#: length of the float64 scratch ``out`` every law kernel takes as its last argument and
+#: writes its extras into (law-specific layout, documented in the law's module; the batch
+#: drivers pass one and do not read it)
+OUT_SIZE = 32
 # input errors found by the (M, Jc, dq) driver (raised by batch.py, naming the item)
 BAD_M_FINITE = -1
 BAD_M_SYMMETRY = -2

@@ -78,7 +78,7 @@ def _coulomb_add(fx, fy, nf, btl, bx, by, bp, bD, tl, x, y, p, D, dedup):
 
 
 @_jit
-def _coulomb_planar(w00, w01, w11, v0, v1, e, mu):
+def _coulomb_planar(w00, w01, w11, v0, v1, e, mu, out):
     """laws.coulomb.contact_kernel, d = 2, mu > 0."""
     c = -(1.0 + e) * v0
     wscale = w00 if w00 > w11 else w11
@@ -117,7 +117,7 @@ def _coulomb_planar(w00, w01, w11, v0, v1, e, mu):
 
 
 @_jit
-def _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu):
+def _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
     """laws.coulomb.contact_kernel, d = 3, mu > 0."""
     c = -(1.0 + e) * v0
     b0 = -c

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from ..laws.pereira_nikravesh import _pn_planar, _pn_spatial
 from .ccp import _ccp_planar, _ccp_spatial
 from .common import (
     BAD_DQ_FINITE,
@@ -32,6 +33,7 @@ from .common import (
     FAILED,
     FRICTIONLESS,
     OK,
+    OUT_SIZE,
     PN,
     SAFE_HI,
     SAFE_LO,
@@ -45,7 +47,6 @@ from .common import (
 )
 from .coulomb import _coulomb_planar, _coulomb_spatial
 from .dissipative import _dissipative_planar, _dissipative_spatial
-from .pereira_nikravesh import _pn_planar, _pn_spatial
 from .stronge import STRONGE, _stronge_planar
 from .stronge_spatial import _stronge_spatial
 
@@ -60,7 +61,7 @@ def _frictionless(w00, v0, e):
 
 
 @_jit
-def _planar_item(law, w00, w01, w11, v0, v1, e, mu):
+def _planar_item(law, w00, w01, w11, v0, v1, e, mu, out):
     """fast.solve_contact after validation, one planar contact: separating, W_nn, the trace's
     range, then the law's kernel (laws.<law>.contact_kernel)."""
     if not v0 < 0.0:
@@ -72,20 +73,20 @@ def _planar_item(law, w00, w01, w11, v0, v1, e, mu):
     if not (SAFE_LO <= tr <= SAFE_HI and SAFE_LO <= vs <= SAFE_HI):
         return DEFER, FAILED, _NAN, _NAN, _NAN, _NAN  # fast.solve_contact rescales: Python
     if law == DISSIPATIVE:  # the plastic (e = 0) impulse times (1 + e)
-        return _dissipative_planar(w00, w01, w11, v0, v1, e, mu)
+        return _dissipative_planar(w00, w01, w11, v0, v1, e, mu, out)
     if mu == 0.0:
         return _frictionless(w00, v0, e)
     if law == PN:
-        return _pn_planar(w00, w01, w11, v0, v1, e, mu)
+        return _pn_planar(w00, w01, w11, v0, v1, e, mu, out)
     if law == COULOMB:
-        return _coulomb_planar(w00, w01, w11, v0, v1, e, mu)
+        return _coulomb_planar(w00, w01, w11, v0, v1, e, mu, out)
     if law == STRONGE:
-        return _stronge_planar(w00, w01, w11, v0, v1, e, mu)
-    return _ccp_planar(w00, w01, w11, v0, v1, e, mu)
+        return _stronge_planar(w00, w01, w11, v0, v1, e, mu, out)
+    return _ccp_planar(w00, w01, w11, v0, v1, e, mu, out)
 
 
 @_jit
-def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu):
+def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
     """fast.solve_contact after validation, one spatial contact (as _planar_item)."""
     if not v0 < 0.0:
         return OK, SEPARATING, 0.0, 0.0, 0.0, _NAN
@@ -96,16 +97,16 @@ def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu):
     if not (SAFE_LO <= tr <= SAFE_HI and SAFE_LO <= vs <= SAFE_HI):
         return DEFER, FAILED, _NAN, _NAN, _NAN, _NAN
     if law == DISSIPATIVE:
-        return _dissipative_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
+        return _dissipative_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
     if mu == 0.0:
         return _frictionless(w00, v0, e)
     if law == PN:
-        return _pn_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
+        return _pn_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
     if law == COULOMB:
-        return _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
+        return _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
     if law == STRONGE:
-        return _stronge_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
-    return _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu)
+        return _stronge_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
+    return _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
 
 
 # --------------------------------------------------------------------------------------------
@@ -124,6 +125,7 @@ def contact_batch(law, W, v, e, mu, impulse, regime, status, effm, vplus, eloss)
     bm = mu.shape[0] > 1
     first_bad = -1
     ndefer = 0
+    out = np.empty(OUT_SIZE)  # the kernels' extras (not read by the batch)
     for i in range(n):
         iw = i if bw else 0
         iv = i if bv else 0
@@ -160,10 +162,10 @@ def contact_batch(law, W, v, e, mu, impulse, regime, status, effm, vplus, eloss)
                 eloss[i] = _NAN
                 continue
         if d == 2:
-            st, rg, p0, p1, p2, em = _planar_item(law, w00, w01, w11, v0, v1, ei, mi)
+            st, rg, p0, p1, p2, em = _planar_item(law, w00, w01, w11, v0, v1, ei, mi, out)
         else:
             st, rg, p0, p1, p2, em = _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1,
-                                                   v2, ei, mi)
+                                                   v2, ei, mi, out)
         status[i] = st
         regime[i] = rg
         effm[i] = em if st == OK else _NAN
@@ -228,6 +230,7 @@ def impact_batch(law, M, J, dq, e, mu, tol, idx, given, dq_plus, impulse, v_minu
     w = np.zeros((3, 3))
     vm = np.zeros(3)
     p = np.zeros(3)
+    out = np.empty(OUT_SIZE)  # the kernels' extras (not read by the batch)
     bM = M.shape[0] > 1
     bJ = J.shape[0] > 1
     bq = dq.shape[0] > 1
@@ -377,11 +380,11 @@ def impact_batch(law, M, J, dq, e, mu, tol, idx, given, dq_plus, impulse, v_minu
             mu_eff[i] = mi
             if d == 2:
                 st, rg, p0, p1, p2, em = _planar_item(law, w[0, 0], w[0, 1], w[1, 1], vm[0],
-                                                      vm[1], ei, mi)
+                                                      vm[1], ei, mi, out)
             else:
                 st, rg, p0, p1, p2, em = _spatial_item(law, w[0, 0], w[0, 1], w[0, 2],
                                                        w[1, 1], w[1, 2], w[2, 2], vm[0],
-                                                       vm[1], vm[2], ei, mi)
+                                                       vm[1], vm[2], ei, mi, out)
             status[i] = st
             regime[i] = rg
             effm[i] = em if st == OK else _NAN

@@ -28,7 +28,7 @@ _INF = math.inf
 
 
 @_jit
-def _stronge_planar(A, B, C, v0, v1, e, mu):
+def _stronge_planar(A, B, C, v0, v1, e, mu, out):
     """laws.stronge._planar (mu > 0, approaching contact, W in the safe range)."""
     tr = A + C
     p = 0.0

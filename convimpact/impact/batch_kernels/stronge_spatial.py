@@ -536,7 +536,7 @@ def _curved_slip(p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, e, tr
 
 
 @_jit
-def _stronge_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu):
+def _stronge_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
     """laws.stronge._spatial (mu > 0, approaching contact, W in the safe range)."""
     A = w00
     b1 = w01

@@ -8,8 +8,10 @@ space along the direction of maximal dissipation (eq. 60).
   Schur complement of the bordered matrices of eqs. (51)/(52), so the same kernels serve open
   and closed loops) and its pre-impact contact velocity ``v = (v_n, v_t...)`` in the contact
   frame. Impulses come back in the contact frame, normal first. ``v_n < 0`` means approaching.
-* :func:`contact_kernel` is the exact single-contact kernel (``method="fast"``): in space its
-  sliding direction is :func:`convimpact.impact.max_dissipation.max_dissipation_slide`.
+* :func:`_pn_planar` and :func:`_pn_spatial` are the exact single-contact kernel
+  (``method="fast"``, the batch, the compiled lane), compiled: in space the sliding direction
+  is :func:`convimpact.impact.max_dissipation.max_dissipation_slide`; :func:`contact_kernel`
+  is their entry on plain floats.
 * :func:`program_result` is the conic path (``method="clarabel"``/``"cvxpy"``). One planar
   contact: the closed form (stick test, then eq. 55). One spatial contact: the stick test
   (eq. 52, admissible by eq. 53), else the program P_N: minimize T+ (``q = v-``) subject to
@@ -41,206 +43,113 @@ import numpy as np
 from ..conic.paths import ProgramOptions, register_programs, solver_report
 from ..conic.qp import Backend, ConeQP, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
+from ..closed_forms import (  # the paper's closed forms, re-exported
+    DELASSUS_COND_MAX,
+    STICK_RTOL,
+    frictionless_impulse,
+    pereira_nikravesh,
+    planar_slide_direction,
+    sliding_impulse,
+    stick_admissible,
+    sticking_impulse,
+)
 from ..errors import (
-    as_real_array,
-    real_number,
     NonPositiveEffectiveMassError,
     NotSupportedError,
-    SingularSystemError,
     SolverError,
     UnknownOptionError,
 )
-from ..fast import ContactSolution, frictionless, in_cone, jam_error, register_kernel, solution
+from ..batch_kernels.algebra import _inverse3, _linsolve3, _solve2
+from ..batch_kernels.common import (FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone,
+                                    _jit, _pmax2)
+from ..fast import compiled_kernel, register_kernel
 from ..max_dissipation import max_dissipation_direction, max_dissipation_slide
 from ..problem import ImpactProblem
 from ..resolve import register_solver
 from ..results import ImpactResult
-from ..small_linalg import angle_from_slip, inverse3, linsolve3, solve2
+from ..small_linalg import angle_from_slip
 from .pn_complementarity import newton_velocity_shift, several_contacts_result, stick_on
 
 LAW = "pereira-nikravesh"
 #: relative distance from the cone boundary below which a P_N optimum counts as "on it"
 BOUNDARY_RTOL = 1e-5
-#: condition number above which W is treated as singular by the sticking solve
-DELASSUS_COND_MAX = 1e12
-#: relative tolerance of the stick admissibility test |pi_t| <= mu pi_n
-STICK_RTOL = 1e-12
-
-
-def frictionless_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
-    """Frictionless (or central) impulse: eq. (38) with mu = 0, pi_n = -(1+e) v_n / m_nn."""
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
-    w_nn = float(W[0, 0])
-    if not w_nn > 0.0:
-        raise SingularSystemError(
-            f"c_n^T M^-1 c_n = {w_nn:.3e}: the contact normal moves no mass in this "
-            "configuration (the contact point cannot move along n); no impulse can act there"
-        )
-    pi = np.zeros(W.shape[0])
-    pi[0] = -(1.0 + e) * float(v[0]) / w_nn  # eq. (38), mu = 0
-    return pi
-
-
-def sticking_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
-    """Impulse that stops the slip and restitutes the normal velocity: eq. (42) / (52).
-
-    Solves ``W pi = -((1+e) v_n, v_t)``; in space the 3 x 3 analogue with t1, t2.
-
-    Raises
-    ------
-    SingularSystemError
-        when W is singular (contact directions dependent through the mechanism).
-    """
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
-    lam = np.linalg.eigvalsh(W)  # W is symmetric positive semi-definite
-    cond = lam[-1] / lam[0] if lam[0] > 0 else np.inf
-    if not cond < DELASSUS_COND_MAX:
-        raise SingularSystemError(
-            f"the Delassus matrix W = Jc M^-1 Jc^T is singular (cond = {cond:.3e}): the "
-            "contact's tangential and normal motions are dependent here, so the sticking "
-            "solve of eq. (42)/(52) has no unique answer; use law='dissipative' or "
-            "law='coulomb' with method='cvxpy', which accept a singular W"
-        )
-    rhs = -np.asarray(v, dtype=float).copy()
-    rhs[0] *= 1.0 + e  # eq. (42): right-hand side -(1+e) v_n, -v_t
-    return np.linalg.solve(W, rhs)
-
-
-def sliding_impulse(W: np.ndarray, v: np.ndarray, e: float, mu: float,
-                    direction: np.ndarray) -> tuple[np.ndarray, float]:
-    """Sliding impulse pi = pi_n (n + mu t) with pi_n from eq. (38) / (51).
-
-    Parameters
-    ----------
-    direction : (d-1,) unit vector of the friction impulse in the tangent plane (the paper's t).
-        ``mu`` may be negative here (the paper's landscapes use it to flip t); the public API
-        validates mu >= 0 before calling.
-
-    Returns
-    -------
-    impulse, effective_mass_denominator
-        ``c_n^T G (c_n + mu c_t)``, the denominator of eq. (38).
-
-    Raises
-    ------
-    NonPositiveEffectiveMassError
-        when that denominator is not positive (Painleve-like jam): no finite compressive
-        normal impulse slides the contact along t.
-    """
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
-    mu = real_number("mu", mu)
-    g = np.empty(W.shape[0])
-    g[0] = 1.0
-    g[1:] = mu * np.asarray(direction, dtype=float)
-    denom = float(W[0] @ g)  # c_n^T M^-1 (c_n + mu c_t), eq. (38)
-    if not denom > 1e-12 * float(np.max(np.abs(W))):
-        coupling = float(W[0, 1:] @ np.asarray(direction, dtype=float))
-        crit = (f"; sliding along t is well posed for mu < {W[0, 0] / -coupling:.6g}"
-                if coupling < 0 else "")
-        raise NonPositiveEffectiveMassError(
-            f"sliding denominator c_n^T M^-1 (c_n + mu c_t) = {denom:.3e} <= 0 at mu = {mu:g} "
-            f"(Painleve-like jam: eq. (38) would divide by it){crit}; use law='coulomb', "
-            "'ccp' or 'dissipative', which stay well posed"
-        )
-    return (-(1.0 + e) * float(v[0]) / denom) * g, denom
-
-
-def stick_admissible(impulse: np.ndarray, mu: float, rtol: float = STICK_RTOL) -> bool:
-    """Contact law (53): the stick impulse lies in the friction cone, |pi_t| <= mu pi_n."""
-    impulse = as_real_array("impulse", impulse)
-    mu = real_number("mu", mu)
-    pn = float(impulse[0])
-    return pn >= 0.0 and float(np.linalg.norm(impulse[1:])) <= mu * pn * (1.0 + rtol)
-
-
-def planar_slide_direction(v: np.ndarray, stick_impulse: np.ndarray | None) -> np.ndarray:
-    """Tangent of the friction impulse in the plane: opposite to v_t- (eq. 55).
-
-    With no pre-impact slip (v_t- = 0) eq. (55) is undefined; the friction then saturates in
-    the direction the sticking impulse needed (sign of its pi_t).
-    """
-    vt = float(v[1])
-    if vt != 0.0:
-        return np.array([-np.sign(vt)])
-    s = float(np.sign(stick_impulse[1])) if stick_impulse is not None else 0.0
-    return np.array([s if s != 0.0 else 1.0])
-
-
-def pereira_nikravesh(W: np.ndarray, v: np.ndarray, e: float, mu: float,
-                      slide_direction=None) -> tuple[np.ndarray, str, float | None]:
-    """The Section 8 algorithm for one approaching contact.
-
-    1. Solve the sticking problem (eq. 42/52). 2. If |pi_t| <= mu pi_n, stick (eq. 53).
-    3. Otherwise slide on the cone boundary with pi_n from eq. (38)/(51): in the plane along
-    t = -v_t-/|v_t-| (eq. 55); in space along ``slide_direction(W, v, e, mu)`` (the
-    maximal-dissipation direction; the closed form alone has none and raises).
-
-    Returns
-    -------
-    impulse, regime, sliding denominator (None unless sliding)
-    """
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
-    mu = real_number("mu", mu)
-    if mu == 0.0:
-        return frictionless_impulse(W, v, e), "frictionless", None
-    stick = sticking_impulse(W, v, e)
-    if stick_admissible(stick, mu):
-        return stick, "stick", None
-    if W.shape[0] == 2:
-        direction = planar_slide_direction(v, stick)
-    elif slide_direction is None:
-        raise NotSupportedError(
-            "spatial sliding needs the maximal-dissipation direction of the tangential "
-            "impulse (Section 9.3), which has no closed form in the paper: use "
-            "method='fast' (exact), 'cvxpy', 'clarabel' or 'sweep' (the paper's search)"
-        )
-    else:
-        direction = slide_direction(W, v, e, mu)
-    impulse, denom = sliding_impulse(W, v, e, mu, direction)
-    return impulse, "slide", denom
 
 
 # --------------------------------------------------------------------------------------------
-# the exact single-contact kernel (method="fast")
+# the exact single-contact kernel (method="fast"), compiled: every path runs this code
 
 
-def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
-    """The seed's law for one contact on plain floats (the ``fast`` kernel)."""
-    if mu == 0.0:
-        return frictionless(w, v, d, e)
-    c = -(1.0 + e) * v[0]
-    if d == 2:
-        pn, pt = solve2(w, c, -v[1], LAW)  # eq. (42)
-        if in_cone(pn, abs(pt), mu):
-            return solution((pn, pt), "stick")
-        s = -math.copysign(1.0, v[1]) if v[1] != 0.0 else (math.copysign(1.0, pt) if pt else 1.0)
-        D = w[0][0] + mu * s * w[0][1]  # eq. (55) direction, eq. (38) denominator
-        if not D > 1e-12 * max(abs(w[0][0]), abs(w[0][1]), abs(w[1][1])):
-            raise jam_error(mu, D, LAW)
-        p = c / D
-        return solution((p, mu * s * p), "slide", D)
-    inv = inverse3(w, LAW)
-    pn, p1, p2 = linsolve3(w, inv, c, -v[1], -v[2])  # eq. (42) in space
-    ptn = math.hypot(p1, p2)
-    if in_cone(pn, ptn, mu):
-        return solution((pn, p1, p2), "stick")
-    t1, t2, tl, p, D, interior = max_dissipation_slide(w, v, c, mu, inv, (p1, p2))
-    extras = {"alpha_m": angle_from_slip(v[1], v[2], t1, t2), "energy_loss_max": tl,
-              "normal_impulse": p, "direction": (t1, t2), "pn_optimum_interior": interior}
+@_jit
+def _pn_planar(w00, w01, w11, v0, v1, e, mu, out):
+    """One planar contact, mu > 0: the stick test (eq. 42, admissible by eq. 53), else the slide
+    against the slip (eq. 55) with pi_n from eq. (38)."""
+    c = -(1.0 + e) * v0
+    pn, pt, ok = _solve2(w00, w01, w11, c, -v1)  # eq. (42)
+    if not ok:
+        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
+    if _in_cone(pn, abs(pt), mu):
+        return OK, STICK, pn, pt, 0.0, _NAN
+    if v1 != 0.0:
+        s = -math.copysign(1.0, v1)
+    else:  # no pre-impact slip: friction saturates the way the stick impulse needed
+        s = math.copysign(1.0, pt) if pt != 0.0 else 1.0
+    D = w00 + mu * s * w01  # eq. (55) direction, eq. (38) denominator
+    wm = _pmax2(_pmax2(abs(w00), abs(w01)), abs(w11))
+    if not D > 1e-12 * wm:
+        return JAM, FAILED, _NAN, _NAN, _NAN, D
+    p = c / D
+    return OK, SLIDE, p, mu * s * p, 0.0, D
+
+
+#: ``out`` of the spatial kernel: [P_N's optimum interior?, T_L max, t1, t2]
+_OUT_INTERIOR, _OUT_TL, _OUT_T1, _OUT_T2 = 0, 1, 2, 3
+
+
+@_jit
+def _pn_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
+    """One spatial contact, mu > 0: the stick test (eq. 52/53), else the slide of maximal
+    dissipation (eq. 60, :func:`~convimpact.impact.max_dissipation.max_dissipation_slide`)."""
+    c = -(1.0 + e) * v0
+    i00, i01, i02, i11, i12, i22, det, ok = _inverse3(w00, w01, w02, w11, w12, w22)
+    if not ok:
+        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
+    pn, p1, p2 = _linsolve3(w00, w01, w02, w11, w12, w22, i00, i01, i02, i11, i12, i22, det,
+                            c, -v1, -v2)  # eq. (42) in space
+    if _in_cone(pn, math.hypot(p1, p2), mu):
+        return OK, STICK, pn, p1, p2, _NAN
+    st, t1, t2, tl, p, D, interior = max_dissipation_slide(
+        w00, w01, w02, w11, w12, w22, v0, v1, v2, c, mu, True, i00, i01, i02, i11, i12, i22,
+        p1, p2)
+    if st != OK:
+        return st, FAILED, _NAN, _NAN, _NAN, _NAN
+    out[_OUT_INTERIOR] = 1.0 if interior else 0.0
+    out[_OUT_TL] = tl
+    out[_OUT_T1] = t1
+    out[_OUT_T2] = t2
+    return OK, SLIDE, p, mu * p * t1, mu * p * t2, D
+
+
+def _extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
+    """The spatial slide's figures: the angle alpha_m from v_t- and T_L there (Fig. 9)."""
+    if d == 2 or regime != "slide":
+        return None, ()
+    t1, t2 = float(out[_OUT_T1]), float(out[_OUT_T2])
+    interior = bool(out[_OUT_INTERIOR])
+    extras = {"alpha_m": angle_from_slip(v[1], v[2], t1, t2),
+              "energy_loss_max": float(out[_OUT_TL]), "normal_impulse": impulse[0],
+              "direction": (t1, t2), "pn_optimum_interior": interior}
     warns = ()
     if interior:
         warns = ("P_N's optimum is interior to the cone (with e > 0 its slip is not zero) while "
                  "the stick test failed: the seed's boundary maximal-dissipation direction is "
                  "used",)
-    return solution((p, mu * p * t1, mu * p * t2), "slide", D, extras, warns)
+    return extras, warns
+
+
+contact_kernel = compiled_kernel(
+    LAW, _pn_planar, _pn_spatial, _extras,
+    no_solution="the maximal-dissipation direction could not be certified (KKT of P_N or "
+                "probe directions); use method='sweep' or 'clarabel'")
 
 
 # --------------------------------------------------------------------------------------------
