@@ -23,9 +23,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
-_jit = njit(cache=True, nogil=True, error_model="numpy")
+from ..compiled import jit as _jit
 
 #: a Cholesky pivot at or below this fraction of its diagonal entry sends M to the full
 #: path (whose LAPACK factorization decides positive definiteness at the edge)

@@ -43,9 +43,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
-
-_jit = njit(cache=True, nogil=True, error_model="numpy")
+from ..compiled import jit as _jit
 
 #: kernel status codes
 CONVERGED = 0
