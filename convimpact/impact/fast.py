@@ -49,12 +49,12 @@ from .errors import (
     UnknownOptionError,
 )
 from .problem import SAFE_SCALE, TINY_NORMAL, ImpactProblem, real_number
-from .resolve import LAWS, load_solver_modules, register_solver
+from .laws import LAW_MODULES, law_module
 from .results import ImpactResult
 from .small_linalg import as_lists, singular_error
 
 #: laws treated by :func:`solve_contact` (every law has an exact single-contact kernel)
-FAST_LAWS = LAWS
+FAST_LAWS = tuple(LAW_MODULES)
 #: relative tolerance of the cone / sign tests (round-off allowance)
 CONE_RTOL = 1e-12
 #: relative tolerance on a boundary root's residual for it to count as a solution
@@ -88,7 +88,6 @@ _NO_EXTRAS: Mapping[str, Any] = MappingProxyType({})
 
 #: a law's single-contact kernel: (w, v, d, e, mu) on plain floats -> ContactSolution
 Kernel = Callable[[list, list, int, float, float], ContactSolution]
-_KERNELS: dict[str, Kernel] = {}
 
 
 def solution(impulse: Sequence[float], regime: str, effective_mass: float | None = None,
@@ -180,14 +179,10 @@ def rescaled(sol: ContactSolution, pw: int, pv: int) -> ContactSolution:
 
 
 def _kernel(law: str) -> Kernel:
-    kernel = _KERNELS.get(law)
-    if kernel is None:
-        load_solver_modules()
-        kernel = _KERNELS.get(law)
-        if kernel is None:
-            raise UnknownOptionError(
-                f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
-    return kernel
+    """The law's compiled single-contact kernel (its module's ``contact_kernel``)."""
+    if law not in LAW_MODULES:
+        raise UnknownOptionError(f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
+    return law_module(law).contact_kernel
 
 
 def dispatch(kernel: Kernel, w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
@@ -275,7 +270,8 @@ def _no_extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
 
 
 def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extras = _no_extras,
-                    no_solution: str = "", frictionless_inside: bool = False) -> Kernel:
+                    no_solution: str = "", frictionless_inside: bool = False,
+                    errors: Callable | None = None) -> Kernel:
     """The Python entry ``(w, v, d, e, mu) -> ContactSolution`` of a law's compiled kernels.
 
     ``planar(w00, w01, w11, v0, v1, e, mu, out)`` and ``spatial(w00, w01, w02, w11, w12, w22,
@@ -285,6 +281,8 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
     NonPositiveEffectiveMassError, NO_SOLUTION: SolverError with the law's ``no_solution``
     message) and ``out`` into the solution's extras and warnings by ``extras``. mu = 0 is
     Newton's frictionless impulse unless the law's kernels treat it (``frictionless_inside``).
+    A law with messages of its own passes ``errors(out, status, w, v, d, e, mu) -> Exception
+    or None`` (None: the generic error of that status).
     """
     from .batch_kernels.common import JAM, NO_SOLUTION, OK, OUT_SIZE, SINGULAR
 
@@ -298,6 +296,9 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
             st, rg, p0, p1, p2, D = spatial(w[0][0], w[0][1], w[0][2], w[1][1], w[1][2],
                                             w[2][2], v[0], v[1], v[2], e, mu, out)
         if st != OK:
+            exc = errors(out, st, w, v, d, e, mu) if errors is not None else None
+            if exc is not None:
+                raise exc
             if st == SINGULAR:
                 raise singular_error(law, float(np.linalg.det(np.array(w))))
             if st == JAM:
@@ -316,9 +317,10 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
     return kernel
 
 
-def register_kernel(law: str, kernel: Kernel) -> Kernel:
-    """Register ``kernel`` as law ``law``'s exact single-contact solver (``method="fast"``)."""
-    _KERNELS[law] = kernel
+def kernel_solver(law: str, method: str = "fast"):
+    """The solver of ``method="fast"`` for ``law``: its exact single-contact kernel, through
+    :func:`dispatch` (the factory named in :data:`convimpact.impact.resolve.GENERIC_SOLVERS`)."""
+    kernel = _kernel(law)
 
     def solver(problem: ImpactProblem, **options) -> ImpactResult:
         if options:
@@ -337,10 +339,15 @@ def register_kernel(law: str, kernel: Kernel) -> Kernel:
 
     solver.__name__ = f"fast_{law.replace('-', '_')}"
     solver.__doc__ = f"Exact single-contact solver of law {law!r} (see solve_contact)."
-    register_solver(law, "fast")(solver)
+    return solver
+
+
+def register_kernel(law: str, kernel: Kernel) -> Kernel:
+    """Kept while the law modules still call it: the kernel is read from the law's module
+    (``contact_kernel``) by :func:`_kernel`."""
     return kernel
 
 
-__all__ = ["ContactSolution", "solve_contact", "register_kernel", "compiled_kernel",
+__all__ = ["ContactSolution", "solve_contact", "kernel_solver", "compiled_kernel",
            "frictionless", "FAST_LAWS",
            "FAST_TOL", "EXTRAS_UNITS", "dispatch", "rescaled"]

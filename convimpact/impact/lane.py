@@ -99,6 +99,9 @@ def _build():
         _COMPILED = False
         return _COMPILED
     _S = single
+    from ..compiled import announce
+    announce("single-contact lane (reduction and map back)", 3, single.reduce_one,
+             single.finish_one)
     # compile for the one signature the lane uses (C-contiguous float64 arrays)
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([0.0, -1.0])
     ws = np.empty(layout(2, 2)[-1])
@@ -123,6 +126,8 @@ def _build_solve():
     """Tier 2: compile (or load from numba's disk cache) lane_solve."""
     global _SOLVE
     t = time.perf_counter()
+    from ..compiled import announce
+    announce("single-contact lane's whole call (every law's kernel)", 20, _S.lane_solve)
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
     ws = np.empty(layout(2, 2)[-1])
     _S.lane_solve(0, M, J, dq, 0.5, 0.3, ws, _OUT)
@@ -223,7 +228,7 @@ def _number(x) -> float | None:
 def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
     """One contact through the lane, or None when the full path must take it.
 
-    ``kernel`` is the law's single-contact kernel (``fast._KERNELS[law]``); ``Jc`` is a
+    ``kernel`` is the law's single-contact kernel (its module's ``contact_kernel``); ``Jc`` is a
     2-D numpy array (checked by the caller).
     """
     global _CALLS

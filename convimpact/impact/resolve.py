@@ -1,9 +1,10 @@
 """``resolve_impact``: validate an impact, pick a law and a solver path, return the jump.
 
-Laws (what physics is imposed) and methods (how it is computed) are separate axes. Each
-``(law, method)`` pair is a solver registered with :func:`register_solver`; modules that
-provide solvers are imported on first use (see ``_SOLVER_MODULES``) so that ``import
-convimpact`` stays light and the closed form never pays for cvxpy.
+Laws (what physics is imposed) and methods (how it is computed) are separate axes. Every
+``(law, method)`` pair is a solver named in an explicit table (:data:`GENERIC_SOLVERS`: the
+methods every law has, built from the law's module; :data:`SPECIFIC_SOLVERS`: the rest);
+its module is imported on first use, so that ``import convimpact`` stays light and the closed
+form never pays for cvxpy. :func:`register_solver` adds a solver of one's own.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from .errors import (
     UnknownOptionError,
 )
 from .lane import resolve_one
-from .laws import LAW_MODULES
+from .laws import LAW_MODULES, law_module
 from .problem import ImpactProblem, build_problem
 from .results import ImpactResult
 
@@ -31,20 +32,57 @@ LAWS = tuple(LAW_MODULES)
 METHODS = ("auto", "closed-form", "sweep", "fast", "interior", "clarabel", "cvxpy")
 
 Solver = Callable[..., ImpactResult]
+
+#: every solver path, as an explicit table (nothing registers itself on import): the methods
+#: every law has -> the factory ``make(law, method) -> solver`` that builds it from the law's
+#: module (its compiled kernel ``contact_kernel``, its cone program ``program_result``)
+GENERIC_SOLVERS: dict[str, str] = {
+    "fast": "convimpact.impact.fast:kernel_solver",
+    "clarabel": "convimpact.impact.conic.paths:conic_solver",
+    "cvxpy": "convimpact.impact.conic.paths:conic_solver",
+}
+#: the paths of some laws only: (law, method) -> the solver ``solver(problem, **options)``
+SPECIFIC_SOLVERS: dict[tuple[str, str], str] = {
+    ("pereira-nikravesh", "closed-form"): "convimpact.impact.laws.pereira_nikravesh:closed_form",
+    ("pereira-nikravesh", "sweep"): "convimpact.impact.sweep:pereira_nikravesh_sweep",
+    ("ccp", "interior"): "convimpact.impact.several_contacts:ccp_result",
+    ("coulomb", "interior"): "convimpact.impact.several_contacts:coulomb_result",
+    ("dissipative", "interior"): "convimpact.impact.several_contacts:dissipative_result",
+}
+#: the solvers built from the tables (on first use) and those given to register_solver
 _SOLVERS: dict[tuple[str, str], Solver] = {}
-#: modules that register further solvers when imported (a module not yet present is skipped)
-_SOLVER_MODULES: tuple[str, ...] = (
-    # each law registers its own solvers: the exact single-contact kernel ("fast"), its conic
-    # programs ("clarabel", "cvxpy"), and any closed form of its own
-    *(f"convimpact.impact.laws.{module}" for module in LAW_MODULES.values()),
-    "convimpact.impact.sweep",  # the paper's 1-D search over the tangent angle
-    "convimpact.impact.several_contacts",  # the exact several-contact solver ("interior")
-)
-_loaded = False
+
+
+def _load(spec: str):
+    module, name = spec.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def _registered(law: str, method: str) -> bool:
+    return method in GENERIC_SOLVERS or (law, method) in SPECIFIC_SOLVERS \
+        or (law, method) in _SOLVERS
+
+
+def solver(law: str, method: str) -> Solver:
+    """The solver of ``(law, method)``, built from the tables on first use."""
+    fn = _SOLVERS.get((law, method))
+    if fn is None:
+        spec = SPECIFIC_SOLVERS.get((law, method))
+        if spec is not None:
+            fn = _load(spec)
+        elif method in GENERIC_SOLVERS:
+            fn = _load(GENERIC_SOLVERS[method])(law, method)
+        else:
+            raise NotSupportedError(
+                f"law {law!r} has no method {method!r}; available: "
+                f"{', '.join(available_methods(law)) or 'none'}")
+        _SOLVERS[(law, method)] = fn
+    return fn
 
 
 def register_solver(law: str, method: str) -> Callable[[Solver], Solver]:
-    """Decorator registering ``solver(problem, **options) -> ImpactResult`` for a law/method."""
+    """Decorator registering ``solver(problem, **options) -> ImpactResult`` for a law/method
+    (a solver of one's own; it takes precedence over the tables)."""
     if law not in LAWS or method not in METHODS or method == "auto":
         raise UnknownOptionError(f"cannot register unknown law/method {law!r}/{method!r}")
 
@@ -56,23 +94,9 @@ def register_solver(law: str, method: str) -> Callable[[Solver], Solver]:
     return deco
 
 
-def load_solver_modules() -> None:
-    """Import the modules that register solvers (once)."""
-    global _loaded
-    if not _loaded:
-        for name in _SOLVER_MODULES:
-            try:
-                importlib.import_module(name)
-            except ModuleNotFoundError as exc:
-                if exc.name != name:
-                    raise
-        _loaded = True
-
-
 def available_methods(law: str) -> list[str]:
-    """Solver paths registered for ``law``."""
-    load_solver_modules()
-    return [m for m in METHODS if (law, m) in _SOLVERS]
+    """Solver paths of ``law``."""
+    return [m for m in METHODS if m != "auto" and _registered(law, m)]
 
 
 def check_law_method(law: str, method: str) -> None:
@@ -107,14 +131,13 @@ def _candidates(problem: ImpactProblem, law: str) -> list[str]:
     key = (law, single)
     order = _CANDIDATES.get(key)
     if order is None:
-        load_solver_modules()
         if single:
             names = ("fast", "closed-form", "clarabel", "cvxpy")
         elif law in INTERIOR_FIRST:
             names = ("interior", "clarabel", "cvxpy")
         else:
             names = ("clarabel", "cvxpy")
-        order = _CANDIDATES[key] = [m for m in names if (law, m) in _SOLVERS]
+        order = _CANDIDATES[key] = [m for m in names if _registered(law, m)]
     return order
 
 
@@ -150,8 +173,7 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
             raise NotSupportedError(
                 f"no solver is registered for law {law!r} on {problem.n_contacts} contact(s)")
     else:
-        load_solver_modules()
-        if (law, method) not in _SOLVERS:
+        if not _registered(law, method):
             raise NotSupportedError(
                 f"law {law!r} has no method {method!r}; available: "
                 f"{', '.join(available_methods(law)) or 'none'}")
@@ -164,7 +186,7 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
         return _separating(problem, law, candidates[0])
     for i, name in enumerate(candidates):
         try:
-            result = _SOLVERS[(law, name)](problem, **options)
+            result = solver(law, name)(problem, **options)
         except (SingularSystemError, SolverError) as exc:
             # a singular W the exact kernels cannot invert, or an interior-point answer that
             # failed its certificate: the conic paths treat the impact or report it themselves
@@ -174,7 +196,7 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
                 raise
             fallback = f"method 'auto': {name} cannot treat this impact ({exc}); used " \
                        f"{candidates[i + 1]} instead"
-            result = _SOLVERS[(law, candidates[i + 1])](problem, **options)
+            result = solver(law, candidates[i + 1])(problem, **options)
             return dataclasses.replace(result,
                                        diagnostics=result.diagnostics.with_notes(fallback))
         return result
@@ -283,17 +305,13 @@ _SEVERAL_LANE = None
 
 
 def _fast_kernel(law: str):
-    """The law's exact single-contact kernel (method "fast"), or None if it has none."""
+    """The law's exact single-contact kernel on plain floats (its module's
+    ``contact_kernel``), imported on first use."""
     kernel = _FAST_KERNELS.get(law)
     if kernel is None:
-        from .fast import _KERNELS  # fast imports this module: not at the top
-
-        load_solver_modules()
-        _FAST_KERNELS.update(_KERNELS)
-        kernel = _FAST_KERNELS.get(law)
+        kernel = _FAST_KERNELS[law] = law_module(law).contact_kernel
     return kernel
 
 
-#: the laws' single-contact kernels (a copy of fast's registry, filled on first use)
+#: the laws' single-contact kernels, filled on first use
 _FAST_KERNELS: dict = {}
-

@@ -72,7 +72,6 @@ from .diagnostics import assemble_result
 from .errors import ParameterError, SolverError, UnknownOptionError
 from .laws.dissipative import poisson_warnings
 from .problem import ImpactProblem
-from .resolve import register_solver
 from .results import ImpactResult
 
 METHOD = "interior"
@@ -133,7 +132,10 @@ def kernels():
     global _KERNELS
     if _KERNELS is None:
         from . import several_newton
+        from ..compiled import announce
 
+        announce("several-contact interior kernels", 25, several_newton.solve_law,
+                 several_newton.ccp_kernel, several_newton.coulomb_kernel)
         _KERNELS = several_newton
     return _KERNELS
 
@@ -363,6 +365,3 @@ def coulomb_result(P: ImpactProblem, **options) -> ImpactResult:
                            extras=extras)
 
 
-register_solver("ccp", METHOD)(ccp_result)
-register_solver("coulomb", METHOD)(coulomb_result)
-register_solver("dissipative", METHOD)(dissipative_result)

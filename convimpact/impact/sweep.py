@@ -40,7 +40,6 @@ from .errors import (
     UnknownOptionError,
 )
 from .max_dissipation import max_dissipation_direction  # the exact answer, re-exported
-from .resolve import register_solver
 from .problem import ImpactProblem
 from .results import ImpactResult
 
@@ -323,8 +322,7 @@ def _root(tl, lo: float, hi: float, gain_end_admissible: bool, excl, xtol: float
 # the sweep solver of the Pereira-Nikravesh law
 
 
-@register_solver("pereira-nikravesh", "sweep")
-def _pereira_nikravesh_sweep(problem: ImpactProblem, xtol: float = DEFAULT_XTOL,
+def pereira_nikravesh_sweep(problem: ImpactProblem, xtol: float = DEFAULT_XTOL,
                              n_grid: int = DEFAULT_GRID, **options) -> ImpactResult:
     """Section 8 algorithm with the seed's search for the spatial sliding direction.
 

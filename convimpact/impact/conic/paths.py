@@ -2,9 +2,9 @@
 the contact-space helpers the laws' programs share.
 
 A law module of :mod:`convimpact.impact.laws` writes its program(s) as a function
-``result(problem, backend, method, options) -> ImpactResult`` on the cone QP of
-:mod:`~convimpact.impact.conic.qp` and calls :func:`register_programs`, which registers it on
-both backends (each built lazily on first use, so the closed forms never pay for cvxpy).
+``program_result(problem, backend, method, options) -> ImpactResult`` on the cone QP of
+:mod:`~convimpact.impact.conic.qp`; :func:`conic_solver` makes the solver of each conic path
+from it (each backend built lazily on first use, so the closed forms never pay for cvxpy).
 
 Options of both conic paths (keyword arguments of ``resolve_impact``): ``tol`` (the conic
 solver's gap and feasibility tolerance on the scaled problem, default 1e-10), ``max_iter``
@@ -22,7 +22,6 @@ import numpy as np
 
 from ..errors import ParameterError, UnknownOptionError
 from ..problem import ImpactProblem
-from ..resolve import register_solver
 from ..results import ImpactResult
 from .qp import DEFAULT_MAX_ITER, DEFAULT_TOL, TINY, Backend, ConeQP, QPSolution
 
@@ -89,20 +88,26 @@ def backend(method: str) -> Backend:
     return built
 
 
-def register_programs(law: str, result: ProgramResult) -> ProgramResult:
-    """Register law ``law``'s conic ``result`` on both conic paths, "clarabel" and "cvxpy"."""
-    for method in ("clarabel", "cvxpy"):
-        register_solver(law, method)(_conic_solver(law, method, result))
-    return result
+def conic_solver(law: str, method: str):
+    """The solver of a conic path (``method`` "clarabel" or "cvxpy") for ``law``: its cone
+    program (the law module's ``program_result``) on the shared backend (the factory named in
+    :data:`convimpact.impact.resolve.GENERIC_SOLVERS`)."""
+    from ..laws import law_module
 
+    result = law_module(law).program_result
 
-def _conic_solver(law: str, method: str, result: ProgramResult):
     def solver(problem: ImpactProblem, **options) -> ImpactResult:
         return result(problem, backend(method), method, parse_options(method, options))
 
     solver.__name__ = f"{law.replace('-', '_')}_{method}"
     solver.__doc__ = f"Law {law!r} by the {method} conic path (see {result.__module__})."
     return solver
+
+
+def register_programs(law: str, result: ProgramResult) -> ProgramResult:
+    """Kept while the law modules still call it: the program is read from the law's module
+    (``program_result``) by :func:`conic_solver`."""
+    return result
 
 
 # --------------------------------------------------------------------------------------------

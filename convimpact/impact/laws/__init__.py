@@ -1,13 +1,17 @@
-"""The impact laws, one module each: the law's definition, its exact single-contact kernel
-(``method="fast"``), its cone program(s) (``method="clarabel"``/``"cvxpy"``), and any closed
-form of its own. A law module registers its solvers when imported
-(:func:`convimpact.impact.fast.register_kernel`,
-:func:`convimpact.impact.conic.paths.register_programs`,
-:func:`convimpact.impact.resolve.register_solver`); :mod:`convimpact.impact.resolve` imports
-it on first use.
+"""The impact laws, one module each: the law's definition (its docstring, with the
+equations), its exact single-contact kernel compiled (``contact_kernel``: ``method="fast"``,
+the batch, the lanes), its cone program(s) (``program_result``: ``method="clarabel"`` and
+``"cvxpy"``), and any closed form of its own. :mod:`convimpact.impact.resolve` builds the
+solver paths from these attributes (its explicit tables) and imports a law's module on first
+use.
 
 Adding a law means adding its module here and one line to :data:`LAW_MODULES`.
 """
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
 
 #: law name (the ``law=`` of ``resolve_impact``) -> its module in this package
 LAW_MODULES = {
@@ -17,3 +21,8 @@ LAW_MODULES = {
     "dissipative": "dissipative",              # plastic maximal dissipation x Poisson
     "stronge": "stronge",                      # Stronge's energetic law (impulse space)
 }
+
+
+def law_module(law: str) -> ModuleType:
+    """The module of ``law`` (imported on first use)."""
+    return importlib.import_module(f"{__name__}.{LAW_MODULES[law]}")

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from ..conic.paths import ProgramOptions, register_programs, solver_report
+from ..conic.paths import ProgramOptions, solver_report
 from ..conic.qp import Backend, ConeQP, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..closed_forms import (  # the paper's closed forms, re-exported
@@ -62,10 +62,9 @@ from ..errors import (
 from ..batch_kernels.algebra import _inverse3, _linsolve3, _solve2
 from ..batch_kernels.common import (FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone,
                                     _jit, _pmax2)
-from ..fast import compiled_kernel, register_kernel
+from ..fast import compiled_kernel
 from ..max_dissipation import max_dissipation_direction, max_dissipation_slide
 from ..problem import ImpactProblem
-from ..resolve import register_solver
 from ..results import ImpactResult
 from ..small_linalg import angle_from_slip
 from .pn_complementarity import newton_velocity_shift, several_contacts_result, stick_on
@@ -288,8 +287,7 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
                            extras=extras, warnings=tuple(warnings))
 
 
-@register_solver(LAW, "closed-form")
-def _closed_form(problem: ImpactProblem, **options) -> ImpactResult:
+def closed_form(problem: ImpactProblem, **options) -> ImpactResult:
     """Section 8 algorithm, one contact, planar or spatial sticking (spatial sliding raises)."""
     if options:
         raise UnknownOptionError(
@@ -305,5 +303,3 @@ def _closed_form(problem: ImpactProblem, **options) -> ImpactResult:
                            effective_mass=denom, tol=1e-12)
 
 
-register_kernel(LAW, contact_kernel)
-register_programs(LAW, program_result)
