@@ -294,17 +294,19 @@ def cached(dispatcher) -> bool:
 
 
 def announce(what: str, seconds: float, *dispatchers) -> bool:
-    """Before the first call of compiled entry points in this process: when any of
-    ``dispatchers`` has no machine code in the cache, print one line on stderr saying that
-    ``what`` compiles now (about ``seconds``, as measured on a 2-core machine) and where it is
-    cached. Once per ``what`` and process; returns whether it printed."""
+    """Before the first call of compiled entry points in this process: when none of
+    ``dispatchers`` has machine code in the cache (a first use on this machine, or after an
+    edit or an upgrade of the sources), print one line on stderr saying that ``what``
+    compiles now, about how long it takes (``seconds``, measured on a 2-core machine) and
+    where it is cached. Entry points that share most of their callees are named together:
+    once one is cached, the others compile in a fraction of the time. Once per ``what`` and
+    process; returns whether it printed."""
     if what in _ANNOUNCED:
         return False
     _ANNOUNCED.add(what)
-    missing = [d for d in dispatchers if not cached(d)]
-    if not missing:
+    if not dispatchers or any(cached(d) for d in dispatchers):
         return False
-    where = _DIR or getattr(getattr(missing[0], "_cache", None), "cache_path", "?")
+    where = _DIR or getattr(getattr(dispatchers[0], "_cache", None), "cache_path", "?")
     print(f"convimpact: compiling the {what} (first use on this machine, about "
           f"{seconds:.0f} s; cached in {where})", file=sys.stderr, flush=True)
     return True

@@ -100,7 +100,10 @@ def _kernels():
             raise NotSupportedError(NEEDS_NUMBA if missing else
                                     f"{NEEDS_NUMBA}; importing numba failed: {exc}") from exc
         from .batch_kernels import loop
+        from ..compiled import announce
 
+        announce("batch kernels (every law, planar and spatial)", 17, loop.impact_batch,
+                 loop.contact_batch)
         _K = loop
         _COMPILE_SECONDS["import"] = time.perf_counter() - t
     return _K

@@ -90,6 +90,9 @@ def _build():
         # answer, so it stays off
         _SOLVE = False
         return _SOLVE
+    from ..compiled import announce
+    announce("several-contact lane (interior point, Newton finish, certificates)", 30,
+             K.lane_solve)
     J = np.zeros((2, 2, 3))
     J[0, 0, 2] = J[1, 0, 2] = 1.0
     J[0, 1, 0] = J[1, 1, 1] = 1.0

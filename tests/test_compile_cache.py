@@ -1,0 +1,249 @@
+"""Where compiled machine code is cached (:mod:`convimpact.compiled`), the message of a cold
+compile, and the kernels run as plain Python (``NUMBA_DISABLE_JIT=1``).
+
+The compiling tests run in fresh subprocesses, each on its own temporary cache, so they never
+read or write the user's cache nor the package folder.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import convimpact
+from convimpact import compiled
+
+pytest.importorskip("numba")
+
+PACKAGE = Path(convimpact.__file__).resolve().parent
+MESSAGE = "convimpact: compiling the "
+
+# a single-contact resolve_impact (planar, default law) and a resolve_impacts batch, twice
+# each; prints the cache folder and the cache files of every compiled function it used
+CALLS = textwrap.dedent("""
+    import json, sys
+    import numpy as np
+    import convimpact as ci
+    from convimpact import compiled
+    M = np.array([[2.0, 0.3], [0.3, 1.0]])
+    Jc = np.array([[0.0, 1.0], [1.0, 0.0]])
+    dq = np.array([0.5, -1.0])
+    for _ in range(2):
+        r = ci.resolve_impact(M, Jc, dq, e=0.5, mu=0.3)
+        b = ci.resolve_impacts(np.array([M] * 3), np.array([Jc] * 3), np.array([dq] * 3),
+                               0.5, 0.3)
+    assert np.allclose(b.impulse, r.impulse, rtol=1e-10, atol=1e-12)
+    from numba.core.registry import CPUDispatcher
+    used = []
+    for name, mod in list(sys.modules.items()):
+        if name.startswith("convimpact") and mod is not None:
+            for v in list(vars(mod).values()):
+                if isinstance(v, CPUDispatcher) and v.signatures:
+                    used.append((v._cache.cache_path, v._cache._impl.filename_base))
+    print(json.dumps({"dir": compiled._DIR, "impulse": r.impulse.tolist(), "used": used}))
+""")
+
+
+def _env(**extra) -> dict:
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("NUMBA_DISABLE_JIT", "NUMBA_CACHE_DIR", compiled.ENV)}
+    env["OPENBLAS_NUM_THREADS"] = "1"
+    env.update(extra)
+    return env
+
+
+def _run(code: str, env: dict, timeout: float = 1200.0) -> subprocess.CompletedProcess:
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, timeout=timeout)
+    assert res.returncode == 0, res.stderr[-3000:]
+    return res
+
+
+def _package_cache_files() -> dict[str, int]:
+    """numba cache files in the package folder, with their modification times."""
+    out = {}
+    for pattern in ("*.nbi", "*.nbc"):
+        for p in PACKAGE.rglob(pattern):
+            try:
+                out[str(p)] = p.stat().st_mtime_ns
+            except OSError:
+                pass
+    return out
+
+
+@pytest.fixture(scope="module")
+def cold_and_warm(tmp_path_factory):
+    """The calls in a fresh process on an empty cache, then in another on the cache it left."""
+    cache = tmp_path_factory.mktemp("convimpact-cache")
+    before = _package_cache_files()
+    cold = _run(CALLS, _env(**{compiled.ENV: str(cache)}))
+    after = _package_cache_files()
+    warm = _run(CALLS, _env(**{compiled.ENV: str(cache)}))
+    return {"cache": cache, "before": before, "after": after, "cold": cold, "warm": warm}
+
+
+def test_cache_files_go_to_the_cache_folder_not_the_package(cold_and_warm):
+    cache = cold_and_warm["cache"]
+    out = json.loads(cold_and_warm["cold"].stdout.strip().splitlines()[-1])
+    assert out["dir"] and Path(out["dir"]).parent == cache
+    written = list(cache.rglob("*.nbi")) + list(cache.rglob("*.nbc"))
+    assert len(written) > 10
+    assert out["used"]
+    for path, base in out["used"]:
+        assert Path(path).is_relative_to(cache), (path, base)
+        assert (Path(path) / f"{base}.nbi").exists()
+    # nothing the calls compiled was written (or rewritten) under the package folder
+    before, after = cold_and_warm["before"], cold_and_warm["after"]
+    changed = {p for p, t in after.items() if before.get(p) != t}
+    bases = {base for _, base in out["used"]}
+    ours = {p for p in changed if any(Path(p).name.startswith(b + ".") for b in bases)}
+    assert not ours, sorted(ours)[:5]
+
+
+def test_cold_message_once_per_group_and_none_when_warm(cold_and_warm):
+    cold = [ln for ln in cold_and_warm["cold"].stderr.splitlines() if ln.startswith(MESSAGE)]
+    assert len(cold) == 2, cold_and_warm["cold"].stderr[-2000:]
+    assert sum("single-contact lane" in ln for ln in cold) == 1
+    assert sum("batch kernels" in ln for ln in cold) == 1
+    for ln in cold:
+        assert "first use on this machine, about" in ln
+        assert str(cold_and_warm["cache"]) in ln
+    warm = cold_and_warm["warm"].stderr
+    assert MESSAGE not in warm, warm[-2000:]
+    a = json.loads(cold_and_warm["cold"].stdout.strip().splitlines()[-1])
+    b = json.loads(cold_and_warm["warm"].stdout.strip().splitlines()[-1])
+    assert a["impulse"] == b["impulse"]
+
+
+def test_unwritable_cache_folder_falls_back_with_a_warning(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    numba_dir = tmp_path / "numba-cache"  # numba's own fallback, out of the package folder
+    code = textwrap.dedent("""
+        import numpy as np
+        import convimpact as ci
+        from convimpact import compiled
+        r = ci.resolve_impact(np.eye(2), np.array([[0.0, 1.0], [1.0, 0.0]]),
+                              np.array([0.5, -1.0]), e=0.5, mu=0.0)
+        assert compiled._DIR is False
+        print(r.impulse.tolist())
+    """)
+    res = _run(code, _env(**{compiled.ENV: str(blocker / "cache"),
+                             "NUMBA_CACHE_DIR": str(numba_dir)}))
+    assert json.loads(res.stdout.strip().splitlines()[-1]) == [1.5, 0.0]
+    warnings = [ln for ln in res.stderr.splitlines() if "cannot use the compiled-code cache" in ln]
+    assert len(warnings) == 1, res.stderr[-2000:]
+    assert compiled.ENV in warnings[0]
+    assert list(numba_dir.rglob("*.nbi"))  # numba's default locators took over
+
+
+def _copy_sources(dst: Path) -> Path:
+    root = dst / "convimpact"
+    shutil.copytree(PACKAGE, root, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    return root
+
+
+def test_source_key_follows_every_compiled_source(tmp_path):
+    root = _copy_sources(tmp_path / "a")
+    names = {Path(p).relative_to(root).as_posix() for p in compiled.compiled_sources(str(root))}
+    # the kernels, the jit definition, and the modules whose constants kernels freeze
+    for name in ("compiled.py", "impact/lane_algebra.py", "impact/several_kernels.py",
+                 "impact/batch_kernels/common.py", "impact/batch_kernels/single.py",
+                 "impact/problem.py", "impact/reduction.py"):
+        assert name in names, name
+    assert "bench/charts.py" not in names and "cli.py" not in names
+    key = compiled.source_key(str(root))
+    assert len(key) == 12 and key == compiled.source_key(str(root))
+    other = _copy_sources(tmp_path / "b")  # the key does not depend on where the sources are
+    shutil.rmtree(other)
+    shutil.copytree(root, other)
+    assert compiled.source_key(str(other)) == key
+
+    def edited(rel: str, text: str = "\n# edited\n") -> str:
+        path = root / rel
+        original = path.read_bytes()
+        path.write_bytes(original + text.encode())
+        try:
+            return compiled.source_key(str(root))
+        finally:
+            path.write_bytes(original)
+
+    # a kernel edited in one module retires the caches of its callers in other modules
+    assert edited("impact/lane_algebra.py") != key
+    assert edited("impact/batch_kernels/common.py") != key
+    assert edited("impact/reduction.py") != key  # constants the kernels freeze
+    # a module without compiled code leaves the caches alone
+    assert edited("bench/charts.py") == key
+    assert compiled.source_key(str(root)) == key
+
+
+def test_cache_root_by_platform():
+    assert compiled.cache_root({compiled.ENV: "/x/y"}, "linux") == os.path.abspath("/x/y")
+    assert compiled.cache_root({"NUMBA_CACHE_DIR": "/n"}, "linux") == os.path.join(
+        os.path.abspath("/n"), "convimpact")
+    assert compiled.cache_root({"XDG_CACHE_HOME": "/c"}, "linux") == os.path.join(
+        "/c", "convimpact")
+    assert compiled.cache_root({}, "darwin").endswith(os.path.join(".cache", "convimpact"))
+    assert compiled.cache_root({"LOCALAPPDATA": "C:\\L"}, "win32") == os.path.join(
+        "C:\\L", "convimpact", "cache")
+
+
+def test_import_convimpact_does_not_import_numba():
+    res = _run("import sys, convimpact, convimpact.compiled; "
+               "print('numba' in sys.modules)", _env())
+    assert res.stdout.strip() == "False"
+
+
+# a particle of mass m striking a floor (planar: q = (x, y); spatial: (x, y, z)), every law
+DISABLED_JIT = textwrap.dedent("""
+    import json
+    import numpy as np
+    import convimpact as ci
+    m, e = 2.0, 0.5
+    out = []
+    for d in (2, 3):
+        M = m * np.eye(d)
+        Jc = np.zeros((d, d))
+        Jc[0, d - 1] = 1.0  # normal: the vertical coordinate
+        for i in range(1, d):
+            Jc[i, i - 1] = 1.0  # tangents: the horizontal ones
+        dq = np.array([0.3, -0.4][:d - 1] + [-1.0])
+        for law in ci.LAWS:
+            for mu in (0.0, 0.8):
+                r = ci.resolve_impact(M, Jc, dq, e=e, mu=mu, law=law)
+                out.append([d, law, mu, r.impulse.tolist(), r.dq_plus.tolist(),
+                            str(r.regime)])
+    print(json.dumps(out))
+""")
+
+
+def test_plain_python_with_numba_disabled():
+    res = _run(DISABLED_JIT, _env(NUMBA_DISABLE_JIT="1"))
+    assert MESSAGE not in res.stderr
+    rows = json.loads(res.stdout.strip().splitlines()[-1])
+    assert len(rows) == 2 * len(convimpact.LAWS) * 2
+    m, e, vn = 2.0, 0.5, -1.0
+    for d, law, mu, impulse, dq_plus, regime in rows:
+        vt = [0.3, -0.4][:d - 1]
+        pn = -(1.0 + e) * vn * m  # every law: the normal impulse of a particle on a floor
+        if mu == 0.0:
+            expected = [pn] + [0.0] * (d - 1)
+            assert "frictionless" in regime, (d, law, regime)
+        else:
+            # sticking (mu pn = 2.4 exceeds every tangential impulse below): the tangential
+            # velocity stops, or, dissipative (Poisson on the plastic impulse), reverses by e
+            k = (1.0 + e) if law == "dissipative" else 1.0
+            expected = [pn] + [-k * m * v for v in vt]
+            assert "stick" in regime, (d, law, regime)
+        assert impulse == pytest.approx(expected, rel=1e-12, abs=1e-12), (d, law, mu)
+        v = vt + [vn]
+        # dq+ = dq + M^-1 Jc^T pi: the normal row is the last coordinate
+        want = [v[i] + expected[i + 1] / m for i in range(d - 1)] + [vn + expected[0] / m]
+        assert dq_plus == pytest.approx(want, rel=1e-12, abs=1e-12), (d, law, mu)
