@@ -1,4 +1,4 @@
-"""The compiled spatial Stronge kernel (convimpact.impact.batch_kernels.stronge_spatial) against
+"""The compiled spatial Stronge kernel (convimpact.impact.laws.stronge_slip) against
 the Python kernel it ports (convimpact.impact.laws.stronge.contact_kernel, a separate
 implementation on plain floats), and against what can be checked by hand from W, v and the
 returned impulse alone.
@@ -196,7 +196,7 @@ def test_resolve_impacts_spatial_stronge_is_compiled(monkeypatch):
 
 def test_the_port_mirrors_the_python_kernels_constants():
     """The tolerances and DOP853's coefficients are the Python kernel's (no drift)."""
-    from convimpact.impact.batch_kernels import stronge_spatial as S
+    from convimpact.impact.laws import stronge_slip as S
     from convimpact.impact.laws import stronge as P
 
     for name in ("STICK_RTOL", "JAM_RTOL", "SINGULAR_RTOL", "RAY_RTOL", "ODE_RTOL", "STOP_RTOL",

@@ -40,7 +40,8 @@ from numba.core import cgutils, types
 from numba.extending import intrinsic
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
-from .common import DEFER, FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _jit, _pmax2
+from ..batch_kernels.common import (DEFER, FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _jit,
+                                    _pmax2)
 
 #: laws.stronge's tolerances (see that module)
 STICK_RTOL = 1e-12
