@@ -47,7 +47,7 @@ from .common import (
 )
 from .coulomb import _coulomb_planar, _coulomb_spatial
 from .dissipative import _dissipative_planar, _dissipative_spatial
-from .stronge import STRONGE, _stronge_planar
+from ..laws.stronge import STRONGE, _stronge_planar
 from ..laws.stronge_slip import _stronge_spatial
 
 
