@@ -24,7 +24,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .study_spec import ParameterInfo, StudySpec, StudySpecError
+from .study_types import ParameterInfo, StudySpec, StudySpecError
 
 #: modules defining the built-in kinds (imported by :func:`get_kind`)
 BUILTIN_KIND_MODULES = ("convimpact.studies.study_impacts",
