@@ -11,13 +11,14 @@ is returned, and the count reported).
   completed by the roots of the deflated cubic, so every sliding solution is found and
   counted; each is certified against Coulomb's conditions, with companion-matrix roots as the
   fallback and SolverError when none satisfies them.
-* :func:`program_result` (``method="clarabel"``/``"cvxpy"``): a fixed point over CCP programs
-  with the shift ``s_i = mu_i |u_t,i|`` added to ``q_n`` (Anderson accelerated, safeguarded by
-  damping), each iterate seeding an active-set Newton solve of Coulomb's conditions; one
-  contact is finished (or rescued) by an exact single-contact solve. The final
-  complementarity residual (:func:`coulomb_residual`) is checked: a SolverError, never a
-  silently wrong answer. Contacts with v_n- >= 0 take part with complementarity (they may
-  separate).
+* :func:`solve_coulomb` and :func:`program_result` (``method="clarabel"``/``"cvxpy"``): the
+  fixed point over CCP programs of :mod:`~convimpact.impact.laws.coulomb_program` (the shift
+  ``s_i = mu_i |u_t,i|`` added to ``q_n``, Anderson accelerated, safeguarded by damping, each
+  iterate seeding an active-set Newton solve of Coulomb's conditions); one contact is
+  finished (or rescued) by an exact single-contact solve. The final complementarity residual
+  (:func:`~convimpact.impact.laws.coulomb_program.coulomb_residual`) is checked: a
+  SolverError, never a silently wrong answer. Contacts with v_n- >= 0 take part with
+  complementarity (they may separate).
 """
 
 from __future__ import annotations
@@ -28,10 +29,8 @@ from typing import Any
 import numpy as np
 
 from .. import boundary
-from ..conic.paths import (ProgramOptions, cone_qp, newton_shift, normal_mask, register_programs,
-                           regimes_from_slip)
-from ..conic.polish import EPS, VELOCITY_RESIDUAL_MAX, polish_cone_qp
-from ..conic.qp import TINY, Backend, ConeQP, equilibrated, solve_cone_qp
+from ..conic.paths import ProgramOptions, newton_shift, register_programs, regimes_from_slip
+from ..conic.qp import TINY, Backend
 from ..diagnostics import assemble_result
 from ..errors import SolverError
 from ..fast import (CONE_RTOL, ROOT_RTOL, ContactSolution, frictionless, in_cone, jam_error,
@@ -39,6 +38,7 @@ from ..fast import (CONE_RTOL, ROOT_RTOL, ContactSolution, frictionless, in_cone
 from ..problem import ImpactProblem
 from ..results import ImpactResult
 from ..small_linalg import angle_from_slip, inverse3, linsolve3, solve2, unit_or
+from .coulomb_program import coulomb_fixed_point, coulomb_residual  # noqa: F401 (re-exported)
 from .pereira_nikravesh import DELASSUS_COND_MAX, stick_admissible
 
 LAW = "coulomb"
@@ -178,36 +178,7 @@ def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolu
 
 
 # --------------------------------------------------------------------------------------------
-# the conic path: a fixed point over CCP programs
-
-
-def coulomb_residual(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int,
-                     pi: np.ndarray) -> float:
-    """Relative residual of ``K ∋ pi ⊥ y = u + mu |u_t| n ∈ K*`` with ``u = W pi + b``.
-
-    Max of the cone violation of pi, the dual-cone violation of y and the per-contact
-    complementarity |pi_i . y_i|, each relative to |pi| and |b|.
-    """
-    n = mu.shape[0]
-    x = pi.reshape(n, d)
-    u = (W @ pi + b).reshape(n, d)
-    y = u.copy()
-    y[:, 0] += mu * np.linalg.norm(u[:, 1:], axis=1)
-    ps = max(float(np.linalg.norm(pi)), TINY)
-    vs = max(float(np.linalg.norm(b)), float(np.max(np.abs(W))) * ps, TINY)
-    r = 0.0
-    for i in range(n):
-        r = max(r, max(0.0, np.linalg.norm(x[i, 1:]) - mu[i] * x[i, 0], -x[i, 0]) / ps)
-        if mu[i] == 0.0:
-            r = max(r, max(0.0, -y[i, 0]) / vs, np.linalg.norm(x[i, 1:]) / ps)
-            r = max(r, abs(x[i, 0] * y[i, 0]) / (ps * vs))
-        else:
-            # y_n carries mu |u_t|: measure against mu-scaled velocities, so round-off in u_t
-            # is not magnified by a large mu into a false failure
-            vsi = vs * max(1.0, float(mu[i]))
-            r = max(r, max(0.0, mu[i] * np.linalg.norm(y[i, 1:]) - y[i, 0]) / vsi)
-            r = max(r, abs(float(x[i] @ y[i])) / (ps * vsi))
-    return float(r)
+# the conic path: the fixed point over CCP programs, finished exactly for one contact
 
 
 def _single_contact_coulomb_candidates(W: np.ndarray, b: np.ndarray,
@@ -281,121 +252,44 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
     iterated with Anderson acceleration (memory ``anderson_memory``), safeguarded: when a step
     does not reduce the fixed-point residual the history is dropped and the mixing halved. If
     that pass fails, a second pass runs the plain iteration (up to ``max_fixed_point_iter``
-    programs each).
+    programs each) (:func:`~convimpact.impact.laws.coulomb_program.coulomb_fixed_point`).
     After every program the iterate's active set (stick / slide / separate per contact) is
     handed to an active-set Newton solve of Coulomb's conditions themselves
-    (:func:`polish_cone_qp` with ``coulomb=True``); once that certifies a solution (residual at
-    round-off, consistent active set) the iteration stops. This is what converges on the
-    paper's Section 9.3 pendulum, where the plain fixed point does not. For one contact the
-    answer is finished by the exact single-contact solve (the candidate nearest the iterate),
-    which also rescues a fixed point that did not converge. When Coulomb's law has several
-    solutions (large mu, several contacts) the one reached from the CCP start is returned.
+    (:func:`~convimpact.impact.conic.polish.polish_cone_qp` with ``coulomb=True``); once that
+    certifies a solution (residual at round-off, consistent active set) the iteration stops.
+    This is what converges on the paper's Section 9.3 pendulum, where the plain fixed point
+    does not. For one contact the answer is finished by the exact single-contact solve (the
+    candidate of :func:`_single_contact_coulomb_candidates` nearest the iterate), which also
+    rescues a fixed point that did not converge. When Coulomb's law has several solutions
+    (large mu, several contacts) the one reached from the CCP start is returned.
 
     Returns
     -------
     impulse (n_contacts, d), info dict (iterations, residuals, how it was finished)
     """
     n, d = P.n_contacts, P.dim
-    W = P.delassus
-    b = P.v_minus.ravel() + newton_shift(P)
     mu = P.friction
-    fric = mu > 0.0
-    nmask = normal_mask(n, d)
-    vscale = max(float(np.max(np.abs(P.v_minus))), TINY)
-
-    def solve_for(s: np.ndarray):
-        q = b.copy()
-        q[nmask] += s
-        sol = solve_cone_qp(backend, cone_qp(P, q), opts.tol, opts.max_iter)
-        u = (W @ sol.x + b).reshape(n, d)
-        return sol, mu * np.linalg.norm(u[:, 1:], axis=1)
-
-    sW = max(float(np.max(np.abs(W))), TINY)
-    # Coulomb's conditions keep their form under a uniform scaling of each contact's rows, so
-    # the active-set Newton works on the equilibrated program (pi = scale * y)
-    unit, scale = equilibrated(ConeQP(W, b, mu, d, np.zeros((0, n * d)), np.zeros(0)))
-    iters = conic_iters = 0
-    converged = polished = newton = False
-    last_x = None
-    res_norm = math.inf
-    status = ""
-    # first Anderson-accelerated and safeguarded (restart with halved mixing when the residual
-    # does not drop), then, if that fails, the plain iteration, which is slower but reaches
-    # active sets that the accelerated one jumps over
-    for memory in ([opts.anderson_memory, 0] if opts.anderson_memory else [0]):
-        s = np.zeros(n)
-        hist_s: list[np.ndarray] = []
-        hist_r: list[np.ndarray] = []
-        prev = math.inf
-        beta = 1.0  # mixing; halved whenever a step fails to reduce the residual
-        for _ in range(opts.max_fixed_point_iter):
-            sol, gs = solve_for(s)
-            iters += 1
-            conic_iters += max(sol.iterations, 0)
-            status, last_x, polished = sol.status, sol.x, sol.polished
-            r = gs - s
-            res_norm = float(np.max(np.abs(r))) / vscale
-            # mu |u_t| carries the round-off of W pi + b: cond(W) eps where W is
-            # ill-conditioned (the impulse |b| / lambda_min(W) cancels digits), capped
-            roundoff = min(1e2 * EPS * sW * float(np.max(np.abs(sol.x), initial=0.0))
-                           * max(1.0, float(np.max(mu))) / vscale, VELOCITY_RESIDUAL_MAX)
-            if res_norm <= max(opts.fixed_point_tol, opts.accuracy(sol.polished), roundoff) \
-                    or not np.any(fric):
-                converged = True
-                break
-            # active-set Newton on Coulomb's conditions from this iterate
-            if n > 1:
-                y, ok = polish_cone_qp(unit, sol.x / scale, coulomb=True)
-                if ok and coulomb_residual(unit.W, unit.q, mu, d, y) <= 1e-11:
-                    last_x, converged, newton = y * scale, True, True
-                    break
-            if memory and res_norm > 0.9 * prev and hist_s:  # safeguard: restart, damp
-                hist_s.clear()
-                hist_r.clear()
-                beta = max(beta * 0.5, 1.0 / 16.0)
-            prev = res_norm
-            hist_s.append(s.copy())
-            hist_r.append(r.copy())
-            if len(hist_s) > memory + 1:
-                hist_s.pop(0)
-                hist_r.pop(0)
-            s_new = s + beta * r
-            if len(hist_s) >= 2 and memory > 0:  # Anderson (type II) step
-                dR = np.array([hist_r[k + 1] - hist_r[k] for k in range(len(hist_r) - 1)]).T
-                dS = np.array([hist_s[k + 1] - hist_s[k] for k in range(len(hist_s) - 1)]).T
-                gamma, *_ = np.linalg.lstsq(dR, r, rcond=None)
-                s_new = s_new - (dS + beta * dR) @ gamma
-            s = np.maximum(s_new, 0.0)
-        if converged or (n == 1 and fric[0]):
-            break  # one contact: the exact solve below finishes or rescues
-    pi = last_x.reshape(n, d)
-    finished = "fixed point" + (" (polished programs)" if polished else "")
-    if newton:
-        finished = "active-set Newton on Coulomb's conditions"
-    elif n > 1:
-        y, ok = polish_cone_qp(unit, pi.ravel() / scale, coulomb=True)
-        if ok and coulomb_residual(unit.W, unit.q, mu, d, y) <= \
-                coulomb_residual(unit.W, unit.q, mu, d, pi.ravel() / scale):
-            pi, newton = (y * scale).reshape(n, d), True
-            finished += ", then active-set Newton"
+    fp = coulomb_fixed_point(P, backend, opts)
+    pi, finished = fp.pi, fp.finished_by
     n_solutions = None
-    if n == 1 and fric[0]:
+    if n == 1 and mu[0] > 0.0:
         # exact single-contact solve: finishes a converged iterate to machine precision and
         # rescues one that did not converge (the candidate nearest the last iterate)
-        cands = _single_contact_coulomb_candidates(W, b, float(mu[0]))
+        b = P.v_minus.ravel() + newton_shift(P)
+        cands = _single_contact_coulomb_candidates(P.delassus, b, float(mu[0]))
         n_solutions = len(cands)
         if cands:
             k = int(np.argmin([np.linalg.norm(c - pi[0]) for c in cands]))
             pi = cands[k][None]
             finished = "exact single-contact solve"
-    acc = opts.accuracy(polished or newton or finished.startswith("exact"))
-    resid = coulomb_residual(unit.W, unit.q, mu, d, pi.ravel() / scale)
+    acc = opts.accuracy(fp.polished or fp.newton or finished.startswith("exact"))
+    resid = coulomb_residual(fp.unit.W, fp.unit.q, mu, d, pi.ravel() / fp.scale)
     info = {
-        "fixed_point_iterations": iters,
-        "fixed_point_converged": converged,
-        "fixed_point_residual": res_norm,
-        "conic_iterations": conic_iters,
-        "solver_status": status,
+        "fixed_point_iterations": fp.iterations,
+        "fixed_point_converged": fp.converged,
+        "fixed_point_residual": fp.residual,
+        "conic_iterations": fp.conic_iterations,
+        "solver_status": fp.status,
         "finished_by": finished,
         "complementarity_residual": resid,
         "tolerance": opts.tol,
@@ -405,9 +299,10 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
         info["single_contact_solutions"] = n_solutions
     if resid > max(opts.fixed_point_tol, acc) * 10:
         raise SolverError(
-            f"Coulomb fixed point did not converge: after {iters} CCP programs the "
-            f"complementarity residual is {resid:.3e} (fixed-point residual {res_norm:.3e}); "
-            "raise max_fixed_point_iter, or use law='ccp' or 'dissipative' (single programs)")
+            f"Coulomb fixed point did not converge: after {fp.iterations} CCP programs the "
+            f"complementarity residual is {resid:.3e} (fixed-point residual "
+            f"{fp.residual:.3e}); raise max_fixed_point_iter, or use law='ccp' or "
+            "'dissipative' (single programs)")
     return pi, info
 
 
