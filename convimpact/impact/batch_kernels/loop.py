@@ -45,7 +45,7 @@ from .common import (
     _jit,
     _pmax2,
 )
-from .coulomb import _coulomb_planar, _coulomb_spatial
+from ..laws.coulomb import _coulomb_planar, _coulomb_spatial
 from .dissipative import _dissipative_planar, _dissipative_spatial
 from ..laws.stronge import STRONGE, _stronge_planar
 from ..laws.stronge_slip import _stronge_spatial

@@ -5,20 +5,33 @@ when the stick impulse is in the cone, else ``u_n = 0`` and ``pi_t = -mu pi_n u_
 law is not a convex program and may have several sliding solutions (the most dissipative one
 is returned, and the count reported).
 
-* :func:`contact_kernel` (``method="fast"``): on the boundary ``b + pi_n W p = (0, -sigma t)``,
-  so ``det[W p, (0, t), b] = 0`` (p = (1, mu t), b = v + e v_n e_n), a quartic in tan(th/2)
-  (:mod:`convimpact.impact.boundary`). Newton's root from the stick impulse's tangent is
-  completed by the roots of the deflated cubic, so every sliding solution is found and
-  counted; each is certified against Coulomb's conditions, with companion-matrix roots as the
-  fallback and SolverError when none satisfies them.
+* :func:`_coulomb_planar` and :func:`_coulomb_spatial` are the exact single-contact kernel
+  (``method="fast"``, the batch, the compiled lanes), compiled; :func:`contact_kernel` is
+  their entry on plain floats. A slide is ``pi = pi_n (1, mu t)`` with ``pi_n = c / D``
+  (eq. 38, ``u_n = 0``; c = -(1 + e) v_n, D = W_nn + mu W_nt . t > 0) and a post-impact slip
+  opposite to t. In the plane t = +-1 (:func:`_planar_slides`); in space, on the boundary
+  ``b + pi_n W p = (0, -sigma t)``, so ``det[W p, (0, t), b] = 0`` (p = (1, mu t),
+  b = v + e v_n e_n), a quartic in tan(th/2) (:func:`_spatial_slides`): Newton's root from the
+  stick impulse's tangent is completed by the roots of the deflated cubic, so every sliding
+  solution is found and counted; each is certified against Coulomb's conditions, with every
+  candidate direction (:func:`~convimpact.impact.batch_kernels.algebra._candidates`, Ferrari,
+  then the companion matrix's roots) as the fallback. No slide: NonPositiveEffectiveMassError
+  when a root was rejected for its denominator D <= 0 (the smallest D reported), else
+  SolverError.
 * :func:`solve_coulomb` and :func:`program_result` (``method="clarabel"``/``"cvxpy"``): the
   fixed point over CCP programs of :mod:`~convimpact.impact.laws.coulomb_program` (the shift
   ``s_i = mu_i |u_t,i|`` added to ``q_n``, Anderson accelerated, safeguarded by damping, each
   iterate seeding an active-set Newton solve of Coulomb's conditions); one contact is
-  finished (or rescued) by an exact single-contact solve. The final complementarity residual
+  finished (or rescued) by the exact single-contact solve (:func:`single_contact_solutions`,
+  the kernel's own enumeration). The final complementarity residual
   (:func:`~convimpact.impact.laws.coulomb_program.coulomb_residual`) is checked: a
   SolverError, never a silently wrong answer. Contacts with v_n- >= 0 take part with
   complementarity (they may separate).
+
+``out`` of the kernels (float64, :data:`~convimpact.impact.batch_kernels.common.OUT_SIZE`),
+written on a slide: ``out[0]`` the number of sliding solutions found, ``out[1]`` the index of
+the one returned, and slide j (j < 5) in ``out[2 + 4 j : 6 + 4 j] = (pi_n, t1, t2, T_L)`` (the
+tangent t in the contact frame's axes; planar: ``(pi_n, s, 0, T_L)``).
 """
 
 from __future__ import annotations
@@ -28,220 +41,345 @@ from typing import Any
 
 import numpy as np
 
-from .. import boundary
+from ..batch_kernels.algebra import (_candidates, _cubic, _inverse3, _linsolve3, _polish,
+                                     _refine, _rotate, _solve2)
+from ..batch_kernels.common import (CONE_RTOL, FAILED, JAM, NO_SOLUTION, OK, OUT_SIZE,
+                                    ROOT_RTOL, SINGULAR, SLIDE, STICK, _NAN, _in_cone, _jit,
+                                    _pmax2, _unit_or)
 from ..conic.paths import ProgramOptions, newton_shift, register_programs, regimes_from_slip
-from ..conic.qp import TINY, Backend
+from ..conic.qp import Backend
 from ..diagnostics import assemble_result
 from ..errors import SolverError
-from ..fast import (CONE_RTOL, ROOT_RTOL, ContactSolution, frictionless, in_cone, jam_error,
-                    register_kernel, solution)
+from ..fast import ContactSolution, compiled_kernel, register_kernel
 from ..problem import ImpactProblem
 from ..results import ImpactResult
-from ..small_linalg import angle_from_slip, inverse3, linsolve3, solve2, unit_or
+from ..small_linalg import angle_from_slip
 from .coulomb_program import coulomb_fixed_point, coulomb_residual  # noqa: F401 (re-exported)
-from .pereira_nikravesh import DELASSUS_COND_MAX, stick_admissible
 
 LAW = "coulomb"
 
+# ``out``: the count, the returned slide, then the slides (pi_n, t1, t2, T_L)
+_OUT_COUNT, _OUT_BEST, _OUT_SLIDES, _SLOT = 0, 1, 2, 4
+#: most sliding solutions of one contact: 2 in the plane, 4 quartic roots (+ th = pi) in space
+_MAX_SLIDES = 5
 
-def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
-    """Coulomb's law for one contact on plain floats (the ``fast`` kernel)."""
-    if mu == 0.0:
-        return frictionless(w, v, d, e)
-    c = -(1.0 + e) * v[0]
-    b0 = -c  # b = v + e v_n e_n; u = b + W pi
-    wscale = w[0][0] if w[0][0] > w[1][1] else w[1][1]  # max |W_ij| for a PSD W
-    if d == 3 and w[2][2] > wscale:
-        wscale = w[2][2]
+
+# --------------------------------------------------------------------------------------------
+# the exact single-contact kernel (method="fast"), compiled: every path runs this code
+
+
+@_jit
+def _store(out, nf, p, x, y, tl):
+    """Append the slide (pi_n, x, y, T_L) to the nf of ``out`` unless its direction is there
+    already (the same root reached twice); the new count."""
+    for j in range(nf):
+        k = _OUT_SLIDES + _SLOT * j
+        if abs(x - out[k + 1]) + abs(y - out[k + 2]) < 1e-9:
+            return nf
+    if nf < _MAX_SLIDES:
+        k = _OUT_SLIDES + _SLOT * nf
+        out[k], out[k + 1], out[k + 2], out[k + 3] = p, x, y, tl
+    return nf + 1
+
+
+@_jit
+def _best(out, nf):
+    """The index of the most dissipative of the nf slides of ``out``: the maximum of
+    (T_L, x, y), the first of equals."""
+    b = 0
+    for j in range(1, nf if nf < _MAX_SLIDES else _MAX_SLIDES):
+        k, kb = _OUT_SLIDES + _SLOT * j, _OUT_SLIDES + _SLOT * b
+        tl, btl = out[k + 3], out[kb + 3]
+        if tl > btl or (tl == btl and (out[k + 1] > out[kb + 1] or (
+                out[k + 1] == out[kb + 1] and out[k + 2] > out[kb + 2]))):
+            b = j
+    return b
+
+
+@_jit
+def _jam(jam, jmin, st, D):
+    """A root rejected for its denominator (st == 2): the smallest such D so far."""
+    if st == 2 and (not jam or D < jmin):
+        return True, D
+    return jam, jmin
+
+
+@_jit
+def _planar_slides(w00, w01, w11, v0, v1, c, mu, out):
+    """Every Coulomb slide of one planar contact (mu > 0): pi = pi_n (1, mu s), s = +-1, with
+    pi_n = c / D, D = W_nn + mu s W_nt > 0, and the post-impact slip
+    u_t = v_t + pi_n (W_nt + mu s W_tt) opposite to s (or zero), written into ``out``.
+    Returns (count, index of the most dissipative, jam, smallest rejected D)."""
+    wscale = w00 if w00 > w11 else w11
     dmin = 1e-12 * wscale
-    vscale = max(abs(v[0]), abs(v[1]), abs(v[-1]))
-    if d == 2:
-        pn, pt = solve2(w, c, -v[1], LAW)
-        if in_cone(pn, abs(pt), mu):
-            return solution((pn, pt), "stick")
-        A, B, C = w[0][0], w[0][1], w[1][1]
-        found, jams = [], []
-        for s in (1.0, -1.0):
-            D = A + mu * s * B
-            if not D > dmin:
-                jams.append(D)
-                continue
-            p = c / D
-            ut = v[1] + p * (B + mu * s * C)  # post-impact slip
-            if ut * s <= CONE_RTOL * vscale:  # anti-parallel to pi_t (or zero)
-                tl = -p * (v[0] + mu * s * v[1]) - 0.5 * p * p * (D + mu * s * (B + mu * s * C))
-                found.append((tl, s, p, D, ut))
-        if not found:
-            if jams:
-                raise jam_error(mu, min(jams), LAW)
-            raise SolverError("no Coulomb sliding solution exists for this planar contact "
-                              "although the stick impulse leaves the cone; use method='clarabel'")
-        tl, s, p, D, ut = max(found)
-        extras = {"n_slide_solutions": len(found), "post_slip": (ut,)}
-        warns = (("the Coulomb law has several sliding solutions here; the most dissipative "
-                  "one is returned",) if len(found) > 1 else ())
-        return solution((p, mu * s * p), "slide", D, extras, warns)
-    inv = inverse3(w, LAW)
-    pn, p1, p2 = linsolve3(w, inv, c, -v[1], -v[2])
-    if in_cone(pn, math.hypot(p1, p2), mu):
-        return solution((pn, p1, p2), "stick")
-    r1, r2 = unit_or(p1, p2, unit_or(-v[1], -v[2], (1.0, 0.0)))
-    R = boundary.rotate(w, v, r1, r2)
-    A, B1, B2, C11, C12, C22, v0, v1, v2 = R
+    vscale = _pmax2(abs(v0), abs(v1))
+    nf = 0
+    jam, jmin = False, 0.0
+    for k in range(2):
+        s = 1.0 if k == 0 else -1.0
+        D = w00 + mu * s * w01
+        if not D > dmin:
+            jam, jmin = _jam(jam, jmin, 2, D)
+            continue
+        p = c / D
+        ut = v1 + p * (w01 + mu * s * w11)  # post-impact slip
+        if ut * s <= CONE_RTOL * vscale:  # anti-parallel to pi_t (or zero)
+            tl = -p * (v0 + mu * s * v1) - 0.5 * p * p * (D + mu * s * (w01 + mu * s * w11))
+            nf = _store(out, nf, p, s, 0.0, tl)
+    out[_OUT_COUNT] = nf
+    return nf, _best(out, nf), jam, jmin
+
+
+@_jit
+def _conditions(x, y, rtol, E0, Ex, Ey, Exx, Eyy, Exy, escale, A, B1, B2, C11, C12, C22,
+                v0, v1, v2, c, mu, dmin, vscale, wscale):
+    """Whether t = (x, y) (rotated basis) is a Coulomb slide to tolerance rtol: (status, T_L,
+    pi_n, D), status 0 = a slide, 1 = rejected, 2 = rejected for D <= dmin (a jam)."""
+    if abs(E0 + Ex * x + Ey * y + Exx * x * x + Eyy * y * y + Exy * x * y) > rtol * escale:
+        return 1, 0.0, 0.0, 0.0
+    D = A + mu * (B1 * x + B2 * y)
+    if not D > dmin:
+        return 2, 0.0, 0.0, D
+    P1 = B1 + mu * (C11 * x + C12 * y)
+    P2 = B2 + mu * (C12 * x + C22 * y)
+    p = c / D  # eq. (38): u_n = 0
+    u1, u2 = v1 + p * P1, v2 + p * P2  # post-impact slip, rotated basis
+    sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
+    if sigma < -rtol * vscale or abs(u1 * y - u2 * x) > rtol * (vscale + abs(p) * wscale):
+        return 1, 0.0, 0.0, 0.0
+    pWp = D + mu * (x * P1 + y * P2)
+    return 0, -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * pWp, p, D
+
+
+@_jit
+def _spatial_slides(w00, w01, w02, w11, w12, w22, v0, v1, v2, c, mu, r1, r2, out):
+    """Every Coulomb slide of one spatial contact (mu > 0), found in the basis (r, r_perp) of
+    the unit tangent r = (r1, r2) (the stick impulse's), written into ``out``. Returns (count,
+    index of the most dissipative, its D, jam, smallest rejected D)."""
+    b0 = -c  # b = v + e v_n e_n; u = b + W pi
+    wscale = w00 if w00 > w11 else w11  # max |W_ij| for a PSD W
+    if w22 > wscale:
+        wscale = w22
+    dmin = 1e-12 * wscale
+    vscale = _pmax2(_pmax2(abs(v0), abs(v1)), abs(v2))
+    A, B1, B2, C11, C12, C22, R0, R1, R2 = _rotate(w00, w01, w02, w11, w12, w22, v0, v1, v2,
+                                                   r1, r2)
     u00, u0x, u0y, u10, u1x, u1y, u20, u2x, u2y = (A, mu * B1, mu * B2, B1, mu * C11, mu * C12,
                                                    B2, mu * C12, mu * C22)  # W p
-    # det[W p, (0, t), b] = sum_i (W p)_i (m x b)_i = 0, m = (0, x, y), b = (b0, v1, v2):
-    # m x b = (x v2 - y v1, y b0, -x b0)
-    e0 = 0.0
-    ex = u00 * v2 - u20 * b0
-    ey = -u00 * v1 + u10 * b0
-    exx = u0x * v2 - u2x * b0
-    eyy = -u0y * v1 + u1y * b0
-    exy = -u0x * v1 + u0y * v2 + u1x * b0 - u2y * b0
-    escale = (abs(ex) + abs(ey) + abs(exx) + abs(eyy) + abs(exy)) or 1.0
-    found: list = []
-    jams: list = []
-
-    def conditions(x: float, y: float, rtol: float) -> tuple | None:
-        """(T_L, x, y, pi_n, D, sigma) if t = (x, y) is a Coulomb slide to tolerance rtol."""
-        if abs(e0 + ex * x + ey * y + exx * x * x + eyy * y * y + exy * x * y) > rtol * escale:
-            return None
-        D = A + mu * (B1 * x + B2 * y)
-        if not D > dmin:
-            jams.append(D)
-            return None
-        P1 = B1 + mu * (C11 * x + C12 * y)
-        P2 = B2 + mu * (C12 * x + C22 * y)
-        p = c / D  # eq. (38): u_n = 0
-        u1, u2 = v1 + p * P1, v2 + p * P2  # post-impact slip, rotated basis
-        sigma = -(u1 * x + u2 * y)  # u_t = -sigma t, sigma >= 0: friction opposes the slip
-        if sigma < -rtol * vscale or abs(u1 * y - u2 * x) > rtol * (vscale + abs(p) * wscale):
-            return None
-        pWp = D + mu * (x * P1 + y * P2)
-        return -p * (v0 + mu * (v1 * x + v2 * y)) - 0.5 * p * p * pWp, x, y, p, D, sigma
-
-    def add(got: tuple) -> None:
-        for f in found:
-            if abs(got[1] - f[1]) + abs(got[2] - f[2]) < 1e-9:
-                return  # the same root reached twice
-        found.append(got)
-
+    # det[W p, (0, t), b] = sum_i (W p)_i (m x b)_i = 0, m = (0, x, y), b = (b0, R1, R2):
+    # m x b = (x R2 - y R1, y b0, -x b0)
+    E0 = 0.0
+    Ex = u00 * R2 - u20 * b0
+    Ey = -u00 * R1 + u10 * b0
+    Exx = u0x * R2 - u2x * b0
+    Eyy = -u0y * R1 + u1y * b0
+    Exy = -u0x * R1 + u0y * R2 + u1x * b0 - u2y * b0
+    escale = abs(Ex) + abs(Ey) + abs(Exx) + abs(Eyy) + abs(Exy)
+    if escale == 0.0:
+        escale = 1.0
+    nf = 0
+    jam, jmin = False, 0.0
     # fast path: Newton from the stick impulse's tangent (tau = 0), then the other roots from
     # the deflated cubic, so that every sliding solution is still enumerated
-    c4, c3, c2, c1, c0 = (e0 - ex + exx, 2.0 * (ey - exy), 2.0 * (e0 - exx) + 4.0 * eyy,
-                          2.0 * (ey + exy), e0 + ex + exx)
-    big = max(abs(c4), abs(c3), abs(c2), abs(c1), abs(c0))
+    c4, c3, c2, c1, c0 = (E0 - Ex + Exx, 2.0 * (Ey - Exy), 2.0 * (E0 - Exx) + 4.0 * Eyy,
+                          2.0 * (Ey + Exy), E0 + Ex + Exx)
+    big = _pmax2(_pmax2(_pmax2(_pmax2(abs(c4), abs(c3)), abs(c2)), abs(c1)), abs(c0))
     fast_done = False
     if abs(c4) >= 1e-2 * big:  # all roots bounded: |tau| <= 101
-        t0 = boundary.polish(c4, c3, c2, c1, c0, 0.0)
+        t0 = _polish(c4, c3, c2, c1, c0, 0.0)
         t2 = t0 * t0
-        got = conditions((1.0 - t2) / (1.0 + t2), 2.0 * t0 / (1.0 + t2), ROOT_RTOL)
-        if got is not None:
+        x, y = (1.0 - t2) / (1.0 + t2), 2.0 * t0 / (1.0 + t2)
+        st, tl, p, D = _conditions(x, y, ROOT_RTOL, E0, Ex, Ey, Exx, Eyy, Exy, escale, A, B1,
+                                   B2, C11, C12, C22, R0, R1, R2, c, mu, dmin, vscale, wscale)
+        jam, jmin = _jam(jam, jmin, st, D)
+        if st == 0:
             fast_done = True
-            found.append(got)
-            b2 = c3 + t0 * c4
-            b1 = c2 + t0 * b2
-            b0 = c1 + t0 * b1
-            for t in boundary.cubic_roots(b2 / c4, b1 / c4, b0 / c4):
+            nf = _store(out, nf, p, x, y, tl)
+            q2 = c3 + t0 * c4
+            q1 = c2 + t0 * q2
+            q0 = c1 + t0 * q1
+            ncub, ra, rb, rc = _cubic(q2 / c4, q1 / c4, q0 / c4)
+            for j in range(ncub):
+                t = ra if j == 0 else (rb if j == 1 else rc)
                 t2 = t * t
                 x, y = (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
-                if conditions(x, y, 1e-6) is None:  # cheap screening of the raw root
+                st, tl, p, D = _conditions(x, y, 1e-6, E0, Ex, Ey, Exx, Eyy, Exy, escale, A,
+                                           B1, B2, C11, C12, C22, R0, R1, R2, c, mu, dmin,
+                                           vscale, wscale)  # cheap screening of the raw root
+                jam, jmin = _jam(jam, jmin, st, D)
+                if st != 0:
                     continue
-                t = boundary.polish(c4, c3, c2, c1, c0, t)
+                t = _polish(c4, c3, c2, c1, c0, t)
                 t2 = t * t
-                got = conditions((1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2), ROOT_RTOL)
-                if got is not None:
-                    add(got)
+                x, y = (1.0 - t2) / (1.0 + t2), 2.0 * t / (1.0 + t2)
+                st, tl, p, D = _conditions(x, y, ROOT_RTOL, E0, Ex, Ey, Exx, Eyy, Exy, escale,
+                                           A, B1, B2, C11, C12, C22, R0, R1, R2, c, mu, dmin,
+                                           vscale, wscale)
+                jam, jmin = _jam(jam, jmin, st, D)
+                if st == 0:
+                    nf = _store(out, nf, p, x, y, tl)
     if not fast_done:
-        for robust in (False, True):  # Ferrari's roots, then the companion matrix's
-            coeffs, cands = boundary.candidates(e0, ex, ey, exx, eyy, exy, robust=robust)
-            for pt in cands:
-                if not robust and conditions(pt[0], pt[1], 1e-6) is None:
-                    continue  # cheap screening of the raw root
-                got = conditions(*boundary.refine(coeffs, pt), ROOT_RTOL)
-                if got is not None:
-                    add(got)
-            if found:
+        for k in range(2):  # Ferrari's roots, then the companion matrix's
+            robust = k == 1
+            has, q4, q3, q2, q1, q0, cp, sp, n, xs, ys, ts, rs = _candidates(
+                E0, Ex, Ey, Exx, Eyy, Exy, robust)
+            for j in range(n):
+                if not robust:  # cheap screening of the raw root
+                    st, tl, p, D = _conditions(xs[j], ys[j], 1e-6, E0, Ex, Ey, Exx, Eyy, Exy,
+                                               escale, A, B1, B2, C11, C12, C22, R0, R1, R2,
+                                               c, mu, dmin, vscale, wscale)
+                    jam, jmin = _jam(jam, jmin, st, D)
+                    if st != 0:
+                        continue
+                x, y = _refine(has, q4, q3, q2, q1, q0, cp, sp, xs[j], ys[j], ts[j], rs[j])
+                st, tl, p, D = _conditions(x, y, ROOT_RTOL, E0, Ex, Ey, Exx, Eyy, Exy, escale,
+                                           A, B1, B2, C11, C12, C22, R0, R1, R2, c, mu, dmin,
+                                           vscale, wscale)
+                jam, jmin = _jam(jam, jmin, st, D)
+                if st == 0:
+                    nf = _store(out, nf, p, x, y, tl)
+            if nf > 0:
                 break
-    if not found:
-        if jams:
-            raise jam_error(mu, min(jams), LAW)
-        raise SolverError("no Coulomb sliding solution found for this spatial contact although "
-                          "the stick impulse leaves the cone; use method='clarabel'")
-    tl, x, y, p, D, sigma = max(found)  # the most dissipative if several
-    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
-    extras = {"n_slide_solutions": len(found), "direction": (t1, t2),
-              "alpha": angle_from_slip(v[1], v[2], t1, t2), "post_slip_speed": sigma}
-    warns = (("the Coulomb law has several sliding solutions here; the most dissipative one "
-              "is returned",) if len(found) > 1 else ())
-    return solution((p, mu * p * t1, mu * p * t2), "slide", D, extras, warns)
+    out[_OUT_COUNT] = nf
+    if nf == 0:
+        return 0, 0, _NAN, jam, jmin
+    best = _best(out, nf)
+    k = _OUT_SLIDES + _SLOT * best
+    D = A + mu * (B1 * out[k + 1] + B2 * out[k + 2])
+    for j in range(nf if nf < _MAX_SLIDES else _MAX_SLIDES):  # t back in the frame's axes
+        k = _OUT_SLIDES + _SLOT * j
+        x, y = out[k + 1], out[k + 2]
+        out[k + 1], out[k + 2] = x * r1 - y * r2, x * r2 + y * r1
+    return nf, best, D, jam, jmin
+
+
+@_jit
+def _coulomb_planar(w00, w01, w11, v0, v1, e, mu, out):
+    """One planar contact, mu > 0: the stick impulse if it lies in the cone, else the most
+    dissipative slide (:func:`_planar_slides`)."""
+    c = -(1.0 + e) * v0
+    pn, pt, ok = _solve2(w00, w01, w11, c, -v1)
+    if not ok:
+        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
+    if _in_cone(pn, abs(pt), mu):
+        return OK, STICK, pn, pt, 0.0, _NAN
+    nf, best, jam, jmin = _planar_slides(w00, w01, w11, v0, v1, c, mu, out)
+    if nf == 0:
+        if jam:
+            return JAM, FAILED, _NAN, _NAN, _NAN, jmin
+        return NO_SOLUTION, FAILED, _NAN, _NAN, _NAN, _NAN
+    out[_OUT_BEST] = best
+    k = _OUT_SLIDES + _SLOT * best
+    p, s = out[k], out[k + 1]
+    return OK, SLIDE, p, mu * s * p, 0.0, w00 + mu * s * w01
+
+
+@_jit
+def _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
+    """One spatial contact, mu > 0: the stick impulse if it lies in the cone, else the most
+    dissipative slide (:func:`_spatial_slides`, from the stick impulse's tangent)."""
+    c = -(1.0 + e) * v0
+    i00, i01, i02, i11, i12, i22, det, ok = _inverse3(w00, w01, w02, w11, w12, w22)
+    if not ok:
+        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
+    pn, p1, p2 = _linsolve3(w00, w01, w02, w11, w12, w22, i00, i01, i02, i11, i12, i22, det,
+                            c, -v1, -v2)
+    if _in_cone(pn, math.hypot(p1, p2), mu):
+        return OK, STICK, pn, p1, p2, _NAN
+    f1, f2 = _unit_or(-v1, -v2, 1.0, 0.0)
+    r1, r2 = _unit_or(p1, p2, f1, f2)
+    nf, best, D, jam, jmin = _spatial_slides(w00, w01, w02, w11, w12, w22, v0, v1, v2, c, mu,
+                                             r1, r2, out)
+    if nf == 0:
+        if jam:
+            return JAM, FAILED, _NAN, _NAN, _NAN, jmin
+        return NO_SOLUTION, FAILED, _NAN, _NAN, _NAN, _NAN
+    out[_OUT_BEST] = best
+    k = _OUT_SLIDES + _SLOT * best
+    p, t1, t2 = out[k], out[k + 1], out[k + 2]
+    return OK, SLIDE, p, mu * p * t1, mu * p * t2, D
+
+
+_SEVERAL = ("the Coulomb law has several sliding solutions here; the most dissipative one is "
+            "returned",)
+
+
+def _extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
+    """A slide's figures: the number of sliding solutions (a warning if several), the
+    post-impact slip u_t = v_t + (W pi)_t (planar) or the direction, its angle from v_t- and
+    the slip speed sigma, u_t = -sigma t (spatial)."""
+    if regime != "slide":
+        return None, ()
+    n = int(out[_OUT_COUNT])
+    warns = _SEVERAL if n > 1 else ()
+    k = _OUT_SLIDES + _SLOT * int(out[_OUT_BEST])
+    p = impulse[0]
+    if d == 2:
+        s = float(out[k + 1])
+        ut = v[1] + p * (w[0][1] + mu * s * w[1][1])
+        return {"n_slide_solutions": n, "post_slip": (ut,)}, warns
+    t1, t2 = float(out[k + 1]), float(out[k + 2])
+    u1 = v[1] + p * (w[0][1] + mu * (w[1][1] * t1 + w[1][2] * t2))
+    u2 = v[2] + p * (w[0][2] + mu * (w[1][2] * t1 + w[2][2] * t2))
+    return {"n_slide_solutions": n, "direction": (t1, t2),
+            "alpha": angle_from_slip(v[1], v[2], t1, t2),
+            "post_slip_speed": -(u1 * t1 + u2 * t2)}, warns
+
+
+# the entries on plain floats; the no-solution message names the dimension
+_ENTRIES = {
+    2: compiled_kernel(LAW, _coulomb_planar, _coulomb_spatial, _extras, no_solution=(
+        "no Coulomb sliding solution exists for this planar contact although the stick "
+        "impulse leaves the cone; use method='clarabel'")),
+    3: compiled_kernel(LAW, _coulomb_planar, _coulomb_spatial, _extras, no_solution=(
+        "no Coulomb sliding solution found for this spatial contact although the stick "
+        "impulse leaves the cone; use method='clarabel'")),
+}
+
+
+def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
+    """Coulomb's law for one contact on plain floats (the ``fast`` kernel): the compiled
+    kernels through :func:`~convimpact.impact.fast.compiled_kernel`."""
+    return _ENTRIES[d](w, v, d, e, mu)
+
+
+def single_contact_solutions(W: np.ndarray, b: np.ndarray, mu: float) -> list[np.ndarray]:
+    """Every solution of the one-contact Coulomb problem ``u = W pi + b`` with mu > 0 (exact,
+    no iteration): the stick impulse ``pi = -W^-1 b`` when W is regular and it lies in K_mu,
+    and, when b_n < 0, every slide (the kernel's enumeration, :func:`_planar_slides` or
+    :func:`_spatial_slides`, with v = b and e = 0)."""
+    d = W.shape[0]
+    w = W.tolist()
+    bb = [float(x) for x in b]
+    found: list[np.ndarray] = []
+    if d == 2:
+        s0, s1, ok = _solve2(w[0][0], w[0][1], w[1][1], -bb[0], -bb[1])
+        stick = (s0, s1)
+    else:
+        i00, i01, i02, i11, i12, i22, det, ok = _inverse3(w[0][0], w[0][1], w[0][2], w[1][1],
+                                                          w[1][2], w[2][2])
+        stick = _linsolve3(w[0][0], w[0][1], w[0][2], w[1][1], w[1][2], w[2][2], i00, i01, i02,
+                           i11, i12, i22, det, -bb[0], -bb[1], -bb[2]) if ok else (0.0,) * 3
+    if ok and _in_cone(stick[0], math.hypot(*stick[1:]), mu):
+        found.append(np.array(stick))
+    if not (mu > 0.0 and bb[0] < 0.0):
+        return found  # no slide: pi_n = -b_n / D > 0 needs b_n < 0
+    out = np.zeros(OUT_SIZE)
+    if d == 2:
+        nf = _planar_slides(w[0][0], w[0][1], w[1][1], bb[0], bb[1], -bb[0], mu, out)[0]
+    else:
+        f1, f2 = _unit_or(-bb[1], -bb[2], 1.0, 0.0)
+        r1, r2 = _unit_or(stick[1], stick[2], f1, f2)
+        nf = _spatial_slides(w[0][0], w[0][1], w[0][2], w[1][1], w[1][2], w[2][2], bb[0],
+                             bb[1], bb[2], -bb[0], mu, r1, r2, out)[0]
+    for j in range(min(nf, _MAX_SLIDES)):
+        p, t1, t2 = out[_OUT_SLIDES + _SLOT * j: _OUT_SLIDES + _SLOT * j + 3]
+        found.append(np.array([p, mu * p * t1, mu * p * t2][:d]))
+    return found
 
 
 # --------------------------------------------------------------------------------------------
 # the conic path: the fixed point over CCP programs, finished exactly for one contact
-
-
-def _single_contact_coulomb_candidates(W: np.ndarray, b: np.ndarray,
-                                       mu: float) -> list[np.ndarray]:
-    """Every solution of the one-contact Coulomb problem with b_n < 0 (exact, no iteration).
-
-    Stick: ``pi = -W^-1 b`` when it lies in K_mu. Slide: ``pi = pi_n (1, mu d)`` with
-    ``u_n = 0`` and ``u_t = -lambda d``, lambda >= 0; in space the direction angle solves the
-    smooth trigonometric equation ``cross(g_n u_t, d) = 0`` (g = W (1, mu d)), found by sampling
-    and bracketing (Brent) to machine precision.
-    """
-    d = W.shape[0]
-    out: list[np.ndarray] = []
-    if np.linalg.cond(W) < DELASSUS_COND_MAX:
-        stick = np.linalg.solve(W, -b)
-        if stick_admissible(stick, mu, rtol=1e-12):
-            out.append(stick)
-    if mu == 0.0:
-        return out
-
-    def slide(dirv: np.ndarray):
-        g = np.concatenate(([1.0], mu * dirv))
-        wg = W @ g
-        if not wg[0] > 1e-14 * np.max(np.abs(W)):
-            return None
-        pn = -b[0] / wg[0]
-        if pn <= 0:
-            return None
-        ut = pn * wg[1:] + b[1:]
-        if float(ut @ dirv) > 1e-12 * max(np.linalg.norm(ut), TINY) and \
-                np.linalg.norm(ut) > 1e-13 * np.linalg.norm(b):
-            return None
-        return pn * g
-
-    if d == 2:
-        for s in (-1.0, 1.0):
-            c = slide(np.array([s]))
-            if c is not None:
-                out.append(c)
-        return out
-
-    def h(a):
-        c, s = np.cos(a), np.sin(a)
-        g0 = W[:, 0][:, None] + mu * (W[:, 1][:, None] * c + W[:, 2][:, None] * s)
-        ht = -b[0] * g0[1:] + g0[0] * b[1:, None]  # g_n u_t / pi_n ... times g_n
-        return ht[0] * s - ht[1] * c
-
-    grid = np.linspace(-np.pi, np.pi, 721)
-    vals = h(grid)
-    from scipy.optimize import brentq
-
-    roots = []
-    for k in range(grid.size - 1):
-        a0, a1 = grid[k], grid[k + 1]
-        if vals[k] == 0.0:
-            roots.append(a0)
-        elif vals[k] * vals[k + 1] < 0:
-            roots.append(brentq(lambda a: float(h(np.array([a]))[0]), a0, a1, xtol=1e-15))
-    for a in roots:
-        c = slide(np.array([np.cos(a), np.sin(a)]))
-        if c is not None:
-            out.append(c)
-    return out
 
 
 def solve_coulomb(P: ImpactProblem, backend: Backend,
@@ -259,9 +397,9 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
     certifies a solution (residual at round-off, consistent active set) the iteration stops.
     This is what converges on the paper's Section 9.3 pendulum, where the plain fixed point
     does not. For one contact the answer is finished by the exact single-contact solve (the
-    candidate of :func:`_single_contact_coulomb_candidates` nearest the iterate), which also
-    rescues a fixed point that did not converge. When Coulomb's law has several solutions
-    (large mu, several contacts) the one reached from the CCP start is returned.
+    candidate of :func:`single_contact_solutions` nearest the iterate), which also rescues a
+    fixed point that did not converge. When Coulomb's law has several solutions (large mu,
+    several contacts) the one reached from the CCP start is returned.
 
     Returns
     -------
@@ -276,7 +414,7 @@ def solve_coulomb(P: ImpactProblem, backend: Backend,
         # exact single-contact solve: finishes a converged iterate to machine precision and
         # rescues one that did not converge (the candidate nearest the last iterate)
         b = P.v_minus.ravel() + newton_shift(P)
-        cands = _single_contact_coulomb_candidates(P.delassus, b, float(mu[0]))
+        cands = single_contact_solutions(P.delassus, b, float(mu[0]))
         n_solutions = len(cands)
         if cands:
             k = int(np.argmin([np.linalg.norm(c - pi[0]) for c in cands]))
