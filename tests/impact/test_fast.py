@@ -268,6 +268,50 @@ def test_planar_coulomb_equals_closed_form_unless_the_slip_reverses(seed, loops,
         assert r.diagnostics.coulomb_residual < 1e-9
 
 
+def test_coulomb_slides_by_hand_and_every_slide_by_brute_force():
+    """The planar slide derived by hand; a spatial contact with three sliding solutions: the
+    count, the warning and the most dissipative one against the brute-force scan, the extras
+    from their definitions (u = W pi + b), and the conic path landing on one of the three."""
+    # planar: W = [[1, .3], [.3, 2]], v- = (-1, .8), e = .5, mu = .3. The stick impulse
+    # W^-1 (1.5, -.8) = (3.24, -1.25) / 1.91 leaves the cone (1.25 > .3 * 3.24). Against v_t
+    # (s = -1): pi_n = 1.5 / (1 - .3 * .3) and u_t = .8 + pi_n (.3 - .3 * 2) = .8 - .3 pi_n
+    # = .31 > 0, opposite to s: a slide. s = +1: u_t = .8 + 1.5 (.3 + .3 * 2) / 1.09 > 0,
+    # along s: not one
+    W = np.array([[1.0, 0.3], [0.3, 2.0]])
+    sol = solve_contact(W, [-1.0, 0.8], 0.5, 0.3, "coulomb")
+    pn = 1.5 / 0.91
+    assert sol.regime == "slide" and sol.effective_mass == pytest.approx(0.91, rel=1e-15)
+    np.testing.assert_allclose(sol.impulse, [pn, -0.3 * pn], rtol=1e-15)
+    assert sol.extras["n_slide_solutions"] == 1 and not sol.warnings
+    assert sol.extras["post_slip"][0] == pytest.approx(0.8 - 0.3 * pn, rel=1e-14)
+    # spatial, three slides; one by hand: t = (0, 1), D = 7 + mu (-6) = 1, pi_n = .75 / D,
+    # pi = (.75, 0, .75), u = W pi + b = (.75, -1.5, .75) + (-.75, 1.5, -2) = (0, 0, -1.25):
+    # u_n = 0 and u_t = -1.25 t, opposite to t
+    W = np.array([[7.0, -3.0, -6.0], [-3.0, 4.5, 1.0], [-6.0, 1.0, 7.0]])
+    v = np.array([-0.5, 1.5, -2.0])
+    e, mu = 0.5, 1.0
+    sol = solve_contact(W, v, e, mu, "coulomb")
+    slides = brute_coulomb_slides(W, v, e, mu)
+    assert sol.regime == "slide" and len(slides) == 3 == sol.extras["n_slide_solutions"]
+    assert any("several sliding solutions" in w for w in sol.warnings)
+    assert min(np.abs(s - [0.75, 0.0, 0.75]).max() for s in slides) < 1e-12
+    best = max(slides, key=lambda p: -p @ v - 0.5 * p @ W @ p)  # T- - T+
+    np.testing.assert_allclose(sol.impulse, best, rtol=1e-9)
+    pi = sol.impulse
+    t = pi[1:] / np.linalg.norm(pi[1:])
+    np.testing.assert_allclose(sol.extras["direction"], t, rtol=1e-12, atol=1e-14)
+    ut = (W @ pi + newton_b(v, e))[1:]
+    assert ut @ t < 0.0
+    assert sol.extras["post_slip_speed"] == pytest.approx(np.linalg.norm(ut), rel=1e-9)
+    alpha = math.atan2(v[1] * t[1] - v[2] * t[0], v[1] * t[0] + v[2] * t[1]) % math.tau
+    assert sol.extras["alpha"] == pytest.approx(alpha, rel=1e-12)
+    L = np.linalg.cholesky(W)  # M = I, Jc = L: W = Jc M^-1 Jc^T
+    r = ci.resolve_impact(np.eye(3), L, np.linalg.solve(L, v), e=e, mu=mu, law="coulomb",
+                          method="clarabel")
+    assert r.diagnostics.extras["single_contact_solutions"] == 3
+    assert min(np.abs(r.impulse - s).max() for s in slides) < 1e-9
+
+
 # --------------------------------------------------------------------------------------------
 # CCP and the dissipative law
 
