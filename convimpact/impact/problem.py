@@ -17,11 +17,13 @@ Validation is typed (:func:`~convimpact.impact.errors.as_real_array`): a string,
 a complex number or None is a ShapeError (for ``e``, ``mu`` a ParameterError) naming the
 entry. Every tolerance is relative to the data's own scales, so M times ``a`` and dq times
 ``b`` change no decision. The common case (float arrays, one contact, no loops) costs a handful
-of LAPACK and numpy calls: the small checks run on Python floats. For several contacts the
-checks on W and v- (exact symmetry, finiteness, degenerate normals, immobile tangents) run in
-one compiled call (:func:`~convimpact.impact.several_kernels.contact_checks`), which hands
-every case but the plain one to the Python checks; W's nested lists are then formed on first
-use.
+of numpy calls: the small checks run on Python floats, and the factorization and triangular
+solves are :mod:`~convimpact.impact.small_linalg`'s (Python floats up to ``SMALL_MAX`` rows,
+LAPACK/BLAS on one thread above: no BLAS thread is woken for a tiny matrix). For several
+contacts the checks on W and v- (exact symmetry, finiteness, degenerate normals, immobile
+tangents) run in one compiled call (:func:`~convimpact.impact.several_kernels.contact_checks`),
+which hands every case but the plain one to the Python checks; W's nested lists are then
+formed on first use.
 """
 
 from __future__ import annotations
@@ -33,7 +35,6 @@ from functools import cached_property
 from typing import Any, Sequence, Union
 
 import numpy as np
-import scipy.linalg as sla
 
 from .errors import (
     DegenerateContactError,
@@ -249,7 +250,7 @@ class ImpactProblem:
     approaching: tuple[bool, ...] = field(init=False, repr=False)
     _minv_jt: Any = field(init=False, repr=False)  # M^-1 Jc^T, (k, n_contacts d)
     _minv_ct: Any = field(init=False, repr=False)  # M^-1 C^T, (k, m)
-    _loop_cho: Any = field(init=False, repr=False)  # Cholesky factor of C M^-1 C^T
+    _loop_cho: Any = field(init=False, repr=False)  # lower Cholesky factor of C M^-1 C^T
     _vl: Any = field(init=False, repr=False)  # v_minus as a flat Python list
     _rows: Any = field(init=False, repr=False)  # the stacked Jacobians, (n_contacts d, k)
 
@@ -264,7 +265,7 @@ class ImpactProblem:
             approaching=tuple(v[i * d] < 0.0 for i in range(n)),
             _minv_jt=tri_solve(L, tri_solve(L, rows.T), trans=1),
             _minv_ct=tri_solve(L, tri_solve(L, C.T), trans=1) if m else empty_matrix((k, 0)),
-            _loop_cho=sla.cho_factor(self.loop_matrix, lower=True) if m else None,
+            _loop_cho=cholesky_lower(self.loop_matrix)[0] if m else None,
             _vl=v, _lists=(self.delassus.tolist(), v), _rows=rows)
         self.__dict__.update(derived)
 
@@ -324,7 +325,8 @@ class ImpactProblem:
                                 else np.ravel(impulse))
         if self._loop_cho is None:
             return d_dq, np.zeros(0)
-        dsigma = -sla.cho_solve(self._loop_cho, self.loop_jacobian @ d_dq)
+        La = self._loop_cho  # Delta sigma = -(C M^-1 C^T)^-1 C Delta theta_dot (eq. 43)
+        dsigma = -tri_solve(La, tri_solve(La, self.loop_jacobian @ d_dq), trans=1)
         return d_dq + self._minv_ct @ dsigma, dsigma
 
     @cached_property

@@ -15,10 +15,9 @@ from __future__ import annotations
 import sys
 
 import numpy as np
-import scipy.linalg as sla
 
 from .errors import LoopConstraintError, NonFiniteError, ShapeError, as_real_array
-from .small_linalg import empty_matrix, tri_solve
+from .small_linalg import cholesky_lower, empty_matrix, tri_solve
 
 #: relative singular-value threshold below which C is declared rank deficient (C M^-1 C^T
 #: squares the ratio, so 1e-7 keeps its condition number below about 1e14)
@@ -42,7 +41,8 @@ def _finite(name: str, a: np.ndarray) -> np.ndarray:
 
 
 def _loops(C, L: np.ndarray, X: np.ndarray, W: np.ndarray, dq: np.ndarray, k: int) -> tuple:
-    """Validate C and fold the loops into W: (C, W, C M^-1 C^T, M^-1 C^T, its Cholesky)."""
+    """Validate C and fold the loops into W: (C, W, C M^-1 C^T, M^-1 C^T, the lower Cholesky
+    factor of C M^-1 C^T)."""
     C = as_real_array("C", C).copy()  # owned (see build_problem)
     if C.ndim == 1 and C.size == k:
         C = C[None]
@@ -74,15 +74,14 @@ def _loops(C, L: np.ndarray, X: np.ndarray, W: np.ndarray, dq: np.ndarray, k: in
         )
     Y = tri_solve(L, C.T)  # L^-1 C^T
     A = Y.T @ Y
-    try:
-        loop_cho = sla.cho_factor(A, lower=True)
-    except np.linalg.LinAlgError:
+    loop_cho, info = cholesky_lower(A)  # A = L_A L_A^T
+    if info != 0:
         raise LoopConstraintError(
             "C M^-1 C^T is numerically singular: the loop constraints are (nearly) "
             "dependent in this configuration; remove redundant rows of C or move off the "
-            "singular configuration") from None
-    B = Y.T @ X
-    W = W - B.T @ sla.cho_solve(loop_cho, B)
+            "singular configuration")
+    Z = tri_solve(loop_cho, Y.T @ X)  # L_A^-1 B: B^T A^-1 B = Z^T Z
+    W = W - Z.T @ Z
     return C, W, A, tri_solve(L, Y, trans=1), loop_cho
 
 
@@ -102,7 +101,7 @@ def _symmetrize(W: np.ndarray) -> list:
 
 def _contact_space(L: np.ndarray, rows: np.ndarray, dq: np.ndarray, C) -> tuple:
     """Contact space of ``rows`` (r, k): (L^-1 rows^T, W (not yet symmetrized), rows dq, C,
-    C M^-1 C^T, M^-1 C^T, the Cholesky factor of C M^-1 C^T)."""
+    C M^-1 C^T, M^-1 C^T, the lower Cholesky factor of C M^-1 C^T)."""
     X = tri_solve(L, rows.T)  # L^-1 Jc^T
     W = X.T @ X
     v = rows @ dq
@@ -115,7 +114,7 @@ def _contact_space(L: np.ndarray, rows: np.ndarray, dq: np.ndarray, C) -> tuple:
 
 def _reduce(L: np.ndarray, rows: np.ndarray, dq: np.ndarray, C) -> tuple:
     """Contact space of ``rows`` (r, k): (L^-1 rows^T, W (symmetrized) and its lists, rows dq,
-    C, C M^-1 C^T, M^-1 C^T, the Cholesky factor of C M^-1 C^T)."""
+    C, C M^-1 C^T, M^-1 C^T, the lower Cholesky factor of C M^-1 C^T)."""
     X, W, v, C, A, minv_ct, loop_cho = _contact_space(L, rows, dq, C)
     return X, W, _symmetrize(W), v, C, A, minv_ct, loop_cho
 
