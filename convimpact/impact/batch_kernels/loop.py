@@ -17,8 +17,9 @@ import math
 
 import numpy as np
 
+from ..laws.ccp import _ccp_planar, _ccp_spatial
+from ..laws.dissipative import _dissipative_planar, _dissipative_spatial
 from ..laws.pereira_nikravesh import _pn_planar, _pn_spatial
-from .ccp import _ccp_planar, _ccp_spatial
 from .common import (
     BAD_DQ_FINITE,
     BAD_J_FINITE,
@@ -46,7 +47,6 @@ from .common import (
     _pmax2,
 )
 from ..laws.coulomb import _coulomb_planar, _coulomb_spatial
-from .dissipative import _dissipative_planar, _dissipative_spatial
 from ..laws.stronge import STRONGE, _stronge_planar
 from ..laws.stronge_slip import _stronge_spatial
 

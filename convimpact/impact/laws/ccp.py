@@ -4,11 +4,17 @@
 A convex program with a unique velocity answer. Exact when sticking; when sliding, ``v_n+`` is
 lifted by ``mu |v_t+|`` above Newton's value, reported as ``extras["normal_velocity_lift"]``.
 
-* :func:`contact_kernel` (``method="fast"``): b in the dual cone gives pi = 0; else the
-  unconstrained impulse if it lies in the cone; else the optimal ray on the boundary, where
-  ``W pi + b = s (mu, -t)`` so ``det[W p, b, q] = 0`` (p = (1, mu t), q = (-mu, t)), a quartic
-  in tan(th/2) (:mod:`convimpact.impact.boundary`); Newton's root from the unconstrained
-  tangent is accepted when the KKT sign certifies it, else every root is compared.
+* :func:`_ccp_planar` and :func:`_ccp_spatial` are the exact single-contact kernel
+  (``method="fast"``, the batch, the compiled lane; the dissipative law calls them with e = 0),
+  compiled (plain Python under ``NUMBA_DISABLE_JIT=1``); :func:`contact_kernel` is their entry
+  on plain floats. b in the dual cone gives pi = 0; else the unconstrained impulse if it lies
+  in the cone; else the optimal ray on the boundary, where ``W pi + b = s (mu, -t)`` so
+  ``det[W p, b, q] = 0`` (p = (1, mu t), q = (-mu, t)), a quartic in tan(th/2)
+  (:mod:`convimpact.impact.batch_kernels.algebra`); Newton's root from the unconstrained
+  tangent is accepted when the KKT sign certifies it, else every root is compared, then the
+  companion matrix's roots, then SolverError. The kernels write nothing into their scratch
+  ``out``: the extras (``normal_velocity_lift``; when sliding ``post_slip`` in the plane,
+  ``post_slip_speed`` and ``direction`` in space) are recomputed from the impulse.
 * :func:`program_result` (``method="clarabel"``/``"cvxpy"``): one cone QP. Non-approaching
   contacts -- and those approaching at round-off, v_n- >= -1e-9 max |v-|
   (:func:`~convimpact.impact.conic.paths.approaching`) -- take part with their normal only
@@ -21,144 +27,215 @@ import math
 
 import numpy as np
 
-from ..boundary import candidates, det_wq, newton_root, refine, rotate, wp
+from ..batch_kernels.algebra import (
+    _candidates,
+    _det_wq,
+    _inverse3,
+    _linsolve3,
+    _newton_root,
+    _refine,
+    _rotate,
+    _solve2,
+)
+from ..batch_kernels.common import (
+    FAILED,
+    NO_SOLUTION,
+    OK,
+    SEPARATING,
+    SINGULAR,
+    SLIDE,
+    STICK,
+    _NAN,
+    _in_cone,
+    _jit,
+    _unit_or,
+)
 from ..conic.paths import (ProgramOptions, approaching, cone_qp, newton_shift,
-                           register_programs, regimes_from_slip, solver_report)
+                           regimes_from_slip, solver_report)
 from ..conic.qp import Backend, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import SolverError
-from ..fast import ContactSolution, frictionless, in_cone, register_kernel, solution
+from ..fast import compiled_kernel
 from ..problem import ImpactProblem
 from ..results import ImpactResult
-from ..small_linalg import inverse3, linsolve3, solve2, unit_or
 
 LAW = "ccp"
+#: the SolverError of status NO_SOLUTION: in the plane no boundary ray descends (unreachable
+#: for the definite W the stick solve accepted), in space no boundary answer is certified
+NO_DESCENT = "CCP boundary search found no descent direction; use method='clarabel'"
+NO_KKT_POINT = "the CCP boundary solve found no KKT point; use method='clarabel'"
 
 
-def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
-    """The CCP law for one contact on plain floats (the ``fast`` kernel)."""
-    if mu == 0.0:
-        return frictionless(w, v, d, e)
-    return ccp_impulse(w, v, d, e, mu, LAW)
+# --------------------------------------------------------------------------------------------
+# the exact single-contact kernel (method="fast"), compiled: every path runs this code
 
 
-def ccp_impulse(w: list, v: list, d: int, e: float, mu: float, law: str) -> ContactSolution:
-    """CCP impulse of one approaching contact with mu > 0 (``law`` names the caller in errors;
-    the dissipative law calls it with e = 0)."""
-    b = list(v)
-    b[0] = (1.0 + e) * v[0]
-    if d == 2:
-        bt = abs(b[1])
-        if b[0] >= mu * bt:  # b in the dual cone K*: pi = 0 is optimal
-            return solution((0.0, 0.0), "separating")
-        pn, pt = solve2(w, -b[0], -b[1], law)
-        if in_cone(pn, abs(pt), mu):
-            return solution((pn, pt), "stick", extras={"normal_velocity_lift": 0.0})
-        best = None
-        for s in (1.0, -1.0):
-            pb = b[0] + mu * s * b[1]
-            pWp = w[0][0] + 2.0 * mu * s * w[0][1] + mu * mu * w[1][1]
-            if pb < 0.0 and pWp > 0.0:
-                obj = -0.5 * pb * pb / pWp
-                if best is None or obj < best[0]:
-                    best = (obj, s, -pb / pWp)
-        if best is None:
-            raise SolverError("CCP boundary search found no descent direction; use "
-                              "method='clarabel'")
-        _, s, r = best
-        un = b[0] + r * (w[0][0] + mu * s * w[0][1])
-        ut = b[1] + r * (w[0][1] + mu * s * w[1][1])
-        return solution((r, mu * s * r), "slide",
-                        extras={"normal_velocity_lift": un, "post_slip": (ut,)})
-    if b[0] >= mu * math.hypot(b[1], b[2]):
-        return solution((0.0, 0.0, 0.0), "separating")
-    inv = inverse3(w, law)
-    pn, p1, p2 = linsolve3(w, inv, -b[0], -b[1], -b[2])
-    if in_cone(pn, math.hypot(p1, p2), mu):
-        return solution((pn, p1, p2), "stick", extras={"normal_velocity_lift": 0.0})
-    r1, r2 = unit_or(p1, p2, unit_or(-v[1], -v[2], (1.0, 0.0)))
-    R = rotate(w, b, r1, r2)  # R[6:] hold b in the rotated basis
-    scale = abs(b[0]) + abs(b[1]) + abs(b[2])
-    E = det_wq(wp(R, mu), R[6], R[7], R[8], mu)  # det[W p, b, q] = 0
-    got = _ccp_ray(R, mu, *newton_root(E))  # fast path: Newton from the unconstrained pi_t
-    if got is None or got[3] < -1e-6 * scale:  # KKT: y_n = u_n = mu |u_t| >= 0 certifies
-        got = _ccp_boundary(R, mu, False, E)
-    if got is None or got[3] < -1e-6 * scale:
-        got = _ccp_boundary(R, mu, True)  # companion-matrix roots
-        if got is None or got[3] < -1e-6 * scale:
-            raise SolverError("the CCP boundary solve found no KKT point; use "
-                              "method='clarabel'")
-    x, y, r, un, slip = got
-    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
-    return solution((r, mu * r * t1, mu * r * t2), "slide",
-                    extras={"normal_velocity_lift": un, "post_slip_speed": slip,
-                            "direction": (t1, t2)})
+@_jit
+def _ccp_planar(w00, w01, w11, v0, v1, e, mu, out):
+    """One planar contact, mu > 0: separating if b = ((1+e) v_n, v_t) lies in the dual cone,
+    the stick impulse if it lies in the cone, else the better of the two boundary rays
+    pi = r (1, mu s), r = -(b_n + mu s b_t) / (W_nn + 2 mu s W_nt + mu^2 W_tt). Writes nothing
+    into ``out``."""
+    b0 = (1.0 + e) * v0
+    b1 = v1
+    if b0 >= mu * abs(b1):  # b in the dual cone K*: pi = 0 is optimal
+        return OK, SEPARATING, 0.0, 0.0, 0.0, _NAN
+    pn, pt, ok = _solve2(w00, w01, w11, -b0, -b1)
+    if not ok:
+        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
+    if _in_cone(pn, abs(pt), mu):
+        return OK, STICK, pn, pt, 0.0, _NAN
+    found = False
+    bobj, bs, br = 0.0, 0.0, 0.0
+    for k in range(2):
+        s = 1.0 if k == 0 else -1.0
+        pb = b0 + mu * s * b1
+        pWp = w00 + 2.0 * mu * s * w01 + mu * mu * w11
+        if pb < 0.0 and pWp > 0.0:
+            obj = -0.5 * pb * pb / pWp
+            if not found or obj < bobj:
+                found = True
+                bobj, bs, br = obj, s, -pb / pWp
+    if not found:  # no descent direction on the boundary (W is definite here: unreachable)
+        return NO_SOLUTION, FAILED, _NAN, _NAN, _NAN, _NAN
+    return OK, SLIDE, br, mu * bs * br, 0.0, _NAN
 
 
-def _ray(R: tuple, mu: float, x: float, y: float) -> tuple[float, float]:
-    """(p.b, p.W.p) along the boundary ray p = (1, mu t), t = (x, y) in R's basis."""
-    A, B1, B2, C11, C12, C22, b0, b1, b2 = R
+@_jit
+def _ccp_ray(A, B1, B2, C11, C12, C22, b0, b1, b2, mu, x, y):
+    """(p.b, p.W.p) along the boundary ray p = (1, mu t), t = (x, y) in the rotated basis."""
     pb = b0 + mu * (b1 * x + b2 * y)
     pWp = A + mu * (2.0 * (B1 * x + B2 * y) + mu * (C11 * x * x + 2.0 * C12 * x * y
                                                     + C22 * y * y))
     return pb, pWp
 
 
-def _ray_answer(R: tuple, mu: float, x: float, y: float, pb: float,
-                pWp: float) -> tuple[float, float, float, float, float]:
-    """(x, y, r, u_n, |u_t|) of the optimal point r = -p.b / p.W.p of the ray along t."""
-    A, B1, B2, C11, C12, C22, b0, b1, b2 = R
+@_jit
+def _ccp_un(A, B1, B2, b0, mu, x, y, pb, pWp):
+    """(r, u_n) at the optimal point r = -p.b / p.W.p of the ray along t = (x, y)."""
     r = -pb / pWp
-    un = b0 + r * (A + mu * (B1 * x + B2 * y))
-    slip = math.hypot(b1 + r * (B1 + mu * (C11 * x + C12 * y)),
-                      b2 + r * (B2 + mu * (C12 * x + C22 * y)))
-    return x, y, r, un, slip
+    return r, b0 + r * (A + mu * (B1 * x + B2 * y))
 
 
-def _ccp_ray(R: tuple, mu: float, x: float, y: float, converged: bool) -> tuple | None:
-    """(x, y, r, u_n, |u_t|) of the optimal ray pi = r p along t = (x, y), or None."""
-    if not converged:
-        return None
-    pb, pWp = _ray(R, mu, x, y)
-    if not (pb < 0.0 and pWp > 0.0):
-        return None
-    return _ray_answer(R, mu, x, y, pb, pWp)
-
-
-def _ccp_boundary(R: tuple, mu: float, robust: bool, E: tuple | None = None) -> tuple | None:
-    """Best boundary ray of the CCP program: (x, y, r, u_n, |u_t|) in R's basis, or None.
+@_jit
+def _ccp_boundary(A, B1, B2, C11, C12, C22, b0, b1, b2, mu, E0, Ex, Ey, Exx, Eyy, Exy, robust):
+    """Best boundary ray of the CCP program over the roots of det[W p, b, q] = 0 (E, in the
+    rotated basis): (found, x, y, r, u_n).
 
     Along the ray pi = r p the optimum is r = -p.b / p.W.p (if p.b < 0), with objective
-    -1/2 (p.b)^2 / p.W.p; the winner maximizes g = (p.b)^2 / (2 p.W.p) over the roots of
-    det[W p, b, q] = 0.
-    """
-    coeffs, cands = candidates(*(E or det_wq(wp(R, mu), R[6], R[7], R[8], mu)), robust=robust)
-    scored = []
-    top = None
-    for pt in cands:
-        pb, pWp = _ray(R, mu, pt[0], pt[1])
+    -1/2 (p.b)^2 / p.W.p; the winner maximizes g = (p.b)^2 / (2 p.W.p). The roots are
+    stationary, so their unpolished scores are accurate to second order: the winner and any
+    runner-up within 1e-6 are polished. ``robust``: the companion-matrix roots."""
+    has, q4, q3, q2, q1, q0, cp, sp, n, xs, ys, ts, rs = _candidates(E0, Ex, Ey, Exx, Eyy, Exy,
+                                                                     robust)
+    ns = 0
+    top = 0.0
+    for j in range(n):
+        pb, pWp = _ccp_ray(A, B1, B2, C11, C12, C22, b0, b1, b2, mu, xs[j], ys[j])
         if pb < 0.0 and pWp > 0.0:
             g = 0.5 * pb * pb / pWp
-            scored.append((g, pt))
-            if top is None or g > top:
+            if ns == 0 or g > top:
                 top = g
-    if top is None:
-        return None
+            ns += 1
+    if ns == 0:
+        return False, 0.0, 0.0, 0.0, 0.0
     cut = top - 1e-6 * top
-    best = None
-    for g0, pt in scored:
-        if g0 < cut:
+    found = False
+    bg, bx, by, bpb, bpWp = 0.0, 0.0, 0.0, 0.0, 0.0
+    for j in range(n):
+        pb, pWp = _ccp_ray(A, B1, B2, C11, C12, C22, b0, b1, b2, mu, xs[j], ys[j])
+        if not (pb < 0.0 and pWp > 0.0) or 0.5 * pb * pb / pWp < cut:
             continue
-        x, y = refine(coeffs, pt)
-        pb, pWp = _ray(R, mu, x, y)
-        if not (pb < 0.0 and pWp > 0.0):
-            x, y = pt[0], pt[1]
-            pb, pWp = _ray(R, mu, x, y)
+        x, y = _refine(has, q4, q3, q2, q1, q0, cp, sp, xs[j], ys[j], ts[j], rs[j])
+        pb, pWp = _ccp_ray(A, B1, B2, C11, C12, C22, b0, b1, b2, mu, x, y)
+        if not (pb < 0.0 and pWp > 0.0):  # polishing left the admissible set: the raw root
+            x, y = xs[j], ys[j]
+            pb, pWp = _ccp_ray(A, B1, B2, C11, C12, C22, b0, b1, b2, mu, x, y)
         g = 0.5 * pb * pb / pWp
-        if best is None or g > best[0]:
-            best = (g, x, y, pb, pWp)
-    _, x, y, pb, pWp = best
-    return _ray_answer(R, mu, x, y, pb, pWp)
+        if not found or g > bg:
+            found = True
+            bg, bx, by, bpb, bpWp = g, x, y, pb, pWp
+    r, un = _ccp_un(A, B1, B2, b0, mu, bx, by, bpb, bpWp)
+    return True, bx, by, r, un
+
+
+@_jit
+def _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
+    """One spatial contact, mu > 0: separating if b lies in the dual cone, the stick impulse
+    if it lies in the cone, else the optimal ray on the boundary, where W pi + b = s (mu, -t)
+    so that det[W p, b, q] = 0 (p = (1, mu t), q = (-mu, t)), a quartic in tan(th/2). KKT
+    certifies a ray by u_n = mu |u_t| >= 0: Newton's root from the unconstrained tangent first,
+    else every root of the closed-form quartic, else the companion-matrix roots, else
+    NO_SOLUTION. Writes nothing into ``out``."""
+    b0 = (1.0 + e) * v0
+    b1 = v1
+    b2 = v2
+    if b0 >= mu * math.hypot(b1, b2):  # b in the dual cone K*: pi = 0 is optimal
+        return OK, SEPARATING, 0.0, 0.0, 0.0, _NAN
+    i00, i01, i02, i11, i12, i22, det, ok = _inverse3(w00, w01, w02, w11, w12, w22)
+    if not ok:
+        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
+    pn, p1, p2 = _linsolve3(w00, w01, w02, w11, w12, w22, i00, i01, i02, i11, i12, i22, det,
+                            -b0, -b1, -b2)
+    if _in_cone(pn, math.hypot(p1, p2), mu):
+        return OK, STICK, pn, p1, p2, _NAN
+    f1, f2 = _unit_or(-v1, -v2, 1.0, 0.0)
+    r1, r2 = _unit_or(p1, p2, f1, f2)
+    A, B1, B2, C11, C12, C22, R6, R7, R8 = _rotate(w00, w01, w02, w11, w12, w22, b0, b1, b2,
+                                                   r1, r2)
+    scale = abs(b0) + abs(b1) + abs(b2)
+    E0, Ex, Ey, Exx, Eyy, Exy = _det_wq(A, mu * B1, mu * B2, B1, mu * C11, mu * C12,
+                                        B2, mu * C12, mu * C22, R6, R7, R8, mu)
+    # fast path: Newton from the unconstrained tangent, certified by u_n >= 0 (KKT)
+    x, y, good = _newton_root(E0, Ex, Ey, Exx, Eyy, Exy)
+    r, un = 0.0, 0.0
+    if good:
+        pb, pWp = _ccp_ray(A, B1, B2, C11, C12, C22, R6, R7, R8, mu, x, y)
+        good = pb < 0.0 and pWp > 0.0
+        if good:
+            r, un = _ccp_un(A, B1, B2, R6, mu, x, y, pb, pWp)
+    for robust in (False, True):  # every root of the quartic, then the companion's
+        if good and not un < -1e-6 * scale:
+            break
+        good, x, y, r, un = _ccp_boundary(A, B1, B2, C11, C12, C22, R6, R7, R8, mu,
+                                          E0, Ex, Ey, Exx, Eyy, Exy, robust)
+    if not good or un < -1e-6 * scale:
+        return NO_SOLUTION, FAILED, _NAN, _NAN, _NAN, _NAN
+    t1, t2 = x * r1 - y * r2, x * r2 + y * r1
+    return OK, SLIDE, r, mu * r * t1, mu * r * t2, _NAN
+
+
+def _extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
+    """CCP's figures, from the impulse: u = W pi + b = v+ + e v_n- n, its normal part the lift
+    of the rebound above Newton's (0 when sticking, mu |u_t| when sliding); when sliding, the
+    post-impact slip (planar: u_t; spatial: |u_t| and the sliding direction t, the unit
+    tangential impulse)."""
+    if regime == "stick":
+        return {"normal_velocity_lift": 0.0}, ()
+    if regime != "slide":
+        return None, ()
+    p = impulse
+    un = (1.0 + e) * v[0] + w[0][0] * p[0] + w[0][1] * p[1]
+    if d == 2:
+        ut = v[1] + w[0][1] * p[0] + w[1][1] * p[1]
+        return {"normal_velocity_lift": un, "post_slip": (ut,)}, ()
+    un += w[0][2] * p[2]
+    u1 = v[1] + w[0][1] * p[0] + w[1][1] * p[1] + w[1][2] * p[2]
+    u2 = v[2] + w[0][2] * p[0] + w[1][2] * p[1] + w[2][2] * p[2]
+    pt = math.hypot(p[1], p[2])
+    direction = (p[1] / pt, p[2] / pt) if pt > 0.0 else (1.0, 0.0)
+    return {"normal_velocity_lift": un, "post_slip_speed": math.hypot(u1, u2),
+            "direction": direction}, ()
+
+
+def _errors(out, status, w, v, d, e, mu) -> Exception | None:
+    """NO_SOLUTION's message, planar or spatial (the other statuses: the generic errors)."""
+    if status == NO_SOLUTION:
+        return SolverError(NO_DESCENT if d == 2 else NO_KKT_POINT)
+    return None
+
+
+contact_kernel = compiled_kernel(LAW, _ccp_planar, _ccp_spatial, _extras, errors=_errors)
 
 
 # --------------------------------------------------------------------------------------------
@@ -196,7 +273,3 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     acc = opts.accuracy(sol.polished)
     regimes = regimes_from_slip(P, pi, vplus, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc, extras=extras)
-
-
-register_kernel(LAW, contact_kernel)
-register_programs(LAW, program_result)

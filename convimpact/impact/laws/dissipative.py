@@ -9,31 +9,74 @@ the diagnostics then flag the energy gain. The result's ``regime`` describes the
 phase; the plastic impulse is reported in ``extras["plastic_impulse"]``.
 
 Both the exact kernel (``method="fast"``) and the conic path reuse the CCP law's solvers
-(:mod:`convimpact.impact.laws.ccp`) with e = 0.
+(:mod:`convimpact.impact.laws.ccp`) with e = 0: :func:`_dissipative_planar` and
+:func:`_dissipative_spatial` (compiled; the batch and the compiled lane run them too) call the
+CCP kernels, or take the frictionless plastic impulse ``-v_n / W_nn`` when mu = 0, and scale by
+1 + e. Their scratch ``out`` holds the plastic impulse (``out[0:d]``, exactly the one scaled:
+``impulse / (1 + e)`` may differ from it in the last bit), reported as
+``extras["plastic_impulse"]``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..conic.paths import ProgramOptions, register_programs, regimes_from_slip, solver_report
+from ..batch_kernels.common import FRICTIONLESS, OK, _NAN, _jit
+from ..conic.paths import ProgramOptions, regimes_from_slip, solver_report
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
-from ..fast import ContactSolution, frictionless, register_kernel, solution
+from ..fast import compiled_kernel
 from ..problem import ImpactProblem
 from ..results import ImpactResult
-from .ccp import ccp_impulse, solve_ccp
+from .ccp import _ccp_planar, _ccp_spatial, _errors, solve_ccp
 
 LAW = "dissipative"
+#: ``out`` of the kernels: the plastic impulse (pi_n, pi_t1[, pi_t2]) at [0, 1, 2]
+_OUT_PLASTIC = 0
 
 
-def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
-    """The dissipative law for one contact on plain floats (the ``fast`` kernel)."""
-    plastic = frictionless(w, v, d, 0.0) if mu == 0.0 else ccp_impulse(w, v, d, 0.0, mu, LAW)
-    impulse = tuple(float(x) for x in plastic.impulse)
+@_jit
+def _dissipative_planar(w00, w01, w11, v0, v1, e, mu, out):
+    """One planar contact: the plastic impulse (frictionless if mu = 0, else CCP's with e = 0)
+    times 1 + e; the plastic impulse into ``out``."""
+    if mu == 0.0:
+        st, rg, p0, p1, p2, em = OK, FRICTIONLESS, -(1.0 + 0.0) * v0 / w00, 0.0, 0.0, _NAN
+    else:
+        st, rg, p0, p1, p2, em = _ccp_planar(w00, w01, w11, v0, v1, 0.0, mu, out)
+    if st != OK:
+        return st, rg, p0, p1, p2, em
+    out[_OUT_PLASTIC] = p0
+    out[_OUT_PLASTIC + 1] = p1
     k = 1.0 + e  # Poisson's hypothesis on the plastic impulse
-    return solution([k * x for x in impulse], plastic.regime,
-                    extras={"plastic_impulse": impulse})
+    return OK, rg, k * p0, k * p1, k * p2, _NAN
+
+
+@_jit
+def _dissipative_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
+    """One spatial contact (as :func:`_dissipative_planar`)."""
+    if mu == 0.0:
+        st, rg, p0, p1, p2, em = OK, FRICTIONLESS, -(1.0 + 0.0) * v0 / w00, 0.0, 0.0, _NAN
+    else:
+        st, rg, p0, p1, p2, em = _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2,
+                                              0.0, mu, out)
+    if st != OK:
+        return st, rg, p0, p1, p2, em
+    out[_OUT_PLASTIC] = p0
+    out[_OUT_PLASTIC + 1] = p1
+    out[_OUT_PLASTIC + 2] = p2
+    k = 1.0 + e
+    return OK, rg, k * p0, k * p1, k * p2, _NAN
+
+
+def _extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
+    """The plastic impulse the answer scaled (one contact has one e: Poisson's scaling gains no
+    energy, so no warnings)."""
+    return {"plastic_impulse": tuple(float(x) for x in out[_OUT_PLASTIC:_OUT_PLASTIC + d])}, ()
+
+
+# mu = 0 inside: the frictionless plastic impulse times 1 + e, as the other paths compute it
+contact_kernel = compiled_kernel(LAW, _dissipative_planar, _dissipative_spatial, _extras,
+                                 frictionless_inside=True, errors=_errors)
 
 
 def program_result(P: ImpactProblem, backend: Backend, method: str,
@@ -57,10 +100,6 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     regimes = regimes_from_slip(P, plastic, vplus_plastic, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc,
                            extras=extras, warnings=tuple(warnings))
-
-
-register_kernel(LAW, contact_kernel)
-register_programs(LAW, program_result)
 
 
 def poisson_warnings(P, W: np.ndarray, predicted: float) -> list[str]:
