@@ -1,10 +1,7 @@
-"""Small dense linear algebra: on plain Python floats for the single-contact kernels, and the
-factorization and triangular solves of the public path.
-
-One contact's Delassus block is 2 x 2 (planar) or 3 x 3 (spatial); numpy's per-call overhead
-would dominate such solves, so they are written out: the adjugate inverse with one step of
-iterative refinement when ill-conditioned, and a scale-free singularity test
-(det W / tr(W)^d <= :data:`SINGULAR_RTOL`) that raises a typed error naming the conic paths.
+"""Small dense linear algebra of the public path: the factorization and triangular solves of
+the reduction, one contact's data as plain floats, and the singular-W error the exact kernels
+raise (their own 2 x 2 and 3 x 3 solves are compiled, in
+:mod:`convimpact.impact.batch_kernels.algebra`).
 
 :func:`cholesky_lower` and :func:`tri_solve` (the full path's ``M = L L^T``, ``L^-1 B`` and
 ``L^-T B``, and the loop matrix's factor and solves) call no LAPACK routine that hands a tiny
@@ -32,11 +29,6 @@ import numpy as np
 import scipy.linalg as sla
 
 from .errors import MassMatrixError, ShapeError, SingularSystemError, as_real_array
-
-#: relative determinant below which W is treated as singular: det W <= tol * trace(W)^d
-#: (in the plane det/trace^2 ~ 1/cond(W), matching the closed form's cond(W) >= 1e12)
-SINGULAR_RTOL = 1e-12
-
 
 #: largest matrix factored and solved on Python floats by :func:`cholesky_lower` and
 #: :func:`tri_solve` (no LAPACK/BLAS call); above it LAPACK's dpotrf and BLAS's dtrsm (see the
@@ -184,13 +176,6 @@ def as_lists(W, v) -> tuple[list, list, int]:
         f"3 (n, t1, t2); got W {np.shape(W)} and v {np.shape(v)}")
 
 
-def unit_or(x1: float, x2: float, fallback: tuple[float, float]) -> tuple[float, float]:
-    n = math.hypot(x1, x2)
-    if n > 0.0:
-        return x1 / n, x2 / n
-    return fallback
-
-
 def angle_from_slip(v1: float, v2: float, t1: float, t2: float) -> float:
     """Angle in [0, 2 pi) of t measured counter-clockwise from v_t- (from t1 if v_t- = 0)."""
     if v1 == 0.0 and v2 == 0.0:
@@ -201,60 +186,10 @@ def angle_from_slip(v1: float, v2: float, t1: float, t2: float) -> float:
 
 
 def singular_error(law: str, det: float) -> SingularSystemError:
+    """The exact kernels' SINGULAR status (det W / tr(W)^d below the compiled algebra's
+    ``SINGULAR_RTOL``) as the typed error naming the paths that accept a singular W."""
     return SingularSystemError(
         f"the Delassus matrix W = Jc M^-1 Jc^T of this contact is singular (det W = {det:.3e}): "
         "its normal and tangential motions are dependent here, so the exact fast solve of law "
         f"{law!r} (which inverts W on its interior branch) has no unique answer; use "
         "method='clarabel' or method='cvxpy' (law='dissipative' or 'ccp' accept a singular W)")
-
-
-def inverse3(w: list, law: str) -> tuple:
-    """Symmetric inverse of the 3 x 3 W as (i00, i01, i02, i11, i12, i22, det W / tr(W)^3)."""
-    tr = w[0][0] + w[1][1] + w[2][2]
-    g = 1.0 / tr  # work on W / tr(W): no under- or overflow of det for any scale of W
-    A, B1, B2 = w[0][0] * g, w[0][1] * g, w[0][2] * g
-    C11, C12, C22 = w[1][1] * g, w[1][2] * g, w[2][2] * g
-    k00 = C11 * C22 - C12 * C12
-    k01 = B2 * C12 - B1 * C22
-    k02 = B1 * C12 - B2 * C11
-    det = A * k00 + B1 * k01 + B2 * k02  # det W / tr(W)^3
-    if not det > SINGULAR_RTOL:
-        raise singular_error(law, det * tr * tr * tr)
-    f = g / det  # inv(W) = inv(W / tr) / tr
-    return (k00 * f, k01 * f, k02 * f, (A * C22 - B2 * B2) * f, (B1 * B2 - A * C12) * f,
-            (A * C11 - B1 * B1) * f, det)
-
-
-def solve3(inv: tuple, r0: float, r1: float, r2: float) -> tuple[float, float, float]:
-    i00, i01, i02, i11, i12, i22 = inv[:6]
-    return (i00 * r0 + i01 * r1 + i02 * r2, i01 * r0 + i11 * r1 + i12 * r2,
-            i02 * r0 + i12 * r1 + i22 * r2)
-
-
-def linsolve3(w: list, inv: tuple, r0: float, r1: float, r2: float) -> tuple[float, float, float]:
-    """W x = r by the adjugate inverse, plus one step of iterative refinement when W is
-    ill-conditioned (det W / tr(W)^3 < 1e-3)."""
-    x0, x1, x2 = solve3(inv, r0, r1, r2)
-    if inv[6] >= 1e-3:
-        return x0, x1, x2
-    (A, B1, B2), (_, C11, C12), (_, _, C22) = w
-    d0, d1, d2 = solve3(inv, r0 - (A * x0 + B1 * x1 + B2 * x2),
-                        r1 - (B1 * x0 + C11 * x1 + C12 * x2),
-                        r2 - (B2 * x0 + C12 * x1 + C22 * x2))
-    return x0 + d0, x1 + d1, x2 + d2
-
-
-def solve2(w: list, r0: float, r1: float, law: str) -> tuple[float, float]:
-    """Solve the 2 x 2 W x = r (adjugate; one refinement step when ill-conditioned)."""
-    A, B, C = w[0][0], w[0][1], w[1][1]
-    tr = A + C
-    a, b, c = A / tr, B / tr, C / tr  # W / tr(W): scale-free determinant test
-    det = a * c - b * b  # det W / tr(W)^2
-    if not det > SINGULAR_RTOL:
-        raise singular_error(law, det * tr * tr)
-    f = 1.0 / (det * tr)  # 1 / det W, as (1 / det(W / tr)) / tr^2 times tr
-    x0, x1 = (c * r0 - b * r1) * f, (a * r1 - b * r0) * f
-    if det < 1e-3:
-        d0, d1 = r0 - (A * x0 + B * x1), r1 - (B * x0 + C * x1)
-        x0, x1 = x0 + (c * d0 - b * d1) * f, x1 + (a * d1 - b * d0) * f
-    return x0, x1

@@ -433,33 +433,6 @@ def test_stronge_batch_equals_resolve_impact(d):
     assert not b.energy_gained.any()
 
 
-def test_stronge_planar_compiled_kernel_is_the_python_kernel_bit_for_bit():
-    """The compiled planar port takes the same branches with the same expressions: on the
-    same W and v it returns the Python kernel's impulse exactly (slip, stick, reversal, onset,
-    jams and singular W included)."""
-    rng = np.random.default_rng(811)
-    n = 400
-    A = rng.normal(size=(n, 2, 2))
-    W = A @ A.transpose(0, 2, 1) + rng.uniform(0.0, 0.1, (n, 1, 1)) * np.eye(2)
-    v = rng.normal(size=(n, 2))
-    v[::9, 1] = 0.0  # from rest: stick or onset
-    e = rng.choice([0.0, 0.3, 0.5, 1.0], n)
-    mu = rng.choice(MUS, n)
-    b = contact_impulses(W, v, e, mu, "stronge")
-    seen = set()
-    for i in range(n):
-        try:
-            s = solve_contact(W[i], v[i], e[i], mu[i], "stronge")
-        except ci.ConvImpactError as exc:
-            assert b.status[i] != batch.OK and isinstance(exc, STATUS_ERRORS[int(b.status[i])])
-            seen.add(type(exc).__name__)
-            continue
-        assert b.status[i] == batch.OK and REGIMES[b.regime[i]] == s.regime
-        np.testing.assert_array_equal(b.impulse[i], s.impulse)
-        seen.add(s.regime)
-    assert {"separating", "frictionless", "stick", "slide"} <= seen
-
-
 def test_threads_split_the_batch_without_changing_a_bit():
     """A batch above PARALLEL_MIN split over threads equals the one-thread batch bit for bit,
     and a bad item in the second slice is still the one the error names."""

@@ -20,7 +20,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 import convimpact as ci
 from convimpact.impact.laws.pereira_nikravesh import pereira_nikravesh as closed_form_pn
-from convimpact.impact.boundary import candidates, refine
+from convimpact.impact.batch_kernels.algebra import _candidates, _refine
 from convimpact.impact.fast import solve_contact
 from convimpact.impact.max_dissipation import max_dissipation_direction
 
@@ -440,24 +440,33 @@ def test_jam_direction_always_sticks_in_the_plane():
     assert seen > 50
 
 
-def test_boundary_root_at_infinity_and_double_root():
+def _points(E, robust=False):
+    """The compiled candidates of E's roots as (x, y) pairs, raw and Newton-refined."""
+    has, c4, c3, c2, c1, c0, cp, sp, n, xs, ys, ts, rs = _candidates(*E, robust)
+    raw = [(xs[j], ys[j]) for j in range(n)]
+    refined = [_refine(has, c4, c3, c2, c1, c0, cp, sp, xs[j], ys[j], ts[j], rs[j])
+               for j in range(n)]
+    return has, raw, refined
+
+
+@pytest.mark.parametrize("robust", [False, True])
+def test_boundary_root_at_infinity_and_double_root(robust):
     # E = sin th: roots th = 0 and th = pi (tau = infinity, vanishing leading coefficient)
-    _, pts = candidates(0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
-    assert any(abs(x + 1.0) < 1e-15 and abs(y) < 1e-15 for x, y, *_ in pts)
-    assert any(abs(x - 1.0) < 1e-15 and abs(y) < 1e-15 for x, y, *_ in pts)
+    _, pts, _ = _points((0.0, 0.0, 1.0, 0.0, 0.0, 0.0), robust)
+    assert any(abs(x + 1.0) < 1e-15 and abs(y) < 1e-15 for x, y in pts)
+    assert any(abs(x - 1.0) < 1e-15 and abs(y) < 1e-15 for x, y in pts)
     # E = (cos th - cos 1)^2 = cos^2 - 2 cos1 cos + cos1^2: double roots at th = +-1
     c1 = math.cos(1.0)
-    coeffs, pts = candidates(c1 * c1, -2 * c1, 0.0, 1.0, 0.0, 0.0)
-    got = [refine(coeffs, p) for p in pts]
+    _, _, got = _points((c1 * c1, -2 * c1, 0.0, 1.0, 0.0, 0.0), robust)
     for th in (1.0, -1.0):
         assert min(math.hypot(x - math.cos(th), y - math.sin(th)) for x, y in got) < 1e-7
     # a root just short of tau = infinity (th = pi - 1e-9) is recovered to round-off
     th0 = math.pi - 1e-9
-    coeffs, pts = candidates(0.0, -math.sin(th0), math.cos(th0), 0.0, 0.0, 0.0)  # sin(th-th0)
-    got = [refine(coeffs, p) for p in pts]
+    _, _, got = _points((0.0, -math.sin(th0), math.cos(th0), 0.0, 0.0, 0.0), robust)  # sin(th-th0)
     assert min(math.hypot(x - math.cos(th0), y - math.sin(th0)) for x, y in got) < 1e-14
     # E identically zero: every direction stationary, one candidate
-    assert candidates(0.0, 0.0, 0.0, 0.0, 0.0, 0.0) == (None, [(1.0, 0.0, 0.0, False)])
+    has, pts, _ = _points((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), robust)
+    assert not has and pts == [(1.0, 0.0)]
 
 
 def test_kernel_input_errors_and_separation():
@@ -536,41 +545,3 @@ def test_excluded_directions_and_near_isotropic_regressions():
         assert ccp_residual(W, b, [100.0], 3, pi) < 1e-10
     co = solve_contact(W, v, 1.0, 100.0, "coulomb")
     assert coulomb_conditions(W, newton_b(v, 1.0), [100.0], 3, co.impulse) < 1e-10
-
-
-def test_checks_fall_back_to_companion_roots(monkeypatch):
-    # if the closed-form quartic lost its roots, each law's certificate (KKT sign, Coulomb
-    # conditions, probe directions) sends the solve to numpy's companion-matrix roots; the
-    # answers are checked against the independent oracles
-    import convimpact.impact.boundary as boundary
-
-    rng = np.random.default_rng(5)
-    cases = []
-    while len(cases) < 10:
-        A = rng.normal(size=(3, 3))
-        W = A @ A.T + 0.1 * np.eye(3)
-        v = rng.normal(size=3)
-        v[0] = -abs(v[0])
-        if solve_contact(W, v, 0.5, 0.8, "coulomb").regime == "slide":
-            cases.append((W, v))
-    # Ferrari finds nothing and Newton does not move: only th = pi is left as a candidate
-    monkeypatch.setattr(boundary, "quartic_roots", lambda *c: [])
-    monkeypatch.setattr(boundary, "polish", lambda *c: c[-1])
-    e, mu = 0.5, 0.8
-    for W, v in cases:
-        pn = solve_contact(W, v, e, mu, "pereira-nikravesh")
-        t = np.array(pn.extras["direction"])
-        tl_ref, _ = brute_max_dissipation(W, v, e, mu)
-        assert float(energy_loss_eq60(W, v, e, mu, t)[0]) == pytest.approx(tl_ref, rel=1e-10)
-        co = solve_contact(W, v, e, mu, "coulomb")
-        assert coulomb_conditions(W, newton_b(v, e), [mu], 3, co.impulse) < 1e-10
-        cc = solve_contact(W, v, e, mu, "ccp")
-        assert ccp_residual(W, newton_b(v, e), [mu], 3, cc.impulse) < 1e-10
-        ds = solve_contact(W, v, e, mu, "dissipative")
-        assert ccp_residual(W, v, [mu], 3, ds.impulse / (1 + e)) < 1e-10
-    # with the fallback sabotaged as well, the certificates turn a wrong root into an error
-    monkeypatch.setattr(boundary, "eigen_roots", lambda *c: [])
-    W, v = cases[0]
-    for law in LAWS:
-        with pytest.raises(ci.SolverError):
-            solve_contact(W, v, e, mu, law)
