@@ -46,11 +46,11 @@ from ..batch_kernels.algebra import (_candidates, _cubic, _inverse3, _linsolve3,
 from ..batch_kernels.common import (CONE_RTOL, FAILED, JAM, NO_SOLUTION, OK, OUT_SIZE,
                                     ROOT_RTOL, SINGULAR, SLIDE, STICK, _NAN, _in_cone, _jit,
                                     _pmax2, _unit_or)
-from ..conic.paths import ProgramOptions, newton_shift, register_programs, regimes_from_slip
+from ..conic.paths import ProgramOptions, newton_shift, regimes_from_slip
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
 from ..errors import SolverError
-from ..fast import ContactSolution, compiled_kernel, register_kernel
+from ..fast import compiled_kernel
 from ..problem import ImpactProblem
 from ..results import ImpactResult
 from ..small_linalg import angle_from_slip
@@ -326,21 +326,21 @@ def _extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
             "post_slip_speed": -(u1 * t1 + u2 * t2)}, warns
 
 
-# the entries on plain floats; the no-solution message names the dimension
-_ENTRIES = {
-    2: compiled_kernel(LAW, _coulomb_planar, _coulomb_spatial, _extras, no_solution=(
-        "no Coulomb sliding solution exists for this planar contact although the stick "
-        "impulse leaves the cone; use method='clarabel'")),
-    3: compiled_kernel(LAW, _coulomb_planar, _coulomb_spatial, _extras, no_solution=(
-        "no Coulomb sliding solution found for this spatial contact although the stick "
-        "impulse leaves the cone; use method='clarabel'")),
-}
+#: SolverError's messages when no slide is found, planar and spatial
+NO_PLANAR_SLIDE = ("no Coulomb sliding solution exists for this planar contact although the "
+                   "stick impulse leaves the cone; use method='clarabel'")
+NO_SPATIAL_SLIDE = ("no Coulomb sliding solution found for this spatial contact although the "
+                    "stick impulse leaves the cone; use method='clarabel'")
 
 
-def contact_kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
-    """Coulomb's law for one contact on plain floats (the ``fast`` kernel): the compiled
-    kernels through :func:`~convimpact.impact.fast.compiled_kernel`."""
-    return _ENTRIES[d](w, v, d, e, mu)
+def _errors(out, status, w, v, d, e, mu) -> Exception | None:
+    """NO_SOLUTION's message, planar or spatial (the other statuses: the generic errors)."""
+    if status == NO_SOLUTION:
+        return SolverError(NO_PLANAR_SLIDE if d == 2 else NO_SPATIAL_SLIDE)
+    return None
+
+
+contact_kernel = compiled_kernel(LAW, _coulomb_planar, _coulomb_spatial, _extras, errors=_errors)
 
 
 def single_contact_solutions(W: np.ndarray, b: np.ndarray, mu: float) -> list[np.ndarray]:
@@ -451,7 +451,3 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     acc = info["accuracy"]
     regimes = regimes_from_slip(P, pi, vplus, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc, extras=info)
-
-
-register_kernel(LAW, contact_kernel)
-register_programs(LAW, program_result)
