@@ -48,6 +48,7 @@ from types import MappingProxyType
 import numpy as np
 
 from .errors import ConvImpactError, InputError, NotSupportedError, ParameterError, ShapeError
+from .resolve import check_law_parameters
 from .batch_checks import (  # noqa: F401  (the batch API's names)
     FAILED,
     JAM,
@@ -102,7 +103,7 @@ def _kernels():
         from .batch_kernels import loop
         from ..compiled import announce
 
-        announce("batch kernels (every law, planar and spatial)", 17, loop.impact_batch,
+        announce("batch kernels (every law, planar and spatial)", 28, loop.impact_batch,
                  loop.contact_batch)
         _K = loop
         _COMPILE_SECONDS["import"] = time.perf_counter() - t
@@ -166,8 +167,8 @@ def _part(a: np.ndarray, n: int, lo: int, hi: int) -> np.ndarray:
 # the public entries
 
 
-def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, C=None,
-                    on_error: str = "flag", threads: int | None = None) -> ImpactBatch:
+def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t=None,
+                    C=None, on_error: str = "flag", threads: int | None = None) -> ImpactBatch:
     """Resolve N single-contact impacts at once (the batch form of ``resolve_impact``).
 
     Parameters
@@ -180,9 +181,11 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         Joint velocities before impact.
     e, mu : float or (N,) array_like
         Restitution in [0, 1] and friction >= 0, shared or per impact.
-    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge"}
-        The impact law (as in ``resolve_impact``); every law's planar and spatial items are
-        compiled (``"stronge"``'s spatial ones too: its curved slip's integration).
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge", "chatterjee-ruina"}
+        The impact law (as in ``resolve_impact``): its compiled kernel, the one every path
+        runs.
+    e_t : float or (N,) array_like, optional
+        Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0).
     C : None
         Closed loops are not batched: pass ``C`` to ``resolve_impact`` per impact.
     on_error : {"flag", "raise"}
@@ -236,14 +239,17 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     q = _real_array("dq", dq)
     e_ = _real_array("e", e)
     mu_ = _real_array("mu", mu)
+    et = check_law_parameters(law, e_t)
+    et_ = _real_array("e_t", 0.0 if et is None else et)
     Mb = _batched("M", M, 2, "(k, k)")
     Jb = _batched("Jc", J, 2, "(d, k)")
     qb = _batched("dq", q, 1, "(k,)")
     eb = _batched("e", e_, 0, "")
     mb = _batched("mu", mu_, 0, "")
+    tb = _batched("e_t", et_, 0, "")
     shared = {"M": M.ndim == 2, "Jc": J.ndim == 2, "dq": q.ndim == 1, "e": e_.ndim == 0,
-              "mu": mu_.ndim == 0}
-    n = _batch_size({"M": Mb, "Jc": Jb, "dq": qb, "e": eb, "mu": mb}, shared)
+              "mu": mu_.ndim == 0, "e_t": et_.ndim == 0}
+    n = _batch_size({"M": Mb, "Jc": Jb, "dq": qb, "e": eb, "mu": mb, "e_t": tb}, shared)
     k = Mb.shape[1]
     if Mb.shape[2] != k or k == 0:
         raise ShapeError(f"M must be square k x k with k >= 1, got {M.shape[-2:]}")
@@ -254,7 +260,7 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
             f"n, t1, t2) to match M ({k} x {k}); got {J.shape[-2:]}")
     if qb.shape[1] != k:
         raise ShapeError(f"dq must be a vector of length {k} to match M, got {q.shape[-1:]}")
-    _check_parameters(eb, mb, shared["e"], shared["mu"])
+    _check_parameters(eb, mb, shared["e"], shared["mu"], tb, shared["e_t"])
 
     dq_plus = np.empty((n, k))
     impulse = np.empty((n, d))
@@ -275,7 +281,8 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
                 flags)
 
         def run(lo, hi):
-            return K.impact_batch(code, *(_part(a, n, lo, hi) for a in (Mb, Jb, qb, eb, mb)),
+            return K.impact_batch(code, *(_part(a, n, lo, hi)
+                                          for a in (Mb, Jb, qb, eb, mb, tb)),
                                   BATCH_TOL, _NO_ITEMS, _NO_IMPULSES[d],
                                   *(o[lo:hi] for o in outs))
 
@@ -283,14 +290,16 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         if first_bad >= 0:
             raise _input_error(int(status[first_bad]), int(first_bad), n, Mb, Jb, qb)
         e_all = np.broadcast_to(eb, (n,))
+        et_all = np.broadcast_to(tb, (n,))
         if ndefer:
-            _solve_deferred(law, code, status, regime, effm, W, v_minus, e_all, mu_all, errors,
-                            lambda idx, pis: K.impact_batch(code, Mb, Jb, qb, eb, mb,
-                                                            BATCH_TOL, idx, pis, *outs))
+            _solve_deferred(law, code, status, regime, effm, W, v_minus, e_all, mu_all, et_all,
+                            errors, lambda idx, pis: K.impact_batch(code, Mb, Jb, qb, eb, mb,
+                                                                    tb, BATCH_TOL, idx, pis,
+                                                                    *outs))
         if on_error == "raise":
-            _raise_first(status, errors, W, v_minus, e_all, mu_all, law)
+            _raise_first(status, errors, W, v_minus, e_all, mu_all, law, et_all)
     else:
-        e_all = np.zeros(0)
+        e_all = et_all = np.zeros(0)
     return ImpactBatch(
         dq_plus=_frozen(dq_plus), impulse=_frozen(impulse), regime=_frozen(regime),
         energy_loss=_frozen(T0 - T1), v_minus=_frozen(v_minus), v_plus=_frozen(v_plus),
@@ -299,12 +308,14 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         friction_pushes_slip=_frozen(flags[:, 1].copy()),
         slip_reversal=_frozen(flags[:, 2].copy()), penetration=_frozen(flags[:, 3].copy()),
         effective_mass=_frozen(effm), delassus=_frozen(W), status=_frozen(status),
-        _errors=MappingProxyType(errors), _friction=mu_all, _restitution=e_all)
+        _errors=MappingProxyType(errors), _friction=mu_all, _restitution=e_all,
+        _tangential=et_all)
 
 
-def _solve_deferred(law: str, code: int, status, regime, effm, W, v, e, mu, errors,
+def _solve_deferred(law: str, code: int, status, regime, effm, W, v, e, mu, et, errors,
                     finish) -> None:
-    """Items the compiled kernel left to the Python kernel (rare branches, rescaling)."""
+    """Items outside the compiled loop's safe range of scale: solve_contact rescales them
+    (exactly, by powers of two) and runs the same kernel."""
     from .fast import solve_contact
 
     idx = np.flatnonzero(status == _DEFER)
@@ -313,7 +324,7 @@ def _solve_deferred(law: str, code: int, status, regime, effm, W, v, e, mu, erro
     for i in idx:
         i = int(i)
         try:
-            sol = solve_contact(W[i], v[i], float(e[i]), float(mu[i]), law)
+            sol = solve_contact(W[i], v[i], float(e[i]), float(mu[i]), law, float(et[i]))
         except InputError:
             raise
         except ConvImpactError as exc:
@@ -330,7 +341,7 @@ def _solve_deferred(law: str, code: int, status, regime, effm, W, v, e, mu, erro
         finish(np.array(done, dtype=np.int64), np.array(pis))
 
 
-def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
+def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t=None,
                      on_error: str = "flag", threads: int | None = None) -> ContactBatch:
     """Impulses of N single contacts from their Delassus blocks and velocities.
 
@@ -345,8 +356,10 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     v : (d,) or (N, d) array_like
         Pre-impact contact velocities; v[..., 0] < 0 approaching.
     e, mu : float or (N,) array_like
-    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge"}
-        Every law's planar and spatial items are compiled (as in :func:`resolve_impacts`).
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge", "chatterjee-ruina"}
+        As in :func:`resolve_impacts`.
+    e_t : float or (N,) array_like, optional
+        As in :func:`resolve_impacts`.
     on_error : {"flag", "raise"}
         As in :func:`resolve_impacts`.
     threads : int or None
@@ -372,18 +385,22 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     va = _real_array("v", v)
     e_ = _real_array("e", e)
     mu_ = _real_array("mu", mu)
+    et = check_law_parameters(law, e_t)
+    et_ = _real_array("e_t", 0.0 if et is None else et)
     Wb = _batched("W", Wa, 2, "(d, d)")
     vb = _batched("v", va, 1, "(d,)")
     eb = _batched("e", e_, 0, "")
     mb = _batched("mu", mu_, 0, "")
-    shared = {"W": Wa.ndim == 2, "v": va.ndim == 1, "e": e_.ndim == 0, "mu": mu_.ndim == 0}
-    n = _batch_size({"W": Wb, "v": vb, "e": eb, "mu": mb}, shared)
+    tb = _batched("e_t", et_, 0, "")
+    shared = {"W": Wa.ndim == 2, "v": va.ndim == 1, "e": e_.ndim == 0, "mu": mu_.ndim == 0,
+              "e_t": et_.ndim == 0}
+    n = _batch_size({"W": Wb, "v": vb, "e": eb, "mu": mb, "e_t": tb}, shared)
     d = vb.shape[1]
     if d not in (2, 3) or Wb.shape[1:] != (d, d):
         raise ShapeError(
             f"a contact needs W of shape (d, d) and v of length d with d = 2 (n, t) or 3 "
             f"(n, t1, t2); got W {Wa.shape[-2:]} and v {va.shape[-1:]}")
-    _check_parameters(eb, mb, shared["e"], shared["mu"])
+    _check_parameters(eb, mb, shared["e"], shared["mu"], tb, shared["e_t"])
     impulse = np.empty((n, d))
     regime = np.empty(n, np.int8)
     status = np.empty(n, np.int8)
@@ -396,7 +413,8 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         outs = (impulse, regime, status, effm, vplus, eloss)
 
         def run(lo, hi):
-            return K.contact_batch(code, *(_part(a, n, lo, hi) for a in (Wb, vb, eb, mb)),
+            return K.contact_batch(code, *(_part(a, n, lo, hi)
+                                           for a in (Wb, vb, eb, mb, tb)),
                                    *(o[lo:hi] for o in outs))
 
         first_bad, ndefer = _in_slices(run, n, nthreads)
@@ -406,6 +424,7 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         v_all = np.broadcast_to(vb, (n, d))
         e_all = np.broadcast_to(eb, (n,))
         mu_all = np.broadcast_to(mb, (n,))
+        et_all = np.broadcast_to(tb, (n,))
         if ndefer:
             def finish(idx, pis):
                 impulse[idx] = pis
@@ -416,13 +435,13 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
                                + 0.5 * np.einsum("ni,ni->n", pis, u))
 
             _solve_deferred(law, code, status, regime, effm, W_all, v_all, e_all, mu_all,
-                            errors, finish)
+                            et_all, errors, finish)
             failed = status != OK
             impulse[failed] = np.nan
             vplus[failed] = np.nan
             eloss[failed] = np.nan
         if on_error == "raise":
-            _raise_first(status, errors, W_all, v_all, e_all, mu_all, law)
+            _raise_first(status, errors, W_all, v_all, e_all, mu_all, law, et_all)
     return ContactBatch(impulse=_frozen(impulse), regime=_frozen(regime),
                         status=_frozen(status), effective_mass=_frozen(effm),
                         v_plus=_frozen(vplus), energy_loss=_frozen(eloss), law=law,

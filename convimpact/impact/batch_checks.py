@@ -30,7 +30,8 @@ from .errors import (
 
 #: laws of the batch (every law has an exact single-contact kernel), with their codes
 LAW_CODES: Mapping[str, int] = MappingProxyType(
-    {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4})
+    {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4,
+     "chatterjee-ruina": 5})
 #: laws whose *spatial* items have no compiled kernel (the compiled loop would validate the
 #: data, form W and v, and defer each spatial item to the law's Python kernel,
 #: :func:`convimpact.impact.fast.solve_contact`): none. Every law's planar and spatial kernels
@@ -106,9 +107,20 @@ def _check_finite(name: str, a: np.ndarray, per_item: bool) -> None:
                              "values")
 
 
-def _check_parameters(e: np.ndarray, mu: np.ndarray, e_shared: bool, mu_shared: bool) -> None:
+def _check_parameters(e: np.ndarray, mu: np.ndarray, e_shared: bool, mu_shared: bool,
+                      et: np.ndarray | None = None, et_shared: bool = True) -> None:
     _check_finite("e", e, not e_shared)
     _check_finite("mu", mu, not mu_shared)
+    if et is not None:
+        _check_finite("e_t", et, not et_shared)
+        bad = np.flatnonzero((et < -1.0) | (et > 1.0))
+        if bad.size:
+            i = int(bad[0])
+            where = f"e_t[{i}] = {et[i]:g} (impact {i})" if not et_shared else f"e_t = {et[0]:g}"
+            raise ParameterError(
+                f"tangential restitution must lie in [-1, 1] (outside it the law creates "
+                f"energy), got {where}" + (f"; {bad.size} impacts out of range"
+                                           if bad.size > 1 else ""))
     bad = np.flatnonzero((e < 0.0) | (e > 1.0))
     if bad.size:
         i = int(bad[0])
@@ -153,28 +165,30 @@ def _item_error(exc: ConvImpactError, i: int, n: int) -> ConvImpactError:
 
 
 def _kernel_error(W, v, e: float, mu: float, law: str, status: int, i: int,
-                  n: int) -> ConvImpactError:
-    """The error the Python kernel raises on item i (re-run on its W, v)."""
+                  n: int, e_t: float = 0.0) -> ConvImpactError:
+    """The typed error of item i, with the message of the law's kernel (re-run on its W, v
+    through :func:`~convimpact.impact.fast.solve_contact`, which raises it)."""
     from .fast import solve_contact
 
     try:
-        solve_contact(W, v, e, mu, law)
+        solve_contact(W, v, e, mu, law, e_t)
     except ConvImpactError as exc:
         return _item_error(exc, i, n)
-    # unreachable unless the compiled and Python kernels disagree: say so, typed by status
+    # unreachable unless the batch's reduction and solve_contact's disagree: say so
     return STATUS_ERRORS.get(status, SolverError)(
-        f"impact {i} of the batch of {n}: the compiled kernel rejected it "
-        f"({STATUS_NAMES.get(status, status)}) but the Python kernel solves it; please report")
+        f"impact {i} of the batch of {n}: the batch rejected it "
+        f"({STATUS_NAMES.get(status, status)}) but solve_contact solves it; please report")
 
 
 def _raise_first(status: np.ndarray, errors: Mapping[int, ConvImpactError], W, v, e, mu,
-                 law: str) -> None:
+                 law: str, et=None) -> None:
     bad = np.flatnonzero(status != OK)
     if not bad.size:
         return
     i = int(bad[0])
     exc = errors.get(i) or _kernel_error(W[i], v[i], float(e[i]), float(mu[i]), law,
-                                         int(status[i]), i, status.shape[0])
+                                         int(status[i]), i, status.shape[0],
+                                         0.0 if et is None else float(et[i]))
     if bad.size > 1:
         exc.args = (f"{exc.args[0]} ({bad.size} impacts of the batch were rejected; "
                     "on_error='flag' returns per-impact status codes instead)",)

@@ -111,6 +111,7 @@ class ImpactBatch(_BatchStatus):
     _errors: Mapping[int, ConvImpactError] = field(default=None, repr=False)
     _friction: Any = field(default=None, repr=False)  # effective mu per item (error())
     _restitution: Any = field(default=None, repr=False)
+    _tangential: Any = field(default=None, repr=False)  # e_t per item (error())
 
     regime_names: ClassVar[tuple[str, ...]] = REGIMES
     status_names: ClassVar[Mapping[int, str]] = STATUS_NAMES
@@ -132,9 +133,11 @@ class ImpactBatch(_BatchStatus):
             return None
         if self._errors and i in self._errors:
             return self._errors[i]
+        et = 0.0 if self._tangential is None or not len(self._tangential) \
+            else float(self._tangential[i])
         return _kernel_error(self.delassus[i], self.v_minus[i], float(self._restitution[i]),
                              float(self._friction[i]), self.law, int(self.status[i]), i,
-                             len(self))
+                             len(self), et)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view (lists; NaN stays NaN)."""

@@ -185,9 +185,11 @@ def _kernel(law: str) -> Kernel:
     return law_module(law).contact_kernel
 
 
-def dispatch(kernel: Kernel, w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
-    """Run ``kernel`` on validated data (finite, e in [0, 1], mu >= 0): a separating contact
-    takes no impulse, W_nn <= 0 raises, data outside :data:`SAFE_SCALE` are rescaled."""
+def dispatch(kernel: Kernel, w: list, v: list, d: int, e: float, mu: float,
+             e_t: float = 0.0) -> ContactSolution:
+    """Run ``kernel`` on validated data (finite, e in [0, 1], mu >= 0, e_t in [-1, 1]): a
+    separating contact takes no impulse, W_nn <= 0 raises, data outside :data:`SAFE_SCALE`
+    are rescaled."""
     if not v[0] < 0.0:
         return solution([0.0] * d, "separating")
     A = w[0][0]
@@ -199,15 +201,15 @@ def dispatch(kernel: Kernel, w: list, v: list, d: int, e: float, mu: float) -> C
     vs = max(-v[0], abs(v[1]), abs(v[-1]))
     lo, hi = SAFE_SCALE
     if lo <= tr <= hi and lo <= vs <= hi:
-        return kernel(w, v, d, e, mu)
+        return kernel(w, v, d, e, mu, e_t)
     # homogeneous laws: solve with W 2^pw and v 2^pv, both of order one, and scale back
     big = max(tr, max(abs(x) for row in w for x in row))  # = tr for a PSD W
     pw, pv = -math.frexp(big)[1], -math.frexp(vs)[1]
     ws = [[math.ldexp(x, pw) for x in row] for row in w]
-    return rescaled(kernel(ws, [math.ldexp(x, pv) for x in v], d, e, mu), pw, pv)
+    return rescaled(kernel(ws, [math.ldexp(x, pv) for x in v], d, e, mu, e_t), pw, pv)
 
 
-def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
+def solve_contact(W, v, e: float, mu: float, law: str, e_t: float = 0.0) -> ContactSolution:
     """Exact impulse of one contact under ``law`` (the kernel of ``method="fast"``).
 
     Parameters
@@ -220,7 +222,7 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
         Restitution in [0, 1].
     mu : float
         Friction coefficient >= 0.
-    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative"}
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge", "chatterjee-ruina"}
         ``"pereira-nikravesh"``: stick test (eq. 42), else slide on the cone boundary along
         eq. (55) in the plane and along the maximal-dissipation direction in space (eq. 60).
         ``"coulomb"``: Newton restitution on u = v+ + e v_n- n and friction opposing the
@@ -228,6 +230,11 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
         pi_t = -mu pi_n u_t/|u_t|; the most dissipative solution if several).
         ``"ccp"``: min 1/2 pi.W.pi + pi.b over K_mu, b = v + e v_n n.
         ``"dissipative"``: ccp with e = 0, the impulse times (1 + e).
+        ``"stronge"``: Stronge's energetic law, integrated in impulse space.
+        ``"chatterjee-ruina"``: the plastic impulses scaled by 1 + e and 1 + e_t, brought back
+        into the friction cone.
+    e_t : float
+        Tangential restitution in [-1, 1] (law ``"chatterjee-ruina"`` only).
 
     Returns
     -------
@@ -249,13 +256,15 @@ def solve_contact(W, v, e: float, mu: float, law: str) -> ContactSolution:
     w, vv, d = as_lists(W, v)
     e = real_number("e", e)
     mu = real_number("mu", mu)
+    e_t = real_number("e_t", e_t)
     kernel = _kernel(law)
     if not (all(map(math.isfinite, vv)) and all(math.isfinite(x) for row in w for x in row)
-            and math.isfinite(e) and math.isfinite(mu)):
-        raise NonFiniteError("W, v, e and mu must be finite; got NaN or infinity")
-    if not (0.0 <= e <= 1.0 and mu >= 0.0):
-        raise ParameterError(f"need e in [0, 1] and mu >= 0, got e = {e:g}, mu = {mu:g}")
-    return dispatch(kernel, w, vv, d, e, mu)
+            and math.isfinite(e) and math.isfinite(mu) and math.isfinite(e_t)):
+        raise NonFiniteError("W, v, e, mu and e_t must be finite; got NaN or infinity")
+    if not (0.0 <= e <= 1.0 and mu >= 0.0 and -1.0 <= e_t <= 1.0):
+        raise ParameterError(f"need e in [0, 1], mu >= 0 and e_t in [-1, 1], got e = {e:g}, "
+                             f"mu = {mu:g}, e_t = {e_t:g}")
+    return dispatch(kernel, w, vv, d, e, mu, e_t)
 
 
 #: regime codes of the compiled kernels (batch_kernels.common) -> names
@@ -271,8 +280,9 @@ def _no_extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
 
 def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extras = _no_extras,
                     no_solution: str = "", frictionless_inside: bool = False,
-                    errors: Callable | None = None) -> Kernel:
-    """The Python entry ``(w, v, d, e, mu) -> ContactSolution`` of a law's compiled kernels.
+                    errors: Callable | None = None, tangential: bool = False) -> Kernel:
+    """The Python entry ``(w, v, d, e, mu, e_t) -> ContactSolution`` of a law's compiled
+    kernels.
 
     ``planar(w00, w01, w11, v0, v1, e, mu, out)`` and ``spatial(w00, w01, w02, w11, w12, w22,
     v0, v1, v2, e, mu, out)`` return ``(status, regime, p0, p1, p2, effective_mass)`` (codes of
@@ -282,19 +292,22 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
     message) and ``out`` into the solution's extras and warnings by ``extras``. mu = 0 is
     Newton's frictionless impulse unless the law's kernels treat it (``frictionless_inside``).
     A law with messages of its own passes ``errors(out, status, w, v, d, e, mu) -> Exception
-    or None`` (None: the generic error of that status).
+    or None`` (None: the generic error of that status). A law with a tangential restitution
+    (``tangential``) takes it as its kernels' argument after mu, and as its ``extras``' last.
     """
     from .batch_kernels.common import JAM, NO_SOLUTION, OK, OUT_SIZE, SINGULAR
 
-    def kernel(w: list, v: list, d: int, e: float, mu: float) -> ContactSolution:
+    def kernel(w: list, v: list, d: int, e: float, mu: float,
+               e_t: float = 0.0) -> ContactSolution:
         if mu == 0.0 and not frictionless_inside:
             return frictionless(w, v, d, e)
         out = np.zeros(OUT_SIZE)
+        law_args = (e, mu, e_t, out) if tangential else (e, mu, out)
         if d == 2:
-            st, rg, p0, p1, p2, D = planar(w[0][0], w[0][1], w[1][1], v[0], v[1], e, mu, out)
+            st, rg, p0, p1, p2, D = planar(w[0][0], w[0][1], w[1][1], v[0], v[1], *law_args)
         else:
             st, rg, p0, p1, p2, D = spatial(w[0][0], w[0][1], w[0][2], w[1][1], w[1][2],
-                                            w[2][2], v[0], v[1], v[2], e, mu, out)
+                                            w[2][2], v[0], v[1], v[2], *law_args)
         if st != OK:
             exc = errors(out, st, w, v, d, e, mu) if errors is not None else None
             if exc is not None:
@@ -309,12 +322,57 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
             raise SolverError(f"law {law!r}: the compiled kernel returned status {st}")
         impulse = (p0, p1) if d == 2 else (p0, p1, p2)
         regime = _REGIME_NAMES[rg]
-        ex, warns = extras(out, regime, impulse, w, v, d, e, mu)
+        ex, warns = (extras(out, regime, impulse, w, v, d, e, mu, e_t) if tangential
+                     else extras(out, regime, impulse, w, v, d, e, mu))
         return solution(impulse, regime, D if D == D else None, ex, warns)
 
     kernel.__name__ = f"{law.replace('-', '_')}_kernel"
     kernel.__doc__ = f"The compiled single-contact kernel of law {law!r} on plain floats."
     return kernel
+
+
+def tangential_restitution(problem: ImpactProblem, i: int) -> float:
+    """Contact i's e_t (0 where the problem has none)."""
+    et = problem.tangential_restitution
+    return 0.0 if et is None else float(et[i])
+
+
+#: off-diagonal blocks of W below this times the product of the two contacts' scales count
+#: as zero (the contacts are dynamically independent)
+DECOUPLED_RTOL = 1e-12
+
+
+def coupled(problem: ImpactProblem) -> bool:
+    """Whether some off-diagonal block of W couples two contacts (relative to their scales)."""
+    n, d, W = problem.n_contacts, problem.dim, problem.delassus
+    diag = np.sqrt(np.maximum(np.diag(W), 0.0))
+    for i in range(n):
+        for j in range(i + 1, n):
+            block = W[i * d:(i + 1) * d, j * d:(j + 1) * d]
+            bound = DECOUPLED_RTOL * max(float(np.max(diag[i * d:(i + 1) * d])), 1e-300) * \
+                max(float(np.max(diag[j * d:(j + 1) * d])), 1e-300)
+            if np.max(np.abs(block)) > bound:
+                return True
+    return False
+
+
+def independent_contacts_result(problem: ImpactProblem, law: str, method: str) -> ImpactResult:
+    """Several dynamically independent contacts (W block-diagonal): the law's exact
+    single-contact kernel contact by contact (no cone program is solved)."""
+    n, d = problem.n_contacts, problem.dim
+    pi = np.zeros((n, d))
+    regimes, per_contact = [], []
+    for i in range(n):
+        w, v = problem.contact_lists(i)
+        sol = dispatch(_kernel(law), w, v, d, float(problem.restitution[i]),
+                       float(problem.friction[i]), tangential_restitution(problem, i))
+        pi[i] = sol.impulse
+        regimes.append(sol.regime)
+        per_contact.append(dict(sol.extras))
+    extras = {"formulation": "independent contacts (block-diagonal W): the exact "
+                             "single-contact kernel per contact; no cone program is solved",
+              "contacts": per_contact}
+    return assemble_result(problem, pi, regimes, law, method, tol=FAST_TOL, extras=extras)
 
 
 def kernel_solver(law: str, method: str = "fast"):
@@ -332,7 +390,7 @@ def kernel_solver(law: str, method: str = "fast"):
                 "simultaneous contacts use method='clarabel' or method='cvxpy'")
         w, v = problem.contact_lists(0)
         sol = dispatch(kernel, w, v, problem.dim, float(problem.restitution[0]),
-                       float(problem.friction[0]))
+                       float(problem.friction[0]), tangential_restitution(problem, 0))
         return assemble_result(problem, sol.impulse, [sol.regime], law, "fast",
                                effective_mass=sol.effective_mass, tol=FAST_TOL,
                                extras=sol.extras, warnings=sol.warnings)

@@ -70,7 +70,8 @@ HOT_CALLS = 200
 #: the compiled kernels' regime codes -> names (batch_kernels.common)
 _REGIMES = ("separating", "frictionless", "stick", "slide")
 #: the compiled kernels' law codes (batch.LAW_CODES)
-_LAW_CODES = {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4}
+_LAW_CODES = {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4,
+              "chatterjee-ruina": 5}
 
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
@@ -130,7 +131,7 @@ def _build_solve():
     announce("single-contact lane's whole call (every law's kernel)", 20, _S.lane_solve)
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
     ws = np.empty(layout(2, 2)[-1])
-    _S.lane_solve(0, M, J, dq, 0.5, 0.3, ws, _OUT)
+    _S.lane_solve(0, M, J, dq, 0.5, 0.3, 0.0, ws, _OUT)
     _SOLVE = _S.lane_solve
     COMPILE_SECONDS["lane_solve"] = time.perf_counter() - t
     return _SOLVE
@@ -165,11 +166,13 @@ class _LaneAnswer:
     built from the private copies of the data in the workspace and the answer measured by
     :func:`~convimpact.impact.diagnostics.assemble_result`, as the full path measures it."""
 
-    __slots__ = ("ws", "k", "d", "e", "mu", "mu_used", "pi", "regime", "law", "kernel", "sol")
+    __slots__ = ("ws", "k", "d", "e", "mu", "mu_used", "pi", "regime", "law", "kernel", "sol",
+                 "e_t")
 
-    def __init__(self, ws, k, d, e, mu, mu_used, pi, regime, law, kernel, sol):
+    def __init__(self, ws, k, d, e, mu, mu_used, pi, regime, law, kernel, sol, e_t):
         self.ws, self.k, self.d, self.e, self.mu, self.mu_used = ws, k, d, e, mu, mu_used
         self.pi, self.regime, self.law, self.kernel, self.sol = pi, regime, law, kernel, sol
+        self.e_t = e_t
 
     def mass(self) -> np.ndarray:
         k, oc = self.k, layout(self.k, self.d)[4]
@@ -186,7 +189,7 @@ class _LaneAnswer:
             oW = layout(self.k, d)[1]
             wv = self.ws[oW:oW + d * d + d].tolist()
             w = [wv[0:3], wv[3:6], wv[6:9]] if d == 3 else [wv[0:2], wv[2:4]]
-            self.sol = self.kernel(w, wv[d * d:], d, self.e, self.mu_used)
+            self.sol = self.kernel(w, wv[d * d:], d, self.e, self.mu_used, self.e_t or 0.0)
         return self.sol
 
     def __call__(self) -> dict:
@@ -194,7 +197,7 @@ class _LaneAnswer:
         oc = layout(k, d)[4]
         J = self.ws[oc + k * k:oc + k * k + d * k].reshape(d, k)
         dq = self.ws[oc + k * k + d * k:oc + k * k + d * k + k]
-        P = build_problem(self.mass(), J, dq, self.e, self.mu)
+        P = build_problem(self.mass(), J, dq, self.e, self.mu, None, self.e_t)
         full = assemble_result(P, self.pi.reshape(1, d), [self.regime], self.law, "fast",
                                tol=LANE_TOL, extras=self.solution().extras)
         return full.diagnostics._values
@@ -225,7 +228,7 @@ def _number(x) -> float | None:
     return None
 
 
-def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
+def resolve_one(M, Jc, dq, e, mu, law: str, kernel, e_t=None) -> ImpactResult | None:
     """One contact through the lane, or None when the full path must take it.
 
     ``kernel`` is the law's single-contact kernel (its module's ``contact_kernel``); ``Jc`` is a
@@ -241,7 +244,9 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
             return None
     e_ = _number(e)
     mu_ = _number(mu)
-    if e_ is None or mu_ is None or not (0.0 <= e_ <= 1.0 and 0.0 <= mu_ < math.inf):
+    et_ = 0.0 if e_t is None else _number(e_t)
+    if e_ is None or mu_ is None or et_ is None or not (
+            0.0 <= e_ <= 1.0 and 0.0 <= mu_ < math.inf and -1.0 <= et_ <= 1.0):
         return None
     try:
         Mf = M if type(M) is np.ndarray and M.dtype is _F64 else as_real_array("M", M)
@@ -267,13 +272,13 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
             solve = _build_solve()
     sol = None
     if solve is not None:
-        code = solve(_LAW_CODES[law], Mf, Jf, qf, e_, mu_, ws, _OUT)
+        code = solve(_LAW_CODES[law], Mf, Jf, qf, e_, mu_, et_, ws, _OUT)
         if code == 0:
             tail = ws[op + 3:op + 7].tolist()  # status, regime, effective mass, mu used
             regime = _REGIMES[int(tail[1])]
             effm = tail[2]
             answer = _LaneAnswer(ws, k, d, e_, mu_, tail[3], ws[op:op + d], regime, law,
-                                 kernel, None)
+                                 kernel, None, e_t)
             diag = _new(LaneDiagnostics, dict(
                 effective_mass=None if effm != effm else effm, _source=answer,
                 _delassus=answer.delassus, _mass=answer.mass, _loop=None))
@@ -290,7 +295,7 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel) -> ImpactResult | None:
             return None
         mu_used = 0.0 if code else mu_
     # tier 1, or a rare branch of tier 2: the law's Python kernel on the lane's W and v-
-    answer = _LaneAnswer(ws, k, d, e_, mu_, mu_used, None, None, law, kernel, None)
+    answer = _LaneAnswer(ws, k, d, e_, mu_, mu_used, None, None, law, kernel, None, e_t)
     try:
         sol = answer.solution()
     except ConvImpactError:

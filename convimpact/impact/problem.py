@@ -128,12 +128,12 @@ def check_mass_matrix(M) -> tuple[np.ndarray, np.ndarray]:
     return M, L
 
 
-def _per_contact(name: str, value, n: int, upper: float) -> np.ndarray:
-    """e or mu: real, finite, in [0, upper] (upper finite), one per contact."""
-    if type(value) is float and 0.0 <= value <= upper:  # the common case: finite, in range
+def _per_contact(name: str, value, n: int, upper: float, lower: float = 0.0) -> np.ndarray:
+    """e, mu or e_t: real, finite, in [lower, upper] (upper finite), one per contact."""
+    if type(value) is float and lower <= value <= upper:  # the common case: finite, in range
         return np.array([value] * n)
     if type(value) is list and len(value) == n and all(type(x) is float for x in value) \
-            and math.isfinite(sum(value)) and min(value) >= 0.0 and max(value) <= upper:
+            and math.isfinite(sum(value)) and min(value) >= lower and max(value) <= upper:
         # a list of finite floats in range (a NaN or an infinity makes the sum non-finite)
         return np.array(value)
     if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim):
@@ -146,7 +146,12 @@ def _per_contact(name: str, value, n: int, upper: float) -> np.ndarray:
         values = [real_number(name, value)] * n
     if not all(map(math.isfinite, values)):
         raise NonFiniteError(f"{name} contains NaN or infinity; pass finite values")
-    if not (min(values) >= 0.0 and max(values) <= upper):
+    if not (min(values) >= lower and max(values) <= upper):
+        if name == "e_t":
+            raise ParameterError(
+                f"tangential restitution e_t must lie in [-1, 1], got {values}: outside it "
+                "the Chatterjee-Ruina law creates energy (T+ - T- has the term "
+                "1/2 k (k - 2) |J_II - J_I|_W^2 with k = 1 + e_t)")
         if name == "e":
             raise ParameterError(
                 f"coefficient of restitution e must lie in [0, 1], got {values}")
@@ -165,6 +170,12 @@ def check_restitution(e, n_contacts: int = 1) -> np.ndarray:
 def check_friction(mu, n_contacts: int = 1) -> np.ndarray:
     """Validate the coefficient(s) of friction: real, finite and non-negative."""
     return _per_contact("mu", mu, n_contacts, sys.float_info.max)
+
+
+def check_tangential_restitution(e_t, n_contacts: int = 1) -> np.ndarray:
+    """Validate the tangential restitution(s) of law ``chatterjee-ruina``: real, finite and in
+    [-1, 1] (the range in which the law cannot create energy)."""
+    return _per_contact("e_t", e_t, n_contacts, 1.0, -1.0)
 
 
 def _float_matrices(Jc: list) -> bool:
@@ -224,6 +235,8 @@ class ImpactProblem:
     jacobians : (n_contacts, d, k) contact Jacobians, rows n, t (d = 2) or n, t1, t2 (d = 3).
     dq_minus : (k,) joint velocities before impact.
     restitution, friction : (n_contacts,) e and mu per contact.
+    tangential_restitution : (n_contacts,) e_t per contact for the laws that have one
+        (``chatterjee-ruina``), else None.
     loop_jacobian : (m, k) C of eq. (7); m = 0 for open loops.
     single : True when the caller passed one Jacobian (results are then un-stacked).
     delassus : (n_contacts d, n_contacts d) W = Jc G Jc^T.
@@ -246,6 +259,7 @@ class ImpactProblem:
     v_minus: np.ndarray
     loop_matrix: np.ndarray
     notes: tuple[str, ...] = ()
+    tangential_restitution: np.ndarray | None = None
     # derived from the fields above (build_problem sets them; __post_init__ otherwise)
     approaching: tuple[bool, ...] = field(init=False, repr=False)
     _minv_jt: Any = field(init=False, repr=False)  # M^-1 Jc^T, (k, n_contacts d)
@@ -387,7 +401,7 @@ def _check_contacts(J: np.ndarray, w: list, mu: np.ndarray) -> tuple[np.ndarray,
     return mu, tuple(notes)
 
 
-def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
+def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None, e_t=None) -> ImpactProblem:
     """Validate raw impact data and reduce it to contact space.
 
     Parameters
@@ -405,6 +419,8 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
         strings or booleans.
     C : (m, k) array_like, optional
         Loop-constraint Jacobian (eq. 7); must have full row rank and satisfy C dq = 0.
+    e_t : float or per-contact sequence, optional
+        Tangential restitution in [-1, 1], for law ``chatterjee-ruina``.
 
     Returns
     -------
@@ -424,6 +440,7 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
         raise ShapeError(f"dq must be a vector of length {k} to match M, got shape {dqf.shape}")
     e = check_restitution(e, n)
     mu = check_friction(mu, n)
+    et = None if e_t is None else check_tangential_restitution(e_t, n)
     # the problem owns its arrays: the caller may change theirs in place afterwards (before
     # the diagnostics, measured on first access, are read)
     M = Mf.copy() if Mf is M else Mf
@@ -452,7 +469,8 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None) -> ImpactProblem:
     derived = dict(
         mass_matrix=M, cholesky=L, jacobians=J, dq_minus=dq, restitution=e, friction=mu,
         loop_jacobian=C, single=single, delassus=W, v_minus=v.reshape(n, d), loop_matrix=A,
-        notes=notes, approaching=tuple([vl[i] < 0.0 for i in range(0, n * d, d)]),
+        notes=notes, tangential_restitution=et,
+        approaching=tuple([vl[i] < 0.0 for i in range(0, n * d, d)]),
         _minv_jt=tri_solve(L, X, trans=1), _minv_ct=minv_ct, _loop_cho=loop_cho, _vl=vl,
         _rows=rows)
     if lists is not None:

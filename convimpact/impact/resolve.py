@@ -24,7 +24,7 @@ from .errors import (
     UnknownOptionError,
 )
 from .lane import resolve_one
-from .laws import LAW_MODULES, law_module
+from .laws import LAW_MODULES, TANGENTIAL_LAWS, law_module
 from .problem import ImpactProblem, build_problem
 from .results import ImpactResult
 
@@ -204,7 +204,7 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
 
 
 def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikravesh",
-                   method: str = "auto", **options) -> ImpactResult:
+                   method: str = "auto", e_t=None, **options) -> ImpactResult:
     """Resolve one impact of a multibody system in joint coordinates.
 
     Parameters
@@ -223,13 +223,16 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         Coulomb's coefficient of friction, >= 0.
     C : (m, k) array_like, optional
         Jacobian of the loop constraints (eq. 7) for closed loops; full row rank, C dq = 0.
-    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge"}
+    law : {"pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge", "chatterjee-ruina"}
         The impact law (see the package documentation for exact definitions).
     method : {"auto", "closed-form", "sweep", "fast", "interior", "clarabel", "cvxpy"}
         The solver path; ``"auto"`` picks the cheapest one exact for the problem. One
         open-loop contact (``fast``) and several under ``interior`` run in compiled lanes
         (:mod:`convimpact.impact.lane`, :mod:`convimpact.impact.several_lane`) when the data
         are plain; any other case takes the full path, with the same answers to round-off.
+    e_t : float or per-contact sequence, optional
+        Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0); the
+        other laws have none.
     **options
         Solver options (tolerances, iteration limits), documented per method.
 
@@ -268,13 +271,14 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     ('slide', [0.5, 0.55])
     """
     check_law_method(law, method)
+    e_t = check_law_parameters(law, e_t)
     if C is None and not options and type(Jc) is np.ndarray and Jc.ndim == 2 \
             and (method == "auto" or method == "fast"):
         # one open-loop contact: the compiled lane (convimpact.impact.lane), which hands
         # every case but the plain one back to the full path below
         kernel = _fast_kernel(law)
         if kernel is not None:
-            result = resolve_one(M, Jc, dq, e, mu, law, kernel)
+            result = resolve_one(M, Jc, dq, e, mu, law, kernel, e_t)
             if result is not None:
                 return result
     elif C is None and not options and type(Jc) is list and (
@@ -285,8 +289,20 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         result = _several_lane()(M, Jc, dq, e, mu, law)
         if result is not None:
             return result
-    problem = build_problem(M, Jc, dq, e, mu, C)
+    problem = build_problem(M, Jc, dq, e, mu, C, e_t)
     return solve_problem(problem, law, method, **options)
+
+
+def check_law_parameters(law: str, e_t):
+    """The tangential restitution of a law that has one (default 0), else None; e_t given to
+    another law raises UnknownOptionError."""
+    if law in TANGENTIAL_LAWS:
+        return 0.0 if e_t is None else e_t
+    if e_t is not None:
+        raise UnknownOptionError(
+            f"e_t is the tangential restitution of law {', '.join(map(repr, TANGENTIAL_LAWS))}; "
+            f"law {law!r} has none")
+    return None
 
 
 def _several_lane():

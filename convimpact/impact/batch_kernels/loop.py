@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from ..laws.ccp import _ccp_planar, _ccp_spatial
+from ..laws.chatterjee_ruina import _cr_planar, _cr_spatial
 from ..laws.dissipative import _dissipative_planar, _dissipative_spatial
 from ..laws.pereira_nikravesh import _pn_planar, _pn_spatial
 from .common import (
@@ -28,6 +29,7 @@ from .common import (
     BAD_M_SYMMETRY,
     BAD_OVERFLOW,
     BAD_W_FINITE,
+    CHATTERJEE_RUINA,
     COULOMB,
     DEFER,
     DISSIPATIVE,
@@ -61,7 +63,7 @@ def _frictionless(w00, v0, e):
 
 
 @_jit
-def _planar_item(law, w00, w01, w11, v0, v1, e, mu, out):
+def _planar_item(law, w00, w01, w11, v0, v1, e, mu, et, out):
     """fast.solve_contact after validation, one planar contact: separating, W_nn, the trace's
     range, then the law's kernel (laws.<law>.contact_kernel)."""
     if not v0 < 0.0:
@@ -82,11 +84,13 @@ def _planar_item(law, w00, w01, w11, v0, v1, e, mu, out):
         return _coulomb_planar(w00, w01, w11, v0, v1, e, mu, out)
     if law == STRONGE:
         return _stronge_planar(w00, w01, w11, v0, v1, e, mu, out)
+    if law == CHATTERJEE_RUINA:
+        return _cr_planar(w00, w01, w11, v0, v1, e, mu, et, out)
     return _ccp_planar(w00, w01, w11, v0, v1, e, mu, out)
 
 
 @_jit
-def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
+def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
     """fast.solve_contact after validation, one spatial contact (as _planar_item)."""
     if not v0 < 0.0:
         return OK, SEPARATING, 0.0, 0.0, 0.0, _NAN
@@ -106,6 +110,8 @@ def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
         return _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
     if law == STRONGE:
         return _stronge_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
+    if law == CHATTERJEE_RUINA:
+        return _cr_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out)
     return _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
 
 
@@ -114,7 +120,7 @@ def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
 
 
 @_jit
-def contact_batch(law, W, v, e, mu, impulse, regime, status, effm, vplus, eloss):
+def contact_batch(law, W, v, e, mu, et, impulse, regime, status, effm, vplus, eloss):
     """Every item of a batch of contacts from (W, v); arrays with a leading dimension 1 are
     shared by every item. Returns (first item with non-finite data or -1, deferred count)."""
     n = impulse.shape[0]
@@ -123,6 +129,7 @@ def contact_batch(law, W, v, e, mu, impulse, regime, status, effm, vplus, eloss)
     bv = v.shape[0] > 1
     be = e.shape[0] > 1
     bm = mu.shape[0] > 1
+    bt = et.shape[0] > 1
     first_bad = -1
     ndefer = 0
     out = np.empty(OUT_SIZE)  # the kernels' extras (not read by the batch)
@@ -136,6 +143,7 @@ def contact_batch(law, W, v, e, mu, impulse, regime, status, effm, vplus, eloss)
             w02, w12, w22, v2 = W[iw, 0, 2], W[iw, 1, 2], W[iw, 2, 2], v[iv, 2]
         ei = e[i if be else 0]
         mi = mu[i if bm else 0]
+        ti = et[i if bt else 0]
         fin = w00 + w01 + w11 + v0 + v1 + w02 + w12 + w22 + v2
         if d == 3:
             fin += W[iw, 1, 0] + W[iw, 2, 0] + W[iw, 2, 1]
@@ -162,10 +170,10 @@ def contact_batch(law, W, v, e, mu, impulse, regime, status, effm, vplus, eloss)
                 eloss[i] = _NAN
                 continue
         if d == 2:
-            st, rg, p0, p1, p2, em = _planar_item(law, w00, w01, w11, v0, v1, ei, mi, out)
+            st, rg, p0, p1, p2, em = _planar_item(law, w00, w01, w11, v0, v1, ei, mi, ti, out)
         else:
             st, rg, p0, p1, p2, em = _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1,
-                                                   v2, ei, mi, out)
+                                                   v2, ei, mi, ti, out)
         status[i] = st
         regime[i] = rg
         effm[i] = em if st == OK else _NAN
@@ -207,7 +215,7 @@ def contact_batch(law, W, v, e, mu, impulse, regime, status, effm, vplus, eloss)
 
 
 @_jit
-def impact_batch(law, M, J, dq, e, mu, tol, idx, given, dq_plus, impulse, v_minus, v_plus, W,
+def impact_batch(law, M, J, dq, e, mu, et, tol, idx, given, dq_plus, impulse, v_minus, v_plus, W,
                  regime, status, effm, mu_eff, energy_before, energy_after, flags):
     """Every impact of a batch from (M, Jc, dq) (leading dimension 1 = shared): validate M
     (finite, symmetric, Cholesky), reduce to W = X^T X with X = L^-1 Jc^T and v- = Jc dq, solve,
@@ -236,6 +244,7 @@ def impact_batch(law, M, J, dq, e, mu, tol, idx, given, dq_plus, impulse, v_minu
     bq = dq.shape[0] > 1
     be = e.shape[0] > 1
     bm = mu.shape[0] > 1
+    bt = et.shape[0] > 1
     redo = idx.shape[0] > 0
     count = idx.shape[0] if redo else n
     first_bad = -1
@@ -367,6 +376,7 @@ def impact_batch(law, M, J, dq, e, mu, tol, idx, given, dq_plus, impulse, v_minu
             energy_before[i] = T
             ei = e[i if be else 0]
             mi = mu[i if bm else 0]
+            ti = et[i if bt else 0]
             # build_problem: tangent directions that move no mass take no friction
             tmax = w[1, 1]
             if d == 3 and w[2, 2] > tmax:
@@ -380,11 +390,11 @@ def impact_batch(law, M, J, dq, e, mu, tol, idx, given, dq_plus, impulse, v_minu
             mu_eff[i] = mi
             if d == 2:
                 st, rg, p0, p1, p2, em = _planar_item(law, w[0, 0], w[0, 1], w[1, 1], vm[0],
-                                                      vm[1], ei, mi, out)
+                                                      vm[1], ei, mi, ti, out)
             else:
                 st, rg, p0, p1, p2, em = _spatial_item(law, w[0, 0], w[0, 1], w[0, 2],
                                                        w[1, 1], w[1, 2], w[2, 2], vm[0],
-                                                       vm[1], vm[2], ei, mi, out)
+                                                       vm[1], vm[2], ei, mi, ti, out)
             status[i] = st
             regime[i] = rg
             effm[i] = em if st == OK else _NAN

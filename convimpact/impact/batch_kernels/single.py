@@ -96,7 +96,7 @@ def finish_one(ws, k, d, pi, dq):
 
 
 @_jit
-def lane_solve(law, M, J, dq, e, mu, ws, out):
+def lane_solve(law, M, J, dq, e, mu, et, ws, out):
     """Reduce, solve and map back one contact into ``ws`` (:func:`convimpact.impact.lane.layout`).
     Returns 0 (done), or reduce_one's code (1-5), REFUSED (the kernel's status in ws:
     SINGULAR or JAM), DEFERRED (a rare branch the Python kernel solves: W and v- are in ws) or
@@ -113,11 +113,11 @@ def lane_solve(law, M, J, dq, e, mu, ws, out):
     op = ov + d + k + d + 3 + k * k + d * k + k
     if d == 2:
         st, rg, p0, p1, p2, em = _planar_item(law, ws[oW], ws[oW + 1], ws[oW + 3], ws[ov],
-                                              ws[ov + 1], e, mu, out)
+                                              ws[ov + 1], e, mu, et, out)
     else:
         st, rg, p0, p1, p2, em = _spatial_item(law, ws[oW], ws[oW + 1], ws[oW + 2], ws[oW + 4],
                                                ws[oW + 5], ws[oW + 8], ws[ov], ws[ov + 1],
-                                               ws[ov + 2], e, mu, out)
+                                               ws[ov + 2], e, mu, et, out)
     ws[op + 3] = st
     ws[op + 4] = rg
     ws[op + 5] = em

@@ -20,7 +20,10 @@ LAW_MODULES = {
     "ccp": "ccp",                              # Anitescu's cone complementarity relaxation
     "dissipative": "dissipative",              # plastic maximal dissipation x Poisson
     "stronge": "stronge",                      # Stronge's energetic law (impulse space)
+    "chatterjee-ruina": "chatterjee_ruina",    # Chatterjee & Ruina's algebraic law (e, e_t)
 }
+#: laws with a tangential restitution e_t (the ``e_t=`` of ``resolve_impact``)
+TANGENTIAL_LAWS = ("chatterjee-ruina",)
 
 
 def law_module(law: str) -> ModuleType:

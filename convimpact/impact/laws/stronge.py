@@ -120,17 +120,13 @@ from __future__ import annotations
 import math
 from operator import mul
 
-import numpy as np
-
 from ..batch_kernels.common import FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _jit
-from ..conic.paths import ProgramOptions, register_programs
+from ..conic.paths import ProgramOptions
 from ..conic.qp import Backend
-from ..diagnostics import assemble_result
 from ..errors import NonPositiveEffectiveMassError, SingularSystemError
-from ..fast import FAST_TOL, compiled_kernel, register_kernel, solve_contact
+from ..fast import compiled_kernel, coupled, independent_contacts_result
 from ..problem import ImpactProblem
 from ..results import ImpactResult
-from . import LAW_MODULES
 from .stronge_slip import (  # noqa: F401  (the path in impulse space; its tolerances re-exported)
     FLOOR_RTOL,
     JAM_RTOL,
@@ -168,8 +164,6 @@ from .stronge_slip import (  # noqa: F401  (the path in impulse space; its toler
 LAW = "stronge"
 #: the law's code in the compiled drivers (the order of batch.LAW_CODES)
 STRONGE = 4
-#: relative coupling |W_ij| between contacts below which several contacts are independent
-DECOUPLED_RTOL = 1e-12
 
 _INF = math.inf
 
@@ -297,40 +291,9 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
 
     ``backend`` and ``opts`` serve the coupled formulation's compression program only.
     """
-    n, d = P.n_contacts, P.dim
-    W = P.delassus
-    diag = np.sqrt(np.maximum(np.diag(W), 0.0))
-    for i in range(n):
-        for j in range(i + 1, n):
-            block = W[i * d:(i + 1) * d, j * d:(j + 1) * d]
-            bound = DECOUPLED_RTOL * max(float(np.max(diag[i * d:(i + 1) * d])), 1e-300) * \
-                max(float(np.max(diag[j * d:(j + 1) * d])), 1e-300)
-            if np.max(np.abs(block)) > bound:
-                from .stronge_contacts import coupled_result
-                return coupled_result(P, backend, method, opts)
-    pi = np.zeros((n, d))
-    regimes = []
-    per_contact = []
-    for i in range(n):
-        Wi, vi = P.contact_block(i)
-        sol = solve_contact(Wi, vi, float(P.restitution[i]), float(P.friction[i]), LAW)
-        pi[i] = sol.impulse
-        regimes.append(sol.regime)
-        per_contact.append(dict(sol.extras))
-    extras = {"formulation": "independent contacts (block-diagonal W): the exact "
-                             "single-contact impulse-space integration per contact; no cone "
-                             "program is solved",
-              "contacts": per_contact}
-    return assemble_result(P, pi, regimes, LAW, method, tol=FAST_TOL, extras=extras)
+    if coupled(P):
+        from .stronge_contacts import coupled_result
+        return coupled_result(P, backend, method, opts)
+    return independent_contacts_result(P, LAW, method)
 
 
-def register() -> None:
-    """Register the kernel (``method="fast"``) and the several-contact entry (``"clarabel"``,
-    ``"cvxpy"``); done on import once :data:`~convimpact.impact.laws.LAW_MODULES` lists the
-    law."""
-    register_kernel(LAW, contact_kernel)
-    register_programs(LAW, program_result)
-
-
-if LAW in LAW_MODULES:
-    register()
