@@ -4,7 +4,9 @@ Every compiled function of convimpact is decorated with :data:`jit`
 (``numba.njit(cache=True, nogil=True, error_model="numpy")``), imported as
 ``from convimpact.compiled import jit`` (or relatively). numba is imported only when ``jit`` is
 first read -- by a kernel module, itself imported on first use -- so ``import convimpact`` and
-``import convimpact.compiled`` stay without numba.
+``import convimpact.compiled`` stay without numba. :data:`jit_internal` adds
+``no_cpython_wrapper`` and ``no_cfunc_wrapper`` for functions called from compiled code only
+(they cannot be called from Python, except under ``NUMBA_DISABLE_JIT=1``).
 
 numba keeps the machine code of a ``cache=True`` function on disk, by default in
 ``__pycache__`` beside its source, and checks it against that one source file. Both defaults
@@ -50,6 +52,10 @@ PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
 ENV = "CONVIMPACT_CACHE_DIR"
 #: the options of every compiled function
 JIT_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
+#: ... and of a function called from compiled code only (:data:`jit_internal`): no CPython or
+#: cfunc wrapper to generate (a few per cent of the several-contact lane's cold compile when
+#: its internal functions were decorated so, within the noise of a shared machine)
+JIT_INTERNAL_OPTIONS = {**JIT_OPTIONS, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 #: folders of other source keys unused for this many days are removed ...
 PRUNE_DAYS = 7
 #: ... except the most recently used few
@@ -57,14 +63,14 @@ KEEP = 3
 
 # a numba decorator (bare or dotted), or a call of njit: the file holds compiled code
 _DECORATOR = re.compile(
-    rb"@(?:\w+\.)?(?:_?jit|njit|_int|intrinsic|overload\w*|register_jitable|vectorize|"
-    rb"guvectorize|cfunc|generated_jit)\b")
+    rb"@(?:\w+\.)?(?:_?jit|jit_internal|njit|_int|intrinsic|overload\w*|register_jitable|"
+    rb"vectorize|guvectorize|cfunc|generated_jit)\b")
 # relative imports, of a module or of modules of a package (the first line of the names)
 _RELATIVE_IMPORT = re.compile(rb"from[ \t]+(\.+)([\w.]*)[ \t]+import[ \t]+\(?([\w \t,]*)")
 _KEY_DIR = re.compile(r"^.+-[0-9a-f]{12}-numba.+$")
 
 _DIR = None  # the usable cache folder of this process (str), False: unusable, None: not yet
-_JIT = None
+_JIT = _JIT_INTERNAL = None
 _ANNOUNCED: set[str] = set()
 #: seconds the source key took in this process (hashing at the first kernel import)
 KEY_SECONDS: list[float] = []
@@ -243,6 +249,11 @@ def _locator_class():
         def get_cache_path(self):
             return self._cache_path
 
+        def ensure_cache_path(self):
+            # the folder was tested writable once per process (_usable_dir); numba's base
+            # class would create a temporary file for every function
+            os.makedirs(self._cache_path, exist_ok=True)
+
         def get_source_stamp(self):
             # the folder's key already covers this file and everything it may embed
             return self._stamp
@@ -313,17 +324,19 @@ def announce(what: str, seconds: float, *dispatchers) -> bool:
 
 
 def __getattr__(name):
-    # numba is imported here, on the first read of ``jit`` (by a kernel module)
-    global _JIT
-    if name == "jit":
+    # numba is imported here, on the first read of ``jit`` or ``jit_internal`` (by a kernel
+    # module)
+    global _JIT, _JIT_INTERNAL
+    if name in ("jit", "jit_internal"):
         if _JIT is None:
             from numba import njit
 
             _register()
             _JIT = njit(**JIT_OPTIONS)
-        return _JIT
+            _JIT_INTERNAL = njit(**JIT_INTERNAL_OPTIONS)
+        return _JIT if name == "jit" else _JIT_INTERNAL
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["jit", "JIT_OPTIONS", "ENV", "cache_root", "cache_dir", "compiled_sources",
-           "source_key", "cached", "announce"]
+__all__ = ["jit", "jit_internal", "JIT_OPTIONS", "JIT_INTERNAL_OPTIONS", "ENV", "cache_root",
+           "cache_dir", "compiled_sources", "source_key", "cached", "announce"]

@@ -13,6 +13,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -152,17 +153,20 @@ def _copy_sources(dst: Path) -> Path:
 
 def test_source_key_follows_every_compiled_source(tmp_path):
     root = _copy_sources(tmp_path / "a")
-    names = {Path(p).relative_to(root).as_posix() for p in compiled.compiled_sources(str(root))}
-    # the kernels, the jit definition, and the modules whose constants kernels freeze
-    for name in ("compiled.py", "impact/lane_algebra.py", "impact/several_kernels.py",
-                 "impact/batch_kernels/common.py", "impact/batch_kernels/single.py",
-                 "impact/problem.py", "impact/reduction.py"):
-        assert name in names, name
-    assert "bench/charts.py" not in names and "cli.py" not in names
+    files = {Path(p).relative_to(root).as_posix(): Path(p).read_bytes()
+             for p in compiled.compiled_sources(str(root))}
+    kernels = sorted(n for n, text in files.items() if n != "compiled.py"
+                     and compiled._DECORATOR.search(text))
+    # modules without compiled code that kernels import (constants frozen into machine code)
+    imported = sorted(n for n, text in files.items() if not compiled._DECORATOR.search(text)
+                      and b"njit(" not in text)
+    others = sorted(p.relative_to(root).as_posix() for p in root.rglob("*.py")
+                    if p.relative_to(root).as_posix() not in files)
+    assert "compiled.py" in files and len(kernels) >= 5 and imported and others
+    assert "cli.py" in others
     key = compiled.source_key(str(root))
     assert len(key) == 12 and key == compiled.source_key(str(root))
-    other = _copy_sources(tmp_path / "b")  # the key does not depend on where the sources are
-    shutil.rmtree(other)
+    other = tmp_path / "b" / "convimpact"  # the key does not depend on where the sources are
     shutil.copytree(root, other)
     assert compiled.source_key(str(other)) == key
 
@@ -176,11 +180,12 @@ def test_source_key_follows_every_compiled_source(tmp_path):
             path.write_bytes(original)
 
     # a kernel edited in one module retires the caches of its callers in other modules
-    assert edited("impact/lane_algebra.py") != key
-    assert edited("impact/batch_kernels/common.py") != key
-    assert edited("impact/reduction.py") != key  # constants the kernels freeze
-    # a module without compiled code leaves the caches alone
-    assert edited("bench/charts.py") == key
+    for name in kernels:
+        assert edited(name) != key, name
+    assert edited("compiled.py") != key  # the jit options
+    assert edited(imported[0]) != key, imported[0]
+    # a module without compiled code, not imported by any, leaves the caches alone
+    assert edited("cli.py") == key
     assert compiled.source_key(str(root)) == key
 
 
@@ -247,3 +252,21 @@ def test_plain_python_with_numba_disabled():
         # dq+ = dq + M^-1 Jc^T pi: the normal row is the last coordinate
         want = [v[i] + expected[i + 1] / m for i in range(d - 1)] + [vn + expected[0] / m]
         assert dq_plus == pytest.approx(want, rel=1e-12, abs=1e-12), (d, law, mu)
+
+
+def test_prune_keeps_the_recent_and_the_last_used(tmp_path):
+    now = time.time()
+    ages = {"0.1.0-aaaaaaaaaaaa-numba0.68.1": 30, "0.1.0-bbbbbbbbbbbb-numba0.68.1": 20,
+            "0.1.0-cccccccccccc-numba0.68.1": 10, "0.1.0-dddddddddddd-numba0.68.1": 9,
+            "0.1.0-eeeeeeeeeeee-numba0.68.1": 1, "not-a-key-folder": 40}
+    for name, days in ages.items():
+        (tmp_path / name).mkdir()
+        os.utime(tmp_path / name, (now - days * 86400.0,) * 2)
+    current = tmp_path / "0.1.0-ffffffffffff-numba0.68.1"
+    current.mkdir()
+    compiled._prune(str(current))
+    left = sorted(p.name for p in tmp_path.iterdir())
+    # the KEEP last used stay whatever their age; older ones unused for PRUNE_DAYS go
+    assert compiled.KEEP == 3 and compiled.PRUNE_DAYS == 7
+    assert left == ["0.1.0-cccccccccccc-numba0.68.1", "0.1.0-dddddddddddd-numba0.68.1",
+                    "0.1.0-eeeeeeeeeeee-numba0.68.1", current.name, "not-a-key-folder"]
