@@ -93,9 +93,13 @@ class ContactEvents:
         o = self.opts
         t_start = _time.perf_counter()
         J, e, mu = (Jc[0], es[0], mus[0]) if len(closing) == 1 else (Jc, es, mus)
+        law_params = {}
+        if o.tangential_restitution is not None:  # e_t per contact (law chatterjee-ruina)
+            ets = [o.tangential_restitution[c] for c in closing]
+            law_params["e_t"] = ets[0] if len(closing) == 1 else ets
         try:
             r = resolve_impact(M, J, dth, e, mu, C if len(C) else None,
-                               law=o.law, method=o.method, **o.impact_options)
+                               law=o.law, method=o.method, **law_params, **o.impact_options)
         except ConvImpactError as exc:
             exc.add_note(f"(while resolving the impact of {', '.join(closing)} at "
                          f"t = {t:.9g} in convimpact.simulation.simulate)")

@@ -2,10 +2,14 @@
 
 The event-driven, Moreau-Jean and compliant schemes all start the same way: a time span that
 increases, a named scipy integrator, and an initial state on Psi = 0 with C theta_dot = 0
-(eqs. 6-7) that does not penetrate any contact.
+(eqs. 6-7) that does not penetrate any contact. The two schemes that call an impact law also
+check its parameters beyond e and mu (:func:`law_options`: the tangential restitution of
+law ``"chatterjee-ruina"``) before the first step.
 """
 
 from __future__ import annotations
+
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
@@ -37,6 +41,47 @@ def integrator_class(integrator) -> type[OdeSolver]:
     if isinstance(integrator, type) and issubclass(integrator, OdeSolver):
         return integrator
     raise UnknownOptionError("integrator must be a name or a scipy OdeSolver subclass")
+
+
+def law_options(law: str, impact_options: Mapping[str, Any] | None,
+                contacts: Sequence[str]) -> tuple[dict[str, Any], dict[str, float] | None]:
+    """Split ``impact_options`` into the solver options and the law's tangential restitution
+    per contact, checked before any step.
+
+    ``impact_options["e_t"]`` is the tangential restitution of law ``"chatterjee-ruina"``
+    (:mod:`convimpact.impact.laws.chatterjee_ruina`): one value in [-1, 1] for every contact,
+    or a mapping from contact names to values (contacts left out take the law's default, 0).
+    Given with another law it raises :class:`UnknownOptionError` naming the law that has one;
+    a value outside [-1, 1] (where the law creates energy) raises ``ParameterError``.
+
+    Returns
+    -------
+    (options, e_t)
+        The other options (forwarded to ``resolve_impact`` as they are) and ``{contact:
+        e_t}``, or None when ``e_t`` is not given (the law's default applies).
+    """
+    from ..impact.laws import TANGENTIAL_LAWS
+    from ..impact.problem.build import check_tangential_restitution
+
+    options = dict(impact_options or {})
+    if "e_t" not in options:
+        return options, None
+    e_t = options.pop("e_t")
+    if law not in TANGENTIAL_LAWS:
+        raise UnknownOptionError(
+            f"impact_options e_t is the tangential restitution of law "
+            f"{', '.join(map(repr, TANGENTIAL_LAWS))}; law {law!r} has none: drop e_t or "
+            f"pass law={TANGENTIAL_LAWS[0]!r}")
+    if isinstance(e_t, Mapping):
+        unknown = [c for c in e_t if c not in contacts]
+        if unknown:
+            raise UnknownOptionError(
+                f"impact_options e_t names unknown contact(s) {', '.join(map(repr, unknown))}; "
+                f"the contacts: {', '.join(contacts)}")
+        values = {c: float(check_tangential_restitution(e_t[c])[0]) for c in e_t}
+        return options, {c: values.get(c, 0.0) for c in contacts}
+    value = float(check_tangential_restitution(e_t)[0])
+    return options, {c: value for c in contacts}
 
 
 def positive(**values: float) -> None:

@@ -21,7 +21,11 @@ of size h from (q_k, v_k) at t_k:
    (``v_n+ = -e v_n,k``, standard Moreau–Jean): it is passed as the per-contact coefficient
    ``e_eff = min(e v_n,k / v_n,free, 1)`` on contacts approaching at t_k
    (``v_n,k < -rest_velocity``) and ``e_eff = 0`` on contacts already at rest (so resting
-   contacts do not micro-bounce);
+   contacts do not micro-bounce). A law's tangential restitution (``e_t`` of
+   ``"chatterjee-ruina"``, from ``impact_options``) acts likewise on the approaching contacts
+   only, ``e_t = 0`` on those at rest (a resting contact's slip is not reversed every step);
+   it restitutes the slip of the free velocity, which is the slip at t_k when no smooth
+   force acts along the contact's tangent during the step (a ball on a level floor);
 6. ``q_{k+1} = q_m + h theta v_{k+1}``; for closed loops theta is projected back onto
    ``Psi = 0`` (M-weighted, when the drift exceeds ``projection_tol``) and ``v_{k+1}`` onto
    ``C(q_{k+1}) v = 0``.
@@ -67,7 +71,7 @@ from ..impact.errors import (
 from ..impact import check_law_method, resolve_impact
 from .projection import project_positions, project_velocities
 from .result import SERIES, ImpactEvent, SimulationResult, series_from_rows
-from .initial import consistent_start, initial_state, positive, time_span
+from .initial import consistent_start, initial_state, law_options, positive, time_span
 from .simulate import _as_mechanism
 
 #: steps beyond which a run is refused (h too small for the span)
@@ -172,7 +176,10 @@ def simulate_moreau(
     contact_tol : float
         Penetration accepted in the initial state.
     impact_options : mapping, optional
-        Options forwarded to the impact solver.
+        Options forwarded to the impact solver, and ``"e_t"``: the tangential restitution in
+        [-1, 1] of law ``"chatterjee-ruina"`` (one value, or a mapping contact name -> value;
+        default 0), applied to the approaching contacts of a step (0 on the resting ones) and
+        refused with any other law before the first step.
 
     Returns
     -------
@@ -182,7 +189,7 @@ def simulate_moreau(
     Raises
     ------
     ShapeError, NonFiniteError, ParameterError, UnknownOptionError
-        for malformed input;
+        for malformed input (``e_t`` with a law that has none or outside [-1, 1] included);
     LoopConstraintError
         for an inconsistent initial state (``assemble=False``) or a singular loop matrix;
     PenetrationError
@@ -190,6 +197,7 @@ def simulate_moreau(
     SimulationError
         when the state becomes non-finite;
     ConvImpactError subclasses of ``resolve_impact`` (SingularSystemError, SolverError, ...)
+        and NotSupportedError (``"chatterjee-ruina"`` at dynamically coupled active contacts)
         from the per-step impulse, with a note naming the step.
     """
     wall0 = _time.perf_counter()
@@ -215,7 +223,7 @@ def simulate_moreau(
     if n_steps_total > MAX_STEPS:
         raise ParameterError(f"h = {h:g} needs {n_steps_total} steps over the span (more than "
                              f"{MAX_STEPS}); take a larger step")
-    impact_options = dict(impact_options or {})
+    impact_options, e_t = law_options(law, impact_options, contacts)
 
     # ---- initial state ---------------------------------------------------------------------
     q, v = initial_state(y0, scene, k)
@@ -283,17 +291,20 @@ def simulate_moreau(
         else:
             v_free = v_star
         # active set by gap prediction (step 4)
-        active, Jcs, es, mus, vnk = [], [], [], [], []
+        active, Jcs, es, mus, vnk, ets = [], [], [], [], [], []
         for c in contacts:
             J = np.asarray(mech.contact_jacobian(c, qm), float)
             g_pred = float(mech.contact_gap(c, qm)) + hk * theta_p * float(J[0] @ v_free)
             if g_pred <= gap_tol:
                 vn_k, vn_free = float(J[0] @ v), float(J[0] @ v_free)
                 e_c, mu_c = params[c]
-                if vn_k < -rest_velocity and vn_free < 0.0:
+                approaching = vn_k < -rest_velocity and vn_free < 0.0
+                if approaching:
                     e_eff = min(float(e_c) * vn_k / vn_free, 1.0)
                 else:
                     e_eff = 0.0
+                if e_t is not None:
+                    ets.append(e_t[c] if approaching else 0.0)
                 active.append(c)
                 Jcs.append(J)
                 es.append(e_eff)
@@ -303,13 +314,14 @@ def simulate_moreau(
         if active:
             counters["contact_steps"] += 1
             t_start = _time.perf_counter()
+            law_params = {} if e_t is None else {"e_t": ets[0] if len(active) == 1 else ets}
             try:
                 if len(active) == 1:
                     r = resolve_impact(M, Jcs[0], v_free, es[0], mus[0], C if m else None,
-                                       law=law, method=method, **impact_options)
+                                       law=law, method=method, **law_params, **impact_options)
                 else:
                     r = resolve_impact(M, Jcs, v_free, es, mus, C if m else None,
-                                       law=law, method=method, **impact_options)
+                                       law=law, method=method, **law_params, **impact_options)
             except ConvImpactError as exc:
                 exc.add_note(f"(while resolving the step impulse of {', '.join(active)} at "
                              f"t = {tm:.9g}, step {step}, in simulate_moreau)")
@@ -353,7 +365,8 @@ def simulate_moreau(
     n = len(rows["t"])
     settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
                 "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
-                "projection_tol": projection_tol, "t_span": [t0, t1]}
+                "projection_tol": projection_tol, "t_span": [t0, t1],
+                **({} if e_t is None else {"e_t": dict(e_t)})}
     return MoreauResult(
         **series_from_rows(rows, k, m),
         held=np.zeros(n, dtype=int),

@@ -16,6 +16,9 @@ class EventDrivenOptions:
     ``in_place`` is True for one-step integrators, which continue from a projected state;
     multistep ones restart. ``drift_threshold`` is the max |Psi| beyond which the state is
     projected after a step. ``t_eval`` is None or a sorted array within ``(t0, t1)``.
+    ``impact_options`` are the solver options forwarded to ``resolve_impact``;
+    ``tangential_restitution`` is the law's e_t per contact (law ``"chatterjee-ruina"``,
+    from ``impact_options["e_t"]``; None: the law's default).
     """
 
     t0: float
@@ -41,6 +44,7 @@ class EventDrivenOptions:
     max_impacts: int
     painleve: str = "stop"
     impacts: str = "simultaneous"
+    tangential_restitution: Mapping[str, float] | None = None
 
     def settings(self) -> dict[str, Any]:
         """The options as reported in :attr:`SimulationResult.settings`."""
@@ -54,4 +58,6 @@ class EventDrivenOptions:
             "max_impacts": int(self.max_impacts), "painleve": self.painleve,
             "impacts": self.impacts,
             "t_span": [self.t0, self.t1],
+            **({} if self.tangential_restitution is None
+               else {"e_t": dict(self.tangential_restitution)}),
         }

@@ -44,7 +44,8 @@ from .canonical import CanonicalEquations
 from .event_driven import MAX_EVENTS_AT_ONE_INSTANT  # noqa: F401  (re-exported)
 from .event_driven import EventDrivenRun
 from .initial import INTEGRATORS  # noqa: F401  (re-exported)
-from .initial import consistent_start, integrator_class, positive, state_vector, time_span
+from .initial import (consistent_start, integrator_class, law_options, positive, state_vector,
+                      time_span)
 from .options import EventDrivenOptions
 from .result import SimulationResult
 
@@ -159,7 +160,10 @@ def simulate(
         between (their contacts are compliant); Moreau-Jean time stepping resolves them
         simultaneously.
     impact_options : mapping, optional
-        Options forwarded to the impact solver.
+        Options forwarded to the impact solver, and the law's parameters beyond each
+        contact's e and mu: ``"e_t"``, the tangential restitution in [-1, 1] of law
+        ``"chatterjee-ruina"`` (one value, or a mapping contact name -> value; default 0),
+        refused with any other law before the run starts.
 
     Returns
     -------
@@ -196,9 +200,13 @@ def simulate(
     Raises
     ------
     ShapeError, NonFiniteError, ParameterError, UnknownOptionError
-        for malformed input (NaN in the state, non-increasing t_span, unknown names);
+        for malformed input (NaN in the state, non-increasing t_span, unknown names, ``e_t``
+        with a law that has none or outside [-1, 1]);
     LoopConstraintError
         for an initial state that violates the loops when ``assemble=False``;
+    NotSupportedError
+        from an impact the law does not define (``"chatterjee-ruina"`` at contacts closing
+        together that are dynamically coupled), with a note naming the instant;
     AssemblyError
         when ``assemble=True`` and the loops cannot be assembled;
     PenetrationError
@@ -214,6 +222,7 @@ def simulate(
 
     # ---- options ---------------------------------------------------------------------------
     check_law_method(law, method)
+    solver_options, e_t = law_options(law, impact_options, tuple(mech.contact_names))
     if zeno not in ZENO_POLICIES:
         raise UnknownOptionError(f"unknown zeno policy {zeno!r}; choose 'persist' or 'stop'")
     if impacts not in IMPACT_POLICIES:
@@ -241,12 +250,12 @@ def simulate(
     in_place = issubclass(solver_cls, ONE_STEP)
     options = EventDrivenOptions(
         t0=t0, t1=t1, t_eval=t_eval, dense_output=dense_output, law=law, method=method,
-        impact_options=dict(impact_options or {}), solver_cls=solver_cls, rtol=rtol, atol=atol,
+        impact_options=solver_options, solver_cls=solver_cls, rtol=rtol, atol=atol,
         max_step=max_step, first_step=first_step, event_tol=event_tol, contact_tol=contact_tol,
         projection_tol=projection_tol, in_place=in_place,
         drift_threshold=projection_tol if in_place else max(projection_tol, 1e3 * atol),
         zeno=zeno, zeno_time_tol=zeno_tol, rest_velocity=rest_velocity, max_impacts=max_impacts,
-        painleve=painleve, impacts=impacts)
+        painleve=painleve, impacts=impacts, tangential_restitution=e_t)
 
     # ---- initial state ---------------------------------------------------------------------
     if y0 is None:
