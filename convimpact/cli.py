@@ -43,29 +43,37 @@ def rod_on_floor(angle_deg: float = 30.0, vx: float = 1.0, vy: float = -1.0,
 def _demo(args) -> int:
     from . import LAWS, available_methods, resolve_impact
     from .impact.errors import ConvImpactError
+    from .impact.laws import TANGENTIAL_LAWS
 
-    from .impact.problem import check_friction, check_restitution
+    from .impact.problem.build import (check_friction, check_restitution,
+                                       check_tangential_restitution)
 
     check_restitution(args.e)
     check_friction(args.mu)
+    # e_t: the tangential restitution of the laws that have one (0 by default), not passed to
+    # the others
+    e_t = 0.0 if args.e_t is None else float(check_tangential_restitution(args.e_t)[0])
     M, Jc, dq = rod_on_floor(args.angle)
     rows = []
     for law in LAWS:
+        law_params = {"e_t": e_t} if law in TANGENTIAL_LAWS else {}
         for method in available_methods(law):
             if method == "interior":  # the several-contact solver: its own compile, not for one
                 continue
             try:
-                r = resolve_impact(M, Jc, dq, e=args.e, mu=args.mu, law=law, method=method)
+                r = resolve_impact(M, Jc, dq, e=args.e, mu=args.mu, law=law, method=method,
+                                   **law_params)
                 rows.append({"law": law, "method": method, **r.as_dict()})
             except ConvImpactError as exc:
                 rows.append({"law": law, "method": method, "error": str(exc)})
     if args.json:
         json.dump({"scene": "rod_on_floor", "angle_deg": args.angle, "e": args.e,
-                   "mu": args.mu, "results": rows}, sys.stdout, indent=2)
+                   "mu": args.mu, "e_t": e_t, "results": rows}, sys.stdout, indent=2)
         print()
         return 0
     print(f"slender rod (m = 1 kg, L = 1 m) at {args.angle:g} deg striking a floor, "
-          f"e = {args.e:g}, mu = {args.mu:g}; v- = {np.round(Jc @ dq, 4).tolist()} (n, t)")
+          f"e = {args.e:g}, mu = {args.mu:g}, e_t = {e_t:g} "
+          f"({', '.join(TANGENTIAL_LAWS)}); v- = {np.round(Jc @ dq, 4).tolist()} (n, t)")
     print(f"{'law':<18} {'method':<12} {'regime':<12} {'pi_n':>9} {'pi_t':>9} "
           f"{'v_n+':>8} {'v_t+':>8} {'T_L':>9}")
     for row in rows:
@@ -82,6 +90,9 @@ def _demo_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--angle", type=float, default=30.0, help="rod angle from the floor, degrees")
     p.add_argument("--e", type=float, default=0.5, help="coefficient of restitution")
     p.add_argument("--mu", type=float, default=0.3, help="coefficient of friction")
+    p.add_argument("--e-t", type=float, default=None,
+                   help="tangential restitution in [-1, 1] of law chatterjee-ruina (default 0; "
+                        "the other laws have none)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
 

@@ -9,6 +9,8 @@ also writes ``animation.gif``, the mechanism moving with its contacts coloured b
 built with ModelBuilder only).
 ``convimpact simulate --list`` names the scenes; ``convimpact simulate --bench [SCENE]``
 times them (RHS evaluations per second, wall time per simulated second, impact share).
+``--e-t`` sets the tangential restitution of ``--law chatterjee-ruina`` (every contact; the
+scene's contacts give e and mu); with another law it is refused.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..cli import command
-from ..impact.errors import NotSupportedError, ParameterError
+from ..impact.errors import NotSupportedError, ParameterError, UnknownOptionError
 from ..impact import LAWS, METHODS, available_methods
 from ..impact.results import _jsonable
 from ..scenes import list_scenes, load_scene
@@ -193,18 +195,34 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     return paths
 
 
+def _impact_options(args: argparse.Namespace) -> dict[str, Any]:
+    """``impact_options`` of the run: ``--e-t`` for the law that has a tangential restitution,
+    refused (UnknownOptionError) with any other."""
+    from ..impact.laws import TANGENTIAL_LAWS
+
+    if args.e_t is None:
+        return {}
+    if args.law not in TANGENTIAL_LAWS:
+        raise UnknownOptionError(
+            f"--e-t is the tangential restitution of law "
+            f"{', '.join(map(repr, TANGENTIAL_LAWS))}; --law {args.law} has none (drop --e-t "
+            f"or pass --law {TANGENTIAL_LAWS[0]})")
+    return {"e_t": args.e_t}
+
+
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``convimpact simulate``."""
     if args.list:
         for name in list_scenes():
             print(name)
         return 0
+    impact_options = _impact_options(args)
     if args.bench:
         from .benchmark import run_benchmark
 
         rows = run_benchmark([args.scene] if args.scene else None, repeats=args.repeats,
                              law=args.law, method=args.method, integrator=args.integrator,
-                             rtol=args.rtol, atol=args.atol)
+                             rtol=args.rtol, atol=args.atol, impact_options=impact_options)
         text = json.dumps(_strict(rows), indent=1)
         if args.out is not None:
             Path(args.out).mkdir(parents=True, exist_ok=True)
@@ -231,7 +249,8 @@ def run(args: argparse.Namespace) -> int:
     t_end = float(args.t_end) if args.t_end is not None else float(scene.t_end)
     res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
                    integrator=args.integrator, rtol=args.rtol, atol=args.atol,
-                   zeno=args.zeno, max_impacts=args.max_impacts, dense_output=True)
+                   zeno=args.zeno, max_impacts=args.max_impacts, dense_output=True,
+                   impact_options=impact_options)
     report = scene_report(scene, res)
     written: list[Path] = []
     if args.out is not None or not args.json:
@@ -249,7 +268,8 @@ def run(args: argparse.Namespace) -> int:
         json.dump(report, sys.stdout, indent=1)
         print()
         return 0 if res.success else 1
-    print(f"{scene.name}: t = [0, {t_end:g}] s, law {args.law}, method {args.method}, "
+    e_t = f" (e_t = {args.e_t:g})" if args.e_t is not None else ""
+    print(f"{scene.name}: t = [0, {t_end:g}] s, law {args.law}{e_t}, method {args.method}, "
           f"integrator {res.settings['integrator']}")
     print(f"  status {res.status}: {res.message}")
     print(f"  {len(res.impacts)} impacts, {len(res.contact_events)} contact switches, "
@@ -282,6 +302,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--list", action="store_true", help="name the scenes and exit")
     p.add_argument("--law", default="pereira-nikravesh", choices=LAWS, help="impact law")
     p.add_argument("--method", default="auto", choices=METHODS, help="impact solver path")
+    p.add_argument("--e-t", type=float, default=None,
+                   help="tangential restitution in [-1, 1] of --law chatterjee-ruina (default "
+                        "0); refused with the other laws")
     p.add_argument("--t-end", type=float, default=None, help="end time (default: the scene's)")
     p.add_argument("--out", default=None, help="output directory (default ./simulate-SCENE)")
     p.add_argument("--json", action="store_true", help="print the JSON report to stdout")
