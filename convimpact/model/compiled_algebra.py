@@ -12,41 +12,34 @@ here take that triple and return tuples of scalars or write in place:
   (:func:`cho_solve_vec`, :func:`cho_solve_mat`), and :func:`all_finite`: the simulator's
   right-hand side calls these directly.
 
-``_jit`` (entry points, with a CPython wrapper) and ``_int`` (called from compiled code only)
-are the ``njit`` options of every compiled module of the recursive algorithms
-(``cache=True``: the machine code is kept in ``__pycache__`` beside each module; numba checks
-a cached function against its own module only, so after editing a module in place that
-others call into, delete ``convimpact/model/__pycache__``).
+The compiled modules of the recursive algorithms decorate their entry points with
+:data:`convimpact.compiled.jit` and the functions called from compiled code only with
+:data:`convimpact.compiled.jit_internal` (no CPython wrapper), like every compiled function of
+the package: :mod:`convimpact.compiled` keeps their cache and retires it when any compiled
+source changes.
 """
 
 from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from ..compiled import jit, jit_internal
 from .tree_layout import NOT_DEFINITE, OK
-
-#: the entry points (with a CPython wrapper)
-_jit = njit(cache=True, nogil=True, error_model="numpy")
-#: internal functions, called from compiled code only
-_int = njit(cache=True, nogil=True, error_model="numpy", no_cpython_wrapper=True,
-            no_cfunc_wrapper=True)
 
 
 # ---- small algebra on (array, row, column offset) ---------------------------------------------
-@_int
+@jit_internal
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@_int
+@jit_internal
 def _dot6(A, i, a, B, j, b):
     return (A[i, a] * B[j, b] + A[i, a + 1] * B[j, b + 1] + A[i, a + 2] * B[j, b + 2]
             + A[i, a + 3] * B[j, b + 3] + A[i, a + 4] * B[j, b + 4] + A[i, a + 5] * B[j, b + 5])
 
 
-@_int
+@jit_internal
 def _mv(A, i, a, x0, x1, x2):
     """The 3 x 3 matrix stored row-major at A[i, a:a+9] times (x0, x1, x2)."""
     return (A[i, a] * x0 + A[i, a + 1] * x1 + A[i, a + 2] * x2,
@@ -54,7 +47,7 @@ def _mv(A, i, a, x0, x1, x2):
             A[i, a + 6] * x0 + A[i, a + 7] * x1 + A[i, a + 8] * x2)
 
 
-@_int
+@jit_internal
 def _mm(A, i, a, B, j, b, C, l, c):
     """C[l, c:c+9] = A[i, a:a+9] B[j, b:b+9] (3 x 3, row-major)."""
     for r in range(3):
@@ -63,7 +56,7 @@ def _mm(A, i, a, B, j, b, C, l, c):
             C[l, c + 3 * r + q] = a0 * B[j, b + q] + a1 * B[j, b + 3 + q] + a2 * B[j, b + 6 + q]
 
 
-@_int
+@jit_internal
 def _ymul(Y, i, y, X, j, x, O, l, o):
     """O[l, o:o+6] = Y X for the 10-number inertia Y[i, y:y+10] = (m, h, Ixx, Iyy, Izz, Ixy,
     Ixz, Iyz) about the origin and the motion X[j, x:x+6] = (v, w)."""
@@ -79,7 +72,7 @@ def _ymul(Y, i, y, X, j, x, O, l, o):
     O[l, o + 5] = (h0 * v1 - h1 * v0) + Y[i, y + 8] * w0 + Y[i, y + 9] * w1 + Y[i, y + 6] * w2
 
 
-@_int
+@jit_internal
 def _shift_add(Y, i, y, d0, d1, d2, O, l, o):
     """O[l, o:o+10] += the inertia Y[i, y:y+10] about a point A, expressed about B = A - d."""
     m = Y[i, y]
@@ -98,7 +91,7 @@ def _shift_add(Y, i, y, d0, d1, d2, O, l, o):
 
 
 # ---- dense Cholesky -------------------------------------------------------------------------
-@_int
+@jit_internal
 def _cholesky(M, L, k):
     for j in range(k):
         s = M[j, j]
@@ -116,14 +109,14 @@ def _cholesky(M, L, k):
     return OK
 
 
-@_jit
+@jit
 def cholesky(M, L):
     """Lower Cholesky factor of M into L (upper triangle untouched); False when M is not
     positive definite."""
     return _cholesky(M, L, M.shape[0]) == OK
 
 
-@_jit
+@jit
 def cho_solve_vec(L, b, out):
     """``out = (L L^T)^-1 b`` for a lower Cholesky factor L (out may be b)."""
     n = L.shape[0]
@@ -139,7 +132,7 @@ def cho_solve_vec(L, b, out):
         out[i] = s / L[i, i]
 
 
-@_jit
+@jit
 def cho_solve_mat(L, B, out):
     """``out = (L L^T)^-1 B`` column by column, B of shape (n, m) (out may be B)."""
     n = L.shape[0]
@@ -157,7 +150,7 @@ def cho_solve_mat(L, B, out):
             out[i, c] = s / L[i, i]
 
 
-@_jit
+@jit
 def all_finite(a):
     """True when every entry of the 1-D array ``a`` is finite."""
     for i in range(a.shape[0]):

@@ -37,9 +37,8 @@ helpers), and none of them imports it:
 
 * :mod:`~convimpact.model.tree_layout`: the stage flags and status codes, the layout of the
   work buffer (:class:`Layout`, :func:`work_shapes`, :func:`closures`);
-* :mod:`~convimpact.model.compiled_algebra`: the ``njit`` options, small spatial algebra and
-  dense Cholesky (:func:`cholesky`, :func:`cho_solve_vec`, :func:`cho_solve_mat`,
-  :func:`all_finite`);
+* :mod:`~convimpact.model.compiled_algebra`: small spatial algebra and dense Cholesky
+  (:func:`cholesky`, :func:`cho_solve_vec`, :func:`cho_solve_mat`, :func:`all_finite`);
 * :mod:`~convimpact.model.tree_kinematics`: placements, motion subspaces, velocities and
   :func:`point_columns`;
 * :mod:`~convimpact.model.tree_dynamics`: inertias, M (CRBA), f and p_dot (Newton-Euler),

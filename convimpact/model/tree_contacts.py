@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import math
 
-from .compiled_algebra import _cross, _int, _mv
+from ..compiled import jit_internal
+from .compiled_algebra import _cross, _mv
 from .tree_layout import (CI_AI, CI_AJ, CI_TARGET, CW_C, CW_E, CW_ED, CW_GAP, CW_NJ, CW_OK, CW_PI,
                           CW_PJ, CW_RI, CW_RJ, CW_TJ, CW_X, CW_XD, NI_PARENT, NW_P, NW_R, NW_S,
                           NW_SD, NW_V, PLANE, SC_W)
 
 
-@_int
+@jit_internal
 def _complement(n0, n1, n2):
     """(t1, t2) of :func:`convimpact.model.geometry.orthonormal_complement`."""
     a0, a1, a2 = abs(n0), abs(n1), abs(n2)
@@ -38,7 +39,7 @@ def _complement(n0, n1, n2):
     return t0, t1, t2, u0, u1, u2
 
 
-@_int
+@jit_internal
 def _complement_dot(n0, n1, n2, m0, m1, m2):
     """Time derivative of :func:`_complement` along n_dot = (m0, m1, m2): (t1_dot, t2_dot)."""
     a0, a1, a2 = abs(n0), abs(n1), abs(n2)
@@ -61,7 +62,7 @@ def _complement_dot(n0, n1, n2, m0, m1, m2):
     return td0, td1, td2, a0 + b0, a1 + b1, a2 + b2
 
 
-@_int
+@jit_internal
 def _columns(node, s, con, c, side, rows, sign, out, rate):
     """Contact c's Jacobian entries (or, with ``rate``, their rates) of node s for the rows,
     side 0 (body i, +) or 1 (body j, -): e_r . (S_lin + S_ang x (x - p_s)) and its time
@@ -91,7 +92,7 @@ def _columns(node, s, con, c, side, rows, sign, out, rate):
                          + con[c, e] * g0 + con[c, e + 1] * g1 + con[c, e + 2] * g2)
 
 
-@_int
+@jit_internal
 def _contacts(ni, ci, node, con, cj, scr, k, nc, planar):
     rows = 2 if planar else 3
     for c in range(nc):
@@ -156,7 +157,7 @@ def _contacts(ni, ci, node, con, cj, scr, k, nc, planar):
                 s = ni[s, NI_PARENT]
 
 
-@_int
+@jit_internal
 def _contacts_dot(ni, ci, node, con, cjd, scr, k, nc, planar):
     rows = 2 if planar else 3
     for c in range(nc):

@@ -18,13 +18,14 @@ With the world inertia of node j about its origin ``Y_j = (m, h = m c, I)`` (ten
 
 from __future__ import annotations
 
-from .compiled_algebra import _cross, _dot6, _int, _mm, _mv, _shift_add, _ymul
+from ..compiled import jit_internal
+from .compiled_algebra import _cross, _dot6, _mm, _mv, _shift_add, _ymul
 from .tree_layout import (MW_S, MW_SD, MW_V, MW_Y, MW_YC, NI_PARENT, NW_A, NW_COM, NW_F, NW_G, NW_H,
                           NW_IC, NW_MASS, NW_P, NW_R, NW_S, NW_SD, NW_V, NW_Y, NW_YC, SC_A, SC_B,
                           SC_GRAV, SC_W, SC_WD, V_BIAS, V_DTHETA, V_PDOT)
 
 
-@_int
+@jit_internal
 def _inertias(node, scr, k):
     """Y_j about the node's origin p_j: (m, h = m d, I_p) with d = R com (no p: exact for a
     body centred on its joint)."""
@@ -61,7 +62,7 @@ def _inertias(node, scr, k):
         node[j, y + 9] = I12 - m * d1 * d2
 
 
-@_int
+@jit_internal
 def _crba(ni, node, M, scr, k):
     """Composite inertias about each node's origin; M_ij = S_i . (Yc_j S_j) carried to p_i."""
     for j in range(k):
@@ -93,7 +94,7 @@ def _crba(ni, node, M, scr, k):
     # entries of two coordinates on different branches are never written: they stay zero
 
 
-@_int
+@jit_internal
 def _bias(ni, vec, node, scr, k):
     """Newton-Euler about each node's origin: (A_j, w_dot_j) the acceleration of p_j and the
     angular acceleration at theta_ddot = 0 from A_ground = -g; force and moment
@@ -182,7 +183,7 @@ def _bias(ni, vec, node, scr, k):
                 node[lam, col + 5] += node[j, col + 5] + t2
 
 
-@_int
+@jit_internal
 def _mass_matrix_dot(ni, node, YD, MD, mw, scr, k):
     """dM/dt by differentiating the CRBA in world coordinates about the origin (the node
     quantities are carried there first): M_dot_ij = S_dot_i . F1 + S_i . F2 with

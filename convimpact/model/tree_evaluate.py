@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from .compiled_algebra import _cholesky, _jit
+from ..compiled import jit
+from .compiled_algebra import _cholesky
 from .tree_contacts import _contacts, _contacts_dot
 from .tree_dynamics import _bias, _crba, _inertias, _mass_matrix_dot
 from .tree_kinematics import _positions, _velocities
@@ -33,7 +34,7 @@ from .tree_layout import (BIAS, BWC, CDOT, CHOL, CIC, CONTACT, CPOS, CWC, HAS_V,
                           W_MD, W_MW, W_NODE, W_SCR, W_VEC, W_YD)
 
 
-@_jit
+@jit
 def evaluate(flags, theta, dtheta, work):
     """Bring the stages in ``flags`` (and the stages they need) up to date at (theta,
     theta_dot); return a code of ``R_*`` bits (0: nothing new, nothing wrong).

@@ -20,14 +20,15 @@ import math
 
 import numpy as np
 
-from .compiled_algebra import _cross, _int, _jit, _mm, _mv
+from ..compiled import jit, jit_internal
+from .compiled_algebra import _cross, _mm, _mv
 from .tree_layout import (BW_ANG, BW_P, BW_R, BW_VO, BW_W, BW_XANG, BW_XP, BW_XR, H_K, H_OFF, I_NI,
                           NIC, NI_FIRST, NI_KIND, NI_PARENT, NWC, NW_ANG, NW_AXIS, NW_P, NW_R, NW_S,
                           NW_SD, NW_T0ANG, NW_T0P, NW_T0R, NW_V, N_WORK, REVOLUTE, SC_A, SC_B,
                           V_DTHETA, V_THETA, W_NODE)
 
 
-@_int
+@jit_internal
 def _positions(ni, bi, vec, node, body, scr, k, nb, nodes, n_nodes):
     """Placements and S of the nodes (all when ``nodes`` is empty: then the bodies' too)."""
     for jj in range(n_nodes if n_nodes >= 0 else k):
@@ -88,7 +89,7 @@ def _positions(ni, bi, vec, node, body, scr, k, nb, nodes, n_nodes):
         body[b, BW_ANG] = node[an, NW_ANG] + body[b, BW_XANG]
 
 
-@_int
+@jit_internal
 def _velocities(ni, bi, vec, node, body, k, nb):
     """Per node: (v_j, w_j), the velocity of its origin p_j and its angular velocity, and
     S_dot (about p_j) = crm(V of the frame carrying the axis) S."""
@@ -126,7 +127,7 @@ def _velocities(ni, bi, vec, node, body, k, nb):
         body[b, BW_W], body[b, BW_W + 1], body[b, BW_W + 2] = w0, w1, w2
 
 
-@_jit
+@jit
 def point_columns(work, node, x0, x1, x2, rate, J):
     """The Jacobian (rate = False) or its time derivative along the held velocity (rate =
     True) of the material point at world (x0, x1, x2) of the frame of ``node`` (-1: the
