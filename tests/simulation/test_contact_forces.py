@@ -1,6 +1,7 @@
 """The contact force problem of sustained contact (convimpact.simulation.contact_forces).
 
 References derived here by hand (a particle on a floor and on an incline, a box on two
+corners; the distribution among redundant contacts: a table on three legs, a box on four
 corners), the closed form of one planar contact against the general enumeration, and the
 ``coulomb`` impact law's conic path (Clarabel) on the same data: with every contact at zero
 slip the force problem is Coulomb's law with e = 0 for (a, lambda) instead of (v+, pi).
@@ -13,6 +14,7 @@ import pytest
 
 import convimpact as ci
 from convimpact.simulation.contact_forces import (ContactForceProblem, force_solutions,
+                                                  max_margin_distribution,
                                                   planar_contact_force, solve_contact_forces)
 
 G = 9.81
@@ -209,3 +211,136 @@ def test_bad_data_are_typed_errors():
         ContactForceProblem(np.eye(2), np.zeros(3), np.array([0.3]), np.zeros((1, 1)))
     with pytest.raises(ci.ShapeError):
         ContactForceProblem(np.eye(2), np.array([np.nan, 0.0]), np.array([0.3]), np.zeros((1, 1)))
+
+
+# The distribution among redundant contacts (max_margin_distribution): the largest smallest
+# margin, then the least norm among the distributions reaching it. References by hand.
+
+def _null(E):
+    """An orthonormal basis of the null space of E."""
+    _, sv, Vt = np.linalg.svd(E)
+    return Vt[int(np.sum(sv > 1e-12 * sv[0])):].T
+
+
+def _table_on_three_legs(mass=1.0, legs=(-0.3, 0.0, 0.3), com=0.05, height=0.1):
+    """A planar table at rest on three legs (x_i in the table's frame, its centre of mass at
+    x = com, the feet at height below it); forces (n_i, t_i) up and along +x. Equilibrium:
+    sum n = M g, sum t = 0, moments about the centre of mass sum (X_i n_i + h t_i) = 0 with
+    X_i = x_i - com. Returns (X, E, f): E lambda = f, lambda = (n1, t1, n2, t2, n3, t3)."""
+    X = np.asarray(legs, float) - com
+    E = np.zeros((3, 6))
+    E[0, 0::2] = 1.0
+    E[1, 1::2] = 1.0
+    E[2, 0::2], E[2, 1::2] = X, height
+    return X, E, np.array([mass * G, 0.0, 0.0])
+
+
+def _least_squares_legs(X, weight):
+    """min sum n_i^2 s.t. sum n = W, sum X n = 0, by Lagrange: n_i = a + b X_i, so
+    n_i = W (S2 - S1 X_i) / (3 S2 - S1^2), S1 = sum X, S2 = sum X^2 (and t = 0: the
+    tangential forces only have to sum to zero)."""
+    S1, S2 = X.sum(), (X ** 2).sum()
+    return weight * (S2 - S1 * X) / (3 * S2 - S1 ** 2)
+
+
+def _perturbed(lam0, Z, rng):
+    """The same data up to round-off: lam0 and Z to 1e-15 (relative), Z's columns mixed."""
+    R = np.linalg.qr(rng.normal(size=(Z.shape[1], Z.shape[1])))[0]
+    return (lam0 * (1 + 1e-15 * rng.normal(size=lam0.shape)),
+            (Z @ R) * (1 + 1e-15 * rng.normal(size=Z.shape)))
+
+
+def _block_and_table(mass_block=0.05, mu=0.5):
+    """A block sliding (its normal force m g, determinate) and a table at rest on three
+    legs in one problem: the block's margin lambda_n = m g binds whatever the legs carry, so
+    every distribution of the table with leg margins >= m g is a maximizer (a face)."""
+    X, E, f = _table_on_three_legs()
+    N = _null(E)
+    particular = np.linalg.lstsq(E, f, rcond=None)[0] + N @ np.array([0.4, -0.3, 0.2])
+    lam0 = np.r_[mass_block * G, -mu * mass_block * G, particular]  # not the least norm
+    Z = np.vstack([np.zeros((2, N.shape[1])), N])
+    return X, lam0, Z, [mu] * 4, ["slip", "stick", "stick", "stick"]
+
+
+def test_on_a_face_of_maximizers_the_table_carries_its_least_squares_loads():
+    X, lam0, Z, mu, combo = _block_and_table()
+    # by hand: X = (-0.35, -0.05, 0.25), S1 = -0.15, S2 = 0.1875: n = M g (1/4, 1/3, 5/12)
+    n = _least_squares_legs(X, G)
+    np.testing.assert_allclose(n, G * np.array([1 / 4, 1 / 3, 5 / 12]), rtol=1e-14)
+    assert 0.5 * n.min() > 0.05 * G  # the legs' least-squares margins exceed the block's
+    lam, margin = max_margin_distribution(np.array(mu), 2, combo, lam0, Z, float(G))
+    f = lam.reshape(4, 2)
+    np.testing.assert_allclose(f[0], [0.05 * G, -0.5 * 0.05 * G], rtol=1e-13)
+    np.testing.assert_allclose(f[1:, 0], n, rtol=1e-10)
+    np.testing.assert_allclose(f[1:, 1], 0.0, atol=1e-10 * G)
+    assert margin == pytest.approx(0.05 * G, rel=1e-10)  # the block's, the largest possible
+
+
+def test_where_the_maximizer_is_one_point_the_margins_come_first():
+    """The table alone: margins mu n_i - |t_i| (t = 0 is best); along the redundant
+    direction n = n_LS + s (1, -2, 1) the smallest margin is largest where the two lighter
+    legs balance, n1 + s = n2 - 2 s, s = (n2 - n1) / 3 = M g / 36: n = M g (5/18, 5/18, 4/9),
+    not the least-squares M g (1/4, 1/3, 5/12)."""
+    X, E, f = _table_on_three_legs()
+    N = _null(E)
+    lam0 = np.linalg.lstsq(E, f, rcond=None)[0]  # the least-squares distribution
+    lam, margin = max_margin_distribution(np.array([0.5] * 3), 2, ["stick"] * 3, lam0, N,
+                                          float(G))
+    np.testing.assert_allclose(lam.reshape(3, 2)[:, 0], G * np.array([5 / 18, 5 / 18, 4 / 9]),
+                               rtol=1e-10)
+    np.testing.assert_allclose(lam.reshape(3, 2)[:, 1], 0.0, atol=1e-10 * G)
+    assert margin == pytest.approx(0.5 * G * 5 / 18, rel=1e-10)
+
+
+def _box_on_four_corners(m=1.0, a=0.4, c=0.3, h=0.2):
+    """A box at rest on four corners (r_i = (+-a/2, -h/2, +-c/2) from its centre of mass),
+    forces (n, t1, t2) along (y, x, z). Equilibrium: sum f = (0, m g, 0) and
+    sum r_i x f_i = 0; returns (E, rhs) for lambda = (n1, t1x, t1z, ..., n4, t4x, t4z)."""
+    E = np.zeros((6, 12))
+    for i, (sx, sz) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        r = np.array([sx * a / 2, -h / 2, sz * c / 2])
+        for j, axis in enumerate((1, 0, 2)):  # n along y, t1 along x, t2 along z
+            e = np.zeros(3)
+            e[axis] = 1.0
+            E[:3, 3 * i + j] = e
+            E[3:, 3 * i + j] = np.cross(r, e)
+    return E, np.r_[0.0, m * G, 0.0, 0.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_distribution_is_the_same_when_the_data_move_by_round_off(seed):
+    """1e-15 (relative) on lam0 and Z, and Z's columns mixed: the same numbers, by hand."""
+    rng = np.random.default_rng(seed)
+    # the box at rest: m g / 4 per corner, no tangential force
+    E, rhs = _box_on_four_corners()
+    N = _null(E)
+    lam0 = np.linalg.lstsq(E, rhs, rcond=None)[0] + N @ rng.normal(size=N.shape[1])
+    lam0, Z = _perturbed(lam0, N, rng)
+    lam, margin = max_margin_distribution(np.array([0.3] * 4), 3, ["stick"] * 4, lam0, Z,
+                                          float(G))
+    np.testing.assert_allclose(lam.reshape(4, 3)[:, 0], G / 4, rtol=1e-12)
+    np.testing.assert_allclose(lam.reshape(4, 3)[:, 1:], 0.0, atol=1e-12 * G)
+    assert margin == pytest.approx(0.3 * G / 4, rel=1e-12)
+    # the block and the table: the table's least-squares loads, M g (1/4, 1/3, 5/12)
+    _, lam0, Z, mu, combo = _block_and_table()
+    lam0, Z = _perturbed(lam0, Z, rng)
+    lam, _ = max_margin_distribution(np.array(mu), 2, combo, lam0, Z, float(G))
+    np.testing.assert_allclose(lam.reshape(4, 2)[1:, 0], G * np.array([1 / 4, 1 / 3, 5 / 12]),
+                               rtol=1e-10)
+    np.testing.assert_allclose(lam.reshape(4, 2)[1:, 1], 0.0, atol=1e-10 * G)
+
+
+def test_an_unconverged_cone_program_raises_instead_of_answering(monkeypatch):
+    import clarabel
+
+    original = clarabel.DefaultSettings
+
+    def two_iterations():
+        settings = original()
+        settings.max_iter = 2
+        return settings
+
+    monkeypatch.setattr(clarabel, "DefaultSettings", two_iterations)
+    _, lam0, Z, mu, combo = _block_and_table()
+    with pytest.raises(ci.SolverError, match="Clarabel MaxIterations"):
+        max_margin_distribution(np.array(mu), 2, combo, lam0, Z, float(G))

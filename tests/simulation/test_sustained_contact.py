@@ -232,3 +232,33 @@ def test_spatial_box_on_four_corners_slides_to_rest_in_its_launch_direction():
     np.testing.assert_allclose(normal[res.contact_mode[1:, 0] == 1], m * cf.G / 4, rtol=1e-8)
     assert_coulomb(res, mech)
     _energy_never_rises_between_impacts(res)
+
+
+def test_spatial_box_at_rest_off_centre_carries_the_least_squares_loads_without_squeezing():
+    """Four corners, the centre of mass e off the middle along x: the normal forces are the
+    least-squares solution of the three equilibrium equations (sum n = m g, sum x_i n_i =
+    m g e, sum z_i n_i = 0 with corners at x_i = +-a/2, z_i = +-c/2), n_i = m g (1/4 +
+    s_i e / (2 a)), and no tangential force: the lightly loaded corners bind, the heavily
+    loaded ones could also squeeze each other without losing the largest margin; the least
+    norm leaves them unsqueezed."""
+    from convimpact.model import Joint, ModelBuilder
+    b = ModelBuilder(planar=False)
+    m, a, c, h, mu, e = 1.0, 0.4, 0.3, 0.2, 0.3, 0.05
+    inertia = np.diag([m * (c * c + h * h), m * (a * a + c * c), m * (a * a + h * h)]) / 12
+    b.add_body("box", "ground", Joint.free(), m, (0, 0, 0), inertia, joint_name="float")
+    signs = [(-1, -1), (1, -1), (1, 1), (-1, 1)]
+    for i, (sx, sz) in enumerate(signs):
+        b.add_contact(f"c{i}", body="box", point=(sx * a / 2 - e, -h / 2, sz * c / 2),
+                      normal=(0, 1, 0), plane_point=(0, 0, 0), e=0.0, mu=mu)
+    mech = b.build().mechanism()
+    th0 = np.zeros(6)
+    th0[1] = h / 2
+    res = ci.simulate(mech, (0.0, 0.2), (th0, np.zeros(6)))
+    for name in mech.contact_names:
+        assert [iv.mode for iv in res.modes_of(name)] == ["stick"]
+    expected = m * cf.G * np.array([0.25 + sx * e / (2 * a) for sx, _ in signs])
+    force = res.contact_force[1:]
+    np.testing.assert_allclose(force[:, :, 0], np.broadcast_to(expected, force.shape[:2]),
+                               rtol=1e-12)
+    np.testing.assert_allclose(force[:, :, 1:], 0.0, atol=1e-12 * m * cf.G)
+    assert_coulomb(res, mech)
