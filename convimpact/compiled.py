@@ -323,20 +323,39 @@ def announce(what: str, seconds: float, *dispatchers) -> bool:
     return True
 
 
+def _plain(fn):
+    """The decorator without numba: the function itself, run by Python."""
+    return fn
+
+
 def __getattr__(name):
     # numba is imported here, on the first read of ``jit`` or ``jit_internal`` (by a kernel
     # module)
     global _JIT, _JIT_INTERNAL
     if name in ("jit", "jit_internal"):
         if _JIT is None:
-            from numba import njit
-
-            _register()
-            _JIT = njit(**JIT_OPTIONS)
-            _JIT_INTERNAL = njit(**JIT_INTERNAL_OPTIONS)
+            try:
+                from numba import njit
+            except ImportError as exc:  # the same code, run as plain Python
+                warnings.warn(
+                    f"numba could not be imported ({exc}): convimpact's kernels run as plain "
+                    "Python -- the same code and answers, some 100 times slower; install "
+                    "numba (a dependency of convimpact) for compiled speed", RuntimeWarning,
+                    stacklevel=2)
+                _JIT = _JIT_INTERNAL = _plain
+            else:
+                _register()
+                _JIT = njit(**JIT_OPTIONS)
+                _JIT_INTERNAL = njit(**JIT_INTERNAL_OPTIONS)
         return _JIT if name == "jit" else _JIT_INTERNAL
+    if name == "literally":  # compile for a value as a constant; the value itself in Python
+        try:
+            from numba import literally
+        except ImportError:
+            return _plain
+        return literally
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["jit", "jit_internal", "JIT_OPTIONS", "JIT_INTERNAL_OPTIONS", "ENV", "cache_root",
+__all__ = ["jit", "jit_internal", "literally", "JIT_OPTIONS", "JIT_INTERNAL_OPTIONS", "ENV", "cache_root",
            "cache_dir", "compiled_sources", "source_key", "cached", "announce"]

@@ -3,14 +3,15 @@
 For every law, planar (d = 2, k = 2..6) and spatial (d = 3, k = 3..6; with k = 2 a spatial W is
 singular and every frictional impact is rejected) contacts, on N random impacts (SPD M, random
 Jc with the normal row turned so that the contact approaches, dq ~ N(0, 1), e ~ U(0, 1),
-mu ~ U(0, 1.5): a mix of sticking and sliding), four paths are timed:
+mu ~ U(0, 1.5): a mix of sticking and sliding; ``chatterjee-ruina`` also takes e_t ~ U(-1, 1)
+per item, drawn apart so that its items are the other laws'), four paths are timed:
 
-* ``resolve_impacts``: :func:`convimpact.impact.batch.resolve_impacts` on the whole batch, split
+* ``resolve_impacts``: :func:`convimpact.impact.batch.impacts.resolve_impacts` on the whole batch, split
   over the process's cores (its default), and ``resolve_impacts 1 thread`` on one thread
   (validation, W and v-, the kernel, dq+, energies and flags), compiled;
-* ``contact_impulses``: :func:`convimpact.impact.batch.contact_impulses` from the batch's
+* ``contact_impulses``: :func:`convimpact.impact.batch.impacts.contact_impulses` from the batch's
   (W, v-) (the kernel alone, plus v+ and the energy loss), compiled;
-* ``loop solve_contact``: a plain Python loop over :func:`convimpact.impact.fast.solve_contact`
+* ``loop solve_contact``: a plain Python loop over :func:`convimpact.impact.exact.dispatch.solve_contact`
   on the same (W, v-) (the fast kernel, impulses only);
 * ``loop resolve_impact``: a plain Python loop over ``resolve_impact(..., method="fast")``
   (full validation and result), the per-impact public path.
@@ -39,10 +40,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..impact.lane import HOT_CALLS
+from ..impact.exact.lane import HOT_CALLS
 from .registry import BenchConfig, Progress, SectionResult, register_section
 
-LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge")
+LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge", "chatterjee-ruina")
 #: laws whose spatial items integrate a curved slip (tens of microseconds per item, compiled):
 #: their spatial batches take the first 1/SLOW_SPATIAL_SHARE of the items, so that the
 #: section's time stays that of the other laws
@@ -75,6 +76,18 @@ def random_batch(seed: int, n: int, d: int, k: int) -> dict[str, np.ndarray]:
             "mu": rng.uniform(0.0, 1.5, n)}
 
 
+def with_law_parameters(data: dict[str, np.ndarray], law: str, seed: int) -> dict[str, np.ndarray]:
+    """``data`` with the law's parameters beyond e and mu: e_t ~ U(-1, 1) per item for the
+    laws with a tangential restitution (``chatterjee-ruina``), drawn from a stream of its own
+    so that the items are those of the other laws."""
+    from convimpact.impact.laws import TANGENTIAL_LAWS
+
+    if law not in TANGENTIAL_LAWS:
+        return data
+    e_t = np.random.default_rng([seed, 1]).uniform(-1.0, 1.0, len(data["e"]))
+    return {**data, "e_t": e_t}
+
+
 def _timed(fn: Callable[[], Any], repeat: int) -> tuple[float, float, float, Any]:
     """(median wall s, iqr wall s, median CPU s, value) of ``fn()`` after one warm-up call."""
     value = fn()
@@ -95,9 +108,10 @@ def _deviation(b, data: dict[str, np.ndarray], law: str, n: int) -> tuple[float,
 
     worst, mismatch = 0.0, 0
     for i in range(n):
+        extra = {"e_t": data["e_t"][i]} if "e_t" in data else {}
         try:
             r = ci.resolve_impact(data["M"][i], data["Jc"][i], data["dq"][i], data["e"][i],
-                                  data["mu"][i], law=law, method="fast")
+                                  data["mu"][i], law=law, method="fast", **extra)
         except ci.ConvImpactError:
             mismatch += int(b.status[i] == 0)
             continue
@@ -112,14 +126,14 @@ def _deviation(b, data: dict[str, np.ndarray], law: str, n: int) -> tuple[float,
 
 
 def compile_times(cold: bool) -> dict[str, Any]:
-    """Seconds of :func:`convimpact.impact.lane.compile_lane` (resolve_impact's compiled lane,
-    both tiers, numba imported by it) and :func:`convimpact.impact.batch.compile_kernels` in fresh
+    """Seconds of :func:`convimpact.impact.exact.lane.compile_lane` (resolve_impact's compiled lane,
+    both tiers, numba imported by it) and :func:`convimpact.impact.batch.impacts.compile_kernels` in fresh
     subprocesses: with an empty numba cache (``cold``, when asked) and then with the cache it
     wrote (warm); plus the import of convimpact."""
     code = ("import json, time; t = time.perf_counter(); import convimpact; "
             "t1 = time.perf_counter() - t; "
-            "from convimpact.impact import lane as L; L.compile_lane(); "
-            "from convimpact.impact.batch import compile_kernels; "
+            "from convimpact.impact.exact import lane as L; L.compile_lane(); "
+            "from convimpact.impact.batch.impacts import compile_kernels; "
             "print(json.dumps({'import_convimpact': t1, 'lane': L.COMPILE_SECONDS['lane'], "
             "'lane_solve': L.COMPILE_SECONDS.get('lane_solve', 0.0), **compile_kernels()}))")
     out: dict[str, Any] = {}
@@ -145,16 +159,12 @@ def compile_times(cold: bool) -> dict[str, Any]:
                            "contact_impulses per law, planar and spatial, k = 2..6, against "
                            "Python loops over the fast kernel and over resolve_impact")
 def batch_section(config: BenchConfig, progress: Progress) -> SectionResult:
-    from convimpact.impact.batch import compile_kernels, contact_impulses, resolve_impacts
-    from convimpact.impact.errors import NotSupportedError
-    from convimpact.impact.fast import solve_contact
+    from convimpact.impact.batch.impacts import compile_kernels, contact_impulses, resolve_impacts
+    from convimpact.impact.exact.dispatch import solve_contact
     import convimpact as ci
 
     t = time.perf_counter()
-    try:
-        first = compile_kernels()
-    except NotSupportedError as exc:  # numba is optional (the batch extra): nothing to time
-        return skipped_section(str(exc), progress)
+    first = compile_kernels()
     first["total"] = time.perf_counter() - t
     progress(f"batch: kernels ready in {first['total']:.2f} s (first call in this process)")
     n_batch = BATCH_N[1] if config.quick else BATCH_N[0]
@@ -168,23 +178,29 @@ def batch_section(config: BenchConfig, progress: Progress) -> SectionResult:
                 data = {key: val[:n_batch // SLOW_SPATIAL_SHARE] for key, val in full.items()}
             else:
                 data = full
+            data = with_law_parameters(data, law, config.seed + 10 * d + k)
             n_items = len(data["e"])
             wall, iqr, cpu, b = _timed(lambda: resolve_impacts(**data, law=law), config.repeat)
             W, v = b.delassus, b.v_minus
             e, mu = data["e"], data["mu"]
+            # e_t per item for the laws that have one, 0 (unused) for the others
+            et = data.get("e_t", np.zeros(n_items))
+            law_kw = {"e_t": et} if "e_t" in data else {}
             # the kernel sees the friction resolve_impacts used (build_problem's rule)
             rows = [("resolve_impacts", n_items, wall, iqr, cpu)]
             w1, i1, c1, _ = _timed(lambda: resolve_impacts(**data, law=law, threads=1),
                                    config.repeat)
             rows.append(("resolve_impacts 1 thread", n_items, w1, i1, c1))
-            w2, i2, c2, _ = _timed(lambda: contact_impulses(W, v, e, mu, law), config.repeat)
+            w2, i2, c2, _ = _timed(lambda: contact_impulses(W, v, e, mu, law, **law_kw),
+                                   config.repeat)
             rows.append(("contact_impulses", n_items, w2, i2, c2))
-            Wl, vl = list(W[:n_loop]), list(v[:n_loop])
+            Wl, vl, etl = list(W[:n_loop]), list(v[:n_loop]), et[:n_loop].tolist()
+            public_kw = [{"e_t": x} for x in etl] if law_kw else [{}] * n_loop
 
             def loop_kernel():
                 for i in range(n_loop):
                     try:
-                        solve_contact(Wl[i], vl[i], e[i], mu[i], law)
+                        solve_contact(Wl[i], vl[i], e[i], mu[i], law, etl[i])
                     except ci.ConvImpactError:
                         pass
 
@@ -192,7 +208,7 @@ def batch_section(config: BenchConfig, progress: Progress) -> SectionResult:
                 for i in range(n_loop):
                     try:
                         ci.resolve_impact(data["M"][i], data["Jc"][i], data["dq"][i], e[i],
-                                          mu[i], law=law, method="fast")
+                                          mu[i], law=law, method="fast", **public_kw[i])
                     except ci.ConvImpactError:
                         pass
 

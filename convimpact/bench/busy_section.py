@@ -187,7 +187,7 @@ def measure(params: dict[str, Any]) -> dict[str, Any]:
     ``params``: ``quick`` (bool), ``seed`` (int), ``cases`` (names, default all).
     """
     import convimpact as ci
-    from convimpact.impact import lane
+    from convimpact.impact.exact import lane
 
     quick = bool(params.get("quick"))
     calls, budget, warmup = CALLS[quick], BUDGET[quick], WARMUP[quick]

@@ -13,7 +13,7 @@ from typing import Any, Callable, Mapping
 
 from ..impact import LAWS, available_methods
 from ..impact.conic.qp import DEFAULT_TOL  # the conic paths' default tolerance
-from ..impact.problem import ImpactProblem
+from ..impact.problem.build import ImpactProblem
 
 #: tolerance of the tight reference for several contacts
 REFERENCE_TOL = 1e-12
@@ -55,7 +55,7 @@ class SolverPath:
 
 
 def _fast_kernel(problem: ImpactProblem, law: str):
-    from ..impact.fast import solve_contact
+    from ..impact.exact.dispatch import solve_contact
 
     W, v = problem.contact_block(0)
     e, mu = float(problem.restitution[0]), float(problem.friction[0])

@@ -7,7 +7,7 @@ For each problem of :func:`~convimpact.bench.problems.problem_suite`, each law (
 * ``time_full``: ``solve_problem(problem, law, method, **options)`` on the prebuilt problem
   (median and interquartile range of the per-call time over timed batches after a warm-up);
 * ``time_kernel``: the bare kernel on the contact block where one exists (``fast``:
-  :func:`convimpact.impact.fast.solve_contact`; closed form:
+  :func:`convimpact.impact.exact.dispatch.solve_contact`; closed form:
   :func:`convimpact.impact.laws.pereira_nikravesh.pereira_nikravesh`; Pinocchio's ADMM/PGS: the solver call);
 * ``impulse_error = |pi - pi_ref| / |pi_ref|`` and
   ``velocity_error = |dq+ - dq+_ref| / |dq-|`` against a tight reference: ``fast`` for one
@@ -27,7 +27,7 @@ import numpy as np
 
 from ..impact.errors import ConvImpactError
 from ..impact import LAWS, available_methods, solve_problem
-from ..impact.problem import ImpactProblem, build_problem
+from ..impact.problem.build import ImpactProblem, build_problem
 from . import pinocchio_peers as peers
 from .paths import SolverPath, reference_paths, solver_paths
 from .per_impact_laws import law_speed_chart, law_speed_summary
@@ -316,11 +316,17 @@ def summarize(aggs: list[dict[str, Any]], records: list[dict[str, Any]]) -> list
     multi = {r["problem"] for r in records if r["n_contacts"] > 1}
     pn_inf = {r["problem"] for r in records if r["n_contacts"] > 1
               and r["law"] == "pereira-nikravesh" and r["error_type"] == "SolverError"}
+    cr_coupled = {r["problem"] for r in records if r["n_contacts"] > 1
+                  and r["law"] == "chatterjee-ruina" and r["error_type"] == "NotSupportedError"}
     if multi:
         lines.append(f"pereira-nikravesh with several contacts: P_N raised SolverError "
                      f"(Newton's restitution infeasible at every approaching contact) on "
                      f"{len(pn_inf)} of {len(multi)} several-contact problems; the other laws "
                      "let contacts separate")
+        lines.append(f"chatterjee-ruina with several contacts: NotSupportedError (the law is "
+                     f"defined per contact; coupled contacts, W not block-diagonal) on "
+                     f"{len(cr_coupled)} of {len(multi)} several-contact problems, solved "
+                     "contact by contact on the others")
     n_fail = [r for r in records if r["status"] != "ok"]
     kinds = defaultdict(int)
     for r in n_fail:

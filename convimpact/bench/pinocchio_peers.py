@@ -24,7 +24,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..impact.problem import ImpactProblem
+from ..impact.problem.build import ImpactProblem
 
 #: (label, law, solver kind, solve_ncp)
 CONTACT_PEERS = (

@@ -18,7 +18,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.problem import ImpactProblem, build_problem
+from ..impact.problem.build import ImpactProblem, build_problem
 
 #: problem classes (one chart panel each), in panel order
 CLASSES = tuple(f"{geo}, {num}, {loop}" for geo in ("planar", "spatial")
@@ -41,7 +41,7 @@ class BenchProblem:
     problem_class : one of :data:`CLASSES`.
     source : ``"random"`` or ``"scene"``.
     args : the raw ``resolve_impact`` arguments M, Jc, dq, C, e, mu.
-    problem : the validated :class:`~convimpact.impact.problem.ImpactProblem`.
+    problem : the validated :class:`~convimpact.impact.problem.build.ImpactProblem`.
     info : JSON-ready facts (k, n_contacts, dim, n_loops, mass condition, e, mu, ...).
     """
 

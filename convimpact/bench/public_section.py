@@ -8,9 +8,9 @@ divided by their number (µs per impact):
 
 * ``resolve_impact``: the public call, ``method="auto"`` (full validation, the law, dq+, the
   result; diagnostics measured on first access and not read here);
-* ``python kernel``: :func:`convimpact.impact.fast.solve_contact` on the problem's (W, v-) --
+* ``python kernel``: :func:`convimpact.impact.exact.dispatch.solve_contact` on the problem's (W, v-) --
   the law's exact Python kernel, impulse only;
-* ``compiled kernel``: :func:`convimpact.impact.batch.contact_impulses` on all the problems'
+* ``compiled kernel``: :func:`convimpact.impact.batch.impacts.contact_impulses` on all the problems'
   (W, v-) at once, per impact -- the compiled kernel without per-call overhead;
 * ``pinocchio ADMM`` (``ccp``: ``solve_ncp=False``; ``coulomb``: ``True``) and ``pinocchio PGS``
   (``coulomb``) on the same W at tolerance 1e-10 (:mod:`convimpact.bench.pinocchio_peers`;
@@ -20,7 +20,10 @@ Accuracy: the largest impulse error relative to |pi| against an independent refe
 law's convex program through Clarabel at tolerance 1e-12 for ``ccp`` and ``dissipative``
 (``method="clarabel"``; unique answers), and the Python kernel (a second implementation of
 the compiled one) for the Newton laws whose answers are not conic programs
-(``pereira-nikravesh``, ``stronge``). Coulomb's law may have several solutions at one spatial
+(``pereira-nikravesh``, ``stronge``), and the law's definition evaluated in numpy for
+``chatterjee-ruina`` (J_I = -(v_n / W_nn) n, J_II = -W^-1 v, (1 + e) J_I + (1 + e_t)(J_II - J_I)
+brought back into the cone along J_II - J_I; its e_t ~ U(-1, 1) per problem, drawn apart so
+that the other laws' problems are unchanged). Coulomb's law may have several solutions at one spatial
 contact (its kernel lists them in ``extras["n_slide_solutions"]``; Clarabel's fixed point and
 Pinocchio may land on another): its accuracy is Coulomb's own residual
 (:func:`convimpact.impact.laws.coulomb.coulomb_residual`: cone, dual cone and
@@ -38,7 +41,7 @@ import numpy as np
 
 from .registry import BenchConfig, Progress, SectionResult, register_section
 
-LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge")
+LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge", "chatterjee-ruina")
 SHAPES = ((2, 2), (2, 4), (3, 3), (3, 6))
 #: problems per (law, shape) (full, quick)
 N_PROBLEMS = (60, 12)
@@ -54,7 +57,9 @@ PEERS = {"ccp": (("pinocchio ADMM", "admm", False),),
 PATHS = ("resolve_impact", "python kernel", "compiled kernel", "pinocchio ADMM", "pinocchio PGS")
 
 
-def _problems(seed: int, n: int, d: int, k: int) -> list[dict[str, Any]]:
+def _problems(seed: int, n: int, d: int, k: int, law: str = "") -> list[dict[str, Any]]:
+    from convimpact.impact.laws import TANGENTIAL_LAWS
+
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(n):
@@ -66,7 +71,27 @@ def _problems(seed: int, n: int, d: int, k: int) -> list[dict[str, Any]]:
             J[0] = -J[0]
         out.append({"M": M, "Jc": J, "dq": dq, "e": float(rng.uniform()),
                     "mu": float(rng.uniform(0.0, 1.5))})
+    if law in TANGENTIAL_LAWS:  # its e_t from a stream of its own: the problems are the same
+        et = np.random.default_rng([seed, 1]).uniform(-1.0, 1.0, n)
+        for p, x in zip(out, et):
+            p["e_t"] = float(x)
     return out
+
+
+def chatterjee_ruina_reference(W: np.ndarray, v: np.ndarray, e: float, mu: float,
+                               e_t: float) -> np.ndarray:
+    """Law ``chatterjee-ruina``'s impulse from its definition, in numpy (the reference its
+    kernels are measured against): the plastic frictionless and sticking impulses J_I and J_II,
+    J^ = (1 + e) J_I + (1 + e_t)(J_II - J_I), kept when in the cone, else
+    (1 + e) J_I + kappa (J_II - J_I) on its boundary."""
+    j1 = np.zeros_like(v)
+    j1[0] = -v[0] / W[0, 0]
+    b = -np.linalg.solve(W, v) - j1
+    J = (1.0 + e) * j1 + (1.0 + e_t) * b
+    if np.linalg.norm(J[1:]) <= mu * J[0]:
+        return J
+    kappa = mu * (1.0 + e) * j1[0] / (np.linalg.norm(b[1:]) - mu * b[0])
+    return (1.0 + e) * j1 + kappa * b
 
 
 #: shortest timed batch (seconds): the loops take about a millisecond, and a burst of load on
@@ -108,10 +133,10 @@ def _error(a: np.ndarray, ref) -> float:
                             "and compiled kernels and Pinocchio's ADMM/PGS, planar and spatial")
 def public_section(config: BenchConfig, progress: Progress) -> SectionResult:
     import convimpact as ci
-    from convimpact.impact import lane
-    from convimpact.impact.batch import contact_impulses
-    from convimpact.impact.fast import solve_contact
-    from convimpact.impact.problem import build_problem
+    from convimpact.impact.exact import lane
+    from convimpact.impact.batch.impacts import contact_impulses
+    from convimpact.impact.exact.dispatch import solve_contact
+    from convimpact.impact.problem.build import build_problem
 
     from .pinocchio_peers import contact_solver_call, pinocchio_version
 
@@ -124,12 +149,18 @@ def public_section(config: BenchConfig, progress: Progress) -> SectionResult:
     failures: list[str] = []
     for d, k in SHAPES:
         for law in LAWS:
-            probs = _problems(config.seed + 100 * d + k, n, d, k)
-            P = [build_problem(p["M"], p["Jc"], p["dq"], p["e"], p["mu"]) for p in probs]
+            probs = _problems(config.seed + 100 * d + k, n, d, k, law)
+            P = [build_problem(p["M"], p["Jc"], p["dq"], p["e"], p["mu"], None, p.get("e_t"))
+                 for p in probs]
             W = np.array([q.delassus for q in P])
             v = np.array([q.v_minus[0] for q in P])
             e = np.array([p["e"] for p in probs])
             mu = np.array([q.friction[0] for q in P])
+            # the law's parameters beyond e and mu (e_t), per problem, for the laws with them
+            tangential = "e_t" in probs[0]
+            et = np.array([p["e_t"] for p in probs]) if tangential else np.zeros(n)
+            extra = [{"e_t": p["e_t"]} if tangential else {} for p in probs]
+            batch_extra = {"e_t": et} if tangential else {}
             public = [ci.resolve_impact(**p, law=law) for p in probs]
             if law in CONIC_REFERENCE:
                 ref = [ci.solve_problem(q, law, "clarabel", tol=1e-12).impulse for q in P]
@@ -137,6 +168,10 @@ def public_section(config: BenchConfig, progress: Progress) -> SectionResult:
             elif law == "coulomb":
                 ref = [_CoulombCertificate(W[i], v[i], e[i], mu[i]) for i in range(n)]
                 ref_name = "Coulomb residual"
+            elif law == "chatterjee-ruina":
+                ref = [chatterjee_ruina_reference(W[i], v[i], e[i], mu[i], et[i])
+                       for i in range(n)]
+                ref_name = "the law's definition in numpy"
             else:
                 ref = [np.asarray(solve_contact(W[i], v[i], e[i], mu[i], law).impulse)
                        for i in range(n)]
@@ -144,24 +179,26 @@ def public_section(config: BenchConfig, progress: Progress) -> SectionResult:
             rows: list[tuple[str, float, float]] = []
 
             def public_loop():
-                for p in probs:
-                    ci.resolve_impact(p["M"], p["Jc"], p["dq"], p["e"], p["mu"], law=law)
+                for p, x in zip(probs, extra):
+                    ci.resolve_impact(p["M"], p["Jc"], p["dq"], p["e"], p["mu"], law=law, **x)
 
             err = max(_error(r.impulse, ref[i]) for i, r in enumerate(public))
             rows.append(("resolve_impact", _per_impact(public_loop, n, config), err))
-            Wl, vl = list(W), list(v)
+            Wl, vl, etl = list(W), list(v), et.tolist()
 
             def kernel_loop():
                 for i in range(n):
-                    solve_contact(Wl[i], vl[i], e[i], mu[i], law)
+                    solve_contact(Wl[i], vl[i], e[i], mu[i], law, etl[i])
 
-            err = max(_error(np.asarray(solve_contact(W[i], v[i], e[i], mu[i], law).impulse),
+            err = max(_error(np.asarray(solve_contact(W[i], v[i], e[i], mu[i], law,
+                                                      etl[i]).impulse),
                              ref[i]) for i in range(n))
             rows.append(("python kernel", _per_impact(kernel_loop, n, config), err))
-            b = contact_impulses(W, v, e, mu, law, threads=1)
+            b = contact_impulses(W, v, e, mu, law, threads=1, **batch_extra)
             err = max(_error(b.impulse[i], ref[i]) for i in range(n))
             rows.append(("compiled kernel", _per_impact(
-                lambda: contact_impulses(W, v, e, mu, law, threads=1), n, config), err))
+                lambda: contact_impulses(W, v, e, mu, law, threads=1, **batch_extra), n,
+                config), err))
             for label, kind, ncp in (PEERS.get(law, ()) if have_pin else ()):
                 calls = [contact_solver_call(q, kind, ncp, 1e-10) for q in P]
                 try:
@@ -250,7 +287,7 @@ def _chart(records: list[dict[str, Any]], out: Path) -> str:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), sharey=True)
     markers = {"resolve_impact": "o", "python kernel": "s", "compiled kernel": "^",
                "pinocchio ADMM": "D", "pinocchio PGS": "v"}
-    colors = dict(zip(LAWS, ("C0", "C1", "C2", "C3", "C4")))
+    colors = dict(zip(LAWS, ("C0", "C1", "C2", "C3", "C4", "C5")))
     for ax, d in zip(axes, (2, 3)):
         for r in records:
             if r["d"] != d:

@@ -7,7 +7,7 @@ demo of :mod:`convimpact.cli` when the scenes do not import). Measured:
   mu (the paper's Figs. 5-7);
 * :func:`convimpact.studies.landscape.contact_landscape` for every law on a grid large enough
   for the compiled batch (:data:`~convimpact.studies.landscape.BATCH_MIN_POINTS` points or more:
-  one :func:`~convimpact.impact.batch.contact_impulses` call, then numpy over the grid);
+  one :func:`~convimpact.impact.batch.impacts.contact_impulses` call, then numpy over the grid);
 * :func:`convimpact.studies.landscape.law_landscape`, one ``solve_problem`` per point, for every law
   and every method registered for it (mu >= 0).
 

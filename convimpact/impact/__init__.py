@@ -1,22 +1,23 @@
-"""One impact: the problem, the laws, the solver paths, the result.
+"""One impact: the problem, the laws, the solver paths, the result -- in the order an impact
+takes them (each folder's docstring tells its part in a few lines):
 
-The data path inside this package:
+1. :mod:`~convimpact.impact.problem`: validate ``M, Jc, dq, e, mu, C`` and reduce them to
+   contact space: the Delassus matrix W (closed loops folded in, eqs. 43-52) and v-;
+2. :mod:`~convimpact.impact.laws`: one module per law -- its definition, its exact
+   single-contact kernel (compiled: the only implementation, which every path runs), its cone
+   program(s) -- and the compiled algebra they share; the table ``LAW_MODULES`` lists them;
+3. the solver paths, which :mod:`~convimpact.impact.resolve` picks from an explicit table
+   (``resolve_impact``, ``solve_problem``):
+   :mod:`~convimpact.impact.exact` (the kernels, one contact: the compiled lane, the paper's
+   closed forms and sweep), :mod:`~convimpact.impact.contacts` (the several-contact interior
+   point), :mod:`~convimpact.impact.conic` (any law's cone program by Clarabel, directly or
+   through cvxpy: the cross-check); :mod:`~convimpact.impact.batch` drives the same kernels
+   over many impacts at once;
+4. :mod:`~convimpact.impact.diagnostics` turns an impulse into an
+   :class:`~convimpact.impact.results.ImpactResult` with the law's invariants measured;
+   :mod:`~convimpact.impact.energy` holds the paper's energy formulas (eqs. 58-62).
 
-* :mod:`~convimpact.impact.problem` validates ``M, Jc, dq, e, mu, C`` and reduces them to
-  contact space (the Delassus matrix W with closed loops folded in, eqs. 43-52);
-* :mod:`~convimpact.impact.resolve` picks a law and a solver path (``resolve_impact``,
-  ``solve_problem``, the registry of ``(law, method)`` solvers);
-* :mod:`~convimpact.impact.laws` holds one module per law: its definition, its exact
-  single-contact kernel and its cone program(s); :mod:`~convimpact.impact.fast` dispatches one
-  contact to the kernels, which share :mod:`~convimpact.impact.small_linalg` (2x2, 3x3 solves
-  on floats), :mod:`~convimpact.impact.boundary` (roots on the cone's boundary) and
-  :mod:`~convimpact.impact.max_dissipation` (the direction of eq. 60);
-  :mod:`~convimpact.impact.conic` solves any law's cone program with Clarabel (directly or
-  through cvxpy); :mod:`~convimpact.impact.sweep` is the paper's own 1-D search of the angle;
-* :mod:`~convimpact.impact.diagnostics` turns an impulse into an
-  :class:`~convimpact.impact.results.ImpactResult` with the law's invariants measured;
-* :mod:`~convimpact.impact.energy` holds the paper's energy formulas (eqs. 58-62);
-* :mod:`~convimpact.impact.errors` is the exception hierarchy the whole library raises.
+:mod:`~convimpact.impact.errors` is the exception hierarchy the whole library raises.
 """
 
 from __future__ import annotations
@@ -30,15 +31,15 @@ from .energy import (
     oblique_energy_loss,
     stiction_interval,
 )
-from .closed_forms import (
+from .exact.closed_forms import (
     frictionless_impulse,
     pereira_nikravesh,
     sliding_impulse,
     stick_admissible,
     sticking_impulse,
 )
-from .batch import ContactBatch, ImpactBatch, contact_impulses, resolve_impacts
-from .problem import ImpactProblem, build_problem
+from .batch.impacts import ContactBatch, ImpactBatch, contact_impulses, resolve_impacts
+from .problem.build import ImpactProblem, build_problem
 from .resolve import (
     LAWS,
     METHODS,

@@ -22,7 +22,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from .errors import NonFiniteError
-from .problem import ImpactProblem, _new
+from .problem.build import ImpactProblem, _new
 from .results import ImpactDiagnostics, ImpactResult
 
 _TINY = 1e-300

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import NonFiniteError, ShapeError, SingularSystemError, as_real_array, real_number
-from .problem import build_problem, check_friction, check_mass_matrix, check_restitution
-from .reduction import _reduce
+from .problem.build import build_problem, check_friction, check_mass_matrix, check_restitution
+from .problem.reduction import _reduce
 
 
 def _vector(name: str, x, k: int) -> np.ndarray:

@@ -23,9 +23,9 @@ from .errors import (
     SolverError,
     UnknownOptionError,
 )
-from .lane import resolve_one
+from .exact.lane import resolve_one
 from .laws import LAW_MODULES, TANGENTIAL_LAWS, law_module
-from .problem import ImpactProblem, build_problem
+from .problem.build import ImpactProblem, build_problem
 from .results import ImpactResult
 
 LAWS = tuple(LAW_MODULES)
@@ -37,17 +37,17 @@ Solver = Callable[..., ImpactResult]
 #: every law has -> the factory ``make(law, method) -> solver`` that builds it from the law's
 #: module (its compiled kernel ``contact_kernel``, its cone program ``program_result``)
 GENERIC_SOLVERS: dict[str, str] = {
-    "fast": "convimpact.impact.fast:kernel_solver",
+    "fast": "convimpact.impact.exact.dispatch:kernel_solver",
     "clarabel": "convimpact.impact.conic.paths:conic_solver",
     "cvxpy": "convimpact.impact.conic.paths:conic_solver",
 }
 #: the paths of some laws only: (law, method) -> the solver ``solver(problem, **options)``
 SPECIFIC_SOLVERS: dict[tuple[str, str], str] = {
     ("pereira-nikravesh", "closed-form"): "convimpact.impact.laws.pereira_nikravesh:closed_form",
-    ("pereira-nikravesh", "sweep"): "convimpact.impact.sweep:pereira_nikravesh_sweep",
-    ("ccp", "interior"): "convimpact.impact.several_contacts:ccp_result",
-    ("coulomb", "interior"): "convimpact.impact.several_contacts:coulomb_result",
-    ("dissipative", "interior"): "convimpact.impact.several_contacts:dissipative_result",
+    ("pereira-nikravesh", "sweep"): "convimpact.impact.exact.sweep:pereira_nikravesh_sweep",
+    ("ccp", "interior"): "convimpact.impact.contacts.interior:ccp_result",
+    ("coulomb", "interior"): "convimpact.impact.contacts.interior:coulomb_result",
+    ("dissipative", "interior"): "convimpact.impact.contacts.interior:dissipative_result",
 }
 #: the solvers built from the tables (on first use) and those given to register_solver
 _SOLVERS: dict[tuple[str, str], Solver] = {}
@@ -160,7 +160,7 @@ def _separating(problem: ImpactProblem, law: str, method: str) -> ImpactResult:
 
 def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
                   method: str = "auto", **options) -> ImpactResult:
-    """Resolve an already validated :class:`~convimpact.impact.problem.ImpactProblem`.
+    """Resolve an already validated :class:`~convimpact.impact.problem.build.ImpactProblem`.
 
     With ``method="auto"`` the cheapest exact method is tried first; where it cannot treat the
     problem because the Delassus matrix is singular (the closed forms and ``fast`` invert it),
@@ -228,7 +228,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     method : {"auto", "closed-form", "sweep", "fast", "interior", "clarabel", "cvxpy"}
         The solver path; ``"auto"`` picks the cheapest one exact for the problem. One
         open-loop contact (``fast``) and several under ``interior`` run in compiled lanes
-        (:mod:`convimpact.impact.lane`, :mod:`convimpact.impact.several_lane`) when the data
+        (:mod:`convimpact.impact.exact.lane`, :mod:`convimpact.impact.contacts.lane`) when the data
         are plain; any other case takes the full path, with the same answers to round-off.
     e_t : float or per-contact sequence, optional
         Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0); the
@@ -274,7 +274,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     e_t = check_law_parameters(law, e_t)
     if C is None and not options and type(Jc) is np.ndarray and Jc.ndim == 2 \
             and (method == "auto" or method == "fast"):
-        # one open-loop contact: the compiled lane (convimpact.impact.lane), which hands
+        # one open-loop contact: the compiled lane (convimpact.impact.exact.lane), which hands
         # every case but the plain one back to the full path below
         kernel = _fast_kernel(law)
         if kernel is not None:
@@ -285,7 +285,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
             (method == "auto" and law in INTERIOR_FIRST)
             or (method == "interior" and law in INTERIOR_LANE)):
         # several open-loop contacts on the interior path: the compiled lane
-        # (convimpact.impact.several_lane), which hands every case but the plain one back
+        # (convimpact.impact.contacts.lane), which hands every case but the plain one back
         result = _several_lane()(M, Jc, dq, e, mu, law)
         if result is not None:
             return result
@@ -306,12 +306,12 @@ def check_law_parameters(law: str, e_t):
 
 
 def _several_lane():
-    """The several-contact lane's entry (:func:`convimpact.impact.several_lane.resolve_several`),
+    """The several-contact lane's entry (:func:`convimpact.impact.contacts.lane.resolve_several`),
     imported on first use."""
     global _SEVERAL_LANE
     lane = _SEVERAL_LANE
     if lane is None:
-        from .several_lane import resolve_several as lane
+        from .contacts.lane import resolve_several as lane
 
         _SEVERAL_LANE = lane
     return lane

@@ -11,7 +11,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..impact.errors import ShapeError
-from ..impact.problem import build_problem, check_restitution
+from ..impact.problem.build import build_problem, check_restitution
 from ..impact.results import _fields_as_json
 
 
@@ -30,7 +30,7 @@ class AngleLandscape:
     admissible : the sliding denominator D(alpha) = c_n^T G (c_n + mu c_t) is positive.
     energy_gained : admissible directions with T_L < 0 (the paper's sector alpha_0..alpha_1).
     alpha_m : (ne, nmu) exact angle of maximal dissipation
-        (:func:`~convimpact.impact.max_dissipation.max_dissipation_direction`),
+        (:func:`~convimpact.impact.laws.max_dissipation.max_dissipation_direction`),
         in [0, 2 pi); NaN for mu = 0.
     energy_loss_max, normal_impulse_max_dissipation : T_L and pi_n at ``alpha_m``.
     meta : the impact state (v_minus, energy_before).
@@ -69,8 +69,8 @@ def angle_landscape(M, Jc, dq, e, mu, alpha, C=None) -> AngleLandscape:
     AngleLandscape
     """
     from ..impact.errors import ParameterError
-    from ..impact.max_dissipation import max_dissipation_direction
-    from ..impact.problem import check_friction
+    from ..impact.laws.max_dissipation import max_dissipation_direction
+    from ..impact.problem.build import check_friction
 
     e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
     mu = check_friction(np.atleast_1d(np.asarray(mu, float)), np.size(mu))

@@ -6,7 +6,7 @@ and count the modes over all the individual problems:
 
 Impact laws (:data:`IMPACT_MODES`): one :func:`convimpact.solve_problem` per problem and path,
 except on the open-loop pendulum maps, whose ``"fast"`` paths judge all the map's problems in
-one compiled batch per path (:func:`convimpact.impact.batch.resolve_impacts`; a rejected item's
+one compiled batch per path (:func:`convimpact.impact.batch.impacts.resolve_impacts`; a rejected item's
 status is named by the typed error ``resolve_impact(..., method="fast")`` raises for it). The
 answers, and so the maps, are the same: the problems whose W is within
 :data:`~convimpact.studies.atlas_modes.FRAGILE_RTOL` of singular (their answer hinges on W's

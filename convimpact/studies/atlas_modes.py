@@ -3,7 +3,7 @@
 :func:`classify_impact` judges one impact under one (law, method); :func:`classify_error` names the
 mode of a typed error; :class:`AtlasMap` holds one map of the atlas. A map judges all its samples
 at once (:func:`_classify_samples`): the ``"fast"`` paths on open-loop single-contact samples go
-through one compiled batch per path (:func:`convimpact.impact.batch.resolve_impacts`, same
+through one compiled batch per path (:func:`convimpact.impact.batch.impacts.resolve_impacts`, same
 answers as one ``resolve_impact(..., method="fast")`` per sample), the other paths per sample.
 The modes and thresholds are defined in :mod:`convimpact.studies.atlas`; the maps are built in
 :mod:`convimpact.studies.atlas_impact_maps` and :mod:`convimpact.studies.atlas_simulation_maps`.
@@ -27,7 +27,7 @@ from ..impact.errors import (
     SolverError,
 )
 from ..impact import solve_problem
-from ..impact.problem import build_problem
+from ..impact.problem.build import build_problem
 
 IMPACT_MODES = ("energy_gain", "slip_reversal", "friction_pushes_slip",
                 "non_positive_effective_mass", "singular_delassus", "singular_loop",
@@ -39,7 +39,8 @@ DEFAULT_PATHS = (("pereira-nikravesh", "closed-form"), ("pereira-nikravesh", "fa
                  ("pereira-nikravesh", "clarabel"), ("coulomb", "fast"),
                  ("coulomb", "clarabel"), ("ccp", "fast"), ("ccp", "clarabel"),
                  ("dissipative", "fast"), ("dissipative", "clarabel"), ("stronge", "fast"),
-                 ("stronge", "clarabel"))
+                 ("stronge", "clarabel"), ("chatterjee-ruina", "fast"),
+                 ("chatterjee-ruina", "clarabel"))
 #: joint rates of the double pendulum tried in each cell (rad/s)
 PENDULUM_RATES = ((1.0, 1.0), (1.0, -1.0), (-1.0, 2.0))
 
@@ -226,7 +227,7 @@ def _relative_det(W: np.ndarray) -> np.ndarray:
 def _batch_fast(law: str, samples: Sequence[_Sample], todo: Sequence[int]
                 ) -> tuple[dict[int, tuple[tuple[str, ...], str]], set[int]]:
     """Judgments of the samples ``todo`` (approaching, open-loop, one contact) under
-    (law, "fast") through :func:`convimpact.impact.batch.resolve_impacts`, one batch per shape
+    (law, "fast") through :func:`convimpact.impact.batch.impacts.resolve_impacts`, one batch per shape
     of (M, Jc), on this thread only (``threads=1``: the atlas's studies already run maps in
     parallel processes); item i equals ``resolve_impact(..., method="fast")`` to round-off.
 
@@ -244,7 +245,7 @@ def _batch_fast(law: str, samples: Sequence[_Sample], todo: Sequence[int]
     fragile : set of int
         The sample indices (among ``judged``) to judge per sample instead.
     """
-    from ..impact import batch as B
+    from ..impact.batch import impacts as B
 
     groups: dict[tuple, list[int]] = {}
     for i in todo:

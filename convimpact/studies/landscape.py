@@ -9,11 +9,13 @@ Painleve-like jam) carry NaN *and* are marked in ``jammed``; no NaN appears anyw
 
 :func:`law_landscape` evaluates any law/method of :func:`convimpact.resolve_impact` (mu >= 0)
 point by point on one validated problem, reusing the solver's compiled program, with a
-progress bar on long runs.
+progress bar on long runs. A law's parameter beyond e and mu (the tangential restitution
+``e_t`` of ``"chatterjee-ruina"``) is one value for the whole landscape, given as ``e_t=``
+to it and to :func:`contact_landscape` (refused with the other laws) and kept in ``meta``.
 
 :func:`contact_landscape` evaluates any law with the exact single-contact kernels of
 ``method="fast"``: the contact-space data are reduced once, the grid is solved by the
-compiled batch (:func:`convimpact.impact.batch.contact_impulses`; one Python kernel call per
+compiled batch (:func:`convimpact.impact.batch.impacts.contact_impulses`; one Python kernel call per
 point only where the batch has no compiled kernel, or without numba), and energy, velocities
 and the diagnostics' flags are computed in numpy over the grid (identical flags to
 :func:`law_landscape`).
@@ -39,7 +41,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..impact.errors import ConvImpactError, ShapeError
-from ..impact.problem import ImpactProblem, build_problem, check_restitution
+from ..impact.problem.build import ImpactProblem, build_problem, check_restitution
 from ..impact.results import _fields_as_json
 from .angle_landscape import AngleLandscape, angle_landscape  # noqa: F401  (this API)
 from .stick_boundary import (  # noqa: F401  (this API)
@@ -241,18 +243,21 @@ class _Progress:
 
 
 def law_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb", method: str = "auto",
-                  progress: bool = True, **options) -> Landscape:
+                  progress: bool = True, *, e_t=None, **options) -> Landscape:
     """Evaluate ``resolve_impact`` over a grid of e and mu (mu >= 0) for one impact state.
 
+    ``e_t`` is the tangential restitution of law ``"chatterjee-ruina"`` (in [-1, 1], default 0;
+    one value for the whole grid, recorded in ``meta``), refused with the other laws.
     Points where the law raises a :class:`~convimpact.impact.errors.ConvImpactError` are marked in
     ``failed`` (and ``jammed`` for a non-positive effective mass) with NaN values there.
     """
     from ..impact.errors import NonPositiveEffectiveMassError
     from ..impact import choose_method, solve_problem
 
+    e_t = _law_parameters(law, e_t)
     e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
     mu = np.atleast_1d(np.asarray(mu, float))
-    base = build_problem(M, Jc, dq, 0.0, 0.0, C)
+    base = build_problem(M, Jc, dq, 0.0, 0.0, C, e_t)
     d = base.dim
     if method == "auto":
         method = choose_method(base, law)
@@ -269,7 +274,7 @@ def law_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb", method: str = 
         for j, mj in enumerate(mu):
             P = build_problem(base.mass_matrix, list(base.jacobians) if not base.single
                               else base.jacobians[0], base.dq_minus, ei, mj,
-                              base.loop_jacobian if base.n_loops else None)
+                              base.loop_jacobian if base.n_loops else None, e_t)
             try:
                 r = solve_problem(P, law, method, **options)
             except NonPositiveEffectiveMassError:
@@ -301,27 +306,38 @@ def law_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb", method: str = 
         e=e, mu=mu, energy_loss=TL, energy_loss_fraction=TL / T_minus, normal_impulse=pn,
         tangential_impulse=pt, v_plus=vp, tangential_velocity=tangential_velocity,
         regime=regime, stick_possible=stick_possible, law=law, method=method,
-        meta=MappingProxyType({"v_minus": base.v_minus[0].tolist(), "energy_before": T_minus}),
+        meta=MappingProxyType({"v_minus": base.v_minus[0].tolist(), "energy_before": T_minus,
+                               **({} if e_t is None else {"e_t": e_t})}),
         **flags,
     )
 
 
+def _law_parameters(law: str, e_t) -> float | None:
+    """The landscape's tangential restitution: checked in [-1, 1] for a law that has one
+    (default 0), None for the others; given to another law, UnknownOptionError."""
+    from ..impact.problem.build import check_tangential_restitution
+    from ..impact.resolve import check_law_parameters
+
+    e_t = check_law_parameters(law, e_t)
+    return None if e_t is None else float(check_tangential_restitution(e_t)[0])
+
+
 def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
-                      progress: bool = True) -> Landscape:
+                      progress: bool = True, *, e_t=None) -> Landscape:
     """Any law over a grid of e and mu (mu >= 0) with the exact single-contact kernels.
 
     The contact-space data (Delassus block ``W`` with the loops folded in, ``v-``) are computed
     once; a grid of at least :data:`BATCH_MIN_POINTS` points is then solved in one call of the
     compiled batch
-    :func:`convimpact.impact.batch.contact_impulses` (item for item the kernel of
-    ``method="fast"``, :func:`convimpact.impact.fast.solve_contact`, to round-off), and
+    :func:`convimpact.impact.batch.impacts.contact_impulses` (item for item the kernel of
+    ``method="fast"``, :func:`convimpact.impact.exact.dispatch.solve_contact`, to round-off), and
     everything after the impulse -- energy loss (eq. 58 in contact space), post-impact velocity
     and the failure flags -- is evaluated in numpy over the whole grid, with the same
     definitions and tolerance as :func:`convimpact.impact.diagnostics.assemble_result` for
     ``method="fast"``. Planar or spatial, one contact. Where the batch has no compiled kernel
     (``"stronge"`` in space, whose curved slip is integrated) it solves the points one at a time
     with the Python kernel; a smaller grid, or any grid without numba, takes one
-    :func:`~convimpact.impact.fast.solve_contact` call per point (same answers to round-off;
+    :func:`~convimpact.impact.exact.dispatch.solve_contact` call per point (same answers to round-off;
     below that size the loop costs less than the batch's one-time compilation, so a first
     ``convimpact paper`` compiles nothing for its landscapes).
 
@@ -332,6 +348,9 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     mu : (nmu,) array_like of friction coefficients >= 0.
     law : one of :data:`convimpact.LAWS`.
     progress : show a progress bar on stderr when the per-point loop is long.
+    e_t : float, optional
+        Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0), one value
+        for the grid (kept in ``meta``); refused with the other laws.
 
     Returns
     -------
@@ -341,11 +360,12 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
         ``stick_possible`` marks the points where the law stuck.
     """
     from ..impact.errors import UnknownOptionError
-    from ..impact.fast import FAST_LAWS, FAST_TOL
-    from ..impact.problem import check_friction
+    from ..impact.exact.dispatch import FAST_LAWS, FAST_TOL
+    from ..impact.problem.build import check_friction
 
     if law not in FAST_LAWS:
         raise UnknownOptionError(f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
+    e_t = _law_parameters(law, e_t)
     e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
     mu = check_friction(np.atleast_1d(np.asarray(mu, float)), np.size(mu))
     P = build_problem(M, Jc, dq, 0.0, 0.0, C)
@@ -353,29 +373,32 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
         raise ShapeError("contact_landscape takes one contact Jacobian (d x k)")
     W, v = P.contact_block(0)
     shape = (e.size, mu.size)
-    solved = _batch_grid(W, v, e, mu, law) if e.size * mu.size >= BATCH_MIN_POINTS else None
+    solved = (_batch_grid(W, v, e, mu, law, e_t) if e.size * mu.size >= BATCH_MIN_POINTS
+              else None)
     if solved is None:
-        solved = _loop_grid(W, v, e, mu, law, progress)
+        solved = _loop_grid(W, v, e, mu, law, progress, e_t)
     pi, regime, jam, failed = solved
     return _landscape_from_impulses(P, e, mu, pi.reshape(shape + (P.dim,)),
                                     regime.reshape(shape), jam.reshape(shape),
-                                    failed.reshape(shape), law, "fast", FAST_TOL)
+                                    failed.reshape(shape), law, "fast", FAST_TOL,
+                                    {} if e_t is None else {"e_t": e_t})
 
 
-def _batch_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law: str):
+def _batch_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law: str,
+                e_t: float | None = None):
     """(pi, regime, jam, failed) over the flattened grid from the compiled batch, or None when
     the batch does not treat ``law`` or numba is missing."""
     from ..impact.errors import NotSupportedError
 
     try:
-        from ..impact import batch
+        from ..impact.batch import impacts as batch
     except ImportError:  # pragma: no cover - the module itself imports nothing optional
         return None
     if law not in batch.LAW_CODES:
         return None
     E, MU = np.meshgrid(e, mu, indexing="ij")
     try:
-        b = batch.contact_impulses(W, v, E.ravel(), MU.ravel(), law)
+        b = batch.contact_impulses(W, v, E.ravel(), MU.ravel(), law, e_t=e_t)
     except NotSupportedError:  # no numba: the per-point loop gives the same answers
         return None
     failed = b.status != batch.OK
@@ -385,10 +408,10 @@ def _batch_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law
 
 
 def _loop_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law: str,
-               progress: bool):
+               progress: bool, e_t: float | None = None):
     """(pi, regime, jam, failed) over the flattened grid, one kernel call per point."""
     from ..impact.errors import NonPositiveEffectiveMassError
-    from ..impact.fast import solve_contact
+    from ..impact.exact.dispatch import solve_contact
 
     n = e.size * mu.size
     pi = np.full((n, v.size), np.nan)
@@ -400,7 +423,8 @@ def _loop_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law:
     for ei in e:
         for mj in mu:
             try:
-                sol = solve_contact(W, v, float(ei), float(mj), law)
+                sol = solve_contact(W, v, float(ei), float(mj), law,
+                                    0.0 if e_t is None else e_t)
             except NonPositiveEffectiveMassError:
                 jam[k] = failed[k] = True
             except ConvImpactError:
@@ -415,8 +439,9 @@ def _loop_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law:
 
 
 def _landscape_from_impulses(P: ImpactProblem, e, mu, pi, regime, jam, failed, law, method,
-                             tol) -> Landscape:
-    """Energy, velocities and the diagnostics' flags of a grid of contact impulses."""
+                             tol, law_meta: Mapping[str, Any] | None = None) -> Landscape:
+    """Energy, velocities and the diagnostics' flags of a grid of contact impulses
+    (``law_meta``: the law's parameters beyond e and mu, kept in ``meta``)."""
     W, v = P.contact_block(0)
     tiny = 1e-300
     T_minus = P.kinetic_energy(P.dq_minus)
@@ -449,6 +474,7 @@ def _landscape_from_impulses(P: ImpactProblem, e, mu, pi, regime, jam, failed, l
         energy_gained=gained, friction_pushes_slip=pushes, slip_reversal=reversal, jammed=jam,
         failed=failed, stick_possible=regime == REGIMES.index("stick"), law=law, method=method,
         meta=MappingProxyType({"v_minus": v.tolist(), "energy_before": T_minus,
-                               **(_sticking_meta(W, v) if P.planar else {})}),
+                               **(_sticking_meta(W, v) if P.planar else {}),
+                               **(law_meta or {})}),
     )
 

@@ -313,8 +313,8 @@ def _law_landscapes(examples, n: int) -> dict[str, Any]:
 def fig9_data(example: PaperExample, n_alpha: int) -> dict[str, Any]:
     """Energy loss and normal impulse versus the tangent angle alpha (Fig. 9), with alpha_m."""
     from .landscape import angle_landscape
-    from ..impact.problem import build_problem
-    from ..impact.sweep import sweep_direction
+    from ..impact.problem.build import build_problem
+    from ..impact.exact.sweep import sweep_direction
 
     alpha = np.linspace(0.0, 2.0 * np.pi, n_alpha)
     A = angle_landscape(example.M, example.Jc, example.dq, [example.e], [example.mu], alpha,

@@ -180,8 +180,10 @@ def plot_landscape(L: Landscape, quantity: str = "tangential_velocity", ax=None,
             if ok.sum() >= 2:
                 ax.plot(np.where(ok, x, np.nan), e_c, **stick_style)
                 drawn = True
-        rule = (r"$\mu \geq \max(|W_{tn}|/W_{tt}, -s\,\pi_t/\pi_n)$" if L.law == "stronge"
-                else r"$|\mu| \geq |\pi_t|/\pi_n$ of eq. (42)")
+        rule = {"stronge": r"$\mu \geq \max(|W_{tn}|/W_{tt}, -s\,\pi_t/\pi_n)$",
+                "chatterjee-ruina": r"$\mu \geq |\hat J_t|/\hat J_n$, "
+                                    r"$\hat J = (1+e) J_I + (1+e_t)(J_{II} - J_I)$",
+                }.get(L.law, r"$|\mu| \geq |\pi_t|/\pi_n$ of eq. (42)")
         if drawn:
             handles.append(plt.Line2D([], [], **stick_style,
                                       label=f"stick boundary: sticks where {rule}"))

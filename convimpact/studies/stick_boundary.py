@@ -13,7 +13,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..impact.errors import ShapeError
-from ..impact.problem import ImpactProblem, build_problem
+from ..impact.problem.build import ImpactProblem, build_problem
 
 
 def _planar_problem(M, Jc, dq, C) -> ImpactProblem:
@@ -34,13 +34,15 @@ def _sticking_meta(W: np.ndarray, v: np.ndarray) -> dict[str, Any]:
             "sticking_impulse_de": (-Winv[:, 0] * v[0]).tolist(),
             # law "stronge": the stick ratio |W_tn| / W_tt and the pre-impact slip's sign
             "stick_ratio": abs(float(W[0, 1])) / float(W[1, 1]),
-            "slip_sign": float(np.sign(v[1]))}
+            "slip_sign": float(np.sign(v[1])),
+            # law "chatterjee-ruina": the frictionless plastic impulse's normal component
+            "frictionless_impulse_e0": -float(v[0]) / float(W[0, 0])}
 
 
 #: laws whose single-contact stick test is the sticking impulse of eq. (42)/(52) in the cone
 _STICK_AT_E = ("pereira-nikravesh", "coulomb", "ccp")
 #: laws with an exact stick boundary (:class:`StickBoundary`)
-_STICK_LAWS = _STICK_AT_E + ("dissipative", "stronge")
+_STICK_LAWS = _STICK_AT_E + ("dissipative", "stronge", "chatterjee-ruina")
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +67,13 @@ class StickBoundary:
     i.e. mu pi_n(e) >= -s pi_t(e) with the same sticking impulse: so
     mu_star(e) = max(``stick_ratio``, -s pi_t(e) / pi_n(e)) (where pi_n(e) > 0; ``inf``
     elsewhere), and ``stick_ratio`` alone with no pre-impact slip (s = 0).
+
+    ``chatterjee-ruina`` sticks where its candidate J^(e) = (1 + e) J_I + k (J_II - J_I) lies
+    in the cone (k = 1 + e_t; J_I = (-v_n/W_nn, 0) the frictionless plastic impulse, J_II the
+    sticking impulse at e = 0). J^ is affine in e too: ``pi0`` = k J_II + (1 - k) J_I and
+    ``pi1`` = J_I take the place of the sticking impulse's, and mu_star(e) = |J^_t| / J^_n
+    as above (its tangential part k (J_II - J_I)_t does not depend on e, so the curve has no
+    kink and never reaches mu = 0 unless J_II stops the slip with no tangential impulse).
     """
 
     pi0: np.ndarray
@@ -74,7 +83,8 @@ class StickBoundary:
     slip_sign: float = 1.0
 
     def sticking_impulse(self, e) -> np.ndarray:
-        """(pi_n, pi_t) of eq. (42)/(52) at e, shape (..., 2); at e = 0 for ``dissipative``."""
+        """(pi_n, pi_t) of eq. (42)/(52) at e, shape (..., 2); at e = 0 for ``dissipative``;
+        the candidate J^(e) for ``chatterjee-ruina``."""
         e = np.asarray(e, float)
         if self.law == "dissipative":
             e = np.zeros_like(e)
@@ -144,32 +154,48 @@ class StickBoundary:
         return e[keep], np.minimum(m[keep], mu_max)
 
 
-def stick_boundary(M, Jc, dq, C=None, law: str = "pereira-nikravesh") -> StickBoundary:
+def stick_boundary(M, Jc, dq, C=None, law: str = "pereira-nikravesh", *,
+                   e_t=None) -> StickBoundary:
     """The exact stick boundary of one planar contact (see :class:`StickBoundary`).
 
-    Raises :class:`~convimpact.impact.errors.SingularSystemError` where W is singular (the
-    sticking impulse is not unique) and ``UnknownOptionError`` for an unknown law.
+    ``e_t`` is the tangential restitution of law ``"chatterjee-ruina"`` (in [-1, 1], default
+    0), refused with the other laws. Raises :class:`~convimpact.impact.errors.SingularSystemError`
+    where W is singular (the sticking impulse is not unique) and ``UnknownOptionError`` for an
+    unknown law.
     """
     from ..impact.errors import SingularSystemError, UnknownOptionError
+    from ..impact.problem.build import check_tangential_restitution
+    from ..impact.resolve import check_law_parameters
 
     if law not in _STICK_LAWS:
         raise UnknownOptionError(f"unknown law {law!r}; choose one of "
                                  f"{', '.join(_STICK_LAWS)}")
+    e_t = check_law_parameters(law, e_t)
     P = _planar_problem(M, Jc, dq, C)
     W, v = P.contact_block(0)
     meta = _sticking_meta(W, v)
     if not meta:
         raise SingularSystemError("the Delassus matrix W is singular: the sticking impulse of "
                                   "eq. (42)/(52) is not unique, so there is no stick boundary")
+    if e_t is not None:
+        meta["e_t"] = float(check_tangential_restitution(e_t)[0])
     return _boundary_from_meta(meta, law)
 
 
 def _boundary_from_meta(meta: Mapping[str, Any], law: str) -> StickBoundary | None:
     """The :class:`StickBoundary` of law ``law`` from the entries :func:`_sticking_meta`
-    wrote (None without them, or for a law without an exact boundary)."""
+    wrote (None without them, or for a law without an exact boundary); for
+    ``chatterjee-ruina`` with the landscape's ``e_t`` (0 when absent)."""
     if "sticking_impulse_e0" not in meta or law not in _STICK_LAWS:
         return None
-    return StickBoundary(pi0=np.asarray(meta["sticking_impulse_e0"], float),
-                         pi1=np.asarray(meta["sticking_impulse_de"], float), law=law,
+    pi0 = np.asarray(meta["sticking_impulse_e0"], float)
+    pi1 = np.asarray(meta["sticking_impulse_de"], float)
+    if law == "chatterjee-ruina":
+        if "frictionless_impulse_e0" not in meta:
+            return None
+        j1 = np.array([float(meta["frictionless_impulse_e0"]), 0.0])
+        k = 1.0 + float(meta.get("e_t", 0.0))
+        pi0, pi1 = k * pi0 + (1.0 - k) * j1, j1
+    return StickBoundary(pi0=pi0, pi1=pi1, law=law,
                          stick_ratio=float(meta.get("stick_ratio", 0.0)),
                          slip_sign=float(meta.get("slip_sign", 1.0)))

@@ -7,7 +7,7 @@ output variables of the dataset with their extra dimensions, dtypes and units
 Built-in kinds:
 
 * ``impacts`` (:mod:`convimpact.studies.study_impacts`): single-contact impacts of a scene's
-  mechanism through the compiled batch (:func:`convimpact.impact.batch.resolve_impacts`);
+  mechanism through the compiled batch (:func:`convimpact.impact.batch.impacts.resolve_impacts`);
 * ``simulation`` (:mod:`convimpact.studies.study_simulations`): an ensemble of event-driven runs
   of a scene over its parameters, summarized per run;
 * ``atlas-map`` (:mod:`convimpact.studies.atlas_study`): one map of the failure atlas.

@@ -4,9 +4,11 @@ Each point builds the scene ``options.scene`` with the swept parameters of its `
 (plus the fixed ``options.scene_parameters``) and runs :func:`convimpact.simulate` from the
 scene's initial state over [0, t_end]. Options: ``scene`` (required), ``scene_parameters``,
 ``t_end`` (default the scene's), ``law`` (default "coulomb"), ``rtol`` (1e-8), ``atol``
-(1e-10), ``summary_start`` (0.5: the mean velocities are taken over the last half).
-Parameters: the numeric arguments of the scene's ``make_scene`` (e.g. the rimless wheel's
-``slope_deg``, ``mu``, ``e``, ``omega0``).
+(1e-10), ``summary_start`` (0.5: the mean velocities are taken over the last half), ``e_t``
+(the tangential restitution in [-1, 1] of law "chatterjee-ruina", every contact; refused
+with another law). Parameters: the numeric arguments of the scene's ``make_scene`` (e.g. the
+rimless wheel's ``slope_deg``, ``mu``, ``e``, ``omega0``; the contacts' e and mu come from
+there), and ``e_t`` when the law has one (passed as ``impact_options={"e_t": ...}``).
 
 Outputs per run: ``status`` (the result's status; -1 where the run raised, its first message
 in the chunk's record), ``n_impacts``, ``final_time`` (s), ``energy_change`` (J, total
@@ -28,6 +30,11 @@ from .study_kinds import (ChunkOutput, OutputVariable, StudyKind, freeze_paramet
 from .study_spec import ParameterInfo, StudySpec, StudySpecError, check_value
 
 
+#: the tangential restitution of the laws that have one (law chatterjee-ruina)
+_E_T = ParameterInfo("e_t", low=-1.0, high=1.0,
+                     description="tangential restitution (law chatterjee-ruina)")
+
+
 class SimulationKind(StudyKind):
     """An ensemble of event-driven simulations (see the module docstring)."""
 
@@ -37,6 +44,7 @@ class SimulationKind(StudyKind):
 
     def check_options(self, options: dict[str, Any], source: str) -> dict[str, Any]:
         from ..impact import LAWS
+        from ..impact.laws import TANGENTIAL_LAWS
 
         options = dict(options)
         scene_name, scene_params = scene_options(options, source, self.name)
@@ -49,14 +57,22 @@ class SimulationKind(StudyKind):
                  "summary_start": (ParameterInfo("summary_start", low=0.0, high=0.99), 0.5)}
         for key, (info, default) in specs.items():
             out[key] = check_value(info, options.pop(key, default), f"{source}: options.{key}")
+        if "e_t" in options:  # kept only when given (the specs without it are unchanged)
+            if out["law"] not in TANGENTIAL_LAWS:
+                raise StudySpecError(
+                    f"{source}: options.e_t is the tangential restitution of law "
+                    f"{', '.join(map(repr, TANGENTIAL_LAWS))}; law {out['law']!r} has none")
+            out["e_t"] = check_value(_E_T, options.pop("e_t"), f"{source}: options.e_t")
         if options:
             raise StudySpecError(f"{source}: unknown option(s) {', '.join(options)} for kind "
                                  f"'simulation'; its options: scene, scene_parameters, "
-                                 f"{', '.join(specs)}")
+                                 f"{', '.join(specs)}, e_t")
         return out
 
     def parameters(self, options: Mapping[str, Any]) -> dict[str, ParameterInfo]:
         import importlib
+
+        from ..impact.laws import TANGENTIAL_LAWS
 
         mod = importlib.import_module(f"convimpact.problems.{options['scene']}")
         out = {}
@@ -67,6 +83,8 @@ class SimulationKind(StudyKind):
                 out[p.name] = ParameterInfo(p.name, "int")
             elif isinstance(p.default, float):
                 out[p.name] = ParameterInfo(p.name, "float")
+        if options["law"] in TANGENTIAL_LAWS:
+            out["e_t"] = _E_T  # the law's parameter (no scene takes one)
         return out
 
     def check_spec(self, spec: StudySpec, source: str) -> None:
@@ -74,7 +92,7 @@ class SimulationKind(StudyKind):
         ``make_scene`` rejects before any run."""
         base = dict(spec.options["scene_parameters"])
         for pick in (0, -1):
-            params = {**base, **{a.name: a.values[pick] for a in spec.grid}}
+            params = {**base, **{a.name: a.values[pick] for a in spec.grid if a.name != "e_t"}}
             try:
                 cached_scene(spec.options["scene"], freeze_parameters(params))
             except ConvImpactError as exc:
@@ -110,10 +128,12 @@ class SimulationKind(StudyKind):
         first_error = ""
         for i in range(n):
             params = {**o["scene_parameters"], **{name: v[i].item() for name, v in flat.items()}}
+            e_t = params.pop("e_t", o.get("e_t"))  # the law's, not the scene's
+            impact_options = {} if e_t is None else {"e_t": e_t}
             try:
                 scene = load_scene(o["scene"], **params)
                 r = simulate(scene, (0.0, o["t_end"]), law=o["law"], rtol=o["rtol"],
-                             atol=o["atol"])
+                             atol=o["atol"], impact_options=impact_options)
             except ConvImpactError as exc:
                 first_error = first_error or f"{params}: {type(exc).__name__}: {exc}"
                 continue

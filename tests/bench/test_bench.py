@@ -21,7 +21,7 @@ from convimpact.bench import registry
 from convimpact.bench.problems import CLASSES, random_impact, random_spd
 from convimpact.bench.timing import time_call
 from convimpact.impact.errors import ParameterError, UnknownOptionError
-from convimpact.impact.problem import build_problem
+from convimpact.impact.problem.build import build_problem
 
 
 def _png_size(path: Path) -> tuple[int, int]:

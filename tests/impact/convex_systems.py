@@ -39,7 +39,7 @@ def random_system(seed: int, d: int, n_contacts: int, loops: int, extra: int = 1
 
 
 def delassus(M, Jc, C=None):
-    """W = Jc G Jc^T with G = N (N^T M N)^-1 N^T (independent of convimpact.impact.problem)."""
+    """W = Jc G Jc^T with G = N (N^T M N)^-1 N^T (independent of convimpact.impact.problem.build)."""
     J = np.asarray(Jc if not isinstance(Jc, list) else np.concatenate(Jc), dtype=float)
     J = J.reshape(-1, M.shape[0])
     if C is None:

@@ -1,4 +1,4 @@
-"""The batch API (convimpact.impact.batch) against the one-impact path it batches.
+"""The batch API (convimpact.impact.batch.impacts) against the one-impact path it batches.
 
 Every item of ``resolve_impacts`` must equal ``resolve_impact(..., method="fast")`` to 1e-10
 (impulse, dq+, v+, energy loss, effective mass; regime and the four flags exactly; the
@@ -26,10 +26,10 @@ import pytest
 pytest.importorskip("numba")  # the compiled kernels (an optional dependency)
 
 import convimpact as ci  # noqa: E402
-from convimpact.impact import batch  # noqa: E402
-from convimpact.impact.batch import (REGIMES, STATUS_ERRORS, contact_impulses,  # noqa: E402
+from convimpact.impact.batch import impacts as batch  # noqa: E402
+from convimpact.impact.batch.impacts import (REGIMES, STATUS_ERRORS, contact_impulses,  # noqa: E402
                                      resolve_impacts)
-from convimpact.impact.fast import solve_contact  # noqa: E402
+from convimpact.impact.exact.dispatch import solve_contact  # noqa: E402
 
 LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative")
 TOL = 1e-10
@@ -331,56 +331,43 @@ def test_import_compiles_nothing():
     import subprocess
     import sys
 
-    code = ("import sys, convimpact, convimpact.impact.batch; "
+    code = ("import sys, convimpact, convimpact.impact.batch.impacts; "
             "print('numba' in sys.modules, 'convimpact.impact.batch_kernels' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()
     assert out == ["False", "False"]
 
 
-NEEDS_NUMBA = ('resolve_impacts needs numba: pip install "convimpact[batch]" (or a loop over '
-               'resolve_impact)')
-
-
-def test_without_numba_the_batch_api_raises_not_supported(monkeypatch, tmp_path):
-    """numba missing (simulated: ``sys.modules["numba"] = None``): the kernels do not import,
-    a freshly loaded batch module imports and its entries raise NotSupportedError naming the
-    ``batch`` extra, as do those of the loaded module once its kernels are dropped; the bench
-    section records the reason instead of timings."""
-    import importlib
-    import importlib.util
+def test_without_numba_the_same_kernels_run_as_plain_python():
+    """numba missing (simulated in a fresh process: ``sys.modules["numba"] = None``): one
+    RuntimeWarning says so, and the public call and the batch run the same kernels as plain
+    Python -- the README's particle by hand: W = I/2, pi_n = (1 + e) / W_nn = 3, a slide with
+    pi_t = -mu pi_n, v+ = (0.5, 0.55); at mu = 1 it sticks, v+ = (0.5, 0)."""
+    import json
+    import subprocess
     import sys
 
-    from convimpact.bench import BenchConfig
-    from convimpact.bench.batch_section import batch_section  # imported while numba is there
-
-    monkeypatch.setitem(sys.modules, "numba", None)
-    for name in [m for m in sys.modules if m.split(".")[:3] == ["convimpact", "impact",
-                                                                  "batch_kernels"]]:
-        monkeypatch.delitem(sys.modules, name)
-    with pytest.raises(ImportError, match="numba"):
-        importlib.import_module("convimpact.impact.batch_kernels")
-    # the reload path: batch.py executed afresh (a module object of its own, so the loaded
-    # one and its classes stay as they are) imports without numba
-    spec = importlib.util.find_spec("convimpact.impact.batch")
-    fresh = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fresh)
-    monkeypatch.setattr(batch, "_K", None)  # the loaded module forgets its kernels
-    M, Jc, dq = np.eye(2), np.array([[0.0, 1.0], [1.0, 0.0]]), np.array([1.0, -1.0])
-    W, v = np.eye(2), np.array([-1.0, 0.5])
-    for mod in (fresh, batch):
-        for call in (lambda: mod.resolve_impacts(M, Jc, dq, 0.5, 0.3),
-                     lambda: mod.resolve_impacts(M, Jc, dq[None][:0]),  # even when empty
-                     lambda: mod.contact_impulses(W, v, 0.5, 0.3, "ccp"),
-                     mod.compile_kernels):
-            with pytest.raises(ci.NotSupportedError) as exc:
-                call()
-            assert str(exc.value) == NEEDS_NUMBA
-            assert isinstance(exc.value.__cause__, ImportError)
-    assert batch._K is None and fresh._K is None
-    sec = batch_section(BenchConfig.make(out=tmp_path, quick=True, repeat=1), lambda m: None)
-    assert sec.records == [] and sec.figures == []
-    assert sec.meta["error"] == NEEDS_NUMBA and NEEDS_NUMBA in sec.summary[0]
+    script = (
+        "import sys, warnings, json\n"
+        "sys.modules['numba'] = None\n"
+        "import numpy as np, convimpact as ci\n"
+        "from convimpact.impact.batch import resolve_impacts\n"
+        "with warnings.catch_warnings(record=True) as w:\n"
+        "    warnings.simplefilter('always')\n"
+        "    M, J = 2.0 * np.eye(2), np.array([[0.0, 1.0], [1.0, 0.0]])\n"
+        "    r = ci.resolve_impact(M, J, [1.0, -1.0], e=0.5, mu=0.3)\n"
+        "    b = resolve_impacts(M, J, [1.0, -1.0], e=0.5, mu=[0.3, 1.0], law='coulomb')\n"
+        "print(json.dumps({'v': r.v_plus.tolist(), 'b': b.v_plus.tolist(), 'compiled': "
+        "type(ci.impact.laws.pereira_nikravesh._pn_planar).__name__, 'warnings': "
+        "[str(x.message) for x in w if issubclass(x.category, RuntimeWarning)]}))\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert got["compiled"] == "function"  # plain Python, not a numba dispatcher
+    np.testing.assert_allclose(got["v"], [0.5, 0.55], rtol=1e-14)
+    np.testing.assert_allclose(got["b"], [[0.5, 0.55], [0.5, 0.0]], rtol=1e-14, atol=1e-15)
+    assert len(got["warnings"]) == 1 and "plain Python" in got["warnings"][0]
 
 
 def test_bench_section_batch_runs(tmp_path):

@@ -42,11 +42,11 @@ from scipy.integrate import solve_ivp
 
 pytest.importorskip("numba")  # the compiled kernels (an optional dependency)
 
-from convimpact.impact import batch  # noqa: E402
-from convimpact.impact.batch import REGIMES, contact_impulses, resolve_impacts  # noqa: E402
+from convimpact.impact.batch import impacts as batch  # noqa: E402
+from convimpact.impact.batch.impacts import REGIMES, contact_impulses, resolve_impacts  # noqa: E402
 from convimpact.impact.errors import (NonPositiveEffectiveMassError,  # noqa: E402
                                       SingularSystemError)
-from convimpact.impact.fast import solve_contact  # noqa: E402
+from convimpact.impact.exact.dispatch import solve_contact  # noqa: E402
 
 from .test_stronge import brute_force  # noqa: E402  (the independent solve_ivp integration)
 
@@ -117,7 +117,6 @@ def test_spatial_batch_against_an_independent_integration(solved):
     the rays, the contacts at rest and every eighth random contact, solve_ivp's integration in
     p: the same phases, compression impulse and impulse; frictionless items are Newton's."""
     cs, W, v, e, mu, b = solved
-    assert batch.PYTHON_SPATIAL_LAWS == ()
     seen = set()
     checked = 0
     for i, (Wi, vi, ei, mi, kind) in enumerate(cs):
@@ -360,7 +359,7 @@ _PLAIN = {"planar": ([[2.0, 0.5], [0.5, 1.0]], [-1.0, 0.2], 0.5, 0.8),
 _PLAIN_RUN = """
 import json, sys
 from convimpact.impact.errors import SolverError
-from convimpact.impact.fast import solve_contact
+from convimpact.impact.exact.dispatch import solve_contact
 from convimpact.impact.laws import stronge_slip
 cases = json.loads(sys.argv[1])
 out = {"compiled": type(stronge_slip._stronge_spatial).__name__ != "function"}

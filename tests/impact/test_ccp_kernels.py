@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.fast import solve_contact
+from convimpact.impact.exact.dispatch import solve_contact
 from convimpact.impact.laws.ccp import NO_KKT_POINT
 
 from .convex_systems import ccp_residual, delassus, newton_b, random_system
@@ -147,7 +147,7 @@ import json, sys
 import numpy as np
 import convimpact as ci
 import convimpact.impact.laws.ccp as ccp
-from convimpact.impact.fast import solve_contact
+from convimpact.impact.exact.dispatch import solve_contact
 
 cases = json.loads(sys.argv[1])
 laws = ("ccp", "dissipative")

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.batch import contact_impulses, resolve_impacts
-from convimpact.impact.fast import solve_contact
+from convimpact.impact.batch.impacts import contact_impulses, resolve_impacts
+from convimpact.impact.exact.dispatch import solve_contact
 
 LAW = "chatterjee-ruina"
 

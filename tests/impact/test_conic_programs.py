@@ -14,7 +14,7 @@ from scipy.optimize import minimize_scalar
 import convimpact as ci
 from convimpact.impact.conic.cvxpy_backend import CvxpyBackend, psd_factor
 from convimpact.impact.conic.qp import ConeQP, solve_cone_qp
-from convimpact.impact.problem import build_problem
+from convimpact.impact.problem.build import build_problem
 
 from .convex_systems import ccp_residual, delassus, newton_b, random_system
 

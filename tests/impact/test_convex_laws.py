@@ -25,11 +25,12 @@ from hypothesis import assume, given, settings, strategies as st
 from scipy.optimize import minimize_scalar
 
 import convimpact as ci
+from convimpact.impact.laws import PER_CONTACT_LAWS
 from convimpact.impact.conic.clarabel_backend import ClarabelBackend
 from convimpact.impact.conic.paths import ProgramOptions
 from convimpact.impact.conic.qp import ConeQP, solve_cone_qp
 from convimpact.impact.laws.pereira_nikravesh import solve_pn_program
-from convimpact.impact.problem import build_problem
+from convimpact.impact.problem.build import build_problem
 
 from .convex_systems import (ccp_residual, coulomb_conditions, delassus, newton_b,
                             random_system, systems)
@@ -284,7 +285,11 @@ def test_pn_several_contacts_hand_cases():
     """A unit particle in a frictionless corner (floor n = +y, wall n = +x), v = (-1, -1):
     Newton at both contacts gives v+ = (e, e), pi = (1+e)(1, 1) (W singular: 4 rows, 2 dof)."""
     Jc = [np.array([[0.0, 1.0], [1.0, 0.0]]), np.array([[1.0, 0.0], [0.0, 1.0]])]
-    for law in ci.LAWS:
+    for law in PER_CONTACT_LAWS:  # both contacts strike, coupled through the particle: refused
+        with pytest.raises(ci.NotSupportedError, match="defined per contact"):
+            ci.resolve_impact(np.eye(2), Jc, [-1.0, -1.0], e=0.6, mu=0.0, law=law,
+                              method="clarabel")
+    for law in (law for law in ci.LAWS if law not in PER_CONTACT_LAWS):
         for method in ("clarabel", "cvxpy"):
             r = ci.resolve_impact(np.eye(2), Jc, [-1.0, -1.0], e=0.6, mu=0.0, law=law,
                                   method=method)

@@ -5,7 +5,7 @@ scipy on eq. (60) written out here, a brute-force scan of the Coulomb sliding co
 KKT conditions of the SOC programs (tests/impact/convex_systems.py, written from the law
 definitions), Clarabel through cvxpy on a few cases, and the energy identity of the
 dissipative law. Delassus matrices come from the null-space formula of convex_systems, not
-from convimpact.impact.problem.
+from convimpact.impact.problem.build.
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from scipy.optimize import brentq, minimize_scalar
 
 import convimpact as ci
 from convimpact.impact.laws.pereira_nikravesh import pereira_nikravesh as closed_form_pn
-from convimpact.impact.batch_kernels.algebra import _candidates, _refine
-from convimpact.impact.fast import solve_contact
-from convimpact.impact.max_dissipation import max_dissipation_direction
+from convimpact.impact.laws.algebra import _candidates, _refine
+from convimpact.impact.exact.dispatch import solve_contact
+from convimpact.impact.laws.max_dissipation import max_dissipation_direction
 
 from .convex_systems import ccp_residual, coulomb_conditions, delassus, random_system
 

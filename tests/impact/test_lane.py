@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact import lane
-from convimpact.impact.problem import build_problem
+from convimpact.impact.exact import lane
+from convimpact.impact.problem.build import build_problem
 from convimpact.impact.resolve import solve_problem
 
 LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative")

@@ -28,7 +28,7 @@ LAWS4 = ("pereira-nikravesh", "coulomb", "ccp", "dissipative")
 
 def _cases(n: int = 6) -> list:
     """Random spatial contacts on which Coulomb's law slides at e = 0.5, mu = 0.8."""
-    from convimpact.impact.fast import solve_contact
+    from convimpact.impact.exact.dispatch import solve_contact
 
     rng = np.random.default_rng(5)
     cases = []
@@ -45,8 +45,8 @@ def _cases(n: int = 6) -> list:
 _SCRIPT = textwrap.dedent('''
     import json, sys
     import numpy as np
-    import convimpact.impact.batch_kernels.algebra as algebra
-    from convimpact.impact.fast import solve_contact
+    import convimpact.impact.laws.algebra as algebra
+    from convimpact.impact.exact.dispatch import solve_contact
     import convimpact.impact.errors as errors
 
     cases, laws, sabotage, e, mu = json.loads(sys.stdin.read())

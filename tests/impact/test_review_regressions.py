@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.fast import solve_contact
+from convimpact.impact.exact.dispatch import solve_contact
 
 
 def test_unbounded_program_raises_instead_of_returning_a_huge_iterate():

@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
+from convimpact.impact.laws import PER_CONTACT_LAWS
 from convimpact.model import place_resting
 from convimpact.problems.rimless_wheel import make_scene as make_wheel
 from convimpact.problems.rocking_block import make_scene as make_block
@@ -131,7 +132,10 @@ def test_pereira_nikravesh_lets_a_non_approaching_pair_separate():
     n2 = np.array([0.9, math.sqrt(0.19)])
     Jc = [np.array([n1, [0.0, 1.0]]), np.array([n2, [-n2[1], n2[0]]])]
     dq = np.linalg.solve(np.array([n1, n2]), [-1.0, -0.1])
-    for law in ci.LAWS:
+    for law in PER_CONTACT_LAWS:  # two contacts strike together, coupled: refused, by name
+        with pytest.raises(ci.NotSupportedError, match="defined per contact.*ccp"):
+            ci.resolve_impact(np.eye(2), Jc, dq, e=0.0, mu=0.0, law=law, method="clarabel")
+    for law in (law for law in ci.LAWS if law not in PER_CONTACT_LAWS):
         for method in PATHS:
             r = ci.resolve_impact(np.eye(2), Jc, dq, e=0.0, mu=0.0, law=law, method=method)
             np.testing.assert_allclose(r.impulse[:, 0], [1.0, 0.0], atol=1e-10)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.fast import solve_contact
+from convimpact.impact.exact.dispatch import solve_contact
 
 E, MU = 0.5, 0.3
 #: the laws whose answers are derived by hand below
@@ -309,8 +309,8 @@ def test_every_public_entry_types_its_input(call, err, msg):
 # ---- the public closed-form helpers take the same typed inputs as resolve_impact ----------
 def test_closed_form_helpers_reject_strings_booleans_and_complex():
     import convimpact.impact as imp
-    from convimpact.impact.max_dissipation import max_dissipation_direction
-    from convimpact.impact.sweep import energy_loss_versus_angle, sweep_direction
+    from convimpact.impact.laws.max_dissipation import max_dissipation_direction
+    from convimpact.impact.exact.sweep import energy_loss_versus_angle, sweep_direction
 
     W2, v2 = np.array([[2.0, 0.3], [0.3, 1.0]]), np.array([-1.0, 0.5])
     W3, v3 = np.diag([2.0, 1.0, 1.5]), np.array([-1.0, 0.5, 0.2])

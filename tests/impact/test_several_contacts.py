@@ -1,4 +1,4 @@
-"""The exact several-contact solver (``method="interior"``, convimpact.impact.several_contacts):
+"""The exact several-contact solver (``method="interior"``, convimpact.impact.contacts.interior):
 laws ccp and dissipative (a convex cone program) and coulomb (Newton on its natural map).
 
 Oracles: a second method (Clarabel's and cvxpy's conic paths, KKT-polished), hand derivations
@@ -14,7 +14,7 @@ from scipy.optimize import nnls
 
 import convimpact as ci
 from convimpact.bench.several_problems import four_corner_box, random_several
-from convimpact.impact.problem import build_problem
+from convimpact.impact.problem.build import build_problem
 from convimpact.impact.resolve import SINGLE_CONTACT_METHODS, choose_method
 
 LAWS = ("ccp", "dissipative")

@@ -16,7 +16,7 @@ import pytest
 
 import convimpact as ci
 from convimpact.bench.several_problems import four_corner_box, random_several
-from convimpact.impact.problem import IMMOBILE_RTOL, build_problem
+from convimpact.impact.problem.build import IMMOBILE_RTOL, build_problem
 from convimpact.impact.resolve import solve_problem
 
 

@@ -1,4 +1,4 @@
-"""The full path's small algebra (:mod:`convimpact.impact.small_linalg`): the Cholesky factor
+"""The full path's small algebra (:mod:`convimpact.impact.problem.dense`): the Cholesky factor
 and the triangular solves -- on Python floats up to ``SMALL_MAX`` rows, LAPACK/BLAS above --
 against independent references (numpy.linalg.cholesky, scipy.linalg.solve_triangular) on
 random SPD matrices of sizes 1..40, and the same typed errors as before on input that is not
@@ -12,8 +12,8 @@ import pytest
 import scipy.linalg as sla
 
 import convimpact as ci
-from convimpact.impact import small_linalg as sl
-from convimpact.impact.problem import build_problem, check_mass_matrix
+from convimpact.impact.problem import dense as sl
+from convimpact.impact.problem.build import build_problem, check_mass_matrix
 
 SIZES = range(1, 41)
 RTOL = 1e-13

@@ -74,7 +74,9 @@ def hand_impulse(law: str, e: float, mu: float, vn: float, s: np.ndarray) -> np.
         pi_n, pi_t = k * m * abs(vn), -k * (2.0 * m / 7.0) * s if plastic else \
             -(2.0 * m / 7.0) * s
         return np.concatenate([[pi_n], pi_t])
-    if law in ("pereira-nikravesh", "coulomb", "stronge"):  # stronge: W_tn = 0, Newton + Coulomb
+    if law in ("pereira-nikravesh", "coulomb", "stronge", "chatterjee-ruina"):
+        # stronge: W_tn = 0, Newton + Coulomb; chatterjee-ruina (e_t = 0): J_II - J_I is
+        # tangential for the ball, so the cone's boundary keeps J_n = (1 + e) m |v_n|
         pi_n = k * m * abs(vn)
     elif law == "ccp":
         pi_n = m * (k * abs(vn) + mu * ns) / (1.0 + 3.5 * mu * mu)

@@ -31,7 +31,7 @@ from scipy.optimize import brentq
 
 import convimpact as ci
 from convimpact.impact.errors import SingularSystemError
-from convimpact.impact.fast import solve_contact
+from convimpact.impact.exact.dispatch import solve_contact
 from convimpact.impact.laws.stronge import contact_kernel
 
 from .convex_systems import delassus, random_system

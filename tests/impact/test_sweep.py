@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import convimpact as ci
-from convimpact.impact.sweep import energy_loss_versus_angle, sweep_direction
+from convimpact.impact.exact.sweep import energy_loss_versus_angle, sweep_direction
 
 from .convex_systems import delassus, random_system
 

@@ -89,7 +89,7 @@ def test_contact_landscape_batch_equals_the_per_point_kernel(law, d, monkeypatch
     """contact_landscape solves a large grid with the compiled batch (forced here on a small
     one); the per-point kernel (the library's loop for small grids) gives the same impulses to
     1e-10, regimes and failures."""
-    from convimpact.impact.problem import build_problem
+    from convimpact.impact.problem.build import build_problem
     from convimpact.studies import landscape
     from convimpact.studies.landscape import _loop_grid, contact_landscape
 

@@ -21,7 +21,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ParameterError, UnknownOptionError
-from ..problem import ImpactProblem
+from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .qp import DEFAULT_MAX_ITER, DEFAULT_TOL, TINY, Backend, ConeQP, QPSolution
 

@@ -1,6 +1,6 @@
 """The cone QP every impact law reduces to, and how a backend solves it.
 
-With the Delassus matrix ``W`` of :class:`~convimpact.impact.problem.ImpactProblem` (loops
+With the Delassus matrix ``W`` of :class:`~convimpact.impact.problem.build.ImpactProblem` (loops
 already eliminated, so ``C theta_dot+ = 0`` holds by construction and ``Delta sigma`` is
 recovered by ``ImpactProblem.velocity_jump``), ``pi = (pi_1, ..., pi_n)``, ``pi_i = (pi_n, pi_t)``
 and ``K_mu = {|pi_t| <= mu pi_n}``, each law of :mod:`convimpact.impact.laws` reduces to one or

@@ -5,7 +5,8 @@ the batch, the lanes), its cone program(s) (``program_result``: ``method="clarab
 solver paths from these attributes (its explicit tables) and imports a law's module on first
 use.
 
-Adding a law means adding its module here and one line to :data:`LAW_MODULES`.
+Adding a law means adding its module here and one line to :data:`LAW_MODULES` (the compiled
+drivers find its kernels through :mod:`.table`).
 """
 
 from __future__ import annotations
@@ -22,8 +23,13 @@ LAW_MODULES = {
     "stronge": "stronge",                      # Stronge's energetic law (impulse space)
     "chatterjee-ruina": "chatterjee_ruina",    # Chatterjee & Ruina's algebraic law (e, e_t)
 }
+#: law name -> its code in the compiled drivers (its index in LAW_MODULES)
+LAW_CODES = {name: code for code, name in enumerate(LAW_MODULES)}
 #: laws with a tangential restitution e_t (the ``e_t=`` of ``resolve_impact``)
 TANGENTIAL_LAWS = ("chatterjee-ruina",)
+#: laws defined per contact: at several contacts they apply contact by contact (independent
+#: contacts, or one approaching while the others lift) and refuse coupled simultaneous impacts
+PER_CONTACT_LAWS = ("chatterjee-ruina",)
 
 
 def law_module(law: str) -> ModuleType:

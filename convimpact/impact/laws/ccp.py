@@ -10,7 +10,7 @@ lifted by ``mu |v_t+|`` above Newton's value, reported as ``extras["normal_veloc
   on plain floats. b in the dual cone gives pi = 0; else the unconstrained impulse if it lies
   in the cone; else the optimal ray on the boundary, where ``W pi + b = s (mu, -t)`` so
   ``det[W p, b, q] = 0`` (p = (1, mu t), q = (-mu, t)), a quartic in tan(th/2)
-  (:mod:`convimpact.impact.batch_kernels.algebra`); Newton's root from the unconstrained
+  (:mod:`convimpact.impact.laws.algebra`); Newton's root from the unconstrained
   tangent is accepted when the KKT sign certifies it, else every root is compared, then the
   companion matrix's roots, then SolverError. The kernels write nothing into their scratch
   ``out``: the extras (``normal_velocity_lift``; when sliding ``post_slip`` in the plane,
@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from ..batch_kernels.algebra import (
+from .algebra import (
     _candidates,
     _det_wq,
     _inverse3,
@@ -37,7 +37,7 @@ from ..batch_kernels.algebra import (
     _rotate,
     _solve2,
 )
-from ..batch_kernels.common import (
+from .codes import (
     FAILED,
     NO_SOLUTION,
     OK,
@@ -55,8 +55,8 @@ from ..conic.paths import (ProgramOptions, approaching, cone_qp, newton_shift,
 from ..conic.qp import Backend, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import SolverError
-from ..fast import compiled_kernel
-from ..problem import ImpactProblem
+from ..exact.dispatch import compiled_kernel
+from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 
 LAW = "ccp"

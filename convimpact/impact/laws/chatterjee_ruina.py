@@ -42,10 +42,10 @@ from __future__ import annotations
 
 import math
 
-from ..batch_kernels.algebra import _inverse3, _linsolve3, _solve2
-from ..batch_kernels.common import FAILED, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone, _jit
+from .algebra import _inverse3, _linsolve3, _solve2
+from .codes import FAILED, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone, _jit
 from ..errors import NotSupportedError
-from ..fast import compiled_kernel, coupled, independent_contacts_result
+from ..exact.dispatch import compiled_kernel, coupled, independent_contacts_result
 
 LAW = "chatterjee-ruina"
 #: the tangential restitution's admissible range (the law creates energy outside it)
@@ -96,12 +96,15 @@ contact_kernel = compiled_kernel(LAW, _cr_planar, _cr_spatial, _extras, tangenti
 
 
 def program_result(P, backend, method: str, opts):
-    """Several contacts: the law contact by contact when they are dynamically independent
-    (no cone program is solved); coupled contacts raise NotSupportedError (the law is defined
-    per contact)."""
-    if coupled(P):
+    """Several contacts: the law contact by contact when they are dynamically independent (W
+    block-diagonal), or when one contact approaches and its impulse leaves the others lifting
+    (no cone program is solved); coupled simultaneous impacts raise NotSupportedError (the law
+    is defined per contact)."""
+    result = independent_contacts_result(P, LAW, method, one_approaching=True)
+    if result is None:
         raise NotSupportedError(
-            "law 'chatterjee-ruina' is defined per contact: these contacts are dynamically "
-            "coupled (W is not block-diagonal); use law='ccp', 'dissipative' or 'coulomb' "
-            "(method='interior'), or 'stronge' (its two-phase coupled formulation)")
-    return independent_contacts_result(P, LAW, method)
+            "law 'chatterjee-ruina' is defined per contact: these contacts strike together "
+            "and are dynamically coupled (W is not block-diagonal); use law='ccp', "
+            "'dissipative' or 'coulomb' (method='interior'), or 'stronge' (its two-phase "
+            "coupled formulation)")
+    return result

@@ -14,7 +14,7 @@ is returned, and the count reported).
   b = v + e v_n e_n), a quartic in tan(th/2) (:func:`_spatial_slides`): Newton's root from the
   stick impulse's tangent is completed by the roots of the deflated cubic, so every sliding
   solution is found and counted; each is certified against Coulomb's conditions, with every
-  candidate direction (:func:`~convimpact.impact.batch_kernels.algebra._candidates`, Ferrari,
+  candidate direction (:func:`~convimpact.impact.laws.algebra._candidates`, Ferrari,
   then the companion matrix's roots) as the fallback. No slide: NonPositiveEffectiveMassError
   when a root was rejected for its denominator D <= 0 (the smallest D reported), else
   SolverError.
@@ -28,7 +28,7 @@ is returned, and the count reported).
   SolverError, never a silently wrong answer. Contacts with v_n- >= 0 take part with
   complementarity (they may separate).
 
-``out`` of the kernels (float64, :data:`~convimpact.impact.batch_kernels.common.OUT_SIZE`),
+``out`` of the kernels (float64, :data:`~convimpact.impact.laws.codes.OUT_SIZE`),
 written on a slide: ``out[0]`` the number of sliding solutions found, ``out[1]`` the index of
 the one returned, and slide j (j < 5) in ``out[2 + 4 j : 6 + 4 j] = (pi_n, t1, t2, T_L)`` (the
 tangent t in the contact frame's axes; planar: ``(pi_n, s, 0, T_L)``).
@@ -41,19 +41,19 @@ from typing import Any
 
 import numpy as np
 
-from ..batch_kernels.algebra import (_candidates, _cubic, _inverse3, _linsolve3, _polish,
+from .algebra import (_candidates, _cubic, _inverse3, _linsolve3, _polish,
                                      _refine, _rotate, _solve2)
-from ..batch_kernels.common import (CONE_RTOL, FAILED, JAM, NO_SOLUTION, OK, OUT_SIZE,
+from .codes import (CONE_RTOL, FAILED, JAM, NO_SOLUTION, OK, OUT_SIZE,
                                     ROOT_RTOL, SINGULAR, SLIDE, STICK, _NAN, _in_cone, _jit,
                                     _pmax2, _unit_or)
 from ..conic.paths import ProgramOptions, newton_shift, regimes_from_slip
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
 from ..errors import SolverError
-from ..fast import compiled_kernel
-from ..problem import ImpactProblem
+from ..exact.dispatch import compiled_kernel
+from ..problem.build import ImpactProblem
 from ..results import ImpactResult
-from ..small_linalg import angle_from_slip
+from ..problem.dense import angle_from_slip
 from .coulomb_program import coulomb_fixed_point, coulomb_residual  # noqa: F401 (re-exported)
 
 LAW = "coulomb"

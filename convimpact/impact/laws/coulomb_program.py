@@ -17,7 +17,7 @@ import numpy as np
 from ..conic.paths import ProgramOptions, cone_qp, newton_shift, normal_mask
 from ..conic.polish import EPS, VELOCITY_RESIDUAL_MAX, polish_cone_qp
 from ..conic.qp import TINY, Backend, ConeQP, equilibrated, solve_cone_qp
-from ..problem import ImpactProblem
+from ..problem.build import ImpactProblem
 
 
 def coulomb_residual(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int,

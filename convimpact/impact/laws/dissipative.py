@@ -21,12 +21,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..batch_kernels.common import FRICTIONLESS, OK, _NAN, _jit
+from .codes import FRICTIONLESS, OK, _NAN, _jit
 from ..conic.paths import ProgramOptions, regimes_from_slip, solver_report
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
-from ..fast import compiled_kernel
-from ..problem import ImpactProblem
+from ..exact.dispatch import compiled_kernel
+from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .ccp import _ccp_planar, _ccp_spatial, _errors, solve_ccp
 

@@ -10,7 +10,7 @@ space along the direction of maximal dissipation (eq. 60).
   frame. Impulses come back in the contact frame, normal first. ``v_n < 0`` means approaching.
 * :func:`_pn_planar` and :func:`_pn_spatial` are the exact single-contact kernel
   (``method="fast"``, the batch, the compiled lane), compiled: in space the sliding direction
-  is :func:`convimpact.impact.max_dissipation.max_dissipation_slide`; :func:`contact_kernel`
+  is :func:`convimpact.impact.laws.max_dissipation.max_dissipation_slide`; :func:`contact_kernel`
   is their entry on plain floats.
 * :func:`program_result` is the conic path (``method="clarabel"``/``"cvxpy"``). One planar
   contact: the closed form (stick test, then eq. 55). One spatial contact: the stick test
@@ -19,7 +19,7 @@ space along the direction of maximal dissipation (eq. 60).
   maximal-dissipation direction (eq. 60), exact once P_N is KKT-polished (else refined by a
   bounded 1-D maximization of T_L). P_N's *interior* optimum is not sticking when e > 0, so
   where it is interior but the stick test failed the law falls back to
-  :func:`~convimpact.impact.max_dissipation.max_dissipation_direction` and flags the
+  :func:`~convimpact.impact.laws.max_dissipation.max_dissipation_direction` and flags the
   disagreement. Infeasible P_N (a Painleve-like jam) raises NonPositiveEffectiveMassError.
 * Several contacts: Newton's law in complementarity form, ``v_n+ + e v_n- >= 0``,
   ``pi_n >= 0``, complementary (:mod:`~convimpact.impact.laws.pn_complementarity`): the
@@ -43,7 +43,7 @@ import numpy as np
 from ..conic.paths import ProgramOptions, solver_report
 from ..conic.qp import Backend, ConeQP, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
-from ..closed_forms import (  # the paper's closed forms, re-exported
+from ..exact.closed_forms import (  # the paper's closed forms, re-exported
     DELASSUS_COND_MAX,
     STICK_RTOL,
     frictionless_impulse,
@@ -59,14 +59,14 @@ from ..errors import (
     SolverError,
     UnknownOptionError,
 )
-from ..batch_kernels.algebra import _inverse3, _linsolve3, _solve2
-from ..batch_kernels.common import (FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone,
+from .algebra import _inverse3, _linsolve3, _solve2
+from .codes import (FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone,
                                     _jit, _pmax2)
-from ..fast import compiled_kernel
-from ..max_dissipation import max_dissipation_direction, max_dissipation_slide
-from ..problem import ImpactProblem
+from ..exact.dispatch import compiled_kernel
+from .max_dissipation import max_dissipation_direction, max_dissipation_slide
+from ..problem.build import ImpactProblem
 from ..results import ImpactResult
-from ..small_linalg import angle_from_slip
+from ..problem.dense import angle_from_slip
 from .pn_complementarity import newton_velocity_shift, several_contacts_result, stick_on
 
 LAW = "pereira-nikravesh"
@@ -107,7 +107,7 @@ _OUT_INTERIOR, _OUT_TL, _OUT_T1, _OUT_T2 = 0, 1, 2, 3
 @_jit
 def _pn_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
     """One spatial contact, mu > 0: the stick test (eq. 52/53), else the slide of maximal
-    dissipation (eq. 60, :func:`~convimpact.impact.max_dissipation.max_dissipation_slide`)."""
+    dissipation (eq. 60, :func:`~convimpact.impact.laws.max_dissipation.max_dissipation_slide`)."""
     c = -(1.0 + e) * v0
     i00, i01, i02, i11, i12, i22, det, ok = _inverse3(w00, w01, w02, w11, w12, w22)
     if not ok:

@@ -53,8 +53,8 @@ from ..conic.paths import ProgramOptions, approaching, solver_report
 from ..conic.qp import TINY, Backend, ConeQP, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import ConvImpactError, NotSupportedError, SolverError
-from ..fast import solve_contact
-from ..problem import ImpactProblem
+from ..exact.dispatch import solve_contact
+from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 
 LAW = "pereira-nikravesh"

@@ -69,11 +69,11 @@ solve_ivp integration in p to 2e-11 (the latter's own error; median 1e-13); the 
 condition holds to 3e-12 by quadrature of the independent path (median 2e-14). The compiled
 code and the same code as plain Python (``NUMBA_DISABLE_JIT=1``) agree to 3e-13 (math.hypot
 differs in its last bit, which the step-size control turns into other steps). We state 1e-10
-(:data:`~convimpact.impact.fast.FAST_TOL`). Cost (compiled, measured through
+(:data:`~convimpact.impact.exact.dispatch.FAST_TOL`). Cost (compiled, measured through
 :func:`contact_kernel` on 100 random systems, one core): a spatial impact takes 10-30 steps
 (median 13-18; up to a few hundred for stiff slips, ``mu |W_tt| >> |h|``), about 16 us
 (median; 60 us at worst of 100) against 10-15 us for the other laws' kernels through
-:func:`~convimpact.impact.fast.solve_contact`; a planar one about 6 us.
+:func:`~convimpact.impact.exact.dispatch.solve_contact`; a planar one about 6 us.
 
 A collision that cannot end raises :class:`NonPositiveEffectiveMassError` (a Painleve-like
 jam): a phase in which ``dv_n/dp = W_nn - mu W_tn . s <= 0`` before compression ends, or in
@@ -120,12 +120,12 @@ from __future__ import annotations
 import math
 from operator import mul
 
-from ..batch_kernels.common import FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _jit
+from .codes import FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _jit
 from ..conic.paths import ProgramOptions
 from ..conic.qp import Backend
 from ..errors import NonPositiveEffectiveMassError, SingularSystemError
-from ..fast import compiled_kernel, coupled, independent_contacts_result
-from ..problem import ImpactProblem
+from ..exact.dispatch import compiled_kernel, coupled, independent_contacts_result
+from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .stronge_slip import (  # noqa: F401  (the path in impulse space; its tolerances re-exported)
     FLOOR_RTOL,
@@ -162,8 +162,6 @@ from .stronge_slip import (  # noqa: F401  (the path in impulse space; its toler
 )
 
 LAW = "stronge"
-#: the law's code in the compiled drivers (the order of batch.LAW_CODES)
-STRONGE = 4
 
 _INF = math.inf
 

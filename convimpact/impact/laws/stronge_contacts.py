@@ -56,11 +56,12 @@ import math
 
 import numpy as np
 
-from ..conic.paths import ProgramOptions, approaching, regimes_from_slip
+from ..conic.paths import ProgramOptions, regimes_from_slip
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
 from ..errors import SolverError
-from ..problem import ImpactProblem
+from ..exact.dispatch import independent_contacts_result
+from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .coulomb import solve_coulomb
 
@@ -195,35 +196,6 @@ def _kappa(dT_c: float, a: float, b: float) -> float:
     return max(min((-a + math.sqrt(max(disc, 0.0))) / b, 1.0), 0.0)
 
 
-def _single_approaching(P: ImpactProblem, method: str) -> ImpactResult | None:
-    """One contact approaches (the others touch or separate): its exact single-contact
-    impulse, when that leaves every other contact non-approaching (they lift with no
-    impulse); else None."""
-    act = np.flatnonzero(approaching(P))
-    if act.size != 1:
-        return None
-    from ..fast import FAST_TOL, solve_contact
-
-    n, d = P.n_contacts, P.dim
-    i = int(act[0])
-    Wi, vi = P.contact_block(i)
-    sol = solve_contact(Wi, vi, float(P.restitution[i]), float(P.friction[i]), LAW)
-    pi = np.zeros((n, d))
-    pi[i] = sol.impulse
-    vp = P.v_minus + (P.delassus @ pi.ravel()).reshape(n, d)
-    vscale = max(float(np.max(np.abs(P.v_minus))), 1e-300)
-    if np.any(np.delete(vp[:, 0], i) < -KKT_RTOL * vscale):
-        return None
-    lifted = {"normal_work_compression": 0.0, "normal_work_restitution": 0.0}
-    contacts = [dict(sol.extras) if j == i else dict(lifted) for j in range(n)]
-    regimes = [sol.regime if j == i else "separating" for j in range(n)]
-    extras = {"formulation": f"one approaching contact ({i}): the exact single-contact "
-                             "impulse-space integration; the others lift with no impulse",
-              "contacts": contacts}
-    return assemble_result(P, pi, regimes, LAW, method, tol=FAST_TOL, extras=extras,
-                           warnings=sol.warnings)
-
-
 def _plastic(P: ImpactProblem, backend: Backend, opts: ProgramOptions):
     """Moreau's plastic impact (e = 0) with Coulomb friction: (impulse (n, d), solver info)."""
     plastic = dataclasses.replace(P, restitution=np.zeros(P.n_contacts))
@@ -240,7 +212,8 @@ def coupled_result(P: ImpactProblem, backend: Backend, method: str,
     W = P.delassus
     vm = P.v_minus
     e, mu = P.restitution, P.friction
-    alone = _single_approaching(P, method)
+    alone = independent_contacts_result(P, LAW, method, one_approaching=True, lifted={
+        "normal_work_compression": 0.0, "normal_work_restitution": 0.0})
     if alone is not None:
         return alone
     pc, info = _plastic(P, backend, opts)

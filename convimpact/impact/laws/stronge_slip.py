@@ -6,7 +6,7 @@ hand-over to an exact straight finish; :func:`_stronge_spatial` is the spatial k
 The equations, the error control and the accuracy are stated in
 :mod:`convimpact.impact.laws.stronge` (the law's module: the planar kernel, the extras and
 the errors). The kernels return ``(status, regime, p0, p1, p2, effective_mass)`` with the
-codes of :mod:`convimpact.impact.batch_kernels.common` (OK; SINGULAR where the stick / onset
+codes of :mod:`convimpact.impact.laws.codes` (OK; SINGULAR where the stick / onset
 decision needs a singular W; JAM, a Painleve-like jam; NO_SOLUTION, the step size's underflow)
 and write into the float64 scratch ``out``:
 
@@ -33,7 +33,7 @@ import math
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
-from ..batch_kernels.common import (FAILED, JAM, NO_SOLUTION, OK, SINGULAR, SLIDE, STICK, _NAN,
+from .codes import (FAILED, JAM, NO_SOLUTION, OK, SINGULAR, SLIDE, STICK, _NAN,
                                     _jit, _pmax2)
 
 #: relative round-off allowance of the stick test |C^-1 b| <= mu
@@ -121,7 +121,9 @@ def _stage_event(out, p, vn, Wn, compressing, target, e):
     if compressing:
         out[O_PC] = p
         out[O_WC] = Wn
-        return 0.0, Wn, False, (1.0 - e * e) * Wn, e == 0.0
+        target = (1.0 - e * e) * Wn
+        # nothing to restitute: e = 0, or e^2 W_n below W_n's last bit (a subnormal e)
+        return 0.0, Wn, False, target, not target > Wn
     return vn, target, False, target, True
 
 

@@ -18,10 +18,10 @@ a complex number or None is a ShapeError (for ``e``, ``mu`` a ParameterError) na
 entry. Every tolerance is relative to the data's own scales, so M times ``a`` and dq times
 ``b`` change no decision. The common case (float arrays, one contact, no loops) costs a handful
 of numpy calls: the small checks run on Python floats, and the factorization and triangular
-solves are :mod:`~convimpact.impact.small_linalg`'s (Python floats up to ``SMALL_MAX`` rows,
+solves are :mod:`~convimpact.impact.problem.dense`'s (Python floats up to ``SMALL_MAX`` rows,
 LAPACK/BLAS on one thread above: no BLAS thread is woken for a tiny matrix). For several
 contacts the checks on W and v- (exact symmetry, finiteness, degenerate normals, immobile
-tangents) run in one compiled call (:func:`~convimpact.impact.several_kernels.contact_checks`),
+tangents) run in one compiled call (:func:`~convimpact.impact.contacts.interior_point.contact_checks`),
 which hands every case but the plain one to the Python checks; W's nested lists are then
 formed on first use.
 """
@@ -36,7 +36,7 @@ from typing import Any, Sequence, Union
 
 import numpy as np
 
-from .errors import (
+from ..errors import (
     DegenerateContactError,
     MassMatrixError,
     NonFiniteError,
@@ -56,7 +56,7 @@ from .reduction import (  # noqa: F401  (re-exported: the tolerances are this mo
     _plain_contacts,
     _symmetrize,
 )
-from .small_linalg import cholesky_lower, empty_matrix, tri_solve
+from .dense import cholesky_lower, empty_matrix, tri_solve
 
 ArrayLike = Union[np.ndarray, Sequence[float], float]
 

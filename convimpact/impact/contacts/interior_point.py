@@ -27,15 +27,13 @@ no obstacle: ``T^-2`` is positive definite. The iterates stay strictly inside th
 the answer is primal and dual feasible by construction; it stops when the residual and the
 complementarity gap reach the hand-over tolerance (or stop decreasing), and a Newton finish
 takes the answer to round-off. Whether the answer is the law's is decided by the
-certificates of :mod:`convimpact.impact.several_newton` on the original data, never by the
+certificates of :mod:`convimpact.impact.contacts.newton` on the original data, never by the
 iteration's own measures.
 
 The Newton finish, the drivers on contact data and the certificates are in
-:mod:`convimpact.impact.several_newton`. Everything is compiled on first use with
-``cache=True`` (the machine code kept beside the module; numba checks a cached function
-against its own source file only, so after editing this module in place delete
-``convimpact/impact/__pycache__/several_*``); :mod:`convimpact.impact.several_contacts`
-imports these modules lazily.
+:mod:`convimpact.impact.contacts.newton`. Everything is compiled on first use and cached
+per user (:mod:`convimpact.compiled`: an edit of any compiled source retires the cache);
+:mod:`convimpact.impact.contacts.interior` imports these modules lazily.
 """
 
 from __future__ import annotations
@@ -43,7 +41,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from ..compiled import jit as _jit
+from ...compiled import jit as _jit
 
 #: kernel status codes
 CONVERGED = 0
@@ -375,11 +373,11 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
 
 @_jit
 def contact_checks(W, v, d, immobile_rtol, tiny_normal):
-    """The contact-space checks of :func:`convimpact.impact.problem.build_problem` for several
+    """The contact-space checks of :func:`convimpact.impact.problem.build.build_problem` for several
     contacts, in one compiled call.
 
     Makes W exactly symmetric in place (``W_ij = W_ji = (W_ij + W_ji) / 2`` where they differ,
-    bit for bit as :func:`~convimpact.impact.reduction._symmetrize`), then returns 0 when the
+    bit for bit as :func:`~convimpact.impact.problem.reduction._symmetrize`), then returns 0 when the
     problem is the plain case -- the entries of W and v sum to a finite number, every
     contact's normal moves mass (``W_nn >= tiny_normal``) and every contact's tangents do
     (largest tangent diagonal entry above ``immobile_rtol`` times W's largest diagonal

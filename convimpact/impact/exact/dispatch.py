@@ -1,10 +1,10 @@
 """Exact single-contact impact solvers (``method="fast"``): the dispatcher and its contract.
 
 One contact's impact reduces to its Delassus block ``W`` (d x d, d = 2 planar or 3 spatial;
-closed loops are already folded in by :mod:`convimpact.impact.problem`) and its pre-impact
+closed loops are already folded in by :mod:`convimpact.impact.problem.build`) and its pre-impact
 velocity ``v = (v_n, v_t...)``. Every law is then a small problem over the friction cone
 ``K_mu = {|pi_t| <= mu pi_n}`` with an interior (stick / unconstrained) branch that is a linear
-solve (:mod:`~convimpact.impact.small_linalg`) and a boundary (slide) branch
+solve (:mod:`~convimpact.impact.problem.dense`) and a boundary (slide) branch
 ``pi = pi_n (1, mu t)`` whose defining condition is a quartic in tan(th/2)
 (:mod:`~convimpact.impact.boundary`). Each law module of :mod:`convimpact.impact.laws` holds
 its own kernel and registers it here with :func:`register_kernel`; :func:`solve_contact`
@@ -13,7 +13,7 @@ validates the data, brings W to a safe scale, and calls the law's kernel.
 A kernel is ``kernel(w, v, d, e, mu) -> ContactSolution`` on plain Python lists and floats
 (numpy's per-call overhead would dominate: a spatial solve takes some 10-20 microseconds, a
 planar one a few), which it must not modify. It is called only with an approaching contact
-(v_n < 0), W_nn > 0, tr(W) and max |v| within :data:`~convimpact.impact.problem.SAFE_SCALE`
+(v_n < 0), W_nn > 0, tr(W) and max |v| within :data:`~convimpact.impact.problem.build.SAFE_SCALE`
 (about 1e-50 .. 1e50), e in [0, 1] and a finite mu >= 0 (mu = 0: :func:`frictionless`).
 
 Scale: the dispatcher brings W and v into that range by exact powers of two (independently:
@@ -38,8 +38,8 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from .diagnostics import assemble_result
-from .errors import (
+from ..diagnostics import assemble_result
+from ..errors import (
     NonFiniteError,
     SolverError,
     NonPositiveEffectiveMassError,
@@ -48,10 +48,10 @@ from .errors import (
     SingularSystemError,
     UnknownOptionError,
 )
-from .problem import SAFE_SCALE, TINY_NORMAL, ImpactProblem, real_number
-from .laws import LAW_MODULES, law_module
-from .results import ImpactResult
-from .small_linalg import as_lists, singular_error
+from ..problem.build import SAFE_SCALE, TINY_NORMAL, ImpactProblem, real_number
+from ..laws import LAW_MODULES, law_module
+from ..results import ImpactResult
+from ..problem.dense import as_lists, singular_error
 
 #: laws treated by :func:`solve_contact` (every law has an exact single-contact kernel)
 FAST_LAWS = tuple(LAW_MODULES)
@@ -267,7 +267,7 @@ def solve_contact(W, v, e: float, mu: float, law: str, e_t: float = 0.0) -> Cont
     return dispatch(kernel, w, vv, d, e, mu, e_t)
 
 
-#: regime codes of the compiled kernels (batch_kernels.common) -> names
+#: regime codes of the compiled kernels (laws.codes) -> names
 _REGIME_NAMES = ("separating", "frictionless", "stick", "slide")
 #: the extras of a law's compiled kernel: (out, regime, impulse, w, v, d, e, mu) -> (extras,
 #: warnings), ``out`` the float64 scratch the kernel wrote (its layout is the law's)
@@ -286,7 +286,7 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
 
     ``planar(w00, w01, w11, v0, v1, e, mu, out)`` and ``spatial(w00, w01, w02, w11, w12, w22,
     v0, v1, v2, e, mu, out)`` return ``(status, regime, p0, p1, p2, effective_mass)`` (codes of
-    :mod:`convimpact.impact.batch_kernels.common`) and write the law's extras into ``out``;
+    :mod:`convimpact.impact.laws.codes`) and write the law's extras into ``out``;
     this turns a status into the typed error (SINGULAR: SingularSystemError, JAM:
     NonPositiveEffectiveMassError, NO_SOLUTION: SolverError with the law's ``no_solution``
     message) and ``out`` into the solution's extras and warnings by ``extras``. mu = 0 is
@@ -295,7 +295,7 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
     or None`` (None: the generic error of that status). A law with a tangential restitution
     (``tangential``) takes it as its kernels' argument after mu, and as its ``extras``' last.
     """
-    from .batch_kernels.common import JAM, NO_SOLUTION, OK, OUT_SIZE, SINGULAR
+    from ..laws.codes import JAM, NO_SOLUTION, OK, OUT_SIZE, SINGULAR
 
     def kernel(w: list, v: list, d: int, e: float, mu: float,
                e_t: float = 0.0) -> ContactSolution:
@@ -328,6 +328,9 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
 
     kernel.__name__ = f"{law.replace('-', '_')}_kernel"
     kernel.__doc__ = f"The compiled single-contact kernel of law {law!r} on plain floats."
+    # what the compiled law table (convimpact.impact.laws.table) reads
+    kernel.planar, kernel.spatial = planar, spatial
+    kernel.frictionless_inside, kernel.tangential = frictionless_inside, tangential
     return kernel
 
 
@@ -356,23 +359,45 @@ def coupled(problem: ImpactProblem) -> bool:
     return False
 
 
-def independent_contacts_result(problem: ImpactProblem, law: str, method: str) -> ImpactResult:
-    """Several dynamically independent contacts (W block-diagonal): the law's exact
-    single-contact kernel contact by contact (no cone program is solved)."""
+def independent_contacts_result(problem: ImpactProblem, law: str, method: str,
+                                one_approaching: bool = False,
+                                lifted: Mapping[str, Any] = _NO_EXTRAS) -> ImpactResult | None:
+    """Several contacts by the law's exact single-contact kernel, contact by contact: when they
+    are dynamically independent (W block-diagonal), or -- with ``one_approaching`` -- when one
+    contact approaches and its impulse leaves every other contact not approaching (they lift
+    with no impulse; ``lifted``: their extras). None when neither holds."""
+    from ..conic.paths import approaching
+
     n, d = problem.n_contacts, problem.dim
+    if coupled(problem):
+        act = np.flatnonzero(approaching(problem))
+        if not one_approaching or act.size != 1:
+            return None
+        contacts = (int(act[0]),)
+        formulation = (f"one approaching contact ({contacts[0]}): the exact single-contact "
+                       "kernel; the others lift with no impulse")
+    else:
+        contacts = tuple(range(n))
+        formulation = ("independent contacts (block-diagonal W): the exact single-contact "
+                       "kernel per contact; no cone program is solved")
     pi = np.zeros((n, d))
-    regimes, per_contact = [], []
-    for i in range(n):
+    regimes, per_contact, warnings = ["separating"] * n, [dict(lifted) for _ in range(n)], []
+    for i in contacts:
         w, v = problem.contact_lists(i)
         sol = dispatch(_kernel(law), w, v, d, float(problem.restitution[i]),
                        float(problem.friction[i]), tangential_restitution(problem, i))
         pi[i] = sol.impulse
-        regimes.append(sol.regime)
-        per_contact.append(dict(sol.extras))
-    extras = {"formulation": "independent contacts (block-diagonal W): the exact "
-                             "single-contact kernel per contact; no cone program is solved",
-              "contacts": per_contact}
-    return assemble_result(problem, pi, regimes, law, method, tol=FAST_TOL, extras=extras)
+        regimes[i] = sol.regime
+        per_contact[i] = dict(sol.extras)
+        warnings.extend(sol.warnings)
+    if len(contacts) < n:
+        vp = problem.v_minus + (problem.delassus @ pi.ravel()).reshape(n, d)
+        vscale = max(float(np.max(np.abs(problem.v_minus))), 1e-300)
+        if np.any(np.delete(vp[:, 0], contacts[0]) < -1e-9 * vscale):
+            return None  # the lone impulse would drive another contact into the ground
+    extras = {"formulation": formulation, "contacts": per_contact}
+    return assemble_result(problem, pi, regimes, law, method, tol=FAST_TOL, extras=extras,
+                           warnings=tuple(warnings))
 
 
 def kernel_solver(law: str, method: str = "fast"):

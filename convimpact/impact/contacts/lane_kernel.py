@@ -1,25 +1,24 @@
 """Several open-loop contacts from (M, Jc, dq), in one compiled call: the lane of
-``resolve_impact`` for the laws ``ccp`` and ``dissipative`` (:mod:`convimpact.impact.several_lane`).
+``resolve_impact`` for the laws ``ccp`` and ``dissipative`` (:mod:`convimpact.impact.contacts.lane`).
 
 :func:`lane_solve` does, into one flat workspace (:func:`layout`):
 
 1. M checked (exactly symmetric, finite) and factored, ``M = L L^T``, every pivot above
    ``PIVOT_RTOL`` times its diagonal entry; ``X = L^-1 Jc^T``, ``W = X^T X`` (symmetric by
-   construction) and ``v- = Jc dq`` (:func:`convimpact.impact.lane_algebra.reduce_rows`, shared
+   construction) and ``v- = Jc dq`` (:func:`convimpact.impact.problem.compiled_reduction.reduce_rows`, shared
    with the one-contact lane);
-2. the plain-case contact checks of :func:`convimpact.impact.problem.build_problem`
-   (:func:`~convimpact.impact.several_kernels.contact_checks`), some contact approaching, and
+2. the plain-case contact checks of :func:`convimpact.impact.problem.build.build_problem`
+   (:func:`~convimpact.impact.contacts.interior_point.contact_checks`), some contact approaching, and
    the velocities within 1e-100 .. 1e100;
-3. the law by :func:`~convimpact.impact.several_newton.solve_law` (the public interior path's
+3. the law by :func:`~convimpact.impact.contacts.newton.solve_law` (the public interior path's
    single call) and its certificate accepted by the rule of
-   :func:`convimpact.impact.several_contacts._solve`;
+   :func:`convimpact.impact.contacts.interior._solve`;
 4. for the dissipative law Poisson's scaling ``pi = plastic (1 + e_i)`` and the plastic and
    predicted energy losses; then ``dq+ = dq + L^-T X pi``, ``v+ = v- + W pi`` and
    ``T+ - T- = pi.v- + 1/2 pi.W.pi``, all finite.
 
 Returns 0 (done) or a code > 0: the full path takes the impact (and raises or notes as
-before). Compiled on first use (numba, ``cache=True``: the machine code is kept beside this
-module; after editing it delete ``__pycache__/several_lane_kernels*.nb[ic]``).
+before). Compiled on first use and cached per user (:mod:`convimpact.compiled`).
 """
 
 from __future__ import annotations
@@ -28,11 +27,11 @@ import math
 
 import numpy as np
 
-from .conic.polish import VELOCITY_RESIDUAL_MAX
-from .lane_algebra import NOT_FINITE, PLAIN, map_back, reduce_rows, velocity_jump
-from .reduction import IMMOBILE_RTOL, TINY_NORMAL
-from .several_kernels import TRIVIAL, _jit, contact_checks
-from .several_newton import solve_law
+from ..conic.polish import VELOCITY_RESIDUAL_MAX
+from ..problem.compiled_reduction import NOT_FINITE, PLAIN, map_back, reduce_rows, velocity_jump
+from ..problem.reduction import IMMOBILE_RTOL, TINY_NORMAL
+from .interior_point import TRIVIAL, _jit, contact_checks
+from .newton import solve_law
 
 #: figures computed in plain arithmetic (outside, the full path normalizes them)
 PLAIN_LO, PLAIN_HI = PLAIN

@@ -1,11 +1,11 @@
-"""The batch API's input checks and typed errors (:mod:`convimpact.impact.batch`).
+"""The batch API's input checks and typed errors (:mod:`convimpact.impact.batch.impacts`).
 
 Its constants (law codes, regime names, per-impact status codes and the typed error of each),
-the validation of the arguments of :func:`~convimpact.impact.batch.resolve_impacts` and
-:func:`~convimpact.impact.batch.contact_impulses` (real arrays of consistent batched or shared
+the validation of the arguments of :func:`~convimpact.impact.batch.impacts.resolve_impacts` and
+:func:`~convimpact.impact.batch.impacts.contact_impulses` (real arrays of consistent batched or shared
 shapes, e and mu in range, the options), and the errors: bad input found by the compiled
-drivers (:func:`_input_error`, naming the impact) and the error the law's Python kernel raises
-on an item the compiled kernel rejected (:func:`_kernel_error`).
+drivers (:func:`_input_error`, naming the impact) and the error of an item the law's kernel
+rejected, with the law's own message (:func:`_kernel_error`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ from typing import Mapping
 
 import numpy as np
 
-from .errors import (
+from ..laws import LAW_CODES as _LAW_CODES
+from ..errors import (
     ConvImpactError,
     InputError,
     MassMatrixError,
@@ -29,15 +30,7 @@ from .errors import (
 )
 
 #: laws of the batch (every law has an exact single-contact kernel), with their codes
-LAW_CODES: Mapping[str, int] = MappingProxyType(
-    {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4,
-     "chatterjee-ruina": 5})
-#: laws whose *spatial* items have no compiled kernel (the compiled loop would validate the
-#: data, form W and v, and defer each spatial item to the law's Python kernel,
-#: :func:`convimpact.impact.fast.solve_contact`): none. Every law's planar and spatial kernels
-#: are compiled, ``stronge``'s spatial one included (its curved slip's DOP853 integration,
-#: :mod:`.batch_kernels.stronge_spatial`); only rare branches and errors are deferred per item.
-PYTHON_SPATIAL_LAWS: tuple[str, ...] = ()
+LAW_CODES: Mapping[str, int] = MappingProxyType(_LAW_CODES)
 #: regime names; ``ImpactBatch.regime`` holds indices into this tuple (FAILED = -1 for
 #: impacts the kernel rejected)
 REGIMES: tuple[str, ...] = ("separating", "frictionless", "stick", "slide")
@@ -167,8 +160,8 @@ def _item_error(exc: ConvImpactError, i: int, n: int) -> ConvImpactError:
 def _kernel_error(W, v, e: float, mu: float, law: str, status: int, i: int,
                   n: int, e_t: float = 0.0) -> ConvImpactError:
     """The typed error of item i, with the message of the law's kernel (re-run on its W, v
-    through :func:`~convimpact.impact.fast.solve_contact`, which raises it)."""
-    from .fast import solve_contact
+    through :func:`~convimpact.impact.exact.dispatch.solve_contact`, which raises it)."""
+    from ..exact.dispatch import solve_contact
 
     try:
         solve_contact(W, v, e, mu, law, e_t)
@@ -197,7 +190,7 @@ def _raise_first(status: np.ndarray, errors: Mapping[int, ConvImpactError], W, v
 
 def _input_error(code: int, i: int, n: int, M: np.ndarray, J: np.ndarray | None = None,
                  dq: np.ndarray | None = None) -> InputError:
-    from .batch_kernels import common as K  # numba is loaded: the drivers ran
+    from ..laws import codes as K  # numba is loaded: the drivers ran
 
     im = i if M.shape[0] > 1 else 0
     where = f"impact {i} of the batch of {n}" if n > 1 else "the impact"

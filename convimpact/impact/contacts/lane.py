@@ -5,12 +5,12 @@ compiled call.
 ``resolve_impact(M, [J1, ..., Jn], dq, e, mu, law=...)`` with ``law`` "ccp" or "dissipative"
 and ``method="auto"`` or ``"interior"`` (or ``law="coulomb"`` and ``method="interior"``:
 under auto Coulomb's law keeps the conic path), no loop constraints and no options goes to
-``method="interior"`` (:mod:`convimpact.impact.several_contacts`), whose kernel is one
+``method="interior"`` (:mod:`convimpact.impact.contacts.interior`), whose kernel is one
 compiled call; around it the full path spent as long again building the problem (LAPACK
 Cholesky, the contact space, the checks) and the result. This lane does all of it in one
-compiled call (:func:`convimpact.impact.several_lane_kernels.lane_solve`): M checked and
+compiled call (:func:`convimpact.impact.contacts.lane_kernel.lane_solve`): M checked and
 factored, ``X = L^-1 Jc^T``, ``W = X^T X``, ``v- = Jc dq``, the plain-case contact checks, the
-law's program by :func:`~convimpact.impact.several_newton.solve_law` (the interior path's own
+law's program by :func:`~convimpact.impact.contacts.newton.solve_law` (the interior path's own
 call) accepted on its certificate by the interior path's rule, Poisson's scaling for the
 dissipative law, and ``dq+``, ``v+`` and ``T+ - T-``.
 
@@ -47,11 +47,11 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .diagnostics import assemble_result
-from .laws.dissipative import poisson_warnings
-from .problem import _new, build_problem
-from .results import ImpactDiagnostics, ImpactResult
-from .several_contacts import (
+from ..diagnostics import assemble_result
+from ..laws.dissipative import poisson_warnings
+from ..problem.build import _new, build_problem
+from ..results import ImpactDiagnostics, ImpactResult
+from .interior import (
     _MODES,
     _REGIME_OF,
     _STATUS,
@@ -78,7 +78,7 @@ def _build():
     global _SOLVE, _LAYOUT
     t = time.perf_counter()
     try:
-        from . import several_lane_kernels as K
+        from . import lane_kernel as K
     except ImportError:  # numba missing
         _SOLVE = False
         return _SOLVE
@@ -90,7 +90,7 @@ def _build():
         # answer, so it stays off
         _SOLVE = False
         return _SOLVE
-    from ..compiled import announce
+    from ...compiled import announce
     announce("several-contact lane (interior point, Newton finish, certificates)", 30,
              K.lane_solve)
     J = np.zeros((2, 2, 3))

@@ -1,40 +1,41 @@
 """One contact from (M, Jc, dq), in compiled code: the fast lane of ``resolve_impact``.
 
 :func:`lane_solve` is the whole single-contact solve of
-:func:`convimpact.impact.lane.resolve_one` in one compiled call:
+:func:`convimpact.impact.exact.lane.resolve_one` in one compiled call:
 
 1. :func:`reduce_one` checks M (exactly symmetric, finite) and factors it, ``M = L L^T``;
    then ``X = L^-1 Jc^T``, ``W = X^T X`` (eq. 29's Delassus block) and ``v- = Jc dq``
-   (:func:`convimpact.impact.lane_algebra.reduce_rows`, shared with the several-contact lane),
+   (:func:`convimpact.impact.problem.compiled_reduction.reduce_rows`, shared with the several-contact lane),
    and checks the contact: approaching, a normal that moves mass, near unit scale;
 2. the law's exact kernel -- the compiled port of ``contact_kernel`` of each law module
    (:func:`.loop._planar_item`, :func:`.loop._spatial_item`, the batch's own) -- gives the
    contact impulse ``pi`` from ``(W, v-, e, mu)``;
 3. :func:`finish_one` maps it back: ``dq+ = dq + L^-T X pi`` (eq. 29), ``v+ = v- + W pi`` and
-   ``T+ - T- = pi.v- + 1/2 pi.W.pi`` (eq. 58) (:mod:`convimpact.impact.lane_algebra`).
+   ``T+ - T- = pi.v- + 1/2 pi.W.pi`` (eq. 58) (:mod:`convimpact.impact.problem.compiled_reduction`).
 
-Everything is written into one flat workspace (:func:`convimpact.impact.lane.layout`), so the
+Everything is written into one flat workspace (:func:`convimpact.impact.exact.lane.layout`), so the
 call from Python passes seven arguments and allocates one array. A case the lane does not take (see
-:mod:`convimpact.impact.lane`) returns a code > 0 and the full path takes it.
+:mod:`convimpact.impact.exact.lane`) returns a code > 0 and the full path takes it.
 """
 
 from __future__ import annotations
 
 import math
 
-from ..lane_algebra import PLAIN, map_back, reduce_rows, velocity_jump
-from ..problem import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
-from .common import DEFER, OK, _jit
-from .loop import _planar_item, _spatial_item
+from ..problem.compiled_reduction import PLAIN, map_back, reduce_rows, velocity_jump
+from ..problem.build import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
+from ..laws.codes import DEFER, OK, _jit
+from ...compiled import literally
+from ..laws.table import planar_item as _planar_item, spatial_item as _spatial_item
 
 #: lane_solve's codes beyond reduce_one's (1-5): the kernel refused (status SINGULAR/JAM),
-#: deferred to the Python kernel (DEFER), or a result outside plain arithmetic
+#: deferred (DEFER: outside the compiled range of scale), or a result outside plain arithmetic
 REFUSED, DEFERRED, NOT_PLAIN = 6, 7, 8
 
 
 @_jit
 def reduce_one(M, J, dq, ws):
-    """Check and reduce one contact into ``ws`` (:func:`convimpact.impact.lane.layout`).
+    """Check and reduce one contact into ``ws`` (:func:`convimpact.impact.exact.lane.layout`).
     Returns 0 when the data are the plain case, else a code > 0: the full path must take
     them."""
     k = M.shape[0]
@@ -97,10 +98,12 @@ def finish_one(ws, k, d, pi, dq):
 
 @_jit
 def lane_solve(law, M, J, dq, e, mu, et, ws, out):
-    """Reduce, solve and map back one contact into ``ws`` (:func:`convimpact.impact.lane.layout`).
+    """Reduce, solve and map back one contact into ``ws`` (:func:`convimpact.impact.exact.lane.layout`).
     Returns 0 (done), or reduce_one's code (1-5), REFUSED (the kernel's status in ws:
-    SINGULAR or JAM), DEFERRED (a rare branch the Python kernel solves: W and v- are in ws) or
-    NOT_PLAIN. ``out`` receives the law's extras (:data:`.common.OUT_SIZE` floats)."""
+    SINGULAR or JAM), DEFERRED (the kernel is called from Python on W and v-, which are in
+    ws) or NOT_PLAIN. ``out`` receives the law's extras (``laws.codes.OUT_SIZE`` floats).
+    ``law`` is compiled as a constant: each law compiles its own lane."""
+    literally(law)
     k = M.shape[0]
     d = J.shape[0]
     code = reduce_one(M, J, dq, ws)

@@ -2,8 +2,8 @@
 back (eqs. 29, 58), on validated float64 arrays, in numba.
 
 Both lanes of :func:`~convimpact.impact.resolve.resolve_impact` -- one contact
-(:mod:`convimpact.impact.batch_kernels.single`) and several
-(:mod:`convimpact.impact.several_lane_kernels`) -- call these from their compiled code:
+(:mod:`convimpact.impact.exact.lane_kernel`) and several
+(:mod:`convimpact.impact.contacts.lane_kernel`) -- call these from their compiled code:
 
 * :func:`reduce_rows`: M exactly symmetric and finite, ``M = L L^T`` with every pivot above
   :data:`PIVOT_RTOL` times its diagonal entry, ``X = L^-1 R^T``, ``W = X^T X`` (symmetric by
@@ -11,19 +11,15 @@ Both lanes of :func:`~convimpact.impact.resolve.resolve_impact` -- one contact
 * :func:`map_back`: ``dq+ = dq + L^-T X pi``;
 * :func:`velocity_jump`: ``v+ = v- + W pi`` and ``T+ - T- = pi.v- + 1/2 pi.W.pi``.
 
-The full path (:func:`~convimpact.impact.problem.build_problem`, LAPACK) decides the cases
+The full path (:func:`~convimpact.impact.problem.build.build_problem`, LAPACK) decides the cases
 these refuse: an M symmetric only to round-off, a pivot at the edge of definiteness.
-
-numba's disk cache checks a compiled function against its own source file only, and the
-callers embed these: after editing this module, delete ``batch_kernels/__pycache__`` and
-``__pycache__/several_lane_kernels*.nb[ic]`` (an installed upgrade rewrites every file).
 """
 
 from __future__ import annotations
 
 import math
 
-from ..compiled import jit as _jit
+from ...compiled import jit as _jit
 
 #: a Cholesky pivot at or below this fraction of its diagonal entry sends M to the full
 #: path (whose LAPACK factorization decides positive definiteness at the edge)

@@ -1,10 +1,9 @@
 """The batch loops of the compiled kernels: one contact's dispatch and the two drivers.
 
-* ``_planar_item`` / ``_spatial_item``: :func:`convimpact.impact.fast.solve_contact` after
-  validation -- separating, W_nn > 0, the safe range of W's trace and v (else the item is
-  deferred to the Python dispatcher, which rescales), mu = 0 (frictionless), then the law's
-  kernel (:mod:`.pereira_nikravesh`, :mod:`.coulomb`, :mod:`.ccp`, :mod:`.dissipative`,
-  :mod:`.stronge` in the plane, :mod:`.stronge_spatial` in space);
+* ``_planar_item`` / ``_spatial_item``: :func:`convimpact.impact.exact.dispatch.solve_contact`
+  after validation -- separating, W_nn > 0, the safe range of W's trace and v (else the item
+  is deferred to solve_contact, which rescales by powers of two), mu = 0 (frictionless), then
+  the law's kernel (its module in :mod:`convimpact.impact.laws`, by the law's code);
 * :func:`contact_batch`: every item from (W, v), with v+ and the energy loss;
 * :func:`impact_batch`: every item from (M, Jc, dq): validates M (finite, symmetric,
   Cholesky), forms W = Jc M^-1 Jc^T and v- = Jc dq, solves, maps the impulse back to dq+ and
@@ -17,11 +16,9 @@ import math
 
 import numpy as np
 
-from ..laws.ccp import _ccp_planar, _ccp_spatial
-from ..laws.chatterjee_ruina import _cr_planar, _cr_spatial
-from ..laws.dissipative import _dissipative_planar, _dissipative_spatial
-from ..laws.pereira_nikravesh import _pn_planar, _pn_spatial
-from .common import (
+from ...compiled import literally
+from ..laws.table import planar_item as _planar_item, spatial_item as _spatial_item
+from ..laws.codes import (
     BAD_DQ_FINITE,
     BAD_J_FINITE,
     BAD_M_DEFINITE,
@@ -29,90 +26,20 @@ from .common import (
     BAD_M_SYMMETRY,
     BAD_OVERFLOW,
     BAD_W_FINITE,
-    CHATTERJEE_RUINA,
-    COULOMB,
     DEFER,
-    DISSIPATIVE,
     FAILED,
-    FRICTIONLESS,
     OK,
     OUT_SIZE,
-    PN,
-    SAFE_HI,
-    SAFE_LO,
-    SEPARATING,
-    SINGULAR,
     SLIDE,
     SYMMETRY_RTOL,
     _NAN,
     _jit,
     _pmax2,
 )
-from ..laws.coulomb import _coulomb_planar, _coulomb_spatial
-from ..laws.stronge import STRONGE, _stronge_planar
-from ..laws.stronge_slip import _stronge_spatial
 
 
 # --------------------------------------------------------------------------------------------
 # one contact: fast.solve_contact after validation
-
-
-@_jit
-def _frictionless(w00, v0, e):
-    return OK, FRICTIONLESS, -(1.0 + e) * v0 / w00, 0.0, 0.0, _NAN
-
-
-@_jit
-def _planar_item(law, w00, w01, w11, v0, v1, e, mu, et, out):
-    """fast.solve_contact after validation, one planar contact: separating, W_nn, the trace's
-    range, then the law's kernel (laws.<law>.contact_kernel)."""
-    if not v0 < 0.0:
-        return OK, SEPARATING, 0.0, 0.0, 0.0, _NAN
-    if not w00 > 0.0:
-        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
-    tr = w00 + w11
-    vs = _pmax2(_pmax2(-v0, abs(v1)), abs(v1))
-    if not (SAFE_LO <= tr <= SAFE_HI and SAFE_LO <= vs <= SAFE_HI):
-        return DEFER, FAILED, _NAN, _NAN, _NAN, _NAN  # fast.solve_contact rescales: Python
-    if law == DISSIPATIVE:  # the plastic (e = 0) impulse times (1 + e)
-        return _dissipative_planar(w00, w01, w11, v0, v1, e, mu, out)
-    if mu == 0.0:
-        return _frictionless(w00, v0, e)
-    if law == PN:
-        return _pn_planar(w00, w01, w11, v0, v1, e, mu, out)
-    if law == COULOMB:
-        return _coulomb_planar(w00, w01, w11, v0, v1, e, mu, out)
-    if law == STRONGE:
-        return _stronge_planar(w00, w01, w11, v0, v1, e, mu, out)
-    if law == CHATTERJEE_RUINA:
-        return _cr_planar(w00, w01, w11, v0, v1, e, mu, et, out)
-    return _ccp_planar(w00, w01, w11, v0, v1, e, mu, out)
-
-
-@_jit
-def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
-    """fast.solve_contact after validation, one spatial contact (as _planar_item)."""
-    if not v0 < 0.0:
-        return OK, SEPARATING, 0.0, 0.0, 0.0, _NAN
-    if not w00 > 0.0:
-        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
-    tr = w00 + w11 + w22
-    vs = _pmax2(_pmax2(-v0, abs(v1)), abs(v2))
-    if not (SAFE_LO <= tr <= SAFE_HI and SAFE_LO <= vs <= SAFE_HI):
-        return DEFER, FAILED, _NAN, _NAN, _NAN, _NAN
-    if law == DISSIPATIVE:
-        return _dissipative_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
-    if mu == 0.0:
-        return _frictionless(w00, v0, e)
-    if law == PN:
-        return _pn_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
-    if law == COULOMB:
-        return _coulomb_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
-    if law == STRONGE:
-        return _stronge_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
-    if law == CHATTERJEE_RUINA:
-        return _cr_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out)
-    return _ccp_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
 
 
 # --------------------------------------------------------------------------------------------
@@ -121,8 +48,10 @@ def _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out)
 
 @_jit
 def contact_batch(law, W, v, e, mu, et, impulse, regime, status, effm, vplus, eloss):
-    """Every item of a batch of contacts from (W, v); arrays with a leading dimension 1 are
-    shared by every item. Returns (first item with non-finite data or -1, deferred count)."""
+    """Every item of a batch of contacts from (W, v) under law code ``law`` (compiled as a
+    constant: each law compiles its own driver); arrays with a leading dimension 1 are shared
+    by every item. Returns (first item with non-finite data or -1, deferred count)."""
+    literally(law)
     n = impulse.shape[0]
     d = impulse.shape[1]
     bw = W.shape[0] > 1
@@ -222,12 +151,14 @@ def impact_batch(law, M, J, dq, e, mu, et, tol, idx, given, dq_plus, impulse, v_
     map back (dq+ = dq + L^-T X pi, v+ = v- + W pi) and measure assemble_result's flags.
 
     With a non-empty ``idx`` only those items are (re)done, with the impulses ``given`` (one
-    row per item; ``regime`` already set): the completion of items solved by the Python kernel.
+    row per item; ``regime`` already set): the completion of items solve_contact solved
+    (those outside the compiled range of scale).
 
     Returns (first item with bad input or -1, deferred count). ``flags`` columns:
     energy_gained, friction_pushes_slip, slip_reversal, penetration; ``mu_eff`` receives the
     friction actually used (0 where the tangent directions move no mass, as build_problem).
     """
+    literally(law)
     n = dq_plus.shape[0]
     k = dq_plus.shape[1]
     d = impulse.shape[1]

@@ -5,7 +5,7 @@ eq. (38)/(51), ``pi_n = -(1+e) v_n / (W_n . (1, mu t))``, and t the direction, a
 a positive denominator, that maximizes T_L (eq. 60). This is also the boundary optimum of the
 program P_N (minimize T+ subject to v_n+ = -e v_n-, pi in K_mu). Its stationarity condition
 ``det[c W p + (a.p) v, a, q] = 0`` (a = W e_n, q = (-mu, t)) is a trigonometric quadratic in t,
-solved exactly by the boundary algebra of :mod:`convimpact.impact.batch_kernels.algebra`. P_N
+solved exactly by the boundary algebra of :mod:`convimpact.impact.laws.algebra`. P_N
 is convex, so Newton's method from -v_t- is tried first and accepted when P_N's KKT conditions
 certify it; otherwise every root is compared, the winner certified (KKT or probe directions),
 then retried with companion-matrix roots, then SolverError.
@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from .batch_kernels.algebra import (
+from .algebra import (
     _candidates,
     _det_wq,
     _inverse3,
@@ -31,9 +31,9 @@ from .batch_kernels.algebra import (
     _rotate,
     _solve3,
 )
-from .batch_kernels.common import NO_SOLUTION, OK, _in_cone, _jit, _pmax2, _unit_or
-from .errors import SingularSystemError, SolverError, real_number
-from .small_linalg import as_lists
+from .codes import NO_SOLUTION, OK, _in_cone, _jit, _pmax2, _unit_or
+from ..errors import SingularSystemError, SolverError, real_number
+from ..problem.dense import as_lists
 
 # directions probed by the certificate of maximal dissipation (constants as tuples)
 _PROBE_X = tuple(math.cos(k * math.pi / 4) for k in range(8))

@@ -1,6 +1,6 @@
 """The small algebra every law's compiled kernel shares.
 
-* :mod:`~convimpact.impact.small_linalg`: the 2 x 2 solve and the 3 x 3 inverse and solve of a
+* :mod:`~convimpact.impact.problem.dense`: the 2 x 2 solve and the 3 x 3 inverse and solve of a
   symmetric W (scaled by its trace, one refinement step when nearly singular);
 * :mod:`~convimpact.impact.boundary`: real roots of quadratics, cubics and quartics, the
   safeguarded Newton polish, the candidate directions on the cone's boundary of a quadratic
@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from .common import SINGULAR_RTOL, _jit, _pmax2, _tset4, _tset5
+from .codes import SINGULAR_RTOL, _jit, _pmax2, _tset4, _tset5
 
 # constants as tuples (no arrays, hence no reference counting in the compiled loops)
 _ROT_ANGLES = (0.5 * math.pi, 0.25 * math.pi, 0.75 * math.pi, 0.125 * math.pi, 0.375 * math.pi,

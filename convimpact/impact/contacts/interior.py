@@ -15,7 +15,7 @@ of the law is the program's KKT point,
     K ∋ pi  ⊥  z = W pi + b ∈ K*,
 
 which is what this path computes and certifies, in compiled code
-(:mod:`convimpact.impact.several_kernels`, :mod:`convimpact.impact.several_newton`):
+(:mod:`convimpact.impact.contacts.interior_point`, :mod:`convimpact.impact.contacts.newton`):
 
 1. a primal-dual interior point (Mehrotra's predictor-corrector with Nesterov-Todd scaling,
    one dense Cholesky factorization per iteration) on the program written over standard
@@ -67,12 +67,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .conic.polish import VELOCITY_RESIDUAL_MAX
-from .diagnostics import assemble_result
-from .errors import ParameterError, SolverError, UnknownOptionError
-from .laws.dissipative import poisson_warnings
-from .problem import ImpactProblem
-from .results import ImpactResult
+from ..conic.polish import VELOCITY_RESIDUAL_MAX
+from ..diagnostics import assemble_result
+from ..errors import ParameterError, SolverError, UnknownOptionError
+from ..laws.dissipative import poisson_warnings
+from ..problem.build import ImpactProblem
+from ..results import ImpactResult
 
 METHOD = "interior"
 #: laws this path solves
@@ -127,12 +127,12 @@ DEFAULT_OPTIONS = InteriorOptions()
 
 
 def kernels():
-    """The compiled kernels (:mod:`convimpact.impact.several_newton` and the interior point of
-    :mod:`convimpact.impact.several_kernels`), imported on first use."""
+    """The compiled kernels (:mod:`convimpact.impact.contacts.newton` and the interior point of
+    :mod:`convimpact.impact.contacts.interior_point`), imported on first use."""
     global _KERNELS
     if _KERNELS is None:
-        from . import several_newton
-        from ..compiled import announce
+        from . import newton as several_newton
+        from ...compiled import announce
 
         announce("several-contact interior kernels", 25, several_newton.solve_law,
                  several_newton.ccp_kernel, several_newton.coulomb_kernel)

@@ -2,13 +2,13 @@
 
 ``resolve_impacts(M, Jc, dq, e, mu, law=...)`` resolves N independent impacts of one contact
 each -- the same answers as ``resolve_impact(M[i], Jc[i], dq[i], e[i], mu[i], law=law,
-method="fast")`` to round-off -- in one compiled loop (numba, :mod:`.batch_kernels`): per item
-it validates M (finite, symmetric, Cholesky), forms W = Jc M^-1 Jc^T and v- = Jc dq, applies the
-law's exact single-contact kernel (a port of ``contact_kernel`` of each law module, branch for
-branch), maps the impulse back to dq+ and measures the flags of
+method="fast")`` to round-off -- in one compiled loop (:mod:`.drivers`): per item it
+validates M (finite, symmetric, Cholesky), forms W = Jc M^-1 Jc^T and v- = Jc dq, applies the
+law's exact single-contact kernel (the same compiled kernel every path runs), maps the impulse
+back to dq+ and measures the flags of
 :func:`~convimpact.impact.diagnostics.assemble_result`. ``contact_impulses(W, v, e, mu, law)``
 is the lower-level entry on the Delassus blocks and contact velocities directly (the batch
-analogue of :func:`convimpact.impact.fast.solve_contact`).
+analogue of :func:`convimpact.impact.exact.dispatch.solve_contact`).
 
 Shapes: an argument with a leading batch dimension N is per impact, one without it is shared
 by every impact (M (k, k) or (N, k, k); Jc (d, k) or (N, d, k) with d = 2 planar, 3 spatial;
@@ -29,13 +29,11 @@ Error policy
   NonPositiveEffectiveMassError, SolverError), naming its index. ``batch.error(i)`` gives that
   exception for any flagged item after the fact.
 
-The compiled kernels are built on the first call (numba, ``cache=True``: the machine code is
-kept on disk, so later processes load it in a fraction of a second); :func:`compile_kernels`
-builds them ahead of time and says how long it took. ``import convimpact`` compiles nothing
-and does not import numba. numba is an optional dependency (``pip install
-"convimpact[batch]"``): without it :func:`resolve_impacts`, :func:`contact_impulses` and
-:func:`compile_kernels` raise :class:`~convimpact.impact.errors.NotSupportedError` (a loop over
-``resolve_impact`` gives the same answers).
+The compiled kernels are built on the first call and cached per user
+(:mod:`convimpact.compiled`), so later processes load them in a fraction of a second;
+:func:`compile_kernels` builds them ahead of time and says how long it took. ``import
+convimpact`` compiles nothing and does not import numba; without numba the same code runs as
+plain Python (with a warning).
 """
 
 from __future__ import annotations
@@ -47,16 +45,15 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .errors import ConvImpactError, InputError, NotSupportedError, ParameterError, ShapeError
-from .resolve import check_law_parameters
-from .batch_checks import (  # noqa: F401  (the batch API's names)
+from ..errors import ConvImpactError, InputError, NotSupportedError, ParameterError, ShapeError
+from ..resolve import check_law_parameters
+from .checks import (  # noqa: F401  (the batch API's names)
     FAILED,
     JAM,
     LAW_CODES,
     NO_SOLUTION,
     OK,
     ON_ERROR,
-    PYTHON_SPATIAL_LAWS,
     REGIMES,
     SINGULAR,
     STATUS_ERRORS,
@@ -71,37 +68,25 @@ from .batch_checks import (  # noqa: F401  (the batch API's names)
     _real_array,
     _status_of,
 )
-from .batch_results import ContactBatch, ImpactBatch  # noqa: F401
+from .results import ContactBatch, ImpactBatch  # noqa: F401
 
 #: relative accuracy of the answers (that of method="fast"; passed to the flags' thresholds)
 BATCH_TOL = 1e-10
 
-_DEFER = 9  # batch_kernels.DEFER: solved by the Python kernel afterwards
+_DEFER = 9  # laws.codes.DEFER: outside the compiled range of scale, solved by solve_contact
 _NO_ITEMS = np.zeros(0, dtype=np.int64)
 _NO_IMPULSES = {2: np.zeros((0, 2)), 3: np.zeros((0, 3))}
 _K = None  # the compiled module, imported on first use
 _COMPILE_SECONDS: dict[str, float] = {}
 
 
-#: the error without numba (an optional dependency: the ``batch`` extra)
-NEEDS_NUMBA = ('resolve_impacts needs numba: pip install "convimpact[batch]" (or a loop over '
-               'resolve_impact)')
-
-
 def _kernels():
-    """The compiled kernels (:mod:`.batch_kernels`), imported on first use; without numba,
-    :class:`NotSupportedError` naming the ``batch`` extra."""
+    """The compiled drivers (:mod:`.drivers`), imported on first use."""
     global _K
     if _K is None:
         t = time.perf_counter()
-        try:
-            import numba  # noqa: F401  (optional: the batch extra)
-        except ImportError as exc:
-            missing = isinstance(exc, ModuleNotFoundError) and exc.name == "numba"
-            raise NotSupportedError(NEEDS_NUMBA if missing else
-                                    f"{NEEDS_NUMBA}; importing numba failed: {exc}") from exc
-        from .batch_kernels import loop
-        from ..compiled import announce
+        from . import drivers as loop
+        from ...compiled import announce
 
         announce("batch kernels (every law, planar and spatial)", 28, loop.impact_batch,
                  loop.contact_batch)
@@ -210,7 +195,7 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     ShapeError, NonFiniteError, MassMatrixError, ParameterError, UnknownOptionError
         for bad input (the message names the first offending impact);
     NotSupportedError
-        when ``C`` is given, or numba is not installed (``pip install "convimpact[batch]"``);
+        when ``C`` is given;
     SingularSystemError, NonPositiveEffectiveMassError, SolverError
         with ``on_error="raise"`` only, for the first impact the kernel rejects.
 
@@ -219,7 +204,7 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     The README's particle at 45 degrees, and the same particle at three friction values:
 
     >>> import numpy as np, convimpact as ci
-    >>> from convimpact.impact.batch import resolve_impacts
+    >>> from convimpact.impact.batch.impacts import resolve_impacts
     >>> M, Jc = 2.0 * np.eye(2), np.array([[0.0, 1.0], [1.0, 0.0]])
     >>> b = resolve_impacts(M, Jc, [1.0, -1.0], e=0.5, mu=[0.0, 0.3, 1.0])
     >>> b.regimes()
@@ -227,7 +212,6 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     >>> np.round(b.v_plus[1], 3).tolist()
     [0.5, 0.55]
     """
-    _kernels()  # NotSupportedError without numba
     code = _check_options(law, on_error)
     nthreads = _thread_count(threads)
     if C is not None:
@@ -316,7 +300,7 @@ def _solve_deferred(law: str, code: int, status, regime, effm, W, v, e, mu, et, 
                     finish) -> None:
     """Items outside the compiled loop's safe range of scale: solve_contact rescales them
     (exactly, by powers of two) and runs the same kernel."""
-    from .fast import solve_contact
+    from ..exact.dispatch import solve_contact
 
     idx = np.flatnonzero(status == _DEFER)
     done, pis = [], []
@@ -345,7 +329,7 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t
                      on_error: str = "flag", threads: int | None = None) -> ContactBatch:
     """Impulses of N single contacts from their Delassus blocks and velocities.
 
-    The batch form of :func:`convimpact.impact.fast.solve_contact`: item i equals
+    The batch form of :func:`convimpact.impact.exact.dispatch.solve_contact`: item i equals
     ``solve_contact(W[i], v[i], e[i], mu[i], law)``. W is read from its upper triangle (as the
     kernels do); it is not checked for symmetry or definiteness.
 
@@ -373,12 +357,11 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t
 
     Examples
     --------
-    >>> from convimpact.impact.batch import contact_impulses
+    >>> from convimpact.impact.batch.impacts import contact_impulses
     >>> b = contact_impulses([[0.5, 0.0], [0.0, 0.5]], [[-1.0, 1.0], [-1.0, 0.1]], e=0.5, mu=0.3)
     >>> b.regimes(), b.impulse.round(3).tolist()
     (('slide', 'stick'), [[3.0, -0.9], [3.0, -0.2]])
     """
-    _kernels()  # NotSupportedError without numba
     code = _check_options(law, on_error)
     nthreads = _thread_count(threads)
     Wa = _real_array("W", W)
@@ -453,8 +436,7 @@ def compile_kernels() -> dict[str, float]:
 
     Returns seconds per step: ``import`` (numba and the module), ``planar`` and ``spatial``
     (the first call of each driver on one impact per law). Later calls in this process pay
-    nothing; later processes load the cached machine code. Raises
-    :class:`~convimpact.impact.errors.NotSupportedError` without numba.
+    nothing; later processes load the cached machine code.
     """
     t0 = time.perf_counter()
     _kernels()

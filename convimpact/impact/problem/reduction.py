@@ -6,7 +6,7 @@ complement ``W - B^T A^-1 B`` with ``B = (L^-1 C^T)^T X`` and ``A = C M^-1 C^T``
 eliminates the loop impulses Delta sigma from the bordered matrices of eqs. (51)/(52) --
 symmetrized bit for bit, and ``v- = Jc dq`` (eq. 17). :func:`_loops` validates the loop
 Jacobian C (shape, rank, ``C dq = 0``) on the way. :func:`_plain_contacts` recognizes the plain case of several
-contacts in one compiled call. :mod:`convimpact.impact.problem` validates the raw input and
+contacts in one compiled call. :mod:`convimpact.impact.problem.build` validates the raw input and
 calls these.
 """
 
@@ -16,8 +16,8 @@ import sys
 
 import numpy as np
 
-from .errors import LoopConstraintError, NonFiniteError, ShapeError, as_real_array
-from .small_linalg import cholesky_lower, empty_matrix, tri_solve
+from ..errors import LoopConstraintError, NonFiniteError, ShapeError, as_real_array
+from .dense import cholesky_lower, empty_matrix, tri_solve
 
 #: relative singular-value threshold below which C is declared rank deficient (C M^-1 C^T
 #: squares the ratio, so 1e-7 keeps its condition number below about 1e14)
@@ -125,13 +125,13 @@ _CONTACT_CHECKS = None
 
 def _plain_contacts(W: np.ndarray, v: np.ndarray, d: int) -> bool:
     """Whether several contacts are the plain case, by the compiled
-    :func:`~convimpact.impact.several_kernels.contact_checks` (which also symmetrizes W in
+    :func:`~convimpact.impact.contacts.interior_point.contact_checks` (which also symmetrizes W in
     place); False hands the decision to the Python checks (also when numba is missing)."""
     global _CONTACT_CHECKS
     checks = _CONTACT_CHECKS
     if checks is None:
         try:
-            from .several_kernels import contact_checks as checks
+            from ..contacts.interior_point import contact_checks as checks
         except ImportError:  # pragma: no cover - numba missing
             checks = False
         _CONTACT_CHECKS = checks

@@ -9,8 +9,8 @@ from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
-from .batch_checks import OK, REGIMES, STATUS_NAMES, _kernel_error
-from .errors import ConvImpactError
+from .checks import OK, REGIMES, STATUS_NAMES, _kernel_error
+from ..errors import ConvImpactError
 
 
 class _BatchStatus:

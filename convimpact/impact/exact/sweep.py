@@ -16,7 +16,7 @@ Fig. 9); :func:`sweep_direction` finds its maximum: a coarse grid brackets every
 maximum, which is then refined by Brent's bounded method to ``xtol`` in alpha. Note that
 ``T_L`` is flat at its maximum, so the achievable accuracy in alpha is about
 ``sqrt(eps |T_L| / |T_L''|)`` (~1e-8) however small ``xtol`` is; T_L itself is accurate to
-round-off. The exact answer is :func:`convimpact.impact.max_dissipation.max_dissipation_direction`.
+round-off. The exact answer is :func:`convimpact.impact.laws.max_dissipation.max_dissipation_direction`.
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from .laws.pereira_nikravesh import frictionless_impulse, stick_admissible, sticking_impulse
-from .diagnostics import assemble_result
-from .errors import (
+from ..laws.pereira_nikravesh import frictionless_impulse, stick_admissible, sticking_impulse
+from ..diagnostics import assemble_result
+from ..errors import (
     as_real_array,
     real_number,
     NonPositiveEffectiveMassError,
@@ -39,9 +39,9 @@ from .errors import (
     SingularSystemError,
     UnknownOptionError,
 )
-from .max_dissipation import max_dissipation_direction  # the exact answer, re-exported
-from .problem import ImpactProblem
-from .results import ImpactResult
+from ..laws.max_dissipation import max_dissipation_direction  # the exact answer, re-exported
+from ..problem.build import ImpactProblem
+from ..results import ImpactResult
 
 #: default refinement tolerance in alpha (radians)
 DEFAULT_XTOL = 1e-10

@@ -1,7 +1,7 @@
 """Small dense linear algebra of the public path: the factorization and triangular solves of
 the reduction, one contact's data as plain floats, and the singular-W error the exact kernels
 raise (their own 2 x 2 and 3 x 3 solves are compiled, in
-:mod:`convimpact.impact.batch_kernels.algebra`).
+:mod:`convimpact.impact.laws.algebra`).
 
 :func:`cholesky_lower` and :func:`tri_solve` (the full path's ``M = L L^T``, ``L^-1 B`` and
 ``L^-T B``, and the loop matrix's factor and solves) call no LAPACK routine that hands a tiny
@@ -28,7 +28,7 @@ from operator import mul as _mul
 import numpy as np
 import scipy.linalg as sla
 
-from .errors import MassMatrixError, ShapeError, SingularSystemError, as_real_array
+from ..errors import MassMatrixError, ShapeError, SingularSystemError, as_real_array
 
 #: largest matrix factored and solved on Python floats by :func:`cholesky_lower` and
 #: :func:`tri_solve` (no LAPACK/BLAS call); above it LAPACK's dpotrf and BLAS's dtrsm (see the

@@ -5,7 +5,7 @@ equilibrated by its own effective mass, unit-size data; ``pi = S x``), both laws
 ``interior`` path are complementarity problems over the product K of second-order cones:
 
 * ``ccp`` (and the dissipative law's plastic phase): ``K ∋ x ⊥ w = P x + q ∈ K``, a monotone
-  problem, started by the interior point of :mod:`convimpact.impact.several_kernels`;
+  problem, started by the interior point of :mod:`convimpact.impact.contacts.interior_point`;
 * ``coulomb`` (De Saxce's form of Coulomb's law with Newton's restitution):
   ``K ∋ x ⊥ w + |w_t| e ∈ K`` per contact -- in the scaled variables the shift
   ``mu |u_t| n`` of the contact-space law becomes ``|w_t|`` whatever mu (the scaling carries
@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from .several_kernels import EPS, STALLED, TINY, TRIVIAL, _jit, cone_lcp
+from .interior_point import EPS, STALLED, TINY, TRIVIAL, _jit, cone_lcp
 
 
 @_jit
@@ -215,6 +215,12 @@ def natural_map_newton(P, q, x, starts, sizes, max_iter, coulomb):
     return x, fmax, steps
 
 
+#: a friction coefficient at or below this is no friction for the program: mu pi_n is then
+#: below half an ulp of pi_n (and 1 / mu may overflow), so the frictionless answer is the
+#: law's answer to round-off
+MU_ROUNDOFF = 2.0 ** -53
+
+
 @_jit
 def scaled_program(W, b, mu, d):
     """The cone program in standard second-order cones and unit-size data.
@@ -234,7 +240,7 @@ def scaled_program(W, b, mu, d):
     M = 0
     for i in range(n):
         starts[i] = M
-        if mu[i] > 0.0:
+        if mu[i] > MU_ROUNDOFF:
             sizes[i] = d
             wmax = 0.0
             for j in range(d):

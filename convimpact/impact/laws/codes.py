@@ -2,7 +2,7 @@
 codes, the tolerances, and small scalar and tuple helpers.
 
 Codes and tolerances are module constants, frozen into the machine code where a kernel reads
-them; :mod:`convimpact.impact.batch` reads the status codes through the package.
+them; :mod:`convimpact.impact.batch.impacts` reads the status codes through the package.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import math
 
 from ...compiled import jit as _jit  # every kernel's njit options, and its cache
 
-# status codes of one item (see convimpact.impact.batch for the public names)
+# status codes of one item (see convimpact.impact.batch.impacts for the public names)
 OK = 0
 SINGULAR = 1  # SingularSystemError: W_nn <= 0, or W singular where the law inverts it
 JAM = 2  # NonPositiveEffectiveMassError: every sliding denominator <= 0 (Newton laws)
@@ -37,14 +37,6 @@ FRICTIONLESS = 1
 STICK = 2
 SLIDE = 3
 FAILED = -1
-
-# law codes (the order of batch.LAW_CODES)
-PN = 0
-COULOMB = 1
-CCP = 2
-DISSIPATIVE = 3
-STRONGE = 4
-CHATTERJEE_RUINA = 5
 
 CONE_RTOL = 1e-12
 ROOT_RTOL = 1e-8

@@ -5,17 +5,17 @@ code.
 constraints, ``method="auto"`` or ``"fast"`` and no options spent most of its time around the
 law rather than in it: checking M, factoring it, forming the contact space, mapping the
 impulse back, building the diagnostics. This lane does all of it in one compiled call (numba,
-:func:`convimpact.impact.batch_kernels.single.lane_solve`):
+:func:`convimpact.impact.exact.lane_kernel.lane_solve`):
 
 1. M is checked (exactly symmetric, finite) and factored, ``M = L L^T``; then
    ``X = L^-1 Jc^T``, ``W = X^T X`` (eq. 29's Delassus block) and ``v- = Jc dq``, all finite;
 2. the law's exact kernel gives the contact impulse ``pi`` from ``(W, v-, e, mu)`` -- the
-   compiled port of the law's ``contact_kernel`` that :func:`~convimpact.impact.batch.
-   resolve_impacts` runs, branch for branch the kernel of ``method="fast"``;
+   law's one compiled kernel, which ``method="fast"`` and
+   :func:`~convimpact.impact.batch.resolve_impacts` run too;
 3. ``dq+ = dq + L^-T X pi`` (eq. 29), ``v+ = v- + W pi`` and ``T+ - T- = pi.v- + 1/2 pi.W.pi``
    (eq. 58).
 
-The lane takes only the plain case of :func:`~convimpact.impact.problem.build_problem`: real
+The lane takes only the plain case of :func:`~convimpact.impact.problem.build.build_problem`: real
 float data of the right shapes, M exactly symmetric and safely positive definite (every
 Cholesky pivot above ``PIVOT_RTOL`` times its diagonal entry), a normal that moves mass and
 approaches, e in [0, 1] and mu >= 0 given as numbers, every figure finite and within
@@ -23,29 +23,27 @@ approaches, e in [0, 1] and mu >= 0 given as numbers, every figure finite and wi
 full path symmetrizes, a kernel that refuses (a singular W that ``method="auto"`` hands to the
 conic paths, a jam) -- returns None, and :func:`~convimpact.impact.resolve.resolve_impact`
 takes its full path, which raises the same typed errors and writes the same notes as before.
-The rare branches the compiled kernels do not port (polynomial roots by companion matrix)
-are solved by the law's Python kernel on the lane's W and v-.
 
 The answer is ``method="fast"``'s to round-off (the factorization is not LAPACK's, so the
 last bits of W may differ). Everything but the impulse, the velocities, the regime, the
 energy loss and the effective mass is measured on first access: the diagnostics (residuals,
 flags, condition numbers) from a problem built then on private copies of the data, as on the
 full path; the law's ``notes`` and ``extras`` (e.g. the CCP normal-velocity lift, Stronge's
-phases) from the law's Python kernel run then on the lane's W and v-.
+phases) from the law's kernel, run again then on the lane's W and v- (its entry on plain
+floats, ``contact_kernel``).
 
 Compilation, in two tiers so that a short session never waits for it:
 
 * **tier 1** (first call): the reduction and the map back compiled
-  (:func:`~.batch_kernels.single.reduce_one`, :func:`~.batch_kernels.single.finish_one`:
-  measured 2.6 s once per machine, 0.9 s from numba's disk cache with numba's import) around
-  the law's Python kernel;
-* **tier 2**: the whole call compiled (:func:`~.batch_kernels.single.lane_solve`, every
-  law's kernel in it: measured 20 s once per machine, 0.03 s from the disk cache), taken at
-  once when numba's cache on disk holds it, else after ``HOT_CALLS`` lane calls in the
-  process -- a loop, not a handful of impacts -- or when :func:`compile_lane` is called.
+  (:func:`~.lane_kernel.reduce_one`, :func:`~.lane_kernel.finish_one`) around the law's
+  kernel called from Python (only that law's kernel compiles);
+* **tier 2**: the whole call compiled (:func:`~.lane_kernel.lane_solve`, every law's kernel
+  in it), taken at once when the cache on disk holds it, else after ``HOT_CALLS`` lane calls
+  in the process -- a loop, not a handful of impacts -- or when :func:`compile_lane` is
+  called.
 
-The two tiers run the same branches with the same floating-point expressions: their answers
-agree to round-off. Without numba the lane is off and every call takes the full path.
+Both tiers run the same kernels: their answers agree to round-off (the bench's ``coldstart``
+section measures what each costs on a cold and a warm cache).
 """
 
 from __future__ import annotations
@@ -57,21 +55,21 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .diagnostics import assemble_result
-from .errors import ConvImpactError, as_real_array
-from .problem import _new, build_problem
-from .results import ImpactDiagnostics, ImpactResult
+from ..diagnostics import assemble_result
+from ..errors import ConvImpactError, as_real_array
+from ..laws import LAW_CODES as _LAW_CODES
+from ..problem.build import _new, build_problem
+from ..results import ImpactDiagnostics, ImpactResult
 
 #: relative accuracy recorded for the answers (that of ``method="fast"``)
 LANE_TOL = 1e-10
 #: lane calls in a process after which the whole call is compiled (tier 2), when numba's disk
 #: cache does not hold it already
 HOT_CALLS = 200
-#: the compiled kernels' regime codes -> names (batch_kernels.common)
+#: the compiled kernels' regime codes -> names (laws.codes)
 _REGIMES = ("separating", "frictionless", "stick", "slide")
 #: the compiled kernels' law codes (batch.LAW_CODES)
-_LAW_CODES = {"pereira-nikravesh": 0, "coulomb": 1, "ccp": 2, "dissipative": 3, "stronge": 4,
-              "chatterjee-ruina": 5}
+
 
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
@@ -84,7 +82,7 @@ _SOLVE = None
 _CALLS = 0
 #: the law kernels' extras scratch of tier 2 (read lazily through the law's kernel instead)
 _OUT = np.empty(32)
-#: the compiled module (batch_kernels.single), imported by _build
+#: the compiled module (exact.lane_kernel), imported by _build
 _S = None
 COMPILE_SECONDS: dict[str, float] = {}
 
@@ -95,12 +93,12 @@ def _build():
     global _COMPILED, _S
     t = time.perf_counter()
     try:
-        from .batch_kernels import single
+        from . import lane_kernel as single
     except ImportError:  # numba missing
         _COMPILED = False
         return _COMPILED
     _S = single
-    from ..compiled import announce
+    from ...compiled import announce
     announce("single-contact lane (reduction and map back)", 3, single.reduce_one,
              single.finish_one)
     # compile for the one signature the lane uses (C-contiguous float64 arrays)
@@ -127,7 +125,7 @@ def _build_solve():
     """Tier 2: compile (or load from numba's disk cache) lane_solve."""
     global _SOLVE
     t = time.perf_counter()
-    from ..compiled import announce
+    from ...compiled import announce
     announce("single-contact lane's whole call (every law's kernel)", 20, _S.lane_solve)
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
     ws = np.empty(layout(2, 2)[-1])
@@ -148,7 +146,7 @@ def compile_lane() -> float:
 
 def layout(k: int, d: int) -> tuple[int, ...]:
     """Offsets into the lane's workspace (shared with its compiled side,
-    :mod:`convimpact.impact.batch_kernels.single`): L, X, W, v-, dq+, v+, [T+ - T-, max |pi|,
+    :mod:`convimpact.impact.exact.lane_kernel`): L, X, W, v-, dq+, v+, [T+ - T-, max |pi|,
     max |v-|], copies of M, Jc, dq, pi and [status, regime code, effective mass, mu used]; the
     last entry is the size."""
     oX = k * k
@@ -183,7 +181,7 @@ class _LaneAnswer:
         return self.ws[oW:oW + d * d].reshape(d, d)
 
     def solution(self):
-        """The law's Python kernel on the lane's (W, v-): its notes and extras."""
+        """The law's kernel on the lane's (W, v-), from Python: its notes and extras."""
         if self.sol is None:
             d = self.d
             oW = layout(self.k, d)[1]
@@ -294,7 +292,8 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel, e_t=None) -> ImpactResult | 
         if code > 0:
             return None
         mu_used = 0.0 if code else mu_
-    # tier 1, or a rare branch of tier 2: the law's Python kernel on the lane's W and v-
+    # tier 1, or tier 2's items outside its range of scale: the law's kernel from Python on
+    # the lane's W and v- (solve_contact's dispatch rescales)
     answer = _LaneAnswer(ws, k, d, e_, mu_, mu_used, None, None, law, kernel, None, e_t)
     try:
         sol = answer.solution()
