@@ -1,0 +1,421 @@
+"""The distribution of the forces among redundant contacts: unique by construction.
+
+Redundant contacts (several rows of the contact Jacobian dependent: a box on two corners
+sticking, a table on four legs) leave the forces of the sustained-contact problem statically
+indeterminate, ``lam0 + Z xi``, while its accelerations are unique. Where the least-norm
+distribution violates an inequality of the contacts' modes, :func:`max_margin_distribution`
+picks one in two stages: the largest smallest margin (a cone program by Clarabel, its
+solution refined by Newton's method on the optimality conditions, the active cones fixed),
+then, among the distributions reaching it, the least norm. Every program's solution is
+certified here (cone membership, stationarity, complementarity) before it is accepted.
+
+The contacts' modes and the default tolerance of the inequalities are defined here, in the
+lower of the two modules that use them; :mod:`~convimpact.simulation.contact_forces` (the
+force problem, which calls this one) hands them on.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..impact.errors import SolverError
+
+OPEN, STICK, SLIP = "open", "stick", "slip"
+#: default relative tolerance of the inequalities
+RTOL = 1e-9
+#: shortfall (relative to the force scale) below the largest smallest margin allowed to the
+#: margins in the least-norm choice among redundant contacts' distributions
+#: (max_margin_distribution: it keeps the program on the optimal face strictly feasible)
+MARGIN_RTOL = 1e-10
+#: rank tolerance (relative to the largest singular value) of the face's equations
+FACE_RTOL = 1e-8
+#: a cone of the max-min program whose slack and multiplier are both below this is
+#: degenerate (active or not: both are tried)
+DEGENERATE = 1e-5
+#: tolerance (relative) of the optimality conditions a cone program's solution must meet
+CERTIFY_RTOL = 1e-8
+
+
+def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
+                            fscale: float) -> tuple[np.ndarray, float]:
+    """The force distribution chosen among the indeterminate ones ``lam0 + Z xi``: the
+    largest smallest margin, then, among the distributions reaching it, the least Euclidean
+    norm. Unique for any data.
+
+    Redundant contacts leave the forces statically indeterminate while the motion is not: a
+    table on four legs has three equilibrium equations (vertical force, two moments) for four
+    normal forces. ``lam0`` (n d,) is one distribution, the columns of ``Z`` span the
+    indeterminate part, ``combo`` gives the contacts' modes; the margins are
+    ``mu lambda_n - |lambda_t|`` (stick) and ``lambda_n`` (slip), none for open contacts.
+
+    1. ``t* = max_xi min(margins)`` (capped at ``fscale``): the largest smallest margin any
+       distribution reaches. It decides whether a group holds: a sticking group slips only
+       when no distribution keeps every force in its cone. But maximizing a minimum is not
+       strictly convex: the maximizers form a convex set F (a whole face when a margin binds
+       without depending on every redundant direction, e.g. a determinate contact's), and
+       which point of F an interior-point method returns depends on its iterates, hence on
+       its version.
+    2. The distribution returned is the one of least ``|lambda|`` in F: the projection of
+       ``-lam0`` onto a closed convex set, so unique whatever the solver. Least norm (least
+       squares) is the classic choice for a statically indeterminate support: it is the limit
+       of equally stiff elastic supports (least complementary energy ``sum lambda_i^2 / 2 k``,
+       Menabrea's theorem); for a box resting on four corners with its centre of mass over
+       the middle it gives ``m g / 4`` per corner, and whenever the least-squares
+       distribution itself reaches ``t*`` it is the one returned. Where F is a single point
+       (the minimum has a kink there, e.g. a planar table at rest on three legs with its
+       centre of mass off the middle leg: the legs' margins balanced) that point is
+       returned: the margin comes first.
+
+    F is found from the optimality conditions rather than as ``margins >= t* - tol``: such a
+    shell, of width ~tol around F (a single point where the minimum has a kink), is too
+    thin for an interior-point method (with tol = 1e-10, Clarabel 0.11.1 stopped short,
+    ``InsufficientProgress`` or ``AlmostSolved``, on 53 of 117 such programs from a box
+    sliding on four corners, and returned margins below the shell on others). Stage 1's
+    solution is refined by Newton's method on its optimality conditions, the active cones
+    fixed (:func:`_polish_max_min`: an interior-point solution meets them to about the square
+    root of its tolerance only). By complementarity every maximizer keeps each active cone's
+    slack where the refined one has it: zero, or on the same ray of the cone's boundary;
+    these are linear equations whose solutions (an SVD, rank relative ``FACE_RTOL``) form
+    the affine hull of F. If that is a point, it is the answer; otherwise stage 2 is the
+    least-norm program on the hull with every margin ``>= t* - MARGIN_RTOL fscale``, no
+    longer thin. The answer depends on the span of ``Z``
+    only (an orthonormal basis of it is used) and moves by round-off when the data do.
+
+    Each program's solution is accepted only with Clarabel's status ``Solved`` or
+    ``AlmostSolved`` and its optimality conditions (primal and dual cone membership,
+    stationarity, complementarity) holding to ``CERTIFY_RTOL``, evaluated here; the returned
+    margin must be within ``RTOL`` (relative to the force scale and the distribution's size;
+    ``CERTIFY_RTOL |t*|`` if larger) of ``t*``. Otherwise
+    :class:`~convimpact.impact.errors.SolverError` is raised, never an unconverged
+    distribution returned.
+
+    Returns (lambda, margin): the distribution (n d,) and its smallest margin (force units;
+    ``inf`` without stick or slip contacts).
+    """
+    lam0 = np.asarray(lam0, float).ravel()
+    Z = np.asarray(Z, float).reshape(lam0.size, -1)
+    mu = np.asarray(mu, float).ravel()
+    scale = float(fscale)
+    if not (np.isfinite(scale) and scale > 0.0):
+        scale = max(float(np.max(np.abs(lam0), initial=0.0)), 1e-300)
+    Q = _range_basis(Z)
+    r = Q.shape[1]
+    l0 = lam0 / scale  # unknowns in units of the force scale: order one
+    blocks = _margin_blocks(mu, d, combo, l0, Q)
+    if r == 0 or not blocks:  # determinate, or no margin to keep: the least norm
+        lam = lam0 - Q @ (Q.T @ lam0)
+        return lam, _smallest_margin(mu, d, combo, lam)
+    # tau <= 1 (the force scale) keeps the max-min bounded: a margin of its own
+    blocks.append(("nn", np.zeros((1, r)), np.ones(1), np.ones(1)))
+    A = np.vstack([blk[1] for blk in blocks])
+    b = np.concatenate([blk[2] for blk in blocks])
+    w = np.concatenate([blk[3] for blk in blocks])
+    cones = [(blk[0], len(blk[2])) for blk in blocks]
+    # stage 1: max tau s.t. b - A y - tau w in the cones; unknowns (y, tau)
+    x1, z1 = _solve_certified(np.zeros((r + 1, r + 1)), np.r_[np.zeros(r), -1.0],
+                              np.hstack([A, w[:, None]]), b, cones, "largest smallest margin")
+    # its optimality conditions solved to round-off on the active cones (Newton)
+    y_star, t_star, kinds = _polish_max_min(blocks, x1, z1)
+    t_star = min(t_star, _smallest_margin(mu, d, combo, l0 + Q @ y_star))
+    # the affine hull of the optimal face: every maximizer keeps each active cone's slack
+    # s = b - t* w - A y where it is (zero, or on the ray)
+    rows_E, rows_e = [], []
+    for (kind, Ab, bb, wb), how in zip(blocks, kinds):
+        if how is not None:
+            L = np.eye(len(bb)) if isinstance(how, str) else _off_ray(how)
+            rows_E.append(L @ Ab)
+            rows_e.append(L @ (bb - t_star * wb))
+    rank, N = 0, np.eye(r)
+    if rows_E:
+        _, sv, Vt = np.linalg.svd(np.vstack(rows_E))
+        rank = int(np.sum(sv > FACE_RTOL * sv[0])) if sv[0] > 0.0 else 0
+        N = Vt[rank:].T
+    if rank == r:  # the face is one point: the maximizer is unique
+        y = y_star
+    else:
+        # stage 2: min |l0 + Q (y_base + N u)|^2 / 2 over the hull, the margins kept
+        # >= t* - MARGIN_RTOL: on the hull an active cone's slack is constant (left out,
+        # checked below) or moves along its ray (kept on the ray's forward half, s0 >= 0)
+        y_base = y_star - N @ (N.T @ y_star)  # the hull's point nearest y = 0
+        AN = A @ N
+        AN[np.abs(AN) <= 1e-12 * max(1.0, float(np.max(np.abs(AN))))] = 0.0
+        b2 = b - (t_star - MARGIN_RTOL) * w - A @ y_base
+        free, k = [], 0
+        for (kind, size), how in zip(cones, kinds):
+            if np.any(AN[k:k + size] != 0.0):
+                free.append((k, kind, size) if how is None else (k, "nn", 1))
+            k += size
+        g = N.T @ (Q.T @ l0)
+        if free:
+            sel = np.concatenate([np.arange(k0, k0 + size) for k0, _, size in free])
+            u, _ = _solve_certified(np.eye(N.shape[1]), g, AN[sel], b2[sel],
+                                    [(kind, size) for _, kind, size in free],
+                                    "least-norm distribution")
+        else:
+            u = -g
+        y = y_base + N @ u
+    lam = lam0 + Q @ (y * scale)
+    margin = _smallest_margin(mu, d, combo, lam)
+    # the margin given up (MARGIN_RTOL in stage 2, round-off): at most RTOL near t* = 0,
+    # where its sign decides hold or slip, CERTIFY_RTOL relative to |t*| elsewhere
+    slack = max(RTOL, CERTIFY_RTOL * abs(t_star)) * (1.0 + float(np.max(np.abs(y))))
+    if not margin >= (t_star - slack) * scale:
+        raise SolverError(f"the force distribution of redundant contacts: margin {margin:.6e} "
+                          f"below the largest one {t_star * scale:.6e}")
+    return lam, margin
+
+
+def _polish_max_min(blocks, x1: np.ndarray, z1: np.ndarray):
+    """(y, t*, kinds): the max-min program's solution refined by Newton's method on its
+    optimality conditions, given which cones are active (from the solver's solution).
+
+    Per cone (slack s = b - A y - tau w, multiplier z): inactive (z = 0, kind None);
+    active scalar or apex (s = 0, kind "zero"); on the boundary (s = alpha (1, u),
+    z = beta (1, -u), |u| = 1, kind u). The conditions -sum A'z = 0, 1 - sum w'z = 0 and
+    the cones' equations are square in (y, tau, z or alpha, beta, angle); an interior-point
+    solution meets them to ~sqrt of its tolerance only (a smooth maximum, a ray's
+    direction), Newton's method to round-off. A cone whose s and z are both ~0 (degenerate)
+    is tried both ways; if Newton's method does not converge in the cones the solver's
+    solution is kept."""
+    r = x1.size - 1
+    slacks, ambiguous, k = [], [], 0
+    for j, (kind, Ab, bb, wb) in enumerate(blocks):
+        zb = z1[k:k + len(bb)]
+        sb = bb - Ab @ x1[:r] - x1[r] * wb
+        k += len(bb)
+        slacks.append((sb, zb))
+        sn, zn = float(np.linalg.norm(sb[1:])), float(np.linalg.norm(zb[1:]))
+        if max(zb[0] + zn, sb[0] - sn) < DEGENERATE:
+            ambiguous.append(j)
+    first = _active_cones(blocks, slacks, ())
+    tried = [first] + ([_active_cones(blocks, slacks, ambiguous)] if ambiguous else [])
+    for kinds, unknowns in tried:
+        v = _newton_max_min(blocks, kinds, unknowns, x1)
+        if v is not None:
+            break
+    else:
+        kinds, unknowns = first
+        v = np.concatenate([x1] + unknowns)
+    out_kinds, k = [], r + 1
+    for how, p in zip(kinds, unknowns):
+        if how is None or isinstance(how, str):
+            out_kinds.append(how)
+        else:
+            out_kinds.append(np.array([math.cos(v[k + 2]), math.sin(v[k + 2])]))
+        k += p.size
+    return v[:r], float(v[r]), out_kinds
+
+
+def _active_cones(blocks, slacks, flip):
+    """Each cone's kind (None, "zero" or a ray) and its initial unknowns: of each of the
+    cone's complementary pairs of eigenvalues (s0 -+ |s1|, z0 +- |z1|) one member is ~0 at
+    the optimum, the larger member tells which (the cones in flip: the other way)."""
+    kinds, unknowns = [], []
+    for j, ((kind, Ab, bb, wb), (sb, zb)) in enumerate(zip(blocks, slacks)):
+        sn, zn = float(np.linalg.norm(sb[1:])), float(np.linalg.norm(zb[1:]))
+        inactive = (zb[0] + zn <= sb[0] - sn) != (j in flip)
+        if inactive:  # z = 0
+            kinds.append(None)
+            unknowns.append(np.zeros(0))
+        elif kind == "nn" or zb[0] - zn > sb[0] + sn:  # s = 0 (for a cone: its apex)
+            kinds.append("zero")
+            unknowns.append(np.maximum(zb, 0.0) if kind == "nn" else zb.copy())
+        else:  # s and z on opposite rays of the boundary
+            u = sb[1:] / sn if sn > zn else -zb[1:] / max(zn, 1e-300)
+            kinds.append(("ray", len(zb)))
+            unknowns.append(np.r_[0.5 * (sb[0] + sn), 0.5 * (zb[0] + zn),
+                                  math.atan2(u[1], u[0])])
+    return kinds, unknowns
+
+
+def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
+    """Newton's method (least-squares steps) on the max-min optimality conditions with the
+    cones' kinds fixed; the solution vector (y, tau, unknowns), or None when it does not
+    converge to 1e-12 or leaves a cone."""
+    r = x1.size - 1
+    sizes = [p.size for p in unknowns]
+
+    def parts(v):
+        out, k = [], r + 1
+        for n in sizes:
+            out.append(v[k:k + n])
+            k += n
+        return out
+
+    def residual(v):
+        y, tau = v[:r], v[r]
+        stat = np.zeros(r + 1)
+        stat[r] = 1.0
+        J_stat = np.zeros((r + 1, v.size))
+        eqs, J_eqs, k = [], [], r + 1
+        for (kind, Ab, bb, wb), how, p in zip(blocks, kinds, parts(v)):
+            n = p.size
+            if how is None:
+                continue
+            s = bb - Ab @ y - tau * wb
+            Js = np.zeros((len(bb), v.size))
+            Js[:, :r] = -Ab
+            Js[:, r] = -wb
+            Aw = np.hstack([Ab, wb[:, None]])  # the stationarity's -d/dz
+            if how == "zero":
+                zb = p
+                J_stat[:, k:k + n] = -Aw.T
+                eqs.append(s)
+            else:
+                alpha, beta, phi = p
+                c, sn = math.cos(phi), math.sin(phi)
+                ray, dray = np.array([1.0, c, sn]), np.array([0.0, -sn, c])
+                zdir, dzdir = np.array([1.0, -c, -sn]), np.array([0.0, sn, -c])
+                zb = beta * zdir
+                J_stat[:, k + 1] = -Aw.T @ zdir
+                J_stat[:, k + 2] = -Aw.T @ (beta * dzdir)
+                eqs.append(s - alpha * ray)
+                Js[:, k] = -ray
+                Js[:, k + 2] = -alpha * dray
+            stat = stat - Aw.T @ zb
+            J_eqs.append(Js)
+            k += n
+        return np.concatenate([stat] + eqs), np.vstack([J_stat] + J_eqs)
+
+    v = np.concatenate([x1] + unknowns)
+    best, best_norm = v, float(np.max(np.abs(residual(v)[0])))
+    for _ in range(30):
+        F, J = residual(v)
+        # least-squares steps, small singular values cut: along a face of maximizers the
+        # conditions are singular, and the step stays near the solver's point
+        step = np.linalg.lstsq(J, F, rcond=1e-10)[0]
+        v = v - step
+        norm = float(np.max(np.abs(residual(v)[0])))
+        if norm < best_norm:
+            best, best_norm = v, norm
+        if norm <= 1e-15 or float(np.max(np.abs(step))) <= 1e-16:
+            break
+    if not best_norm <= 1e-12:
+        return None
+    y, tau = best[:r], best[r]
+    for (kind, Ab, bb, wb), how, p in zip(blocks, kinds, parts(best)):
+        s = bb - Ab @ y - tau * wb
+        if how is None:
+            viol = _cone_violation(s, [(kind, len(bb))])
+        elif how == "zero":
+            viol = _cone_violation(p, [(kind, len(bb))])
+        else:
+            viol = max(-p[0], -p[1])
+        if viol > 1e-12:
+            return None
+    return best
+
+
+def _off_ray(u: np.ndarray) -> np.ndarray:
+    """Rows L with L s = 0 exactly when s (in R^3) lies on the ray through (1, u): the
+    component of s's tangential part across u, and s0 - u . s1."""
+    return np.array([[0.0, -u[1], u[0]], [1.0, -u[0], -u[1]]])
+
+
+def _range_basis(Z: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the span of Z's columns (rank relative 1e-10; entries below
+    1e-13 set to zero)."""
+    if Z.size == 0:
+        return np.zeros((Z.shape[0], 0))
+    U, sv, _ = np.linalg.svd(Z, full_matrices=False)
+    rank = int(np.sum(sv > 1e-10 * sv[0])) if sv[0] > 0.0 else 0
+    Q = U[:, :rank]
+    # entries at round-off are zeros (a contact outside the redundancy): left in, they make
+    # rows of size 1e-16 that the solver's equilibration blows up
+    return np.where(np.abs(Q) > 1e-13, Q, 0.0)
+
+
+def _margin_blocks(mu, d: int, combo, l0: np.ndarray, Q: np.ndarray) -> list:
+    """Per margin the cone constraint ``b - A y - floor w in K`` stating it is ``>= floor``
+    at ``l0 + Q y``: (kind, A, b, w), kind "nn" (one nonnegative row) or "soc".
+
+    Slip: ``lambda_n``. Planar stick: ``mu lambda_n - lambda_t`` and ``mu lambda_n +
+    lambda_t``, two half-planes (the two-dimensional cone, kept polyhedral for the solver).
+    Spatial stick: ``(mu lambda_n, lambda_t)`` in the second-order cone."""
+    out = []
+    for i, mode in enumerate(combo):
+        n0 = i * d
+        if mode == SLIP:
+            out.append(("nn", -Q[n0:n0 + 1], l0[n0:n0 + 1].copy(), np.ones(1)))
+        elif mode == STICK and d == 2:
+            for sign in (1.0, -1.0):
+                out.append(("nn", -(mu[i] * Q[n0:n0 + 1] + sign * Q[n0 + 1:n0 + 2]),
+                            np.array([mu[i] * l0[n0] + sign * l0[n0 + 1]]), np.ones(1)))
+        elif mode == STICK:
+            A = -Q[n0:n0 + d].copy()
+            A[0] *= mu[i]
+            out.append(("soc", A, np.r_[mu[i] * l0[n0], l0[n0 + 1:n0 + d]],
+                        np.r_[1.0, np.zeros(d - 1)]))
+    return out
+
+
+def _smallest_margin(mu, d: int, combo, lam: np.ndarray) -> float:
+    """The smallest of the stick (mu lambda_n - |lambda_t|) and slip (lambda_n) margins."""
+    out = np.inf
+    for i, mode in enumerate(combo):
+        n0 = i * d
+        if mode == SLIP:
+            out = min(out, float(lam[n0]))
+        elif mode == STICK:
+            out = min(out, mu[i] * float(lam[n0]) - float(np.linalg.norm(lam[n0 + 1:n0 + d])))
+    return out
+
+
+def _cone_violation(v: np.ndarray, cones) -> float:
+    """How far v lies outside the product of cones (0 inside)."""
+    worst, k = 0.0, 0
+    for kind, size in cones:
+        part = v[k:k + size]
+        k += size
+        if kind == "nn":
+            worst = max(worst, float(np.max(-part, initial=0.0)))
+        else:
+            worst = max(worst, float(np.linalg.norm(part[1:]) - part[0]))
+    return worst
+
+
+def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray, cones,
+                     what: str) -> np.ndarray:
+    """(x, z): argmin x'Px/2 + q'x s.t. b - A x in the cones, and the multipliers, by
+    Clarabel. Returned only when the
+    status is Solved or AlmostSolved and the optimality conditions hold to CERTIFY_RTOL
+    (evaluated here, not taken from the solver): s = b - A x and the multipliers z in their
+    (self-dual) cones, P x + q + A'z = 0 and s'z = 0."""
+    import clarabel
+    import scipy.sparse as sp
+
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-11
+    kinds = {"nn": clarabel.NonnegativeConeT, "soc": clarabel.SecondOrderConeT}
+    solver = clarabel.DefaultSolver(sp.triu(sp.csc_matrix(P), format="csc"), q,
+                                    sp.csc_matrix(A), b, [kinds[k](n) for k, n in cones],
+                                    settings)
+    sol = solver.solve()
+    status = str(sol.status)
+    if status not in ("Solved", "AlmostSolved"):
+        raise SolverError(f"the force distribution of redundant contacts ({what}): Clarabel "
+                          f"{status}")
+    x, z = np.asarray(sol.x, float), np.asarray(sol.z, float)
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
+        raise SolverError(f"the force distribution of redundant contacts ({what}): Clarabel "
+                          f"{status} with a non-finite solution")
+    s = b - A @ x
+    Px, Az = P @ x, A.T @ z
+
+    def big(*vs):
+        return 1.0 + max(float(np.max(np.abs(v), initial=0.0)) for v in vs)
+
+    # each residual relative to the size of its terms (as the solver's own criteria)
+    residuals = {"primal cone": _cone_violation(s, cones) / big(b, A @ x),
+                 "dual cone": _cone_violation(z, cones) / big(z),
+                 "stationarity": float(np.max(np.abs(Px + q + Az))) / big(Px, q, Az),
+                 "complementarity": abs(float(s @ z)) / big(0.5 * float(x @ Px) + float(q @ x),
+                                                           float(b @ z))}
+    bad = {k: v for k, v in residuals.items() if not v <= CERTIFY_RTOL}
+    if bad:
+        raise SolverError(f"the force distribution of redundant contacts ({what}): Clarabel "
+                          f"{status}, but its optimality conditions fail: {bad}")
+    return x, z
