@@ -360,14 +360,14 @@ _PLAIN_RUN = """
 import json, sys
 from convimpact.impact.errors import SolverError
 from convimpact.impact.exact.dispatch import solve_contact
-from convimpact.impact.laws import stronge_slip
+from convimpact.impact.laws import stronge_dop853, stronge_slip
 cases = json.loads(sys.argv[1])
 out = {"compiled": type(stronge_slip._stronge_spatial).__name__ != "function"}
 for name, (W, v, e, mu) in cases.items():
     sol = solve_contact(W, v, e, mu, "stronge")
     out[name] = [sol.impulse.tolist(), list(sol.extras["phases"]),
                  sol.extras.get("integration_steps", 0)]
-stronge_slip.ODE_RTOL = 1e-300  # (plain Python reads it at run time) no step can meet it
+stronge_dop853.ODE_RTOL = 1e-300  # (plain Python reads it at run time) no step can meet it
 try:
     W, v, e, mu = cases["spatial"]
     solve_contact(W, v, e, mu, "stronge")
