@@ -3,12 +3,8 @@
 :func:`animate` draws a mechanism built with :class:`~convimpact.model.ModelBuilder` at
 uniformly spaced times of a :class:`~convimpact.simulation.result.SimulationResult` and
 writes the frames as an animated GIF (matplotlib's ``PillowWriter``: no ffmpeg needed, works
-headless). Every body is drawn from the model alone, as the convex hull of its joint origin,
-centre of mass, child joint origins, loop-joint frames and contact points, or from an outline
-given for it (``outlines``, e.g. :attr:`convimpact.scenes.Scene.outlines`); contact spheres
-(radius > 0) as discs; plane contacts against the ground as the ground; each contact point
-is coloured by its mode (open grey, stick green, slip red) with an arrow for its force while
-closed, and impacts flash.
+headless); its docstring lists what is drawn: bodies from the model (or given outlines),
+contacts coloured by their mode with their forces, impacts flashing.
 
 The pieces live in :mod:`~convimpact.simulation.animation_frames` (frame times, sampling the
 result, projection), :mod:`~convimpact.simulation.animation_geometry` (world geometry of the
@@ -80,15 +76,7 @@ class MechanismAnimation:
 
     Parameters
     ----------
-    result : the simulation.
-    mechanism : the simulated mechanism, built with ModelBuilder (``model.mechanism()``).
-    fps, duration, max_frames : see :func:`frame_times`.
-    size : figure size in inches (width, height).
-    dpi : dots per inch; a frame is ``size * dpi`` pixels.
-    view : spatial models only, see :class:`ViewProjection`.
-    title : text above the picture (default none).
-    outlines : optional, per body name an (n, d) array of body-frame points outlining the
-        body (see :func:`animate`).
+    Those of :func:`animate` but ``path``.
 
     Attributes
     ----------
@@ -125,18 +113,10 @@ class MechanismAnimation:
         self.modes = modes_at(result, self.contact_names, self.times)
         self.forces = forces_at(result, self.contact_names, self.times, self.dim)
         self._impact_points: dict = {}
-        self._collect()
+        # world geometry at every frame
+        self.frames = collect_geometry(self.model, self.mechanism, self.theta, self.result.theta,
+                                       self._outlines)
         self._build_figure()
-
-    # -- geometry ------------------------------------------------------------------------
-    def _collect(self) -> None:
-        """World geometry at every frame (:func:`collect_geometry`)."""
-        f = collect_geometry(self.model, self.mechanism, self.theta, self.result.theta,
-                             self._outlines)
-        self.frames = f
-        self._pin_bodies, self._rail_bodies = f.pin_bodies, f.rail_bodies
-        self._discs = f.disc_contacts
-        self._moving_planes, self._moving_spheres = f.plane_contacts, f.sphere_contacts
 
     # -- figure --------------------------------------------------------------------------
     def _build_figure(self) -> None:
@@ -160,7 +140,7 @@ class MechanismAnimation:
         parts.append(f.contact_points.reshape(-1, self.dim))
         moving = P(np.vstack(parts))
         lo, hi = moving.min(axis=0), moving.max(axis=0)
-        for di, c in enumerate(self._discs):
+        for di, c in enumerate(f.disc_contacts):
             r = self.model.contacts[c].radius
             cen = P(f.disc_centres[di])
             lo, hi = np.minimum(lo, cen.min(axis=0) - r), np.maximum(hi, cen.max(axis=0) + r)
@@ -260,7 +240,7 @@ class MechanismAnimation:
             self._body_art.append(poly)
         self.body_polygons = dict(zip(self.body_names, self._body_art))
         self._disc_art = []
-        for c in self._discs:
+        for c in f.disc_contacts:
             spec = self.model.contacts[c]
             color = BODY_COLORS[(spec.body - 1) % len(BODY_COLORS)]
             circ = Circle((0.0, 0.0), spec.radius, facecolor=(color, 0.35),
@@ -273,7 +253,7 @@ class MechanismAnimation:
                                          zorder=2.2)
         ax.add_collection(self._plane_art)
         self._sphere_art = []
-        for c in self._moving_spheres:
+        for c in f.sphere_contacts:
             spec = self.model.contacts[c]
             circ = Circle((0.0, 0.0), spec.other_radius, facecolor="0.8", edgecolor="0.3",
                           zorder=2.2)
@@ -348,7 +328,7 @@ class MechanismAnimation:
         self._plane_art.set_verts(verts)
         for si, circ in enumerate(self._sphere_art):
             circ.center = tuple(P(f.moving_spheres[si][i]))
-        pins = P(f.pins[i]) if len(self._pin_bodies) else np.zeros((0, 2))
+        pins = P(f.pins[i]) if len(f.pin_bodies) else np.zeros((0, 2))
         self._pin_art.set_data(pins[:, 0], pins[:, 1])
         lp = P(f.loop_pins[i]) if len(f.loop_pins[i]) else np.zeros((0, 2))
         self._loop_art.set_data(lp[:, 0], lp[:, 1])
