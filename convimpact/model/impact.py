@@ -97,8 +97,10 @@ def resolve_mechanism_impact(mechanism, theta, dtheta, contacts: Contacts = None
                              e=None, mu=None, gap_tol: float = GAP_TOL, **options):
     """Resolve the impact of ``mechanism`` at (theta, theta_dot) with ``resolve_impact``.
 
-    Parameters are those of :func:`impact_arguments` plus ``law``, ``method`` and solver
-    ``options`` of :func:`convimpact.resolve_impact`.
+    Parameters are those of :func:`impact_arguments` plus ``law``, ``method`` and the
+    ``options`` of :func:`convimpact.resolve_impact`: solver options, and the law's parameters
+    beyond the contacts' e and mu (``e_t=``, the tangential restitution of law
+    ``"chatterjee-ruina"``, refused with the other laws).
 
     Returns
     -------

@@ -198,6 +198,21 @@ def test_e_t_with_another_law_is_refused_before_the_run():
     assert slip(ev.dtheta_plus) == pytest.approx(0.0, abs=1e-12)
 
 
+def test_resolve_mechanism_impact_takes_e_t():
+    """One impact of a model: e and mu from its contact, e_t given to the law."""
+    from convimpact.model.impact import resolve_mechanism_impact
+
+    mech = ball(0.6, 0.5)
+    th, dq = np.array([0.0, R_BALL, 0.0]), np.array([1.0, -2.0, 5.0])
+    r = resolve_mechanism_impact(mech, th, dq, law="chatterjee-ruina", e_t=0.4)
+    expected, regime = hand_impact(dq, 0.6, 0.5, 0.4)
+    assert regime == "stick"
+    assert ((r.regime,) if isinstance(r.regime, str) else tuple(r.regime)) == ("stick",)
+    np.testing.assert_allclose(r.dq_plus, expected, rtol=0, atol=1e-12)
+    with pytest.raises(UnknownOptionError, match="law 'coulomb' has none"):
+        resolve_mechanism_impact(mech, th, dq, law="coulomb", e_t=0.4)
+
+
 def test_coupled_contacts_raise_a_clear_error_naming_the_laws_that_can():
     """A rod landing flat closes both ends at once: the two contacts are coupled through the
     rod (W is not block-diagonal), where the law is not defined."""
