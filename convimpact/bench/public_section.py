@@ -23,9 +23,9 @@ the compiled one) for the Newton laws whose answers are not conic programs
 (``pereira-nikravesh``, ``stronge``), and the law's definition evaluated in numpy for
 ``chatterjee-ruina`` (J_I = -(v_n / W_nn) n, J_II = -W^-1 v, (1 + e) J_I + (1 + e_t)(J_II - J_I)
 brought back into the cone along J_II - J_I; its e_t ~ U(-1, 1) per problem, drawn apart so
-that the other laws' problems are unchanged). Coulomb's law may have several solutions at one spatial
-contact (its kernel lists them in ``extras["n_slide_solutions"]``; Clarabel's fixed point and
-Pinocchio may land on another): its accuracy is Coulomb's own residual
+that the other laws' problems are unchanged). Coulomb's law may have several solutions at one
+spatial contact (its kernel lists them in ``extras["n_slide_solutions"]``; Clarabel's fixed
+point and Pinocchio may land on another): its accuracy is Coulomb's own residual
 (:func:`convimpact.impact.laws.coulomb.coulomb_residual`: cone, dual cone and
 complementarity, relative), which every solution zeroes. The issue's targets are checked and
 stated: the public call at most 15 µs planar and 25 µs spatial, and within 2x of its kernel.
