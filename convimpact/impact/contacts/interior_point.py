@@ -30,8 +30,9 @@ takes the answer to round-off. Whether the answer is the law's is decided by the
 certificates of :mod:`convimpact.impact.contacts.newton` on the original data, never by the
 iteration's own measures.
 
-The Newton finish, the drivers on contact data and the certificates are in
-:mod:`convimpact.impact.contacts.newton`. Everything is compiled on first use and cached
+The Newton finish and the drivers on contact data are in
+:mod:`convimpact.impact.contacts.newton`, the certificates in
+:mod:`convimpact.impact.contacts.certificates`. Everything is compiled on first use and cached
 per user (:mod:`convimpact.compiled`: an edit of any compiled source retires the cache);
 :mod:`convimpact.impact.contacts.interior` imports these modules lazily.
 """
