@@ -323,6 +323,33 @@ def announce(what: str, seconds: float, *dispatchers) -> bool:
     return True
 
 
+class LawEntries:
+    """Calls of a compiled driver whose first argument, a law's code, it compiles for as a
+    constant (``literally``): each law compiles only when first used. numba's dispatcher would
+    type the constant again on every call (milliseconds); after a law's first call this keeps
+    the machine code's entry for it and calls that (a fraction of a microsecond). The other
+    arguments must keep the types of the first call (C-contiguous float64 arrays, floats).
+    """
+
+    __slots__ = ("dispatcher", "entries")
+
+    def __init__(self, dispatcher):
+        self.dispatcher = dispatcher
+        self.entries: dict = {}
+
+    def __call__(self, law: int, *args):
+        entry = self.entries.get(law)
+        if entry is not None:
+            return entry(law, *args)
+        result = self.dispatcher(law, *args)  # compiles, or loads from the cache
+        found = [cres.entry_point for sig, cres in getattr(self.dispatcher, "overloads",
+                                                             {}).items()
+                 if getattr(sig[0], "literal_value", None) == law]
+        if len(found) == 1:  # one specialization for this law: its entry serves every call
+            self.entries[law] = found[0]
+        return result
+
+
 def _plain(fn):
     """The decorator without numba: the function itself, run by Python."""
     return fn

@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from types import MappingProxyType
+from types import MappingProxyType, SimpleNamespace
 
 import numpy as np
 
@@ -86,11 +86,13 @@ def _kernels():
     if _K is None:
         t = time.perf_counter()
         from . import drivers as loop
-        from ...compiled import announce
+        from ...compiled import LawEntries, announce
 
-        announce("batch kernels (every law, planar and spatial)", 28, loop.impact_batch,
+        announce("batch kernels (the law's, planar and spatial)", 15, loop.impact_batch,
                  loop.contact_batch)
-        _K = loop
+        _K = SimpleNamespace(impact_batch=LawEntries(loop.impact_batch),
+                             contact_batch=LawEntries(loop.contact_batch),
+                             BAD_W_FINITE=loop.BAD_W_FINITE)
         _COMPILE_SECONDS["import"] = time.perf_counter() - t
     return _K
 

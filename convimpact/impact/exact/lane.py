@@ -125,12 +125,13 @@ def _build_solve():
     """Tier 2: compile (or load from numba's disk cache) lane_solve."""
     global _SOLVE
     t = time.perf_counter()
-    from ...compiled import announce
-    announce("single-contact lane's whole call (every law's kernel)", 20, _S.lane_solve)
+    from ...compiled import LawEntries, announce
+    announce("single-contact lane's whole call", 4, _S.lane_solve)
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
     ws = np.empty(layout(2, 2)[-1])
-    _S.lane_solve(0, M, J, dq, 0.5, 0.3, 0.0, ws, _OUT)
-    _SOLVE = _S.lane_solve
+    solve = LawEntries(_S.lane_solve)
+    solve(0, M, J, dq, 0.5, 0.3, 0.0, ws, _OUT)
+    _SOLVE = solve
     COMPILE_SECONDS["lane_solve"] = time.perf_counter() - t
     return _SOLVE
 
@@ -270,6 +271,8 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel, e_t=None) -> ImpactResult | 
             solve = _build_solve()
     sol = None
     if solve is not None:
+        if not (Mf.flags.c_contiguous and Jf.flags.c_contiguous and qf.flags.c_contiguous):
+            Mf, Jf, qf = (np.ascontiguousarray(a) for a in (Mf, Jf, qf))  # the entry's types
         code = solve(_LAW_CODES[law], Mf, Jf, qf, e_, mu_, et_, ws, _OUT)
         if code == 0:
             tail = ws[op + 3:op + 7].tolist()  # status, regime, effective mass, mu used
