@@ -48,12 +48,14 @@ def test_model_names_resolve():
 
 
 def test_every_law_is_registered_with_its_paths():
-    # the five laws, each on the exact kernel and both conic paths; the paper's law also on
+    # the six laws, each on the exact kernel and both conic paths; the paper's law also on
     # its closed form and its own angle sweep
-    assert ci.LAWS == ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge")
+    assert ci.LAWS == ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge",
+                       "chatterjee-ruina")
     assert ci.available_methods("pereira-nikravesh") == [
         "closed-form", "sweep", "fast", "clarabel", "cvxpy"]
-    assert ci.available_methods("stronge") == ["fast", "clarabel", "cvxpy"]
+    for law in ("stronge", "chatterjee-ruina"):
+        assert ci.available_methods(law) == ["fast", "clarabel", "cvxpy"]
     # the other laws also on the exact several-contact solver
     for law in ("coulomb", "ccp", "dissipative"):
         assert ci.available_methods(law) == ["fast", "interior", "clarabel", "cvxpy"]

@@ -80,6 +80,8 @@ _COMPILED = None
 #: tier 2: lane_solve (None: not built yet)
 _SOLVE = None
 _CALLS = 0
+#: the tier-2 entries, per law (built once per process)
+_ENTRIES: dict = {}
 #: the law kernels' extras scratch of tier 2 (read lazily through the law's kernel instead)
 _OUT = np.empty(32)
 #: the compiled module (exact.lane_kernel), imported by _build
@@ -129,7 +131,8 @@ def _build_solve():
     announce("single-contact lane's whole call", 4, _S.lane_solve)
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
     ws = np.empty(layout(2, 2)[-1])
-    solve = LawEntries(_S.lane_solve)
+    solve = _ENTRIES.get("lane_solve") or _ENTRIES.setdefault("lane_solve",
+                                                               LawEntries(_S.lane_solve))
     solve(0, M, J, dq, 0.5, 0.3, 0.0, ws, _OUT)
     _SOLVE = solve
     COMPILE_SECONDS["lane_solve"] = time.perf_counter() - t
