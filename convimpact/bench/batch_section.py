@@ -331,7 +331,8 @@ def summary_sentences(aggs: list[dict[str, Any]], compile_info: dict[str, Any]) 
         out.append(f"{a['law']} spatial (its slip integrated in impulse space, compiled): "
                    f"{a['resolve_impacts']['median']:.3g} impacts/s on {_THREADS} threads "
                    f"(slowest k {a['resolve_impacts']['min']:.3g}) -> the target is not met "
-                   f"for this law; {a['ratio_vs_loop_solve_contact']:.3g}x its Python kernel")
+                   f"for this law; {a['ratio_vs_loop_solve_contact']:.3g}x the kernel "
+                   "called from Python per item")
     planar = [a for a in aggs if a["d"] == 2 and a["law"] == "pereira-nikravesh"]
     if planar:
         p = planar[0]["contact_impulses"]

@@ -8,8 +8,8 @@ divided by their number (µs per impact):
 
 * ``resolve_impact``: the public call, ``method="auto"`` (full validation, the law, dq+, the
   result; diagnostics measured on first access and not read here);
-* ``python kernel``: :func:`convimpact.impact.exact.dispatch.solve_contact` on the problem's (W, v-) --
-  the law's exact Python kernel, impulse only;
+* ``kernel from Python``: :func:`convimpact.impact.exact.dispatch.solve_contact` on the
+  problem's (W, v-) -- the law's one compiled kernel called from Python, impulse only;
 * ``compiled kernel``: :func:`convimpact.impact.batch.impacts.contact_impulses` on all the problems'
   (W, v-) at once, per impact -- the compiled kernel without per-call overhead;
 * ``pinocchio ADMM`` (``ccp``: ``solve_ncp=False``; ``coulomb``: ``True``) and ``pinocchio PGS``
@@ -18,9 +18,11 @@ divided by their number (µs per impact):
 
 Accuracy: the largest impulse error relative to |pi| against an independent reference -- the
 law's convex program through Clarabel at tolerance 1e-12 for ``ccp`` and ``dissipative``
-(``method="clarabel"``; unique answers), and the Python kernel (a second implementation of
-the compiled one) for the Newton laws whose answers are not conic programs
-(``pereira-nikravesh``, ``stronge``), and the law's definition evaluated in numpy for
+(``method="clarabel"``; unique answers) and for ``pereira-nikravesh`` (its conic path: the
+paper's closed form in the plane, the program P_N KKT-polished in space), the kernel itself for
+``stronge`` (no second method here: its kernel is checked against an independent ``solve_ivp``
+integration in impulse space by ``tests/impact/test_stronge.py``), the law's definition
+evaluated in numpy for
 ``chatterjee-ruina`` (J_I = -(v_n / W_nn) n, J_II = -W^-1 v, (1 + e) J_I + (1 + e_t)(J_II - J_I)
 brought back into the cone along J_II - J_I; its e_t ~ U(-1, 1) per problem, drawn apart so
 that the other laws' problems are unchanged). Coulomb's law may have several solutions at one
@@ -49,12 +51,12 @@ N_PROBLEMS = (60, 12)
 TARGET = {2: 15e-6, 3: 25e-6}
 #: laws whose spatial kernel integrates the slip in impulse space (no closed form)
 INTEGRATED_IN_SPACE = ("stronge",)
-#: laws measured against Clarabel (conic programs); the others against the Python kernel
-CONIC_REFERENCE = ("ccp", "dissipative")
+#: laws measured against their conic path through Clarabel (a second method)
+CONIC_REFERENCE = ("ccp", "dissipative", "pereira-nikravesh")
 #: Pinocchio's solvers per law: (label, kind, solve_ncp)
 PEERS = {"ccp": (("pinocchio ADMM", "admm", False),),
          "coulomb": (("pinocchio ADMM", "admm", True), ("pinocchio PGS", "pgs", True))}
-PATHS = ("resolve_impact", "python kernel", "compiled kernel", "pinocchio ADMM", "pinocchio PGS")
+PATHS = ("resolve_impact", "kernel from Python", "compiled kernel", "pinocchio ADMM", "pinocchio PGS")
 
 
 def _problems(seed: int, n: int, d: int, k: int, law: str = "") -> list[dict[str, Any]]:
@@ -175,7 +177,7 @@ def public_section(config: BenchConfig, progress: Progress) -> SectionResult:
             else:
                 ref = [np.asarray(solve_contact(W[i], v[i], e[i], mu[i], law).impulse)
                        for i in range(n)]
-                ref_name = "python kernel"
+                ref_name = "the kernel itself (solve_ivp in the tests)"
             rows: list[tuple[str, float, float]] = []
 
             def public_loop():
@@ -193,7 +195,7 @@ def public_section(config: BenchConfig, progress: Progress) -> SectionResult:
             err = max(_error(np.asarray(solve_contact(W[i], v[i], e[i], mu[i], law,
                                                       etl[i]).impulse),
                              ref[i]) for i in range(n))
-            rows.append(("python kernel", _per_impact(kernel_loop, n, config), err))
+            rows.append(("kernel from Python", _per_impact(kernel_loop, n, config), err))
             b = contact_impulses(W, v, e, mu, law, threads=1, **batch_extra)
             err = max(_error(b.impulse[i], ref[i]) for i in range(n))
             rows.append(("compiled kernel", _per_impact(
@@ -241,7 +243,7 @@ def _summary(records: list[dict[str, Any]]) -> list[str]:
         if not pub:
             continue
         us = [r["seconds_per_impact"] * 1e6 for r in pub]
-        ratios = [r["seconds_per_impact"] / by[(r["law"], d, r["k"], "python kernel")]
+        ratios = [r["seconds_per_impact"] / by[(r["law"], d, r["k"], "kernel from Python")]
                   ["seconds_per_impact"] for r in pub]
         cratios = [r["seconds_per_impact"] / by[(r["law"], d, r["k"], "compiled kernel")]
                    ["seconds_per_impact"] for r in pub]
@@ -257,7 +259,7 @@ def _summary(records: list[dict[str, Any]]) -> list[str]:
             f"{'/'.join(str(k) for k in sorted({r['k'] for r in pub}))}): median "
             f"{np.median(us):.1f} us per call (range {min(us):.1f}..{max(us):.1f}; slowest "
             f"{worst['law']} k={worst['k']}); target {TARGET[d] * 1e6:.0f} us {met}; "
-            f"public / Python kernel {np.median(ratios):.2f} (range {min(ratios):.2f}.."
+            f"public / kernel from Python {np.median(ratios):.2f} (range {min(ratios):.2f}.."
             f"{max(ratios):.2f}); public / compiled kernel {np.median(cratios):.1f} (the "
             f"call's fixed cost); largest impulse error {max(r['max_error'] for r in pub):.1e}")
     for law, label in (("ccp", "pinocchio ADMM"), ("coulomb", "pinocchio ADMM"),
@@ -285,7 +287,7 @@ def _chart(records: list[dict[str, Any]], out: Path) -> str:
 
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), sharey=True)
-    markers = {"resolve_impact": "o", "python kernel": "s", "compiled kernel": "^",
+    markers = {"resolve_impact": "o", "kernel from Python": "s", "compiled kernel": "^",
                "pinocchio ADMM": "D", "pinocchio PGS": "v"}
     colors = dict(zip(LAWS, ("C0", "C1", "C2", "C3", "C4", "C5")))
     for ax, d in zip(axes, (2, 3)):
@@ -309,8 +311,8 @@ def _chart(records: list[dict[str, Any]], out: Path) -> str:
                for p, m in markers.items()]
     handles += [plt.Line2D([], [], ls="", marker="o", color=c, label=law)
                 for law, c in colors.items()]
-    fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=10, frameon=False)
+    fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=6, frameon=False)
     fig.suptitle("one public call against its kernels and Pinocchio (error vs Clarabel 1e-12, "
-                 "the Python kernel, or Coulomb's residual)", fontsize=10)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+                 "the conic path, the law's definition, or Coulomb's residual)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
     return save_chart(fig, out, "public_call.png")

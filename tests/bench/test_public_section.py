@@ -38,8 +38,8 @@ def test_every_path_is_timed_and_at_round_off(run):
         for d, k in SHAPES:
             rows = {r["path"]: r for r in res.records
                     if r["law"] == law and r["d"] == d and r["k"] == k}
-            assert {"resolve_impact", "python kernel", "compiled kernel"} <= set(rows)
-            for path in ("resolve_impact", "python kernel", "compiled kernel"):
+            assert {"resolve_impact", "kernel from Python", "compiled kernel"} <= set(rows)
+            for path in ("resolve_impact", "kernel from Python", "compiled kernel"):
                 assert rows[path]["seconds_per_impact"] > 0
                 assert rows[path]["max_error"] <= 1e-9, (law, d, k, rows[path])
             for path in ("pinocchio ADMM", "pinocchio PGS"):
