@@ -24,7 +24,7 @@ which is what this path computes and certifies, in compiled code
 2. a semismooth Newton finish on the natural map ``pi - Proj_K(pi - z) = 0`` from there
    (quadratic convergence: two or three steps to round-off; a singular W -- a box on four
    corners -- is handled by basic solutions of the Newton systems);
-3. the law's KKT certificate on the original data (:func:`~.several_newton.ccp_certificate`:
+3. the law's KKT certificate on the original data (:func:`~.newton.ccp_certificate`:
    cone and dual-cone violations and per-contact complementarity, relative to the impulse
    and velocity scales, as the conic paths' :func:`~convimpact.impact.conic.polish.kkt_residual`
    measures them). The answer is returned only when the certificate is at most ``tol``
@@ -39,7 +39,7 @@ which is what this path computes and certifies, in compiled code
 same semismooth Newton on its own natural map, started from the CCP answer (the start of the
 conic path's fixed point), and accepted on Coulomb's conditions
 (:func:`~convimpact.impact.laws.coulomb.coulomb_residual`, compiled as
-:func:`~.several_newton.coulomb_certificate`) to ``tol``. It is not tried first under
+:func:`~.newton.coulomb_certificate`) to ``tol``. It is not tried first under
 ``method="auto"`` (:data:`convimpact.impact.resolve.INTERIOR_FIRST`): at several contacts the
 law may have several solutions (a box on four corners has a family of them), and the default
 stays the conic path's choice.
@@ -50,7 +50,7 @@ tolerance, default 1e-10), ``max_iter`` (interior-point iterations, default 100)
 
 On the public path (``resolve_impact``, :func:`ccp_result` and its siblings) the law's data,
 the kernel, the certificate and the answer's velocities and regimes come from one compiled
-call (:func:`~.several_newton.solve_law`), the same kernels and certificate as
+call (:func:`~.newton.solve_law`), the same kernels and certificate as
 :func:`solve_cone_complementarity` with no dispatch between them.
 
 The kernels compile on their first call (numba, ``cache=True``; :func:`compile_kernels`
@@ -158,7 +158,7 @@ def compile_kernels() -> dict[str, float]:
                                 (K.coulomb_kernel, K.coulomb_certificate)):
         pi, *_ = kernel(W, b, mu, 3, HANDOVER_TOL, 100, 20)
         certificate(W, b, mu, 3, pi)
-    for mode in range(3):  # the public path's single call (several_newton.solve_law)
+    for mode in range(3):  # the public path's single call (newton.solve_law)
         K.solve_law(W, b, mu, mu, 3, mode, HANDOVER_TOL, 100, 20, CERTIFIED_ACCURACY)
     out["first_call"] = time.perf_counter() - t
     return out
@@ -255,11 +255,11 @@ def _accepted(residual: float, floor: float, opts: InteriorOptions, status: int,
     return accepted
 
 
-#: regime names of the kernels' codes (:func:`~.several_newton.result_data`)
+#: regime names of the kernels' codes (:func:`~.newton.result_data`)
 REGIMES = ("separating", "frictionless", "stick", "slide")
-#: the laws' modes of :func:`~.several_newton.solve_law`
+#: the laws' modes of :func:`~.newton.solve_law`
 _MODES = {"ccp": 0, "dissipative": 1, "coulomb": 2}
-#: regime names of the codes as :func:`~.several_newton.solve_law` returns them (floats)
+#: regime names of the codes as :func:`~.newton.solve_law` returns them (floats)
 _REGIME_OF = {float(code): name for code, name in enumerate(REGIMES)}
 
 

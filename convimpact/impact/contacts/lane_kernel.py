@@ -90,7 +90,7 @@ def lane_solve(mode, M, J, dq, e, friction, ws):
         for b in range(d):
             for i in range(k):
                 ws[ocJ + (a * d + b) * k + i] = J[a, b, i]
-    # M checked and factored, X = L^-1 Jc^T, W = X^T X, v = Jc dq (lane_algebra)
+    # M checked and factored, X = L^-1 Jc^T, W = X^T X, v = Jc dq (problem.compiled_reduction)
     L = np.empty((k, k))
     X = np.empty((k, N))
     W = np.empty((N, N))
@@ -99,7 +99,7 @@ def lane_solve(mode, M, J, dq, e, friction, ws):
     if code == NOT_FINITE:
         return NOT_PLAIN_CONTACTS  # a contact row, W or v- not finite
     if code != 0:
-        return code  # lane_algebra.BAD_M or BAD_PIVOT (1, 2)
+        return code  # compiled_reduction.BAD_M or BAD_PIVOT (1, 2)
     # the plain case of build_problem's contact checks (finite, normals and tangents moving)
     if contact_checks(W, v, d, IMMOBILE_RTOL, TINY_NORMAL) != 0:
         return NOT_PLAIN_CONTACTS
@@ -149,7 +149,7 @@ def lane_solve(mode, M, J, dq, e, friction, ws):
     else:
         for c in range(N):
             pi[c] = out[c]
-    # dq+ = dq + L^-T X pi, v+ = v- + W pi, T+ - T- = pi.v- + 1/2 pi.W.pi (lane_algebra)
+    # dq+ = dq + L^-T X pi, v+ = v- + W pi, T+ - T- = pi.v- + 1/2 pi.W.pi (problem.compiled_reduction)
     map_back(L, X, pi, dq, ws[odq:ovp])
     dT, ps, _ = velocity_jump(W, v, pi, ws[ovp:opi])
     total = 0.0

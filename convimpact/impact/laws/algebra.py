@@ -1,11 +1,12 @@
 """The small algebra every law's compiled kernel shares.
 
-* :mod:`~convimpact.impact.problem.dense`: the 2 x 2 solve and the 3 x 3 inverse and solve of a
-  symmetric W (scaled by its trace, one refinement step when nearly singular);
-* :mod:`~convimpact.impact.boundary`: real roots of quadratics, cubics and quartics, the
-  safeguarded Newton polish, the candidate directions on the cone's boundary of a quadratic
-  equation in (cos th, sin th) (the tangent half-angle quartic), W and v rotated to a tangent
-  basis, and the determinant equation ``det_wq``.
+* small solves: the 2 x 2 solve and the 3 x 3 inverse and solve of a symmetric W (scaled by
+  its trace, one refinement step when nearly singular), with a scale-free singularity test
+  (det W / tr(W)^d <= :data:`SINGULAR_RTOL`);
+* the cone's boundary: real roots of quadratics, cubics and quartics, the safeguarded Newton
+  polish, the candidate directions on the cone's boundary of a quadratic equation in
+  (cos th, sin th) (the tangent half-angle quartic), W and v rotated to a tangent basis, and
+  the determinant equation ``det_wq``.
 
 These are the only implementation of this algebra: the laws' kernels call them compiled, and
 the same code runs as plain Python under ``NUMBA_DISABLE_JIT=1``. The candidates' fallback
@@ -31,12 +32,12 @@ _ROT_S2 = tuple(math.sin(2 * a) for a in _ROT_ANGLES)
 
 
 # --------------------------------------------------------------------------------------------
-# small_linalg
+# small solves
 
 
 @_jit
 def _solve2(A, B, C, r0, r1):
-    """(x0, x1, ok) of the 2 x 2 W x = r (small_linalg.solve2)."""
+    """(x0, x1, ok) of the 2 x 2 W x = r (adjugate; one refinement step when ill-conditioned)."""
     tr = A + C
     a, b, c = A / tr, B / tr, C / tr
     det = a * c - b * b
@@ -52,7 +53,8 @@ def _solve2(A, B, C, r0, r1):
 
 @_jit
 def _inverse3(w00, w01, w02, w11, w12, w22):
-    """(i00, i01, i02, i11, i12, i22, det W / tr^3, ok) (small_linalg.inverse3)."""
+    """(i00, i01, i02, i11, i12, i22, det W / tr^3, ok): the symmetric inverse of W, computed on
+    W / tr(W) (no under- or overflow of det for any scale of W)."""
     tr = w00 + w11 + w22
     g = 1.0 / tr
     A, B1, B2 = w00 * g, w01 * g, w02 * g
@@ -92,7 +94,7 @@ def _linsolve3(w00, w01, w02, w11, w12, w22, i00, i01, i02, i11, i12, i22, det, 
 
 @_jit
 def _quad(b, c):
-    """(n, r1, r2): real roots of x^2 + b x + c (boundary.quadratic_roots)."""
+    """(n, r1, r2): real roots of x^2 + b x + c (stable: no cancellation)."""
     disc = b * b - 4.0 * c
     if disc < 0.0:
         if disc >= -1e-9 * (b * b + abs(c)):
@@ -118,7 +120,7 @@ def _cubic_polish(x, a, b, c):
 
 @_jit
 def _cubic(a, b, c):
-    """(n, r1, r2, r3): real roots of x^3 + a x^2 + b x + c (boundary.cubic_roots)."""
+    """(n, r1, r2, r3): real roots of x^3 + a x^2 + b x + c (trigonometric or Cardano, Newton-polished)."""
     p = b - a * a / 3.0
     q = 2.0 * a * a * a / 27.0 - a * b / 3.0 + c
     shift = -a / 3.0
@@ -144,7 +146,7 @@ def _cubic(a, b, c):
 @_jit
 def _quartic(c4, c3, c2, c1, c0):
     """(n, r0, r1, r2, r3): the real roots of the quartic, n = -1 if it is zero
-    (boundary.quartic_roots)."""
+    (Ferrari's closed form)."""
     scale = _pmax2(_pmax2(_pmax2(_pmax2(abs(c4), abs(c3)), abs(c2)), abs(c1)), abs(c0))
     if scale == 0.0:
         return -1, 0.0, 0.0, 0.0, 0.0
@@ -259,7 +261,8 @@ def _eigen_quartic(c4, c3, c2, c1, c0):
 
 @_jit
 def _polish(c4, c3, c2, c1, c0, t):
-    """Safeguarded Newton on the quartic (boundary.polish)."""
+    """Newton's method on the quartic from t, safeguarded: a step is taken only if it decreases
+    |f|, and steps are clipped to 0.5."""
     f = (((c4 * t + c3) * t + c2) * t + c1) * t + c0
     df = ((4.0 * c4 * t + 3.0 * c3) * t + 2.0 * c2) * t + c1
     for _ in range(8):
@@ -371,7 +374,7 @@ def _candidates(e0, ex, ey, exx, eyy, exy, robust=False):
 
 @_jit
 def _refine(has, c4, c3, c2, c1, c0, cp, sp, x, y, t, rev):
-    """boundary.refine: the Newton-polished (cos th, sin th) of a candidate."""
+    """The Newton-polished (cos th, sin th) of a candidate of :func:`_candidates`."""
     if not has:
         return x, y
     if rev != 0.0:
@@ -387,7 +390,8 @@ def _refine(has, c4, c3, c2, c1, c0, cp, sp, x, y, t, rev):
 
 @_jit
 def _newton_root(e0, ex, ey, exx, eyy, exy):
-    """boundary.newton_root: (x, y, converged)."""
+    """Root of E(th) by Newton's method from th = 0, on the quartic in tan(th/2): (x, y,
+    converged) -- a fast path whose answer the callers certify."""
     c4 = e0 - ex + exx
     c3 = 2.0 * (ey - exy)
     c2 = 2.0 * (e0 - exx) + 4.0 * eyy
@@ -403,7 +407,7 @@ def _newton_root(e0, ex, ey, exx, eyy, exy):
 
 @_jit
 def _rotate(w00, w01, w02, w11, w12, w22, v0, v1, v2, r1, r2):
-    """boundary.rotate: W and v in the tangent basis (r, r_perp)."""
+    """W and v in the tangent basis (r, r_perp)."""
     A, B1, B2 = w00, w01, w02
     C11, C12, C22 = w11, w12, w22
     rr = r1 * r2
@@ -416,7 +420,8 @@ def _rotate(w00, w01, w02, w11, w12, w22, v0, v1, v2, r1, r2):
 
 @_jit
 def _det_wq(u00, u0x, u0y, u10, u1x, u1y, u20, u2x, u2y, k0, k1, k2, mu):
-    """boundary.det_wq: (e0, ex, ey, exx, eyy, exy)."""
+    """E = sum_i U_i (k x q)_i with q = (-mu, x, y), U three affine forms in (x, y) and k a
+    constant vector: (e0, ex, ey, exx, eyy, exy)."""
     mk1, mk2 = mu * k1, mu * k2
     return (-u10 * mk2 + u20 * mk1,
             -u00 * k2 - u1x * mk2 + u20 * k0 + u2x * mk1,

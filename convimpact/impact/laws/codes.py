@@ -43,7 +43,7 @@ ROOT_RTOL = 1e-8
 SINGULAR_RTOL = 1e-12
 SYMMETRY_RTOL = 1e-10
 #: W's trace and v's largest entry inside this range are solved here; outside it the Python
-#: dispatcher (fast.dispatch) rescales, so those items are deferred to it
+#: dispatcher (exact.dispatch.dispatch) rescales, so those items are deferred to it
 SAFE_LO, SAFE_HI = 2.0 ** -166, 2.0 ** 166
 
 _NAN = math.nan
