@@ -154,6 +154,16 @@ def _part(a: np.ndarray, n: int, lo: int, hi: int) -> np.ndarray:
 # the public entries
 
 
+def _coefficients(law: str, e, mu, e_t) -> tuple[tuple, dict]:
+    """e, mu and e_t (0 for a law without one; refused with it) as batched float arrays, and
+    which of them are shared by every impact."""
+    et = check_law_parameters(law, e_t)
+    arrays = (_real_array("e", e), _real_array("mu", mu),
+              _real_array("e_t", 0.0 if et is None else et))
+    return (tuple(_batched(name, a, 0, "") for name, a in zip(("e", "mu", "e_t"), arrays)),
+            {name: a.ndim == 0 for name, a in zip(("e", "mu", "e_t"), arrays)})
+
+
 def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t=None,
                     C=None, on_error: str = "flag", threads: int | None = None) -> ImpactBatch:
     """Resolve N single-contact impacts at once (the batch form of ``resolve_impact``).
@@ -223,18 +233,11 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     M = _real_array("M", M)
     J = _real_array("Jc", Jc)
     q = _real_array("dq", dq)
-    e_ = _real_array("e", e)
-    mu_ = _real_array("mu", mu)
-    et = check_law_parameters(law, e_t)
-    et_ = _real_array("e_t", 0.0 if et is None else et)
     Mb = _batched("M", M, 2, "(k, k)")
     Jb = _batched("Jc", J, 2, "(d, k)")
     qb = _batched("dq", q, 1, "(k,)")
-    eb = _batched("e", e_, 0, "")
-    mb = _batched("mu", mu_, 0, "")
-    tb = _batched("e_t", et_, 0, "")
-    shared = {"M": M.ndim == 2, "Jc": J.ndim == 2, "dq": q.ndim == 1, "e": e_.ndim == 0,
-              "mu": mu_.ndim == 0, "e_t": et_.ndim == 0}
+    (eb, mb, tb), coefficients_shared = _coefficients(law, e, mu, e_t)
+    shared = {"M": M.ndim == 2, "Jc": J.ndim == 2, "dq": q.ndim == 1, **coefficients_shared}
     n = _batch_size({"M": Mb, "Jc": Jb, "dq": qb, "e": eb, "mu": mb, "e_t": tb}, shared)
     k = Mb.shape[1]
     if Mb.shape[2] != k or k == 0:
@@ -368,17 +371,10 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t
     nthreads = _thread_count(threads)
     Wa = _real_array("W", W)
     va = _real_array("v", v)
-    e_ = _real_array("e", e)
-    mu_ = _real_array("mu", mu)
-    et = check_law_parameters(law, e_t)
-    et_ = _real_array("e_t", 0.0 if et is None else et)
     Wb = _batched("W", Wa, 2, "(d, d)")
     vb = _batched("v", va, 1, "(d,)")
-    eb = _batched("e", e_, 0, "")
-    mb = _batched("mu", mu_, 0, "")
-    tb = _batched("e_t", et_, 0, "")
-    shared = {"W": Wa.ndim == 2, "v": va.ndim == 1, "e": e_.ndim == 0, "mu": mu_.ndim == 0,
-              "e_t": et_.ndim == 0}
+    (eb, mb, tb), coefficients_shared = _coefficients(law, e, mu, e_t)
+    shared = {"W": Wa.ndim == 2, "v": va.ndim == 1, **coefficients_shared}
     n = _batch_size({"W": Wb, "v": vb, "e": eb, "mu": mb, "e_t": tb}, shared)
     d = vb.shape[1]
     if d not in (2, 3) or Wb.shape[1:] != (d, d):
