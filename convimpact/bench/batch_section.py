@@ -247,14 +247,6 @@ def batch_section(config: BenchConfig, progress: Progress) -> SectionResult:
     return SectionResult("batch", records, [fig], summary_sentences(aggs, compile_info), meta)
 
 
-def skipped_section(reason: str, progress: Progress) -> SectionResult:
-    """The section without the compiled kernels (numba not installed): no records, the reason
-    in ``meta["error"]`` and in the summary."""
-    progress(f"batch: skipped ({reason})")
-    return SectionResult("batch", [], [], [f"batch section skipped: {reason}"],
-                         {"error": reason, "skipped": True})
-
-
 def aggregates(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Per law and d: median and minimum over k of each path's rate, and the ratios of the
     batch's median rate to the loops'."""

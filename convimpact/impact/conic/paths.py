@@ -104,12 +104,6 @@ def conic_solver(law: str, method: str):
     return solver
 
 
-def register_programs(law: str, result: ProgramResult) -> ProgramResult:
-    """Kept while the law modules still call it: the program is read from the law's module
-    (``program_result``) by :func:`conic_solver`."""
-    return result
-
-
 # --------------------------------------------------------------------------------------------
 # contact-space helpers shared by the laws' programs
 

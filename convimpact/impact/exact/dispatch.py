@@ -4,15 +4,15 @@ One contact's impact reduces to its Delassus block ``W`` (d x d, d = 2 planar or
 closed loops are already folded in by :mod:`convimpact.impact.problem.build`) and its pre-impact
 velocity ``v = (v_n, v_t...)``. Every law is then a small problem over the friction cone
 ``K_mu = {|pi_t| <= mu pi_n}`` with an interior (stick / unconstrained) branch that is a linear
-solve (:mod:`~convimpact.impact.problem.dense`) and a boundary (slide) branch
-``pi = pi_n (1, mu t)`` whose defining condition is a quartic in tan(th/2)
-(:mod:`~convimpact.impact.boundary`). Each law module of :mod:`convimpact.impact.laws` holds
-its own kernel and registers it here with :func:`register_kernel`; :func:`solve_contact`
-validates the data, brings W to a safe scale, and calls the law's kernel.
+solve and a boundary (slide) branch ``pi = pi_n (1, mu t)`` whose defining condition is a
+quartic in tan(th/2) (both in :mod:`~convimpact.impact.laws.algebra`). Each law module of
+:mod:`convimpact.impact.laws` holds its own compiled kernel and its entry ``contact_kernel``
+(:func:`compiled_kernel`); :func:`solve_contact` validates the data, brings W to a safe scale,
+and calls the law's kernel.
 
-A kernel is ``kernel(w, v, d, e, mu) -> ContactSolution`` on plain Python lists and floats
-(numpy's per-call overhead would dominate: a spatial solve takes some 10-20 microseconds, a
-planar one a few), which it must not modify. It is called only with an approaching contact
+A kernel entry is ``kernel(w, v, d, e, mu, e_t=0) -> ContactSolution`` on plain Python lists
+and floats (it calls the compiled kernel on scalars: a call costs about a microsecond), which
+it must not modify. It is called only with an approaching contact
 (v_n < 0), W_nn > 0, tr(W) and max |v| within :data:`~convimpact.impact.problem.build.SAFE_SCALE`
 (about 1e-50 .. 1e50), e in [0, 1] and a finite mu >= 0 (mu = 0: :func:`frictionless`).
 
@@ -423,12 +423,6 @@ def kernel_solver(law: str, method: str = "fast"):
     solver.__name__ = f"fast_{law.replace('-', '_')}"
     solver.__doc__ = f"Exact single-contact solver of law {law!r} (see solve_contact)."
     return solver
-
-
-def register_kernel(law: str, kernel: Kernel) -> Kernel:
-    """Kept while the law modules still call it: the kernel is read from the law's module
-    (``contact_kernel``) by :func:`_kernel`."""
-    return kernel
 
 
 __all__ = ["ContactSolution", "solve_contact", "kernel_solver", "compiled_kernel",
