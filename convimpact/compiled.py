@@ -324,29 +324,34 @@ def announce(what: str, seconds: float, *dispatchers) -> bool:
 
 
 class LawEntries:
-    """Calls of a compiled driver whose first argument, a law's code, it compiles for as a
-    constant (``literally``): each law compiles only when first used. numba's dispatcher would
-    type the constant again on every call (milliseconds); after a law's first call this keeps
-    the machine code's entry for it and calls that (a fraction of a microsecond). The other
-    arguments must keep the types of the first call (C-contiguous float64 arrays, floats).
+    """Calls of a compiled driver whose leading arguments -- a law's code, and for some drivers
+    the contact dimension -- it compiles for as constants (``literally``): each law (and
+    dimension) compiles only when first used. numba's dispatcher would type the constants
+    again on every call (milliseconds); after the first call with given constants this keeps
+    the machine code's entry for them and calls that (a fraction of a microsecond).
+    ``literals`` is how many leading arguments are constants (1: the law; 2: law and
+    dimension). The other arguments must keep the types of the first call (C-contiguous
+    float64 arrays, floats).
     """
 
-    __slots__ = ("dispatcher", "entries")
+    __slots__ = ("dispatcher", "entries", "literals")
 
-    def __init__(self, dispatcher):
+    def __init__(self, dispatcher, literals: int = 1):
         self.dispatcher = dispatcher
         self.entries: dict = {}
+        self.literals = literals
 
-    def __call__(self, law: int, *args):
-        entry = self.entries.get(law)
+    def __call__(self, *args):
+        key = args[:self.literals]
+        entry = self.entries.get(key)
         if entry is not None:
-            return entry(law, *args)
-        result = self.dispatcher(law, *args)  # compiles, or loads from the cache
+            return entry(*args)
+        result = self.dispatcher(*args)  # compiles, or loads from the cache
         found = [cres.entry_point for sig, cres in getattr(self.dispatcher, "overloads",
                                                              {}).items()
-                 if getattr(sig[0], "literal_value", None) == law]
-        if len(found) == 1:  # one specialization for this law: its entry serves every call
-            self.entries[law] = found[0]
+                 if all(getattr(t, "literal_value", None) == k for t, k in zip(sig, key))]
+        if len(found) == 1:  # one specialization for these constants: its entry serves all
+            self.entries[key] = found[0]
         return result
 
 

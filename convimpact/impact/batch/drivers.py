@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ...compiled import literally
-from ..laws.table import planar_item as _planar_item, spatial_item as _spatial_item
+from ..laws.table import contact_item as _contact_item
 from ..laws.codes import (
     BAD_DQ_FINITE,
     BAD_J_FINITE,
@@ -43,11 +43,13 @@ from ..laws.codes import (
 
 
 @_jit
-def contact_batch(law, W, v, e, mu, et, impulse, regime, status, effm, vplus, eloss):
-    """Every item of a batch of contacts from (W, v) under law code ``law`` (compiled as a
-    constant: each law compiles its own driver); arrays with a leading dimension 1 are shared
-    by every item. Returns (first item with non-finite data or -1, deferred count)."""
+def contact_batch(law, dim, W, v, e, mu, et, impulse, regime, status, effm, vplus, eloss):
+    """Every item of a batch of contacts from (W, v) under law code ``law`` in dimension
+    ``dim`` (= ``impulse.shape[1]``; both compiled as constants: each law and dimension
+    compiles its own driver, with that one kernel); arrays with a leading dimension 1 are
+    shared by every item. Returns (first item with non-finite data or -1, deferred count)."""
     literally(law)
+    literally(dim)
     n = impulse.shape[0]
     d = impulse.shape[1]
     bw = W.shape[0] > 1
@@ -94,11 +96,8 @@ def contact_batch(law, W, v, e, mu, et, impulse, regime, status, effm, vplus, el
                 effm[i] = _NAN
                 eloss[i] = _NAN
                 continue
-        if d == 2:
-            st, rg, p0, p1, p2, em = _planar_item(law, w00, w01, w11, v0, v1, ei, mi, ti, out)
-        else:
-            st, rg, p0, p1, p2, em = _spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1,
-                                                   v2, ei, mi, ti, out)
+        st, rg, p0, p1, p2, em = _contact_item(law, dim, w00, w01, w02, w11, w12, w22, v0, v1,
+                                               v2, ei, mi, ti, out)
         status[i] = st
         regime[i] = rg
         effm[i] = em if st == OK else _NAN
@@ -140,7 +139,7 @@ def contact_batch(law, W, v, e, mu, et, impulse, regime, status, effm, vplus, el
 
 
 @_jit
-def impact_batch(law, M, J, dq, e, mu, et, tol, idx, given, dq_plus, impulse, v_minus, v_plus, W,
+def impact_batch(law, dim, M, J, dq, e, mu, et, tol, idx, given, dq_plus, impulse, v_minus, v_plus, W,
                  regime, status, effm, mu_eff, energy_before, energy_after, flags):
     """Every impact of a batch from (M, Jc, dq) (leading dimension 1 = shared): validate M
     (finite, symmetric, Cholesky), reduce to W = X^T X with X = L^-1 Jc^T and v- = Jc dq, solve,
@@ -153,8 +152,11 @@ def impact_batch(law, M, J, dq, e, mu, et, tol, idx, given, dq_plus, impulse, v_
     Returns (first item with bad input or -1, deferred count). ``flags`` columns:
     energy_gained, friction_pushes_slip, slip_reversal, penetration; ``mu_eff`` receives the
     friction actually used (0 where the tangent directions move no mass, as build_problem).
+    ``law`` and ``dim`` (= ``impulse.shape[1]``) are compiled as constants, as in
+    :func:`contact_batch`.
     """
     literally(law)
+    literally(dim)
     n = dq_plus.shape[0]
     k = dq_plus.shape[1]
     d = impulse.shape[1]
@@ -315,13 +317,9 @@ def impact_batch(law, M, J, dq, e, mu, et, tol, idx, given, dq_plus, impulse, v_
             if tmax <= 1e-14 * _pmax2(dmax, tiny) and mi > 0.0:
                 mi = 0.0
             mu_eff[i] = mi
-            if d == 2:
-                st, rg, p0, p1, p2, em = _planar_item(law, w[0, 0], w[0, 1], w[1, 1], vm[0],
-                                                      vm[1], ei, mi, ti, out)
-            else:
-                st, rg, p0, p1, p2, em = _spatial_item(law, w[0, 0], w[0, 1], w[0, 2],
-                                                       w[1, 1], w[1, 2], w[2, 2], vm[0],
-                                                       vm[1], vm[2], ei, mi, ti, out)
+            st, rg, p0, p1, p2, em = _contact_item(law, dim, w[0, 0], w[0, 1], w[0, 2],
+                                                   w[1, 1], w[1, 2], w[2, 2], vm[0], vm[1],
+                                                   vm[2], ei, mi, ti, out)
             status[i] = st
             regime[i] = rg
             effm[i] = em if st == OK else _NAN

@@ -88,10 +88,10 @@ def _kernels():
         from . import drivers as loop
         from ...compiled import LawEntries, announce
 
-        announce("batch kernels (the law's, planar and spatial)", 15, loop.impact_batch,
+        announce("batch kernels (the law's, in the batch's dimension)", 15, loop.impact_batch,
                  loop.contact_batch)
-        _K = SimpleNamespace(impact_batch=LawEntries(loop.impact_batch),
-                             contact_batch=LawEntries(loop.contact_batch),
+        _K = SimpleNamespace(impact_batch=LawEntries(loop.impact_batch, 2),
+                             contact_batch=LawEntries(loop.contact_batch, 2),
                              BAD_W_FINITE=loop.BAD_W_FINITE)
         _COMPILE_SECONDS["import"] = time.perf_counter() - t
     return _K
@@ -270,8 +270,8 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
                 flags)
 
         def run(lo, hi):
-            return K.impact_batch(code, *(_part(a, n, lo, hi)
-                                          for a in (Mb, Jb, qb, eb, mb, tb)),
+            return K.impact_batch(code, d, *(_part(a, n, lo, hi)
+                                             for a in (Mb, Jb, qb, eb, mb, tb)),
                                   BATCH_TOL, _NO_ITEMS, _NO_IMPULSES[d],
                                   *(o[lo:hi] for o in outs))
 
@@ -282,7 +282,7 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         et_all = np.broadcast_to(tb, (n,))
         if ndefer:
             _solve_deferred(law, code, status, regime, effm, W, v_minus, e_all, mu_all, et_all,
-                            errors, lambda idx, pis: K.impact_batch(code, Mb, Jb, qb, eb, mb,
+                            errors, lambda idx, pis: K.impact_batch(code, d, Mb, Jb, qb, eb, mb,
                                                                     tb, BATCH_TOL, idx, pis,
                                                                     *outs))
         if on_error == "raise":
@@ -394,8 +394,8 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t
         outs = (impulse, regime, status, effm, vplus, eloss)
 
         def run(lo, hi):
-            return K.contact_batch(code, *(_part(a, n, lo, hi)
-                                           for a in (Wb, vb, eb, mb, tb)),
+            return K.contact_batch(code, d, *(_part(a, n, lo, hi)
+                                              for a in (Wb, vb, eb, mb, tb)),
                                    *(o[lo:hi] for o in outs))
 
         first_bad, ndefer = _in_slices(run, n, nthreads)

@@ -37,10 +37,10 @@ Compilation, in two tiers so that a short session never waits for it:
 * **tier 1** (first call): the reduction and the map back compiled
   (:func:`~.lane_kernel.reduce_one`, :func:`~.lane_kernel.finish_one`) around the law's
   kernel called from Python (only that law's kernel compiles);
-* **tier 2**: the whole call compiled (:func:`~.lane_kernel.lane_solve`, every law's kernel
-  in it), taken at once when the cache on disk holds it, else after ``HOT_CALLS`` lane calls
-  in the process -- a loop, not a handful of impacts -- or when :func:`compile_lane` is
-  called.
+* **tier 2**: the whole call compiled (:func:`~.lane_kernel.lane_solve`, with the law's
+  kernel of the call's dimension only), taken at once when the cache on disk holds it, else
+  after ``HOT_CALLS`` lane calls in the process -- a loop, not a handful of impacts -- or
+  when :func:`compile_lane` is called.
 
 Both tiers run the same kernels: their answers agree to round-off (the bench's ``coldstart``
 section measures what each costs on a cold and a warm cache).
@@ -132,8 +132,8 @@ def _build_solve():
     M, J, dq = np.eye(2), np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([-1.0, 0.5])
     ws = np.empty(layout(2, 2)[-1])
     solve = _ENTRIES.get("lane_solve") or _ENTRIES.setdefault("lane_solve",
-                                                               LawEntries(_S.lane_solve))
-    solve(0, M, J, dq, 0.5, 0.3, 0.0, ws, _OUT)
+                                                               LawEntries(_S.lane_solve, 2))
+    solve(0, 2, M, J, dq, 0.5, 0.3, 0.0, ws, _OUT)
     _SOLVE = solve
     COMPILE_SECONDS["lane_solve"] = time.perf_counter() - t
     return _SOLVE
@@ -276,7 +276,7 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel, e_t=None) -> ImpactResult | 
     if solve is not None:
         if not (Mf.flags.c_contiguous and Jf.flags.c_contiguous and qf.flags.c_contiguous):
             Mf, Jf, qf = (np.ascontiguousarray(a) for a in (Mf, Jf, qf))  # the entry's types
-        code = solve(_LAW_CODES[law], Mf, Jf, qf, e_, mu_, et_, ws, _OUT)
+        code = solve(_LAW_CODES[law], d, Mf, Jf, qf, e_, mu_, et_, ws, _OUT)
         if code == 0:
             tail = ws[op + 3:op + 7].tolist()  # status, regime, effective mass, mu used
             regime = _REGIMES[int(tail[1])]

@@ -8,7 +8,7 @@
    (:func:`convimpact.impact.problem.compiled_reduction.reduce_rows`, shared with the several-contact lane),
    and checks the contact: approaching, a normal that moves mass, near unit scale;
 2. the law's exact kernel -- the compiled port of ``contact_kernel`` of each law module
-   (:func:`.loop._planar_item`, :func:`.loop._spatial_item`, the batch's own) -- gives the
+   (:func:`~convimpact.impact.laws.table.contact_item`, the batch's own) -- gives the
    contact impulse ``pi`` from ``(W, v-, e, mu)``;
 3. :func:`finish_one` maps it back: ``dq+ = dq + L^-T X pi`` (eq. 29), ``v+ = v- + W pi`` and
    ``T+ - T- = pi.v- + 1/2 pi.W.pi`` (eq. 58) (:mod:`convimpact.impact.problem.compiled_reduction`).
@@ -26,7 +26,7 @@ from ..problem.compiled_reduction import PLAIN, map_back, reduce_rows, velocity_
 from ..problem.build import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
 from ..laws.codes import DEFER, OK, _jit
 from ...compiled import literally
-from ..laws.table import planar_item as _planar_item, spatial_item as _spatial_item
+from ..laws.table import contact_item as _contact_item
 
 #: lane_solve's codes beyond reduce_one's (1-5): the kernel refused (status SINGULAR/JAM),
 #: deferred (DEFER: outside the compiled range of scale), or a result outside plain arithmetic
@@ -97,13 +97,15 @@ def finish_one(ws, k, d, pi, dq):
 
 
 @_jit
-def lane_solve(law, M, J, dq, e, mu, et, ws, out):
+def lane_solve(law, dim, M, J, dq, e, mu, et, ws, out):
     """Reduce, solve and map back one contact into ``ws`` (:func:`convimpact.impact.exact.lane.layout`).
     Returns 0 (done), or reduce_one's code (1-5), REFUSED (the kernel's status in ws:
     SINGULAR or JAM), DEFERRED (the kernel is called from Python on W and v-, which are in
     ws) or NOT_PLAIN. ``out`` receives the law's extras (``laws.codes.OUT_SIZE`` floats).
-    ``law`` is compiled as a constant: each law compiles its own lane."""
+    ``law`` and ``dim`` (= ``J.shape[0]``) are compiled as constants: each law and dimension
+    compiles its own lane, with that one kernel."""
     literally(law)
+    literally(dim)
     k = M.shape[0]
     d = J.shape[0]
     code = reduce_one(M, J, dq, ws)
@@ -114,13 +116,15 @@ def lane_solve(law, M, J, dq, e, mu, et, ws, out):
     oW = k * k + k * d
     ov = oW + d * d
     op = ov + d + k + d + 3 + k * k + d * k + k
-    if d == 2:
-        st, rg, p0, p1, p2, em = _planar_item(law, ws[oW], ws[oW + 1], ws[oW + 3], ws[ov],
-                                              ws[ov + 1], e, mu, et, out)
+    if d == 2:  # W's entries (0, 0), (0, 1), (1, 1) and v-; the rest is not read
+        w00, w01, w02, w11, w12, w22 = ws[oW], ws[oW + 1], 0.0, ws[oW + 3], 0.0, 0.0
+        v0, v1, v2 = ws[ov], ws[ov + 1], 0.0
     else:
-        st, rg, p0, p1, p2, em = _spatial_item(law, ws[oW], ws[oW + 1], ws[oW + 2], ws[oW + 4],
-                                               ws[oW + 5], ws[oW + 8], ws[ov], ws[ov + 1],
-                                               ws[ov + 2], e, mu, et, out)
+        w00, w01, w02, w11, w12, w22 = ws[oW], ws[oW + 1], ws[oW + 2], ws[oW + 4], ws[oW + 5], \
+            ws[oW + 8]
+        v0, v1, v2 = ws[ov], ws[ov + 1], ws[ov + 2]
+    st, rg, p0, p1, p2, em = _contact_item(law, dim, w00, w01, w02, w11, w12, w22, v0, v1, v2,
+                                           e, mu, et, out)
     ws[op + 3] = st
     ws[op + 4] = rg
     ws[op + 5] = em

@@ -88,6 +88,17 @@ def spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
     return k.spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
 
 
+def contact_item(law, dim, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
+    """One contact of law code ``law`` in dimension ``dim`` (2: planar, read from w00, w01,
+    w11, v0, v1; 3: spatial): :func:`planar_item` or :func:`spatial_item`. In compiled code
+    both ``law`` and ``dim`` are compile-time constants (the drivers make them so with
+    ``numba.literally``), so a driver compiles the one kernel of the one dimension it is
+    called with: a planar first call does not compile the law's spatial kernel."""
+    if dim == 2:
+        return planar_item(law, w00, w01, w11, v0, v1, e, mu, et, out)
+    return spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out)
+
+
 def _register_compiled() -> None:
     """The compiled forms of the two items: the law's kernel chosen when the driver is typed
     (``law`` a literal), so only that law compiles."""
@@ -148,6 +159,23 @@ def _register_compiled() -> None:
                 if mu == 0.0 and not inside:
                     return _frictionless(w00, v0, e)
                 return kernel(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
+        return impl
+
+    @overload(contact_item, jit_options={"nogil": True, "error_model": "numpy"})
+    def _contact(law, dim, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
+        # numba does not prune ``if dim == 2`` on a literal argument: the dimension's item is
+        # chosen here, once ``dim`` (and ``law``) are typed as literals
+        if not (isinstance(law, types.IntegerLiteral) and isinstance(dim, types.IntegerLiteral)):
+            return None
+        if dim.literal_value == 2:
+            def impl(law, dim, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
+                return planar_item(law, w00, w01, w11, v0, v1, e, mu, et, out)
+        elif dim.literal_value == 3:
+            def impl(law, dim, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
+                return spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et,
+                                    out)
+        else:
+            return None
         return impl
 
 
