@@ -11,7 +11,7 @@
    (:func:`~convimpact.impact.contacts.interior_point.contact_checks`), some contact approaching, and
    the velocities within 1e-100 .. 1e100;
 3. the law by :func:`~convimpact.impact.contacts.newton.solve_law` (the public interior path's
-   single call) and its certificate accepted by the rule of
+   single call; its program family chosen at compile time, :func:`~.newton.law_program`) and its certificate accepted by the rule of
    :func:`convimpact.impact.contacts.interior._solve`;
 4. for the dissipative law Poisson's scaling ``pi = plastic (1 + e_i)`` and the plastic and
    predicted energy losses; then ``dq+ = dq + L^-T X pi``, ``v+ = v- + W pi`` and
@@ -31,7 +31,8 @@ from ..conic.polish import VELOCITY_RESIDUAL_MAX
 from ..problem.compiled_reduction import NOT_FINITE, PLAIN, map_back, reduce_rows, velocity_jump
 from ..problem.reduction import IMMOBILE_RTOL, TINY_NORMAL
 from .interior_point import TRIVIAL, _jit, contact_checks
-from .newton import solve_law
+from ...compiled import literally
+from .newton import law_program
 
 #: figures computed in plain arithmetic (outside, the full path normalizes them)
 PLAIN_LO, PLAIN_HI = PLAIN
@@ -73,9 +74,12 @@ def layout(n, d, k):
 
 
 @_jit
-def lane_solve(mode, M, J, dq, e, friction, ws):
-    """Reduce, solve (``mode`` 0: ccp, 1: dissipative), certify and map back several contacts
-    into ``ws`` (:func:`layout`). ``J`` is (n, d, k), ``e`` and ``friction`` (n,)."""
+def lane_solve(coulomb, mode, M, J, dq, e, friction, ws):
+    """Reduce, solve (``mode`` 0: ccp, 1: dissipative, 2: coulomb), certify and map back
+    several contacts into ``ws`` (:func:`layout`). ``J`` is (n, d, k), ``e`` and ``friction``
+    (n,). ``coulomb`` (1 for mode 2, else 0) is compiled as a constant: the lane of the
+    maximal-dissipation programs does not compile Coulomb's kernel and certificate."""
+    literally(coulomb)
     n = J.shape[0]
     d = J.shape[1]
     k = J.shape[2]
@@ -114,8 +118,8 @@ def lane_solve(mode, M, J, dq, e, friction, ws):
         return SEPARATING
     if not (PLAIN_LO <= vs <= PLAIN_HI):
         return SCALE
-    status, it, steps, residual, floor, out = solve_law(
-        W, v, e, friction, d, mode, HANDOVER_TOL, MAX_ITER, NEWTON_ITER, CERTIFIED_ACCURACY)
+    status, it, steps, residual, floor, out = law_program(
+        coulomb, W, v, e, friction, d, mode, HANDOVER_TOL, MAX_ITER, NEWTON_ITER, CERTIFIED_ACCURACY)
     if status != TRIVIAL:
         if not residual <= max(DEFAULT_TOL, min(1e3 * floor, VELOCITY_RESIDUAL_MAX)):
             return CERTIFICATE

@@ -413,30 +413,10 @@ def result_data(W, v, pi, friction, d, tol):
 
 
 @_jit
-def solve_law(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
-    """One law on contact data in one compiled call (the public path's: no dispatch between
-    the steps): :func:`law_data`, the law's kernel, its certificate and :func:`result_data`.
-
-    ``mode`` 0 is ``ccp`` (Newton's shift), 1 the dissipative law's plastic phase (b = v-),
-    2 ``coulomb``. Returns the kernel's status, iterations and Newton steps, the certificate
-    and its round-off floor (both 0 for a trivial program), and one array (a single one to
-    box) holding the kernel's impulse (N) and, per contact (n each), the regime code of that
-    impulse at ``accuracy``, the lift ``v_n+ - (-e min(v_n-, 0))``, ``mu |v_t+|`` and
-    ``v_n+`` (elementwise, as numpy forms them).
-    """
-    coulomb = mode == 2
-    b, mu = law_data(v, e, friction, d, mode != 1, coulomb)
-    if coulomb:
-        pi, status, it, steps, r1, r2 = coulomb_kernel(W, b, mu, d, tol, max_iter, newton_iter)
-    else:
-        pi, status, it, steps, r1, r2 = ccp_kernel(W, b, mu, d, tol, max_iter, newton_iter)
-    residual = 0.0
-    floor = 0.0
-    if status != TRIVIAL:
-        if coulomb:
-            residual, floor = coulomb_certificate(W, b, mu, d, pi)
-        else:
-            residual, floor = ccp_certificate(W, b, mu, d, pi)
+def _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps, residual, floor):
+    """:func:`solve_law`'s return: the kernel's figures and one array (a single one to box)
+    holding the impulse and, per contact, the regime code, the lift, ``mu |v_t+|`` and
+    ``v_n+``."""
     vplus, slip, codes = result_data(W, v, pi, friction, d, accuracy)
     n = friction.shape[0]
     N = n * d
@@ -449,3 +429,96 @@ def solve_law(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
         out[N + 2 * n + i] = friction[i] * slip[i]
         out[N + 3 * n + i] = vplus[i * d]
     return status, it, steps, residual, floor, out
+
+
+@_jit
+def solve_dissipation(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
+    """:func:`solve_law` for the maximal-dissipation programs only (``mode`` 0: ccp, 1: the
+    dissipative law's plastic phase): Coulomb's kernel and certificate are not compiled in."""
+    b, mu = law_data(v, e, friction, d, mode != 1, False)
+    pi, status, it, steps, r1, r2 = ccp_kernel(W, b, mu, d, tol, max_iter, newton_iter)
+    residual = 0.0
+    floor = 0.0
+    if status != TRIVIAL:
+        residual, floor = ccp_certificate(W, b, mu, d, pi)
+    return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps, residual, floor)
+
+
+@_jit
+def solve_coulomb(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
+    """:func:`solve_law` for Coulomb's law only (``mode`` 2, not read)."""
+    b, mu = law_data(v, e, friction, d, True, True)
+    pi, status, it, steps, r1, r2 = coulomb_kernel(W, b, mu, d, tol, max_iter, newton_iter)
+    residual = 0.0
+    floor = 0.0
+    if status != TRIVIAL:
+        residual, floor = coulomb_certificate(W, b, mu, d, pi)
+    return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps, residual, floor)
+
+
+@_jit
+def solve_law(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
+    """One law on contact data in one compiled call (the public path's: no dispatch between
+    the steps): :func:`law_data`, the law's kernel, its certificate and :func:`result_data`.
+
+    ``mode`` 0 is ``ccp`` (Newton's shift), 1 the dissipative law's plastic phase (b = v-),
+    2 ``coulomb``. Returns the kernel's status, iterations and Newton steps, the certificate
+    and its round-off floor (both 0 for a trivial program), and one array (a single one to
+    box) holding the kernel's impulse (N) and, per contact (n each), the regime code of that
+    impulse at ``accuracy``, the lift ``v_n+ - (-e min(v_n-, 0))``, ``mu |v_t+|`` and
+    ``v_n+`` (elementwise, as numpy forms them).
+    """
+    if mode == 2:
+        return solve_coulomb(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy)
+    return solve_dissipation(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy)
+
+
+def law_program(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
+    """:func:`solve_law` with the program's family a compile-time constant in compiled code
+    (``coulomb`` a literal 0 or 1, made one by the caller's ``numba.literally``): a caller
+    compiled for the maximal-dissipation programs (modes 0 and 1) does not compile Coulomb's
+    kernel and certificate, and the other way round. As plain Python, :func:`solve_law`."""
+    return solve_law(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy)
+
+
+def _register_compiled() -> None:
+    """The compiled form of :func:`law_program`: the family's solver chosen when the caller is
+    typed (numba does not prune ``if coulomb`` on a literal argument by itself)."""
+    try:
+        from numba import types
+        from numba.extending import overload
+    except ImportError:  # no numba: the plain function above
+        return
+
+    @overload(law_program, inline="always", jit_options={"nogil": True, "error_model": "numpy"})
+    def _program(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
+        if not isinstance(coulomb, types.IntegerLiteral):
+            return None
+        if coulomb.literal_value:
+            def impl(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter,
+                     accuracy):  # solve_coulomb's body, inlined (one call level less)
+                b, mu = law_data(v, e, friction, d, True, True)
+                pi, status, it, steps, r1, r2 = coulomb_kernel(W, b, mu, d, tol, max_iter,
+                                                               newton_iter)
+                residual = 0.0
+                floor = 0.0
+                if status != TRIVIAL:
+                    residual, floor = coulomb_certificate(W, b, mu, d, pi)
+                return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps,
+                                   residual, floor)
+        else:
+            def impl(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter,
+                     accuracy):  # solve_dissipation's body, inlined (one call level less)
+                b, mu = law_data(v, e, friction, d, mode != 1, False)
+                pi, status, it, steps, r1, r2 = ccp_kernel(W, b, mu, d, tol, max_iter,
+                                                           newton_iter)
+                residual = 0.0
+                floor = 0.0
+                if status != TRIVIAL:
+                    residual, floor = ccp_certificate(W, b, mu, d, pi)
+                return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps,
+                                   residual, floor)
+        return impl
+
+
+_register_compiled()
