@@ -88,7 +88,7 @@ def _kernels():
         from . import drivers as loop
         from ...compiled import LawEntries, announce
 
-        announce("batch kernels (the law's, in the batch's dimension)", 15, loop.impact_batch,
+        announce("batch kernels (the law's, in the batch's dimension)", 5, loop.impact_batch,
                  loop.contact_batch)
         _K = SimpleNamespace(impact_batch=LawEntries(loop.impact_batch, 2),
                              contact_batch=LawEntries(loop.contact_batch, 2),

@@ -91,7 +91,7 @@ def _build():
         _SOLVE = False
         return _SOLVE
     from ...compiled import announce
-    announce("several-contact lane (interior point, Newton finish, certificates)", 30,
+    announce("several-contact lane (interior point, Newton finish, certificates)", 20,
              K.lane_solve)
     J = np.zeros((2, 2, 3))
     J[0, 0, 2] = J[1, 0, 2] = 1.0
