@@ -1,9 +1,9 @@
-"""The batch loops of the compiled kernels: one contact's dispatch and the two drivers.
+"""The batch loops of the compiled kernels: the two drivers.
 
-* ``_planar_item`` / ``_spatial_item``: :func:`convimpact.impact.exact.dispatch.solve_contact`
-  after validation -- separating, W_nn > 0, the safe range of W's trace and v (else the item
-  is deferred to solve_contact, which rescales by powers of two), mu = 0 (frictionless), then
-  the law's kernel (its module in :mod:`convimpact.impact.laws`, by the law's code);
+Each item goes through :func:`convimpact.impact.laws.table.contact_item` (separating, W_nn > 0,
+the safe range of W's trace and v -- else the item is deferred to solve_contact, which
+rescales by powers of two -- mu = 0, then the law's kernel, chosen at compile time by the
+law's code and the dimension);
 * :func:`contact_batch`: every item from (W, v), with v+ and the energy loss;
 * :func:`impact_batch`: every item from (M, Jc, dq): validates M (finite, symmetric,
   Cholesky), forms W = Jc M^-1 Jc^T and v- = Jc dq, solves, maps the impulse back to dq+ and
