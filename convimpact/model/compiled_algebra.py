@@ -8,9 +8,10 @@ here take that triple and return tuples of scalars or write in place:
 * spatial vectors (linear part first, about the world origin or a node's origin):
   :func:`_dot6`, the ten-number inertia ``Y = (m, h, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)`` times a
   motion (:func:`_ymul`) and an inertia carried to another point and added (:func:`_shift_add`);
-* the lower Cholesky factor of M (:func:`_cholesky`, :func:`cholesky`) and solves with it
-  (:func:`cho_solve_vec`, :func:`cho_solve_mat`), and :func:`all_finite`: the simulator's
-  right-hand side calls these directly.
+* the lower Cholesky factor of M (:func:`_cholesky`, :func:`cholesky`; the factorization and
+  the back substitution are :mod:`convimpact.impact.problem.compiled_reduction`'s, which the
+  impact lanes share) and solves with it (:func:`cho_solve_vec`, :func:`cho_solve_mat`), and
+  :func:`all_finite`: the simulator's right-hand side calls these directly.
 
 The compiled modules of the recursive algorithms decorate their entry points with
 :data:`convimpact.compiled.jit` and the functions called from compiled code only with
@@ -24,6 +25,7 @@ from __future__ import annotations
 import math
 
 from ..compiled import jit, jit_internal
+from ..impact.problem.compiled_reduction import back_substitute, cholesky_into
 from .tree_layout import NOT_DEFINITE, OK
 
 
@@ -93,43 +95,25 @@ def _shift_add(Y, i, y, d0, d1, d2, O, l, o):
 # ---- dense Cholesky -------------------------------------------------------------------------
 @jit_internal
 def _cholesky(M, L, k):
-    for j in range(k):
-        s = M[j, j]
-        for p in range(j):
-            s -= L[j, p] * L[j, p]
-        if not s > 0.0 or not math.isfinite(s):
-            return NOT_DEFINITE
-        d = math.sqrt(s)
-        L[j, j] = d
-        for i in range(j + 1, k):
-            s = M[i, j]
-            for p in range(j):
-                s -= L[i, p] * L[j, p]
-            L[i, j] = s / d
-    return OK
+    return OK if cholesky_into(M, L, k, 0.0) else NOT_DEFINITE
 
 
 @jit
 def cholesky(M, L):
     """Lower Cholesky factor of M into L (upper triangle untouched); False when M is not
     positive definite."""
-    return _cholesky(M, L, M.shape[0]) == OK
+    return cholesky_into(M, L, M.shape[0], 0.0)
 
 
 @jit
 def cho_solve_vec(L, b, out):
     """``out = (L L^T)^-1 b`` for a lower Cholesky factor L (out may be b)."""
-    n = L.shape[0]
-    for i in range(n):
+    for i in range(L.shape[0]):
         s = b[i]
         for p in range(i):
             s -= L[i, p] * out[p]
         out[i] = s / L[i, i]
-    for i in range(n - 1, -1, -1):
-        s = out[i]
-        for p in range(i + 1, n):
-            s -= L[p, i] * out[p]
-        out[i] = s / L[i, i]
+    back_substitute(L, out)
 
 
 @jit

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 
-from ...compiled import jit as _jit
+from ...compiled import jit as _jit, jit_internal
 
 #: a Cholesky pivot at or below this fraction of its diagonal entry sends M to the full
 #: path (whose LAPACK factorization decides positive definiteness at the edge)
@@ -29,6 +29,37 @@ PLAIN = (1e-100, 1e100)
 #: reduce_rows' codes: M not exactly symmetric or not finite; a pivot not safely positive;
 #: a contact row, W or v- not finite
 BAD_M, BAD_PIVOT, NOT_FINITE = 1, 2, 3
+
+
+@jit_internal
+def cholesky_into(M, L, k, rtol):
+    """Lower Cholesky factor of M[:k, :k] into L (upper triangle untouched); False at a pivot
+    not above ``rtol`` times its diagonal entry or not finite (also model.compiled_algebra's)."""
+    for j in range(k):
+        s = M[j, j]
+        for p in range(j):
+            s -= L[j, p] * L[j, p]
+        if not s > rtol * M[j, j] or not math.isfinite(s):
+            return False
+        d = math.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, k):
+            s = M[i, j]
+            for p in range(j):
+                s -= L[i, p] * L[j, p]
+            L[i, j] = s / d
+    return True
+
+
+@jit_internal
+def back_substitute(L, x):
+    """x = L^-T x in place, L lower triangular."""
+    n = L.shape[0]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for p in range(i + 1, n):
+            s -= L[p, i] * x[p]
+        x[i] = s / L[i, i]
 
 
 @_jit
@@ -46,19 +77,8 @@ def reduce_rows(M, R, dq, L, X, W, v):
     for i in range(k):
         for j in range(k):
             L[i, j] = 0.0
-    for j in range(k):
-        s = M[j, j]
-        for p in range(j):
-            s -= L[j, p] * L[j, p]
-        if not s > PIVOT_RTOL * M[j, j]:
-            return BAD_PIVOT
-        d = math.sqrt(s)
-        L[j, j] = d
-        for i in range(j + 1, k):
-            s = M[i, j]
-            for p in range(j):
-                s -= L[i, p] * L[j, p]
-            L[i, j] = s / d
+    if not cholesky_into(M, L, k, PIVOT_RTOL):
+        return BAD_PIVOT
     # X = L^-1 R^T (forward substitution, column by column)
     for c in range(r):
         for i in range(k):
@@ -97,11 +117,7 @@ def map_back(L, X, pi, dq, dq_plus):
         for c in range(r):
             s += X[i, c] * pi[c]
         dq_plus[i] = s
-    for i in range(k - 1, -1, -1):
-        s = dq_plus[i]
-        for p in range(i + 1, k):
-            s -= L[p, i] * dq_plus[p]
-        dq_plus[i] = s / L[i, i]
+    back_substitute(L, dq_plus)
     for i in range(k):
         dq_plus[i] += dq[i]
 
