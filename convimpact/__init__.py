@@ -54,6 +54,10 @@ def __getattr__(name):
         from .simulation import simulate
 
         return simulate
+    if name in ("solve_contact_problem", "ContactSolution", "UncertifiedSolutionError"):
+        from .impact.contacts import contact_problem
+
+        return getattr(contact_problem, name)
     if name in ("impact_arguments", "resolve_mechanism_impact", "ModelBuilder", "Joint",
                 "place_resting", "rest_velocity"):
         from . import model
@@ -64,6 +68,9 @@ def __getattr__(name):
 __version__ = "0.1.0"
 
 __all__ = [
+    "solve_contact_problem",
+    "ContactSolution",
+    "UncertifiedSolutionError",
     "resolve_impacts",
     "contact_impulses",
     "ImpactBatch",
