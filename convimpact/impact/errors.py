@@ -269,6 +269,24 @@ def real_number(name: str, value, error: type = ParameterError) -> float:
     raise error(f"{name} must be a real number, got {what} {value!r}")
 
 
+def contact_inputs(W, v, e, mu=None) -> tuple:
+    """(W, v, e) of one contact, or (W, v, e, mu) when ``mu`` is given, converted in that
+    order by :func:`as_real_array` and :func:`real_number`."""
+    W, v, e = as_real_array("W", W), as_real_array("v", v), real_number("e", e)
+    return (W, v, e) if mu is None else (W, v, e, real_number("mu", mu))
+
+
+def check_single_contact(problem, options, method: str, takes: str, several: str) -> None:
+    """Refuse a single-contact method's unknown ``options`` (message ``method 'm' takes
+    <takes> got a, b``) and a problem of several contacts (:class:`NotSupportedError` saying
+    ``several``, which may name the count as ``{n}``)."""
+    if options:
+        raise UnknownOptionError(f"method {method!r} takes {takes} got "
+                                 f"{', '.join(sorted(options))}")
+    if problem.n_contacts != 1:
+        raise NotSupportedError(several.format(n=problem.n_contacts))
+
+
 __all__ = [
     "ConvImpactError",
     "InputError",

@@ -153,13 +153,16 @@ def impulse_scale(P: ImpactProblem) -> float:
 
 
 def regimes_from_slip(P: ImpactProblem, pi: np.ndarray, vplus: np.ndarray,
-                      tol: float) -> list[str]:
-    """Regime per contact from the impulse and the (law's own) post-impact slip."""
-    pscale = impulse_scale(P)
+                      tol: float, separated=None) -> list[str]:
+    """Regime per contact from the impulse (or the flags ``separated``, one per contact) and
+    the (law's own) post-impact slip."""
+    if separated is None:
+        pscale = impulse_scale(P)
+        separated = [pi[i, 0] <= tol * pscale for i in range(P.n_contacts)]
     vscale = max(float(np.max(np.abs(P.v_minus))), TINY)
     out = []
     for i in range(P.n_contacts):
-        if pi[i, 0] <= tol * pscale:
+        if separated[i]:
             out.append("separating")
         elif P.friction[i] == 0.0:
             out.append("frictionless")

@@ -27,6 +27,7 @@ from ..errors import (
     NotSupportedError,
     SingularSystemError,
     as_real_array,
+    contact_inputs,
     real_number,
 )
 
@@ -38,9 +39,7 @@ STICK_RTOL = 1e-12
 
 def frictionless_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
     """Frictionless (or central) impulse: eq. (38) with mu = 0, pi_n = -(1+e) v_n / m_nn."""
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
+    W, v, e = contact_inputs(W, v, e)
     w_nn = float(W[0, 0])
     if not w_nn > 0.0:
         raise SingularSystemError(
@@ -62,9 +61,7 @@ def sticking_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
     SingularSystemError
         when W is singular (contact directions dependent through the mechanism).
     """
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
+    W, v, e = contact_inputs(W, v, e)
     lam = np.linalg.eigvalsh(W)  # W is symmetric positive semi-definite
     cond = lam[-1] / lam[0] if lam[0] > 0 else np.inf
     if not cond < DELASSUS_COND_MAX:
@@ -100,10 +97,7 @@ def sliding_impulse(W: np.ndarray, v: np.ndarray, e: float, mu: float,
         when that denominator is not positive (Painleve-like jam): no finite compressive
         normal impulse slides the contact along t.
     """
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
-    mu = real_number("mu", mu)
+    W, v, e, mu = contact_inputs(W, v, e, mu)
     g = np.empty(W.shape[0])
     g[0] = 1.0
     g[1:] = mu * np.asarray(direction, dtype=float)
@@ -154,10 +148,7 @@ def pereira_nikravesh(W: np.ndarray, v: np.ndarray, e: float, mu: float,
     -------
     impulse, regime, sliding denominator (None unless sliding)
     """
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
-    mu = real_number("mu", mu)
+    W, v, e, mu = contact_inputs(W, v, e, mu)
     if mu == 0.0:
         return frictionless_impulse(W, v, e), "frictionless", None
     stick = sticking_impulse(W, v, e)

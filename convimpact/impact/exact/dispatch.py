@@ -40,10 +40,10 @@ import numpy as np
 
 from ..diagnostics import assemble_result
 from ..errors import (
+    check_single_contact,
     NonFiniteError,
     SolverError,
     NonPositiveEffectiveMassError,
-    NotSupportedError,
     ParameterError,
     SingularSystemError,
     UnknownOptionError,
@@ -406,13 +406,9 @@ def kernel_solver(law: str, method: str = "fast"):
     kernel = _kernel(law)
 
     def solver(problem: ImpactProblem, **options) -> ImpactResult:
-        if options:
-            raise UnknownOptionError(
-                f"method 'fast' takes no options, got {', '.join(sorted(options))}")
-        if problem.n_contacts != 1:
-            raise NotSupportedError(
-                f"method='fast' is exact for one contact only; for {problem.n_contacts} "
-                "simultaneous contacts use method='clarabel' or method='cvxpy'")
+        check_single_contact(problem, options, "fast", "no options,",
+                             "method='fast' is exact for one contact only; for {n} "
+                             "simultaneous contacts use method='clarabel' or method='cvxpy'")
         w, v = problem.contact_lists(0)
         sol = dispatch(kernel, w, v, problem.dim, float(problem.restitution[0]),
                        float(problem.friction[0]), tangential_restitution(problem, 0))

@@ -1,17 +1,13 @@
 """One contact from (M, Jc, dq), in compiled code: the fast lane of ``resolve_impact``.
 
 :func:`lane_solve` is the whole single-contact solve of
-:func:`convimpact.impact.exact.lane.resolve_one` in one compiled call:
-
-1. :func:`reduce_one` checks M (exactly symmetric, finite) and factors it, ``M = L L^T``;
-   then ``X = L^-1 Jc^T``, ``W = X^T X`` (eq. 29's Delassus block) and ``v- = Jc dq``
-   (:func:`convimpact.impact.problem.compiled_reduction.reduce_rows`, shared with the several-contact lane),
-   and checks the contact: approaching, a normal that moves mass, near unit scale;
-2. the law's exact kernel -- the compiled port of ``contact_kernel`` of each law module
-   (:func:`~convimpact.impact.laws.table.contact_item`, the batch's own) -- gives the
-   contact impulse ``pi`` from ``(W, v-, e, mu)``;
-3. :func:`finish_one` maps it back: ``dq+ = dq + L^-T X pi`` (eq. 29), ``v+ = v- + W pi`` and
-   ``T+ - T- = pi.v- + 1/2 pi.W.pi`` (eq. 58) (:mod:`convimpact.impact.problem.compiled_reduction`).
+:func:`convimpact.impact.exact.lane.resolve_one` (its steps 1-3 are listed in
+:mod:`convimpact.impact.exact.lane`) in one compiled call: :func:`reduce_one` reduces with
+:func:`convimpact.impact.problem.compiled_reduction.reduce_rows` (shared with the
+several-contact lane) and checks the contact (approaching, a normal that moves mass, near unit
+scale); the law's kernel runs through :func:`~convimpact.impact.laws.table.contact_item` (the
+batch's own); :func:`finish_one` maps the impulse back (``compiled_reduction.map_back`` and
+``velocity_jump``).
 
 Everything is written into one flat workspace (:func:`convimpact.impact.exact.lane.layout`), so the
 call from Python passes seven arguments and allocates one array. A case the lane does not take (see

@@ -30,14 +30,12 @@ from scipy.optimize import brentq, minimize_scalar
 from ..laws.pereira_nikravesh import frictionless_impulse, stick_admissible, sticking_impulse
 from ..diagnostics import assemble_result
 from ..errors import (
-    as_real_array,
-    real_number,
+    check_single_contact,
+    contact_inputs,
     NonPositiveEffectiveMassError,
-    NotSupportedError,
     ParameterError,
     ShapeError,
     SingularSystemError,
-    UnknownOptionError,
 )
 from ..laws.max_dissipation import max_dissipation_direction  # the exact answer, re-exported
 from ..problem.build import ImpactProblem
@@ -102,9 +100,9 @@ class SweepResult:
     xtol: float
 
 
-def _spatial_data(W, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    W = np.asarray(W, dtype=float)
-    v = np.asarray(v, dtype=float)
+def _spatial_data(W, v, e, mu) -> tuple:
+    """(W, v, e, mu) converted, of a spatial contact, and the unit reference tangent."""
+    W, v, e, mu = contact_inputs(W, v, e, mu)
     if W.shape != (3, 3) or v.shape != (3,):
         raise ShapeError(
             f"the angle sweep needs a spatial contact: W of shape (3, 3) and v of length 3 "
@@ -113,7 +111,7 @@ def _spatial_data(W, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     vt = v[1:]
     nv = float(np.hypot(vt[0], vt[1]))
     ref = vt / nv if nv > 0.0 else np.array([1.0, 0.0])
-    return W, v, ref
+    return W, v, e, mu, ref
 
 
 def _tangent(ref: np.ndarray, alpha) -> tuple[np.ndarray, np.ndarray]:
@@ -135,11 +133,7 @@ def energy_loss_versus_angle(W, v, e: float, mu: float, alpha) -> EnergyLossCurv
     -------
     EnergyLossCurve
     """
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
-    mu = real_number("mu", mu)
-    W, v, ref = _spatial_data(W, v)
+    W, v, e, mu, ref = _spatial_data(W, v, e, mu)
     alpha = np.asarray(alpha, dtype=float)
     t1, t2 = _tangent(ref, alpha)
     D = W[0, 0] + mu * (W[0, 1] * t1 + W[0, 2] * t2)  # eq. (38) denominator
@@ -154,13 +148,23 @@ def energy_loss_versus_angle(W, v, e: float, mu: float, alpha) -> EnergyLossCurv
                            admissible=ok)
 
 
+def _coupling(W: np.ndarray) -> tuple[np.ndarray, float]:
+    """w = W[0, 1:] (the normal-tangent coupling) and |w|."""
+    w = W[0, 1:]
+    return w, float(np.hypot(w[0], w[1]))
+
+
+def _angle_against(w: np.ndarray, ref: np.ndarray) -> float:
+    """The angle of -w, counter-clockwise from ``ref``."""
+    return math.atan2(-(ref[0] * w[1] - ref[1] * w[0]), -(ref[0] * w[0] + ref[1] * w[1]))
+
+
 def _excluded_sector(W: np.ndarray, mu: float, ref: np.ndarray) -> tuple[float, float] | None:
     """Angles with D(alpha) <= 0, in closed form: w.t <= -W_nn / mu, w = W[0, 1:]."""
-    w = W[0, 1:]
-    nw = float(np.hypot(w[0], w[1]))
+    w, nw = _coupling(W)
     if mu == 0.0 or mu * nw <= W[0, 0]:
         return None
-    centre = math.atan2(-(ref[0] * w[1] - ref[1] * w[0]), -(ref[0] * w[0] + ref[1] * w[1]))
+    centre = _angle_against(w, ref)
     half = math.acos(W[0, 0] / (mu * nw))
     return ((centre - half) % _TWO_PI, (centre + half) % _TWO_PI)
 
@@ -186,11 +190,7 @@ def sweep_direction(W, v, e: float, mu: float, xtol: float = DEFAULT_XTOL,
     -------
     SweepResult
     """
-    W = as_real_array("W", W)
-    v = as_real_array("v", v)
-    e = real_number("e", e)
-    mu = real_number("mu", mu)
-    W, v, ref = _spatial_data(W, v)
+    W, v, e, mu, ref = _spatial_data(W, v, e, mu)
     if not (xtol > 0.0 and math.isfinite(xtol)):
         raise ParameterError(f"xtol must be a positive finite angle tolerance, got {xtol!r}")
     if int(n_grid) < 8:
@@ -243,13 +243,8 @@ def sweep_direction(W, v, e: float, mu: float, xtol: float = DEFAULT_XTOL,
 
     sectors = _gain_sectors(curve, excl, tl, xtol)
     if excl is None:
-        w = W[0, 1:]
-        nw = float(np.hypot(w[0], w[1]))
-        if mu * nw > 0.0:
-            a_max = math.atan2(-(ref[0] * w[1] - ref[1] * w[0]),
-                               -(ref[0] * w[0] + ref[1] * w[1])) % _TWO_PI
-        else:
-            a_max = 0.0
+        w, nw = _coupling(W)
+        a_max = _angle_against(w, ref) % _TWO_PI if mu * nw > 0.0 else 0.0
         pn_max = float(-(1.0 + e) * v[0] / (W[0, 0] - mu * nw))
     else:
         a_max, pn_max = None, math.inf
@@ -334,13 +329,9 @@ def pereira_nikravesh_sweep(problem: ImpactProblem, xtol: float = DEFAULT_XTOL,
     holds for this impact (it fails in a minority of slides; the opposite tangent's T_L is in
     ``extras['energy_loss_opposite']``).
     """
-    if options:
-        raise UnknownOptionError(
-            f"method 'sweep' takes options xtol, n_grid; got {', '.join(sorted(options))}")
-    if problem.n_contacts != 1:
-        raise NotSupportedError(
-            "the angle sweep treats one contact; for several simultaneous contacts use "
-            "method='clarabel' or 'cvxpy'")
+    check_single_contact(problem, options, "sweep", "options xtol, n_grid;",
+                         "the angle sweep treats one contact; for several simultaneous "
+                         "contacts use method='clarabel' or 'cvxpy'")
     W, v = problem.contact_block(0)
     e, mu = float(problem.restitution[0]), float(problem.friction[0])
     law = "pereira-nikravesh"

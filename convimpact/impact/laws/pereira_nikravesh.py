@@ -54,10 +54,9 @@ from ..exact.closed_forms import (  # the paper's closed forms, re-exported
     sticking_impulse,
 )
 from ..errors import (
+    check_single_contact,
     NonPositiveEffectiveMassError,
-    NotSupportedError,
     SolverError,
-    UnknownOptionError,
 )
 from .algebra import _inverse3, _linsolve3, _solve2
 from .codes import (FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone,
@@ -289,13 +288,9 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
 
 def closed_form(problem: ImpactProblem, **options) -> ImpactResult:
     """Section 8 algorithm, one contact, planar or spatial sticking (spatial sliding raises)."""
-    if options:
-        raise UnknownOptionError(
-            f"method 'closed-form' takes no options, got {', '.join(sorted(options))}")
-    if problem.n_contacts != 1:
-        raise NotSupportedError(
-            "the closed form treats one contact; for several simultaneous contacts use "
-            "method='clarabel' or 'cvxpy'")
+    check_single_contact(problem, options, "closed-form", "no options,",
+                         "the closed form treats one contact; for several simultaneous "
+                         "contacts use method='clarabel' or 'cvxpy'")
     W, v = problem.contact_block(0)
     impulse, regime, denom = pereira_nikravesh(
         W, v, float(problem.restitution[0]), float(problem.friction[0]))

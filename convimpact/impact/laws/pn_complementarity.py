@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from ..conic.paths import ProgramOptions, approaching, solver_report
+from ..conic.paths import ProgramOptions, approaching, regimes_from_slip, solver_report
 from ..conic.qp import TINY, Backend, ConeQP, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import ConvImpactError, NotSupportedError, SolverError
@@ -200,18 +200,7 @@ def _energy_change(P: ImpactProblem, pi: np.ndarray) -> float:
 
 def _regimes(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, tol: float) -> list[str]:
     vplus = P.v_minus + (P.delassus @ pi.ravel()).reshape(P.n_contacts, P.dim)
-    vscale = max(float(np.max(np.abs(P.v_minus))), TINY)
-    out = []
-    for i in range(P.n_contacts):
-        if i not in A:
-            out.append("separating")
-        elif P.friction[i] == 0.0:
-            out.append("frictionless")
-        elif np.linalg.norm(vplus[i, 1:]) <= 10.0 * tol * vscale:
-            out.append("stick")
-        else:
-            out.append("slide")
-    return out
+    return regimes_from_slip(P, pi, vplus, tol, [i not in A for i in range(P.n_contacts)])
 
 
 def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
