@@ -80,31 +80,42 @@ def impulse_dynamics_call(problem: ImpactProblem) -> Callable[[], tuple[np.ndarr
     return call
 
 
+def embed_contact_problem(W: np.ndarray, b: np.ndarray, dim: int
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(W3, g, idx)``: the dense ``W`` (n d x n d, contacts normal first) and the drift
+    ``b`` (n d,) in Pinocchio's (t1, t2, n) order, 3 rows per contact; a planar problem
+    (d = 2) gets a decoupled ``t2`` row with the mean diagonal of ``W`` and zero drift.
+    ``idx[j]`` is Pinocchio's index of our row ``j``."""
+    W = np.asarray(W, dtype=float)
+    n, d = W.shape[0] // dim, dim
+    W3 = np.zeros((3 * n, 3 * n))
+    g = np.zeros(3 * n)
+    # our index of (contact i, component c) -> Pinocchio's index
+    ours = [(i, c) for i in range(n) for c in range(d)]
+    pin_index = {}
+    for i in range(n):
+        pin_index[(i, 0)] = 3 * i + 2  # normal last
+        pin_index[(i, 1)] = 3 * i
+        if d == 3:
+            pin_index[(i, 2)] = 3 * i + 1
+        else:
+            W3[3 * i + 1, 3 * i + 1] = float(np.trace(W)) / W.shape[0]  # decoupled t2
+    idx = np.array([pin_index[oc] for oc in ours])
+    W3[np.ix_(idx, idx)] = W
+    g[idx] = np.asarray(b, dtype=float).ravel()
+    return W3, g, idx
+
+
 class _Embedded:
     """W and the restitution-shifted drift in Pinocchio's (t1, t2, n) order, 3 per contact."""
 
     def __init__(self, problem: ImpactProblem):
         n, d = problem.n_contacts, problem.dim
-        W = problem.delassus
         v = problem.v_minus
         b = v.copy()
         b[:, 0] += problem.restitution * np.minimum(v[:, 0], 0.0)
-        W3 = np.zeros((3 * n, 3 * n))
-        g = np.zeros(3 * n)
-        # our index of (contact i, component c) -> Pinocchio's index
-        ours = [(i, c) for i in range(n) for c in range(d)]
-        pin_index = {}
-        for i in range(n):
-            pin_index[(i, 0)] = 3 * i + 2  # normal last
-            pin_index[(i, 1)] = 3 * i
-            if d == 3:
-                pin_index[(i, 2)] = 3 * i + 1
-            else:
-                W3[3 * i + 1, 3 * i + 1] = float(np.trace(W)) / W.shape[0]  # decoupled t2
-        idx = np.array([pin_index[oc] for oc in ours])
-        W3[np.ix_(idx, idx)] = W
-        g[idx] = b.ravel()
-        self.W, self.g, self.idx, self.n, self.d = W3, g, idx, n, d
+        self.W, self.g, self.idx = embed_contact_problem(problem.delassus, b, d)
+        self.n, self.d = n, d
 
     def back(self, lam: np.ndarray) -> np.ndarray:
         return np.asarray(lam)[self.idx].reshape(self.n, self.d)
@@ -117,26 +128,40 @@ def contact_solver_call(problem: ImpactProblem, kind: str, solve_ncp: bool, tol:
     Returns a function giving the contact impulse (n_contacts, d); raises RuntimeError when
     the solver reports no convergence.
     """
+    emb = _Embedded(problem)
+    return embedded_solver_call(emb.W, emb.g, problem.friction, emb.back, kind, solve_ncp, tol,
+                                max_iterations)
+
+
+def embedded_solver_call(W3: np.ndarray, g: np.ndarray, mu: np.ndarray,
+                         back: Callable[[np.ndarray], np.ndarray], kind: str, solve_ncp: bool,
+                         tol: float, max_iterations: int = 10000,
+                         delassus: Any = None) -> Callable[[], np.ndarray]:
+    """A no-argument call of Pinocchio's ADMM or PGS solver on the embedded problem
+    (``W3``, ``g`` in (t1, t2, n) order, friction ``mu`` per contact); ``back`` maps
+    Pinocchio's impulses to ours; ``delassus`` (optional) replaces
+    ``DelassusOperatorDense(W3)``. Raises RuntimeError when the solver does not converge."""
     import pinocchio as pin
 
-    emb = _Embedded(problem)
+    n = len(g) // 3
     model = pin.Model()
     jid = model.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "base")
     model.appendBodyToJoint(jid, pin.Inertia.Identity(), pin.SE3.Identity())
     models = pin.StdVec_ConstraintModel()
-    for i in range(problem.n_contacts):
+    for i in range(n):
         cm = pin.PointContactConstraintModel(model, jid)
-        cm.setFriction(float(problem.friction[i]))
+        cm.setFriction(float(mu[i]))
         models.append(pin.ConstraintModel(cm))
     datas = pin.StdVec_ConstraintData()
     for cm in models:
         datas.append(cm.createData())
-    delassus = pin.DelassusOperatorDense(np.asfortranarray(emb.W))
+    if delassus is None:
+        delassus = pin.DelassusOperatorDense(np.asfortranarray(W3))
     if kind == "admm":
-        solver, settings, Result = (pin.ADMMConstraintSolver(3 * emb.n), pin.ADMMSolverSettings(),
+        solver, settings, Result = (pin.ADMMConstraintSolver(3 * n), pin.ADMMSolverSettings(),
                                     pin.ADMMSolverResult)
     elif kind == "pgs":
-        solver, settings, Result = (pin.PGSConstraintSolver(3 * emb.n), pin.PGSSolverSettings(),
+        solver, settings, Result = (pin.PGSConstraintSolver(3 * n), pin.PGSSolverSettings(),
                                     pin.PGSSolverResult)
     else:
         raise ValueError(f"unknown Pinocchio contact solver {kind!r}")
@@ -145,7 +170,7 @@ def contact_solver_call(problem: ImpactProblem, kind: str, solve_ncp: bool, tol:
     for name in ("absolute_feasibility_tol", "relative_feasibility_tol",
                  "absolute_complementarity_tol", "relative_complementarity_tol"):
         setattr(settings, name, float(tol))
-    g = emb.g.copy()
+    g = g.copy()
 
     def call():
         result = Result()
@@ -153,7 +178,7 @@ def contact_solver_call(problem: ImpactProblem, kind: str, solve_ncp: bool, tol:
         if not ok:
             raise RuntimeError(f"Pinocchio {kind.upper()} did not converge in "
                                f"{max_iterations} iterations at tolerance {tol:g}")
-        return emb.back(np.array(result.retrieveConstraintImpulses()))
+        return back(np.array(result.retrieveConstraintImpulses()))
 
     return call
 
