@@ -31,7 +31,8 @@ def _check_law(law: str) -> None:
 def pinocchio_contact_call(W, b: np.ndarray, mu: np.ndarray, dim: int, law: str = "ccp",
                            tol: float = 1e-8, kind: str = "admm",
                            max_iterations: int = 10000,
-                           sparse_delassus: bool = False) -> Callable[[], np.ndarray]:
+                           sparse_delassus: bool = False,
+                           check: float | None = None) -> Callable[[], np.ndarray]:
     """A no-argument call of Pinocchio's contact solver on ``u = W r + b``.
 
     Parameters
@@ -46,6 +47,9 @@ def pinocchio_contact_call(W, b: np.ndarray, mu: np.ndarray, dim: int, law: str 
     max_iterations : the solver's iteration cap.
     sparse_delassus : use ``DelassusOperatorSparse`` on the embedded W instead of the dense
         operator.
+    check : when given, the call also raises RuntimeError if the returned impulse's
+        :func:`natural_map_residual` exceeds it (Pinocchio 4.1's PGS reported convergence
+        after 0 iterations with a residual of 0.18 on a sphere pile; ADMM has not done so).
 
     Returns
     -------
@@ -71,8 +75,21 @@ def pinocchio_contact_call(W, b: np.ndarray, mu: np.ndarray, dim: int, law: str 
         import pinocchio as pin
 
         delassus = pin.DelassusOperatorSparse(sp.csc_matrix(W3))
-    return embedded_solver_call(W3, g, mu, back, kind, law == "coulomb", tol, max_iterations,
+    call = embedded_solver_call(W3, g, mu, back, kind, law == "coulomb", tol, max_iterations,
                                 delassus=delassus)
+    if check is None:
+        return call
+    b_vec = np.asarray(b, dtype=float)
+
+    def checked() -> np.ndarray:
+        r = call()
+        res = natural_map_residual(W, b_vec, mu, r, law)
+        if not res <= check:
+            raise RuntimeError(f"Pinocchio {kind.upper()} reported convergence with a "
+                               f"natural-map residual {res:.1e} > {check:g}")
+        return r
+
+    return checked
 
 
 def project_friction_cones(x: np.ndarray, mu: np.ndarray) -> np.ndarray:

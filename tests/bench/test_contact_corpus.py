@@ -200,3 +200,6 @@ def test_pinocchio_admm_reaches_the_natural_map(quick):
         r = pinocchio_contact_call(c.W, c.b, c.mu, c.dim, "ccp", 1e-8, kind="admm")()
         assert r.shape == (c.n_contacts, c.dim)
         assert natural_map_residual(c.W, c.b, c.mu, r, "ccp") < 1e-6, name
+    c = quick["four-corner-box"]
+    r = pinocchio_contact_call(c.W, c.b, c.mu, 3, "coulomb", 1e-8, check=1e-6)()
+    assert natural_map_residual(c.W, c.b, c.mu, r, "coulomb") < 1e-6
