@@ -30,6 +30,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from . import cones
+from .admm import coulomb_admm
 from .finish import newton_finish
 
 #: the interior-point path's parameters (Mehrotra): the fraction of the step to the boundary
@@ -209,29 +210,32 @@ class _Factor:
         return f.solve(rhs)
 
 
-def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
-              max_iter: int = 100, sparse: bool | None = None,
-              coulomb_shift: np.ndarray | None = None) -> EngineResult:
-    """Solve the CCP ``K ∋ r ⊥ W r + b' ∈ K*`` (``b' = b`` plus, when given,
-    ``coulomb_shift`` on the normal rows) by the interior point; the residual reported is the
-    CCP's natural-map residual on ``b'``."""
-    n = mu.shape[0]
-    N = n * d
-    if sparse is None:
-        sparse = (sp.issparse(W) and N >= SPARSE_MIN_ROWS
-                  and W.nnz <= SPARSE_MAX_DENSITY * N * N)
-    if sparse:
-        W = sp.csr_matrix(W)
-    elif sp.issparse(W):
-        W = W.toarray()
-    bb = np.array(b, dtype=float).reshape(n, d)
-    if coulomb_shift is not None:
-        bb[:, 0] += coulomb_shift
+def use_sparse(W, N: int) -> bool:
+    """Whether the sparse factorizations serve W (sparse, large and thin enough)."""
+    return bool(sp.issparse(W) and N >= SPARSE_MIN_ROWS
+                and W.nnz <= SPARSE_MAX_DENSITY * N * N)
+
+
+def standard_form(W, b: np.ndarray, mu: np.ndarray, d: int, sparse: bool):
+    """``(blocks, q, qs)``: the cones made standard and equilibrated, ``q`` the unit-norm
+    linear term and ``qs`` its scale (``r = blocks.to_impulse(qs x)``)."""
     blocks = _Blocks(W, mu, d, sparse)
-    q = bb.ravel()[blocks.cols] * blocks.scale
-    A = blocks.A
+    q = np.asarray(b, dtype=float).ravel()[blocks.cols] * blocks.scale
     qs = max(float(np.linalg.norm(q)), np.finfo(float).tiny)
-    q = q / qs                                       # unit data; x, z scale back by qs
+    return blocks, q / qs, qs
+
+
+def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
+              max_iter: int = 100, sparse: bool | None = None) -> EngineResult:
+    """Solve the CCP ``K ∋ r ⊥ W r + b ∈ K*`` by the interior point alone (W dense, or sparse
+    CSR when ``sparse``); the residual reported is the CCP's natural-map residual."""
+    n = mu.shape[0]
+    if sparse is None:
+        sparse = use_sparse(W, n * d)
+    W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
+    bb = np.asarray(b, dtype=float).reshape(n, d)
+    blocks, q, qs = standard_form(W, bb, mu, d, sparse)
+    A = blocks.A
     factor = _Factor(blocks, sparse)
     # start (CVXOPT's coneqp): x from (A + I) x = -q, shifted into the cones
     Hs = [np.broadcast_to(np.eye(m), ((s.stop - s.start) // m, m, m)).copy()
@@ -308,56 +312,59 @@ def _step(blocks: _Blocks, x, z, dx, dz) -> float:
 
 
 def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float = 1e-8,
-          max_iter: int = 100, newton_iter: int = 30, fixed_point_iter: int = 50,
+          max_iter: int = 100, newton_iter: int = 30, admm_iter: int = 20000,
           sparse: bool | None = None) -> EngineResult:
-    """The engine: the CCP by the interior point and the Newton finish; Coulomb's law by the
-    Newton finish on its own natural map from the CCP's answer, then, where that does not
-    reach ``tol``, by De Saxce's fixed point (a CCP with the normal velocities shifted by
-    ``mu |u_t|``, each solved as above) and the finish again."""
+    """The engine.
+
+    The CCP: the interior point, then the Newton finish where the interior point stops
+    short of ``tol``. Coulomb's law: Newton on its natural map from the CCP's answer; where
+    that does not reach ``tol``, the ADMM of :mod:`.admm` from there, Newton tried whenever
+    the ADMM has come within 1e-4 (and every 200 iterations below 1e-2).
+    """
     n = mu.shape[0]
-    N = n * d
     if sparse is None:
-        sparse = (sp.issparse(W) and N >= SPARSE_MIN_ROWS
-                  and W.nnz <= SPARSE_MAX_DENSITY * N * N)
+        sparse = use_sparse(W, n * d)
     W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
     b = np.asarray(b, dtype=float).reshape(n, d)
-
-    def ccp(shift=None):
-        R = solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter, sparse=sparse,
-                      coulomb_shift=shift)
-        if R.residual <= tol or shift is not None:
-            return R
-        bb = b.copy()
-        r, res, k = newton_finish(W, bb, mu, R.impulse, coulomb=False, tol=tol,
+    R = solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter, sparse=sparse)
+    iterations = R.iterations
+    if R.residual > tol:
+        r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
                                   max_iter=newton_iter, sparse=sparse)
-        res, u = cones.natural_map_residual(W, bb, mu, r, coulomb=False)
-        return EngineResult(r, u, res, R.iterations + k, res <= tol,
-                            "converged" if res <= tol else R.message)
-
-    R = ccp()
+        iterations += k
+        if res < R.residual:
+            res, u = cones.natural_map_residual(W, b, mu, r, coulomb=False)
+            R = EngineResult(r, u, res, iterations, res <= tol,
+                             "converged" if res <= tol else R.message)
     if not coulomb:
         return R
-    iterations = R.iterations
     r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                              max_iter=newton_iter, sparse=sparse)
+                              max_iter=min(newton_iter, 10), sparse=sparse)
     iterations += k
-    best = (res, r)
+    best = [res, r, "converged"]
     if res > tol:
-        # De Saxce's fixed point: s = mu |u_t(r)|, r = CCP(b + s e_n)
-        for _ in range(fixed_point_iter):
-            u = (W @ best[1].ravel()).reshape(n, d) + b
-            shift = mu * np.sqrt(np.einsum("ij,ij->i", u[:, 1:], u[:, 1:]))
-            R = solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter, sparse=sparse,
-                          coulomb_shift=shift)
-            iterations += R.iterations
-            r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                                      max_iter=newton_iter, sparse=sparse)
-            iterations += k
+        tried = [np.inf]
+
+        def check(r):
+            nonlocal iterations
+            res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
             if res < best[0]:
-                best = (res, r)
+                best[:2] = res, r
             if best[0] <= tol:
-                break
-    res, r = best
-    res, u = cones.natural_map_residual(W, b, mu, r, coulomb=True)
-    return EngineResult(r, u, res, iterations, res <= tol,
-                        "converged" if res <= tol else "Coulomb's natural map not solved")
+                return True
+            if res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0):
+                tried[0] = res
+                rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
+                                            max_iter=min(newton_iter, 10), sparse=sparse)
+                iterations += k
+                if resn < best[0]:
+                    best[:2] = resn, rn
+            tried.append(res)
+            return best[0] <= tol
+
+        _, k = coulomb_admm(W, b, mu, R.impulse, sparse, check=check, max_iter=admm_iter)
+        iterations += k
+        best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
+    res, u = cones.natural_map_residual(W, b, mu, best[1], coulomb=True)
+    return EngineResult(best[1], u, res, iterations, res <= tol,
+                        "converged" if res <= tol else f"Coulomb's law not solved ({best[2]})")
