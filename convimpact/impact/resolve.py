@@ -113,10 +113,11 @@ SINGLE_CONTACT_METHODS = ("closed-form", "fast", "sweep")
 
 
 _CANDIDATES: dict[tuple, list[str]] = {}
-#: laws whose several contacts go to the exact solver "interior" first under method="auto":
-#: their programs are convex, so the velocities are unique; Coulomb's law may have several
-#: solutions at several contacts and keeps its conic fixed point's choice by default
-INTERIOR_FIRST = ("ccp", "dissipative")
+#: laws whose several contacts go to the contact engine (method "interior") first under
+#: method="auto": the convex programs (unique velocities) and Coulomb's law, whose answer at
+#: several contacts is the one the engine reaches (Newton from the CCP answer, else its ADMM)
+#: -- where the law has several solutions, possibly another than the conic path's fixed point
+INTERIOR_FIRST = ("ccp", "dissipative", "coulomb")
 #: laws whose several open-loop contacts the compiled lane of method "interior" takes
 INTERIOR_LANE = ("ccp", "dissipative", "coulomb")
 

@@ -143,7 +143,8 @@ def test_auto_chooses_it_for_several_contacts_only():
     several = build_problem(**four_corner_box())
     assert choose_method(several, "ccp") == "interior"
     assert choose_method(several, "dissipative") == "interior"
-    assert choose_method(several, "coulomb") == "clarabel"  # no interior path for coulomb
+    # Coulomb's law at several contacts takes the contact engine by default too
+    assert choose_method(several, "coulomb") == "interior"
     assert ci.resolve_impact(**four_corner_box(), law="ccp").method == "interior"
     one = build_problem(np.eye(2), np.array([[0.0, 1.0], [1.0, 0.0]]), [1.0, -1.0], 0.5, 0.3)
     assert choose_method(one, "ccp") == "fast"

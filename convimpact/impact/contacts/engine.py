@@ -32,6 +32,7 @@ import scipy.sparse as sp
 from . import cones
 from .admm import coulomb_admm
 from .finish import newton_finish
+from .threads import one_blas_thread
 
 #: the interior-point path's parameters (Mehrotra): the fraction of the step to the boundary
 STEP_FRACTION = 0.99
@@ -321,6 +322,11 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     that does not reach ``tol``, the ADMM of :mod:`.admm` from there, Newton tried whenever
     the ADMM has come within 1e-4 (and every 200 iterations below 1e-2).
     """
+    with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse)
+
+
+def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse):
     n = mu.shape[0]
     if sparse is None:
         sparse = use_sparse(W, n * d)

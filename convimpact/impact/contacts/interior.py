@@ -79,6 +79,12 @@ METHOD = "interior"
 LAWS = ("ccp", "dissipative", "coulomb")
 #: gap and residual at which the interior point hands over to the Newton finish
 HANDOVER_TOL = 1e-9
+#: contact rows up to which the compiled dense kernels are tried first; above, and where their
+#: answer fails its certificate, the contact engine's vectorized dense/sparse backend
+#: (:func:`convimpact.impact.contacts.engine.solve`) takes the problem
+COMPILED_MAX_ROWS = 120
+#: the natural-map residual the engine is asked for before the law's certificate judges
+ENGINE_TOL = 1e-12
 #: accuracy claimed for certified answers (the tol passed to assemble_result)
 CERTIFIED_ACCURACY = 1e-9
 _STATUS = {0: "converged", 1: "iteration limit", 2: "stalled", 3: "trivial"}
@@ -283,14 +289,22 @@ def _solve(P: ImpactProblem, opts: InteriorOptions, law: str) -> tuple:
     """
     n, d = P.jacobians.shape[:2]
     K = kernels()
-    status, iters, steps, residual, floor, out = K.solve_law(
-        np.ascontiguousarray(P.delassus, dtype=float), P.v_minus.reshape(-1), P.restitution,
-        P.friction, d, _MODES[law], HANDOVER_TOL, int(opts.max_iter), int(opts.newton_iter),
-        CERTIFIED_ACCURACY)
+    W = np.ascontiguousarray(P.delassus, dtype=float)
+    v = P.v_minus.reshape(-1)
+    answer = None
+    if n * d <= COMPILED_MAX_ROWS:
+        answer = K.solve_law(W, v, P.restitution, P.friction, d, _MODES[law], HANDOVER_TOL,
+                             int(opts.max_iter), int(opts.newton_iter), CERTIFIED_ACCURACY)
+    if answer is None or not (answer[0] == K.TRIVIAL
+                              or answer[3] <= max(opts.tol, min(1e3 * answer[4],
+                                                                VELOCITY_RESIDUAL_MAX))):
+        answer = _engine_law(K, W, v, P, d, law, opts)
+    status, iters, steps, residual, floor, out = answer
+    accepted = max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX))
     if status == K.TRIVIAL:  # b = 0: pi = 0 is the answer
         kkt, name = 0.0, "trivial"
     else:
-        if not residual <= max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX)):
+        if not residual <= accepted:
             _accepted(residual, floor, opts, status, iters, steps, law == "coulomb")  # raises
         kkt, name = float(residual), _STATUS.get(status, str(status))
     report = solver_report(name, iters, steps, kkt, opts.tol)
@@ -298,6 +312,28 @@ def _solve(P: ImpactProblem, opts: InteriorOptions, law: str) -> tuple:
     per = out[N:].tolist()
     return (out[:N].reshape(n, d), report, [_REGIME_OF[c] for c in per[:n]],
             per[n:2 * n], per[2 * n:3 * n], per[3 * n:])
+
+
+def _engine_law(K, W, v, P: ImpactProblem, d: int, law: str, opts: InteriorOptions) -> tuple:
+    """:func:`~.newton.solve_law`'s answer by the contact engine's vectorized backend: the
+    law's data (:func:`~.newton.law_data`), the engine, the law's certificate and the
+    result's per-contact data, as the compiled call forms them."""
+    from .engine import solve
+
+    mode = _MODES[law]
+    e, friction = P.restitution, P.friction
+    b, mu = K.law_data(v, e, friction, d, mode != 1, mode == 2)
+    if not np.any(b):
+        pi = np.zeros_like(b)
+        return K._law_answer(W, v, e, friction, d, CERTIFIED_ACCURACY, pi, K.TRIVIAL, 0, 0,
+                             0.0, 0.0)
+    R = solve(W, b.reshape(-1, d), mu, d, coulomb=mode == 2, tol=ENGINE_TOL,
+              max_iter=int(opts.max_iter), newton_iter=int(opts.newton_iter))
+    pi = np.ascontiguousarray(R.impulse.reshape(-1))
+    certificate = K.coulomb_certificate if mode == 2 else K.ccp_certificate
+    residual, floor = certificate(W, b, mu, d, pi)
+    return K._law_answer(W, v, e, friction, d, CERTIFIED_ACCURACY, pi,
+                         0 if R.converged else 1, int(R.iterations), 0, residual, floor)
 
 
 def solver_report(interior_status: str, iterations: int, newton_steps: int, kkt: float,

@@ -52,6 +52,7 @@ from ..laws.dissipative import poisson_warnings
 from ..problem.build import _new, build_problem
 from ..results import ImpactDiagnostics, ImpactResult
 from .interior import (
+    COMPILED_MAX_ROWS,
     _MODES,
     _REGIME_OF,
     _STATUS,
@@ -207,7 +208,7 @@ def resolve_several(M, Jc, dq, e, mu, law: str) -> ImpactResult | None:
             return None
     mode = _MODES.get(law)
     n = len(Jc)
-    if mode is None:
+    if mode is None or n * 3 > COMPILED_MAX_ROWS:  # large problems: the engine's own backend
         return None
     if n < 2 or type(M) is not np.ndarray or M.dtype is not _F64 or type(dq) is not np.ndarray \
             or dq.dtype is not _F64 or dq.ndim != 1:
