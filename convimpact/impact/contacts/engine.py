@@ -36,6 +36,14 @@ from .threads import one_blas_thread
 
 #: the interior-point path's parameters (Mehrotra): the fraction of the step to the boundary
 STEP_FRACTION = 0.99
+#: contact rows up to which the compiled dense kernels (:mod:`.interior_point`,
+#: :mod:`.natural_map`, :mod:`.newton`: the same interior point and Newton finish, compiled
+#: with a dense unblocked factorization) are tried first; above, and where their answer is
+#: not certified, the vectorized dense/sparse backend of this module takes the problem
+COMPILED_MAX_ROWS = 120
+#: the compiled kernels' interior-point tolerance before their Newton finish
+HANDOVER_TOL = 1e-9
+_KERNELS = None
 #: the interior point stops at this gap (unit data): the Newton finish takes over from here
 GAP_FLOOR = 1e-14
 #: sparse factorization is used for W given sparse with more than this many rows...
@@ -211,6 +219,20 @@ class _Factor:
         return f.solve(rhs)
 
 
+def kernels():
+    """The compiled kernels (:mod:`.newton`), imported on first use (compiled then, or loaded
+    from numba's on-disk cache, with a message when that takes long)."""
+    global _KERNELS
+    if _KERNELS is None:
+        from . import newton
+        from ...compiled import announce
+
+        announce("several-contact interior kernels", 25, newton.solve_law, newton.ccp_kernel,
+                 newton.coulomb_kernel)
+        _KERNELS = newton
+    return _KERNELS
+
+
 def use_sparse(W, N: int) -> bool:
     """Whether the sparse factorizations serve W (sparse, large and thin enough)."""
     return bool(sp.issparse(W) and N >= SPARSE_MIN_ROWS
@@ -314,16 +336,39 @@ def _step(blocks: _Blocks, x, z, dx, dz) -> float:
 
 def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float = 1e-8,
           max_iter: int = 100, newton_iter: int = 30, admm_iter: int = 20000,
-          sparse: bool | None = None) -> EngineResult:
+          sparse: bool | None = None, compiled: bool = True) -> EngineResult:
     """The engine.
 
-    The CCP: the interior point, then the Newton finish where the interior point stops
-    short of ``tol``. Coulomb's law: Newton on its natural map from the CCP's answer; where
+    Up to :data:`COMPILED_MAX_ROWS` rows (and ``compiled``) the compiled dense kernels first,
+    their answer kept when its natural-map residual is at most ``tol``. Then the CCP: the
+    interior point, and the Newton finish where it stops short of ``tol``. Coulomb's law: Newton on its natural map from the CCP's answer; where
     that does not reach ``tol``, the ADMM of :mod:`.admm` from there, Newton tried whenever
     the ADMM has come within 1e-4 (and every 200 iterations below 1e-2).
     """
+    n = mu.shape[0]
+    if compiled and n * d <= COMPILED_MAX_ROWS:
+        R = _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter)
+        if R is not None:
+            return R
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse)
+
+
+def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult | None:
+    """The compiled kernels' answer when certified at ``tol``, else None."""
+    K = kernels()
+    n = mu.shape[0]
+    Wd = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=float)
+    bb = np.ascontiguousarray(b, dtype=float).reshape(-1)
+    m = np.ascontiguousarray(mu, dtype=float)
+    kernel = K.coulomb_kernel if coulomb else K.ccp_kernel
+    pi, status, it, steps, _, _ = kernel(Wd, bb, m, d, HANDOVER_TOL, max_iter,
+                                         min(newton_iter, 20))
+    r = pi.reshape(n, d)
+    res, u = cones.natural_map_residual(Wd, bb.reshape(n, d), m, r, coulomb)
+    if not res <= tol:
+        return None
+    return EngineResult(r, u, res, int(it) + int(steps), True, "converged")
 
 
 def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse):

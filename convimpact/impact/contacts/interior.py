@@ -73,22 +73,16 @@ from ..errors import ParameterError, SolverError, UnknownOptionError
 from ..laws.dissipative import poisson_warnings
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
+from .engine import COMPILED_MAX_ROWS, HANDOVER_TOL, kernels, solve as engine_solve  # noqa: F401  (kernels: public here too)
 
 METHOD = "interior"
 #: laws this path solves
 LAWS = ("ccp", "dissipative", "coulomb")
-#: gap and residual at which the interior point hands over to the Newton finish
-HANDOVER_TOL = 1e-9
-#: contact rows up to which the compiled dense kernels are tried first; above, and where their
-#: answer fails its certificate, the contact engine's vectorized dense/sparse backend
-#: (:func:`convimpact.impact.contacts.engine.solve`) takes the problem
-COMPILED_MAX_ROWS = 120
 #: the natural-map residual the engine is asked for before the law's certificate judges
 ENGINE_TOL = 1e-12
 #: accuracy claimed for certified answers (the tol passed to assemble_result)
 CERTIFIED_ACCURACY = 1e-9
 _STATUS = {0: "converged", 1: "iteration limit", 2: "stalled", 3: "trivial"}
-_KERNELS = None
 
 
 class CertificateError(SolverError):
@@ -130,20 +124,6 @@ class CertifiedImpulse:
 
 
 DEFAULT_OPTIONS = InteriorOptions()
-
-
-def kernels():
-    """The compiled kernels (:mod:`convimpact.impact.contacts.newton` and the interior point of
-    :mod:`convimpact.impact.contacts.interior_point`), imported on first use."""
-    global _KERNELS
-    if _KERNELS is None:
-        from . import newton as several_newton
-        from ...compiled import announce
-
-        announce("several-contact interior kernels", 25, several_newton.solve_law,
-                 several_newton.ccp_kernel, several_newton.coulomb_kernel)
-        _KERNELS = several_newton
-    return _KERNELS
 
 
 def compile_kernels() -> dict[str, float]:
@@ -318,8 +298,6 @@ def _engine_law(K, W, v, P: ImpactProblem, d: int, law: str, opts: InteriorOptio
     """:func:`~.newton.solve_law`'s answer by the contact engine's vectorized backend: the
     law's data (:func:`~.newton.law_data`), the engine, the law's certificate and the
     result's per-contact data, as the compiled call forms them."""
-    from .engine import solve
-
     mode = _MODES[law]
     e, friction = P.restitution, P.friction
     b, mu = K.law_data(v, e, friction, d, mode != 1, mode == 2)
@@ -327,8 +305,8 @@ def _engine_law(K, W, v, P: ImpactProblem, d: int, law: str, opts: InteriorOptio
         pi = np.zeros_like(b)
         return K._law_answer(W, v, e, friction, d, CERTIFIED_ACCURACY, pi, K.TRIVIAL, 0, 0,
                              0.0, 0.0)
-    R = solve(W, b.reshape(-1, d), mu, d, coulomb=mode == 2, tol=ENGINE_TOL,
-              max_iter=int(opts.max_iter), newton_iter=int(opts.newton_iter))
+    R = engine_solve(W, b.reshape(-1, d), mu, d, coulomb=mode == 2, tol=ENGINE_TOL,
+                     compiled=False, max_iter=int(opts.max_iter), newton_iter=int(opts.newton_iter))
     pi = np.ascontiguousarray(R.impulse.reshape(-1))
     certificate = K.coulomb_certificate if mode == 2 else K.ccp_certificate
     residual, floor = certificate(W, b, mu, d, pi)
