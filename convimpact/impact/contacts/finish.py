@@ -55,7 +55,10 @@ def projection_jacobian(v: np.ndarray, mu: np.ndarray) -> np.ndarray:
 def _block_diag(blocks: np.ndarray, sparse: bool):
     n, d, _ = blocks.shape
     if not sparse:
-        return sla.block_diag(*blocks) if n else np.zeros((0, 0))
+        out = np.zeros((n, d, n, d))
+        idx = np.arange(n)
+        out[idx, :, idx, :] = blocks
+        return out.reshape(n * d, n * d)
     rows = (np.arange(n)[:, None, None] * d + np.arange(d)[None, :, None]).repeat(d, 2)
     cols = (np.arange(n)[:, None, None] * d + np.arange(d)[None, None, :]).repeat(d, 1)
     return sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(n * d, n * d))
@@ -116,7 +119,10 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
                 np.concatenate([np.zeros(n * d), -F.ravel()]))
             dr = sol[: n * d]
         else:
-            J = np.eye(n * d) - _block_diag(D, False) + _block_diag(DB, False) @ W
+            # the block rows of D B W, contact by contact (D B is block diagonal)
+            J = np.einsum("nij,njk->nik", DB, W.reshape(n, d, n * d)).reshape(n * d, n * d)
+            J -= _block_diag(D, False)
+            J[np.diag_indices_from(J)] += 1.0
             A = J.T @ J
             A[np.diag_indices_from(A)] += lam
             try:
