@@ -1,14 +1,19 @@
-"""Step 3b: the several-contact engine (``method="interior"``): an interior point method on
-the cone complementarity problem of the laws ``ccp``, ``dissipative`` and ``coulomb``, finished
-by a semismooth Newton method and certified on the original data.
+"""Step 3b: the contact engine, for several contacts: the cone complementarity problem
+``K ∋ r ⊥ W r + b ∈ K*`` (the laws ``ccp`` and ``dissipative``) and Coulomb's law in De
+Saxce's form, certified on the original data.
 
-* :mod:`.interior`: the solver path (options, certificates, results);
-* :mod:`.interior_point`: the compiled primal-dual interior point (Mehrotra, Nesterov-Todd);
-* :mod:`.newton`: the compiled programs and drivers; :mod:`.natural_map`: the semismooth
-  Newton finish; :mod:`.certificates`: the certificates that accept an answer on the original
-  data;
-* :mod:`.lane` and :mod:`.lane_kernel`: the public call's compiled lane for several open-loop
-  contacts.
+* :mod:`.engine`: the entry (:func:`~.engine.solve`); the compiled dense kernels first on
+  small problems, else the interior point on dense (LAPACK) or sparse (QDLDL) factorizations;
+* :mod:`.cones`: the friction cones' algebra and the natural-map residual; :mod:`.finish`: the
+  regularized semismooth Newton finish; :mod:`.admm`: Coulomb's law where Newton from the CCP
+  answer does not reach it; :mod:`.threads`: the factorizations on one BLAS thread;
+* :mod:`.contact_problem`: :func:`~.contact_problem.solve_contact_problem`, the public API on
+  ``(W, b, mu)``;
+* the compiled dense kernels: :mod:`.interior_point` (Mehrotra, Nesterov-Todd),
+  :mod:`.newton` (programs and drivers), :mod:`.natural_map` (their Newton finish),
+  :mod:`.certificates`;
+* :mod:`.interior`: ``method="interior"`` on an impact; :mod:`.lane` and :mod:`.lane_kernel`:
+  the public call's compiled lane for several open-loop contacts.
 
 The conic cross-check of every law at several contacts is :mod:`convimpact.impact.conic`.
 """

@@ -14,8 +14,13 @@ of the law is the program's KKT point,
 
     K ∋ pi  ⊥  z = W pi + b ∈ K*,
 
-which is what this path computes and certifies, in compiled code
-(:mod:`convimpact.impact.contacts.interior_point`, :mod:`convimpact.impact.contacts.newton`):
+which is what this path computes and certifies, by the contact engine
+(:mod:`convimpact.impact.contacts.engine`): up to
+:data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` contact rows in one compiled call
+(:mod:`convimpact.impact.contacts.interior_point`, :mod:`convimpact.impact.contacts.newton`);
+above, or where that answer fails the certificate of step 3, by the engine's vectorized
+backend (the same interior point on LAPACK or sparse factorizations, its own Newton finish),
+judged by the same certificate:
 
 1. a primal-dual interior point (Mehrotra's predictor-corrector with Nesterov-Todd scaling,
    one dense Cholesky factorization per iteration) on the program written over standard
@@ -37,12 +42,13 @@ which is what this path computes and certifies, in compiled code
 ``coulomb`` (Coulomb's law with Newton's restitution, ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*``,
 ``u = W pi + b``, every contact with its friction) is not a convex program: it is solved by the
 same semismooth Newton on its own natural map, started from the CCP answer (the start of the
-conic path's fixed point), and accepted on Coulomb's conditions
+conic path's fixed point) -- the engine's backend adds Pinocchio's ADMM where that Newton
+misses -- and accepted on Coulomb's conditions
 (:func:`~convimpact.impact.laws.coulomb.coulomb_residual`, compiled as
-:func:`~.newton.coulomb_certificate`) to ``tol``. It is not tried first under
-``method="auto"`` (:data:`convimpact.impact.resolve.INTERIOR_FIRST`): at several contacts the
-law may have several solutions (a box on four corners has a family of them), and the default
-stays the conic path's choice.
+:func:`~.newton.coulomb_certificate`) to ``tol``. It is tried first under ``method="auto"``
+(:data:`convimpact.impact.resolve.INTERIOR_FIRST`): at several contacts the law may have
+several solutions (a box on four corners has a family of them), and the answer is the one the
+engine reaches, possibly another than the conic path's fixed point.
 
 Options (keyword arguments of ``resolve_impact``): ``tol`` (the certificate's acceptance
 tolerance, default 1e-10), ``max_iter`` (interior-point iterations, default 100),
