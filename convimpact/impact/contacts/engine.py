@@ -139,17 +139,16 @@ class _Factor:
         self.blocks, self.sparse = blocks, sparse
         self.solver = None
         if sparse:
-            pattern = [blocks.A]
+            # W's pattern and the cones' diagonal blocks (every entry counted positive)
+            rows, cols = [], []
             for s, m, _ in blocks.groups:
                 k = (s.stop - s.start) // m
-                blk = sp.block_diag([np.ones((m, m))] * k, format="csc") if k else None
-                if blk is not None:
-                    pad = sp.csc_matrix((blocks.size, blocks.size))
-                    pad[s, s] = blk
-                    pattern.append(pad)
-            P = abs(pattern[0])
-            for Q in pattern[1:]:
-                P = P + abs(Q)
+                base = s.start + np.arange(k)[:, None, None] * m
+                rows.append((base + np.arange(m)[None, :, None]).repeat(m, 2).ravel())
+                cols.append((base + np.arange(m)[None, None, :]).repeat(m, 1).ravel())
+            rows, cols = np.concatenate(rows), np.concatenate(cols)
+            P = abs(blocks.A) + sp.csc_matrix((np.ones(rows.size), (rows, cols)),
+                                              shape=(blocks.size, blocks.size))
             self.pattern = sp.triu(P, format="csc")
             self.pattern.sum_duplicates()
             self.pattern.sort_indices()
