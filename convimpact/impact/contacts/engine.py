@@ -340,21 +340,27 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
 
     Up to :data:`COMPILED_MAX_ROWS` rows (and ``compiled``) the compiled dense kernels first,
     their answer kept when its natural-map residual is at most ``tol``. Then the CCP: the
-    interior point, and the Newton finish where it stops short of ``tol``. Coulomb's law: Newton on its natural map from the CCP's answer; where
-    that does not reach ``tol``, the ADMM of :mod:`.admm` from there, Newton tried whenever
-    the ADMM has come within 1e-4 (and every 200 iterations below 1e-2).
+    interior point, and the Newton finish where it stops short of ``tol`` (skipped when the
+    compiled CCP kernel's answer is certified). Coulomb's law: Newton on its natural map from
+    the CCP's answer; where that does not reach ``tol``, the ADMM of :mod:`.admm` from there,
+    Newton tried whenever the ADMM has come within 1e-4 (and every 200 iterations below 1e-2).
     """
     n = mu.shape[0]
+    ccp = None
     if compiled and n * d <= COMPILED_MAX_ROWS:
         R = _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter)
-        if R is not None:
+        if R is not None and R.converged:
             return R
+        if coulomb:  # the compiled CCP answer, Coulomb's start below
+            ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
+            ccp = ccp if ccp is not None and ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse)
+        return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
+                      ccp)
 
 
-def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult | None:
-    """The compiled kernels' answer when certified at ``tol``, else None."""
+def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
+    """The compiled kernels' answer (``converged`` when certified at ``tol``)."""
     K = kernels()
     n = mu.shape[0]
     Wd = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=float)
@@ -365,18 +371,18 @@ def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult 
                                          min(newton_iter, 20))
     r = pi.reshape(n, d)
     res, u = cones.natural_map_residual(Wd, bb.reshape(n, d), m, r, coulomb)
-    if not res <= tol:
-        return None
-    return EngineResult(r, u, res, int(it) + int(steps), True, "converged")
+    ok = bool(res <= tol)
+    return EngineResult(r, u, res, int(it) + int(steps), ok, "converged" if ok else "")
 
 
-def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse):
+def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, ccp=None):
     n = mu.shape[0]
     if sparse is None:
         sparse = use_sparse(W, n * d)
     W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
     b = np.asarray(b, dtype=float).reshape(n, d)
-    R = solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter, sparse=sparse)
+    R = ccp if ccp is not None else solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter,
+                                              sparse=sparse)
     iterations = R.iterations
     if R.residual > tol:
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
