@@ -17,6 +17,8 @@ keeps a singular W factorizable.
 
 from __future__ import annotations
 
+from typing import Iterator
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -69,10 +71,10 @@ class _Solver:
                                                                    check_finite=False)
 
 
-def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool, *, check,
-                 max_iter: int = 5000, check_every: int = 10):
-    """ADMM iterations from ``r0`` (n, d) until ``check(r)`` -- called every ``check_every``
-    iterations with the cone copy -- returns True. Returns ``(r, iterations)``.
+def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool, *,
+                 check_every: int = 10) -> Iterator[np.ndarray]:
+    """ADMM iterations from ``r0`` (n, d), yielding the cone copy (n, d) every
+    ``check_every`` iterations (the caller judges it and stops when it likes).
 
     The iteration runs on the data as given (an equilibration of the contacts slowed it on
     stacks and walls in our measurements), with Pinocchio's parameters: the proximal weight
@@ -100,15 +102,16 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
 
     s = shift(-lam)
     it = 0
-    for it in range(1, max_iter + 1):
+    while True:
+        it += 1
         x_old = x
         x = solver.solve(eta * x - q - s + rho * w - lam)
         w_old = w
         w = project((x + lam / rho).reshape(n, d), mu).ravel()
         lam = lam + rho * (x - w)
         s = shift(-lam)                  # -lam -> the shifted velocity u + s at the solution
-        if it % check_every == 0 and check(w.reshape(n, d)):
-            return w.reshape(n, d), it
+        if it % check_every == 0:
+            yield w.reshape(n, d)
         primal = np.abs(x - w).max()
         dual = (rho * np.abs(w - w_old) + eta * np.abs(x - x_old)).max()
         if primal > BALANCE * dual and rho < 1e8 * L:
@@ -117,4 +120,3 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
         elif dual > BALANCE * primal and rho > 1e-8 * L:
             rho /= RHO_STEP
             solver.factor(rho + eta)
-    return w.reshape(n, d), it
