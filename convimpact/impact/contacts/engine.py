@@ -1,6 +1,8 @@
 """The contact engine: a primal-dual interior point on the cone complementarity problem
-``K ∋ r ⊥ u = W r + b ∈ K*`` (the convex relaxation of Coulomb's law, ``ccp``), and Coulomb's
-law in De Saxce's form as a sequence of such problems.
+``K ∋ r ⊥ u = W r + b ∈ K*`` (the convex relaxation of Coulomb's law, ``ccp``), finished by
+Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP's answer, or
+where that misses, by an ADMM (:mod:`.admm`) and Newton again. :func:`solve` is the entry;
+small problems go first to the compiled dense kernels of the same method.
 
 The problem is the optimality system of the convex program ``min 1/2 r^T W r + b^T r`` over
 the product K of friction cones; W is only positive semidefinite (a stack of boxes has more
@@ -59,7 +61,7 @@ class EngineResult:
     impulse: np.ndarray       # (n, d)
     velocity: np.ndarray      # (n, d) = W r + b
     residual: float           # the natural-map residual of the law solved
-    iterations: int           # interior-point iterations (summed over Coulomb's updates)
+    iterations: int           # interior-point, Newton and ADMM iterations, summed
     converged: bool
     message: str
 
