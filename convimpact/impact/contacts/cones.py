@@ -29,16 +29,15 @@ def project(r: np.ndarray, mu: np.ndarray) -> np.ndarray:
     rn = r[:, 0]
     rt = r[:, 1:]
     t = np.sqrt(np.einsum("ij,ij->i", rt, rt))
-    out = np.zeros_like(r)
     inside = t <= mu * rn
-    out[inside] = r[inside]
     polar = mu * t <= -rn
-    side = ~(inside | polar)
-    pn = (rn[side] + mu[side] * t[side]) / (1.0 + mu[side] ** 2)
-    out[side, 0] = pn
-    with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(t[side] > 0.0, mu[side] * pn / np.where(t[side] > 0, t[side], 1.0), 0.0)
-    out[side, 1:] = rt[side] * scale[:, None]
+    pn = (rn + mu * t) / (1.0 + mu * mu)
+    # on the boundary ray: r_t scaled by mu pn / |r_t| (|r_t| > 0 there)
+    scale = np.divide(mu * pn, t, out=np.zeros_like(t), where=t > 0.0)
+    scale = np.where(inside, 1.0, np.where(polar, 0.0, scale))
+    out = np.empty_like(r)
+    out[:, 0] = np.where(inside, rn, np.where(polar, 0.0, pn))
+    out[:, 1:] = rt * scale[:, None]
     return out
 
 

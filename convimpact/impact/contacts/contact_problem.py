@@ -31,6 +31,8 @@ from ..errors import (
 from . import engine
 
 CONTACT_LAWS = ("coulomb", "ccp")
+#: a sparse W of at most this many rows is checked and solved dense
+DENSE_CHECK_ROWS = 120
 #: relative asymmetry of W accepted (W is a Delassus matrix J M^-1 J^T: symmetric)
 SYMMETRY_RTOL = 1e-10
 
@@ -85,6 +87,8 @@ class UncertifiedSolutionError(SolverError):
 
 
 def _check_W(W, N: int):
+    if sp.issparse(W) and W.shape == (N, N) and N <= DENSE_CHECK_ROWS:
+        W = W.toarray()  # small: the dense checks (and the compiled kernels) are cheaper
     if sp.issparse(W):
         if W.shape != (N, N):
             raise ShapeError(f"W must be square of size n*d = {N}, got shape {W.shape}")
