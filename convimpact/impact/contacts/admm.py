@@ -20,6 +20,7 @@ from __future__ import annotations
 from typing import Iterator
 
 import numpy as np
+import qdldl
 import scipy.linalg as sla
 import scipy.sparse as sp
 
@@ -54,8 +55,6 @@ class _Solver:
     def factor(self, shift: float) -> None:
         A = self.A
         if self.sparse:
-            import qdldl
-
             K = sp.triu(A + shift * sp.identity(A.shape[0], format="csc"), format="csc")
             if self.f is None:
                 self.f = qdldl.Solver(K)

@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import qdldl
 import scipy.linalg as sla
 import scipy.sparse as sp
 
@@ -204,8 +205,6 @@ class _Factor:
             np.add.at(data, slots, H[upper])
         M = sp.csc_matrix((data, self.pattern.indices, self.pattern.indptr),
                           shape=self.pattern.shape)
-        import qdldl
-
         if self.solver is None:
             self.solver = ("qdldl", qdldl.Solver(M))
         else:

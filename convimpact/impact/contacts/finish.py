@@ -16,6 +16,7 @@ set, singular J included), dense by LAPACK or sparse through the quasi-definite 
 from __future__ import annotations
 
 import numpy as np
+import qdldl
 import scipy.linalg as sla
 import scipy.sparse as sp
 
@@ -93,7 +94,7 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
     F, u, ut, v = _map(W, b, mu, rho, r, coulomb)
     fn = np.linalg.norm(F)
     steps = 0
-    for steps in range(1, max_iter + 1):
+    for _ in range(max_iter):
         if best_res <= tol:
             break
         D = projection_jacobian(v, mu)
@@ -113,8 +114,6 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
             J = (sp.identity(n * d, format="csr") - Dm + _block_diag(DB, True) @ W).tocsc()
             K = sp.bmat([[lam * sp.identity(n * d), J.T], [J, -sp.identity(n * d)]],
                         format="csc")
-            import qdldl
-
             sol = qdldl.Solver(sp.triu(K, format="csc")).solve(
                 np.concatenate([np.zeros(n * d), -F.ravel()]))
             dr = sol[: n * d]
@@ -134,17 +133,19 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
         dr = dr.reshape(n, d)
         t = 1.0
         improved = False
-        for _ in range(30):
-            rt = r + t * dr
-            Ft, ut_u, ut_t, vt = _map(W, b, mu, rho, rt, coulomb)
-            ft = np.linalg.norm(Ft)
+        for _ in range(30):  # backtracking (Armijo) on |F|
+            trial = r + t * dr
+            mapped = _map(W, b, mu, rho, trial, coulomb)
+            ft = np.linalg.norm(mapped[0])
             if ft <= (1.0 - 1e-4 * t) * fn:
                 improved = True
                 break
             t *= 0.5
         if not improved:
             break
-        r, F, u, ut, v, fn = rt, Ft, ut_u, ut_t, vt, ft
+        steps += 1
+        r, fn = trial, ft
+        F, u, ut, v = mapped
         res, _ = natural_map_residual(W, b, mu, r, coulomb)
         if res < best_res:
             best_res, best = res, r.copy()
