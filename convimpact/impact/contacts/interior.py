@@ -79,7 +79,8 @@ from ..errors import ParameterError, SolverError, UnknownOptionError
 from ..laws.dissipative import poisson_warnings
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
-from .engine import COMPILED_MAX_ROWS, HANDOVER_TOL, kernels, solve as engine_solve  # noqa: F401  (kernels: public here too)
+from .engine import COMPILED_MAX_ROWS, HANDOVER_TOL, kernels  # noqa: F401  (kernels: public here)
+from .engine import solve as engine_solve
 
 METHOD = "interior"
 #: laws this path solves
@@ -232,7 +233,7 @@ def _accepted(residual: float, floor: float, opts: InteriorOptions, status: int,
     CertificateError
         when ``residual`` exceeds it (a NaN or infinite residual always does).
     """
-    accepted = max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX))
+    accepted = _acceptance(floor, opts)
     if not residual <= accepted:
         what = ("Coulomb's conditions" if coulomb else "the law's KKT certificate")
         hint = ("Newton on Coulomb's law did not reach a solution from the CCP answer; use "
@@ -282,11 +283,10 @@ def _solve(P: ImpactProblem, opts: InteriorOptions, law: str) -> tuple:
         answer = K.solve_law(W, v, P.restitution, P.friction, d, _MODES[law], HANDOVER_TOL,
                              int(opts.max_iter), int(opts.newton_iter), CERTIFIED_ACCURACY)
     if answer is None or not (answer[0] == K.TRIVIAL
-                              or answer[3] <= max(opts.tol, min(1e3 * answer[4],
-                                                                VELOCITY_RESIDUAL_MAX))):
+                              or answer[3] <= _acceptance(answer[4], opts)):
         answer = _engine_law(K, W, v, P, d, law, opts)
     status, iters, steps, residual, floor, out = answer
-    accepted = max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX))
+    accepted = _acceptance(floor, opts)
     if status == K.TRIVIAL:  # b = 0: pi = 0 is the answer
         kkt, name = 0.0, "trivial"
     else:
@@ -298,6 +298,12 @@ def _solve(P: ImpactProblem, opts: InteriorOptions, law: str) -> tuple:
     per = out[N:].tolist()
     return (out[:N].reshape(n, d), report, [_REGIME_OF[c] for c in per[:n]],
             per[n:2 * n], per[2 * n:3 * n], per[3 * n:])
+
+
+def _acceptance(floor: float, opts: InteriorOptions) -> float:
+    """The largest certificate accepted: ``tol``, or 1e3 times the round-off floor capped at
+    :data:`~convimpact.impact.conic.polish.VELOCITY_RESIDUAL_MAX`."""
+    return max(opts.tol, min(1e3 * floor, VELOCITY_RESIDUAL_MAX))
 
 
 def _engine_law(K, W, v, P: ImpactProblem, d: int, law: str, opts: InteriorOptions) -> tuple:
