@@ -164,13 +164,10 @@ def profile_chart(records: list[dict[str, Any]], laws: Sequence[str], out) -> st
     for ax, law in zip(axes[0], laws):
         problems, table = certified_times(records, law)
         finite = [t for s in SOLVERS for t in table[s] if t is not None]
-        best = {}
         ratios = []
         for j in range(len(problems)):
             ts = [table[s][j] for s in SOLVERS if table[s][j] is not None]
-            if ts:
-                best[j] = min(ts)
-                ratios += [t / best[j] for t in ts]
+            ratios += [t / min(ts) for t in ts]
         top = max(ratios + [10.0]) * 2.0 if finite else 10.0
         taus = np.geomspace(1.0, top, 400)
         prof = performance_profile(table, taus)
