@@ -16,7 +16,7 @@ from ..impact import resolve_impact
 from ..impact.errors import ConvImpactError, PainleveError, SimulationError
 from ..impact.results import ImpactResult
 from .canonical import CanonicalEquations
-from .contact_forces import solve_contact_forces
+from .force_solver import solve_contact_forces
 from .result import ContactEvent, ImpactEvent
 from .run_record import painleve_event, project_onto
 from .sustained import contact_state, held_modes, redundant_rows
@@ -47,13 +47,21 @@ class ContactEvents:
             try:
                 sol = solve_contact_forces(cs.problem)
             except PainleveError as exc:
+                involved = [candidates[i] for i in getattr(exc, "contacts", ())]
+                text = str(exc) + (f" (contacts involved: {', '.join(involved)})"
+                                   if involved else "")
                 ev = painleve_event(t, candidates, cs.problem.effective_normal_mass(),
                                     exc.kind, exc.n_solutions)
                 self.painleve.append(ev)
-                self.status, self.message = 2, str(exc)
+                self.status, self.message = 2, text
                 if o.painleve == "raise":
-                    self.painleve_error = PainleveError(str(exc), event=ev)
+                    self.painleve_error = PainleveError(text, event=ev)
                 return self.pack(th, dth, sig_loops)
+            for note in sol.notes:
+                names = [c for c, m in zip(candidates, sol.modes) if m != "open"]
+                key = f"{note} ({', '.join(names)})"
+                t0, count = self.force_notes.get(key, (t, 0))
+                self.force_notes[key] = (t0, count + 1)
             modes = held_modes(cs, sol.modes, sol.direction)
             held = tuple(c for c in candidates if c in modes)
             loops = (np.asarray(self.mech.loop_jacobian(th), float).reshape(-1, self.k)

@@ -16,20 +16,23 @@ forces. Per contact, with its slip velocity ``v_t``, Coulomb's conditions are
 This is the impact law ``coulomb`` of :mod:`convimpact.impact.laws.coulomb` with ``e = 0``
 written for accelerations and forces instead of velocities and impulses (where v_t = 0).
 
-The solver is exact: it enumerates the contacts' modes (open, stick, slip; planar onsets in
-both directions); each combination is a linear system in ``lambda`` (for a spatial slip onset,
-a one-parameter family in the slip angle, whose roots are bracketed on a scan and refined by
-Brent's method), and a combination is a solution when its inequalities hold. Redundant
-contacts (several rows of ``J`` dependent: a box on two corners sticking) leave the forces
-indeterminate but the accelerations unique; where the least-norm solution violates an
-inequality, :func:`~convimpact.simulation.force_distribution.max_margin_distribution`
-picks the distribution over the null space: the largest smallest margin, then, among the
+Two exact solvers use this module's data: :func:`force_solutions` enumerates the
+contacts' modes (open, stick, slip; planar onsets in both directions) for every solution, at
+most :data:`MAX_CONTACTS` contacts; each combination is a linear system in ``lambda`` (for a
+spatial slip onset, a one-parameter family in the slip angle, whose roots are bracketed on a
+scan and refined by Brent's method), and a combination is a solution when its inequalities
+hold. It is the reference; the simulator uses
+:func:`~convimpact.simulation.force_solver.solve_contact_forces`, which finds the modes with
+the contact engine instead (no cap on the number of contacts) and solves each combination
+found with this module's :func:`_candidate`. Redundant contacts (several rows of ``J``
+dependent: a box on two corners sticking) leave the forces indeterminate; where the
+least-norm solution violates an inequality,
+:func:`~convimpact.simulation.force_distribution.max_margin_distribution` picks the
+distribution over the null space: the largest smallest margin, then, among the
 distributions reaching it, the least norm (unique). The modes' names (``OPEN``, ``STICK``,
 ``SLIP``), ``RTOL`` and ``max_margin_distribution`` are importable from here too.
-Distinct solutions are counted in accelerations: none or several with a sliding contact is
-Painleve's paradox (:class:`~convimpact.impact.errors.PainleveError`).
 
-For one planar contact :func:`planar_contact_force` gives the same answer in closed form.
+For one planar contact :func:`planar_contact_force` gives every solution in closed form.
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from ..impact.errors import NotSupportedError, PainleveError, ShapeError
+from ..impact.errors import NotSupportedError, ShapeError
 from .force_distribution import OPEN, RTOL, SLIP, STICK, max_margin_distribution
 
 #: largest number of closed contacts enumerated (4^n combinations in the plane)
@@ -124,6 +127,8 @@ class ContactForceSolution:
         onset's); zero rows for open and sticking contacts.
     margin : the smallest slack of the inequalities, relative to the problem's scale (>= 0
         up to the tolerance).
+    notes : what the solver chose where the rigid model leaves a choice (the distribution
+        among redundant contacts), empty otherwise.
     """
 
     force: np.ndarray
@@ -131,6 +136,7 @@ class ContactForceSolution:
     modes: tuple[str, ...]
     direction: np.ndarray
     margin: float
+    notes: tuple[str, ...] = ()
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -318,7 +324,7 @@ def force_solutions(P: ContactForceProblem, rtol: float = RTOL) -> list[ContactF
     if n > MAX_CONTACTS:
         raise NotSupportedError(
             f"the force problem enumerates the modes of at most {MAX_CONTACTS} closed contacts "
-            f"at once, got {n}; use simulate_with(scheme='moreau-jean') for larger contact sets")
+            f"at once, got {n}; solve_contact_forces (convimpact.simulation.force_solver) has no cap")
     options = []
     for i in range(n):
         if P.sliding(i):
@@ -381,30 +387,6 @@ def _distinct(found: list[ContactForceSolution], ascale: float) -> list:
         else:
             groups.append([s])
     return [min(g, key=_rank) for g in groups]
-
-
-def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL) -> ContactForceSolution:
-    """The unique solution of the force problem (one planar contact: the closed form).
-
-    Raises
-    ------
-    PainleveError
-        No solution (inconsistent) or several (indeterminate): Painleve's paradox.
-    """
-    if P.n == 1 and P.d == 2:
-        sols = planar_contact_force(P.delassus, P.free_acceleration, float(P.mu[0]),
-                                    float(P.slip[0, 0]), rtol)
-    else:
-        sols = force_solutions(P, rtol)
-    if len(sols) == 1:
-        return sols[0]
-    kind = "inconsistent" if not sols else "indeterminate"
-    exc = PainleveError(
-        f"Painleve's paradox: the contact force problem is {kind} ({len(sols)} solutions); "
-        "effective normal masses in the slip direction "
-        f"{np.round(P.effective_normal_mass(), 6).tolist()} (<= 0 is the paradox)")
-    exc.kind, exc.n_solutions = kind, len(sols)
-    raise exc
 
 
 def planar_contact_force(W, b, mu: float, v_t: float,

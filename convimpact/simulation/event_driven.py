@@ -127,6 +127,9 @@ class EventDrivenRun(ContactEvents):
         self.impacts: list[ImpactEvent] = []
         self.contact_events: list[ContactEvent] = []
         self.painleve: list[PainleveEvent] = []
+        #: the force problem's notes (statically indeterminate contacts): note -> (first
+        #: time, count)
+        self.force_notes: dict[str, tuple[float, int]] = {}
         self.modes = ModeLog(self.contacts, self.t)
         self.detector = AccumulationDetector(options.zeno_time_tol, options.rest_velocity)
         self.status: int | None = None
@@ -430,6 +433,8 @@ class EventDrivenRun(ContactEvents):
         flag_counts["painleve"] = len(self.painleve)
         warnings += tuple(f"Painleve's paradox at t = {ev.time:.9g} ({ev.kind}, contacts "
                           f"{', '.join(ev.contacts)}): the run stopped" for ev in self.painleve)
+        warnings += tuple(f"{note} (at {count} mode selection{'s' if count > 1 else ''} from "
+                          f"t = {t0:.9g})" for note, (t0, count) in self.force_notes.items())
         n, d = len(rows["t"]), self.d
         res = SimulationResult(
             **series_from_rows(rows, self.k, self.m), held=np.array(rows["held"], dtype=int),

@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 import convimpact as ci
+from convimpact.simulation.force_solver import solve_contact_forces
 from convimpact.simulation.contact_forces import (ContactForceProblem, force_solutions,
                                                   max_margin_distribution,
-                                                  planar_contact_force, solve_contact_forces)
+                                                  planar_contact_force)
 
 G = 9.81
 
