@@ -40,6 +40,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.optimize import brentq
@@ -98,8 +99,23 @@ class ContactForceProblem:
     def d(self) -> int:
         return int(self.free_acceleration.size // self.mu.size)
 
+    @cached_property
+    def sliding_mask(self) -> np.ndarray:
+        """(n,) whether each contact slides (a nonzero slip velocity)."""
+        return np.any(self.slip != 0.0, axis=1)
+
     def sliding(self, i: int) -> bool:
-        return bool(np.any(self.slip[i] != 0.0))
+        return bool(self.sliding_mask[i])
+
+    @cached_property
+    def scales(self) -> tuple[float, float]:
+        """(acceleration scale, force scale) of the problem: the tolerances are relative
+        to them."""
+        diag = np.abs(np.diag(self.delassus))
+        w = float(np.max(diag)) if diag.size and np.max(diag) > 0 else 1.0
+        a = float(np.max(np.abs(self.free_acceleration)))
+        a = a if a > 0.0 else w * 1e-300
+        return a, a / w
 
     def effective_normal_mass(self) -> np.ndarray:
         """Per contact ``W_nn - mu W_nt s`` in its slip direction s (W_nn where not sliding):
@@ -146,11 +162,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 def _scales(P: ContactForceProblem) -> tuple[float, float]:
     """(acceleration scale, force scale) of the problem: the tolerances are relative to them."""
-    diag = np.abs(np.diag(P.delassus))
-    w = float(np.max(diag)) if diag.size and np.max(diag) > 0 else 1.0
-    a = float(np.max(np.abs(P.free_acceleration)))
-    a = a if a > 0.0 else w * 1e-300
-    return a, a / w
+    return P.scales
 
 
 def _system(P: ContactForceProblem, combo, dirs) -> tuple[np.ndarray, np.ndarray]:

@@ -50,8 +50,8 @@ from ..impact.contacts.engine import solve as engine_solve
 from ..impact.contacts.finish import newton_finish
 from ..impact.errors import PainleveError, SolverError
 from .contact_forces import (ContactForceProblem, ContactForceSolution, _candidate,
-                             _label_frictionless, _scales, _unit, force_solutions,
-                             planar_contact_force)
+                             _label_frictionless, _onset_roots, _scales, _unit,
+                             force_solutions, planar_contact_force)
 from .force_distribution import OPEN, RTOL, SLIP, STICK
 
 #: largest island whose possible paradox (or failed solve) is decided by enumeration
@@ -276,27 +276,29 @@ def _exact(P: ContactForceProblem, choice, rtol: float):
     onset = [c[2] and c[0] == SLIP and P.mu[i] > 0.0 and not P.sliding(i)
              for i, c in enumerate(choice)]
     ascale = _scales(P)[0]
-    for _ in range(6):
-        cand = _candidate(P, combo, dirs, onset, rtol)
-        if cand is None or d == 2 or not any(onset):
-            break
-        moved = 0.0
-        for i in range(n):
-            if onset[i]:
-                s = _unit(cand.acceleration[i, 1:])
-                if not np.any(s):
-                    return None
-                moved = max(moved, float(np.max(np.abs(s - dirs[i]))))
-                dirs[i] = s
-        if moved <= 1e-14:
-            break
+    cand = _candidate(P, combo, dirs, onset, rtol)
+    if d == 3 and any(onset):
+        for _ in range(8):  # the directions as a fixed point, from the engine's
+            if cand is None or _along(P, cand, onset, ascale):
+                break
+            dirs = [_unit(cand.acceleration[i, 1:]) if onset[i] else dirs[i] for i in range(n)]
+            if not all(np.any(dirs[i]) for i in range(n) if onset[i]):
+                return None
+            cand = _candidate(P, combo, dirs, onset, rtol)
+        if cand is not None and not _along(P, cand, onset, ascale):
+            # the enumerator's root finding on the onsets' angles, for this combination
+            unknown = [i for i in range(n) if onset[i]]
+            cands = []
+            for phis in _onset_roots(P, combo, dirs, unknown):
+                dd = list(dirs)
+                for i, ph in zip(unknown, phis):
+                    dd[i] = np.array([np.cos(ph), np.sin(ph)])
+                c = _candidate(P, combo, dd, onset, rtol)
+                if c is not None and _along(P, c, onset, ascale):
+                    cands.append(c)
+            cand = cands[0] if len(cands) == 1 else None
     if cand is None:
         return None
-    for i in range(n):  # an onset's a_t lies along its direction
-        if onset[i]:
-            at = cand.acceleration[i, 1:]
-            if float(np.linalg.norm(at - (at @ dirs[i]) * dirs[i])) > 1e-8 * ascale:
-                return None
     sliding = [P.sliding(i) for i in range(n)]
     cand = _label_frictionless(P.mu, sliding, cand)
     if _indeterminate(P, cand):
@@ -305,6 +307,16 @@ def _exact(P: ContactForceProblem, choice, rtol: float):
         cand = ContactForceSolution(cand.force, cand.acceleration, cand.modes, cand.direction,
                                     cand.margin, (note,))
     return cand
+
+
+def _along(P: ContactForceProblem, cand: ContactForceSolution, onset, ascale: float) -> bool:
+    """Whether each onset's tangential acceleration lies along its direction."""
+    for i in range(P.n):
+        if onset[i]:
+            at, s = cand.acceleration[i, 1:], cand.direction[i]
+            if float(np.linalg.norm(at - (at @ s) * s)) > 1e-9 * ascale:
+                return False
+    return True
 
 
 def _indeterminate(P: ContactForceProblem, s: ContactForceSolution) -> bool:
