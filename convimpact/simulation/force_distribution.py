@@ -161,7 +161,9 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     # the margin given up (MARGIN_RTOL in stage 2, round-off): at most RTOL near t* = 0,
     # where its sign decides hold or slip, CERTIFY_RTOL relative to |t*| elsewhere
     slack = max(RTOL, CERTIFY_RTOL * abs(t_star)) * (1.0 + float(np.max(np.abs(y))))
-    if not margin >= (t_star - slack) * scale:
+    # (a negative largest margin: no distribution fits the modes, which the callers reject
+    # on the margin returned; its last digits do not matter)
+    if not margin >= (t_star - slack) * scale and t_star >= -RTOL:
         raise SolverError(f"the force distribution of redundant contacts: margin {margin:.6e} "
                           f"below the largest one {t_star * scale:.6e}")
     return lam, margin

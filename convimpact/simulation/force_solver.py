@@ -237,20 +237,53 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
         options = [(mode, s, onset)]
         if max(rn, an) <= EDGE_RTOL:  # closed or open: both
             options.append((kinds[1] if closed else kinds[0], s, onset))
-        if not P.sliding(i) and P.mu[i] > 0.0 and mode != OPEN and at <= EDGE_RTOL:
-            if d == 2:  # stick, or an onset either way
+        on_cone = P.mu[i] * r[i, 0] - float(np.linalg.norm(r[i, 1:])) <= EDGE_RTOL * fscale
+        if (not P.sliding(i) and P.mu[i] > 0.0 and mode != OPEN and at <= EDGE_RTOL
+                and on_cone):  # stick, or an onset (a_t ~ 0: its direction is not known)
+            along = [s] if at > MODE_RTOL else []
+            if d == 2:
                 alts = [(STICK, s, True), (SLIP, np.array([1.0]), True),
                         (SLIP, np.array([-1.0]), True)]
-            else:
-                alts = [(STICK, s, True)] + ([(SLIP, s, True)] if at > 0.0 else [])
+            else:  # along a_t, or against the friction force
+                alts = [(STICK, s, True)] + [(SLIP, v, True) for v in along
+                                             + [-_unit(r[i, 1:])] if np.any(v)]
             options += [o for o in alts if o[0] != mode or not np.array_equal(o[1], s)]
         first.append(options[0])
         if len(options) > 1:
             edges.append((i, options))
     edges = sorted(edges, key=lambda e: -len(e[1]))[:EDGE_MAX]
-    best = _exact(P, first, rtol)
+    failures: list[SolverError] = []
+    best = _attempt(P, first, rtol, failures)
     if best is not None or not edges:
-        return best
+        return _kept(best, failures)
+    for k, picks in enumerate(itertools.product(*[opts for _, opts in edges])):
+        if k == 0:
+            continue  # the first combination, tried above
+        choice = list(first)
+        for (i, _), pick in zip(edges, picks):
+            choice[i] = pick
+        cand = _attempt(P, choice, rtol, failures)
+        if cand is not None and (best is None or _rank(cand) < _rank(best)):
+            best = cand
+    return _kept(best, failures)
+
+
+def _attempt(P, choice, rtol: float, failures: list):
+    """:func:`_exact`, a solver failure of its distribution kept aside (another combination
+    may be the solution)."""
+    try:
+        return _exact(P, choice, rtol)
+    except SolverError as exc:
+        failures.append(exc)
+        return None
+
+
+def _kept(best, failures: list):
+    """The solution found; where none was and a distribution's solver failed, that failure
+    (no paradox is claimed on a failed solve)."""
+    if best is None and failures:
+        raise failures[0]
+    return best
     for k, picks in enumerate(itertools.product(*[opts for _, opts in edges])):
         if k == 0:
             continue  # the first combination, tried above
