@@ -1,0 +1,54 @@
+"""Scenes with many closed contacts run event-driven (issue: sustained contact without
+enumeration): the box stack's loads at rest and its tipping time against the rigid stack's
+closed forms, Coulomb's conditions on every sample (tests/simulation/coulomb_checks.py, from
+the stored series and the contact Jacobians)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import convimpact as ci
+from convimpact.scenes import load_scene
+
+from .coulomb_checks import assert_coulomb
+
+G = 9.81
+
+
+def test_box_stack_carries_its_weights_then_tips_at_the_closed_form_time():
+    """Three boxes, 12 closed redundant contacts. At rest each box's corners share the
+    weight above equally, (n - i) m g / 4 per corner; pushed at the top with F = r m g (t -
+    t_push), the stack tips about its front edge when F (n - 1/2) h = n m g w / 2: the lowest
+    box's back corners open at t_push + n w / ((2n - 1) h r) (0.44 s), nothing else moves
+    before."""
+    sc = load_scene("box_stack")
+    p = sc.parameters
+    n, m, w, h, ramp = p["n_boxes"], p["mass"], p["width"], p["height"], p["ramp"]
+    tip = p["t_push"] + n * w / ((2 * n - 1) * h * ramp)
+    assert tip == pytest.approx(p["tip_time"], rel=1e-14)
+    mech = sc.mechanism
+    assert len(mech.contact_names) == 4 * n >= 12
+    res = ci.simulate(mech, (0.0, tip + 0.1), (sc.theta0, sc.dtheta0))
+    assert res.status == 0, res.message
+    names = list(res.contact_names)
+    rest = (res.t < p["t_push"]) & (res.held == 4 * n)  # (the first sample: not yet held)
+    for i in range(n):
+        cols = [names.index(f"box{i}_c{j}") for j in range(4)]
+        np.testing.assert_allclose(res.contact_force[rest][:, cols, 0], (n - i) * m * G / 4,
+                                   rtol=1e-9)
+    back = [f"box0_c{j}" for j in (0, 3)]  # x = -w/2: the push is along +x
+    for c in mech.contact_names:
+        modes = [(iv.mode, iv.t_start) for iv in res.modes_of(c)]
+        if c in back:
+            assert [m_ for m_, _ in modes] == ["stick", "open"]
+            assert modes[1][1] == pytest.approx(tip, abs=1e-8)
+        else:
+            assert [m_ for m_, _ in modes] == ["stick"]
+    assert any("statically indeterminate" in w_ for w_ in res.warnings)
+    assert not res.painleve
+    assert_coulomb(res, mech)
+    # before the tip the stack has not moved
+    before = res.t < tip - 1e-6
+    np.testing.assert_allclose(res.theta[before], np.broadcast_to(sc.theta0, res.theta[before].shape),
+                               atol=1e-10)
