@@ -23,6 +23,7 @@ import numpy as np
 from ..impact.errors import ModelError, NotSupportedError
 from .pinocchio_adapter import PinocchioContact
 from .pinocchio_mechanism import PinocchioMechanism
+from .placement import place_resting
 
 DISTRIBUTION = "example-robot-data"
 #: the robots folder inside the installed prefix
@@ -32,6 +33,9 @@ SOLO12_FEET = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
 #: Solo-12's "standing" posture of its SRDF: (HAA, HFE, KFE) per leg
 SOLO12_STANDING = {"FL": (0.1, 0.8, -1.6), "FR": (-0.1, 0.8, -1.6),
                    "HL": (0.1, -0.8, 1.6), "HR": (-0.1, -0.8, 1.6)}
+#: TALOS's soles (frames of its URDF) and their half sizes (the URDF's 0.21 x 0.13 m foot box)
+TALOS_SOLES = ("left_sole_link", "right_sole_link")
+TALOS_SOLE = (0.105, 0.065)
 
 
 class RobotDataUnavailableError(NotSupportedError, ImportError):
@@ -110,5 +114,51 @@ def solo12_standing(mech: PinocchioMechanism, height: float = 0.0) -> np.ndarray
     return theta
 
 
+def talos_legs(mu: float = 0.8, e: float = 0.0, applied_forces: Optional[Callable] = None,
+               applied_potential: Optional[Callable] = None
+               ) -> tuple[PinocchioMechanism, np.ndarray]:
+    """TALOS with its arms, torso and head locked in the SRDF's "half_sitting" posture:
+    a free base and the twelve leg joints (18 coordinates), flat soles on the floor z = 0.
+
+    Model no more than the scene needs: the locked joints' links stay rigidly attached
+    (Pinocchio's ``buildReducedModel``), their masses and inertias merged into the torso.
+    Each sole (the URDF's 0.21 x 0.13 m foot box) touches the floor at its four corners,
+    contacts ``left_sole_<i>`` and ``right_sole_<i>`` (i = 0..3: (-x, -y), (-x, +y),
+    (+x, -y), (+x, +y) in the sole frame), e and mu given, frames (n, t1, t2) = (z, x, y).
+
+    Returns (mechanism, theta_half_sitting): the posture with the soles exactly on the floor.
+    """
+    from .pinocchio_terms import _pin
+
+    pin = _pin()
+    full = PinocchioMechanism.from_urdf(robot_file("talos_data/robots/talos_reduced.urdf"),
+                                        root_joint="free")
+    model = full.model
+    pin.loadReferenceConfigurations(model, str(robot_file("talos_data/srdf/talos.srdf")), False)
+    q_ref = np.array(model.referenceConfigurations["half_sitting"])
+    locked = [j for j in range(1, model.njoints)
+              if model.names[j] not in full.coordinate_names[:6]
+              and not model.names[j].startswith("leg_")]
+    reduced = pin.buildReducedModel(model, locked, q_ref)
+    contacts = [PinocchioContact(f"{side}_sole_{i}", f"{side}_sole_link",
+                                 normal=(0.0, 0.0, 1.0), plane_point=(0.0, 0.0, 0.0),
+                                 tangent=(1.0, 0.0, 0.0), e=e, mu=mu,
+                                 local_point=(sx * TALOS_SOLE[0], sy * TALOS_SOLE[1], 0.0))
+                for side in ("left", "right")
+                for i, (sx, sy) in enumerate([(-1, -1), (-1, 1), (1, -1), (1, 1)])]
+    names = [n for n in full.coordinate_names
+             if n in full.coordinate_names[:6] or n.startswith("leg_")]
+    mech = PinocchioMechanism(reduced, contacts, applied_forces=applied_forces,
+                              applied_potential=applied_potential, coordinate_names=names)
+    theta = np.array([q_ref[full.coordinate_index(n)] for n in names])
+    lowest = min(mech.contact_gap(c.name, theta) for c in contacts)
+    theta[mech.coordinate_index(names[2])] -= lowest
+    # the SRDF's posture leaves the soles 0.2 mm off flat: three corners of each sole on the
+    # floor (the fourth follows) by the smallest mass-weighted change of the posture
+    flat = [f"{side}_sole_{i}" for side in ("left", "right") for i in range(3)]
+    return mech, place_resting(mech, theta, flat, fixed=names[:2] + names[3:4])
+
+
 __all__ = ["RobotDataUnavailableError", "robot_data_dir", "robot_file", "solo12",
-           "solo12_standing", "SOLO12_FEET", "SOLO12_STANDING"]
+           "solo12_standing", "talos_legs", "SOLO12_FEET", "SOLO12_STANDING", "TALOS_SOLES",
+           "TALOS_SOLE"]

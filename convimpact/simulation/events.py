@@ -158,9 +158,10 @@ def reclosing(fun: Callable[[float], float], ta: float, tb: float, g0: float, v0
         return None
 
     def h(t: float) -> float:
-        return (fun(t) - g0) / (t - ta)
+        # at ta itself (a step so short that ta + 1e-9 dt rounds to ta) its limit, v0
+        return (fun(t) - g0) / (t - ta) if t > ta else v0
 
-    a = ta + 1e-9 * dt
+    a = max(ta + 1e-9 * dt, float(np.nextafter(ta, tb)))
     if hb > 0.0:
         # open at the step's end: it may still have come back down and up again inside
         ha = h(a)
