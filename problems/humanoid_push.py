@@ -98,3 +98,91 @@ def _feedforward(mech, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _mass(mech, q: np.ndarray) -> float:
     return float(np.asarray(mech.mass_matrix(q), float)[0, 0])
+
+
+#: frames drawn in the front view: base, then each leg from hip to sole
+_CHAIN = ["leg_{side}_1_link", "leg_{side}_3_link", "leg_{side}_4_link", "leg_{side}_5_link",
+          "{side}_sole_link"]
+
+
+def figure(result, mechanism, path) -> "Path":
+    """Base motion, sole forces and modes, energy and front views of a run (PNG)."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from convimpact.simulation.result import MODE_NAMES
+
+    t = result.t
+    names = list(result.contact_names)
+    iy, iroll = (mechanism.coordinate_index(n) for n in ("base_y", "base_roll"))
+    fig, axes = plt.subplots(2, 2, figsize=(13, 8.5))
+    ax = axes[0, 0]
+    ax.plot(t, result.theta[:, iy] * 100, color="black", label="base y [cm]")
+    ax.plot(t, np.degrees(result.theta[:, iroll]), color="tab:purple", label="base roll [deg]")
+    for ev in result.impacts:
+        ax.axvline(ev.time, color="gray", lw=0.5, ls=":")
+    ax.set_title("base: sideways position and roll (dotted: impacts)")
+    ax.set_xlabel("t [s]")
+    ax.legend(fontsize=8)
+    ax = axes[0, 1]
+    for j, c in enumerate(names):
+        ax.plot(t, result.contact_force[:, j, 0], color=f"C{j}", lw=1.0, label=c)
+        ax.scatter(t, np.full(len(t), -40.0 - 12.0 * j), s=3, c=[
+            {"stick": "tab:green", "slip": "tab:red"}.get(MODE_NAMES[m], "lightgray")
+            for m in result.contact_mode[:, j]])
+    ax.set_ylim(bottom=-50.0 - 12.0 * len(names))
+    ax.set_title("sole corners' normal forces [N]; dots: modes per corner\n"
+                 "(green stick, red slip, grey open)", fontsize=10)
+    ax.set_xlabel("t [s]")
+    ax.legend(fontsize=7, ncol=2)
+    ax = axes[1, 0]
+    E = result.kinetic_energy + result.potential_energy
+    ax.plot(t, E - E[0], color="black", label="T + V - E(0)")
+    ax.plot(t, result.kinetic_energy, color="tab:blue", label="T")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("energy [J]")
+    ax.set_title("energy (V: gravity + PD springs; the push does work)")
+    ax.legend(fontsize=8)
+    ax = axes[1, 1]
+    roll = np.abs(result.theta[:, iroll])
+    picks = sorted({0, int(np.argmax(roll)), len(t) - 1})
+    for k, i in enumerate(picks):
+        shade = 0.3 + 0.7 * k / max(1, len(picks) - 1)
+        for side, color in (("left", "tab:blue"), ("right", "tab:orange")):
+            pts = np.array([mechanism.frame_placement(f.format(side=side), result.theta[i])[1]
+                            for f in ["base_link"] + _CHAIN])
+            ax.plot(pts[:, 1], pts[:, 2], color=color, alpha=shade, marker="o", ms=3,
+                    label=f"{side} leg, t = {t[i]:.3f} s")
+    ax.set_xlim(-0.45, 0.45)
+    ax.legend(fontsize=7, loc="center right")
+    ax.axhline(0.0, color="saddlebrown", lw=2)
+    ax.set_aspect("equal")
+    ax.set_xlabel("y [m] (the push is along +y)")
+    ax.set_ylabel("z [m]")
+    ax.set_title("front view (y-z) of the legs: start, largest roll, end")
+    fig.suptitle(f"TALOS (example-robot-data URDF through Pinocchio) pushed sideways: "
+                 f"{len(result.impacts)} impacts, event-driven, 8 sole corners", fontsize=11)
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def main(out: str = "docs/figures/humanoid_push.png") -> None:
+    """Simulate the default scene and write :func:`figure`."""
+    from convimpact.simulation import simulate
+
+    scene = make_scene()
+    res = simulate(scene)
+    print(f"{len(res.impacts)} impacts, wall {res.wall_time:.1f} s; {res.message}")
+    print(figure(res, scene.mechanism, out))
+
+
+if __name__ == "__main__":
+    main()

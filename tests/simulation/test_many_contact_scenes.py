@@ -52,3 +52,56 @@ def test_box_stack_carries_its_weights_then_tips_at_the_closed_form_time():
     before = res.t < tip - 1e-6
     np.testing.assert_allclose(res.theta[before], np.broadcast_to(sc.theta0, res.theta[before].shape),
                                atol=1e-10)
+
+
+def test_humanoid_stands_still_on_eight_sole_corners_until_pushed():
+    """TALOS (example-robot-data) on its two flat soles, 8 closed redundant contacts: the
+    gravity feedforward holds the posture, so nothing moves before the push; the normal
+    forces total m g (the weight of the locked-arm model, M[0, 0] / ... ), their moment about
+    the base's vertical line balances; after the push starts the base moves along +y."""
+    pytest.importorskip("pinocchio")
+    from convimpact.model.pinocchio_robots import RobotDataUnavailableError
+    try:
+        sc = load_scene("humanoid_push")
+    except RobotDataUnavailableError:
+        pytest.skip("example-robot-data not installed")
+    mech, p = sc.mechanism, sc.parameters
+    assert len(mech.contact_names) == 8
+    res = ci.simulate(mech, (0.0, p["t_push"] + 0.05), (sc.theta0, sc.dtheta0))
+    assert res.status == 0, res.message
+    assert not res.painleve and not res.impacts
+    held = res.held == 8
+    before = held & (res.t < p["t_push"])
+    assert before.sum() >= 2
+    np.testing.assert_allclose(res.theta[before],
+                               np.broadcast_to(sc.theta0, res.theta[before].shape), atol=1e-10)
+    weight = p["mass"] * G
+    np.testing.assert_allclose(res.contact_force[before][:, :, 0].sum(axis=1), weight, rtol=1e-8)
+    # the contact points' moment about the centre of mass's vertical: sum n_i (x_i, y_i)
+    # balances the weight at the centre of mass's (x, y) (no horizontal force at rest)
+    corners = []
+    for c in mech.contact_names:
+        R, o = mech.frame_placement(f"{c.split('_')[0]}_sole_link", sc.theta0)
+        corners.append(o + R @ _corner_offset(c))
+    corners = np.array(corners)
+    n = res.contact_force[before][-1, :, 0]
+    com = _centre_of_mass(mech, sc.theta0)
+    np.testing.assert_allclose(n @ corners[:, :2] / n.sum(), com[:2], atol=1e-9)
+    np.testing.assert_allclose(res.contact_force[before][:, :, 1:], 0.0, atol=1e-8 * weight)
+    iy = mech.coordinate_index("base_y")
+    assert res.theta[-1, iy] > 1e-6  # pushed along +y
+    assert any("statically indeterminate" in w_ for w_ in res.warnings)
+
+
+def _corner_offset(name: str) -> np.ndarray:
+    from convimpact.model.pinocchio_robots import TALOS_SOLE
+    i = int(name[-1])
+    sx, sy = [(-1, -1), (-1, 1), (1, -1), (1, 1)][i]
+    return np.array([sx * TALOS_SOLE[0], sy * TALOS_SOLE[1], 0.0])
+
+
+def _centre_of_mass(mech, theta) -> np.ndarray:
+    import pinocchio as pin
+    model = mech.model
+    data = model.createData()
+    return np.array(pin.centerOfMass(model, data, np.asarray(theta, float)))
