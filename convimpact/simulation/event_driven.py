@@ -18,6 +18,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ..impact.contacts.threads import one_blas_thread
 from ..impact.errors import PainleveError, SimulationError
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations, HeldMode, _cho_solve
@@ -321,7 +322,14 @@ class EventDrivenRun(ContactEvents):
 
     # ---- integration -----------------------------------------------------------------------
     def run(self) -> SimulationResult:
-        """Integrate from the initial state to the end of the span (or a stop)."""
+        """Integrate from the initial state to the end of the span (or a stop), on one BLAS
+        thread: the scheme's matrices are small, and OpenBLAS's threads only wait for one
+        another on a busy machine (a table on 32 legs: 3.1 s instead of 0.33 s at a load of
+        8 on 2 cores)."""
+        with one_blas_thread():
+            return self._run()
+
+    def _run(self) -> SimulationResult:
         self.record(self.t, self.y)
         # contacts touching at the start: closed when at rest, impacts when approaching
         touching = [c for c in self.contacts

@@ -20,6 +20,7 @@ import scipy.linalg as sla
 
 from .canonical import CanonicalEquations, HeldMode, Row
 from .contact_forces import (OPEN, SLIP, STICK, ContactForceProblem, max_margin_distribution)
+from .force_distribution import _smallest_margin
 
 #: relative slack below which a margin counts as violated (a mode on the cone's boundary, e.g.
 #: a box on an incline with mu = tan(slope) exactly, keeps sticking)
@@ -119,9 +120,12 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray,
 
     The margin is ``mu lambda_n - |lambda_t|`` for sticking contacts and ``lambda_n`` for
     sliding (and frictionless) ones. Where rows were dropped as redundant the distribution
-    among the contacts is indeterminate; the one with the largest smallest margin is taken
-    (:func:`~.contact_forces.max_margin_distribution`), so a sticking group slips only when no
-    distribution keeps every force in its cone.
+    among the contacts is indeterminate; as in the force problem
+    (:func:`~.contact_forces._candidate`), the least-norm distribution is taken where it keeps
+    every margin positive, and otherwise the one with the largest smallest margin (then the
+    least norm: :func:`~.contact_forces.max_margin_distribution`), so a sticking group slips
+    only when no distribution keeps every force in its cone. (The margin is then continuous
+    where it crosses zero: there the least-norm distribution's margin is not positive.)
     """
     forces = eq.contact_forces(t, y)
     if not eq.held:
@@ -134,7 +138,10 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray,
     if eq.dropped:
         Z = _indeterminate(eq, y, d)
         if Z.shape[1]:
-            lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
+            Q = np.linalg.qr(Z)[0]
+            lam = lam0 - Q @ (Q.T @ lam0)  # the least-norm distribution
+            if _smallest_margin(mu, d, combo, lam) <= MARGIN_SLACK * fscale:
+                lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
             forces = {c: lam[i * d:i * d + len(forces[c])] for i, c in enumerate(eq.held)}
     margins = []
     for i, c in enumerate(eq.held):
@@ -167,7 +174,10 @@ def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
     if eq.n_loops:  # loop multipliers are free too
         B = np.hstack([B, np.asarray(eq.mechanism.loop_jacobian(theta), float).reshape(-1, k).T])
     _, sv, Vt = np.linalg.svd(B)
-    rank = int(np.sum(sv > 1e-10 * sv[0])) if sv.size else 0
+    # (relative 1e-8, not round-off's 1e-10: the friction of a self-equilibrated normal
+    # distribution among many sliding legs makes a singular value of ~1e-10 that comes and
+    # goes with the slip's round-off, and the distribution with it)
+    rank = int(np.sum(sv > 1e-8 * sv[0])) if sv.size else 0
     N = Vt[rank:].T[:len(cols)]  # null directions restricted to the contact unknowns
     Z = np.zeros((len(eq.held) * d, N.shape[1]))
     for u, entries in enumerate(index):
