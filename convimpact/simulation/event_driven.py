@@ -131,6 +131,8 @@ class EventDrivenRun(ContactEvents):
         #: the force problem's notes (statically indeterminate contacts): note -> (first
         #: time, count)
         self.force_notes: dict[str, tuple[float, int]] = {}
+        #: the event functions' stand-in distribution (:func:`~.sustained.held_forces`)
+        self.margin_hint: dict[str, Any] = {}
         self.modes = ModeLog(self.contacts, self.t)
         self.detector = AccumulationDetector(options.zeno_time_tol, options.rest_velocity)
         self.status: int | None = None
@@ -253,7 +255,9 @@ class EventDrivenRun(ContactEvents):
         """The held contacts' event functions at (t, y): the force margin, the slip
         velocities along their anchors, and the Painleve indicator."""
         self.nevents_fev += 1
-        out = {"margin": held_forces(self.eq, t, y)[1] + MARGIN_SLACK}
+        if self.margin_hint.get("eq") is not self.eq:  # a new segment's modes
+            self.margin_hint = {"eq": self.eq}
+        out = {"margin": held_forces(self.eq, t, y, self.margin_hint)[1] + MARGIN_SLACK}
         if anchors:
             th, dth, _ = self.state(y)
             for c, a in anchors.items():

@@ -25,6 +25,9 @@ from .force_distribution import _smallest_margin
 #: relative slack below which a margin counts as violated (a mode on the cone's boundary, e.g.
 #: a box on an incline with mu = tan(slope) exactly, keeps sticking)
 MARGIN_SLACK = 1e-9
+#: margin (relative to the force scale) above which a hinted distribution stands in for the
+#: exact largest-margin one in the event functions (:func:`held_forces`)
+HINT_MARGIN = 1e-3
 #: rank tolerance of the held rows (relative to the largest singular value of C M^-1 C^T)
 RANK_RTOL = 1e-10
 
@@ -114,7 +117,7 @@ def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[R
     return frozenset(dropped)
 
 
-def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray,
+def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | None = None,
                 ) -> tuple[dict[str, np.ndarray], float]:
     """The held contacts' forces and their smallest margin, relative to the force scale.
 
@@ -126,6 +129,12 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray,
     least norm: :func:`~.contact_forces.max_margin_distribution`), so a sticking group slips
     only when no distribution keeps every force in its cone. (The margin is then continuous
     where it crosses zero: there the least-norm distribution's margin is not positive.)
+
+    ``hint`` (a dict kept by the caller over a segment; the event functions pass one): the
+    last exact distribution, moved into the current set of distributions, stands in for the
+    exact program while its margin exceeds :data:`HINT_MARGIN`: it proves the largest margin
+    positive, which is all an event function needs of it away from zero; near zero the exact
+    program runs (and refreshes the hint). The forces returned are then that stand-in's.
     """
     forces = eq.contact_forces(t, y)
     if not eq.held:
@@ -141,7 +150,14 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray,
             Q = np.linalg.qr(Z)[0]
             lam = lam0 - Q @ (Q.T @ lam0)  # the least-norm distribution
             if _smallest_margin(mu, d, combo, lam) <= MARGIN_SLACK * fscale:
-                lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
+                prev = None if hint is None else hint.get("lam")
+                if prev is not None and prev.shape == lam0.shape:
+                    lam = lam0 + Q @ (Q.T @ (prev - lam0))
+                if prev is None or prev.shape != lam0.shape or (
+                        _smallest_margin(mu, d, combo, lam) <= HINT_MARGIN * fscale):
+                    lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
+                    if hint is not None:
+                        hint["lam"] = lam
             forces = {c: lam[i * d:i * d + len(forces[c])] for i, c in enumerate(eq.held)}
     margins = []
     for i, c in enumerate(eq.held):
