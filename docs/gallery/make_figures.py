@@ -153,7 +153,7 @@ def write_scene_page(record: dict) -> None:
     for name in list_scenes():
         out += [f"## `{name}`", "", _description(name), ""]
         params = _parameters(name)
-        if params:
+        if params and "Parameters of" not in _docstring(name):
             out += [f"Parameters of `load_scene(\"{name}\", ...)`: {params}.", ""]
         info = record["scenes"].get(name)
         if info is None:
