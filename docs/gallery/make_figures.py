@@ -76,11 +76,25 @@ def _scene_figures(out: Path) -> dict[str, dict]:
         folder = out / name
         folder.mkdir(parents=True, exist_ok=True)
         files = [p.name for p in write_plots(scene, res, folder)]
+        files += _animation(scene, res, folder)
         done[name] = {"files": files, "impacts": len(res.impacts), "t_end": float(scene.t_end),
                       "status": int(res.status), "message": str(res.message), "seconds": round(time.perf_counter() - t0, 2)}
         print(f"gallery: {name}: {len(res.impacts)} impacts, {len(files)} figures "
               f"({done[name]['seconds']} s)", file=sys.stderr)
     return done
+
+
+def _animation(scene, res, folder: Path) -> list[str]:
+    """An animated GIF of the run (15 frames/s, at most 150 frames) where the scene can be drawn."""
+    from convimpact.errors import NotSupportedError
+    from convimpact.simulation.animation import animate
+
+    try:
+        animate(res, scene.mechanism, folder / "animation.gif", fps=15, max_frames=150,
+                outlines=scene.outlines, title=scene.name)
+    except NotSupportedError:  # not built with ModelBuilder: no geometry to draw
+        return []
+    return ["animation.gif"]
 
 
 def _paper_figures(out: Path) -> list[str]:
@@ -174,6 +188,8 @@ def write_scene_page(record: dict) -> None:
                 "`--animate` for a GIF).", ""]
         if (FIGURES / f"{name}.gif").exists():
             out += [f"![{name} animated](../figures/{name}.gif)", ""]
+        elif "animation.gif" in info["files"]:
+            out += [f"![{name} animated](_generated/{name}/animation.gif)", ""]
         for f in ("trajectory.png", "energy.png", "contacts.png"):
             if f in info["files"]:
                 out += [f"![{name}: {f[:-4]}](_generated/{name}/{f})", ""]
