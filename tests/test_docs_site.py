@@ -54,7 +54,9 @@ def test_every_public_name_has_a_reference_page(module):
     for name in mod.__all__:
         obj = getattr(mod, name)
         same = f"convimpact.{name}" in listed and getattr(convimpact, name, None) is obj
-        assert f"{module}.{name}" in listed or same, f"{module}.{name} has no reference page"
+        assert f"{module}.{name}" in listed or same, (
+            f"{module}.{name} has no reference page: list it in an autosummary table of "
+            f"docs/api/*.md (under `.. currentmodule:: {module}`)")
 
 
 def test_every_documented_name_exists_and_has_a_docstring():
