@@ -43,8 +43,8 @@ PAGES = (
          "home.png"),
     Page("api/generated/convimpact.resolve_impact.html",
          ("resolve_impact", "Parameters", "Returns", "Raises"), "resolve_impact.png", 1600),
-    Page("gallery/scenes.html", ("The scenes", "bouncing_ball", "rocking_block", "slider_crank"),
-         "gallery_scenes.png", 1600),
+    Page("gallery/scenes/index.html", ("The scenes", "bouncing_ball", "rocking_block",
+                                        "slider_crank"), "gallery_scenes.png", 1600),
 )
 
 

@@ -21,7 +21,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-GENERATED = ("_build", "api/generated", "tutorials/notebooks", "bench", "gallery/_generated")
+GENERATED = ("_build", "api/generated", "tutorials/notebooks", "bench", "gallery/_generated",
+             "gallery/scenes")
 BLOCK = re.compile(
     r"(?P<marker><!--\s*(?P<directive>requires:[^>]*|skip-test)\s*-->\s*\n)?"
     r"```python\n(?P<code>.*?)```\n"
@@ -32,7 +33,7 @@ def pages() -> list[Path]:
     out = [ROOT / "README.md"]
     for p in sorted(DOCS.rglob("*.md")):
         rel = p.relative_to(DOCS).as_posix()
-        if rel.startswith(GENERATED) or rel == "gallery/scenes.md":
+        if rel.startswith(GENERATED):
             continue
         out.append(p)
     return out

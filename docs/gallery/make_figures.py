@@ -22,7 +22,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 OUT = HERE / "_generated"
 STAMP = OUT / "figures.json"
-PAGE = HERE / "scenes.md"
+PAGES = HERE / "scenes"
 FIGURES = HERE.parent / "figures"
 #: a scene whose docstring says this needs Pinocchio robots and runs long: not simulated here
 OPTIONAL = "Needs the optional packages"
@@ -127,7 +127,7 @@ def make_figures(force: bool = False) -> dict:
         OUT.mkdir(parents=True, exist_ok=True)
         record = {"scenes": _scene_figures(OUT), "paper": _paper_figures(OUT)}
         STAMP.write_text(json.dumps(record, indent=1))
-    write_scene_page(record)
+    write_scene_pages(record)
     return record
 
 
@@ -154,48 +154,72 @@ def _parameters(name: str) -> str:
     return ", ".join(items)
 
 
-def write_scene_page(record: dict) -> None:
-    """``docs/gallery/scenes.md``: every scene of ``list_scenes()``, with its figures."""
+def _write(path: Path, lines: list[str]) -> None:
+    text = "\n".join(lines).rstrip() + "\n"
+    if not path.exists() or path.read_text() != text:
+        path.write_text(text)
+
+
+def _first_sentence(name: str) -> str:
+    return _description(name).split("\n\n")[0].replace("\n", " ")
+
+
+def write_scene_pages(record: dict) -> None:
+    """``docs/gallery/scenes/``: a page per scene of ``list_scenes()`` and an index of them."""
     from convimpact import list_scenes
 
-    out = ["<!-- written by docs/gallery/make_figures.py at build time: edit that script -->",
-           "", "# The scenes", "",
-           "Every scene of `convimpact.list_scenes()`, simulated over its default span with the "
-           "default law (`pereira-nikravesh`) at the default tolerances, as "
-           "`convimpact simulate SCENE` does; the figures are drawn by the build from the code "
-           "as it is. Grey lines mark the impacts.", ""]
-    for name in list_scenes():
-        out += [f"## `{name}`", "", _description(name), ""]
+    PAGES.mkdir(parents=True, exist_ok=True)
+    names = list_scenes()
+    for stale in PAGES.glob("*.md"):
+        if stale.stem != "index" and stale.stem not in names:
+            stale.unlink()
+    header = "<!-- written by docs/gallery/make_figures.py at build time: edit that script -->"
+    index = [header, "", "# The scenes", "",
+             "Every scene of `convimpact.list_scenes()`, simulated over its default span with the "
+             "default law (`pereira-nikravesh`) at the default tolerances, as "
+             "`convimpact simulate SCENE` does; the animations and figures are drawn by the "
+             "build from the code as it is.", "", "| | | |", "|---|---|---|"]
+    cells = []
+    for name in names:
+        info = record["scenes"].get(name)
+        page = [header, "", f"# `{name}`", "", _description(name), ""]
         params = _parameters(name)
         if params and "Parameters of" not in _docstring(name):
-            out += [f"Parameters of `load_scene(\"{name}\", ...)`: {params}.", ""]
-        info = record["scenes"].get(name)
-        if info is None:
-            out += ["Needs the optional packages `pin` and `example-robot-data` (extra "
-                    "`robots`); not simulated by the documentation build.", ""]
-            if (FIGURES / f"{name}.png").exists():
-                out += [f"![{name}](../figures/{name}.png)", ""]
-            out += ["```python", "import convimpact as ci", "",
-                    f"scene = ci.load_scene(\"{name}\")",
-                    "res = ci.simulate(scene, (0.0, scene.t_end))", "```", ""]
-            continue
-        out += [f"Over {info['t_end']:g} s: {info['impacts']} impacts; status {info['status']} "
-                f"({info.get('message', '')}).", "",
-                "```python", "import convimpact as ci", "",
+            page += [f"Parameters of `load_scene(\"{name}\", ...)`: {params}.", ""]
+        code = ["```python", "import convimpact as ci", "",
                 f"scene = ci.load_scene(\"{name}\")",
-                "res = ci.simulate(scene, (0.0, scene.t_end))", "```", "",
-                f"From the command line: `convimpact simulate {name} --out DIR` (add "
-                "`--animate` for a GIF).", ""]
-        if (FIGURES / f"{name}.gif").exists():
-            out += [f"![{name} animated](../figures/{name}.gif)", ""]
-        elif "animation.gif" in info["files"]:
-            out += [f"![{name} animated](_generated/{name}/animation.gif)", ""]
-        for f in ("trajectory.png", "energy.png", "contacts.png"):
-            if f in info["files"]:
-                out += [f"![{name}: {f[:-4]}](_generated/{name}/{f})", ""]
-    text = "\n".join(out).rstrip() + "\n"
-    if not PAGE.exists() or PAGE.read_text() != text:
-        PAGE.write_text(text)
+                "res = ci.simulate(scene, (0.0, scene.t_end))", "```", ""]
+        if info is None:
+            picture = f"../../figures/{name}.png" if (FIGURES / f"{name}.png").exists() else None
+            page += ["Needs the optional packages `pin` and `example-robot-data` (extra "
+                     "`robots`); not simulated by the documentation build.", ""]
+            page += [f"![{name}]({picture})", ""] if picture else []
+            page += code
+        else:
+            if (FIGURES / f"{name}.gif").exists():
+                picture = f"../../figures/{name}.gif"
+            elif "animation.gif" in info["files"]:
+                picture = f"../_generated/{name}/animation.gif"
+            else:
+                picture = None
+            page += [f"Over {info['t_end']:g} s: {info['impacts']} impacts; status "
+                     f"{info['status']} ({info.get('message', '')}).", ""]
+            page += code
+            page += [f"From the command line: `convimpact simulate {name} --out DIR` (add "
+                     "`--animate` for a GIF).", ""]
+            page += [f"![{name} animated]({picture})", ""] if picture else []
+            page += ["Grey lines mark the impacts.", ""]
+            for f in ("trajectory.png", "energy.png", "contacts.png"):
+                if f in info["files"]:
+                    page += [f"![{name}: {f[:-4]}](../_generated/{name}/{f})", ""]
+        _write(PAGES / f"{name}.md", page)
+        thumb = f"[![{name}]({picture})]({name}.md)<br>" if picture else ""
+        cells.append(f"{thumb}[`{name}`]({name}.md): {_first_sentence(name)}")
+    for i in range(0, len(cells), 3):
+        row = cells[i:i + 3] + [""] * (3 - len(cells[i:i + 3]))
+        index.append("| " + " | ".join(c.replace("|", "\\|") for c in row) + " |")
+    index += ["", "```{toctree}", ":hidden:", "", *names, "```", ""]
+    _write(PAGES / "index.md", index)
 
 
 def main(argv=None) -> int:
