@@ -37,7 +37,6 @@ extensions = [
 # docs/bench/ holds the committed outputs of `convimpact bench` (figures, JSON, summaries):
 # the pages show and link them, they are not pages of their own.
 exclude_patterns = ["_build", "bench/**", "**.ipynb_checkpoints", "gallery/_generated/**"]
-templates_path = ["_templates"]
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
 root_doc = "index"
 
@@ -51,15 +50,15 @@ for _nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
     if not _target.exists() or _target.read_bytes() != _nb.read_bytes():
         shutil.copyfile(_nb, _target)
 nb_execution_mode = "off"
+nb_merge_streams = True
 
 # the gallery: every scene simulated and the paper's figures, drawn from the code as it is
-# (docs/gallery/make_figures.py; skipped when they are there already)
+# (docs/gallery/make_figures.py; drawn when docs/gallery/_generated/ lacks them or the scenes
+# changed; `python docs/gallery/make_figures.py --force` redraws them after a code change)
 sys.path.insert(0, str(DOCS / "gallery"))
 import make_figures  # noqa: E402
 
 make_figures.make_figures()
-nb_execution_raise_on_error = True
-nb_merge_streams = True
 
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist", "attrs_inline"]
 myst_heading_anchors = 3
