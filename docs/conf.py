@@ -37,6 +37,7 @@ extensions = [
 # docs/bench/ holds the committed outputs of `convimpact bench` (figures, JSON, summaries):
 # the pages show and link them, they are not pages of their own.
 exclude_patterns = ["_build", "bench/**", "**.ipynb_checkpoints", "gallery/_generated/**"]
+templates_path = ["_templates"]  # the class page: its documented members, no empty tables
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
 root_doc = "index"
 
@@ -114,6 +115,33 @@ def _escape_docstring(app, what, name, obj, options, lines):
         lines[i] = "".join(p if j % 2 else _plain_text(p) for j, p in enumerate(parts))
 
 
+_SECTION = re.compile(r"^(Parameters|Attributes|Other Parameters|Returns|Yields|Raises)$")
+_ENTRY = re.compile(r"^(?P<indent>\s*)(?P<names>[\w*][\w*, ]*?) : (?P<rest>.+)$")
+
+
+def _split_prose_types(app, what, name, obj, options, lines):
+    """Many docstrings write ``name : what it is`` on one line, the description where numpydoc
+    expects a type; a "type" of more than five words, or ending with a period, is moved to the
+    description's line, so it renders as prose rather than as a long italic type (runs before
+    numpydoc parses)."""
+    section = None
+    out = []
+    for i, line in enumerate(lines):
+        stripped = line.strip()
+        if _SECTION.match(stripped) and i + 1 < len(lines) and set(lines[i + 1].strip()) == {"-"}:
+            section = stripped
+        elif stripped and not line.startswith((" ", "\t")) and i + 1 < len(lines) and \
+                set(lines[i + 1].strip()) == {"-"}:
+            section = None
+        m = _ENTRY.match(line) if section in ("Parameters", "Attributes", "Other Parameters") \
+            else None
+        if m and (len(m.group("rest").split()) > 5 or m.group("rest").rstrip().endswith(".")):
+            out += [f"{m.group('indent')}{m.group('names')}", f"{m.group('indent')}    {m.group('rest')}"]
+        else:
+            out.append(line)
+    lines[:] = out
+
+
 def _warn_missing_docstring(app, what, name, obj, options, lines):
     """A public name documented without a docstring is a warning (an error under -W)."""
     if what in ("function", "class", "method", "exception") and not any(l.strip() for l in lines):
@@ -124,5 +152,6 @@ def _warn_missing_docstring(app, what, name, obj, options, lines):
 
 
 def setup(app):
+    app.connect("autodoc-process-docstring", _split_prose_types, priority=100)
     app.connect("autodoc-process-docstring", _escape_docstring)
     app.connect("autodoc-process-docstring", _warn_missing_docstring)
