@@ -119,6 +119,19 @@ _SECTION = re.compile(r"^(Parameters|Attributes|Other Parameters|Returns|Yields|
 _ENTRY = re.compile(r"^(?P<indent>\s*)(?P<names>[\w*][\w*, ]*?) : (?P<rest>.+)$")
 
 
+def _is_prose(rest: str, line: str, following: str) -> bool:
+    """Is the "type" after ``name :`` a description (a real type precedes an indented,
+    capitalised description, or is a set of values)?"""
+    rest = rest.rstrip()
+    if rest.endswith("."):
+        return True
+    if len(rest.split()) <= 5 or rest.startswith("{"):
+        return False
+    deeper = following.strip() and (len(following) - len(following.lstrip())
+                                     > len(line) - len(line.lstrip()))
+    return not deeper or not following.strip()[0].isupper()
+
+
 def _split_prose_types(app, what, name, obj, options, lines):
     """Many docstrings write ``name : what it is`` on one line, the description where numpydoc
     expects a type; a "type" of more than five words, or ending with a period, is moved to the
@@ -135,7 +148,7 @@ def _split_prose_types(app, what, name, obj, options, lines):
             section = None
         m = _ENTRY.match(line) if section in ("Parameters", "Attributes", "Other Parameters") \
             else None
-        if m and (len(m.group("rest").split()) > 5 or m.group("rest").rstrip().endswith(".")):
+        if m and _is_prose(m.group("rest"), line, lines[i + 1] if i + 1 < len(lines) else ""):
             out += [f"{m.group('indent')}{m.group('names')}", f"{m.group('indent')}    {m.group('rest')}"]
         else:
             out.append(line)
