@@ -162,3 +162,12 @@ def test_the_docs_extra_installs_the_build():
     for package in ("sphinx", "pydata-sphinx-theme", "myst-nb", "numpydoc"):
         assert f'"{package}' in docs.group(1)
     assert "sphinx" in (ROOT / ".ci" / "run").read_text()
+
+
+def test_the_readmes_links_and_pictures_exist():
+    text = (ROOT / "README.md").read_text()
+    targets = re.findall(r"\]\(([^)#\s]+)\)", text)
+    assert targets
+    for target in targets:
+        if not target.startswith(("http://", "https://")):
+            assert (ROOT / target).exists(), f"README links to {target}, which does not exist"
