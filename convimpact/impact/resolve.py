@@ -235,7 +235,13 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0); the
         other laws have none.
     **options
-        Solver options (tolerances, iteration limits), documented per method.
+        Options of the method: ``sweep``: ``xtol`` (1e-10), ``n_grid`` (360); ``interior``:
+        ``tol`` (1e-10), ``max_iter`` (100), ``newton_iter`` (20); ``clarabel`` and
+        ``cvxpy``: ``tol`` (1e-10), ``max_iter`` (200) and, for ``"coulomb"``,
+        ``fixed_point_tol`` (1e-9), ``max_fixed_point_iter`` (100), ``anderson_memory`` (5);
+        ``closed-form`` and ``fast`` take none (the user guide's table, "Choosing a law and
+        a method", says what each means). An option the method does not take raises
+        UnknownOptionError naming the ones it does.
 
     Returns
     -------

@@ -52,8 +52,11 @@ def _evaluate():
 class Data:
     """Kinematic and dynamic quantities of a model at the last evaluated state.
 
-    Attributes (views into the work buffer, current after the evaluation that fills them)
-    ------------------------------------------------------------------------------------
+    The array attributes are views into the work buffer, current after the evaluation that
+    fills them.
+
+    Attributes
+    ----------
     theta, dtheta : the configuration and velocity the arrays belong to (None until set).
     rotation : (n_bodies, d, d) body orientations; ``angle`` (n_bodies,) planar absolute angles.
     position : (n_bodies, d) body-frame origins; ``velocity`` their velocities.

@@ -104,7 +104,7 @@ def kinetic_energy(model, data, theta, dtheta) -> float:
 
 
 def potential_energy(model, data, theta) -> float:
-    """Gravitational potential ``V = -sum_b m_b g . c_b`` (zero at the origin)."""
+    """Gravitational potential ``V = -sum_b m_b dot(g, c_b)`` (zero at the origin)."""
     data.compute(POS, theta)
     key = "q:potential"
     if key not in data.cache:

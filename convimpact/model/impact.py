@@ -60,6 +60,18 @@ def impact_arguments(mechanism, theta, dtheta, contacts: Contacts = None,
     ------
     ModelError
         For an unknown contact name or when ``contacts`` is None and none is touching.
+
+    Examples
+    --------
+    The paper's planar double pendulum, case (a), at its impact state:
+
+    >>> import numpy as np, convimpact as ci
+    >>> scene = ci.load_scene("pendulum_planar", case="a")
+    >>> args = ci.impact_arguments(scene.mechanism, *scene.impact_state, "tip")
+    >>> sorted(args), np.round(args["Jc"] @ args["dq"], 3).tolist()
+    (['C', 'Jc', 'M', 'dq', 'e', 'mu'], [-1.309, -2.683])
+    >>> ci.resolve_impact(**args, law="coulomb").regime
+    'stick'
     """
     theta = _state(mechanism, theta, "theta")
     dtheta = _state(mechanism, dtheta, "dtheta")

@@ -334,9 +334,9 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     everything after the impulse -- energy loss (eq. 58 in contact space), post-impact velocity
     and the failure flags -- is evaluated in numpy over the whole grid, with the same
     definitions and tolerance as :func:`convimpact.impact.diagnostics.assemble_result` for
-    ``method="fast"``. Planar or spatial, one contact. Where the batch has no compiled kernel
-    (``"stronge"`` in space, whose curved slip is integrated) it solves the points one at a time
-    with the Python kernel; a smaller grid, or any grid without numba, takes one
+    ``method="fast"``. Planar or spatial, one contact, every law (``"stronge"`` in space too:
+    the batch integrates its curved slip with a compiled DOP853); a smaller grid, or any grid
+    without numba, takes one
     :func:`~convimpact.impact.exact.dispatch.solve_contact` call per point (same answers to round-off;
     below that size the loop costs less than the batch's one-time compilation, so a first
     ``convimpact paper`` compiles nothing for its landscapes).

@@ -155,6 +155,15 @@ def solve_contact_problem(W, b, mu, *, law: str = "coulomb", tol: float = 1e-8,
         Bad input, naming the argument.
     UncertifiedSolutionError
         No answer certified at ``tol`` (carries the best one reached).
+
+    Examples
+    --------
+    One planar contact that slides: r_t = -mu r_n, and u_n = 0 gives r_n = 1 / 1.85.
+
+    >>> import numpy as np, convimpact as ci
+    >>> sol = ci.solve_contact_problem([[2.0, 0.5], [0.5, 1.0]], [-1.0, 0.5], mu=0.3)
+    >>> sol.status, np.round(sol.impulse, 4).tolist(), np.round(sol.velocity, 4).tolist()
+    ('solved', [[0.5405, -0.1622]], [[0.0, 0.6081]])
     """
     if not isinstance(law, str) or law not in CONTACT_LAWS:
         raise ParameterError(f"law must be one of {CONTACT_LAWS}, got {law!r}")

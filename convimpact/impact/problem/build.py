@@ -430,6 +430,18 @@ def build_problem(M, Jc, dq, e=0.0, mu=0.0, C=None, e_t=None) -> ImpactProblem:
     ------
     ShapeError, NonFiniteError, MassMatrixError, ParameterError, DegenerateContactError,
     LoopConstraintError
+
+    Examples
+    --------
+    Built once, resolved under several laws (W = Jc M^-1 Jc^T = I / 2, v- = Jc dq):
+
+    >>> import numpy as np, convimpact as ci
+    >>> P = ci.build_problem(2 * np.eye(2), np.array([[0., 1.], [1., 0.]]), [1., -1.],
+    ...                      e=0.5, mu=0.3)
+    >>> P.delassus.tolist(), P.v_minus.tolist()
+    ([[0.5, 0.0], [0.0, 0.5]], [[-1.0, 1.0]])
+    >>> [ci.solve_problem(P, law).regime for law in ("pereira-nikravesh", "ccp")]
+    ['slide', 'slide']
     """
     Mf, L = check_mass_matrix(M)
     k = Mf.shape[0]
