@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -67,11 +67,14 @@ from ..impact.errors import (
     LoopConstraintError,
     ParameterError,
     SimulationError,
+    UnknownOptionError,
 )
 from ..impact import check_law_method, resolve_impact
 from .projection import project_positions, project_velocities
 from .result import SERIES, ImpactEvent, SimulationResult, series_from_rows
 from .initial import consistent_start, initial_state, law_options, positive, time_span
+from .moreau_engine import ENGINE_LAWS
+from .moreau_loop import run_engine_steps
 from .simulate import _as_mechanism
 
 #: steps beyond which a run is refused (h too small for the span)
@@ -92,19 +95,52 @@ class MoreauResult(SimulationResult):
     theta_parameter : theta of the scheme.
     n_contact_steps : steps with at least one active contact (impacts and resting contact).
     max_penetration : largest penetration (-gap) of any contact at a stored state (>= 0).
+    contact_solver : engine path only, what the contact engine did over the run (islands
+        solved, warm starts certified, calls of the full engine, iterations, the largest
+        island, seconds in the solves and in the assembly); empty on the other path.
+    max_active_contacts : the most contacts active on one step (engine path; 0 otherwise).
     """
 
     step_size: float = float("nan")
     theta_parameter: float = 0.5
     n_contact_steps: int = 0
     max_penetration: float = 0.0
+    contact_solver: Mapping[str, Any] = field(default_factory=dict)
+    max_active_contacts: int = 0
 
     def as_dict(self, series: bool = True) -> dict[str, Any]:
         out = super().as_dict(series)
         out.update(scheme="moreau-jean", step_size=self.step_size,
                    theta_parameter=self.theta_parameter, n_contact_steps=self.n_contact_steps,
-                   max_penetration=self.max_penetration)
+                   max_penetration=self.max_penetration,
+                   contact_solver=dict(self.contact_solver),
+                   max_active_contacts=self.max_active_contacts)
         return out
+
+
+#: impact options the engine path takes (with their types)
+ENGINE_OPTIONS = {"tol": float, "max_iter": int, "newton_iter": int}
+
+
+def _engine_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The engine path's options (tol 1e-8 by default), validated."""
+    out: dict[str, Any] = {"tol": 1e-8}
+    for key, value in dict(options or {}).items():
+        if key not in ENGINE_OPTIONS:
+            raise UnknownOptionError(
+                f"impact option {key!r} is not taken by Moreau–Jean on the contact engine "
+                f"(laws ccp and coulomb under method auto or interior); its options are "
+                f"{', '.join(ENGINE_OPTIONS)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
+                                                             np.floating)):
+            raise ParameterError(f"impact option {key} must be a number, got {value!r}")
+        if ENGINE_OPTIONS[key] is int and (int(value) != value or value < 1):
+            raise ParameterError(f"impact option {key} must be an integer >= 1, got {value!r}")
+        if ENGINE_OPTIONS[key] is float and not (math.isfinite(value) and value > 0):
+            raise ParameterError(f"impact option {key} must be a finite number > 0, got "
+                                 f"{value!r}")
+        out[key] = ENGINE_OPTIONS[key](value)
+    return out
 
 
 def _loop_inverse(M: np.ndarray, C: np.ndarray):
@@ -142,6 +178,8 @@ def simulate_moreau(
     assemble: bool = False,
     contact_tol: float = 1e-8,
     impact_options: Mapping[str, Any] | None = None,
+    warm_start: bool = True,
+    islands: bool = True,
 ) -> MoreauResult:
     """Integrate a mechanism through its impacts by Moreau–Jean time stepping.
 
@@ -179,7 +217,14 @@ def simulate_moreau(
         Options forwarded to the impact solver, and ``"e_t"``: the tangential restitution in
         [-1, 1] of law ``"chatterjee-ruina"`` (one value, or a mapping contact name -> value;
         default 0), applied to the approaching contacts of a step (0 on the resting ones) and
-        refused with any other law before the first step.
+        refused with any other law before the first step. On the engine path (below) only
+        ``tol`` (the natural-map residual every island's answer must reach, default 1e-8),
+        ``max_iter`` and ``newton_iter`` are taken.
+    warm_start, islands : bool
+        Engine path only (laws ``"ccp"`` and ``"coulomb"`` under ``method`` "auto" or
+        "interior", :mod:`.moreau_loop`): start each step's contact problem from the previous
+        step's impulses, and solve the independent islands of touching bodies apart
+        (:mod:`.islands`). Neither changes the answer beyond the certificate's tolerance.
 
     Returns
     -------
@@ -224,6 +269,9 @@ def simulate_moreau(
         raise ParameterError(f"h = {h:g} needs {n_steps_total} steps over the span (more than "
                              f"{MAX_STEPS}); take a larger step")
     impact_options, e_t = law_options(law, impact_options, contacts)
+    engine_path = law in ENGINE_LAWS and method in ("auto", "interior")
+    if engine_path:
+        engine_opts = _engine_options(impact_options)
 
     # ---- initial state ---------------------------------------------------------------------
     q, v = initial_state(y0, scene, k)
@@ -235,6 +283,32 @@ def simulate_moreau(
     q, v = consistent_start(mech, q, v, assemble=assemble, projection_tol=projection_tol,
                             contact_tol=contact_tol)
     params = {c: mech.contact_parameters(c) for c in contacts}
+
+    if engine_path:
+        for flag, value in (("warm_start", warm_start), ("islands", islands)):
+            if not isinstance(value, (bool, np.bool_)):
+                raise ParameterError(f"{flag} must be True or False, got {value!r}")
+        out = run_engine_steps(mech, q, v, t0=t0, t1=t1, h=h, theta=theta_p,
+                               n_steps=n_steps_total, law=law, gap_tol=float(gap_tol),
+                               rest_velocity=float(rest_velocity),
+                               projection_tol=projection_tol, warm_start=bool(warm_start),
+                               islands=bool(islands), **engine_opts)
+        rows, st = out["rows"], out["stats"]
+        n = len(rows["t"])
+        settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
+                    "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
+                    "projection_tol": projection_tol, "t_span": [t0, t1],
+                    "contact_solver": "engine", "warm_start": bool(warm_start),
+                    "islands": bool(islands), **engine_opts}
+        return MoreauResult(
+            **series_from_rows(rows, k, m), held=np.zeros(n, dtype=int),
+            impacts=tuple(out["impacts"]), contact_events=(), sol=None, status=0,
+            message="the end of the time span was reached", nfev=st["nfev"], nevents_fev=0,
+            n_steps=n - 1, n_projections=st["proj"], n_restarts=0,
+            wall_time=float(_time.perf_counter() - wall0), impact_time=float(st["impact_time"]),
+            settings=settings, step_size=h, theta_parameter=theta_p,
+            n_contact_steps=st["contact_steps"], max_penetration=max(0.0, st["max_pen"]),
+            contact_solver=out["counters"].as_dict(), max_active_contacts=st["max_active"])
 
     # ---- run ---------------------------------------------------------------------------------
     rows: dict[str, list] = {key: [] for key in SERIES}

@@ -1,0 +1,296 @@
+"""The contact problem of a Moreau–Jean step on the contact engine, island by island.
+
+Used by :func:`convimpact.simulation.moreau.simulate_moreau` for the laws ``"ccp"`` and
+``"coulomb"`` (under ``method`` "auto" or "interior"). Per step, at the intermediate
+configuration ``q_m``:
+
+1. one evaluation of M, every contact's gap and Jacobian (one compiled pass for the models of
+   :mod:`convimpact.model`; name by name for any other mechanism);
+2. the coordinate groups of M and the loops (:func:`.islands.coordinate_groups`, recomputed
+   only when M's pattern changes) and the inverse mass G block by block: groups of equal size
+   are factored together (batched Cholesky; a mass matrix that is not positive definite raises
+   :class:`~convimpact.impact.errors.SimulationError`); with loops G is the loop-constrained
+   inverse ``M^-1 - A (C A)^-1 A^T``, ``A = M^-1 C^T``, so ``C v_{k+1} = 0``;
+3. the candidate contacts: those whose gap predicted at the end of the step with the free
+   velocity closes, ``g + h theta J_n v_free <= gap_tol`` (no other contact enters);
+4. their islands (:func:`.islands.contact_islands`) and per island the problem
+   ``u = W r + b`` with ``W = J G J^T`` (dense, or sparse when the island has
+   :data:`SPARSE_MIN_ROWS` rows or more) and ``b = J v_free + e_eff min(J_n v_free, 0) e_n``
+   (Newton's restitution at the velocity level, ``e_eff`` as in :mod:`.moreau`); every
+   active contact carries its friction;
+5. islands of at most :data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` rows are
+   solved together in one compiled call (:func:`.moreau_kernels.solve_islands`), larger ones
+   by :func:`convimpact.impact.contacts.engine.solve` (sparse LDL^T with the symbolic
+   analysis reused within the solve); an island the compiled call does not certify goes to
+   the engine (its ADMM for Coulomb's law). With ``warm_start`` each island starts from the
+   previous step's impulses of its contacts (Newton on the law's natural map; the cold path
+   when that is not certified).
+
+Every island's answer is certified: its relative natural-map residual (the engine's
+measure) is at most ``tol``, else :class:`~convimpact.impact.errors.UncertifiedSolutionError`
+naming the step and the contacts; no answer above ``tol`` is ever applied.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..impact.contacts import engine
+from ..impact.contacts.contact_problem import ContactSolution, UncertifiedSolutionError
+from ..impact.errors import LoopConstraintError, SimulationError
+from .islands import Groups, contact_islands, coordinate_groups
+from .moreau_kernels import solve_islands
+
+#: the laws whose step problem the engine solves
+ENGINE_LAWS = ("ccp", "coulomb")
+#: islands with at least this many contact rows get a sparse W
+SPARSE_MIN_ROWS = engine.SPARSE_MIN_ROWS
+
+
+@dataclass
+class EngineCounters:
+    """What the engine path did over a run (``MoreauResult.contact_solver``)."""
+
+    problems: int = 0          # islands solved
+    warm_started: int = 0      # islands whose warm start was certified
+    engine_calls: int = 0      # islands solved by engine.solve (large or not certified)
+    iterations: int = 0
+    largest_island: int = 0    # contacts
+    solve_time: float = 0.0    # s in the contact solves (assembly excluded)
+    assembly_time: float = 0.0
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+class Evaluator:
+    """M, gaps and contact Jacobians at a configuration: the model's compiled pass when the
+    mechanism is a :class:`convimpact.model.mechanism.ModelMechanism`, else the Mechanism
+    protocol contact by contact."""
+
+    def __init__(self, mech, contacts):
+        self.mech = mech
+        self.contacts = tuple(contacts)
+        data = getattr(mech, "data", None)
+        model = getattr(mech, "model", None)
+        self.fast = (data is not None and model is not None and hasattr(data, "contact_ok")
+                     and tuple(mech.contact_names) == self.contacts)
+        if self.fast:
+            from ..model import recursive as rc
+
+            self._flags = rc.MASS | rc.CONTACT
+            self.d = int(model.dim)
+        else:
+            self.d = None  # from the first Jacobian evaluated
+
+    def positions(self, q: np.ndarray):
+        """``(M, gaps (nc,), J (nc, d, k))`` at q (new arrays)."""
+        mech = self.mech
+        if self.fast:
+            data = mech.data
+            data.compute(self._flags, np.ascontiguousarray(q, dtype=float))
+            if not np.all(data.contact_ok):
+                bad = self.contacts[int(np.flatnonzero(~np.asarray(data.contact_ok,
+                                                                   bool))[0])]
+                mech.contact_gap(bad, q)  # raises the model's typed error
+            M = np.array(data.M, dtype=float)
+            M = np.tril(M) + np.tril(M, -1).T  # the pass fills the lower triangle
+            return M, np.array(data.gap, dtype=float), np.array(
+                data.contact_jacobian[:, :self.d], dtype=float)
+        M = np.asarray(mech.mass_matrix(q), float)
+        gaps = np.array([float(mech.contact_gap(c, q)) for c in self.contacts])
+        J = np.array([np.asarray(mech.contact_jacobian(c, q), float) for c in self.contacts])
+        if self.d is None:
+            self.d = J.shape[1]
+        return M, gaps, J
+
+    def gaps(self, q: np.ndarray) -> np.ndarray:
+        if self.fast:
+            from ..model import recursive as rc
+
+            data = self.mech.data
+            data.compute(rc.CONTACT, np.ascontiguousarray(q, dtype=float))
+            return np.array(data.gap, dtype=float)
+        return np.array([float(self.mech.contact_gap(c, q)) for c in self.contacts])
+
+
+@dataclass
+class InverseMass:
+    """G (k, k) of a step, block diagonal over ``groups``; with loops also what the loop
+    impulse needs (``A = M^-1 C^T`` and ``S = C A``)."""
+
+    G: np.ndarray
+    groups: Groups
+    Minv: np.ndarray | None = None
+    A: np.ndarray | None = None
+    S: np.ndarray | None = None
+
+
+@dataclass
+class GroupCache:
+    pattern: np.ndarray | None = None
+    groups: Groups | None = None
+    stats: dict = field(default_factory=dict)
+
+
+def inverse_mass(M: np.ndarray, C: np.ndarray, cache: GroupCache) -> InverseMass:
+    """The step's G (see the module docstring); raises SimulationError for an M that is not
+    positive definite and LoopConstraintError for a singular ``C M^-1 C^T``."""
+    k = M.shape[0]
+    if not np.all(np.isfinite(M)):
+        raise SimulationError("the mass matrix is not finite")
+    pattern = M != 0.0
+    if C.shape[0]:
+        rows = C != 0.0
+        pattern = pattern | ((rows.T.astype(float) @ rows.astype(float)) > 0.0)
+    # the union of the patterns met so far: an entry of M that vanishes at some angle
+    # (a free body's coupling at zero rotation) keeps its group (coarser groups stay exact)
+    if cache.pattern is None or np.any(pattern & ~cache.pattern):
+        cache.pattern = pattern if cache.pattern is None else (pattern | cache.pattern)
+        cache.groups = coordinate_groups(cache.pattern)
+    groups = cache.groups
+    Minv = np.zeros((k, k))
+    for s, (_, idx) in groups.by_size.items():
+        blocks = M[idx[:, :, None], idx[:, None, :]]
+        try:
+            L = np.linalg.cholesky(blocks)
+        except np.linalg.LinAlgError:
+            raise SimulationError("the mass matrix is not positive definite on this step"
+                                  ) from None
+        Li = np.linalg.inv(L)
+        Minv[idx[:, :, None], idx[:, None, :]] = np.swapaxes(Li, 1, 2) @ Li
+    if C.shape[0] == 0:
+        return InverseMass(Minv, groups)
+    A = Minv @ C.T
+    S = C @ A
+    try:
+        Sinv = np.linalg.inv(np.linalg.cholesky(S))
+    except np.linalg.LinAlgError:
+        raise LoopConstraintError(
+            "the loop matrix C M^-1 C^T is singular on this step (a dead-centre configuration "
+            "or redundant loops); Moreau–Jean cannot keep C v = 0 here") from None
+    Sinv = Sinv.T @ Sinv
+    return InverseMass(Minv - A @ Sinv @ A.T, groups, Minv, A, Sinv)
+
+
+@dataclass(frozen=True)
+class StepProblem:
+    """The active contacts of a step (indices into the mechanism's contacts), their
+    Jacobian rows (na, d, k), b (na, d) and friction coefficients."""
+
+    active: np.ndarray
+    J: np.ndarray
+    b: np.ndarray
+    mu: np.ndarray
+
+
+def solve_step(problem: StepProblem, inv: InverseMass, *, coulomb: bool, tol: float,
+               start: np.ndarray | None, split: bool, counters: EngineCounters,
+               names: tuple = (), max_iter: int = 100, newton_iter: int = 20,
+               where: str = "") -> np.ndarray:
+    """The certified impulses (na, d) of the step's contact problem, island by island."""
+    t0 = _time.perf_counter()
+    J, b, mu = problem.J, problem.b, problem.mu
+    na, d, k = J.shape
+    moves = np.any(J != 0.0, axis=1)
+    islands = contact_islands(moves, inv.groups, split)
+    out = np.zeros((na, d))
+    small, large = [], []
+    for cs, cols in islands:
+        (small if cs.size * d <= engine.COMPILED_MAX_ROWS else large).append((cs, cols))
+    # the small islands, batched by shape: W = J_I G_II J_I^T
+    by_shape: dict = {}
+    for cs, cols in small:
+        by_shape.setdefault((cs.size, cols.size), []).append((cs, cols))
+    Ws, bs, mus, starts, warm, sizes, where_cs = [], [], [], [], [], [], []
+    for (nc, nk), items in by_shape.items():
+        B = len(items)
+        C = np.array([c for c, _ in items])                    # (B, nc)
+        K = np.array([c for _, c in items])                    # (B, nk)
+        JI = J[C[:, :, None, None], np.arange(d)[None, None, :, None], K[:, None, None, :]]
+        JI = JI.reshape(B, nc * d, nk)
+        GI = inv.G[K[:, :, None], K[:, None, :]]
+        WI = JI @ GI @ np.swapaxes(JI, 1, 2)
+        Ws.append((0.5 * (WI + np.swapaxes(WI, 1, 2))).ravel())
+        bs.append(b[C].ravel())
+        mus.append(mu[C].ravel())
+        if start is None:
+            starts.append(np.zeros(B * nc * d))
+            warm.append(np.zeros(B, dtype=bool))
+        else:
+            sc = start[C].reshape(B, -1)
+            starts.append(sc.ravel())
+            warm.append(np.any(sc != 0.0, axis=1))
+        sizes.append(np.full(B, nc))
+        where_cs.extend(c for c, _ in items)
+    counters.assembly_time += _time.perf_counter() - t0
+    if Ws:
+        t1 = _time.perf_counter()
+        nc_of = np.concatenate(sizes)
+        moff = np.concatenate([[0], np.cumsum(nc_of)])
+        boff = moff * d
+        woff = np.concatenate([[0], np.cumsum((nc_of * d) ** 2)])
+        bcat = np.concatenate(bs)
+        Wcat = np.concatenate(Ws)
+        mucat = np.concatenate(mus)
+        r, res, used, its = solve_islands(Wcat, woff, bcat, boff, mucat, moff, d, coulomb,
+                                          tol, max_iter, newton_iter, np.concatenate(starts),
+                                          np.concatenate(warm))
+        counters.solve_time += _time.perf_counter() - t1
+        counters.iterations += int(its.sum())
+        counters.warm_started += int(used.sum())
+        counters.problems += len(where_cs)
+        counters.largest_island = max(counters.largest_island, int(nc_of.max()))
+        cat = np.concatenate(where_cs)
+        out[cat] = r.reshape(-1, d)
+        for i in np.flatnonzero(res > tol):
+            cs = where_cs[i]
+            nd = cs.size * d
+            out[cs] = _engine(Wcat[woff[i]:woff[i + 1]].reshape(nd, nd),
+                              bcat[boff[i]:boff[i + 1]], mucat[moff[i]:moff[i + 1]], d,
+                              coulomb, tol, None, counters, max_iter, where,
+                              [names[c] for c in problem.active[cs]])
+    for cs, cols in large:
+        t2 = _time.perf_counter()
+        nd = cs.size * d
+        JI = J[cs][:, :, cols].reshape(nd, cols.size)
+        GI = inv.G[np.ix_(cols, cols)]
+        if nd >= SPARSE_MIN_ROWS:
+            Js = sp.csr_matrix(JI)
+            W = (Js @ sp.csr_matrix(GI) @ Js.T).tocsr()
+            W = 0.5 * (W + W.T)
+        else:
+            W = JI @ GI @ JI.T
+            W = 0.5 * (W + W.T)
+        counters.assembly_time += _time.perf_counter() - t2
+        counters.problems += 1
+        counters.largest_island = max(counters.largest_island, cs.size)
+        s = None if start is None or not np.any(start[cs] != 0.0) else start[cs]
+        out[cs] = _engine(W, b[cs].ravel(), mu[cs], d, coulomb, tol, s, counters, max_iter,
+                          where, [names[c] for c in problem.active[cs]])
+    return out
+
+
+def _engine(W, b, mu, d, coulomb, tol, start, counters, max_iter, where, names):
+    t = _time.perf_counter()
+    R = engine.solve(W, b.reshape(-1, d), mu, d, coulomb=coulomb, tol=tol,
+                     max_iter=max_iter, start=start)
+    counters.solve_time += _time.perf_counter() - t
+    counters.engine_calls += 1
+    counters.iterations += int(R.iterations)
+    if start is not None and R.message.endswith("(warm start)"):
+        counters.warm_started += 1
+    if not R.converged:
+        law = "coulomb" if coulomb else "ccp"
+        sol = ContactSolution(R.impulse, R.velocity, float(R.residual), "not certified",
+                              int(R.iterations), law, tol)
+        raise UncertifiedSolutionError(
+            f"Moreau–Jean: the contact engine did not certify the step's {law} problem "
+            f"({len(names)} contacts: {', '.join(map(str, names))}) at tol {tol:g}: best "
+            f"natural-map residual {R.residual:.3g} ({R.message}) {where}",
+            float(R.residual), sol)
+    return R.impulse

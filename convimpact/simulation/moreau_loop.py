@@ -1,0 +1,199 @@
+"""The Moreau–Jean loop on the contact engine (laws ``ccp`` and ``coulomb``).
+
+The scheme is :mod:`.moreau`'s, step for step (intermediate configuration, explicit smooth
+forces, free velocity, active set by gap prediction, Newton's restitution at the velocity
+level, position update and loop projection); only the contact problem is posed and solved
+differently: by :mod:`.moreau_engine`, in the generalized coordinates' block structure,
+island by island, warm-started from the previous step's impulses, every answer certified.
+
+Differences from the path through :func:`convimpact.resolve_impact` (other laws, methods
+and options):
+
+* every active contact carries its friction (the per-impact law ``ccp`` of
+  ``resolve_impact`` keeps only the normal of a contact that does not approach);
+* the impact events carry no :class:`~convimpact.impact.results.ImpactResult`
+  (``result=None``): the step's certificate is the engine's natural-map residual, at most
+  ``tol`` on every island; ``regime`` is read off the answer (``"separating"`` for a zero
+  normal impulse, ``"stick"`` where the contact's slip after the step is at most 1e-9 of the
+  step's velocity scale, else ``"slide"``; ``"frictionless"`` for mu = 0).
+"""
+
+from __future__ import annotations
+
+import time as _time
+from typing import Any
+
+import numpy as np
+
+from ..impact.contacts.threads import one_blas_thread
+from ..impact.errors import ConvImpactError, SimulationError
+from .moreau_engine import (
+    EngineCounters,
+    Evaluator,
+    GroupCache,
+    StepProblem,
+    inverse_mass,
+    solve_step,
+)
+from .projection import project_positions, project_velocities
+from .result import SERIES, ImpactEvent
+
+
+def run_engine_steps(mech, q, v, **kwargs) -> dict[str, Any]:
+    """Run the loop (:func:`_run`, keyword arguments as there) with BLAS on one thread: the
+    step's matrices are small, and a threaded BLAS spends more on waking its threads (on a
+    shared machine, far more) than on the products."""
+    with one_blas_thread():
+        return _run(mech, q, v, **kwargs)
+
+
+def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
+                     n_steps: int, law: str, tol: float, gap_tol: float,
+                     rest_velocity: float, projection_tol: float, warm_start: bool,
+                     islands: bool, max_iter: int = 100, newton_iter: int = 20
+                     ) -> dict[str, Any]:
+    """Run the loop; returns the recorded rows, impacts, counters and figures."""
+    contacts = tuple(mech.contact_names)
+    k = int(mech.n_coordinates)
+    m = int(mech.n_loop_constraints)
+    ev = Evaluator(mech, contacts)
+    params = [mech.contact_parameters(c) for c in contacts]
+    e_all = np.array([float(p[0]) for p in params])
+    mu_all = np.array([float(p[1]) for p in params])
+    coulomb = law == "coulomb"
+    counters = EngineCounters()
+    cache = GroupCache()
+    last = None  # previous step's impulses (nc, d)
+    rows: dict[str, list] = {key: [] for key in SERIES}
+    sigma = np.zeros(m)
+    impacts: list[ImpactEvent] = []
+    stats = {"nfev": 0, "contact_steps": 0, "proj": 0, "max_pen": 0.0,
+             "max_active": 0, "impact_time": 0.0}
+
+    def loop_rows(th):
+        return (np.asarray(mech.loop_jacobian(th), float).reshape(m, k) if m
+                else np.zeros((0, k)))
+
+    def record(t, th, dth):
+        M_ = np.asarray(mech.mass_matrix(th), float)
+        C_ = loop_rows(th)
+        rows["t"].append(t)
+        rows["theta"].append(th.copy())
+        rows["dtheta"].append(dth.copy())
+        rows["p"].append(M_ @ dth - C_.T @ sigma)
+        rows["sigma"].append(sigma.copy())
+        rows["T"].append(0.5 * float(dth @ M_ @ dth))
+        rows["V"].append(float(mech.potential_energy(th)))
+        if m:
+            rows["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
+            rows["cdq"].append(float(np.max(np.abs(C_ @ dth))))
+        else:
+            rows["psi"].append(0.0)
+            rows["cdq"].append(0.0)
+        if contacts:
+            stats["max_pen"] = max(stats["max_pen"], -float(np.min(ev.gaps(th))))
+
+    t = t0
+    record(t, q, v)
+    for step in range(n_steps):
+        hk = min(h, t1 - t)
+        if hk <= 0:
+            break
+        tm = t + (1.0 - theta) * hk
+        qm = q + hk * (1.0 - theta) * v
+        M, gaps, J = ev.positions(qm)
+        d = J.shape[1] if J.ndim == 3 else 0
+        C = loop_rows(qm)
+        inv = inverse_mass(M, C, cache)
+        f = np.asarray(mech.generalized_forces(tm, qm, v), float)
+        stats["nfev"] += 1
+        Minv = inv.Minv if inv.Minv is not None else inv.G
+        if theta < 1.0:
+            v_pred = v + (1.0 - theta) * hk * (Minv @ f)
+            f = np.asarray(mech.generalized_forces(tm, qm, v_pred), float)
+            stats["nfev"] += 1
+        v_star = v + hk * (Minv @ f)
+        if m:
+            s = inv.S @ (C @ v_star)
+            v_free = v_star - inv.A @ s
+            sigma = sigma - s
+        else:
+            v_free = v_star
+        v_new = v_free
+        if contacts:
+            vn_free = J[:, 0, :] @ v_free
+            active = np.flatnonzero(gaps + hk * theta * vn_free <= gap_tol)
+        else:
+            active = np.zeros(0, dtype=int)
+        if active.size:
+            stats["contact_steps"] += 1
+            stats["max_active"] = max(stats["max_active"], int(active.size))
+            Ja = J[active]
+            vn_k = Ja[:, 0, :] @ v
+            vnf = vn_free[active]
+            approaching = (vn_k < -rest_velocity) & (vnf < 0.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                e_eff = np.where(approaching,
+                                 np.minimum(e_all[active] * vn_k / np.where(vnf < 0, vnf, -1.0),
+                                            1.0), 0.0)
+            b = np.einsum("cdk,k->cd", Ja, v_free)
+            b[:, 0] += e_eff * np.minimum(vnf, 0.0)
+            start = None
+            if warm_start and last is not None:
+                start = last[active]
+            t_start = _time.perf_counter()
+            try:
+                r = solve_step(StepProblem(active, Ja, b, mu_all[active]), inv,
+                               coulomb=coulomb, tol=tol, start=start, split=islands,
+                               counters=counters, names=contacts, max_iter=max_iter,
+                               newton_iter=newton_iter, where=f"at t = {tm:.9g}, step {step}")
+            except ConvImpactError as exc:
+                exc.add_note(f"(while solving the step's contact problem at t = {tm:.9g}, "
+                             f"step {step}, in simulate_moreau)")
+                raise
+            finally:
+                stats["impact_time"] += _time.perf_counter() - t_start
+            gen = np.einsum("cdk,cd->k", Ja, r)
+            v_new = v_free + inv.G @ gen
+            if m:
+                sigma = sigma - inv.S @ (inv.A.T @ gen)
+            if last is None:
+                last = np.zeros((len(contacts), d))
+            last[:] = 0.0
+            last[active] = r
+            hit = np.flatnonzero((vn_k < -rest_velocity) & (r[:, 0] > 0.0))
+            if hit.size:
+                u = np.einsum("cdk,k->cd", Ja, v_new)
+                scale = max(float(np.abs(b).max()), 1e-300)
+                slip = np.sqrt(np.einsum("cd,cd->c", u[:, 1:], u[:, 1:]))
+                regime = tuple(
+                    "frictionless" if mu_all[active[i]] <= 0.0 else
+                    "separating" if r[i, 0] <= 0.0 else
+                    "stick" if slip[i] <= 1e-9 * scale else "slide" for i in hit)
+                T_minus = 0.5 * float(v_free @ M @ v_free)
+                T_plus = 0.5 * float(v_new @ M @ v_new)
+                impacts.append(ImpactEvent(
+                    time=tm, contacts=tuple(contacts[active[i]] for i in hit),
+                    held_contacts=(), regime=regime, impulse=r[hit].copy(),
+                    loop_impulse=np.zeros(m), generalized_impulse=gen,
+                    theta=qm.copy(), dtheta_minus=v.copy(), dtheta_plus=v_new.copy(),
+                    energy_loss=T_minus - T_plus,
+                    kinetic_energy_minus=0.5 * float(v @ M @ v), kinetic_energy_plus=T_plus,
+                    persistent=(), released=(), resolve_time=0.0, result=None))
+        elif last is not None:
+            last[:] = 0.0
+        q_new = qm + hk * theta * v_new
+        if m:
+            drift = float(np.max(np.abs(mech.loop_residual(q_new))))
+            if drift > projection_tol:
+                q_new, _, _ = project_positions(mech.loop_residual, loop_rows, M, q_new,
+                                                0.1 * projection_tol)
+                stats["proj"] += 1
+            v_new = project_velocities(np.asarray(mech.mass_matrix(q_new), float),
+                                       loop_rows(q_new), v_new)
+        if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
+            raise SimulationError(f"the state became non-finite at t = {t + hk:.9g}; reduce h")
+        q, v = q_new, v_new
+        t = t1 if step == n_steps - 1 else t + hk
+        record(t, q, v)
+    return {"rows": rows, "impacts": impacts, "counters": counters, "stats": stats}
