@@ -18,6 +18,32 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..compiled import jit as _jit
+
+
+@_jit
+def _components(rows, gid, na, ng):
+    """Component (its root node) of each node of the graph contacts (0..na-1) -- groups
+    (na..na+ng-1) with edges (rows[e], na + gid[e]): union-find with path halving."""
+    parent = np.arange(na + ng)
+    for e in range(rows.shape[0]):
+        a = rows[e]
+        b = na + gid[e]
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        if a != b:
+            parent[max(a, b)] = min(a, b)
+    for i in range(na + ng):
+        r = i
+        while parent[r] != r:
+            r = parent[r]
+        parent[i] = r
+    return parent
+
 
 @dataclass(frozen=True)
 class Groups:
@@ -81,8 +107,7 @@ def contact_islands(moves: np.ndarray, groups: Groups, split: bool = True
         return [(np.arange(na), groups.members[gs[0]] if gs.size == 1 else
                  np.sort(np.concatenate([groups.members[g] for g in gs])))]
     # the bipartite graph contacts -- groups: its components are the islands
-    graph = sp.coo_matrix((np.ones(rows.size), (rows, na + gid)), shape=(na + ng, na + ng))
-    _, comp = connected_components(graph, directed=False)
+    comp = _components(rows, gid, na, ng)
     comp_c, comp_g = comp[:na], comp[na:]
     order = np.argsort(comp_c, kind="stable")
     bounds = np.flatnonzero(np.diff(comp_c[order])) + 1

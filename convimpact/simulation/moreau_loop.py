@@ -39,6 +39,11 @@ from .projection import project_positions, project_velocities
 from .result import SERIES, ImpactEvent
 
 
+#: a contact whose predicted end-of-step gap is at most gap_tol + this (times max(1, max|q|))
+#: takes part: round-off of the configuration, not an opening
+GAP_ROUNDOFF = 1e-12
+
+
 def run_engine_steps(mech, q, v, **kwargs) -> dict[str, Any]:
     """Run the loop (:func:`_run`, keyword arguments as there) with BLAS on one thread: the
     step's matrices are small, and a threaded BLAS spends more on waking its threads (on a
@@ -122,7 +127,11 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
         v_new = v_free
         if contacts:
             vn_free = J[:, 0, :] @ v_free
-            active = np.flatnonzero(gaps + hk * theta * vn_free <= gap_tol)
+            # a resting contact's predicted gap is 0 up to the round-off of the positions:
+            # that round-off must not switch it off (one corner of two would then carry
+            # the load alone and turn the body)
+            slack = GAP_ROUNDOFF * max(1.0, float(np.max(np.abs(qm), initial=0.0)))
+            active = np.flatnonzero(gaps + hk * theta * vn_free <= gap_tol + slack)
         else:
             active = np.zeros(0, dtype=int)
         if active.size:

@@ -1,0 +1,257 @@
+"""Bench section ``moreau-scale``: Moreau–Jean on the contact engine from 4 to 128 contacts
+and on a pile of discs, against MuJoCo in the same run at the same step h.
+
+Scenes (:mod:`.moreau_scenes`): rows of 1 to 32 boxes on the floor (4 to 128 corner contacts;
+the boxes never touch: 1 to 32 islands), sliding at 2 m/s and at rest, and the scene
+``disc_pile`` (162 discs settling in a box). Ours: :func:`convimpact.simulation.moreau.
+simulate_moreau` (theta = 1/2, laws ``ccp`` and ``coulomb`` on the engine, every step's
+islands certified at the natural-map residual 1e-8, warm starts and islands on); MuJoCo: its
+default solver and soft contact, elliptic cones, Euler, the same h (2 ms, MuJoCo's default).
+
+Measured per run (ours: the median wall time of :data:`REPEATS` runs; MuJoCo: of 5):
+
+* ``wall_per_simulated_second``: wall time / simulated span (ours: ``result.wall_time``,
+  which includes recording the series; MuJoCo: ``mj_step`` alone);
+* ``max_penetration`` (m): ours the largest -gap at a stored state, MuJoCo the largest
+  -dist of its contacts at any step (its soft contacts sit at a penetration by design);
+* ``energy_rise``: the largest E(t) - E(0) over the run divided by the energy scale (the
+  initial kinetic energy when sliding, else the potential m g (half height) of a box per
+  box; the pile: its potential energy drop E(0) - min E); e = 0, so any rise is an error;
+* sliding boxes: ``speed_error``, the final speed against Coulomb's closed form
+  max(v0 - mu g t, 0) (relative to v0);
+* ours: ``contact_solver`` (islands solved, warm starts certified, engine calls).
+
+Fitted exponents: least squares of log(wall per simulated second) against log(contacts) over
+4..128 contacts, per law and motion, ours and MuJoCo's. ``ablation``: the 32-box rows (and
+the pile) with warm starts off and with islands off, what each buys.
+
+Charts (:mod:`.moreau_scale_charts`): ``moreau_scale_growth.png`` and ``moreau_pile.png``.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from typing import Any
+
+import numpy as np
+
+from ..scenes import load_scene
+from ..simulation.moreau import simulate_moreau
+from .contact_scale_charts import power_law_fit
+from .moreau_scale_charts import growth_chart, pile_chart
+from .moreau_scenes import (
+    BOX_MASS,
+    GRAVITY,
+    HALF,
+    MU,
+    SLIDE_SPEED,
+    box_row,
+    box_row_mjcf,
+    box_row_qvel,
+    disc_pile_mjcf,
+    run_mujoco,
+)
+from .mujoco_peers import mujoco_version
+from .registry import BenchConfig, Progress, SectionResult, register_section
+
+#: the step of both simulators (s): MuJoCo's default timestep
+STEP = 2e-3
+BOXES = (1, 2, 4, 8, 16, 32)
+QUICK_BOXES = (1, 4)
+SPAN = 0.5
+QUICK_SPAN = 0.1
+PILE_SPAN = 1.5
+QUICK_PILE_SPAN = 0.1
+REPEATS = 3
+MUJOCO_REPEATS = 5
+LAWS = ("ccp", "coulomb")
+#: the pile's law and certificate tolerance (see the summary)
+PILE_LAW = "coulomb"
+
+
+def _energy_rise(E: np.ndarray, scale: float) -> float:
+    return float(max(0.0, np.max(E - E[0])) / scale)
+
+
+def _box_record(n: int, sliding: bool, law: str, span: float, progress: Progress,
+                **options) -> dict[str, Any]:
+    mech, q, v = box_row(n, sliding)
+    walls, res = [], None
+    for _ in range(REPEATS):
+        res = simulate_moreau(mech, (0.0, span), (q, v), h=STEP, law=law, **options)
+        walls.append(res.wall_time)
+    E = res.total_energy
+    scale = (0.5 * BOX_MASS * SLIDE_SPEED ** 2 if sliding else BOX_MASS * GRAVITY * HALF[2]) * n
+    rec = {"simulator": "moreau-jean", "law": law, "boxes": n, "contacts": 4 * n,
+           "motion": "sliding" if sliding else "rest", "span": span,
+           "wall_per_simulated_second": statistics.median(walls) / span,
+           "walls": walls, "max_penetration": res.max_penetration,
+           "energy_rise": _energy_rise(E, scale), "contact_solver": res.contact_solver,
+           "max_active_contacts": res.max_active_contacts, **options}
+    if sliding:
+        exact = max(SLIDE_SPEED - MU * GRAVITY * span, 0.0)
+        rec["speed_error"] = float(np.max(np.abs(res.dtheta[-1][0::6] - exact)) / SLIDE_SPEED)
+    progress(f"moreau-scale {law} {rec['motion']} {4 * n} contacts {options or ''}: "
+             f"{rec['wall_per_simulated_second']:.3g} s per simulated s")
+    return rec
+
+
+def _mujoco_box_record(n: int, sliding: bool, span: float) -> dict[str, Any]:
+    xml = box_row_mjcf(n, STEP)
+    runs = [run_mujoco(xml, span, box_row_qvel(n, sliding)) for _ in range(MUJOCO_REPEATS)]
+    r = runs[0]
+    scale = (0.5 * BOX_MASS * SLIDE_SPEED ** 2 if sliding else BOX_MASS * GRAVITY * HALF[2]) * n
+    rec = {"simulator": "mujoco", "law": "mujoco", "boxes": n, "contacts": 4 * n,
+           "motion": "sliding" if sliding else "rest", "span": span,
+           "wall_per_simulated_second": statistics.median(x.wall for x in runs) / span,
+           "walls": [x.wall for x in runs], "max_penetration": r.max_penetration,
+           "energy_rise": _energy_rise(r.energy, scale), "max_contacts": r.max_contacts}
+    if sliding:
+        exact = max(SLIDE_SPEED - MU * GRAVITY * span, 0.0)
+        rec["speed_error"] = float(np.max(np.abs(r.final_qvel[0::6] - exact)) / SLIDE_SPEED)
+    return rec
+
+
+def _pile(span: float, progress: Progress) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """The disc pile, ours (the scene's law and h) and MuJoCo's; returns the records and the
+    series for the chart."""
+    import importlib
+
+    scene = load_scene("disc_pile")
+    pile = importlib.import_module("convimpact.problems.disc_pile")
+    sim = dict(scene.simulation)
+    law = sim.get("law", PILE_LAW)
+    res = simulate_moreau(scene, (0.0, span), h=STEP, law=law,
+                          impact_options=dict(sim.get("impact_options", {})))
+    E = res.total_energy
+    drop = max(float(E[0] - E.min()), 1e-300)
+    radii = np.asarray(scene.parameters["radii"])
+    centres, _ = pile.layout(scene.parameters["columns"], scene.parameters["rows"],
+                             scene.parameters["seed"])
+    pairs = pile.neighbour_pairs(centres, radii)
+    ours = {"simulator": "moreau-jean", "law": law, "scene": "disc_pile",
+            "contacts": res.max_active_contacts, "span": span,
+            "wall_per_simulated_second": res.wall_time / span,
+            "max_penetration": res.max_penetration, "energy_rise": _energy_rise(E, drop),
+            "energy_drop": drop, "final_kinetic_energy": float(res.kinetic_energy[-1]),
+            "unlisted_overlap": pile.unlisted_overlap(res.theta[::25], radii, pairs),
+            "contact_solver": res.contact_solver,
+            "tol": dict(sim.get("impact_options", {})).get("tol", 1e-8)}
+    progress(f"moreau-scale pile ours ({law}): {ours['wall_per_simulated_second']:.3g} s per "
+             f"simulated s, {ours['contacts']} contacts")
+    runs = [run_mujoco(disc_pile_mjcf(scene, STEP), span) for _ in range(3)]
+    r = runs[0]
+    Em = r.energy
+    dropm = max(float(Em[0] - Em.min()), 1e-300)
+    n = radii.size
+    masses = np.asarray(scene.parameters["masses"])
+    ke_m = float(0.5 * np.sum(masses * (r.final_qvel[0::3] ** 2 + r.final_qvel[1::3] ** 2))
+                 + 0.5 * np.sum(0.5 * masses * radii ** 2 * r.final_qvel[2::3] ** 2))
+    theirs = {"simulator": "mujoco", "law": "mujoco", "scene": "disc_pile",
+              "contacts": r.max_contacts, "span": span,
+              "wall_per_simulated_second": statistics.median(x.wall for x in runs) / span,
+              "max_penetration": r.max_penetration, "energy_rise": _energy_rise(Em, dropm),
+              "energy_drop": dropm, "final_kinetic_energy": ke_m}
+    progress(f"moreau-scale pile MuJoCo: {theirs['wall_per_simulated_second']:.3g} s per "
+             f"simulated s, {theirs['contacts']} contacts")
+    th_end = np.asarray(res.theta[-1]).reshape(n, 3)
+    series = {"t": np.asarray(res.t), "energy": E - E[0],
+              "t_mujoco": np.arange(Em.size) * STEP, "energy_mujoco": Em - Em[0],
+              "radii": radii, "ours_xy": th_end[:, :2],
+              "mujoco_xy": np.column_stack([centres[:, 0] + r.final_qpos[0::3],
+                                            centres[:, 1] + r.final_qpos[1::3]]),
+              "width": scene.parameters["box_width"]}
+    return [ours, theirs], series
+
+
+def _exponents(records: list[dict[str, Any]]) -> dict[str, Any]:
+    out = {}
+    for sim_law in sorted({(r["simulator"], r["law"]) for r in records}):
+        for motion in ("sliding", "rest"):
+            pts = sorted((r["contacts"], r["wall_per_simulated_second"]) for r in records
+                         if (r["simulator"], r["law"]) == sim_law and r["motion"] == motion
+                         and not r.get("ablation"))
+            if len(pts) >= 2:
+                p, c = power_law_fit(*zip(*pts))
+                out[f"{sim_law[1]}/{motion}"] = {"exponent": p, "coefficient": c}
+    return out
+
+
+def _ratio_table(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per contacts, motion and law: ours, MuJoCo's, and ours / MuJoCo."""
+    mj = {(r["contacts"], r["motion"]): r["wall_per_simulated_second"] for r in records
+          if r["simulator"] == "mujoco" and "motion" in r}
+    rows = []
+    for r in records:
+        if r["simulator"] != "moreau-jean" or "motion" not in r or r.get("ablation"):
+            continue
+        theirs = mj.get((r["contacts"], r["motion"]))
+        rows.append({"contacts": r["contacts"], "motion": r["motion"], "law": r["law"],
+                     "ours": r["wall_per_simulated_second"], "mujoco": theirs,
+                     "ratio": (r["wall_per_simulated_second"] / theirs) if theirs else None})
+    return sorted(rows, key=lambda x: (x["law"], x["motion"], x["contacts"]))
+
+
+@register_section("moreau-scale", "Moreau–Jean on the contact engine (laws ccp, coulomb; "
+                                  "islands, warm starts) from 4 to 128 contacts and on a "
+                                  "pile of 162 discs, against MuJoCo at the same step")
+def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResult:
+    if mujoco_version() is None:
+        return SectionResult("moreau-scale", [], summary=[
+            "moreau-scale: MuJoCo is not installed (pip install mujoco); section skipped"])
+    quick = config.quick
+    boxes = QUICK_BOXES if quick else BOXES
+    span = QUICK_SPAN if quick else SPAN
+    records: list[dict[str, Any]] = []
+    for sliding in (True, False):
+        for n in boxes:
+            records.append(_mujoco_box_record(n, sliding, span))
+            for law in LAWS:
+                records.append(_box_record(n, sliding, law, span, progress))
+    # what warm starts and islands buy: the largest row without each
+    n_big = boxes[-1]
+    for sliding in (True, False):
+        for law in LAWS:
+            for opts in ({"warm_start": False}, {"islands": False}):
+                rec = _box_record(n_big, sliding, law, min(span, 0.2), progress, **opts)
+                rec["ablation"] = next(iter(opts))
+                records.append(rec)
+    pile_records, series = _pile(QUICK_PILE_SPAN if quick else PILE_SPAN, progress)
+    records += pile_records
+    exps = _exponents(records)
+    table = _ratio_table(records)
+    figures = [growth_chart(records, exps, config.out, STEP),
+               pile_chart(series, pile_records, config.out)]
+    worst = max((t["ratio"] for t in table if t["ratio"]), default=math.nan)
+    best = min((t["ratio"] for t in table if t["ratio"]), default=math.nan)
+    summary = [
+        f"moreau-scale: Moreau–Jean (engine, islands, warm starts) against MuJoCo at h = "
+        f"{STEP:g} s from {4 * boxes[0]} to {4 * boxes[-1]} contacts: ours / MuJoCo per "
+        f"simulated second {best:.3g}x to {worst:.3g}x (target <= 10x); exponents " + ", ".join(
+            f"{k} {v['exponent']:.2f}" for k, v in exps.items()) + " (target <= 1.3)"]
+    for t in table:
+        if t["contacts"] == 4 * boxes[-1] or t["contacts"] == 4 * boxes[0]:
+            summary.append(f"  {t['law']} {t['motion']} {t['contacts']} contacts: "
+                           f"{t['ours']:.3g} s vs MuJoCo {t['mujoco']:.3g} s per simulated s "
+                           f"({t['ratio']:.3g}x)")
+    for r in records:
+        if r.get("ablation"):
+            base = next(x for x in records if x["simulator"] == "moreau-jean"
+                        and x.get("motion") == r["motion"] and x["law"] == r["law"]
+                        and x["contacts"] == r["contacts"] and not x.get("ablation"))
+            summary.append(f"  {r['law']} {r['motion']} {r['contacts']} contacts without "
+                           f"{r['ablation'].replace('_', ' ')}: "
+                           f"{r['wall_per_simulated_second'] / base['wall_per_simulated_second']:.3g}x "
+                           "the time with it")
+    po, pm = pile_records
+    summary.append(
+        f"  disc pile ({po['law']}, {po['contacts']} contacts at most): ours "
+        f"{po['wall_per_simulated_second']:.3g} s vs MuJoCo {pm['wall_per_simulated_second']:.3g}"
+        f" s per simulated s ({po['wall_per_simulated_second'] / pm['wall_per_simulated_second']:.3g}x); "
+        f"penetration {po['max_penetration']:.2e} vs {pm['max_penetration']:.2e} m; energy rise "
+        f"{po['energy_rise']:.2e} vs {pm['energy_rise']:.2e} of the settling drop")
+    meta = {"step": STEP, "span": span, "boxes": list(boxes), "laws": list(LAWS),
+            "repeats": REPEATS, "mujoco_repeats": MUJOCO_REPEATS, "mujoco": mujoco_version(),
+            "exponents": exps, "table": table}
+    return SectionResult("moreau-scale", records, figures, summary, meta)
