@@ -216,8 +216,9 @@ def run(args: argparse.Namespace) -> int:
         for name in list_scenes():
             print(name)
         return 0
-    impact_options = _impact_options(args)
     if args.bench:
+        args.law = args.law or "pereira-nikravesh"
+        impact_options = _impact_options(args)
         from .benchmark import run_benchmark
 
         rows = run_benchmark([args.scene] if args.scene else None, repeats=args.repeats,
@@ -239,18 +240,34 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.scene:
         raise ParameterError("name a scene (see `convimpact simulate --list`)")
-    if args.method != "auto" and args.method not in available_methods(args.law):
-        raise NotSupportedError(
-            f"law {args.law!r} has no method {args.method!r}; available: "
-            f"{', '.join(available_methods(args.law))}")
     scene = load_scene(args.scene, **_parse_params(args.param))
     if args.animate:
         check_outlines(check_animatable(scene.mechanism), scene.outlines)  # fail early
     t_end = float(args.t_end) if args.t_end is not None else float(scene.t_end)
-    res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
-                   integrator=args.integrator, rtol=args.rtol, atol=args.atol,
-                   zeno=args.zeno, max_impacts=args.max_impacts, dense_output=True,
-                   impact_options=impact_options)
+    declared = dict(scene.simulation or {})
+    scheme = args.scheme or declared.get("scheme", "event-driven")
+    if args.law is None:
+        args.law = declared.get("law", "pereira-nikravesh") if scheme == declared.get(
+            "scheme") else "pereira-nikravesh"
+    impact_options = _impact_options(args)
+    if args.method != "auto" and args.method not in available_methods(args.law):
+        raise NotSupportedError(
+            f"law {args.law!r} has no method {args.method!r}; available: "
+            f"{', '.join(available_methods(args.law))}")
+    if scheme == "moreau-jean":
+        from .moreau import simulate_moreau
+
+        h = args.h if args.h is not None else declared.get("h")
+        if h is None:
+            raise ParameterError("Moreau–Jean needs a step: pass --h")
+        options = {**dict(declared.get("impact_options", {})), **impact_options}
+        res = simulate_moreau(scene, (0.0, t_end), h=float(h), law=args.law,
+                              method=args.method, impact_options=options)
+    else:
+        res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
+                       integrator=args.integrator, rtol=args.rtol, atol=args.atol,
+                       zeno=args.zeno, max_impacts=args.max_impacts, dense_output=True,
+                       impact_options=impact_options)
     report = scene_report(scene, res)
     written: list[Path] = []
     if args.out is not None or not args.json:
@@ -269,8 +286,12 @@ def run(args: argparse.Namespace) -> int:
         print()
         return 0 if res.success else 1
     e_t = f" (e_t = {args.e_t:g})" if args.e_t is not None else ""
+    how = (f"integrator {res.settings['integrator']}" if scheme != "moreau-jean" else
+           f"Moreau–Jean h = {res.settings['h']:g} s, {res.n_contact_steps} contact steps, "
+           f"at most {getattr(res, 'max_active_contacts', 0)} contacts on a step, max "
+           f"penetration {res.max_penetration:.2e} m")
     print(f"{scene.name}: t = [0, {t_end:g}] s, law {args.law}{e_t}, method {args.method}, "
-          f"integrator {res.settings['integrator']}")
+          f"{how}")
     print(f"  status {res.status}: {res.message}")
     print(f"  {len(res.impacts)} impacts, {len(res.contact_events)} contact switches, "
           f"{res.n_steps} steps, {res.nfev} RHS evaluations "
@@ -300,7 +321,13 @@ def run(args: argparse.Namespace) -> int:
 def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", nargs="?", help="scene name (module of problems/)")
     p.add_argument("--list", action="store_true", help="name the scenes and exit")
-    p.add_argument("--law", default="pereira-nikravesh", choices=LAWS, help="impact law")
+    p.add_argument("--law", default=None, choices=LAWS,
+                   help="impact law (default: the scene's declared law, else pereira-nikravesh)")
+    p.add_argument("--scheme", default=None, choices=("event-driven", "moreau-jean"),
+                   help="simulation scheme (default: the scene's declared one, else "
+                        "event-driven)")
+    p.add_argument("--h", type=float, default=None,
+                   help="Moreau–Jean step (default: the scene's declared one)")
     p.add_argument("--method", default="auto", choices=METHODS, help="impact solver path")
     p.add_argument("--e-t", type=float, default=None,
                    help="tangential restitution in [-1, 1] of --law chatterjee-ruina (default "
