@@ -178,15 +178,16 @@ def test_engine_path_options_are_checked():
 
 
 def test_disc_pile_declares_moreau_jean_and_lists_its_neighbours():
-    scene = load_scene("disc_pile", columns=3, rows=2)
+    scene = load_scene("disc_pile", columns=4, rows=2)
     assert scene.simulation["scheme"] == "moreau-jean"
     import convimpact.problems.disc_pile as pile
 
-    c, radii = pile.layout(3, 2, 0)
+    c, radii = pile.layout(4, 2, 0)
     pairs = pile.neighbour_pairs(c, radii)
-    # every pair of adjacent lattice sites is a candidate; two discs far apart are not
-    assert (0, 1) in pairs and (0, 3) in pairs and (0, 5) not in pairs
-    # an unlisted pair pushed into overlap is measured: discs 0 and 5 put 1 cm apart
+    # row 0 holds sites 0..3 (0.1 m apart), row 1 sites 4..6: neighbours in the row and
+    # across the rows are candidates; sites 0.3 m apart are not
+    assert (0, 1) in pairs and (0, 4) in pairs and (0, 3) not in pairs
+    # an unlisted pair pushed into overlap is measured: disc 3 moved 1 cm into disc 0
     th = scene.theta0.copy()
-    th[15:17] = th[0:2] + np.array([radii[0] + radii[5] - 0.01, 0.0])
+    th[9:11] = th[0:2] + np.array([radii[0] + radii[3] - 0.01, 0.0])
     assert pile.unlisted_overlap(th, radii, pairs) == pytest.approx(0.01, abs=1e-12)
