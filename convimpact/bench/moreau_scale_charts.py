@@ -44,6 +44,10 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
             ax.plot(mj[0], 10 * mj[1], color="gray", ls="--", lw=1, label="10x MuJoCo")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ns = sorted({r["contacts"] for r in records if r.get("motion") == motion})
+        ax.set_xticks(ns)
+        ax.set_xticklabels([str(n) for n in ns])
+        ax.minorticks_off()
         ax.set_xlabel("number of contacts (4 per box)")
         ax.set_title(f"boxes {motion}" + (" at 2 m/s" if motion == "sliding" else ""),
                      fontsize=10)
@@ -61,34 +65,40 @@ def pile_chart(series: dict[str, Any], records: list[dict[str, Any]], out) -> st
     plt = _plt()
     from matplotlib.patches import Circle
 
-    ours, theirs = records
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    by = {r["law"]: r for r in records}
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
     ax = axes[0]
-    ax.plot(series["t"], series["energy"], color="tab:red",
-            label=f"Moreau–Jean ({ours['law']}): "
-                  f"{ours['wall_per_simulated_second']:.3g} s per simulated s")
-    ax.plot(series["t_mujoco"], series["energy_mujoco"], color="black",
-            label=f"MuJoCo: {theirs['wall_per_simulated_second']:.3g} s per simulated s")
+    colors = {"ccp": "tab:blue", "coulomb": "tab:red"}
+    for law, (t, e, _) in series["ours"].items():
+        ax.plot(t, e, color=colors.get(law, "tab:green"),
+                label=f"Moreau–Jean, {law}: {by[law]['wall_per_simulated_second']:.3g} s per "
+                      "simulated s")
+    t, e, _ = series["mujoco"]
+    ax.plot(t, e, color="black",
+            label=f"MuJoCo: {by['mujoco']['wall_per_simulated_second']:.3g} s per simulated s")
     ax.set_xlabel("t (s)")
     ax.set_ylabel("E(t) - E(0) (J)")
-    ax.set_title("total energy (e = 0: never rises)", fontsize=10)
+    ax.set_title("total energy (e = 0)", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     width = series["width"]
-    for ax, xy, title in ((axes[1], series["ours_xy"],
-                           f"Moreau–Jean at t end: {ours['contacts']} contacts at most, "
-                           f"penetration {ours['max_penetration']:.1e} m"),
-                          (axes[2], series["mujoco_xy"],
-                           f"MuJoCo at t end: {theirs['contacts']} contacts at most, "
-                           f"penetration {theirs['max_penetration']:.1e} m")):
+    law = list(series["ours"])[-1]
+    panels = ((axes[1], series["ours"][law][2],
+               f"Moreau–Jean ({law}) at t end: {by[law]['contacts']} contacts at most, "
+               f"penetration {by[law]['max_penetration']:.1e} m"),
+              (axes[2], series["mujoco"][2],
+               f"MuJoCo at t end: {by['mujoco']['contacts']} contacts at most, "
+               f"penetration {by['mujoco']['max_penetration']:.1e} m"))
+    for ax, xy, title in panels:
         for (x, y), r in zip(xy, series["radii"]):
             ax.add_patch(Circle((x, y), r, fill=False, lw=0.8))
-        top = max(1.1, float(np.max(xy[:, 1])) + 0.1)
+        top = float(np.max(xy[:, 1])) + 0.1
         ax.plot([0, 0, width, width], [top, 0, 0, top], color="k", lw=1.5)
         ax.set_xlim(-0.05, width + 0.05)
-        ax.set_ylim(-0.05, max(1.1, float(np.max(xy[:, 1])) + 0.1))
+        ax.set_ylim(-0.05, top)
         ax.set_aspect("equal")
         ax.set_title(title, fontsize=9)
-    fig.suptitle(f"disc pile: {len(series['radii'])} discs settling in a box, same step h", fontsize=10)
+    fig.suptitle(f"disc pile: {len(series['radii'])} discs settling in a box, same step "
+                 f"h = {series['h']:g} s", fontsize=10)
     fig.tight_layout()
     return save_chart(fig, out, "moreau_pile.png")

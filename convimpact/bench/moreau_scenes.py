@@ -73,8 +73,8 @@ def box_row_mjcf(n: int, h: float) -> str:
 def disc_pile_mjcf(scene, h: float) -> str:
     """MJCF of the disc pile scene (our x, y are MuJoCo's x, z)."""
     p = scene.parameters
-    radii, masses, mu = p["radii"], p["masses"], p["mu"]
-    width = p["box_width"]
+    radii, masses, mu = p["radii"], p["masses"], float(p["mu"])
+    width = float(p["box_width"])
     th = np.asarray(scene.theta0, float)
     geom = f'friction="{mu!r} 0 0" condim="3"'
     walls = (f'<geom type="plane" size="0 0 1" {geom}/>'
@@ -82,9 +82,10 @@ def disc_pile_mjcf(scene, h: float) -> str:
              f'<geom type="plane" pos="{width!r} 0 0" zaxis="-1 0 0" size="0 0 1" {geom}/>')
     bodies = []
     for i, (r, m) in enumerate(zip(radii, masses)):
+        r, m = float(r), float(m)
         inertia = 0.5 * m * r * r
         bodies.append(
-            f'<body name="disc{i}" pos="{th[3 * i]!r} 0 {th[3 * i + 1]!r}">'
+            f'<body name="disc{i}" pos="{float(th[3 * i])!r} 0 {float(th[3 * i + 1])!r}">'
             f'<inertial pos="0 0 0" mass="{m!r}" diaginertia="{inertia!r} {inertia!r} '
             f'{inertia!r}"/><joint type="slide" axis="1 0 0"/><joint type="slide" '
             f'axis="0 0 1"/><joint type="hinge" axis="0 -1 0"/>'
