@@ -97,9 +97,7 @@ class Evaluator:
                 bad = self.contacts[int(np.flatnonzero(~np.asarray(data.contact_ok,
                                                                    bool))[0])]
                 mech.contact_gap(bad, q)  # raises the model's typed error
-            M = np.array(data.M, dtype=float)
-            M = np.tril(M) + np.tril(M, -1).T  # the pass fills the lower triangle
-            return M, np.array(data.gap, dtype=float), np.array(
+            return np.array(data.M, dtype=float), np.array(data.gap, dtype=float), np.array(
                 data.contact_jacobian[:, :self.d], dtype=float)
         M = np.asarray(mech.mass_matrix(q), float)
         gaps = np.array([float(mech.contact_gap(c, q)) for c in self.contacts])
@@ -188,29 +186,70 @@ class StepProblem:
     mu: np.ndarray
 
 
+@dataclass
+class Layout:
+    """How a step's active contacts split into islands and batches (reused while the active
+    set and the groups stay the same: a resting or sliding scene keeps it for many steps)."""
+
+    key: tuple
+    batches: list          # (C (B, nc), K (B, nk)) per shape of the small islands
+    where: list            # the small islands' contacts, in solve order
+    offsets: tuple         # (moff, boff, woff) of the compiled call
+    large: list            # (contacts, coordinates) of the large islands
+
+
+def layout(active: np.ndarray, J: np.ndarray, groups: Groups, split: bool,
+           cache: dict | None) -> Layout:
+    """The step's :class:`Layout`, from ``cache["layout"]`` when the active contacts, the
+    coordinates their rows move and the groups are those of the cached one."""
+    na, d, k = J.shape
+    moves = np.any(J != 0.0, axis=1)
+    key = (active.tobytes(), np.packbits(moves).tobytes(), id(groups), split)
+    if cache is not None:
+        hit = cache.get("layout")
+        if hit is not None and hit.key == key:
+            return hit
+    islands = contact_islands(moves, groups, split)
+    by_shape: dict = {}
+    large = []
+    for cs, cols in islands:
+        if cs.size * d <= engine.COMPILED_MAX_ROWS:
+            by_shape.setdefault((cs.size, cols.size), []).append((cs, cols))
+        else:
+            large.append((cs, cols))
+    batches, where, sizes = [], [], []
+    for (nc, _), items in by_shape.items():
+        batches.append((np.array([c for c, _ in items]), np.array([c for _, c in items])))
+        where.extend(c for c, _ in items)
+        sizes.append(np.full(len(items), nc))
+    if where:
+        nc_of = np.concatenate(sizes)
+        moff = np.concatenate([[0], np.cumsum(nc_of)])
+        offsets = (moff, moff * d, np.concatenate([[0], np.cumsum((nc_of * d) ** 2)]))
+    else:
+        offsets = (None, None, None)
+    out = Layout(key, batches, where, offsets, large)
+    if cache is not None:
+        cache["layout"] = out
+    return out
+
+
 def solve_step(problem: StepProblem, inv: InverseMass, *, coulomb: bool, tol: float,
                start: np.ndarray | None, split: bool, counters: EngineCounters,
                names: tuple = (), max_iter: int = 100, newton_iter: int = 20,
-               where: str = "") -> np.ndarray:
-    """The certified impulses (na, d) of the step's contact problem, island by island."""
+               where: str = "", cache: dict | None = None) -> np.ndarray:
+    """The certified impulses (na, d) of the step's contact problem, island by island
+    (``cache``: a dict kept across steps for the island layout)."""
     t0 = _time.perf_counter()
     J, b, mu = problem.J, problem.b, problem.mu
     na, d, k = J.shape
-    moves = np.any(J != 0.0, axis=1)
-    islands = contact_islands(moves, inv.groups, split)
+    lay = layout(problem.active, J, inv.groups, split, cache)
     out = np.zeros((na, d))
-    small, large = [], []
-    for cs, cols in islands:
-        (small if cs.size * d <= engine.COMPILED_MAX_ROWS else large).append((cs, cols))
     # the small islands, batched by shape: W = J_I G_II J_I^T
-    by_shape: dict = {}
-    for cs, cols in small:
-        by_shape.setdefault((cs.size, cols.size), []).append((cs, cols))
-    Ws, bs, mus, starts, warm, sizes, where_cs = [], [], [], [], [], [], []
-    for (nc, nk), items in by_shape.items():
-        B = len(items)
-        C = np.array([c for c, _ in items])                    # (B, nc)
-        K = np.array([c for _, c in items])                    # (B, nk)
+    Ws, bs, mus, starts, warm = [], [], [], [], []
+    for C, K in lay.batches:
+        B, nc = C.shape
+        nk = K.shape[1]
         JI = J[C[:, :, None, None], np.arange(d)[None, None, :, None], K[:, None, None, :]]
         JI = JI.reshape(B, nc * d, nk)
         GI = inv.G[K[:, :, None], K[:, None, :]]
@@ -225,15 +264,10 @@ def solve_step(problem: StepProblem, inv: InverseMass, *, coulomb: bool, tol: fl
             sc = start[C].reshape(B, -1)
             starts.append(sc.ravel())
             warm.append(np.any(sc != 0.0, axis=1))
-        sizes.append(np.full(B, nc))
-        where_cs.extend(c for c, _ in items)
     counters.assembly_time += _time.perf_counter() - t0
     if Ws:
         t1 = _time.perf_counter()
-        nc_of = np.concatenate(sizes)
-        moff = np.concatenate([[0], np.cumsum(nc_of)])
-        boff = moff * d
-        woff = np.concatenate([[0], np.cumsum((nc_of * d) ** 2)])
+        moff, boff, woff = lay.offsets
         bcat = np.concatenate(bs)
         Wcat = np.concatenate(Ws)
         mucat = np.concatenate(mus)
@@ -243,18 +277,19 @@ def solve_step(problem: StepProblem, inv: InverseMass, *, coulomb: bool, tol: fl
         counters.solve_time += _time.perf_counter() - t1
         counters.iterations += int(its.sum())
         counters.warm_started += int(used.sum())
-        counters.problems += len(where_cs)
-        counters.largest_island = max(counters.largest_island, int(nc_of.max()))
-        cat = np.concatenate(where_cs)
-        out[cat] = r.reshape(-1, d)
-        for i in np.flatnonzero(res > tol):
-            cs = where_cs[i]
-            nd = cs.size * d
-            out[cs] = _engine(Wcat[woff[i]:woff[i + 1]].reshape(nd, nd),
-                              bcat[boff[i]:boff[i + 1]], mucat[moff[i]:moff[i + 1]], d,
-                              coulomb, tol, None, counters, max_iter, where,
-                              [names[c] for c in problem.active[cs]])
-    for cs, cols in large:
+        counters.problems += len(lay.where)
+        counters.largest_island = max(counters.largest_island,
+                                      int(np.max(np.diff(moff))))
+        for i, cs in enumerate(lay.where):
+            if res[i] <= tol:
+                out[cs] = r[boff[i]:boff[i + 1]].reshape(-1, d)
+            else:
+                nd = cs.size * d
+                out[cs] = _engine(Wcat[woff[i]:woff[i + 1]].reshape(nd, nd),
+                                  bcat[boff[i]:boff[i + 1]], mucat[moff[i]:moff[i + 1]], d,
+                                  coulomb, tol, None, counters, max_iter, where,
+                                  [names[c] for c in problem.active[cs]])
+    for cs, cols in lay.large:
         t2 = _time.perf_counter()
         nd = cs.size * d
         JI = J[cs][:, :, cols].reshape(nd, cols.size)

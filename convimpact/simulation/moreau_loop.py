@@ -68,6 +68,7 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
     coulomb = law == "coulomb"
     counters = EngineCounters()
     cache = GroupCache()
+    layout_cache: dict = {}
     last = None  # previous step's impulses (nc, d)
     rows: dict[str, list] = {key: [] for key in SERIES}
     sigma = np.zeros(m)
@@ -155,7 +156,8 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
                 r = solve_step(StepProblem(active, Ja, b, mu_all[active]), inv,
                                coulomb=coulomb, tol=tol, start=start, split=islands,
                                counters=counters, names=contacts, max_iter=max_iter,
-                               newton_iter=newton_iter, where=f"at t = {tm:.9g}, step {step}")
+                               newton_iter=newton_iter, where=f"at t = {tm:.9g}, step {step}",
+                               cache=layout_cache)
             except ConvImpactError as exc:
                 exc.add_note(f"(while solving the step's contact problem at t = {tm:.9g}, "
                              f"step {step}, in simulate_moreau)")
