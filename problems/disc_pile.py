@@ -131,7 +131,8 @@ def make_scene(columns: int = 10, rows: int = 12, mu: float = 0.3, e: float = 0.
     outlines = {f"disc{i}": np.column_stack([radii[i] * np.cos(angle),
                                              radii[i] * np.sin(angle)]) for i in range(n)}
     params = dict(
-        n_discs=n, columns=columns, rows=rows, radii=radii.tolist(), masses=mass.tolist(), mu=mu, e=e, gravity=G,
+        n_discs=n, columns=columns, rows=rows, radii=radii.tolist(), masses=mass.tolist(),
+        mu=mu, e=e, gravity=G,
         box_width=width, n_candidate_contacts=len(mech.contact_names),
         n_neighbour_pairs=len(pairs), neighbour_factor=NEIGHBOUR_FACTOR, seed=seed,
         neighbour_check=("disc pairs are candidate contacts only when their centres start "

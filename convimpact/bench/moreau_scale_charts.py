@@ -49,7 +49,7 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
         ax.set_xticklabels([str(n) for n in ns])
         ax.minorticks_off()
         ax.set_xlabel("number of contacts (4 per box)")
-        ax.set_title(f"boxes {motion}" + (" at 2 m/s" if motion == "sliding" else ""),
+        ax.set_title("boxes sliding at 2 m/s" if motion == "sliding" else "boxes at rest",
                      fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8, loc="upper left")

@@ -26,6 +26,16 @@ of size h from (q_k, v_k) at t_k:
    only, ``e_t = 0`` on those at rest (a resting contact's slip is not reversed every step);
    it restitutes the slip of the free velocity, which is the slip at t_k when no smooth
    force acts along the contact's tangent during the step (a ball on a level floor);
+   **Laws "ccp" and "coulomb" under method "auto" or "interior"** take the contact engine
+   instead (:mod:`.moreau_loop`, :mod:`.moreau_engine`): the step's problem
+   ``u = J v_{k+1} = W r + b``, ``W = J G J^T``, built in the block structure of M (batched
+   factorizations of the coordinate groups), split into independent islands
+   (:mod:`.islands`), warm-started from the previous step's impulses, solved by the engine's
+   compiled kernels in one call for the small islands and by
+   :func:`convimpact.impact.contacts.engine.solve` for the large ones, each island certified
+   by its natural-map residual (``impact_options["tol"]``, default 1e-8) or
+   :class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` naming the
+   step and the contacts;
 6. ``q_{k+1} = q_m + h theta v_{k+1}``; for closed loops theta is projected back onto
    ``Psi = 0`` (M-weighted, when the drift exceeds ``projection_tol``) and ``v_{k+1}`` onto
    ``C(q_{k+1}) v = 0``.
