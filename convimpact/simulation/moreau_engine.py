@@ -130,14 +130,18 @@ class InverseMass:
 
 @dataclass
 class GroupCache:
+    """The coordinate groups kept across steps: the union of the coupling patterns met,
+    the groups, per group size the flat indices of their blocks in M, all of them
+    (``inside``), and the inverse mass array the blocks are written into."""
+
     pattern: np.ndarray | None = None
     groups: Groups | None = None
-    stats: dict = field(default_factory=dict)
+    flat: dict = field(default_factory=dict)
+    inside: np.ndarray | None = None
+    Minv: np.ndarray | None = None
 
 
-def inverse_mass(M: np.ndarray, C: np.ndarray, cache: GroupCache) -> InverseMass:
-    """The step's G (see the module docstring); raises SimulationError for an M that is not
-    positive definite and LoopConstraintError for a singular ``C M^-1 C^T``."""
+def _regroup(M: np.ndarray, C: np.ndarray, cache: GroupCache) -> None:
     k = M.shape[0]
     if not np.all(np.isfinite(M)):
         raise SimulationError("the mass matrix is not finite")
@@ -147,20 +151,39 @@ def inverse_mass(M: np.ndarray, C: np.ndarray, cache: GroupCache) -> InverseMass
         pattern = pattern | ((rows.T.astype(float) @ rows.astype(float)) > 0.0)
     # the union of the patterns met so far: an entry of M that vanishes at some angle
     # (a free body's coupling at zero rotation) keeps its group (coarser groups stay exact)
-    if cache.pattern is None or np.any(pattern & ~cache.pattern):
-        cache.pattern = pattern if cache.pattern is None else (pattern | cache.pattern)
-        cache.groups = coordinate_groups(cache.pattern)
+    cache.pattern = pattern if cache.pattern is None else (pattern | cache.pattern)
+    cache.groups = coordinate_groups(cache.pattern)
+    cache.flat = {s: (idx[:, :, None] * k + idx[:, None, :]).ravel()
+                  for s, (_, idx) in cache.groups.by_size.items()}
+    cache.inside = np.concatenate(list(cache.flat.values()))
+    cache.Minv = np.zeros((k, k))
+
+
+def inverse_mass(M: np.ndarray, C: np.ndarray, cache: GroupCache) -> InverseMass:
+    """The step's G (see the module docstring); raises SimulationError for an M that is not
+    positive definite or not finite and LoopConstraintError for a singular ``C M^-1 C^T``.
+
+    The groups are recomputed only when M has a nonzero (or non-finite) entry outside the
+    cached groups' blocks (one count of M's nonzeros per step) or the mechanism has loops.
+    """
+    flatM = M.reshape(-1)
+    if (cache.groups is None or C.shape[0]
+            or np.count_nonzero(flatM) != np.count_nonzero(flatM[cache.inside])):
+        _regroup(M, C, cache)
     groups = cache.groups
-    Minv = np.zeros((k, k))
+    Minv = cache.Minv
+    flatI = Minv.reshape(-1)
     for s, (_, idx) in groups.by_size.items():
-        blocks = M[idx[:, :, None], idx[:, None, :]]
+        blocks = flatM[cache.flat[s]].reshape(idx.shape[0], s, s)
+        if not np.all(np.isfinite(blocks)):
+            raise SimulationError("the mass matrix is not finite")
         try:
             L = np.linalg.cholesky(blocks)
         except np.linalg.LinAlgError:
             raise SimulationError("the mass matrix is not positive definite on this step"
                                   ) from None
         Li = np.linalg.inv(L)
-        Minv[idx[:, :, None], idx[:, None, :]] = np.swapaxes(Li, 1, 2) @ Li
+        flatI[cache.flat[s]] = (np.swapaxes(Li, 1, 2) @ Li).ravel()
     if C.shape[0] == 0:
         return InverseMass(Minv, groups)
     A = Minv @ C.T
