@@ -102,8 +102,16 @@ def _coordinate_units(mechanism, k: int) -> list[str]:
     return out
 
 
+#: coordinates drawn in trajectory.png, impacts marked by lines, contacts in contacts.png
+#: (a scene of many bodies is shown in part: its animation shows the whole)
+MAX_PANELS = 12
+MAX_IMPACT_LINES = 60
+MAX_CONTACT_PLOTS = 24
+
+
 def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
-    """Trajectory, energy/drift and (when there are contacts) contact plots (Agg backend)."""
+    """Trajectory, energy/drift and (when there are contacts, at most
+    :data:`MAX_CONTACT_PLOTS`) contact plots (Agg backend)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -126,10 +134,16 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
         dth = np.array([(res.sol(b)[:k] - res.sol(a)[:k]) / (b - a) for a, b in zip(lo, hi)])
     else:
         tt, th, dth = res.t, res.theta, res.dtheta
-    fig, axes = plt.subplots(k, 2, sharex=True, figsize=(10, 1.9 * k + 1.0), squeeze=False)
-    # panels in natural order of the coordinate names (theta1, theta2, ... theta10)
+    # panels in natural order of the coordinate names (theta1, theta2, ... theta10); a scene
+    # of many bodies (the disc pile's 342 coordinates) shows its first MAX_PANELS
     order = sorted(range(k), key=lambda j: [int(p) if p.isdigit() else p
                                             for p in re.split(r"(\d+)", names[j])])
+    shown = order[:MAX_PANELS]
+    if len(t_imp) > MAX_IMPACT_LINES:  # hundreds of impact steps: lines would hide the plot
+        t_imp = []
+    fig, axes = plt.subplots(len(shown), 2, sharex=True, figsize=(10, 1.9 * len(shown) + 1.0),
+                             squeeze=False)
+    order = shown
     for row, j in enumerate(order):
         axes[row, 0].plot(tt, th[:, j], color=f"C{j}")
         axes[row, 0].set_ylabel(f"{names[j]} [{units[j]}]")
@@ -142,7 +156,9 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     axes[-1, 1].set_xlabel("t [s]")
     axes[0, 0].set_title("joint coordinates")
     axes[0, 1].set_title("joint velocities (jumps at impacts)")
-    fig.suptitle(f"{scene.name}: trajectory ({len(t_imp)} impacts, grey lines)")
+    more = f"; first {len(shown)} of {k} coordinates" if len(shown) < k else ""
+    fig.suptitle(f"{scene.name}: trajectory ({len(res.impacts)} impacts"
+                 + (", grey lines" if t_imp else "") + f"{more})")
     fig.tight_layout()
     p = out / "trajectory.png"
     fig.savefig(p, dpi=100)
@@ -187,7 +203,7 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     fig.savefig(p, dpi=100)
     plt.close(fig)
     paths.append(p)
-    if getattr(scene.mechanism, "contact_names", None):
+    if 0 < len(getattr(scene.mechanism, "contact_names", None) or ()) <= MAX_CONTACT_PLOTS:
         p = plot_contacts(res, out / "contacts.png", mechanism=scene.mechanism,
                           title=f"{scene.name}: contact modes and forces")
         if p is not None:
