@@ -66,7 +66,7 @@ SPAN = 0.5
 QUICK_SPAN = 0.1
 PILE_SPAN = 1.0
 QUICK_PILE_SPAN = 0.1
-REPEATS = 3
+REPEATS = 5
 #: span of the runs without warm starts or islands (and of their reference run)
 ABLATION_SPAN = 0.2
 MUJOCO_REPEATS = 5
@@ -206,6 +206,9 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
     if mujoco_version() is None:
         return SectionResult("moreau-scale", [], summary=[
             "moreau-scale: MuJoCo is not installed (pip install mujoco); section skipped"])
+    import os
+
+    load_start = os.getloadavg()
     quick = config.quick
     boxes = QUICK_BOXES if quick else BOXES
     span = QUICK_SPAN if quick else SPAN
@@ -263,7 +266,12 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
             f"energy rise {po['energy_rise']:.2e} vs {pm['energy_rise']:.2e} of the settling "
             f"drop; final kinetic energy {po['final_kinetic_energy']:.2e} vs "
             f"{pm['final_kinetic_energy']:.2e} J; unlisted overlap {po['unlisted_overlap']:.1e} m")
-    meta = {"step": STEP, "span": span, "boxes": list(boxes), "laws": list(LAWS),
+    load = {"start": list(load_start), "end": list(os.getloadavg())}
+    summary.append(f"  machine load (1, 5, 15 min) at the start {load_start[0]:.1f}, "
+                   f"{load_start[1]:.1f}, {load_start[2]:.1f}; at the end "
+                   f"{load['end'][0]:.1f}, {load['end'][1]:.1f}, {load['end'][2]:.1f} "
+                   "(2 cores, shared: medians)")
+    meta = {"step": STEP, "span": span, "load_average": load, "boxes": list(boxes), "laws": list(LAWS),
             "repeats": REPEATS, "mujoco_repeats": MUJOCO_REPEATS, "mujoco": mujoco_version(),
             "exponents": exps, "table": table}
     return SectionResult("moreau-scale", records, figures, summary, meta)
