@@ -58,6 +58,8 @@ class EngineCounters:
     problems: int = 0          # islands solved
     warm_started: int = 0      # islands whose warm start was certified
     engine_calls: int = 0      # islands solved by engine.solve (large or not certified)
+    newton_finished: int = 0   # small islands certified by the backend's Newton from the
+    #                            compiled answer (where the compiled call stopped short)
     iterations: int = 0
     largest_island: int = 0    # contacts
     solve_time: float = 0.0    # s in the contact solves (assembly excluded)
@@ -303,15 +305,26 @@ def solve_step(problem: StepProblem, inv: InverseMass, *, coulomb: bool, tol: fl
         counters.problems += len(lay.where)
         counters.largest_island = max(counters.largest_island,
                                       int(np.max(np.diff(moff))))
-        for i, cs in enumerate(lay.where):
-            if res[i] <= tol:
-                out[cs] = r[boff[i]:boff[i + 1]].reshape(-1, d)
-            else:
-                nd = cs.size * d
-                out[cs] = _engine(Wcat[woff[i]:woff[i + 1]].reshape(nd, nd),
-                                  bcat[boff[i]:boff[i + 1]], mucat[moff[i]:moff[i + 1]], d,
-                                  coulomb, tol, None, counters, max_iter, where,
-                                  [names[c] for c in problem.active[cs]])
+        out[np.concatenate(lay.where)] = r.reshape(-1, d)
+        for i in np.flatnonzero(res > tol):
+            cs = lay.where[i]
+            nd = cs.size * d
+            Wi = Wcat[woff[i]:woff[i + 1]].reshape(nd, nd)
+            bi, mi = bcat[boff[i]:boff[i + 1]], mucat[moff[i]:moff[i + 1]]
+            # the regularized (Levenberg-Marquardt) Newton of the engine's backend from the
+            # compiled answer first: it finishes where the compiled Newton stalls (Coulomb's
+            # law on redundant contacts, a box's first step on four corners)
+            t3 = _time.perf_counter()
+            R = engine.warm_newton(Wi, bi, mi, d, r[boff[i]:boff[i + 1]], coulomb=coulomb,
+                                   tol=tol, newton_iter=newton_iter, compiled=False)
+            counters.solve_time += _time.perf_counter() - t3
+            counters.iterations += int(R.iterations)
+            if R.converged:
+                out[cs] = R.impulse
+                counters.newton_finished += 1
+                continue
+            out[cs] = _engine(Wi, bi, mi, d, coulomb, tol, None, counters, max_iter, where,
+                              [names[c] for c in problem.active[cs]])
     for cs, cols in lay.large:
         t2 = _time.perf_counter()
         nd = cs.size * d
