@@ -43,7 +43,7 @@ from ..impact.contacts import engine
 from ..impact.contacts.contact_problem import ContactSolution, UncertifiedSolutionError
 from ..impact.errors import LoopConstraintError, SimulationError
 from .islands import Groups, contact_islands, coordinate_groups
-from .moreau_kernels import solve_islands
+from .moreau_kernels import assemble_islands, block_inverses, solve_islands
 
 #: the laws whose step problem the engine solves
 ENGINE_LAWS = ("ccp", "coulomb")
@@ -107,6 +107,14 @@ class Evaluator:
         if self.d is None:
             self.d = J.shape[1]
         return M, gaps, J
+
+    def mass_and_gaps(self, q: np.ndarray):
+        """``(M, gaps)`` at q (one pass for the model's mechanisms)."""
+        if self.fast:
+            data = self.mech.data
+            data.compute(self._flags, np.ascontiguousarray(q, dtype=float))
+            return np.array(data.M, dtype=float), np.array(data.gap, dtype=float)
+        return np.asarray(self.mech.mass_matrix(q), float), self.gaps(q)
 
     def gaps(self, q: np.ndarray) -> np.ndarray:
         if self.fast:
@@ -175,17 +183,10 @@ def inverse_mass(M: np.ndarray, C: np.ndarray, cache: GroupCache) -> InverseMass
     groups = cache.groups
     Minv = cache.Minv
     flatI = Minv.reshape(-1)
-    for s, (_, idx) in groups.by_size.items():
-        blocks = flatM[cache.flat[s]].reshape(idx.shape[0], s, s)
-        if not np.all(np.isfinite(blocks)):
-            raise SimulationError("the mass matrix is not finite")
-        try:
-            L = np.linalg.cholesky(blocks)
-        except np.linalg.LinAlgError:
-            raise SimulationError("the mass matrix is not positive definite on this step"
-                                  ) from None
-        Li = np.linalg.inv(L)
-        flatI[cache.flat[s]] = (np.swapaxes(Li, 1, 2) @ Li).ravel()
+    for s in groups.by_size:
+        if not block_inverses(flatM, cache.flat[s], s, flatI):
+            raise SimulationError("the mass matrix is not positive definite (or not finite) "
+                                  "on this step")
     if C.shape[0] == 0:
         return InverseMass(Minv, groups)
     A = Minv @ C.T
@@ -274,12 +275,9 @@ def solve_step(problem: StepProblem, inv: InverseMass, *, coulomb: bool, tol: fl
     Ws, bs, mus, starts, warm = [], [], [], [], []
     for C, K in lay.batches:
         B, nc = C.shape
-        nk = K.shape[1]
-        JI = J[C[:, :, None, None], np.arange(d)[None, None, :, None], K[:, None, None, :]]
-        JI = JI.reshape(B, nc * d, nk)
-        GI = inv.G[K[:, :, None], K[:, None, :]]
-        WI = JI @ GI @ np.swapaxes(JI, 1, 2)
-        Ws.append((0.5 * (WI + np.swapaxes(WI, 1, 2))).ravel())
+        WI = np.empty(B * (nc * d) ** 2)
+        assemble_islands(J, inv.G, C, K, d, WI)
+        Ws.append(WI)
         bs.append(b[C].ravel())
         mus.append(mu[C].ravel())
         if start is None:

@@ -137,3 +137,74 @@ def solve_islands(Wcat, woff, bcat, boff, mucat, moff, d, coulomb, tol, max_iter
         out[boff[i]:boff[i + 1]] = r
         res[i] = natural_map_residual(W, b, mu, d, r, coulomb)
     return out, res, used, iters
+
+
+@_jit
+def block_inverses(Mflat, flat, s, out):
+    """Invert the SPD blocks ``Mflat[flat]`` (n_blocks of s x s, row-major) into
+    ``out[flat]`` by Cholesky; returns False (out undefined) when a block is not positive
+    definite or not finite."""
+    nb = flat.shape[0] // (s * s)
+    L = np.empty((s, s))
+    Li = np.empty((s, s))
+    for b in range(nb):
+        o = b * s * s
+        for i in range(s):
+            for j in range(i + 1):
+                v = Mflat[flat[o + i * s + j]]
+                for p in range(j):
+                    v -= L[i, p] * L[j, p]
+                if i == j:
+                    if not (v > 0.0) or not math.isfinite(v):
+                        return False
+                    L[i, i] = math.sqrt(v)
+                else:
+                    L[i, j] = v / L[j, j]
+        # Li = L^-1 (lower)
+        for j in range(s):
+            for i in range(s):
+                Li[i, j] = 0.0
+            Li[j, j] = 1.0 / L[j, j]
+            for i in range(j + 1, s):
+                v = 0.0
+                for p in range(j, i):
+                    v -= L[i, p] * Li[p, j]
+                Li[i, j] = v / L[i, i]
+        # M^-1 = Li^T Li
+        for i in range(s):
+            for j in range(s):
+                v = 0.0
+                for p in range(max(i, j), s):
+                    v += Li[p, i] * Li[p, j]
+                out[flat[o + i * s + j]] = v
+    return True
+
+
+@_jit
+def assemble_islands(J, G, C, K, d, out):
+    """``W_b = J_b G_bb J_b^T`` of every island b of one batch (contacts C[b], coordinates
+    K[b]) into ``out`` (B * N * N, row-major, N = nc d), symmetrized."""
+    B, nc = C.shape
+    nk = K.shape[1]
+    N = nc * d
+    JI = np.empty((N, nk))
+    X = np.empty((N, nk))
+    for b in range(B):
+        for c in range(nc):
+            for r in range(d):
+                for a in range(nk):
+                    JI[c * d + r, a] = J[C[b, c], r, K[b, a]]
+        for i in range(N):
+            for a in range(nk):
+                v = 0.0
+                for e in range(nk):
+                    v += JI[i, e] * G[K[b, e], K[b, a]]
+                X[i, a] = v
+        o = b * N * N
+        for i in range(N):
+            for j in range(i + 1):
+                v = 0.0
+                for a in range(nk):
+                    v += X[i, a] * JI[j, a]
+                out[o + i * N + j] = v
+                out[o + j * N + i] = v

@@ -81,7 +81,7 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
                 else np.zeros((0, k)))
 
     def record(t, th, dth):
-        M_ = np.asarray(mech.mass_matrix(th), float)
+        M_, g_ = ev.mass_and_gaps(th)
         C_ = loop_rows(th)
         rows["t"].append(t)
         rows["theta"].append(th.copy())
@@ -97,7 +97,7 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
             rows["psi"].append(0.0)
             rows["cdq"].append(0.0)
         if contacts:
-            stats["max_pen"] = max(stats["max_pen"], -float(np.min(ev.gaps(th))))
+            stats["max_pen"] = max(stats["max_pen"], -float(np.min(g_)))
 
     t = t0
     record(t, q, v)
