@@ -85,7 +85,9 @@ def test_resting_stack_impulses_balance_the_weights(law):
                        counters=me.EngineCounters(), names=tuple(mech.contact_names))
     for i in range(n):
         assert rr[2 * i, 0] + rr[2 * i + 1, 0] == pytest.approx((n - i) * G * h, rel=1e-8)
-    assert np.max(np.abs(rr[:, 1])) < 1e-9 * G * h
+        # no net friction across an interface (a self-balanced pair along it is as
+        # indeterminate as the normal split, and within the certificate's tolerance)
+        assert abs(rr[2 * i, 1] + rr[2 * i + 1, 1]) < 1e-9 * G * h
 
 
 @pytest.mark.parametrize("law", ["ccp", "coulomb"])
