@@ -6,29 +6,35 @@ configuration ``q_m``:
 
 1. one evaluation of M, every contact's gap and Jacobian (one compiled pass for the models of
    :mod:`convimpact.model`; name by name for any other mechanism);
-2. the coordinate groups of M and the loops (:func:`.islands.coordinate_groups`, recomputed
-   only when M's pattern changes) and the inverse mass G block by block: groups of equal size
-   are factored together (batched Cholesky; a mass matrix that is not positive definite raises
-   :class:`~convimpact.impact.errors.SimulationError`); with loops G is the loop-constrained
-   inverse ``M^-1 - A (C A)^-1 A^T``, ``A = M^-1 C^T``, so ``C v_{k+1} = 0``;
-3. the candidate contacts: those whose gap predicted at the end of the step with the free
-   velocity closes, ``g + h theta J_n v_free <= gap_tol`` (no other contact enters);
-4. their islands (:func:`.islands.contact_islands`) and per island the problem
-   ``u = W r + b`` with ``W = J G J^T`` (dense, or sparse when the island has
-   :data:`SPARSE_MIN_ROWS` rows or more) and ``b = J v_free + e_eff min(J_n v_free, 0) e_n``
-   (Newton's restitution at the velocity level, ``e_eff`` as in :mod:`.moreau`); every
-   active contact carries its friction;
+2. the coordinate groups of M and the loops (:func:`.islands.coordinate_groups`, kept while
+   M has no nonzero outside their blocks) and the inverse mass G block by block (compiled
+   Cholesky of each block, :func:`.moreau_kernels.block_inverses`; a mass matrix that is
+   not positive definite or not finite raises
+   :class:`~convimpact.impact.errors.SimulationError`); with loops G is the
+   loop-constrained inverse ``M^-1 - A (C A)^-1 A^T``, ``A = M^-1 C^T``, so
+   ``C v_{k+1} = 0``;
+3. the candidate contacts (:mod:`.moreau_loop`): those whose gap predicted at the end of the
+   step with the free velocity closes, ``g + h theta J_n v_free <= gap_tol`` (up to the
+   positions' round-off); no other contact enters;
+4. their islands (:func:`.islands.contact_islands`; the layout kept while the active set
+   stays, :func:`layout`) and per island the problem ``u = W r + b`` with ``W = J G J^T``
+   (compiled for the small islands, :func:`.moreau_kernels.assemble_islands`; sparse for an
+   island of :data:`SPARSE_MIN_ROWS` rows or more) and
+   ``b = J v_free + e_eff min(J_n v_free, 0) e_n`` (Newton's restitution at the velocity
+   level, ``e_eff`` as in :mod:`.moreau`); every active contact carries its friction;
 5. islands of at most :data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` rows are
-   solved together in one compiled call (:func:`.moreau_kernels.solve_islands`), larger ones
-   by :func:`convimpact.impact.contacts.engine.solve` (sparse LDL^T with the symbolic
-   analysis reused within the solve); an island the compiled call does not certify goes to
-   the engine (its ADMM for Coulomb's law). With ``warm_start`` each island starts from the
-   previous step's impulses of its contacts (Newton on the law's natural map; the cold path
-   when that is not certified).
+   solved together in one compiled call (:func:`.moreau_kernels.solve_islands`); one it
+   leaves uncertified is finished by the engine backend's regularized Newton from its
+   answer (:func:`convimpact.impact.contacts.engine.warm_newton`), then by the full engine;
+   larger islands go to :func:`convimpact.impact.contacts.engine.solve` (sparse LDL^T, its
+   symbolic analysis reused within the solve, not across steps). With ``warm_start`` each
+   island starts from the previous step's impulses of its contacts (Newton on the law's
+   natural map; the cold path when that is not certified).
 
 Every island's answer is certified: its relative natural-map residual (the engine's
-measure) is at most ``tol``, else :class:`~convimpact.impact.errors.UncertifiedSolutionError`
-naming the step and the contacts; no answer above ``tol`` is ever applied.
+measure) is at most ``tol``, else
+:class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` naming the step
+and the contacts; no answer above ``tol`` is ever applied.
 """
 
 from __future__ import annotations
