@@ -208,3 +208,49 @@ def assemble_islands(J, G, C, K, d, out):
                     v += X[i, a] * JI[j, a]
                 out[o + i * N + j] = v
                 out[o + j * N + i] = v
+
+
+@_jit
+def contact_rows(gaps, J, v, v_free, e, h_theta, limit, rest_velocity):
+    """The step's active contacts and their data, in one pass.
+
+    A contact is active when ``gaps[c] + h_theta J_n v_free <= limit``. Returns
+    ``(active, Ja, b, vn_k)``: their indices, Jacobian rows (na, d, k), ``b = J v_free``
+    with Newton's restitution ``e_eff min(v_n,free, 0)`` added to the normal
+    (``e_eff = min(e v_n,k / v_n,free, 1)`` on contacts approaching at the step's start,
+    ``v_n,k < -rest_velocity`` and ``v_n,free < 0``; 0 otherwise) and the normal velocities
+    at the start ``vn_k``.
+    """
+    nc, d, k = J.shape
+    vnf = np.empty(nc)
+    count = 0
+    for c in range(nc):
+        s = 0.0
+        for a in range(k):
+            s += J[c, 0, a] * v_free[a]
+        vnf[c] = s
+        if gaps[c] + h_theta * s <= limit:
+            count += 1
+    active = np.empty(count, dtype=np.int64)
+    Ja = np.empty((count, d, k))
+    b = np.empty((count, d))
+    vn_k = np.empty(count)
+    i = 0
+    for c in range(nc):
+        if not (gaps[c] + h_theta * vnf[c] <= limit):
+            continue
+        active[i] = c
+        for r in range(d):
+            s = 0.0
+            for a in range(k):
+                Ja[i, r, a] = J[c, r, a]
+                s += J[c, r, a] * v_free[a]
+            b[i, r] = s
+        s = 0.0
+        for a in range(k):
+            s += J[c, 0, a] * v[a]
+        vn_k[i] = s
+        if s < -rest_velocity and vnf[c] < 0.0:
+            b[i, 0] += min(e[c] * s / vnf[c], 1.0) * vnf[c]
+        i += 1
+    return active, Ja, b, vn_k

@@ -35,6 +35,7 @@ from .moreau_engine import (
     inverse_mass,
     solve_step,
 )
+from .moreau_kernels import contact_rows
 from .projection import project_positions, project_velocities
 from .result import SERIES, ImpactEvent
 
@@ -127,27 +128,17 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
             v_free = v_star
         v_new = v_free
         if contacts:
-            vn_free = J[:, 0, :] @ v_free
             # a resting contact's predicted gap is 0 up to the round-off of the positions:
             # that round-off must not switch it off (one corner of two would then carry
             # the load alone and turn the body)
             slack = GAP_ROUNDOFF * max(1.0, float(np.max(np.abs(qm), initial=0.0)))
-            active = np.flatnonzero(gaps + hk * theta * vn_free <= gap_tol + slack)
+            active, Ja, b, vn_k = contact_rows(gaps, J, v, v_free, e_all, hk * theta,
+                                               gap_tol + slack, rest_velocity)
         else:
-            active = np.zeros(0, dtype=int)
+            active = np.zeros(0, dtype=np.int64)
         if active.size:
             stats["contact_steps"] += 1
             stats["max_active"] = max(stats["max_active"], int(active.size))
-            Ja = J[active]
-            vn_k = Ja[:, 0, :] @ v
-            vnf = vn_free[active]
-            approaching = (vn_k < -rest_velocity) & (vnf < 0.0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                e_eff = np.where(approaching,
-                                 np.minimum(e_all[active] * vn_k / np.where(vnf < 0, vnf, -1.0),
-                                            1.0), 0.0)
-            b = np.einsum("cdk,k->cd", Ja, v_free)
-            b[:, 0] += e_eff * np.minimum(vnf, 0.0)
             start = None
             if warm_start and last is not None:
                 start = last[active]
