@@ -81,10 +81,10 @@ from ..impact.errors import (
 )
 from ..impact import check_law_method, resolve_impact
 from .projection import project_positions, project_velocities
-from .result import SERIES, ImpactEvent, SimulationResult, series_from_rows
+from .result import ImpactEvent, SimulationResult, series_from_rows
 from .initial import consistent_start, initial_state, law_options, positive, time_span
-from .moreau_engine import ENGINE_LAWS
-from .moreau_loop import run_engine_steps
+from .moreau_engine import ENGINE_LAWS, Evaluator
+from .moreau_loop import Recorder, run_engine_steps
 from .simulate import _as_mechanism
 
 #: steps beyond which a run is refused (h too small for the span)
@@ -321,31 +321,13 @@ def simulate_moreau(
             contact_solver=out["counters"].as_dict(), max_active_contacts=st["max_active"])
 
     # ---- run ---------------------------------------------------------------------------------
-    rows: dict[str, list] = {key: [] for key in SERIES}
     sigma = np.zeros(m)
-    max_pen = 0.0
     impacts: list[ImpactEvent] = []
     counters = {"nfev": 0, "impact_time": 0.0, "contact_steps": 0, "proj": 0}
+    recorder = Recorder(mech, Evaluator(mech, contacts))
 
     def record(t, th, dth):
-        nonlocal max_pen
-        M_ = np.asarray(mech.mass_matrix(th), float)
-        C_ = loop_rows(th)
-        rows["t"].append(t)
-        rows["theta"].append(th.copy())
-        rows["dtheta"].append(dth.copy())
-        rows["p"].append(M_ @ dth - C_.T @ sigma)
-        rows["sigma"].append(sigma.copy())
-        rows["T"].append(0.5 * float(dth @ M_ @ dth))
-        rows["V"].append(float(mech.potential_energy(th)))
-        if m:
-            rows["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
-            rows["cdq"].append(float(np.max(np.abs(C_ @ dth))))
-        else:
-            rows["psi"].append(0.0)
-            rows["cdq"].append(0.0)
-        for c in contacts:
-            max_pen = max(max_pen, -float(mech.contact_gap(c, th)))
+        recorder(t, th, dth, sigma)
 
     t = t0
     record(t, q, v)
@@ -446,6 +428,7 @@ def simulate_moreau(
         record(t, q, v)
 
     wall = _time.perf_counter() - wall0
+    rows = recorder.rows
     n = len(rows["t"])
     settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
                 "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
@@ -470,5 +453,5 @@ def simulate_moreau(
         step_size=h,
         theta_parameter=theta_p,
         n_contact_steps=counters["contact_steps"],
-        max_penetration=max(0.0, max_pen),
+        max_penetration=max(0.0, recorder.max_penetration),
     )

@@ -40,6 +40,39 @@ from .projection import project_positions, project_velocities
 from .result import SERIES, ImpactEvent
 
 
+class Recorder:
+    """The sampled series of a Moreau–Jean run (:data:`~.result.SERIES`) and the largest
+    penetration (-gap) of any contact at a stored state."""
+
+    def __init__(self, mech, evaluator: Evaluator):
+        self.mech, self.ev = mech, evaluator
+        self.k = int(mech.n_coordinates)
+        self.m = int(mech.n_loop_constraints)
+        self.rows: dict[str, list] = {key: [] for key in SERIES}
+        self.max_penetration = 0.0
+
+    def __call__(self, t: float, th: np.ndarray, dth: np.ndarray, sigma: np.ndarray) -> None:
+        mech, m, rows = self.mech, self.m, self.rows
+        M_, g_ = self.ev.mass_and_gaps(th)
+        C_ = (np.asarray(mech.loop_jacobian(th), float).reshape(m, self.k) if m
+              else np.zeros((0, self.k)))
+        rows["t"].append(t)
+        rows["theta"].append(th.copy())
+        rows["dtheta"].append(dth.copy())
+        rows["p"].append(M_ @ dth - C_.T @ sigma)
+        rows["sigma"].append(sigma.copy())
+        rows["T"].append(0.5 * float(dth @ M_ @ dth))
+        rows["V"].append(float(mech.potential_energy(th)))
+        if m:
+            rows["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
+            rows["cdq"].append(float(np.max(np.abs(C_ @ dth))))
+        else:
+            rows["psi"].append(0.0)
+            rows["cdq"].append(0.0)
+        if g_.size:
+            self.max_penetration = max(self.max_penetration, -float(np.min(g_)))
+
+
 #: a contact whose predicted end-of-step gap is at most gap_tol + this (times max(1, max|q|))
 #: takes part: round-off of the configuration, not an opening
 GAP_ROUNDOFF = 1e-12
@@ -71,34 +104,18 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
     cache = GroupCache()
     layout_cache: dict = {}
     last = None  # previous step's impulses (nc, d)
-    rows: dict[str, list] = {key: [] for key in SERIES}
     sigma = np.zeros(m)
     impacts: list[ImpactEvent] = []
-    stats = {"nfev": 0, "contact_steps": 0, "proj": 0, "max_pen": 0.0,
-             "max_active": 0, "impact_time": 0.0}
+    stats = {"nfev": 0, "contact_steps": 0, "proj": 0, "max_active": 0, "impact_time": 0.0}
 
     def loop_rows(th):
         return (np.asarray(mech.loop_jacobian(th), float).reshape(m, k) if m
                 else np.zeros((0, k)))
 
+    recorder = Recorder(mech, ev)
+
     def record(t, th, dth):
-        M_, g_ = ev.mass_and_gaps(th)
-        C_ = loop_rows(th)
-        rows["t"].append(t)
-        rows["theta"].append(th.copy())
-        rows["dtheta"].append(dth.copy())
-        rows["p"].append(M_ @ dth - C_.T @ sigma)
-        rows["sigma"].append(sigma.copy())
-        rows["T"].append(0.5 * float(dth @ M_ @ dth))
-        rows["V"].append(float(mech.potential_energy(th)))
-        if m:
-            rows["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
-            rows["cdq"].append(float(np.max(np.abs(C_ @ dth))))
-        else:
-            rows["psi"].append(0.0)
-            rows["cdq"].append(0.0)
-        if contacts:
-            stats["max_pen"] = max(stats["max_pen"], -float(np.min(g_)))
+        recorder(t, th, dth, sigma)
 
     t = t0
     record(t, q, v)
@@ -198,4 +215,5 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
         q, v = q_new, v_new
         t = t1 if step == n_steps - 1 else t + hk
         record(t, q, v)
-    return {"rows": rows, "impacts": impacts, "counters": counters, "stats": stats}
+    stats["max_pen"] = recorder.max_penetration
+    return {"rows": recorder.rows, "impacts": impacts, "counters": counters, "stats": stats}
