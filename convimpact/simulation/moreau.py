@@ -80,11 +80,10 @@ from ..impact.errors import (
     UnknownOptionError,
 )
 from ..impact import check_law_method, resolve_impact
-from .projection import project_positions, project_velocities
 from .result import ImpactEvent, SimulationResult, series_from_rows
 from .initial import consistent_start, initial_state, law_options, positive, time_span
 from .moreau_engine import ENGINE_LAWS, Evaluator
-from .moreau_loop import Recorder, run_engine_steps
+from .moreau_loop import Recorder, end_of_step, run_engine_steps
 from .simulate import _as_mechanism
 
 #: steps beyond which a run is refused (h too small for the span)
@@ -412,18 +411,9 @@ def simulate_moreau(
                     kinetic_energy_minus=0.5 * float(v @ M @ v),
                     kinetic_energy_plus=0.5 * float(v_new @ M @ v_new),
                     persistent=(), released=(), resolve_time=0.0, result=r))
-        q_new = qm + hk * theta_p * v_new
-        if m:
-            drift = float(np.max(np.abs(mech.loop_residual(q_new))))
-            if drift > projection_tol:
-                q_new, _, _ = project_positions(mech.loop_residual, loop_rows, M, q_new,
-                                                0.1 * projection_tol)
-                counters["proj"] += 1
-            v_new = project_velocities(np.asarray(mech.mass_matrix(q_new), float),
-                                       loop_rows(q_new), v_new)
-        if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
-            raise SimulationError(f"the state became non-finite at t = {t + hk:.9g}; reduce h")
-        q, v = q_new, v_new
+        q, v, projected = end_of_step(mech, qm, v_new, hk * theta_p, M, loop_rows,
+                                      projection_tol, t + hk)
+        counters["proj"] += projected
         t = t1 if step == n_steps_total - 1 else t + hk
         record(t, q, v)
 

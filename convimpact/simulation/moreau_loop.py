@@ -40,6 +40,26 @@ from .projection import project_positions, project_velocities
 from .result import SERIES, ImpactEvent
 
 
+def end_of_step(mech, qm, v_new, h_theta: float, M, loop_rows, projection_tol: float,
+                t_end: float):
+    """``(q_{k+1}, v_{k+1}, projected)``: ``q_{k+1} = q_m + h theta v_{k+1}``, for closed
+    loops projected back onto Psi = 0 (M-weighted, when the drift exceeds
+    ``projection_tol``) and v onto C(q_{k+1}) v = 0; SimulationError for a non-finite state."""
+    q_new = qm + h_theta * v_new
+    projected = False
+    if int(mech.n_loop_constraints):
+        drift = float(np.max(np.abs(mech.loop_residual(q_new))))
+        if drift > projection_tol:
+            q_new, _, _ = project_positions(mech.loop_residual, loop_rows, M, q_new,
+                                            0.1 * projection_tol)
+            projected = True
+        v_new = project_velocities(np.asarray(mech.mass_matrix(q_new), float),
+                                   loop_rows(q_new), v_new)
+    if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
+        raise SimulationError(f"the state became non-finite at t = {t_end:.9g}; reduce h")
+    return q_new, v_new, projected
+
+
 class Recorder:
     """The sampled series of a Moreau–Jean run (:data:`~.result.SERIES`) and the largest
     penetration (-gap) of any contact at a stored state."""
@@ -201,18 +221,9 @@ def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
                     persistent=(), released=(), resolve_time=0.0, result=None))
         elif last is not None:
             last[:] = 0.0
-        q_new = qm + hk * theta * v_new
-        if m:
-            drift = float(np.max(np.abs(mech.loop_residual(q_new))))
-            if drift > projection_tol:
-                q_new, _, _ = project_positions(mech.loop_residual, loop_rows, M, q_new,
-                                                0.1 * projection_tol)
-                stats["proj"] += 1
-            v_new = project_velocities(np.asarray(mech.mass_matrix(q_new), float),
-                                       loop_rows(q_new), v_new)
-        if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
-            raise SimulationError(f"the state became non-finite at t = {t + hk:.9g}; reduce h")
-        q, v = q_new, v_new
+        q, v, projected = end_of_step(mech, qm, v_new, hk * theta, M, loop_rows,
+                                      projection_tol, t + hk)
+        stats["proj"] += projected
         t = t1 if step == n_steps - 1 else t + hk
         record(t, q, v)
     stats["max_pen"] = recorder.max_penetration
