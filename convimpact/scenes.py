@@ -40,6 +40,10 @@ class Scene:
         the polygon through its points in order, a spatial one as the convex hull of the
         projected points; a body without an outline is drawn as the hull of its joints and
         contact points.
+    simulation : None, or how the scene is meant to be simulated when the caller does not
+        say: ``{"scheme": "moreau-jean", "h": ..., "law": ...}`` (the scheme of
+        :func:`convimpact.simulation.simulate_with` and its options); None is the event-driven
+        default. ``convimpact simulate`` follows it.
     """
 
     name: str
@@ -52,6 +56,7 @@ class Scene:
     impact_state: tuple[np.ndarray, np.ndarray] | None = None
     impact_contact: str | None = None
     outlines: Mapping[str, np.ndarray] | None = None
+    simulation: Mapping[str, Any] | None = None
 
 
 def list_scenes() -> list[str]:

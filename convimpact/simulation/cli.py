@@ -102,8 +102,16 @@ def _coordinate_units(mechanism, k: int) -> list[str]:
     return out
 
 
+#: coordinates drawn in trajectory.png, impacts marked by lines, contacts in contacts.png
+#: (a scene of many bodies is shown in part: its animation shows the whole)
+MAX_PANELS = 12
+MAX_IMPACT_LINES = 60
+MAX_CONTACT_PLOTS = 24
+
+
 def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
-    """Trajectory, energy/drift and (when there are contacts) contact plots (Agg backend)."""
+    """Trajectory, energy/drift and (when there are contacts, at most
+    :data:`MAX_CONTACT_PLOTS`) contact plots (Agg backend)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -126,10 +134,16 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
         dth = np.array([(res.sol(b)[:k] - res.sol(a)[:k]) / (b - a) for a, b in zip(lo, hi)])
     else:
         tt, th, dth = res.t, res.theta, res.dtheta
-    fig, axes = plt.subplots(k, 2, sharex=True, figsize=(10, 1.9 * k + 1.0), squeeze=False)
-    # panels in natural order of the coordinate names (theta1, theta2, ... theta10)
+    # panels in natural order of the coordinate names (theta1, theta2, ... theta10); a scene
+    # of many bodies (the disc pile's 342 coordinates) shows its first MAX_PANELS
     order = sorted(range(k), key=lambda j: [int(p) if p.isdigit() else p
                                             for p in re.split(r"(\d+)", names[j])])
+    shown = order[:MAX_PANELS]
+    if len(t_imp) > MAX_IMPACT_LINES:  # hundreds of impact steps: lines would hide the plot
+        t_imp = []
+    fig, axes = plt.subplots(len(shown), 2, sharex=True, figsize=(10, 1.9 * len(shown) + 1.0),
+                             squeeze=False)
+    order = shown
     for row, j in enumerate(order):
         axes[row, 0].plot(tt, th[:, j], color=f"C{j}")
         axes[row, 0].set_ylabel(f"{names[j]} [{units[j]}]")
@@ -142,7 +156,9 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     axes[-1, 1].set_xlabel("t [s]")
     axes[0, 0].set_title("joint coordinates")
     axes[0, 1].set_title("joint velocities (jumps at impacts)")
-    fig.suptitle(f"{scene.name}: trajectory ({len(t_imp)} impacts, grey lines)")
+    more = f"; first {len(shown)} of {k} coordinates" if len(shown) < k else ""
+    fig.suptitle(f"{scene.name}: trajectory ({len(res.impacts)} impacts"
+                 + (", grey lines" if t_imp else "") + f"{more})")
     fig.tight_layout()
     p = out / "trajectory.png"
     fig.savefig(p, dpi=100)
@@ -187,7 +203,7 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     fig.savefig(p, dpi=100)
     plt.close(fig)
     paths.append(p)
-    if getattr(scene.mechanism, "contact_names", None):
+    if 0 < len(getattr(scene.mechanism, "contact_names", None) or ()) <= MAX_CONTACT_PLOTS:
         p = plot_contacts(res, out / "contacts.png", mechanism=scene.mechanism,
                           title=f"{scene.name}: contact modes and forces")
         if p is not None:
@@ -216,8 +232,9 @@ def run(args: argparse.Namespace) -> int:
         for name in list_scenes():
             print(name)
         return 0
-    impact_options = _impact_options(args)
     if args.bench:
+        args.law = args.law or "pereira-nikravesh"
+        impact_options = _impact_options(args)
         from .benchmark import run_benchmark
 
         rows = run_benchmark([args.scene] if args.scene else None, repeats=args.repeats,
@@ -239,18 +256,34 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.scene:
         raise ParameterError("name a scene (see `convimpact simulate --list`)")
-    if args.method != "auto" and args.method not in available_methods(args.law):
-        raise NotSupportedError(
-            f"law {args.law!r} has no method {args.method!r}; available: "
-            f"{', '.join(available_methods(args.law))}")
     scene = load_scene(args.scene, **_parse_params(args.param))
     if args.animate:
         check_outlines(check_animatable(scene.mechanism), scene.outlines)  # fail early
     t_end = float(args.t_end) if args.t_end is not None else float(scene.t_end)
-    res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
-                   integrator=args.integrator, rtol=args.rtol, atol=args.atol,
-                   zeno=args.zeno, max_impacts=args.max_impacts, dense_output=True,
-                   impact_options=impact_options)
+    declared = dict(scene.simulation or {})
+    scheme = args.scheme or declared.get("scheme", "event-driven")
+    if args.law is None:
+        args.law = declared.get("law", "pereira-nikravesh") if scheme == declared.get(
+            "scheme") else "pereira-nikravesh"
+    impact_options = _impact_options(args)
+    if args.method != "auto" and args.method not in available_methods(args.law):
+        raise NotSupportedError(
+            f"law {args.law!r} has no method {args.method!r}; available: "
+            f"{', '.join(available_methods(args.law))}")
+    if scheme == "moreau-jean":
+        from .moreau import simulate_moreau
+
+        h = args.h if args.h is not None else declared.get("h")
+        if h is None:
+            raise ParameterError("Moreau–Jean needs a step: pass --h")
+        options = {**dict(declared.get("impact_options", {})), **impact_options}
+        res = simulate_moreau(scene, (0.0, t_end), h=float(h), law=args.law,
+                              method=args.method, impact_options=options)
+    else:
+        res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
+                       integrator=args.integrator, rtol=args.rtol, atol=args.atol,
+                       zeno=args.zeno, max_impacts=args.max_impacts, dense_output=True,
+                       impact_options=impact_options)
     report = scene_report(scene, res)
     written: list[Path] = []
     if args.out is not None or not args.json:
@@ -269,8 +302,12 @@ def run(args: argparse.Namespace) -> int:
         print()
         return 0 if res.success else 1
     e_t = f" (e_t = {args.e_t:g})" if args.e_t is not None else ""
+    how = (f"integrator {res.settings['integrator']}" if scheme != "moreau-jean" else
+           f"Moreau–Jean h = {res.settings['h']:g} s, {res.n_contact_steps} contact steps, "
+           f"at most {getattr(res, 'max_active_contacts', 0)} contacts on a step, max "
+           f"penetration {res.max_penetration:.2e} m")
     print(f"{scene.name}: t = [0, {t_end:g}] s, law {args.law}{e_t}, method {args.method}, "
-          f"integrator {res.settings['integrator']}")
+          f"{how}")
     print(f"  status {res.status}: {res.message}")
     print(f"  {len(res.impacts)} impacts, {len(res.contact_events)} contact switches, "
           f"{res.n_steps} steps, {res.nfev} RHS evaluations "
@@ -300,7 +337,13 @@ def run(args: argparse.Namespace) -> int:
 def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", nargs="?", help="scene name (module of problems/)")
     p.add_argument("--list", action="store_true", help="name the scenes and exit")
-    p.add_argument("--law", default="pereira-nikravesh", choices=LAWS, help="impact law")
+    p.add_argument("--law", default=None, choices=LAWS,
+                   help="impact law (default: the scene's declared law, else pereira-nikravesh)")
+    p.add_argument("--scheme", default=None, choices=("event-driven", "moreau-jean"),
+                   help="simulation scheme (default: the scene's declared one, else "
+                        "event-driven)")
+    p.add_argument("--h", type=float, default=None,
+                   help="Moreau–Jean step (default: the scene's declared one)")
     p.add_argument("--method", default="auto", choices=METHODS, help="impact solver path")
     p.add_argument("--e-t", type=float, default=None,
                    help="tangential restitution in [-1, 1] of --law chatterjee-ruina (default "

@@ -26,6 +26,16 @@ of size h from (q_k, v_k) at t_k:
    only, ``e_t = 0`` on those at rest (a resting contact's slip is not reversed every step);
    it restitutes the slip of the free velocity, which is the slip at t_k when no smooth
    force acts along the contact's tangent during the step (a ball on a level floor);
+   **Laws "ccp" and "coulomb" under method "auto" or "interior"** take the contact engine
+   instead (:mod:`.moreau_loop`, :mod:`.moreau_engine`): the step's problem
+   ``u = J v_{k+1} = W r + b``, ``W = J G J^T``, built in the block structure of M (batched
+   factorizations of the coordinate groups), split into independent islands
+   (:mod:`.islands`), warm-started from the previous step's impulses, solved by the engine's
+   compiled kernels in one call for the small islands and by
+   :func:`convimpact.impact.contacts.engine.solve` for the large ones, each island certified
+   by its natural-map residual (``impact_options["tol"]``, default 1e-8) or
+   :class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` naming the
+   step and the contacts;
 6. ``q_{k+1} = q_m + h theta v_{k+1}``; for closed loops theta is projected back onto
    ``Psi = 0`` (M-weighted, when the drift exceeds ``projection_tol``) and ``v_{k+1}`` onto
    ``C(q_{k+1}) v = 0``.
@@ -56,7 +66,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -67,11 +77,13 @@ from ..impact.errors import (
     LoopConstraintError,
     ParameterError,
     SimulationError,
+    UnknownOptionError,
 )
 from ..impact import check_law_method, resolve_impact
-from .projection import project_positions, project_velocities
-from .result import SERIES, ImpactEvent, SimulationResult, series_from_rows
+from .result import ImpactEvent, SimulationResult, series_from_rows
 from .initial import consistent_start, initial_state, law_options, positive, time_span
+from .moreau_engine import ENGINE_LAWS, Evaluator
+from .moreau_loop import Recorder, end_of_step, run_engine_steps
 from .simulate import _as_mechanism
 
 #: steps beyond which a run is refused (h too small for the span)
@@ -92,19 +104,52 @@ class MoreauResult(SimulationResult):
     theta_parameter : theta of the scheme.
     n_contact_steps : steps with at least one active contact (impacts and resting contact).
     max_penetration : largest penetration (-gap) of any contact at a stored state (>= 0).
+    contact_solver : engine path only, what the contact engine did over the run (islands
+        solved, warm starts certified, calls of the full engine, iterations, the largest
+        island, seconds in the solves and in the assembly); empty on the other path.
+    max_active_contacts : the most contacts active on one step (engine path; 0 otherwise).
     """
 
     step_size: float = float("nan")
     theta_parameter: float = 0.5
     n_contact_steps: int = 0
     max_penetration: float = 0.0
+    contact_solver: Mapping[str, Any] = field(default_factory=dict)
+    max_active_contacts: int = 0
 
     def as_dict(self, series: bool = True) -> dict[str, Any]:
         out = super().as_dict(series)
         out.update(scheme="moreau-jean", step_size=self.step_size,
                    theta_parameter=self.theta_parameter, n_contact_steps=self.n_contact_steps,
-                   max_penetration=self.max_penetration)
+                   max_penetration=self.max_penetration,
+                   contact_solver=dict(self.contact_solver),
+                   max_active_contacts=self.max_active_contacts)
         return out
+
+
+#: impact options the engine path takes (with their types)
+ENGINE_OPTIONS = {"tol": float, "max_iter": int, "newton_iter": int}
+
+
+def _engine_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The engine path's options (tol 1e-8 by default), validated."""
+    out: dict[str, Any] = {"tol": 1e-8}
+    for key, value in dict(options or {}).items():
+        if key not in ENGINE_OPTIONS:
+            raise UnknownOptionError(
+                f"impact option {key!r} is not taken by Moreau–Jean on the contact engine "
+                f"(laws ccp and coulomb under method auto or interior); its options are "
+                f"{', '.join(ENGINE_OPTIONS)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
+                                                             np.floating)):
+            raise ParameterError(f"impact option {key} must be a number, got {value!r}")
+        if ENGINE_OPTIONS[key] is int and (int(value) != value or value < 1):
+            raise ParameterError(f"impact option {key} must be an integer >= 1, got {value!r}")
+        if ENGINE_OPTIONS[key] is float and not (math.isfinite(value) and value > 0):
+            raise ParameterError(f"impact option {key} must be a finite number > 0, got "
+                                 f"{value!r}")
+        out[key] = ENGINE_OPTIONS[key](value)
+    return out
 
 
 def _loop_inverse(M: np.ndarray, C: np.ndarray):
@@ -142,6 +187,8 @@ def simulate_moreau(
     assemble: bool = False,
     contact_tol: float = 1e-8,
     impact_options: Mapping[str, Any] | None = None,
+    warm_start: bool = True,
+    islands: bool = True,
 ) -> MoreauResult:
     """Integrate a mechanism through its impacts by Moreau–Jean time stepping.
 
@@ -179,7 +226,14 @@ def simulate_moreau(
         Options forwarded to the impact solver, and ``"e_t"``: the tangential restitution in
         [-1, 1] of law ``"chatterjee-ruina"`` (one value, or a mapping contact name -> value;
         default 0), applied to the approaching contacts of a step (0 on the resting ones) and
-        refused with any other law before the first step.
+        refused with any other law before the first step. On the engine path (below) only
+        ``tol`` (the natural-map residual every island's answer must reach, default 1e-8),
+        ``max_iter`` and ``newton_iter`` are taken.
+    warm_start, islands : bool
+        Engine path only (laws ``"ccp"`` and ``"coulomb"`` under ``method`` "auto" or
+        "interior", :mod:`.moreau_loop`): start each step's contact problem from the previous
+        step's impulses, and solve the independent islands of touching bodies apart
+        (:mod:`.islands`). Neither changes the answer beyond the certificate's tolerance.
 
     Returns
     -------
@@ -224,6 +278,9 @@ def simulate_moreau(
         raise ParameterError(f"h = {h:g} needs {n_steps_total} steps over the span (more than "
                              f"{MAX_STEPS}); take a larger step")
     impact_options, e_t = law_options(law, impact_options, contacts)
+    engine_path = law in ENGINE_LAWS and method in ("auto", "interior")
+    if engine_path:
+        engine_opts = _engine_options(impact_options)
 
     # ---- initial state ---------------------------------------------------------------------
     q, v = initial_state(y0, scene, k)
@@ -236,32 +293,40 @@ def simulate_moreau(
                             contact_tol=contact_tol)
     params = {c: mech.contact_parameters(c) for c in contacts}
 
+    if engine_path:
+        for flag, value in (("warm_start", warm_start), ("islands", islands)):
+            if not isinstance(value, (bool, np.bool_)):
+                raise ParameterError(f"{flag} must be True or False, got {value!r}")
+        out = run_engine_steps(mech, q, v, t0=t0, t1=t1, h=h, theta=theta_p,
+                               n_steps=n_steps_total, law=law, gap_tol=float(gap_tol),
+                               rest_velocity=float(rest_velocity),
+                               projection_tol=projection_tol, warm_start=bool(warm_start),
+                               islands=bool(islands), **engine_opts)
+        rows, st = out["rows"], out["stats"]
+        n = len(rows["t"])
+        settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
+                    "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
+                    "projection_tol": projection_tol, "t_span": [t0, t1],
+                    "contact_solver": "engine", "warm_start": bool(warm_start),
+                    "islands": bool(islands), **engine_opts}
+        return MoreauResult(
+            **series_from_rows(rows, k, m), held=np.zeros(n, dtype=int),
+            impacts=tuple(out["impacts"]), contact_events=(), sol=None, status=0,
+            message="the end of the time span was reached", nfev=st["nfev"], nevents_fev=0,
+            n_steps=n - 1, n_projections=st["proj"], n_restarts=0,
+            wall_time=float(_time.perf_counter() - wall0), impact_time=float(st["impact_time"]),
+            settings=settings, step_size=h, theta_parameter=theta_p,
+            n_contact_steps=st["contact_steps"], max_penetration=max(0.0, st["max_pen"]),
+            contact_solver=out["counters"].as_dict(), max_active_contacts=st["max_active"])
+
     # ---- run ---------------------------------------------------------------------------------
-    rows: dict[str, list] = {key: [] for key in SERIES}
     sigma = np.zeros(m)
-    max_pen = 0.0
     impacts: list[ImpactEvent] = []
     counters = {"nfev": 0, "impact_time": 0.0, "contact_steps": 0, "proj": 0}
+    recorder = Recorder(mech, Evaluator(mech, contacts))
 
     def record(t, th, dth):
-        nonlocal max_pen
-        M_ = np.asarray(mech.mass_matrix(th), float)
-        C_ = loop_rows(th)
-        rows["t"].append(t)
-        rows["theta"].append(th.copy())
-        rows["dtheta"].append(dth.copy())
-        rows["p"].append(M_ @ dth - C_.T @ sigma)
-        rows["sigma"].append(sigma.copy())
-        rows["T"].append(0.5 * float(dth @ M_ @ dth))
-        rows["V"].append(float(mech.potential_energy(th)))
-        if m:
-            rows["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
-            rows["cdq"].append(float(np.max(np.abs(C_ @ dth))))
-        else:
-            rows["psi"].append(0.0)
-            rows["cdq"].append(0.0)
-        for c in contacts:
-            max_pen = max(max_pen, -float(mech.contact_gap(c, th)))
+        recorder(t, th, dth, sigma)
 
     t = t0
     record(t, q, v)
@@ -346,22 +411,14 @@ def simulate_moreau(
                     kinetic_energy_minus=0.5 * float(v @ M @ v),
                     kinetic_energy_plus=0.5 * float(v_new @ M @ v_new),
                     persistent=(), released=(), resolve_time=0.0, result=r))
-        q_new = qm + hk * theta_p * v_new
-        if m:
-            drift = float(np.max(np.abs(mech.loop_residual(q_new))))
-            if drift > projection_tol:
-                q_new, _, _ = project_positions(mech.loop_residual, loop_rows, M, q_new,
-                                                0.1 * projection_tol)
-                counters["proj"] += 1
-            v_new = project_velocities(np.asarray(mech.mass_matrix(q_new), float),
-                                       loop_rows(q_new), v_new)
-        if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
-            raise SimulationError(f"the state became non-finite at t = {t + hk:.9g}; reduce h")
-        q, v = q_new, v_new
+        q, v, projected = end_of_step(mech, qm, v_new, hk * theta_p, M, loop_rows,
+                                      projection_tol, t + hk)
+        counters["proj"] += projected
         t = t1 if step == n_steps_total - 1 else t + hk
         record(t, q, v)
 
     wall = _time.perf_counter() - wall0
+    rows = recorder.rows
     n = len(rows["t"])
     settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
                 "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
@@ -386,5 +443,5 @@ def simulate_moreau(
         step_size=h,
         theta_parameter=theta_p,
         n_contact_steps=counters["contact_steps"],
-        max_penetration=max(0.0, max_pen),
+        max_penetration=max(0.0, recorder.max_penetration),
     )

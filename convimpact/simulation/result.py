@@ -32,7 +32,9 @@ class ImpactEvent:
         contact's impact is then resolved with e = 0 (the reported result is that one).
     released : held contacts released because the impact pulled on them.
     resolve_time : wall time spent in ``resolve_impact`` (s).
-    result : the law's full :class:`~convimpact.impact.results.ImpactResult` (with diagnostics).
+    result : the law's full :class:`~convimpact.impact.results.ImpactResult` (with
+        diagnostics), or None for a Moreau–Jean step solved on the contact engine
+        (:mod:`convimpact.simulation.moreau_loop`: certified by the natural-map residual).
     """
 
     time: float
@@ -51,7 +53,7 @@ class ImpactEvent:
     persistent: tuple[str, ...]
     released: tuple[str, ...]
     resolve_time: float
-    result: ImpactResult
+    result: ImpactResult | None
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view."""
@@ -66,7 +68,8 @@ class ImpactEvent:
             "kinetic_energy_plus": self.kinetic_energy_plus,
             "persistent": list(self.persistent), "released": list(self.released),
             "resolve_time": self.resolve_time,
-            "diagnostics": self.result.diagnostics.as_dict(),
+            "diagnostics": (None if self.result is None
+                            else self.result.diagnostics.as_dict()),
         }
 
 

@@ -93,6 +93,8 @@ def law_flags(impacts: Sequence, law: str) -> tuple[dict[str, int], tuple[str, .
     counts = {k: 0 for k in LAW_FLAGS}
     worst: dict[str, Any] = {}
     for ev in impacts:
+        if ev.result is None:  # a Moreau–Jean step on the contact engine: no law report
+            continue
         diag = ev.result.diagnostics
         for k in LAW_FLAGS:
             if not getattr(diag, k):

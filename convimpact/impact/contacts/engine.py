@@ -336,7 +336,8 @@ def _step(blocks: _Blocks, x, z, dx, dz) -> float:
 
 def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float = 1e-8,
           max_iter: int = 100, newton_iter: int = 30, admm_iter: int = 20000,
-          sparse: bool | None = None, compiled: bool = True) -> EngineResult:
+          sparse: bool | None = None, compiled: bool = True,
+          start: np.ndarray | None = None) -> EngineResult:
     """The engine.
 
     Up to :data:`COMPILED_MAX_ROWS` rows (and ``compiled``) the compiled dense kernels first,
@@ -345,7 +346,69 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     compiled CCP kernel's answer is certified). Coulomb's law: Newton on its natural map from
     the CCP's answer; where that does not reach ``tol``, the ADMM of :mod:`.admm` from there,
     Newton tried whenever the ADMM has come within 1e-4 (and every 200 iterations below 1e-2).
+
+    ``start`` (n, d), optional, is a warm start (a time-stepping scheme's impulses of the
+    previous step): the law's Newton finish (:func:`warm_newton`) runs from it first, and its
+    answer is returned when its natural-map residual is at most ``tol``; otherwise the cold
+    path above runs as without it (the warm attempt's steps are counted in ``iterations``).
+    The interior point itself is not warm-started: its iterates must stay central, and a
+    start on the cones' boundary (where impulses of sliding or open contacts lie) slows it.
     """
+    n = mu.shape[0]
+    warm_steps = 0
+    if start is not None:
+        R = warm_newton(W, b, mu, d, start, coulomb=coulomb, tol=tol, newton_iter=newton_iter,
+                        sparse=sparse, compiled=compiled)
+        if R.converged:
+            return R
+        warm_steps = R.iterations
+    R = _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled)
+    if warm_steps:
+        R = EngineResult(R.impulse, R.velocity, R.residual, R.iterations + warm_steps,
+                         R.converged, R.message)
+    return R
+
+
+def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
+                coulomb: bool, tol: float = 1e-8, newton_iter: int = 30,
+                sparse: bool | None = None, compiled: bool = True) -> EngineResult:
+    """Newton on the law's natural map from ``start`` (n, d) alone: the compiled finish of the
+    kernels (on their scaled program) up to :data:`COMPILED_MAX_ROWS` rows, the vectorized
+    :func:`.finish.newton_finish` above. ``converged`` when the natural-map residual of the
+    answer, on the original data, is at most ``tol``."""
+    n = mu.shape[0]
+    start = np.asarray(start, dtype=float).reshape(n, d)
+    bb = np.asarray(b, dtype=float).reshape(n, d)
+    if compiled and n * d <= COMPILED_MAX_ROWS:
+        K = kernels()
+        Wd = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=float)
+        m = np.ascontiguousarray(mu, dtype=float)
+        P, q, idx, scale, starts, sizes, f, trivial = K.scaled_program(Wd, bb.ravel().copy(),
+                                                                        m, d)
+        if trivial:
+            r, steps = np.zeros((n, d)), 0
+        else:
+            x = start.ravel()[idx[:q.shape[0]]] / (scale[:q.shape[0]] * f)
+            x, _, steps = K.natural_map_newton(P, q, np.ascontiguousarray(x), starts, sizes,
+                                               min(newton_iter, 20), coulomb)
+            r = np.zeros(n * d)
+            r[idx[:q.shape[0]]] = scale[:q.shape[0]] * f * x
+            r = r.reshape(n, d)
+        res, u = cones.natural_map_residual(Wd, bb, m, r, coulomb)
+    else:
+        if sparse is None:
+            sparse = use_sparse(W, n * d)
+        W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
+        with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            r, res, steps = newton_finish(W, bb, mu, start, coulomb=coulomb, tol=tol,
+                                          max_iter=newton_iter, sparse=sparse)
+            res, u = cones.natural_map_residual(W, bb, mu, r, coulomb)
+    ok = bool(res <= tol)
+    return EngineResult(r, u, float(res), int(steps), ok,
+                        "converged (warm start)" if ok else "warm start not certified")
+
+
+def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled):
     n = mu.shape[0]
     ccp = None
     if compiled and n * d <= COMPILED_MAX_ROWS:
