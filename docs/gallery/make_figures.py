@@ -72,7 +72,15 @@ def _scene_figures(out: Path) -> dict[str, dict]:
             continue
         t0 = time.perf_counter()
         scene = load_scene(name)
-        res = simulate(scene, (0.0, float(scene.t_end)), dense_output=True)
+        declared = dict(scene.simulation or {})
+        if declared.get("scheme") == "moreau-jean":  # as `convimpact simulate` runs it
+            from convimpact.simulation.moreau import simulate_moreau
+
+            res = simulate_moreau(scene, (0.0, float(scene.t_end)), h=float(declared["h"]),
+                                  law=declared.get("law", "pereira-nikravesh"),
+                                  impact_options=dict(declared.get("impact_options", {})))
+        else:
+            res = simulate(scene, (0.0, float(scene.t_end)), dense_output=True)
         folder = out / name
         folder.mkdir(parents=True, exist_ok=True)
         files = [p.name for p in write_plots(scene, res, folder)]
