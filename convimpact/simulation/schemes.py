@@ -24,6 +24,8 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
+import math
+
 from ..impact.errors import ParameterError, UnknownOptionError
 from .compliant import simulate_compliant
 from .moreau import simulate_moreau
@@ -31,6 +33,24 @@ from .result import SimulationResult
 from .simulate import simulate
 
 SCHEMES = ("event-driven", "moreau-jean", "compliant")
+
+
+def _scheme_options() -> dict[str, dict]:
+    """The numeric options of the schemes other than event-driven (whose ``simulate`` checks
+    its own), declared once: checked by :func:`simulate_with` before the scheme runs (a string
+    such as ``h="1e-3"`` is refused, not converted)."""
+    from ..validation import Flag, Optional, Positive, Real, Unit
+
+    tolerances = {"projection_tol": Positive(), "contact_tol": Positive(), "assemble": Flag()}
+    return {
+        "moreau-jean": {"h": Positive(), "theta": Unit(), "gap_tol": Real(),
+                        "rest_velocity": Real(0.0), **tolerances},
+        "compliant": {"exponent": Positive(), "regularization_velocity": Positive(),
+                      "min_impact_velocity": Real(0.0), "rtol": Positive(),
+                      "atol": Positive(), "max_step": Real(0.0, low_open=True),
+                      "first_step": Optional(Positive()), "event_tol": Positive(),
+                      **tolerances},
+    }
 
 
 def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
@@ -77,4 +97,12 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
     if required:
         raise ParameterError(f"scheme {scheme!r} needs option(s) {', '.join(required)} "
                              "(e.g. the step h for moreau-jean, the stiffness for compliant)")
+    specs = _scheme_options().get(scheme)
+    if specs:
+        from ..validation import check_parameters
+
+        given = {k: v for k, v in options.items() if k in specs}
+        if type(given.get("max_step")) is float and given["max_step"] == math.inf:
+            given.pop("max_step")  # the integrator's default: no bound
+        options.update(check_parameters(f"scheme {scheme!r}", specs, given))
     return fn(system, t_span, y0, **options)

@@ -38,14 +38,14 @@ import numpy as np
 from scipy.integrate import DOP853, RK23, RK45, OdeSolver, Radau
 
 from ..impact import check_law_method
-from ..impact.errors import ParameterError, ShapeError, UnknownOptionError
+from ..impact.errors import ParameterError, ShapeError
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
 from .event_driven import MAX_EVENTS_AT_ONE_INSTANT  # noqa: F401  (re-exported)
 from .event_driven import EventDrivenRun
 from .initial import INTEGRATORS  # noqa: F401  (re-exported)
-from .initial import (consistent_start, integrator_class, law_options, positive, state_vector,
-                      time_span)
+from ..validation import boolean, choice, integer, nonnegative, positive, sorted_times
+from .initial import consistent_start, integrator_class, law_options, state_vector, time_span
 from .options import EventDrivenOptions
 from .result import SimulationResult
 
@@ -220,31 +220,32 @@ def simulate(
     mech, scene = _as_mechanism(system)
     k = int(mech.n_coordinates)
 
-    # ---- options ---------------------------------------------------------------------------
+    # ---- options (convimpact.validation: real numbers, ranges, counts, names) --------------
     check_law_method(law, method)
     solver_options, e_t = law_options(law, impact_options, tuple(mech.contact_names))
-    if zeno not in ZENO_POLICIES:
-        raise UnknownOptionError(f"unknown zeno policy {zeno!r}; choose 'persist' or 'stop'")
-    if impacts not in IMPACT_POLICIES:
-        raise UnknownOptionError(f"unknown impacts policy {impacts!r}; choose 'simultaneous' "
-                                 "or 'sequential'")
-    if painleve not in PAINLEVE_POLICIES:
-        raise UnknownOptionError(f"unknown painleve policy {painleve!r}; choose 'stop' or "
-                                 "'raise'")
+    zeno = choice("zeno policy", zeno, ZENO_POLICIES)
+    impacts = choice("impacts policy", impacts, IMPACT_POLICIES)
+    painleve = choice("painleve policy", painleve, PAINLEVE_POLICIES)
     solver_cls = integrator_class(integrator)
-    positive(rtol=rtol, atol=atol, event_tol=event_tol, contact_tol=contact_tol,
-             projection_tol=projection_tol)
-    if not rest_velocity >= 0:
-        raise ParameterError(f"rest_velocity must be >= 0, got {rest_velocity!r}")
-    if int(max_impacts) < 0:
-        raise ParameterError(f"max_impacts must be >= 0, got {max_impacts!r}")
+    rtol, atol, event_tol, contact_tol, projection_tol = (
+        positive(name, value) for name, value in (
+            ("rtol", rtol), ("atol", atol), ("event_tol", event_tol),
+            ("contact_tol", contact_tol), ("projection_tol", projection_tol)))
+    rest_velocity = nonnegative("rest_velocity", rest_velocity)
+    max_step = positive("max_step", max_step, allow_inf=True)
+    first_step = None if first_step is None else positive("first_step", first_step)
+    max_impacts = integer("max_impacts", max_impacts, minimum=0)
+    dense_output = boolean("dense_output", dense_output)
+    assemble = boolean("assemble", assemble)
+    zeno_time_tol = None if zeno_time_tol is None else positive("zeno_time_tol", zeno_time_tol)
 
     t0, t1 = time_span(t_span, scene)
+    if first_step is not None and first_step > t1 - t0:
+        raise ParameterError(f"first_step must not exceed the span t1 - t0 = {t1 - t0:g}, got "
+                             f"{first_step:g}")
     if t_eval is not None:
-        t_eval = np.asarray(t_eval, dtype=float).ravel()
-        if t_eval.size and (np.any(np.diff(t_eval) < 0) or t_eval[0] < t0 or t_eval[-1] > t1):
-            raise ParameterError("t_eval must be sorted and lie within t_span")
-    zeno_tol = 1e6 * event_tol if zeno_time_tol is None else float(zeno_time_tol)
+        t_eval = sorted_times("t_eval", t_eval, t0, t1)
+    zeno_tol = 1e6 * event_tol if zeno_time_tol is None else zeno_time_tol
     # one-step methods continue from a projected state; multistep ones must restart, so
     # they are projected only beyond a looser threshold
     in_place = issubclass(solver_cls, ONE_STEP)

@@ -18,6 +18,7 @@ import numpy as np
 from ..laws import LAW_CODES as _LAW_CODES
 from ..errors import (
     ConvImpactError,
+    DegenerateContactError,
     InputError,
     MassMatrixError,
     NonFiniteError,
@@ -136,6 +137,75 @@ def _check_options(law, on_error) -> int:
         raise UnknownOptionError(f"on_error must be 'flag' (per-impact status codes) or "
                                  f"'raise' (the first rejected impact's error), got {on_error!r}")
     return LAW_CODES[law]
+
+
+def _check_degenerate(W: np.ndarray, Jb: np.ndarray, n: int) -> None:
+    """Raise DegenerateContactError for the first impact whose contact normal moves no mass
+    (c_n^T M^-1 c_n below the smallest normal number: the whole Jacobian is zero, or the normal
+    row is numerically zero relative to M's scale) -- as ``resolve_impact`` does; a zero normal
+    row whose tangent rows move mass is a grazing contact: separating, not an error."""
+    from ..problem.build import TINY_NORMAL
+
+    wn = W[:, 0, 0]
+    low = np.flatnonzero(~(wn >= TINY_NORMAL))
+    if not low.size:
+        return
+    d = W.shape[1]
+    wt = W[low, 1, 1] if d == 2 else np.maximum(W[low, 1, 1], W[low, 2, 2])
+    rows = Jb[low if Jb.shape[0] > 1 else np.zeros(low.size, dtype=np.intp), 0]
+    zero_row = ~rows.any(axis=1)
+    bad = ~(zero_row & (wt >= TINY_NORMAL))
+    if not bad.any():
+        return
+    j = int(np.argmax(bad))
+    i = int(low[j])
+    where = f"impact {i} of the batch of {n}" if n > 1 else "the impact"
+    what = ("is zero, and so are its tangent rows" if zero_row[j] else
+            f"is numerically zero relative to M's scale (c_n^T M^-1 c_n = {wn[i]:.3e} "
+            "underflows double precision)")
+    raise DegenerateContactError(
+        f"{where}: the contact Jacobian's normal row {what}: the contact cannot approach or "
+        "take an impulse; check the contact normal and the Jacobian (or rescale units), or "
+        "leave the contact out")
+
+
+#: relative tolerance of the semidefiniteness test of a user's Delassus block (its principal
+#: minors of order j are accepted down to -INDEFINITE_RTOL tr(W)^j)
+INDEFINITE_RTOL = 1e-10
+
+
+def _indefinite(Wb: np.ndarray) -> np.ndarray:
+    """Per item (N,) of the (N or 1, d, d) blocks read from their upper triangle: whether W is
+    not positive semidefinite (a principal minor below -INDEFINITE_RTOL tr(W)^order). A
+    Delassus matrix J M^-1 J^T is semidefinite; an indefinite one has no impulse law."""
+    W = np.triu(Wb) + np.triu(Wb, 1).transpose(0, 2, 1)
+    d = W.shape[1]
+    diag = np.einsum("nii->ni", W)
+    tr = np.abs(diag).sum(axis=1)
+    tol = INDEFINITE_RTOL
+    bad = (diag < -tol * tr[:, None]).any(axis=1)
+    for a in range(d):
+        for b in range(a + 1, d):
+            m2 = W[:, a, a] * W[:, b, b] - W[:, a, b] * W[:, a, b]
+            bad |= m2 < -tol * tr * tr
+    if d == 3:
+        bad |= np.linalg.det(W) < -tol * tr * tr * tr
+    return bad
+
+
+def _flag_indefinite(bad: np.ndarray, status, regime, outs, errors, n: int) -> None:
+    """Items with an indefinite W that the law's kernel answered: flagged SINGULAR (NaN
+    numbers, SingularSystemError), as the kernels that invert W flag them."""
+    idx = np.flatnonzero(bad & (status == OK))
+    for i in idx.tolist():
+        status[i] = SINGULAR
+        regime[i] = FAILED
+        for o in outs:
+            o[i] = np.nan
+        errors[i] = SingularSystemError(
+            f"impact {i} of the batch of {n}: W is not positive semidefinite (a principal "
+            "minor is negative), so it is no Delassus matrix J M^-1 J^T and no impulse law "
+            "applies; check W's assembly")
 
 
 # --------------------------------------------------------------------------------------------
