@@ -59,7 +59,7 @@ from .impact.errors import (
 __all__ = [
     "real", "finite", "positive", "nonnegative", "in_range", "integer", "choice", "boolean",
     "vector", "time_span", "sorted_times", "mapping",
-    "Spec", "Real", "Integer", "Choice", "Flag", "Vector", "Optional", "check_parameters",
+    "Spec", "Real", "Positive", "NonNegative", "Unit", "Integer", "Choice", "Flag", "Vector", "OrNone", "check_parameters",
     "arg_finite", "arg_positive", "arg_positive_int", "arg_nonnegative_int", "arg_unit",
 ]
 
@@ -128,7 +128,7 @@ def _interval(low, high, low_open: bool, high_open: bool) -> str:
     if high is not None and low is None:
         return f"{'<' if high_open else '<='} {high:g}"
     if low is None and high is None:
-        return "any real number"
+        return ""
     return f"in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
 
 
@@ -254,8 +254,8 @@ class Real(Spec):
                         high_open=self.high_open)
 
     def describe(self) -> str:
-        return "a finite real number " + _interval(self.low, self.high, self.low_open,
-                                                    self.high_open)
+        return " ".join(("a finite real number", _interval(self.low, self.high, self.low_open,
+                                                           self.high_open))).rstrip()
 
 
 def Positive() -> Real:  # noqa: N802 - a spec constructor
@@ -284,7 +284,7 @@ class Integer(Spec):
         return integer(name, value, minimum=self.low, maximum=self.high)
 
     def describe(self) -> str:
-        return "an integer " + _interval(self.low, self.high, False, False)
+        return " ".join(("an integer", _interval(self.low, self.high, False, False))).rstrip()
 
 
 @dataclass(frozen=True)
@@ -327,7 +327,7 @@ class Vector(Spec):
 
 
 @dataclass(frozen=True)
-class Optional(Spec):
+class OrNone(Spec):
     """None, or a value checked by ``spec``."""
 
     spec: Spec
@@ -353,7 +353,9 @@ def check_parameters(owner: str, specs: Mapping[str, Spec], values: Mapping[str,
         try:
             out[key] = specs[key].check(key, value)
         except (ParameterError, ShapeError, NonFiniteError, UnknownOptionError) as exc:
-            raise type(exc)(f"{owner}: {exc} (expected {specs[key].describe()})") from None
+            expected = specs[key].describe()
+            note = "" if expected in str(exc) else f" (expected {expected})"
+            raise type(exc)(f"{owner}: {exc}{note}") from None
     return out
 
 

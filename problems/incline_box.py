@@ -40,6 +40,14 @@ import numpy as np
 from convimpact.model import place_resting, rest_velocity
 from convimpact.problems._box import CORNERS, G, block_outline, build_block, corner_normal_forces
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"slope_deg": Real(0.0, 90.0, high_open=True), "mu": NonNegative(), "v0": Real(),
+              "width": Positive(), "height": Positive(), "mass": Positive(), "e": Unit(),
+              "t_end": Positive()}
 
 
 def _stop(v0: float, mu: float, a: float) -> tuple[float | None, float | None]:

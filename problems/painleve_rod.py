@@ -41,6 +41,15 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder, place_resting, rest_velocity
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"angle_deg": Real(0.0, 90.0, low_open=True, high_open=True), "v0": Real(),
+              "mu": NonNegative(), "length": Positive(), "mass": Positive(), "e": Unit(),
+              "t_end": Positive()}
+
 
 G = 9.81
 

@@ -49,6 +49,15 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder, place_resting, rest_velocity
 from convimpact.scenes import Scene
+from convimpact.validation import Integer, NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"slope_deg": Real(0.0, 60.0, high_open=True), "n_spokes": Integer(3),
+              "leg_length": Positive(), "mass": Positive(), "rho": Positive(),
+              "omega0": Real(), "e": Unit(), "mu": NonNegative(), "t_end": Positive()}
+
 
 G = 9.81
 

@@ -23,6 +23,14 @@ from typing import Sequence
 import numpy as np
 
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Unit, Vector
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"height": Positive(), "tilt": Vector(3), "mu": NonNegative(), "e": Unit(),
+              "kp": NonNegative(), "kd": NonNegative(), "t_end": Positive()}
+
 
 LEGS = ("FL", "FR", "HL", "HR")
 

@@ -44,10 +44,18 @@ from convimpact.impact.errors import ParameterError
 from convimpact.model import Joint, ModelBuilder
 from convimpact.model import impact_arguments as _impact_arguments
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
 
 CRANK_LENGTH, CRANK_MASS = 0.15, 0.5
 COUPLER_LENGTH, COUPLER_MASS = 0.40, 0.4
 SLIDER_MASS, SLIDER_HALF_WIDTH, SLIDER_HALF_HEIGHT = 0.3, 0.05, 0.025
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"mass_ratio": Positive(), "e": Unit(), "mu": NonNegative(),
+              "omega_ref": Real(0.0, low_open=True)}
+
+
 FREE_SLIDER_HALF_WIDTH = 0.05
 OMEGA_REF = 20.0
 CRANK_ANGLE_IMPACT = np.radians(-60.0)

@@ -48,6 +48,15 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder, place_resting, rest_velocity
 from convimpact.scenes import Scene
+from convimpact.validation import Flag, NonNegative, OrNone, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"v0": Real(), "omega0": Real(), "radius": Positive(), "mass": Positive(),
+              "mu": NonNegative(), "e": Unit(), "spatial": Flag(), "direction_deg": Real(),
+              "spin_axis_deg": OrNone(Real()), "t_end": Positive()}
+
 
 G = 9.81
 

@@ -39,7 +39,7 @@ def _scheme_options() -> dict[str, dict]:
     """The numeric options of the schemes other than event-driven (whose ``simulate`` checks
     its own), declared once: checked by :func:`simulate_with` before the scheme runs (a string
     such as ``h="1e-3"`` is refused, not converted)."""
-    from ..validation import Flag, Optional, Positive, Real, Unit
+    from ..validation import Flag, OrNone, Positive, Real, Unit
 
     tolerances = {"projection_tol": Positive(), "contact_tol": Positive(), "assemble": Flag()}
     return {
@@ -48,7 +48,7 @@ def _scheme_options() -> dict[str, dict]:
         "compliant": {"exponent": Positive(), "regularization_velocity": Positive(),
                       "min_impact_velocity": Real(0.0), "rtol": Positive(),
                       "atol": Positive(), "max_step": Real(0.0, low_open=True),
-                      "first_step": Optional(Positive()), "event_tol": Positive(),
+                      "first_step": OrNone(Positive()), "event_tol": Positive(),
                       **tolerances},
     }
 

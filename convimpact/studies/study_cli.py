@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from ..cli import command
+from ..validation import arg_positive_int
 
 
 def _executor_args(p: argparse.ArgumentParser) -> None:
@@ -22,7 +23,7 @@ def _executor_args(p: argparse.ArgumentParser) -> None:
                         "workers, which must reach the output path")
     p.add_argument("--executor", choices=("processes", "serial"), default="processes",
                    help="without --scheduler: local processes (default) or this process")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=arg_positive_int, default=None,
                    help="local processes (default: one per usable core)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
