@@ -18,7 +18,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .impact.errors import ConvImpactError, ParameterError, UnknownOptionError
+from .impact.errors import ConvImpactError, NonFiniteError, ParameterError, UnknownOptionError
 from .mechanism import Mechanism
 
 
@@ -114,3 +114,8 @@ def load_scene(name: str, **params) -> Scene:
         if isinstance(exc, ConvImpactError):
             raise
         raise ParameterError(f"bad parameter for scene {name!r}: {exc}") from None
+    except (OverflowError, ZeroDivisionError) as exc:
+        given = ", ".join(f"{k}={v!r}" for k, v in params.items()) or "its defaults"
+        raise NonFiniteError(
+            f"scene {name!r} with {given}: a figure of the scene leaves double precision's "
+            f"range ({exc}); choose values of ordinary magnitude") from None

@@ -59,7 +59,8 @@ from .impact.errors import (
 __all__ = [
     "real", "finite", "positive", "nonnegative", "in_range", "integer", "choice", "boolean",
     "vector", "time_span", "sorted_times", "mapping",
-    "Spec", "Real", "Positive", "NonNegative", "Unit", "Integer", "Choice", "Flag", "Vector", "OrNone", "check_parameters",
+    "Spec", "Real", "Positive", "NonNegative", "Unit", "Integer", "Choice", "Flag", "Vector",
+    "OrNone", "PerContact", "check_parameters", "integration_controls", "ATOL_MIN", "MAX_STEPS",
     "arg_finite", "arg_positive", "arg_positive_int", "arg_nonnegative_int", "arg_unit",
 ]
 
@@ -179,6 +180,44 @@ def mapping(name: str, value) -> dict[str, Any]:
     if bad:
         raise ParameterError(f"{name} must have string keys (option names), got {bad[0]!r}")
     return dict(value)
+
+
+#: smallest absolute tolerance of an integration: below it the error norms of scipy's
+#: integrators overflow (|f| / atol squared) and the run fails inside scipy
+ATOL_MIN = 1e-100
+#: steps a run may be forced to take by its step bound (span / max_step at most this)
+MAX_STEPS = 5_000_000
+
+
+def integration_controls(t0: float, t1: float, *, rtol=None, atol=None, max_step=None,
+                         first_step=None) -> dict[str, float]:
+    """An integrator's controls over the span [t0, t1], checked (the ones given, not None):
+    rtol > 0; atol >= :data:`ATOL_MIN`; max_step > 0 (inf: no bound) and at least
+    span / :data:`MAX_STEPS` (a finer bound would never end); first_step > 0, at most the
+    span and above the round-off of t (100 eps max(|t0|, |t1|, span)). Returns them as
+    floats."""
+    out: dict[str, float] = {}
+    span = t1 - t0
+    if rtol is not None:
+        out["rtol"] = positive("rtol", rtol)
+    if atol is not None:
+        out["atol"] = a = positive("atol", atol)
+        if a < ATOL_MIN:
+            raise ParameterError(f"atol must be >= {ATOL_MIN:g} (below it the integrator's "
+                                 f"error norm overflows), got {a!r}")
+    if max_step is not None:
+        out["max_step"] = m = positive("max_step", max_step, allow_inf=True)
+        if m < span / MAX_STEPS:
+            raise ParameterError(
+                f"max_step = {m:g} would need more than {MAX_STEPS:g} steps over the span "
+                f"t1 - t0 = {span:g}; take max_step >= {span / MAX_STEPS:g}")
+    if first_step is not None:
+        out["first_step"] = f = positive("first_step", first_step)
+        floor = 100.0 * np.finfo(float).eps * max(abs(t0), abs(t1), span)
+        if not floor <= f <= span:
+            raise ParameterError(f"first_step must lie in [{floor:g}, {span:g}] (above the "
+                                 f"round-off of t, at most the span), got {f!r}")
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -337,6 +376,26 @@ class OrNone(Spec):
 
     def describe(self) -> str:
         return f"None or {self.spec.describe()}"
+
+
+@dataclass(frozen=True)
+class PerContact(Spec):
+    """One value for every contact (checked by ``spec``), or a mapping from contact names to
+    values (each checked by ``spec``; the names are checked by the model)."""
+
+    spec: Spec
+
+    def check(self, name: str, value):
+        if isinstance(value, Mapping):
+            bad = [k for k in value if not isinstance(k, str)]
+            if bad:
+                raise ParameterError(f"{name} must map contact names to values, got key "
+                                     f"{bad[0]!r}")
+            return {k: self.spec.check(f"{name}[{k!r}]", v) for k, v in value.items()}
+        return self.spec.check(name, value)
+
+    def describe(self) -> str:
+        return f"{self.spec.describe()}, or a mapping contact -> such a value"
 
 
 def check_parameters(owner: str, specs: Mapping[str, Spec], values: Mapping[str, Any]

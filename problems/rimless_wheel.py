@@ -54,7 +54,7 @@ from convimpact.validation import Integer, NonNegative, Positive, Real, Unit
 
 #: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
 #: the scene is built (an error names the parameter)
-PARAMETERS = {"slope_deg": Real(0.0, 60.0, high_open=True), "n_spokes": Integer(3),
+PARAMETERS = {"slope_deg": Real(0.0, 60.0, high_open=True), "n_spokes": Integer(3, 1000),
               "leg_length": Positive(), "mass": Positive(), "rho": Positive(),
               "omega0": Real(), "e": Unit(), "mu": NonNegative(), "t_end": Positive()}
 

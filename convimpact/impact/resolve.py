@@ -101,9 +101,10 @@ def available_methods(law: str) -> list[str]:
 
 def check_law_method(law: str, method: str) -> None:
     """Raise UnknownOptionError unless ``law`` and ``method`` are known names."""
-    if law not in LAWS:
+    # a name is a str (an array or a list would make `in` raise or compare elementwise)
+    if type(law) is not str or law not in LAWS:
         raise UnknownOptionError(f"unknown impact law {law!r}; choose one of {', '.join(LAWS)}")
-    if method not in METHODS:
+    if type(method) is not str or method not in METHODS:
         raise UnknownOptionError(
             f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
 

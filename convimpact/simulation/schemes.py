@@ -24,8 +24,6 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-import math
-
 from ..impact.errors import ParameterError, UnknownOptionError
 from .compliant import simulate_compliant
 from .moreau import simulate_moreau
@@ -36,21 +34,28 @@ SCHEMES = ("event-driven", "moreau-jean", "compliant")
 
 
 def _scheme_options() -> dict[str, dict]:
-    """The numeric options of the schemes other than event-driven (whose ``simulate`` checks
-    its own), declared once: checked by :func:`simulate_with` before the scheme runs (a string
-    such as ``h="1e-3"`` is refused, not converted)."""
-    from ..validation import Flag, OrNone, Positive, Real, Unit
+    """The options of the schemes other than event-driven (whose ``simulate`` checks its
+    own), declared once and checked by :func:`simulate_with` before the scheme runs (a string
+    such as ``h="1e-3"`` is refused, not converted). The integration controls (rtol, atol,
+    max_step, first_step) are checked against the span by
+    :func:`convimpact.validation.integration_controls`."""
+    from ..validation import (NonNegative, OrNone, PerContact, Positive, Real, Unit,
+                              Choice, Flag)
 
-    tolerances = {"projection_tol": Positive(), "contact_tol": Positive(), "assemble": Flag()}
+    common = {"projection_tol": Positive(), "contact_tol": Positive(), "assemble": Flag()}
     return {
         "moreau-jean": {"h": Positive(), "theta": Unit(), "gap_tol": Real(),
-                        "rest_velocity": Real(0.0), **tolerances},
-        "compliant": {"exponent": Positive(), "regularization_velocity": Positive(),
-                      "min_impact_velocity": Real(0.0), "rtol": Positive(),
-                      "atol": Positive(), "max_step": Real(0.0, low_open=True),
-                      "first_step": OrNone(Positive()), "event_tol": Positive(),
-                      **tolerances},
+                        "rest_velocity": NonNegative(), **common},
+        "compliant": {"model": Choice(("hunt-crossley", "lankarani-nikravesh")),
+                      "stiffness": PerContact(Positive()), "exponent": Positive(),
+                      "e": OrNone(PerContact(Unit())), "mu": OrNone(PerContact(NonNegative())),
+                      "regularization_velocity": Positive(),
+                      "min_impact_velocity": NonNegative(), "event_tol": Positive(), **common},
     }
+
+
+#: options checked against the span (convimpact.validation.integration_controls)
+_CONTROLS = ("rtol", "atol", "max_step", "first_step")
 
 
 def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
@@ -99,10 +104,21 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
                              "(e.g. the step h for moreau-jean, the stiffness for compliant)")
     specs = _scheme_options().get(scheme)
     if specs:
-        from ..validation import check_parameters
+        from ..validation import MAX_STEPS, check_parameters, integration_controls
+        from .initial import time_span
+        from .simulate import _as_mechanism
 
         given = {k: v for k, v in options.items() if k in specs}
-        if type(given.get("max_step")) is float and given["max_step"] == math.inf:
-            given.pop("max_step")  # the integrator's default: no bound
         options.update(check_parameters(f"scheme {scheme!r}", specs, given))
+        if "max_step" in options and options["max_step"] is None:
+            raise ParameterError("max_step must be a positive number (inf: no bound), got None")
+        controls = {k: options[k] for k in _CONTROLS if options.get(k) is not None}
+        if controls or scheme == "moreau-jean":
+            t0, t1 = time_span(t_span, _as_mechanism(system)[1])
+            options.update(integration_controls(t0, t1, **controls))
+            if scheme == "moreau-jean" and (t1 - t0) / options["h"] > MAX_STEPS:
+                raise ParameterError(
+                    f"scheme 'moreau-jean': h = {options['h']:g} needs more than {MAX_STEPS:g} "
+                    f"steps over the span t1 - t0 = {t1 - t0:g}; take h >= "
+                    f"{(t1 - t0) / MAX_STEPS:g}")
     return fn(system, t_span, y0, **options)

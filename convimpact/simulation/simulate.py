@@ -44,7 +44,8 @@ from .canonical import CanonicalEquations
 from .event_driven import MAX_EVENTS_AT_ONE_INSTANT  # noqa: F401  (re-exported)
 from .event_driven import EventDrivenRun
 from .initial import INTEGRATORS  # noqa: F401  (re-exported)
-from ..validation import boolean, choice, integer, nonnegative, positive, sorted_times
+from ..validation import (boolean, choice, integer, integration_controls, nonnegative, positive,
+                          sorted_times)
 from .initial import consistent_start, integrator_class, law_options, state_vector, time_span
 from .options import EventDrivenOptions
 from .result import SimulationResult
@@ -227,22 +228,21 @@ def simulate(
     impacts = choice("impacts policy", impacts, IMPACT_POLICIES)
     painleve = choice("painleve policy", painleve, PAINLEVE_POLICIES)
     solver_cls = integrator_class(integrator)
-    rtol, atol, event_tol, contact_tol, projection_tol = (
+    event_tol, contact_tol, projection_tol = (
         positive(name, value) for name, value in (
-            ("rtol", rtol), ("atol", atol), ("event_tol", event_tol),
-            ("contact_tol", contact_tol), ("projection_tol", projection_tol)))
+            ("event_tol", event_tol), ("contact_tol", contact_tol),
+            ("projection_tol", projection_tol)))
     rest_velocity = nonnegative("rest_velocity", rest_velocity)
-    max_step = positive("max_step", max_step, allow_inf=True)
-    first_step = None if first_step is None else positive("first_step", first_step)
     max_impacts = integer("max_impacts", max_impacts, minimum=0)
     dense_output = boolean("dense_output", dense_output)
     assemble = boolean("assemble", assemble)
     zeno_time_tol = None if zeno_time_tol is None else positive("zeno_time_tol", zeno_time_tol)
 
     t0, t1 = time_span(t_span, scene)
-    if first_step is not None and first_step > t1 - t0:
-        raise ParameterError(f"first_step must not exceed the span t1 - t0 = {t1 - t0:g}, got "
-                             f"{first_step:g}")
+    controls = integration_controls(t0, t1, rtol=rtol, atol=atol, max_step=max_step,
+                                    first_step=first_step)
+    rtol, atol, max_step = controls["rtol"], controls["atol"], controls["max_step"]
+    first_step = controls.get("first_step")
     if t_eval is not None:
         t_eval = sorted_times("t_eval", t_eval, t0, t1)
     zeno_tol = 1e6 * event_tol if zeno_time_tol is None else zeno_time_tol

@@ -169,27 +169,26 @@ def _check_degenerate(W: np.ndarray, Jb: np.ndarray, n: int) -> None:
         "leave the contact out")
 
 
-#: relative tolerance of the semidefiniteness test of a user's Delassus block (its principal
-#: minors of order j are accepted down to -INDEFINITE_RTOL tr(W)^j)
+#: tolerance of the semidefiniteness test of a user's Delassus block (the principal minors of
+#: W / max |W| are accepted down to -INDEFINITE_RTOL)
 INDEFINITE_RTOL = 1e-10
 
 
 def _indefinite(Wb: np.ndarray) -> np.ndarray:
     """Per item (N,) of the (N or 1, d, d) blocks read from their upper triangle: whether W is
-    not positive semidefinite (a principal minor below -INDEFINITE_RTOL tr(W)^order). A
+    not positive semidefinite (a principal minor of W / max |W| below -INDEFINITE_RTOL). A
     Delassus matrix J M^-1 J^T is semidefinite; an indefinite one has no impulse law."""
     W = np.triu(Wb) + np.triu(Wb, 1).transpose(0, 2, 1)
+    scale = np.abs(W).max(axis=(1, 2))
+    W = W / np.where(scale > 0.0, scale, 1.0)[:, None, None]  # entries in [-1, 1]
     d = W.shape[1]
-    diag = np.einsum("nii->ni", W)
-    tr = np.abs(diag).sum(axis=1)
     tol = INDEFINITE_RTOL
-    bad = (diag < -tol * tr[:, None]).any(axis=1)
+    bad = (np.einsum("nii->ni", W) < -tol).any(axis=1)
     for a in range(d):
         for b in range(a + 1, d):
-            m2 = W[:, a, a] * W[:, b, b] - W[:, a, b] * W[:, a, b]
-            bad |= m2 < -tol * tr * tr
+            bad |= W[:, a, a] * W[:, b, b] - W[:, a, b] * W[:, a, b] < -tol
     if d == 3:
-        bad |= np.linalg.det(W) < -tol * tr * tr * tr
+        bad |= np.linalg.det(W) < -tol
     return bad
 
 
