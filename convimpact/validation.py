@@ -23,10 +23,17 @@ parameters, the studies and the command line -- checks its arguments before any 
   integral float such as ``1e4`` is accepted.
 * **A solver that did not converge never returns an answer** (``SolverError``); a run that
   cannot proceed raises ``SimulationError`` or stops with a status saying why.
-* **The command line** exits with status 2 and one line ``convimpact: error: ...`` (or
-  argparse's usage line) for bad arguments, never a traceback; a run that fails leaves no
-  result file that looks complete (files are written under a temporary name and renamed when
-  whole), and a study that cannot start leaves no store behind.
+* **Runs never hang on their arguments**: a step bound or a Moreau-Jean step that would need
+  more than :data:`MAX_STEPS` steps, or tolerances below what double precision can honour
+  (``atol`` < :data:`ATOL_MIN`), are refused before the run.
+* **The command line** exits with status 2 and one line naming the option (``convimpact
+  simulate: error: argument --t-end: expected a positive finite number, got 'nan'``, or
+  ``convimpact: error: ...`` for a value the library refuses), never a traceback.
+  ``convimpact simulate`` writes ``result.json`` last and whole (under a temporary name,
+  renamed once the plots are written): a run that fails leaves no result that looks
+  complete. A study checks its arguments before it creates its store, and removes a store it
+  created when it fails before any chunk is done; a store with finished chunks stays, and
+  the same command resumes it.
 
 This module holds the small reusable checkers (:func:`real`, :func:`positive`,
 :func:`integer`, :func:`choice`, :func:`vector`, :func:`time_span`, ...), the declarative

@@ -242,7 +242,8 @@ ABSURD = [
     ("rimless_wheel", {"n_spokes": 2.5}, "n_spokes"), ("rimless_wheel", {"rho": 0}, "rho"),
     ("pendulum_3d", {"length": 0}, "length"), ("pendulum_planar", {"mu": -1}, "mu"),
     ("rocking_block", {"tilt": 2.0}, "tilt"), ("sliding_box", {"mu": 0}, "mu"),
-    ("incline_box", {"slope_deg": 90}, "slope_deg"), ("painleve_rod", {"angle_deg": 0}, "angle_deg"),
+    ("incline_box", {"slope_deg": 90}, "slope_deg"),
+    ("painleve_rod", {"angle_deg": 0}, "angle_deg"),
     ("robot_drop", {"tilt": (0, 1)}, "tilt"),
 ]
 

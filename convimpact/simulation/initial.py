@@ -17,7 +17,6 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
 from ..impact.errors import (
     LoopConstraintError,
     NonFiniteError,
-    ParameterError,
     PenetrationError,
     ShapeError,
     UnknownOptionError,

@@ -38,7 +38,7 @@ import numpy as np
 from scipy.integrate import DOP853, RK23, RK45, OdeSolver, Radau
 
 from ..impact import check_law_method
-from ..impact.errors import ParameterError, ShapeError
+from ..impact.errors import ShapeError
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
 from .event_driven import MAX_EVENTS_AT_ONE_INSTANT  # noqa: F401  (re-exported)
