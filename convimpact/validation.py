@@ -65,7 +65,7 @@ from .impact.errors import (
 
 __all__ = [
     "real", "finite", "positive", "nonnegative", "in_range", "integer", "choice", "boolean",
-    "vector", "time_span", "sorted_times", "mapping",
+    "vector", "grid", "time_span", "sorted_times", "mapping",
     "Spec", "Real", "Positive", "NonNegative", "Unit", "Integer", "Choice", "Flag", "Vector",
     "OrNone", "PerContact", "check_parameters", "integration_controls", "ATOL_MIN", "MAX_STEPS",
     "arg_finite", "arg_positive", "arg_positive_int", "arg_nonnegative_int", "arg_unit",
@@ -243,6 +243,16 @@ def vector(name: str, value, size: int | None = None, *, allow_nonfinite: bool =
     if not allow_nonfinite and not np.isfinite(a).all():
         raise NonFiniteError(f"{name} contains NaN or infinity: {a.tolist()}; pass finite "
                              "values")
+    return a
+
+
+def grid(name: str, value) -> np.ndarray:
+    """A study's grid of values: a real number or a 1-D sequence of them, as a non-empty 1-D
+    float array (finiteness and range are the caller's: e in [0, 1], signed mu, angles)."""
+    a = np.atleast_1d(as_real_array(name, value))
+    if a.ndim != 1 or a.size == 0:
+        raise ShapeError(f"{name} must be a number or a non-empty 1-D sequence of numbers, "
+                         f"got shape {a.shape}")
     return a
 
 

@@ -302,3 +302,26 @@ def _valid_cli_value(command: str, option: str, text: str) -> bool | None:
     if option == "--param":
         return None if finite and x > 0.1 else False
     return False
+
+
+LANDSCAPE = {"e": [0.0, 0.5], "mu": [-0.3, 0.3], "law": "coulomb"}
+
+
+@FEW
+@given(name=st.sampled_from(["e", "mu", "law"]), value=junk,
+       which=st.sampled_from(["closed_form", "law"]))
+def test_study_landscape_malformed_grid(name, value, which):
+    """The dissipation landscapes over grids of e and signed mu (one planar contact)."""
+    from convimpact.studies.landscape import closed_form_landscape, law_landscape
+
+    if which == "closed_form":
+        if name == "law":
+            return  # the closed form has no law argument
+        kwargs = {k: v for k, v in {**LANDSCAPE, name: value}.items() if k != "law"}
+        call = lambda: closed_form_landscape(M, J, DQ, **kwargs)  # noqa: E731
+    else:
+        kwargs = {**LANDSCAPE, name: value}
+        call = lambda: law_landscape(M, J, DQ, **kwargs)  # noqa: E731
+    L = _typed(call)
+    if L is not None:
+        assert np.isfinite(L.e).all() and np.isfinite(L.mu).all()
