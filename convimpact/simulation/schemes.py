@@ -81,7 +81,10 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
     Raises
     ------
     UnknownOptionError
-        for an unknown scheme or an option the scheme does not take (the message lists them).
+        for an unknown scheme or an option the scheme does not take (the message lists them);
+    ParameterError, NonFiniteError, ShapeError
+        for an option's value of the wrong type or out of its declared range (e.g. ``h="1e-3"``,
+        ``max_step=0``), checked before the scheme runs and naming the option.
     """
     fns = {"event-driven": simulate, "moreau-jean": simulate_moreau,
            "compliant": simulate_compliant}

@@ -111,7 +111,10 @@ def simulate(
         contacts closing together need a multi-contact method ("clarabel", "cvxpy").
     integrator : str or OdeSolver subclass
         "DOP853" (default), "RK45", "RK23", "Radau", "BDF", "LSODA", or a scipy OdeSolver.
-    rtol, atol, max_step, first_step : integrator controls (as in ``solve_ivp``).
+    rtol, atol, max_step, first_step : integrator controls (as in ``solve_ivp``), real
+        numbers: rtol > 0, atol >= 1e-100, span / max_step <= 5e6 (``max_step=inf``: no bound;
+        a finer bound would never end), first_step within the span and above t's round-off
+        (:func:`convimpact.validation.integration_controls`).
     dense_output : bool
         Attach ``sol(t) -> [theta, p]`` across all segments (right-continuous at impacts).
     t_eval : sequence, optional
@@ -201,8 +204,10 @@ def simulate(
     Raises
     ------
     ShapeError, NonFiniteError, ParameterError, UnknownOptionError
-        for malformed input (NaN in the state, non-increasing t_span, unknown names, ``e_t``
-        with a law that has none or outside [-1, 1]);
+        for malformed input, checked before the run and naming the argument (NaN in the
+        state, a complex or string entry, non-increasing t_span, a string or a boolean where a
+        number is expected, a count that is not an integer, unknown names, ``e_t`` with a law
+        that has none or outside [-1, 1]);
     LoopConstraintError
         for an initial state that violates the loops when ``assemble=False``;
     NotSupportedError
