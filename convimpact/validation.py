@@ -196,34 +196,40 @@ ATOL_MIN = 1e-100
 MAX_STEPS = 5_000_000
 
 
-def integration_controls(t0: float, t1: float, *, rtol=None, atol=None, max_step=None,
-                         first_step=None) -> dict[str, float]:
-    """An integrator's controls over the span [t0, t1], checked (the ones given, not None):
-    rtol > 0; atol >= :data:`ATOL_MIN`; max_step > 0 (inf: no bound) and at least
-    span / :data:`MAX_STEPS` (a finer bound would never end); first_step > 0, at most the
-    span and above the round-off of t (100 eps max(|t0|, |t1|, span)). Returns them as
-    floats."""
-    out: dict[str, float] = {}
+def integration_controls(t0: float, t1: float, **controls) -> dict[str, Any]:
+    """An integrator's controls over the span [t0, t1], checked -- the ones passed among
+    ``rtol``, ``atol``, ``max_step``, ``first_step``: rtol > 0; atol >= :data:`ATOL_MIN`;
+    max_step > 0 (inf: no bound) and at least span / :data:`MAX_STEPS` (a finer bound would
+    never end); first_step None (the integrator's choice) or > 0, at most the span and above
+    the round-off of t (100 eps max(|t0|, |t1|, span)). Returns them as floats (first_step
+    may stay None)."""
+    unknown = set(controls) - {"rtol", "atol", "max_step", "first_step"}
+    if unknown:
+        raise UnknownOptionError(f"unknown integration control(s) {', '.join(sorted(unknown))}")
+    out: dict[str, Any] = {}
     span = t1 - t0
-    if rtol is not None:
-        out["rtol"] = positive("rtol", rtol)
-    if atol is not None:
-        out["atol"] = a = positive("atol", atol)
+    if "rtol" in controls:
+        out["rtol"] = positive("rtol", controls["rtol"])
+    if "atol" in controls:
+        out["atol"] = a = positive("atol", controls["atol"])
         if a < ATOL_MIN:
             raise ParameterError(f"atol must be >= {ATOL_MIN:g} (below it the integrator's "
                                  f"error norm overflows), got {a!r}")
-    if max_step is not None:
-        out["max_step"] = m = positive("max_step", max_step, allow_inf=True)
+    if "max_step" in controls:
+        out["max_step"] = m = positive("max_step", controls["max_step"], allow_inf=True)
         if m < span / MAX_STEPS:
             raise ParameterError(
                 f"max_step = {m:g} would need more than {MAX_STEPS:g} steps over the span "
                 f"t1 - t0 = {span:g}; take max_step >= {span / MAX_STEPS:g}")
-    if first_step is not None:
-        out["first_step"] = f = positive("first_step", first_step)
-        floor = 100.0 * np.finfo(float).eps * max(abs(t0), abs(t1), span)
-        if not floor <= f <= span:
-            raise ParameterError(f"first_step must lie in [{floor:g}, {span:g}] (above the "
-                                 f"round-off of t, at most the span), got {f!r}")
+    if "first_step" in controls:
+        f = controls["first_step"]
+        if f is not None:
+            f = positive("first_step", f)
+            floor = 100.0 * np.finfo(float).eps * max(abs(t0), abs(t1), span)
+            if not floor <= f <= span:
+                raise ParameterError(f"first_step must lie in [{floor:g}, {span:g}] (above "
+                                     f"the round-off of t, at most the span), got {f!r}")
+        out["first_step"] = f
     return out
 
 

@@ -113,9 +113,7 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
 
         given = {k: v for k, v in options.items() if k in specs}
         options.update(check_parameters(f"scheme {scheme!r}", specs, given))
-        if "max_step" in options and options["max_step"] is None:
-            raise ParameterError("max_step must be a positive number (inf: no bound), got None")
-        controls = {k: options[k] for k in _CONTROLS if options.get(k) is not None}
+        controls = {k: options[k] for k in _CONTROLS if k in options}
         if controls or scheme == "moreau-jean":
             t0, t1 = time_span(t_span, _as_mechanism(system)[1])
             options.update(integration_controls(t0, t1, **controls))

@@ -247,7 +247,7 @@ def simulate(
     controls = integration_controls(t0, t1, rtol=rtol, atol=atol, max_step=max_step,
                                     first_step=first_step)
     rtol, atol, max_step = controls["rtol"], controls["atol"], controls["max_step"]
-    first_step = controls.get("first_step")
+    first_step = controls["first_step"]
     if t_eval is not None:
         t_eval = sorted_times("t_eval", t_eval, t0, t1)
     zeno_tol = 1e6 * event_tol if zeno_time_tol is None else zeno_time_tol
