@@ -337,3 +337,13 @@ def test_study_workers_refused_before_the_store(tmp_path):
             run_study("studies/pendulum_monte_carlo.toml", tmp_path / "s.zarr",
                       "processes", workers=workers)
         assert not (tmp_path / "s.zarr").exists()
+
+
+@pytest.mark.parametrize("kwargs,name", [({"mu": [0.3, True]}, "mu"), ({"e": [0.5, "1"]}, "e"),
+                                         ({"dq": [[1.0, -1.0], [1.0, 1j]]}, "dq")])
+def test_batch_refuses_boolean_string_complex_entries(kwargs, name):
+    """numpy alone reads [0.3, True] as [0.3, 1.0]: the batch refuses such entries by name."""
+    args = {"M": np.eye(2), "Jc": np.eye(2), "dq": [[1.0, -1.0], [1.0, -2.0]], "e": 0.5,
+            "mu": 0.3, **kwargs}
+    with pytest.raises(ShapeError, match=f"{name} has a"):
+        resolve_impacts(**args)

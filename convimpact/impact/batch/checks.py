@@ -28,6 +28,7 @@ from ..errors import (
     SingularSystemError,
     SolverError,
     UnknownOptionError,
+    as_real_array,
 )
 
 #: laws of the batch (every law has an exact single-contact kernel), with their codes
@@ -51,8 +52,12 @@ def _real_array(name: str, value) -> np.ndarray:
     """A float64 C-contiguous array of real numbers (no strings, booleans, complex, objects)."""
     if isinstance(value, (str, bytes, bool, np.bool_)):
         raise ShapeError(f"{name} must be real numbers, got {type(value).__name__} {value!r}")
-    if isinstance(value, np.ndarray):
+    if isinstance(value, np.ndarray) and value.dtype.kind != "O":
         a = value
+    elif isinstance(value, (list, tuple, np.ndarray)):
+        # the core's typed conversion: a boolean, string, complex or None entry of a sequence
+        # is refused by name (numpy would read [0.3, True] as [0.3, 1.0])
+        a = as_real_array(name, value)
     else:
         try:
             a = np.asarray(value)
