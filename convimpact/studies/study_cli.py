@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from ..cli import command
+from ..impact.errors import ConvImpactError
 from ..validation import arg_positive_int
 
 
@@ -45,6 +46,16 @@ def _study(args) -> int:
                         load=False)
     except KeyboardInterrupt:
         return _interrupted("study", args.out)
+    except ConvImpactError as exc:
+        from ..impact.errors import InputError
+        from .study_store import StudyStore, StudyStoreError
+
+        # a run that failed after it started keeps its store (with any finished chunks): say
+        # how to resume; bad arguments and a store of another study are not resumable
+        if not isinstance(exc, (InputError, StudyStoreError)) and StudyStore(args.out).exists():
+            raise type(exc)(f"{exc}; the finished chunks are in {args.out}: run the same "
+                            "command to resume the study") from exc
+        raise
     ds = run.dataset
     dims = ", ".join(f"{d} {n}" for d, n in ds.sizes.items())
     print(f"{spec.title or spec.kind}: {run.store} ({dims}; variables "

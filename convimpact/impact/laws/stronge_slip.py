@@ -337,9 +337,9 @@ def _curved_slip(out, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, 
 # one spatial contact
 
 
-#: bound (a power of two) on max |v-| after the approach speed is scaled to order one, so that
-#: the integration's products (|v_t| v_n, |v_t| p) stay finite when |v_t| >> |v_n-|
-SCALED_SPEED_MAX = 2.0 ** 600
+#: max |v-| after the approach speed is scaled to order one stays below 2^SCALED_SPEED_EXP, so
+#: that the integration's products (|v_t| v_n, |v_t| p) stay finite when |v_t| >> |v_n-|
+SCALED_SPEED_EXP = 600
 
 
 @_jit
@@ -352,17 +352,29 @@ def _stronge_spatial(A, b1, b2, C11, C12, C22, v0, v1, v2, e, mu, out):
     frictionless compression impulse -v0 / A and work v0^2 / A: with -v0 ~ 1e-300 next to a
     tangential speed of order one, that work underflows to zero (the error norm divides by
     it) and the first step underflows, so the integration failed. Here v- is scaled by the
-    power of two 2^k with -v0 2^k in [1/2, 1) (bounded so that max |v-| 2^k <= 2^600), which
+    power of two 2^k with -v0 2^k in [1/2, 1) (bounded so that max |v-| 2^k < 2^600), which
     is exact, and the impulses (out's phase starts, p_c) and works (W_c, W_n) are scaled back
     by 2^-k and 2^-2k; the errors' values (dv_n/dp, det W) do not depend on it."""
-    vmax = _pmax2(_pmax2(abs(v0), abs(v1)), abs(v2))
-    k = -math.frexp(abs(v0))[1]
-    top = 599 - math.frexp(vmax)[1]
-    if k > top:
-        k = top
+    k = _speed_exponent(v0, v1, v2)
     st, regime, p0, p1, p2, mass = _stronge_spatial_scaled(
         A, b1, b2, C11, C12, C22, math.ldexp(v0, k), math.ldexp(v1, k), math.ldexp(v2, k), e,
         mu, out)
+    return _scaled_back(out, k, st, regime, p0, p1, p2, mass)
+
+
+@_jit
+def _speed_exponent(v0, v1, v2):
+    """k with -v0 2^k in [1/2, 1), lowered so that max |v| 2^k < 2^:data:`SCALED_SPEED_EXP`."""
+    vmax = _pmax2(_pmax2(abs(v0), abs(v1)), abs(v2))
+    k = -math.frexp(abs(v0))[1]
+    top = SCALED_SPEED_EXP - math.frexp(vmax)[1]
+    return top if k > top else k
+
+
+@_jit
+def _scaled_back(out, k, st, regime, p0, p1, p2, mass):
+    """A kernel's answer and record computed with v- 2^k, brought back to v-: impulses (the
+    answer, the phases' starts, p_c) times 2^-k, the works W_c, W_n times 2^-2k (exact)."""
     if st == OK:
         p0 = math.ldexp(p0, -k)
         p1 = math.ldexp(p1, -k)
