@@ -181,20 +181,31 @@ INDEFINITE_RTOL = 1e-10
 
 def _indefinite(Wb: np.ndarray) -> np.ndarray:
     """Per item (N,) of the (N or 1, d, d) blocks read from their upper triangle: whether W is
-    not positive semidefinite (a principal minor of W / max |W| below -INDEFINITE_RTOL). A
-    Delassus matrix J M^-1 J^T is semidefinite; an indefinite one has no impulse law."""
-    W = np.triu(Wb) + np.triu(Wb, 1).transpose(0, 2, 1)
-    scale = np.abs(W).max(axis=(1, 2))
-    W = W / np.where(scale > 0.0, scale, 1.0)[:, None, None]  # entries in [-1, 1]
-    d = W.shape[1]
-    tol = INDEFINITE_RTOL
-    bad = (np.einsum("nii->ni", W) < -tol).any(axis=1)
-    for a in range(d):
-        for b in range(a + 1, d):
-            bad |= W[:, a, a] * W[:, b, b] - W[:, a, b] * W[:, a, b] < -tol
+    not positive semidefinite (a principal minor of order j below -INDEFINITE_RTOL s^j, s the
+    sum of |W|'s upper entries). A Delassus matrix J M^-1 J^T is semidefinite; an indefinite
+    one has no impulse law. Items far from unit scale are divided by s first (no overflow)."""
+    d = Wb.shape[1]
+    rows = [Wb[:, 0, 0], Wb[:, 0, 1], Wb[:, 1, 1]]
     if d == 3:
-        bad |= np.linalg.det(W) < -tol
-    return bad
+        rows += [Wb[:, 0, 2], Wb[:, 1, 2], Wb[:, 2, 2]]
+    s = np.abs(rows[0])
+    for r in rows[1:]:
+        s = s + np.abs(r)
+    far = ~((s >= 1e-100) & (s <= 1e100))
+    if far.any():
+        scale = np.where(far & (s > 0.0) & np.isfinite(s), s, 1.0)
+        rows = [r / scale for r in rows]
+        s = np.where(far & (s > 0.0), 1.0, s)
+    tol = INDEFINITE_RTOL
+    if d == 2:
+        a, b, c = rows
+        return (np.minimum(a, c) < -tol * s) | (a * c - b * b < -tol * s * s)
+    a, b, c, g, h, f = rows  # [[a, b, g], [b, c, h], [g, h, f]]
+    s2 = tol * s * s
+    bad = np.minimum(np.minimum(a, c), f) < -tol * s
+    bad |= (a * c - b * b < -s2) | (a * f - g * g < -s2) | (c * f - h * h < -s2)
+    det = a * (c * f - h * h) - b * (b * f - g * h) + g * (b * h - c * g)
+    return bad | (det < -s2 * s)
 
 
 def _flag_indefinite(bad: np.ndarray, status, regime, outs, errors, n: int) -> None:
