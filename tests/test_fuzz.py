@@ -257,6 +257,7 @@ def test_cli_malformed_option(data, text, tmp_path_factory):
     command = data.draw(st.sampled_from(sorted(COMMANDS)))
     option = data.draw(st.sampled_from(COMMANDS[command]))
     out = tmp_path_factory.mktemp("out")
+    valid = _valid_cli_value(command, option, text)
     if option == "--param":
         text = f"height={text}"
     argv = {
@@ -268,7 +269,6 @@ def test_cli_malformed_option(data, text, tmp_path_factory):
         "atlas": ["atlas", "--out", str(out / "atlas")],
         "bench": ["bench", "--out", str(out / "bench")],
     }[command] + [option, text]
-    valid = _valid_cli_value(command, option, text)
     if valid is False:
         code, err = _cli(argv)
         assert code == 2, (argv, err)
@@ -325,3 +325,31 @@ def test_study_landscape_malformed_grid(name, value, which):
     L = _typed(call)
     if L is not None:
         assert np.isfinite(L.e).all() and np.isfinite(L.mu).all()
+
+
+ENERGY = {"M": M, "c_n": J[0], "c_t": J[1], "dq": DQ, "e": 0.5, "mu": 0.3,
+          "normal_impulse": 1.0, "dq_minus": DQ, "dq_plus": -0.5 * DQ}
+
+
+@SOME
+@given(which=st.sampled_from(["energy_loss", "central_energy_loss", "oblique_energy_loss",
+                              "oblique_coefficients", "stiction_interval"]),
+       data=st.data(), value=junk)
+def test_energy_functions_malformed_argument(which, data, value):
+    """The energy API (eqs. 58-62): a typed error or finite numbers."""
+    import inspect
+
+    import convimpact as ci
+
+    fn = getattr(ci, which)
+    names = [p for p in inspect.signature(fn).parameters if p in ENERGY or p == "Jc"]
+    name = data.draw(st.sampled_from(names))
+    kwargs = {p: (J if p == "Jc" else ENERGY[p]) for p in names}
+    kwargs[name] = value
+    r = _typed(lambda: fn(**kwargs))
+    if r is None:
+        return
+    if which == "stiction_interval":
+        assert r.empty or (0.0 <= r.lower <= r.upper <= 1.0)
+    else:
+        assert _finite(np.atleast_1d(r))

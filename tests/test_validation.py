@@ -347,3 +347,14 @@ def test_batch_refuses_boolean_string_complex_entries(kwargs, name):
             "mu": 0.3, **kwargs}
     with pytest.raises(ShapeError, match=f"{name} has a"):
         resolve_impacts(**args)
+
+
+def test_energy_functions_raise_instead_of_returning_inf():
+    import convimpact as ci
+
+    with pytest.raises(NonFiniteError, match="T-"):
+        ci.energy_loss(np.eye(2), [1e200, 0.0], [0.0, 0.0])
+    with pytest.raises(NonFiniteError, match="energy loss"):
+        ci.central_energy_loss(np.eye(2), [1.0, 0.0], [-1e200, 0.0], 0.5)
+    # in range: eq. (58) by hand, 1/2 (1 + 4) - 1/2 (1/4 + 1) = 1.875
+    assert ci.energy_loss(np.eye(2), [1.0, 2.0], [0.5, 1.0]) == pytest.approx(1.875)

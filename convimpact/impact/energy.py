@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,15 @@ def _vector(name: str, x, k: int) -> np.ndarray:
     return a
 
 
+def _energy(name: str, value: float) -> float:
+    """``value``, or NonFiniteError when it leaves double precision's range (kinetic energies
+    of 1e200 m/s): never an inf or a NaN (the README's promise)."""
+    if not math.isfinite(value):
+        raise NonFiniteError(f"{name} = {value} is not finite: the units of M and the "
+                             "velocities make kinetic energies exceed 1e308; rescale them")
+    return value
+
+
 def _delassus(M, rows, C=None) -> np.ndarray:
     """``rows G rows^T`` (G = M^-1, or the loop-constrained inverse for closed loops) for
     finite rows of matching length, without the contact checks of build_problem (c_t may be
@@ -34,7 +44,9 @@ def energy_loss(M, dq_minus, dq_plus) -> float:
     M, _ = check_mass_matrix(M)
     k = M.shape[0]
     a, b = _vector("dq_minus", dq_minus, k), _vector("dq_plus", dq_plus, k)
-    return 0.5 * float(a @ M @ a) - 0.5 * float(b @ M @ b)
+    T_minus = _energy("T- = 1/2 dq_minus^T M dq_minus", 0.5 * float(a @ M @ a))
+    T_plus = _energy("T+ = 1/2 dq_plus^T M dq_plus", 0.5 * float(b @ M @ b))
+    return T_minus - T_plus
 
 
 def oblique_coefficients(M, c_n, c_t, C=None) -> tuple[float, float, float]:
@@ -59,7 +71,7 @@ def central_energy_loss(M, c_n, dq, e: float, C=None) -> float:
             f"c_n^T M^-1 c_n = {m_nn:.3e}: the contact normal moves no mass, eq. (59) is "
             "undefined; check c_n")
     v_n = float(c_n @ _vector("dq", dq, c_n.shape[0]))
-    return (1.0 - e * e) * v_n * v_n / (2.0 * m_nn)
+    return _energy("the energy loss", (1.0 - e * e) * v_n * v_n / (2.0 * m_nn))
 
 
 def oblique_energy_loss(M, c_n, c_t, dq, normal_impulse: float, mu: float, C=None) -> float:
@@ -76,7 +88,9 @@ def oblique_energy_loss(M, c_n, c_t, dq, normal_impulse: float, mu: float, C=Non
     c_n, c_t = as_real_array("c_n", c_n), as_real_array("c_t", c_t)
     dq = _vector("dq", dq, c_n.shape[0])
     v_n, v_t = float(c_n @ dq), float(c_t @ dq)
-    return -0.5 * pn * pn * (m_nn + 2 * mu * m_nt + mu * mu * m_tt) - pn * (v_n + mu * v_t)
+    return _energy("the energy loss",
+                   -0.5 * pn * pn * (m_nn + 2 * mu * m_nt + mu * mu * m_tt)
+                   - pn * (v_n + mu * v_t))
 
 
 @dataclass(frozen=True)
