@@ -168,8 +168,6 @@ def make_scene(v0: float = 2.0, omega0: float = 0.0, radius: float = 0.1, mass: 
                direction_deg: float = 30.0, spin_axis_deg: Optional[float] = None,
                t_end: float = 2.0) -> Scene:
     """The sliding-then-rolling ball (see the module docstring)."""
-    if radius <= 0:
-        raise ValueError(f"radius must be positive, got {radius}")
     if spatial:
         mech, theta0, dtheta0, closed = _spatial(v0, omega0, radius, mass, mu, e,
                                                  direction_deg, spin_axis_deg)
