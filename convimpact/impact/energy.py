@@ -64,8 +64,8 @@ def oblique_coefficients(M, c_n, c_t, C=None) -> tuple[float, float, float]:
 def central_energy_loss(M, c_n, dq, e: float, C=None) -> float:
     """T_L = (1 - e^2) v_n-^2 / (2 c_n^T M^-1 c_n) for a central/frictionless impact (eq. 59)."""
     e = float(check_restitution(e)[0])
-    m_nn, _, _ = oblique_coefficients(M, c_n, np.zeros(np.shape(c_n)), C)
-    c_n = as_real_array("c_n", c_n)
+    c_n = _vector("c_n", c_n, check_mass_matrix(M)[0].shape[0])
+    m_nn, _, _ = oblique_coefficients(M, c_n, np.zeros_like(c_n), C)
     if not m_nn > 0.0:
         raise SingularSystemError(
             f"c_n^T M^-1 c_n = {m_nn:.3e}: the contact normal moves no mass, eq. (59) is "
@@ -175,11 +175,13 @@ def stiction_interval(M, Jc, dq, mu: float | None = None, C=None,
         if b != 0.0:
             points.append(-a / b)
     if mu is not None:
-        # mu^2 (a0 + e a1)^2 - |t0 + e t1|^2 = 0
+        # mu^2 (a0 + e a1)^2 - |t0 + e t1|^2 = 0, divided by max(mu, 1)^2 (finite for any
+        # finite mu: mu^2 overflows beyond 1e154)
         a0, a1, t0, t1 = pi0[0], pi1[0], pi0[1:], pi1[1:]
-        q2 = mu * mu * a1 * a1 - float(t1 @ t1)
-        q1 = 2 * mu * mu * a0 * a1 - 2 * float(t0 @ t1)
-        q0 = mu * mu * a0 * a0 - float(t0 @ t0)
+        m, r = (1.0, 1.0 / mu) if mu > 1.0 else (mu, 1.0)
+        q2 = m * m * a1 * a1 - r * r * float(t1 @ t1)
+        q1 = 2 * m * m * a0 * a1 - 2 * r * r * float(t0 @ t1)
+        q0 = m * m * a0 * a0 - r * r * float(t0 @ t0)
         roots = np.roots([q2, q1, q0]) if abs(q2) > 0 else (
             np.array([-q0 / q1]) if q1 != 0 else np.array([]))
         points.extend(float(r.real) for r in np.atleast_1d(roots) if abs(r.imag) < 1e-12)
