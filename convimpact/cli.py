@@ -87,10 +87,13 @@ def _demo(args) -> int:
 
 
 def _demo_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--angle", type=float, default=30.0, help="rod angle from the floor, degrees")
-    p.add_argument("--e", type=float, default=0.5, help="coefficient of restitution")
-    p.add_argument("--mu", type=float, default=0.3, help="coefficient of friction")
-    p.add_argument("--e-t", type=float, default=None,
+    from .validation import arg_finite
+
+    p.add_argument("--angle", type=arg_finite, default=30.0,
+                   help="rod angle from the floor, degrees")
+    p.add_argument("--e", type=arg_finite, default=0.5, help="coefficient of restitution")
+    p.add_argument("--mu", type=arg_finite, default=0.3, help="coefficient of friction")
+    p.add_argument("--e-t", type=arg_finite, default=None,
                    help="tangential restitution in [-1, 1] of law chatterjee-ruina (default 0; "
                         "the other laws have none)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")

@@ -2,7 +2,9 @@
 
 Every module of :mod:`convimpact.problems` (the top-level ``problems/`` folder) that defines
 ``make_scene(**params) -> Scene`` is a scene; :func:`list_scenes` names them and
-:func:`load_scene` builds one.
+:func:`load_scene` builds one. A scene declares its parameters' types and ranges once, in its
+module's ``PARAMETERS`` (name -> :class:`convimpact.validation.Spec`, e.g. ``{"e": Unit(),
+"radius": Positive()}``), which ``load_scene`` checks before the scene is built.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .impact.errors import ConvImpactError, ParameterError, UnknownOptionError
+from .impact.errors import ConvImpactError, NonFiniteError, ParameterError, UnknownOptionError
 from .mechanism import Mechanism
 
 
@@ -73,22 +75,52 @@ def list_scenes() -> list[str]:
     return sorted(names)
 
 
-def load_scene(name: str, **params) -> Scene:
-    """Build scene ``name`` with optional parameters."""
-    if name not in list_scenes():
+def scene_parameters(name: str) -> Mapping[str, Any]:
+    """The parameter specs scene ``name`` declares (its module's ``PARAMETERS``: parameter
+    name -> :class:`convimpact.validation.Spec`), or an empty mapping for a scene that
+    declares none."""
+    mod = _scene_module(name)
+    return MappingProxyType(dict(getattr(mod, "PARAMETERS", {})))
+
+
+def _scene_module(name):
+    if not isinstance(name, str) or name not in list_scenes():
         raise UnknownOptionError(
             f"unknown scene {name!r}; available: {', '.join(list_scenes()) or 'none'}")
-    mod = importlib.import_module(f"convimpact.problems.{name}")
+    return importlib.import_module(f"convimpact.problems.{name}")
+
+
+def load_scene(name: str, **params) -> Scene:
+    """Build scene ``name`` with optional parameters.
+
+    Each parameter is checked against the range the scene declares for it (its module's
+    ``PARAMETERS``, see :func:`scene_parameters`) before the scene is built: an unknown name
+    raises :class:`UnknownOptionError` listing the scene's parameters, a value of the wrong
+    type or out of range a :class:`ParameterError` (:class:`NonFiniteError` for NaN or
+    infinity) naming the parameter and its range.
+    """
+    from .validation import check_parameters
+
+    mod = _scene_module(name)
     sig = inspect.signature(mod.make_scene)
-    accepts_any = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
-    unknown = [k for k in params if k not in sig.parameters and not accepts_any]
-    if unknown:
-        raise UnknownOptionError(
-            f"scene {name!r} has no parameter {', '.join(map(repr, unknown))}; its parameters: "
-            f"{', '.join(sig.parameters) or 'none'}")
+    specs = getattr(mod, "PARAMETERS", None)
+    if specs is not None:
+        params = check_parameters(f"scene {name!r}", specs, params)
+    else:
+        accepts_any = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+        unknown = [k for k in params if k not in sig.parameters and not accepts_any]
+        if unknown:
+            raise UnknownOptionError(
+                f"scene {name!r} has no parameter {', '.join(map(repr, unknown))}; its "
+                f"parameters: {', '.join(sig.parameters) or 'none'}")
     try:
         return mod.make_scene(**params)
     except (TypeError, ValueError) as exc:
         if isinstance(exc, ConvImpactError):
             raise
         raise ParameterError(f"bad parameter for scene {name!r}: {exc}") from None
+    except (OverflowError, ZeroDivisionError) as exc:
+        given = ", ".join(f"{k}={v!r}" for k, v in params.items()) or "its defaults"
+        raise NonFiniteError(
+            f"scene {name!r} with {given}: a figure of the scene leaves double precision's "
+            f"range ({exc}); choose values of ordinary magnitude") from None

@@ -19,6 +19,13 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"e": Unit(), "mu": NonNegative(), "mass": Positive(), "radius": Positive(),
+              "height": Positive(), "speed": Real(), "t_end": Positive()}
 
 
 def zeno_time(e: float, height: float, radius: float, g: float = 9.81) -> float:

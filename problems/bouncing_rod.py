@@ -20,6 +20,13 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"e": Unit(), "mu": NonNegative(), "mass": Positive(), "length": Positive(),
+              "height": Positive(), "tilt": Real(-90.0, 90.0), "t_end": Positive()}
 
 
 def make_scene(e: float = 0.5, mu: float = 0.3, mass: float = 1.0, length: float = 1.0,

@@ -40,6 +40,14 @@ import numpy as np
 from convimpact.model import place_resting, rest_velocity
 from convimpact.problems._box import CORNERS, G, block_outline, build_block, corner_normal_forces
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"slope_deg": Real(0.0, 90.0, high_open=True), "mu": NonNegative(), "v0": Real(),
+              "width": Positive(), "height": Positive(), "mass": Positive(), "e": Unit(),
+              "t_end": Positive()}
 
 
 def _stop(v0: float, mu: float, a: float) -> tuple[float | None, float | None]:
@@ -62,8 +70,6 @@ def make_scene(slope_deg: float = 30.0, mu: float = 0.7, v0: float = 0.0, width:
                height: float = 0.2, mass: float = 1.0, e: float = 0.0,
                t_end: float = 2.0) -> Scene:
     """The box on an incline (see the module docstring)."""
-    if not 0.0 <= slope_deg < 90.0:
-        raise ValueError(f"slope_deg must lie in [0, 90), got {slope_deg}")
     a = float(np.radians(slope_deg))
     n = (-np.sin(a), np.cos(a))
     down = np.array([-np.cos(a), -np.sin(a)])

@@ -41,6 +41,15 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder, place_resting, rest_velocity
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"angle_deg": Real(0.0, 90.0, low_open=True, high_open=True), "v0": Real(),
+              "mu": NonNegative(), "length": Positive(), "mass": Positive(), "e": Unit(),
+              "t_end": Positive()}
+
 
 G = 9.81
 
@@ -48,8 +57,6 @@ G = 9.81
 def make_scene(angle_deg: float = 60.0, v0: float = 1.0, mu: float = 1.5, length: float = 1.0,
                mass: float = 1.0, e: float = 0.0, t_end: float = 2.0) -> Scene:
     """Painleve's rod (see the module docstring)."""
-    if not 0.0 < angle_deg < 90.0:
-        raise ValueError(f"angle_deg must lie in (0, 90), got {angle_deg}")
     half = 0.5 * length
     th = float(np.radians(angle_deg))
     b = ModelBuilder(planar=True)

@@ -26,10 +26,17 @@ import numpy as np
 
 from convimpact.model import impact_arguments as _impact_arguments
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Unit
 
 from ._double_pendulum import CASE_ANGLES, build, relative_coordinates, tip_height
 
 #: the paper's approach velocity (v_n, v_t1, v_t2)
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"e": Unit(), "mu": NonNegative(), "mass": Positive(), "length": Positive()}
+
+
 PAPER_APPROACH = (-1.309, -2.683, 0.809)
 
 

@@ -29,10 +29,18 @@ import numpy as np
 
 from convimpact.model import impact_arguments as _impact_arguments
 from convimpact.scenes import Scene
+from convimpact.validation import Choice, NonNegative, Positive, Unit
 
 from ._double_pendulum import CASE_ANGLES, build, relative_coordinates, tip_height
 
 #: the paper's approach velocities (v_n, v_t), n = +y, t = -x
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"case": Choice(("a", "b", "drop")), "e": Unit(), "mu": NonNegative(),
+              "mass": Positive(), "length": Positive()}
+
+
 PAPER_APPROACH = {"a": (-1.309, -2.683), "b": (-0.416, -2.956)}
 
 

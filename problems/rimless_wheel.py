@@ -49,6 +49,15 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder, place_resting, rest_velocity
 from convimpact.scenes import Scene
+from convimpact.validation import Integer, NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"slope_deg": Real(0.0, 60.0, high_open=True), "n_spokes": Integer(3, 1000),
+              "leg_length": Positive(), "mass": Positive(), "rho": Positive(),
+              "omega0": Real(), "e": Unit(), "mu": NonNegative(), "t_end": Positive()}
+
 
 G = 9.81
 
@@ -58,13 +67,9 @@ def make_scene(slope_deg: float = 5.0, n_spokes: int = 8, leg_length: float = 1.
                mu: float = 1.0, t_end: float = 3.0) -> Scene:
     """The rimless wheel (see the module docstring)."""
     n = int(n_spokes)
-    if n != n_spokes or n < 3:
-        raise ValueError(f"n_spokes must be an integer >= 3, got {n_spokes}")
     if not 0.0 <= slope_deg < 180.0 / n:
         raise ValueError(f"slope_deg must lie in [0, 180/n_spokes) = [0, {180 / n:g}), "
                          f"got {slope_deg}")
-    if rho <= 0 or leg_length <= 0:
-        raise ValueError(f"rho and leg_length must be positive, got {rho}, {leg_length}")
     gam = float(np.radians(slope_deg))
     leg = float(leg_length)
     b = ModelBuilder(planar=True)

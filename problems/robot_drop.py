@@ -23,6 +23,14 @@ from typing import Sequence
 import numpy as np
 
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Unit, Vector
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"height": Positive(), "tilt": Vector(3), "mu": NonNegative(), "e": Unit(),
+              "kp": NonNegative(), "kd": NonNegative(), "t_end": Positive()}
+
 
 LEGS = ("FL", "FR", "HL", "HR")
 
@@ -35,8 +43,6 @@ def make_scene(height: float = 0.1, tilt: Sequence[float] = (0.1, 0.05, 0.08), m
     from convimpact.impact.errors import ParameterError
     from convimpact.model.pinocchio_robots import SOLO12_FEET, solo12, solo12_standing
 
-    if not height > 0.0 or not kp >= 0.0 or not kd >= 0.0:
-        raise ParameterError(f"height must be > 0 and kp, kd >= 0, got {height}, {kp}, {kd}")
     tilt = np.asarray(tilt, dtype=float)
     if tilt.shape != (3,) or np.abs(tilt[1]) >= 1.2:
         raise ParameterError("tilt must be (yaw, pitch, roll) with |pitch| < 1.2 rad (the Euler "

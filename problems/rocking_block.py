@@ -30,6 +30,7 @@ the impact ratio r and the linearised first-landing time (1/p) arccosh(1 / (1 - 
 
 from __future__ import annotations
 
+import math
 from types import MappingProxyType
 
 import numpy as np
@@ -37,13 +38,19 @@ import numpy as np
 from convimpact.model import place_resting
 from convimpact.problems._box import G, block_outline, build_block
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"width": Positive(), "height": Positive(), "mass": Positive(),
+              "tilt": Real(0.0, math.pi / 2, low_open=True, high_open=True), "e": Unit(),
+              "mu": NonNegative(), "t_end": Positive()}
 
 
 def make_scene(width: float = 0.2, height: float = 1.0, mass: float = 1.0, tilt: float = 0.1,
                e: float = 0.0, mu: float = 1.0, t_end: float = 3.0) -> Scene:
     """Housner's rocking block (see the module docstring)."""
-    if not 0.0 < tilt < np.pi / 2:
-        raise ValueError(f"tilt must lie in (0, pi/2) rad, got {tilt}")
     mech = build_block(width, height, mass, e, mu)
     guess = np.array([0.0, height, -tilt])  # above the floor, tilted clockwise
     theta0 = place_resting(mech, guess, ["right_corner"], fixed=["phi"])

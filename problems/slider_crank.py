@@ -40,14 +40,21 @@ from types import MappingProxyType
 
 import numpy as np
 
-from convimpact.impact.errors import ParameterError
 from convimpact.model import Joint, ModelBuilder
 from convimpact.model import impact_arguments as _impact_arguments
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
 
 CRANK_LENGTH, CRANK_MASS = 0.15, 0.5
 COUPLER_LENGTH, COUPLER_MASS = 0.40, 0.4
 SLIDER_MASS, SLIDER_HALF_WIDTH, SLIDER_HALF_HEIGHT = 0.3, 0.05, 0.025
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"mass_ratio": Positive(), "e": Unit(), "mu": NonNegative(),
+              "omega_ref": Real(0.0, low_open=True)}
+
+
 FREE_SLIDER_HALF_WIDTH = 0.05
 OMEGA_REF = 20.0
 CRANK_ANGLE_IMPACT = np.radians(-60.0)
@@ -108,8 +115,6 @@ def make_scene(mass_ratio: float = 1.0, e: float = 0.83, mu: float = 0.0,
                omega_ref: float = OMEGA_REF) -> Scene:
     """The slider-crank of Section 9.1 (see the module docstring for every assumption)."""
     mass_ratio = float(mass_ratio)
-    if not np.isfinite(mass_ratio) or mass_ratio <= 0:
-        raise ParameterError(f"mass_ratio must be positive (the paper uses 1, 5, 10), got {mass_ratio}")
     probe = _build(1.0, e, mu, 0.0, omega_ref).mechanism()
     th0, _ = _crank_state(probe, 0.0, omega_ref)
     # crank-axis inertia of the constrained mechanism at theta1 = 0: theta_dot = N w, N from C

@@ -28,13 +28,18 @@ import numpy as np
 from convimpact.model import place_resting, rest_velocity
 from convimpact.problems._box import CORNERS, G, block_outline, build_block, corner_normal_forces
 from convimpact.scenes import Scene
+from convimpact.validation import Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"width": Positive(), "height": Positive(), "mass": Positive(), "v0": Real(),
+              "mu": Real(0.0, low_open=True), "e": Unit(), "t_end": Positive()}
 
 
 def make_scene(width: float = 0.4, height: float = 0.2, mass: float = 1.0, v0: float = 3.0,
                mu: float = 0.3, e: float = 0.0, t_end: float = 2.0) -> Scene:
     """The sliding box (see the module docstring)."""
-    if mu <= 0:
-        raise ValueError(f"mu must be positive for the box to stop, got {mu}")
     mech = build_block(width, height, mass, e, mu)
     theta0 = place_resting(mech, np.array([0.0, height, 0.0]), list(CORNERS))
     dtheta0 = rest_velocity(mech, theta0, np.array([v0, 0.0, 0.0]), list(CORNERS))

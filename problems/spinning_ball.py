@@ -48,6 +48,15 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder, place_resting, rest_velocity
 from convimpact.scenes import Scene
+from convimpact.validation import Flag, NonNegative, OrNone, Positive, Real, Unit
+
+
+#: the parameters of :func:`make_scene` and their ranges, checked by ``load_scene`` before
+#: the scene is built (an error names the parameter)
+PARAMETERS = {"v0": Real(), "omega0": Real(), "radius": Positive(), "mass": Positive(),
+              "mu": NonNegative(), "e": Unit(), "spatial": Flag(), "direction_deg": Real(),
+              "spin_axis_deg": OrNone(Real()), "t_end": Positive()}
+
 
 G = 9.81
 
@@ -159,8 +168,6 @@ def make_scene(v0: float = 2.0, omega0: float = 0.0, radius: float = 0.1, mass: 
                direction_deg: float = 30.0, spin_axis_deg: Optional[float] = None,
                t_end: float = 2.0) -> Scene:
     """The sliding-then-rolling ball (see the module docstring)."""
-    if radius <= 0:
-        raise ValueError(f"radius must be positive, got {radius}")
     if spatial:
         mech, theta0, dtheta0, closed = _spatial(v0, omega0, radius, mass, mu, e,
                                                  direction_deg, spin_axis_deg)

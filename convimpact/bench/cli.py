@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..cli import command
+from ..validation import arg_nonnegative_int, arg_positive_int
 from .registry import DEFAULT_OUT, BenchConfig, run_bench, section_names, stderr_progress
 
 
@@ -15,10 +16,10 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"output directory (default ./{DEFAULT_OUT}/)")
     p.add_argument("--sections", nargs="+", choices=section_names(), metavar="SECTION",
                    help=f"sections to run (default all: {', '.join(section_names())})")
-    p.add_argument("--repeat", type=int, default=None,
+    p.add_argument("--repeat", type=arg_positive_int, default=None,
                    help="timed batches per median (default 7, quick 3)")
     p.add_argument("--seed", type=int, default=None, help="seed of the random problems")
-    p.add_argument("--blas-threads", type=int, default=1,
+    p.add_argument("--blas-threads", type=arg_nonnegative_int, default=1,
                    help="OpenBLAS threads during the run (default 1, as suits k <= 30; "
                         "0 leaves the library's own setting)")
     p.add_argument("--no-records", action="store_true",

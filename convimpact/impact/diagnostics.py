@@ -270,6 +270,13 @@ def assemble_result(
         raise NonFiniteError(
             f"the energy change of the impact overflows double precision (T+ - T- = {dT}): "
             "the units of M and dq make kinetic energies exceed 1e308; rescale them")
+    T_minus = P.kinetic_energy(P.dq_minus)
+    if not (math.isfinite(T_minus) and math.isfinite(T_minus + dT)):
+        # the answer's own figures are finite, but its energies are not (a separating
+        # contact moving at 1e200 m/s): no inf is returned, as for the energy change
+        raise NonFiniteError(
+            f"the kinetic energy T- = 1/2 dq^T M dq = {T_minus} overflows double precision: "
+            "the units of M and dq make kinetic energies exceed 1e308; rescale them")
     diag = _new(ImpactDiagnostics, dict(
         effective_mass=effective_mass,
         notes=(*P.notes, *warnings),

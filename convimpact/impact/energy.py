@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,15 @@ def _vector(name: str, x, k: int) -> np.ndarray:
     return a
 
 
+def _energy(name: str, value: float) -> float:
+    """``value``, or NonFiniteError when it leaves double precision's range (kinetic energies
+    of 1e200 m/s): never an inf or a NaN (the README's promise)."""
+    if not math.isfinite(value):
+        raise NonFiniteError(f"{name} = {value} is not finite: the units of M and the "
+                             "velocities make kinetic energies exceed 1e308; rescale them")
+    return value
+
+
 def _delassus(M, rows, C=None) -> np.ndarray:
     """``rows G rows^T`` (G = M^-1, or the loop-constrained inverse for closed loops) for
     finite rows of matching length, without the contact checks of build_problem (c_t may be
@@ -34,7 +44,9 @@ def energy_loss(M, dq_minus, dq_plus) -> float:
     M, _ = check_mass_matrix(M)
     k = M.shape[0]
     a, b = _vector("dq_minus", dq_minus, k), _vector("dq_plus", dq_plus, k)
-    return 0.5 * float(a @ M @ a) - 0.5 * float(b @ M @ b)
+    T_minus = _energy("T- = 1/2 dq_minus^T M dq_minus", 0.5 * float(a @ M @ a))
+    T_plus = _energy("T+ = 1/2 dq_plus^T M dq_plus", 0.5 * float(b @ M @ b))
+    return T_minus - T_plus
 
 
 def oblique_coefficients(M, c_n, c_t, C=None) -> tuple[float, float, float]:
@@ -52,14 +64,14 @@ def oblique_coefficients(M, c_n, c_t, C=None) -> tuple[float, float, float]:
 def central_energy_loss(M, c_n, dq, e: float, C=None) -> float:
     """T_L = (1 - e^2) v_n-^2 / (2 c_n^T M^-1 c_n) for a central/frictionless impact (eq. 59)."""
     e = float(check_restitution(e)[0])
-    m_nn, _, _ = oblique_coefficients(M, c_n, np.zeros(np.shape(c_n)), C)
-    c_n = as_real_array("c_n", c_n)
+    c_n = _vector("c_n", c_n, check_mass_matrix(M)[0].shape[0])
+    m_nn, _, _ = oblique_coefficients(M, c_n, np.zeros_like(c_n), C)
     if not m_nn > 0.0:
         raise SingularSystemError(
             f"c_n^T M^-1 c_n = {m_nn:.3e}: the contact normal moves no mass, eq. (59) is "
             "undefined; check c_n")
     v_n = float(c_n @ _vector("dq", dq, c_n.shape[0]))
-    return (1.0 - e * e) * v_n * v_n / (2.0 * m_nn)
+    return _energy("the energy loss", (1.0 - e * e) * v_n * v_n / (2.0 * m_nn))
 
 
 def oblique_energy_loss(M, c_n, c_t, dq, normal_impulse: float, mu: float, C=None) -> float:
@@ -76,7 +88,9 @@ def oblique_energy_loss(M, c_n, c_t, dq, normal_impulse: float, mu: float, C=Non
     c_n, c_t = as_real_array("c_n", c_n), as_real_array("c_t", c_t)
     dq = _vector("dq", dq, c_n.shape[0])
     v_n, v_t = float(c_n @ dq), float(c_t @ dq)
-    return -0.5 * pn * pn * (m_nn + 2 * mu * m_nt + mu * mu * m_tt) - pn * (v_n + mu * v_t)
+    return _energy("the energy loss",
+                   -0.5 * pn * pn * (m_nn + 2 * mu * m_nt + mu * mu * m_tt)
+                   - pn * (v_n + mu * v_t))
 
 
 @dataclass(frozen=True)
@@ -161,11 +175,13 @@ def stiction_interval(M, Jc, dq, mu: float | None = None, C=None,
         if b != 0.0:
             points.append(-a / b)
     if mu is not None:
-        # mu^2 (a0 + e a1)^2 - |t0 + e t1|^2 = 0
+        # mu^2 (a0 + e a1)^2 - |t0 + e t1|^2 = 0, divided by max(mu, 1)^2 (finite for any
+        # finite mu: mu^2 overflows beyond 1e154)
         a0, a1, t0, t1 = pi0[0], pi1[0], pi0[1:], pi1[1:]
-        q2 = mu * mu * a1 * a1 - float(t1 @ t1)
-        q1 = 2 * mu * mu * a0 * a1 - 2 * float(t0 @ t1)
-        q0 = mu * mu * a0 * a0 - float(t0 @ t0)
+        m, r = (1.0, 1.0 / mu) if mu > 1.0 else (mu, 1.0)
+        q2 = m * m * a1 * a1 - r * r * float(t1 @ t1)
+        q1 = 2 * m * m * a0 * a1 - 2 * r * r * float(t0 @ t1)
+        q0 = m * m * a0 * a0 - r * r * float(t0 @ t0)
         roots = np.roots([q2, q1, q0]) if abs(q2) > 0 else (
             np.array([-q0 / q1]) if q1 != 0 else np.array([]))
         points.extend(float(r.real) for r in np.atleast_1d(roots) if abs(r.imag) < 1e-12)

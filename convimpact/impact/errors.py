@@ -233,6 +233,9 @@ def as_real_array(name: str, value, error: type = ShapeError) -> np.ndarray:
                 flat[i] = float(x)
             except (TypeError, ValueError):
                 raise _entry_error(name, "other", x, error) from None
+            except OverflowError:  # an int beyond double precision (10**400)
+                raise NonFiniteError(f"{name} has an entry beyond double precision's range "
+                                     f"({_short(x)}); rescale the units") from None
         return out
     if k in "bUSc":
         raise _entry_error(name, _array_kind(a), a.flat[0] if a.size else a, error)
@@ -249,12 +252,14 @@ def real_number(name: str, value, error: type = ParameterError) -> float:
     t = type(value)
     if t is float:
         return value
-    if t is int:
-        return float(value)
     kind = _kind_of(value)
     if kind is None:
         if isinstance(value, (np.floating, np.integer, numbers.Real)):
-            return float(value)
+            try:
+                return float(value)
+            except OverflowError:  # an int beyond double precision (10**400)
+                raise NonFiniteError(f"{name} = {_short(value)} is beyond double precision's "
+                                     "range") from None
         if isinstance(value, np.ndarray):
             if value.ndim == 0:
                 return real_number(name, value[()], error)
@@ -267,6 +272,11 @@ def real_number(name: str, value, error: type = ParameterError) -> float:
         raise error(f"{name} must be a real number, got None")
     what = {"bool": "bool", "complex": "complex"}.get(kind, type(value).__name__)
     raise error(f"{name} must be a real number, got {what} {value!r}")
+
+
+def _short(x) -> str:
+    text = repr(x)
+    return text if len(text) <= 24 else f"{text[:10]}...{text[-6:]} ({len(text)} digits)"
 
 
 def contact_inputs(W, v, e, mu=None) -> tuple:

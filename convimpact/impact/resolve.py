@@ -101,9 +101,10 @@ def available_methods(law: str) -> list[str]:
 
 def check_law_method(law: str, method: str) -> None:
     """Raise UnknownOptionError unless ``law`` and ``method`` are known names."""
-    if law not in LAWS:
+    # a name is a str (an array or a list would make `in` raise or compare elementwise)
+    if type(law) is not str or law not in LAWS:
         raise UnknownOptionError(f"unknown impact law {law!r}; choose one of {', '.join(LAWS)}")
-    if method not in METHODS:
+    if type(method) is not str or method not in METHODS:
         raise UnknownOptionError(
             f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
 
@@ -190,14 +191,18 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
             result = solver(law, name)(problem, **options)
         except (SingularSystemError, SolverError) as exc:
             # a singular W the exact kernels cannot invert, or an interior-point answer that
-            # failed its certificate: the conic paths treat the impact or report it themselves
-            if (isinstance(exc, NonPositiveEffectiveMassError) or i + 1 == len(candidates)
-                    or candidates[i + 1] not in ("clarabel", "cvxpy")
-                    or (not isinstance(exc, SingularSystemError) and name != "interior")):
+            # failed its certificate: the conic paths treat the impact or report it themselves.
+            # The exact paths between (the closed forms) invert the same W, so a singular W
+            # goes to the first conic path left (law "pereira-nikravesh": fast, closed-form,
+            # clarabel)
+            conic = [m for m in candidates[i + 1:] if m in ("clarabel", "cvxpy")]
+            if (isinstance(exc, NonPositiveEffectiveMassError) or not conic
+                    or (not isinstance(exc, SingularSystemError)
+                        and (name != "interior" or candidates[i + 1] != conic[0]))):
                 raise
             fallback = f"method 'auto': {name} cannot treat this impact ({exc}); used " \
-                       f"{candidates[i + 1]} instead"
-            result = solver(law, candidates[i + 1])(problem, **options)
+                       f"{conic[0]} instead"
+            result = solver(law, conic[0])(problem, **options)
             return dataclasses.replace(result,
                                        diagnostics=result.diagnostics.with_notes(fallback))
         return result

@@ -31,6 +31,7 @@ from ..impact.results import _jsonable
 from ..scenes import list_scenes, load_scene
 from .animation import animate, check_animatable, check_outlines, plot_contacts
 from .result import SimulationResult
+from ..validation import arg_finite, arg_nonnegative_int, arg_positive, arg_positive_int
 from .simulate import INTEGRATORS, simulate
 
 
@@ -211,6 +212,18 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     return paths
 
 
+def _write_whole(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` under a temporary name renamed when whole (a failed write
+    leaves no file that looks complete)."""
+    partial = path.with_name(path.name + ".partial")
+    try:
+        partial.write_text(text)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
+    partial.replace(path)
+
+
 def _impact_options(args: argparse.Namespace) -> dict[str, Any]:
     """``impact_options`` of the run: ``--e-t`` for the law that has a tangential restitution,
     refused (UnknownOptionError) with any other."""
@@ -243,7 +256,7 @@ def run(args: argparse.Namespace) -> int:
         text = json.dumps(_strict(rows), indent=1)
         if args.out is not None:
             Path(args.out).mkdir(parents=True, exist_ok=True)
-            (Path(args.out) / "simulation_benchmark.json").write_text(text)
+            _write_whole(Path(args.out) / "simulation_benchmark.json", text)
         if args.json:
             print(text)
         else:
@@ -286,17 +299,27 @@ def run(args: argparse.Namespace) -> int:
                        impact_options=impact_options)
     report = scene_report(scene, res)
     written: list[Path] = []
-    if args.out is not None or not args.json:
-        out = Path(args.out) if args.out is not None else Path(f"simulate-{scene.name}")
+    out = Path(args.out) if args.out is not None else Path(f"simulate-{scene.name}")
+    if args.out is not None or not args.json or args.animate:
         out.mkdir(parents=True, exist_ok=True)
-        p = out / "result.json"
-        p.write_text(json.dumps(report, indent=1))
-        written = [p, *write_plots(scene, res, out)]
-    if args.animate:
-        out = Path(args.out) if args.out is not None else Path(f"simulate-{scene.name}")
-        written.append(animate(res, scene.mechanism, out / "animation.gif",
-                               title=f"{scene.name}: t = [0, {t_end:g}] s",
-                               outlines=scene.outlines))
+        # result.json is written last, whole (a temporary name renamed): a run whose plots or
+        # animation fail leaves no result that looks complete
+        partial = out / "result.json.partial"
+        try:
+            if args.out is not None or not args.json:
+                partial.write_text(json.dumps(report, indent=1))
+                written = [*write_plots(scene, res, out)]
+            if args.animate:
+                written.append(animate(res, scene.mechanism, out / "animation.gif",
+                                       title=f"{scene.name}: t = [0, {t_end:g}] s",
+                                       outlines=scene.outlines))
+        except BaseException:
+            partial.unlink(missing_ok=True)
+            raise
+        if partial.exists():
+            p = out / "result.json"
+            partial.replace(p)
+            written.insert(0, p)
     if args.json:
         json.dump(report, sys.stdout, indent=1)
         print()
@@ -345,25 +368,27 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--h", type=float, default=None,
                    help="Moreau–Jean step (default: the scene's declared one)")
     p.add_argument("--method", default="auto", choices=METHODS, help="impact solver path")
-    p.add_argument("--e-t", type=float, default=None,
+    p.add_argument("--e-t", type=arg_finite, default=None,
                    help="tangential restitution in [-1, 1] of --law chatterjee-ruina (default "
                         "0); refused with the other laws")
-    p.add_argument("--t-end", type=float, default=None, help="end time (default: the scene's)")
+    p.add_argument("--t-end", type=arg_positive, default=None,
+                   help="end time (default: the scene's)")
     p.add_argument("--out", default=None, help="output directory (default ./simulate-SCENE)")
     p.add_argument("--json", action="store_true", help="print the JSON report to stdout")
     p.add_argument("--animate", action="store_true",
                    help="also write animation.gif (the mechanism moving, contacts coloured by "
                         "mode; models built with ModelBuilder)")
     p.add_argument("--integrator", default="DOP853", choices=sorted(INTEGRATORS))
-    p.add_argument("--rtol", type=float, default=1e-8)
-    p.add_argument("--atol", type=float, default=1e-10)
+    p.add_argument("--rtol", type=arg_positive, default=1e-8)
+    p.add_argument("--atol", type=arg_positive, default=1e-10)
     p.add_argument("--zeno", default="persist", choices=("persist", "stop"),
                    help="accumulating impacts: hold the contact closed, or stop")
-    p.add_argument("--max-impacts", type=int, default=10_000)
+    p.add_argument("--max-impacts", type=arg_nonnegative_int, default=10_000)
     p.add_argument("--bench", action="store_true",
                    help="benchmark the scene (or every scene): RHS/s, wall time per simulated "
                         "second, share of impact resolution")
-    p.add_argument("--repeats", type=int, default=3, help="benchmark repeats (best is kept)")
+    p.add_argument("--repeats", type=arg_positive_int, default=3,
+                   help="benchmark repeats (best is kept)")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="scene parameter (JSON value), repeatable")
 

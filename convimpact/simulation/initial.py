@@ -17,7 +17,6 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
 from ..impact.errors import (
     LoopConstraintError,
     NonFiniteError,
-    ParameterError,
     PenetrationError,
     ShapeError,
     UnknownOptionError,
@@ -63,7 +62,9 @@ def law_options(law: str, impact_options: Mapping[str, Any] | None,
     from ..impact.laws import TANGENTIAL_LAWS
     from ..impact.problem.build import check_tangential_restitution
 
-    options = dict(impact_options or {})
+    from ..validation import mapping
+
+    options = mapping("impact_options", impact_options)
     if "e_t" not in options:
         return options, None
     e_t = options.pop("e_t")
@@ -85,27 +86,23 @@ def law_options(law: str, impact_options: Mapping[str, Any] | None,
 
 
 def positive(**values: float) -> None:
-    """Raise ParameterError unless every named value is a positive finite number."""
+    """Raise ParameterError (NonFiniteError) unless every named value is a positive finite
+    real number (strings, booleans and complex numbers are refused, not converted)."""
+    from ..validation import positive as _positive
+
     for name, val in values.items():
-        if not (np.isfinite(val) and val > 0):
-            raise ParameterError(f"{name} must be a positive finite number, got {val!r}")
+        _positive(name, val)
 
 
 def time_span(t_span, scene) -> tuple[float, float]:
     """(t0, t1) from ``t_span``, or (0, scene.t_end) when it is None."""
+    from ..validation import time_span as _time_span
+
     if t_span is None:
         if scene is None:
             raise ShapeError("t_span is required when simulating a bare mechanism")
-        t_span = (0.0, float(scene.t_end))
-    ts = np.asarray(t_span, dtype=float).ravel()
-    if ts.shape != (2,):
-        raise ShapeError(f"t_span must be (t0, t1), got {t_span!r}")
-    if not np.all(np.isfinite(ts)):
-        raise NonFiniteError(f"t_span must be finite, got {ts.tolist()}")
-    t0, t1 = float(ts[0]), float(ts[1])
-    if not t1 > t0:
-        raise ParameterError(f"t_span must be increasing (t0 < t1), got ({t0:g}, {t1:g})")
-    return t0, t1
+        return _time_span("t_span (0, scene.t_end)", (0.0, scene.t_end))
+    return _time_span("t_span", t_span)
 
 
 def initial_state(y0, scene, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -121,10 +118,9 @@ def initial_state(y0, scene, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 def state_vector(name: str, v, k: int) -> np.ndarray:
     """A finite vector of k joint values, or ShapeError / NonFiniteError."""
-    try:
-        a = np.array(v, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise ShapeError(f"{name} must be numeric, got {type(v).__name__}") from None
+    from ..impact.errors import as_real_array
+
+    a = as_real_array(name, v).ravel()  # a string, boolean or complex entry: ShapeError
     if a.shape != (k,):
         raise ShapeError(f"{name} must have {k} entries (one per joint coordinate), got {a.size}")
     if not np.all(np.isfinite(a)):

@@ -33,6 +33,31 @@ from .simulate import simulate
 SCHEMES = ("event-driven", "moreau-jean", "compliant")
 
 
+def _scheme_options() -> dict[str, dict]:
+    """The options of the schemes other than event-driven (whose ``simulate`` checks its
+    own), declared once and checked by :func:`simulate_with` before the scheme runs (a string
+    such as ``h="1e-3"`` is refused, not converted). The integration controls (rtol, atol,
+    max_step, first_step) are checked against the span by
+    :func:`convimpact.validation.integration_controls`."""
+    from ..validation import (NonNegative, OrNone, PerContact, Positive, Real, Unit,
+                              Choice, Flag)
+
+    common = {"projection_tol": Positive(), "contact_tol": Positive(), "assemble": Flag()}
+    return {
+        "moreau-jean": {"h": Positive(), "theta": Unit(), "gap_tol": Real(),
+                        "rest_velocity": NonNegative(), **common},
+        "compliant": {"model": Choice(("hunt-crossley", "lankarani-nikravesh")),
+                      "stiffness": PerContact(Positive()), "exponent": Positive(),
+                      "e": OrNone(PerContact(Unit())), "mu": OrNone(PerContact(NonNegative())),
+                      "regularization_velocity": Positive(),
+                      "min_impact_velocity": NonNegative(), "event_tol": Positive(), **common},
+    }
+
+
+#: options checked against the span (convimpact.validation.integration_controls)
+_CONTROLS = ("rtol", "atol", "max_step", "first_step")
+
+
 def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
                   scheme: str = "event-driven", **options: Any) -> SimulationResult:
     """Simulate ``system`` with the named scheme.
@@ -56,7 +81,10 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
     Raises
     ------
     UnknownOptionError
-        for an unknown scheme or an option the scheme does not take (the message lists them).
+        for an unknown scheme or an option the scheme does not take (the message lists them);
+    ParameterError, NonFiniteError, ShapeError
+        for an option's value of the wrong type or out of its declared range (e.g. ``h="1e-3"``,
+        ``max_step=0``), checked before the scheme runs and naming the option.
     """
     fns = {"event-driven": simulate, "moreau-jean": simulate_moreau,
            "compliant": simulate_compliant}
@@ -77,4 +105,21 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
     if required:
         raise ParameterError(f"scheme {scheme!r} needs option(s) {', '.join(required)} "
                              "(e.g. the step h for moreau-jean, the stiffness for compliant)")
+    specs = _scheme_options().get(scheme)
+    if specs:
+        from ..validation import MAX_STEPS, check_parameters, integration_controls
+        from .initial import time_span
+        from .simulate import _as_mechanism
+
+        given = {k: v for k, v in options.items() if k in specs}
+        options.update(check_parameters(f"scheme {scheme!r}", specs, given))
+        controls = {k: options[k] for k in _CONTROLS if k in options}
+        if controls or scheme == "moreau-jean":
+            t0, t1 = time_span(t_span, _as_mechanism(system)[1])
+            options.update(integration_controls(t0, t1, **controls))
+            if scheme == "moreau-jean" and (t1 - t0) / options["h"] > MAX_STEPS:
+                raise ParameterError(
+                    f"scheme 'moreau-jean': h = {options['h']:g} needs more than {MAX_STEPS:g} "
+                    f"steps over the span t1 - t0 = {t1 - t0:g}; take h >= "
+                    f"{(t1 - t0) / MAX_STEPS:g}")
     return fn(system, t_span, y0, **options)

@@ -38,14 +38,15 @@ import numpy as np
 from scipy.integrate import DOP853, RK23, RK45, OdeSolver, Radau
 
 from ..impact import check_law_method
-from ..impact.errors import ParameterError, ShapeError, UnknownOptionError
+from ..impact.errors import ShapeError
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
 from .event_driven import MAX_EVENTS_AT_ONE_INSTANT  # noqa: F401  (re-exported)
 from .event_driven import EventDrivenRun
 from .initial import INTEGRATORS  # noqa: F401  (re-exported)
-from .initial import (consistent_start, integrator_class, law_options, positive, state_vector,
-                      time_span)
+from ..validation import (boolean, choice, integer, integration_controls, nonnegative, positive,
+                          sorted_times)
+from .initial import consistent_start, integrator_class, law_options, state_vector, time_span
 from .options import EventDrivenOptions
 from .result import SimulationResult
 
@@ -110,7 +111,10 @@ def simulate(
         contacts closing together need a multi-contact method ("clarabel", "cvxpy").
     integrator : str or OdeSolver subclass
         "DOP853" (default), "RK45", "RK23", "Radau", "BDF", "LSODA", or a scipy OdeSolver.
-    rtol, atol, max_step, first_step : integrator controls (as in ``solve_ivp``).
+    rtol, atol, max_step, first_step : integrator controls (as in ``solve_ivp``), real
+        numbers: rtol > 0, atol >= 1e-100, span / max_step <= 5e6 (``max_step=inf``: no bound;
+        a finer bound would never end), first_step within the span and above t's round-off
+        (:func:`convimpact.validation.integration_controls`).
     dense_output : bool
         Attach ``sol(t) -> [theta, p]`` across all segments (right-continuous at impacts).
     t_eval : sequence, optional
@@ -200,8 +204,10 @@ def simulate(
     Raises
     ------
     ShapeError, NonFiniteError, ParameterError, UnknownOptionError
-        for malformed input (NaN in the state, non-increasing t_span, unknown names, ``e_t``
-        with a law that has none or outside [-1, 1]);
+        for malformed input, checked before the run and naming the argument (NaN in the
+        state, a complex or string entry, non-increasing t_span, a string or a boolean where a
+        number is expected, a count that is not an integer, unknown names, ``e_t`` with a law
+        that has none or outside [-1, 1]);
     LoopConstraintError
         for an initial state that violates the loops when ``assemble=False``;
     NotSupportedError
@@ -220,31 +226,31 @@ def simulate(
     mech, scene = _as_mechanism(system)
     k = int(mech.n_coordinates)
 
-    # ---- options ---------------------------------------------------------------------------
+    # ---- options (convimpact.validation: real numbers, ranges, counts, names) --------------
     check_law_method(law, method)
     solver_options, e_t = law_options(law, impact_options, tuple(mech.contact_names))
-    if zeno not in ZENO_POLICIES:
-        raise UnknownOptionError(f"unknown zeno policy {zeno!r}; choose 'persist' or 'stop'")
-    if impacts not in IMPACT_POLICIES:
-        raise UnknownOptionError(f"unknown impacts policy {impacts!r}; choose 'simultaneous' "
-                                 "or 'sequential'")
-    if painleve not in PAINLEVE_POLICIES:
-        raise UnknownOptionError(f"unknown painleve policy {painleve!r}; choose 'stop' or "
-                                 "'raise'")
+    zeno = choice("zeno policy", zeno, ZENO_POLICIES)
+    impacts = choice("impacts policy", impacts, IMPACT_POLICIES)
+    painleve = choice("painleve policy", painleve, PAINLEVE_POLICIES)
     solver_cls = integrator_class(integrator)
-    positive(rtol=rtol, atol=atol, event_tol=event_tol, contact_tol=contact_tol,
-             projection_tol=projection_tol)
-    if not rest_velocity >= 0:
-        raise ParameterError(f"rest_velocity must be >= 0, got {rest_velocity!r}")
-    if int(max_impacts) < 0:
-        raise ParameterError(f"max_impacts must be >= 0, got {max_impacts!r}")
+    event_tol, contact_tol, projection_tol = (
+        positive(name, value) for name, value in (
+            ("event_tol", event_tol), ("contact_tol", contact_tol),
+            ("projection_tol", projection_tol)))
+    rest_velocity = nonnegative("rest_velocity", rest_velocity)
+    max_impacts = integer("max_impacts", max_impacts, minimum=0)
+    dense_output = boolean("dense_output", dense_output)
+    assemble = boolean("assemble", assemble)
+    zeno_time_tol = None if zeno_time_tol is None else positive("zeno_time_tol", zeno_time_tol)
 
     t0, t1 = time_span(t_span, scene)
+    controls = integration_controls(t0, t1, rtol=rtol, atol=atol, max_step=max_step,
+                                    first_step=first_step)
+    rtol, atol, max_step = controls["rtol"], controls["atol"], controls["max_step"]
+    first_step = controls["first_step"]
     if t_eval is not None:
-        t_eval = np.asarray(t_eval, dtype=float).ravel()
-        if t_eval.size and (np.any(np.diff(t_eval) < 0) or t_eval[0] < t0 or t_eval[-1] > t1):
-            raise ParameterError("t_eval must be sorted and lie within t_span")
-    zeno_tol = 1e6 * event_tol if zeno_time_tol is None else float(zeno_time_tol)
+        t_eval = sorted_times("t_eval", t_eval, t0, t1)
+    zeno_tol = 1e6 * event_tol if zeno_time_tol is None else zeno_time_tol
     # one-step methods continue from a projected state; multistep ones must restart, so
     # they are projected only beyond a looser threshold
     in_place = issubclass(solver_cls, ONE_STEP)

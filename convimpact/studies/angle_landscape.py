@@ -13,6 +13,7 @@ import numpy as np
 from ..impact.errors import ShapeError
 from ..impact.problem.build import build_problem, check_restitution
 from ..impact.results import _fields_as_json
+from ..validation import grid
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,9 +73,11 @@ def angle_landscape(M, Jc, dq, e, mu, alpha, C=None) -> AngleLandscape:
     from ..impact.laws.max_dissipation import max_dissipation_direction
     from ..impact.problem.build import check_friction
 
-    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
-    mu = check_friction(np.atleast_1d(np.asarray(mu, float)), np.size(mu))
-    alpha = np.atleast_1d(np.asarray(alpha, float))
+    e = grid("e", e)
+    e = check_restitution(e, e.size)
+    mu = grid("mu", mu)
+    mu = check_friction(mu, mu.size)
+    alpha = grid("alpha", alpha)
     if not np.all(np.isfinite(alpha)):
         raise ShapeError("alpha must be finite angles in radians")
     P = build_problem(M, Jc, dq, 0.0, 0.0, C)

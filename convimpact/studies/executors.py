@@ -68,7 +68,12 @@ class ProcessExecutor(Executor):
     name = "processes"
 
     def __init__(self, workers: int | None = None):
-        self.n_workers = int(workers) if workers else usable_cores()
+        from ..validation import integer
+
+        # None: every usable core; 0, -1, 2.5 or "2" are refused (ParameterError), not read
+        # as the default
+        self.n_workers = (usable_cores() if workers is None
+                          else integer("workers", workers, minimum=1))
         self._pool = None
 
     def _ensure(self):
@@ -153,6 +158,10 @@ def make_executor(name: str | None = None, workers: int | None = None,
                   scheduler: str | None = None, client=None) -> Executor:
     """An executor: ``client`` or ``scheduler`` give Dask; else ``name`` (default
     ``"processes"``) with ``workers`` processes."""
+    if workers is not None:
+        from ..validation import integer
+
+        workers = integer("workers", workers, minimum=1)
     if client is not None or scheduler:
         return DaskExecutor(scheduler, client)
     name = name or "processes"

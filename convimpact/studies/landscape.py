@@ -40,9 +40,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError, ShapeError
+from ..impact.errors import ConvImpactError, NonFiniteError, ShapeError
 from ..impact.problem.build import ImpactProblem, build_problem, check_restitution
 from ..impact.results import _fields_as_json
+from ..validation import grid
 from .angle_landscape import AngleLandscape, angle_landscape  # noqa: F401  (this API)
 from .stick_boundary import (  # noqa: F401  (this API)
     StickBoundary,
@@ -144,8 +145,9 @@ def closed_form_landscape(M, Jc, dq, e, mu, C=None) -> Landscape:
     mu : (nmu,) array_like of signed friction coefficients (see module docstring).
     """
     P = _planar_problem(M, Jc, dq, C)
-    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
-    mu = np.atleast_1d(np.asarray(mu, float))
+    e = grid("e", e)
+    e = check_restitution(e, e.size)
+    mu = grid("mu", mu)
     if not np.all(np.isfinite(mu)):
         raise ShapeError("mu must be finite")
     W, v = P.contact_block(0)
@@ -252,11 +254,17 @@ def law_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb", method: str = 
     ``failed`` (and ``jammed`` for a non-positive effective mass) with NaN values there.
     """
     from ..impact.errors import NonPositiveEffectiveMassError
-    from ..impact import choose_method, solve_problem
+    from ..impact import check_law_method, choose_method, solve_problem
+
+    check_law_method(law, method)  # names, before the grid (a list is no law)
 
     e_t = _law_parameters(law, e_t)
-    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
-    mu = np.atleast_1d(np.asarray(mu, float))
+    e = grid("e", e)
+    e = check_restitution(e, e.size)
+    mu = grid("mu", mu)
+    if not np.isfinite(mu).all():
+        raise NonFiniteError("mu contains NaN or infinity; pass finite (signed) friction "
+                             "coefficients")
     base = build_problem(M, Jc, dq, 0.0, 0.0, C, e_t)
     d = base.dim
     if method == "auto":
@@ -363,11 +371,13 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     from ..impact.exact.dispatch import FAST_LAWS, FAST_TOL
     from ..impact.problem.build import check_friction
 
-    if law not in FAST_LAWS:
+    if type(law) is not str or law not in FAST_LAWS:
         raise UnknownOptionError(f"unknown law {law!r}; choose one of {', '.join(FAST_LAWS)}")
     e_t = _law_parameters(law, e_t)
-    e = check_restitution(np.atleast_1d(np.asarray(e, float)), np.size(e))
-    mu = check_friction(np.atleast_1d(np.asarray(mu, float)), np.size(mu))
+    e = grid("e", e)
+    e = check_restitution(e, e.size)
+    mu = grid("mu", mu)
+    mu = check_friction(mu, mu.size)
     P = build_problem(M, Jc, dq, 0.0, 0.0, C)
     if P.n_contacts != 1:
         raise ShapeError("contact_landscape takes one contact Jacobian (d x k)")

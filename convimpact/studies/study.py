@@ -21,6 +21,7 @@ Example (8e6 impacts, about a minute on two cores)::
 from __future__ import annotations
 
 import os
+import shutil
 import socket
 import sys
 import time
@@ -210,14 +211,22 @@ def run_study(spec: StudySpec | str | Path, store: str | Path, executor: Executo
         spec = load_spec(spec)
     require_studies_extra()
     t0 = time.perf_counter()
-    st = StudyStore.open_or_create(store, spec)
+    # the executor first (its arguments checked, e.g. workers >= 1), then the store: a study
+    # that cannot start leaves no store behind
+    own = not isinstance(executor, Executor)
+    ex = (make_executor(executor if isinstance(executor, str) else None, workers, scheduler,
+                        client) if own else executor)
+    try:
+        created = not Path(store).exists()  # this run creates the store's folder
+        st = StudyStore.open_or_create(store, spec)
+    except BaseException:
+        if own:
+            ex.close()
+        raise
     n = len(st.regions())
     done = st.done()
     todo = [i for i in range(n) if i not in done]
     setup = time.perf_counter() - t0
-    own = not isinstance(executor, Executor)
-    ex = (make_executor(executor if isinstance(executor, str) else None, workers, scheduler,
-                        client) if own else executor)
     compute = write = cpu = 0.0
     computed = points = 0
     bar = _progress_bar(progress, n, n - len(todo), spec.title or spec.kind)
@@ -236,6 +245,12 @@ def run_study(spec: StudySpec | str | Path, store: str | Path, executor: Executo
                     on_chunk(record)
         wall = time.perf_counter() - t1
         n_workers = ex.n_workers
+    except BaseException:
+        if created and computed == 0:
+            # nothing was computed into the store this run created: remove it (a store with
+            # finished chunks stays, and the same command resumes it)
+            shutil.rmtree(st.path, ignore_errors=True)
+        raise
     finally:
         bar.close()
         if own:

@@ -14,6 +14,8 @@ import sys
 from pathlib import Path
 
 from ..cli import command
+from ..impact.errors import ConvImpactError
+from ..validation import arg_positive_int
 
 
 def _executor_args(p: argparse.ArgumentParser) -> None:
@@ -22,7 +24,7 @@ def _executor_args(p: argparse.ArgumentParser) -> None:
                         "workers, which must reach the output path")
     p.add_argument("--executor", choices=("processes", "serial"), default="processes",
                    help="without --scheduler: local processes (default) or this process")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=arg_positive_int, default=None,
                    help="local processes (default: one per usable core)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -44,6 +46,16 @@ def _study(args) -> int:
                         load=False)
     except KeyboardInterrupt:
         return _interrupted("study", args.out)
+    except ConvImpactError as exc:
+        from ..impact.errors import InputError
+        from .study_store import StudyStore, StudyStoreError
+
+        # a run that failed after it started keeps its store (with any finished chunks): say
+        # how to resume; bad arguments and a store of another study are not resumable
+        if not isinstance(exc, (InputError, StudyStoreError)) and StudyStore(args.out).exists():
+            raise type(exc)(f"{exc}; the finished chunks are in {args.out}: run the same "
+                            "command to resume the study") from exc
+        raise
     ds = run.dataset
     dims = ", ".join(f"{d} {n}" for d, n in ds.sizes.items())
     print(f"{spec.title or spec.kind}: {run.store} ({dims}; variables "

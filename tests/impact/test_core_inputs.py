@@ -59,11 +59,20 @@ def test_every_error_is_a_convimpact_error_and_a_builtin():
 
 def test_singular_delassus_in_sticking_branch():
     # the tangent row is parallel to the normal (t = 0.5 n through the mechanism): W is
-    # singular, so the sticking solve of eq. (42) has no unique answer
+    # singular, so the sticking solve of eq. (42) has no unique answer: the exact paths
+    # raise, and method="auto" falls back to the conic path (issue 29), where sticking is
+    # impossible (v_t = v_n / 2 for every impulse, so v_t+ = 0 would need v_n+ = 0) and the
+    # contact slides along eq. (55)'s t = +1: with a = W_nn = 4/3, v_n+ = -2 + a (1 + mu / 2)
+    # pi_n = e 2 gives pi_n = 3 / (a (1 + mu / 2)); v_t+ = v_n+ / 2 = 0.5 reverses the slip
     Mp = np.diag([1.0, 3.0])
     Jp = np.array([[-1.0, 1.0], [-0.5, 0.5]])
     with pytest.raises(ci.SingularSystemError, match="singular"):
-        ci.resolve_impact(Mp, Jp, [2.0, 0.0], e=0.5, mu=0.3)
+        ci.resolve_impact(Mp, Jp, [2.0, 0.0], e=0.5, mu=0.3, method="fast")
+    r = ci.resolve_impact(Mp, Jp, [2.0, 0.0], e=0.5, mu=0.3)
+    pn = 3.0 / (4.0 / 3.0 * 1.15)
+    np.testing.assert_allclose(r.impulse, [pn, 0.3 * pn], rtol=1e-12)
+    np.testing.assert_allclose(r.v_plus, [1.0, 0.5], rtol=1e-12)
+    assert r.diagnostics.slip_reversal
     # frictionless needs only m_nn: fine
     r = ci.resolve_impact(Mp, Jp, [2.0, 0.0], e=0.5, mu=0.0)
     assert np.all(np.isfinite(r.dq_plus))

@@ -125,8 +125,13 @@ def test_auto_falls_back_to_a_conic_path_on_a_singular_delassus():
         np.testing.assert_allclose(r.dq_plus, ref.dq_plus, rtol=1e-7, atol=1e-9)
     r = ci.resolve_impact(M, J, dq, e=.5, mu=.3, law="coulomb")
     assert r.v_plus[0] == pytest.approx(0.5 * 2.0, rel=1e-8)  # v_n: -2 -> +1
-    with pytest.raises(ci.SingularSystemError):  # the paper's law needs W^-1 (eq. 42)
-        ci.resolve_impact(M, J, dq, e=.5, mu=.3)
+    # the paper's law needs W^-1 for its stick test (eq. 42): fast raises, and auto falls
+    # back to the conic path like the other laws (issue 29), which slides along eq. (55)
+    with pytest.raises(ci.SingularSystemError):
+        ci.resolve_impact(M, J, dq, e=.5, mu=.3, method="fast")
+    r = ci.resolve_impact(M, J, dq, e=.5, mu=.3)
+    assert r.method == "clarabel" and r.regime == "slide"
+    assert r.v_plus[0] == pytest.approx(0.5 * 2.0, rel=1e-12)  # Newton: v_n -2 -> +1
 
 
 def test_single_contact_methods_refuse_several_contacts_even_when_separating():

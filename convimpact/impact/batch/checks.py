@@ -18,6 +18,7 @@ import numpy as np
 from ..laws import LAW_CODES as _LAW_CODES
 from ..errors import (
     ConvImpactError,
+    DegenerateContactError,
     InputError,
     MassMatrixError,
     NonFiniteError,
@@ -27,6 +28,7 @@ from ..errors import (
     SingularSystemError,
     SolverError,
     UnknownOptionError,
+    as_real_array,
 )
 
 #: laws of the batch (every law has an exact single-contact kernel), with their codes
@@ -50,8 +52,12 @@ def _real_array(name: str, value) -> np.ndarray:
     """A float64 C-contiguous array of real numbers (no strings, booleans, complex, objects)."""
     if isinstance(value, (str, bytes, bool, np.bool_)):
         raise ShapeError(f"{name} must be real numbers, got {type(value).__name__} {value!r}")
-    if isinstance(value, np.ndarray):
+    if isinstance(value, np.ndarray) and value.dtype.kind != "O":
         a = value
+    elif isinstance(value, (list, tuple, np.ndarray)):
+        # the core's typed conversion: a boolean, string, complex or None entry of a sequence
+        # is refused by name (numpy would read [0.3, True] as [0.3, 1.0])
+        a = as_real_array(name, value)
     else:
         try:
             a = np.asarray(value)
@@ -136,6 +142,85 @@ def _check_options(law, on_error) -> int:
         raise UnknownOptionError(f"on_error must be 'flag' (per-impact status codes) or "
                                  f"'raise' (the first rejected impact's error), got {on_error!r}")
     return LAW_CODES[law]
+
+
+def _check_degenerate(W: np.ndarray, Jb: np.ndarray, n: int) -> None:
+    """Raise DegenerateContactError for the first impact whose contact normal moves no mass
+    (c_n^T M^-1 c_n below the smallest normal number: the whole Jacobian is zero, or the normal
+    row is numerically zero relative to M's scale) -- as ``resolve_impact`` does; a zero normal
+    row whose tangent rows move mass is a grazing contact: separating, not an error."""
+    from ..problem.build import TINY_NORMAL
+
+    wn = W[:, 0, 0]
+    low = np.flatnonzero(~(wn >= TINY_NORMAL))
+    if not low.size:
+        return
+    d = W.shape[1]
+    wt = W[low, 1, 1] if d == 2 else np.maximum(W[low, 1, 1], W[low, 2, 2])
+    rows = Jb[low if Jb.shape[0] > 1 else np.zeros(low.size, dtype=np.intp), 0]
+    zero_row = ~rows.any(axis=1)
+    bad = ~(zero_row & (wt >= TINY_NORMAL))
+    if not bad.any():
+        return
+    j = int(np.argmax(bad))
+    i = int(low[j])
+    where = f"impact {i} of the batch of {n}" if n > 1 else "the impact"
+    what = ("is zero, and so are its tangent rows" if zero_row[j] else
+            f"is numerically zero relative to M's scale (c_n^T M^-1 c_n = {wn[i]:.3e} "
+            "underflows double precision)")
+    raise DegenerateContactError(
+        f"{where}: the contact Jacobian's normal row {what}: the contact cannot approach or "
+        "take an impulse; check the contact normal and the Jacobian (or rescale units), or "
+        "leave the contact out")
+
+
+#: tolerance of the semidefiniteness test of a user's Delassus block (the principal minors of
+#: W / max |W| are accepted down to -INDEFINITE_RTOL)
+INDEFINITE_RTOL = 1e-10
+
+
+def _indefinite(Wb: np.ndarray) -> np.ndarray:
+    """Per item (N,) of the (N or 1, d, d) blocks read from their upper triangle: whether W is
+    not positive semidefinite (a principal minor of order j below -INDEFINITE_RTOL s^j, s the
+    sum of |W|'s upper entries). A Delassus matrix J M^-1 J^T is semidefinite; an indefinite
+    one has no impulse law. Items far from unit scale are divided by s first (no overflow)."""
+    d = Wb.shape[1]
+    rows = [Wb[:, 0, 0], Wb[:, 0, 1], Wb[:, 1, 1]]
+    if d == 3:
+        rows += [Wb[:, 0, 2], Wb[:, 1, 2], Wb[:, 2, 2]]
+    s = np.abs(rows[0])
+    for r in rows[1:]:
+        s = s + np.abs(r)
+    far = ~((s >= 1e-100) & (s <= 1e100))
+    if far.any():
+        scale = np.where(far & (s > 0.0) & np.isfinite(s), s, 1.0)
+        rows = [r / scale for r in rows]
+        s = np.where(far & (s > 0.0), 1.0, s)
+    tol = INDEFINITE_RTOL
+    if d == 2:
+        a, b, c = rows
+        return (np.minimum(a, c) < -tol * s) | (a * c - b * b < -tol * s * s)
+    a, b, c, g, h, f = rows  # [[a, b, g], [b, c, h], [g, h, f]]
+    s2 = tol * s * s
+    bad = np.minimum(np.minimum(a, c), f) < -tol * s
+    bad |= (a * c - b * b < -s2) | (a * f - g * g < -s2) | (c * f - h * h < -s2)
+    det = a * (c * f - h * h) - b * (b * f - g * h) + g * (b * h - c * g)
+    return bad | (det < -s2 * s)
+
+
+def _flag_indefinite(bad: np.ndarray, status, regime, outs, errors, n: int) -> None:
+    """Items with an indefinite W that the law's kernel answered: flagged SINGULAR (NaN
+    numbers, SingularSystemError), as the kernels that invert W flag them."""
+    idx = np.flatnonzero(bad & (status == OK))
+    for i in idx.tolist():
+        status[i] = SINGULAR
+        regime[i] = FAILED
+        for o in outs:
+            o[i] = np.nan
+        errors[i] = SingularSystemError(
+            f"impact {i} of the batch of {n}: W is not positive semidefinite (a principal "
+            "minor is negative), so it is no Delassus matrix J M^-1 J^T and no impulse law "
+            "applies; check W's assembly")
 
 
 # --------------------------------------------------------------------------------------------

@@ -60,8 +60,11 @@ from .checks import (  # noqa: F401  (the batch API's names)
     STATUS_NAMES,
     _batch_size,
     _batched,
+    _check_degenerate,
     _check_options,
     _check_parameters,
+    _flag_indefinite,
+    _indefinite,
     _input_error,
     _item_error,
     _raise_first,
@@ -278,6 +281,7 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         first_bad, ndefer = _in_slices(run, n, nthreads)
         if first_bad >= 0:
             raise _input_error(int(status[first_bad]), int(first_bad), n, Mb, Jb, qb)
+        _check_degenerate(W, Jb, n)
         e_all = np.broadcast_to(eb, (n,))
         et_all = np.broadcast_to(tb, (n,))
         if ndefer:
@@ -336,7 +340,8 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t
 
     The batch form of :func:`convimpact.impact.exact.dispatch.solve_contact`: item i equals
     ``solve_contact(W[i], v[i], e[i], mu[i], law)``. W is read from its upper triangle (as the
-    kernels do); it is not checked for symmetry or definiteness.
+    kernels do); it is not checked for symmetry, and an item whose W is not positive
+    semidefinite is flagged SINGULAR (every law: no impulse law applies to it).
 
     Parameters
     ----------
@@ -421,6 +426,10 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t
             impulse[failed] = np.nan
             vplus[failed] = np.nan
             eloss[failed] = np.nan
+        indefinite = _indefinite(Wb)
+        if indefinite.any():
+            _flag_indefinite(np.broadcast_to(indefinite, (n,)), status, regime,
+                             (impulse, effm, vplus, eloss), errors, n)
         if on_error == "raise":
             _raise_first(status, errors, W_all, v_all, e_all, mu_all, law, et_all)
     return ContactBatch(impulse=_frozen(impulse), regime=_frozen(regime),

@@ -225,8 +225,8 @@ def _number(x) -> float | None:
     t = type(x)
     if t is float or t is np.float64:
         return float(x)
-    if t is int:
-        return float(x)
+    if t is int:  # (an int beyond double precision: the full path refuses it)
+        return float(x) if -(1 << 1000) < x < 1 << 1000 else None
     return None
 
 

@@ -169,6 +169,15 @@ def _excluded_sector(W: np.ndarray, mu: float, ref: np.ndarray) -> tuple[float, 
     return ((centre - half) % _TWO_PI, (centre + half) % _TWO_PI)
 
 
+def sweep_options(xtol, n_grid) -> tuple[float, int]:
+    """The sweep's options checked (every planar and spatial impact, before any work): xtol a
+    positive finite angle tolerance, n_grid an integer >= 8 (ParameterError or
+    NonFiniteError naming the option)."""
+    from ...validation import integer, positive
+
+    return positive("xtol", xtol), integer("n_grid", n_grid, minimum=8)
+
+
 def sweep_direction(W, v, e: float, mu: float, xtol: float = DEFAULT_XTOL,
                     n_grid: int = DEFAULT_GRID) -> SweepResult:
     """The seed's search for the sliding direction: maximize T_L(alpha) (eq. 60, Fig. 9).
@@ -191,11 +200,7 @@ def sweep_direction(W, v, e: float, mu: float, xtol: float = DEFAULT_XTOL,
     SweepResult
     """
     W, v, e, mu, ref = _spatial_data(W, v, e, mu)
-    if not (xtol > 0.0 and math.isfinite(xtol)):
-        raise ParameterError(f"xtol must be a positive finite angle tolerance, got {xtol!r}")
-    if int(n_grid) < 8:
-        raise ParameterError(f"n_grid must be at least 8, got {n_grid!r}")
-    n_grid = int(n_grid)
+    xtol, n_grid = sweep_options(xtol, n_grid)
     if not v[0] < 0.0:
         raise ParameterError(f"the sweep needs an approaching contact (v_n < 0), got {v[0]:g}")
     if not W[0, 0] > 0.0:
@@ -332,6 +337,7 @@ def pereira_nikravesh_sweep(problem: ImpactProblem, xtol: float = DEFAULT_XTOL,
     check_single_contact(problem, options, "sweep", "options xtol, n_grid;",
                          "the angle sweep treats one contact; for several simultaneous "
                          "contacts use method='clarabel' or 'cvxpy'")
+    xtol, n_grid = sweep_options(xtol, n_grid)
     W, v = problem.contact_block(0)
     e, mu = float(problem.restitution[0]), float(problem.friction[0])
     law = "pereira-nikravesh"

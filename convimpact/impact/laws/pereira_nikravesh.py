@@ -56,6 +56,7 @@ from ..exact.closed_forms import (  # the paper's closed forms, re-exported
 from ..errors import (
     check_single_contact,
     NonPositiveEffectiveMassError,
+    SingularSystemError,
     SolverError,
 )
 from .algebra import _inverse3, _linsolve3, _solve2
@@ -223,8 +224,21 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     if n == 1 and P.planar:
         # one planar contact: the law is the closed form (stick test, then eq. 55)
         W, v = P.contact_block(0)
-        impulse, regime, denom = pereira_nikravesh(W, v, float(P.restitution[0]),
-                                                   float(P.friction[0]))
+        e, mu = float(P.restitution[0]), float(P.friction[0])
+        try:
+            impulse, regime, denom = pereira_nikravesh(W, v, e, mu)
+        except SingularSystemError:
+            # a singular W (normal and tangent rows dependent): the sticking solve has no
+            # unique answer; stick where the least-squares one is consistent and admissible
+            # (eq. 53), else slide along eq. (55)'s t = -sgn(v_t-), which needs no W^-1
+            stick = stick_on(P, (0,), newton_velocity_shift(P))
+            if stick is not None and stick_admissible(stick[0], mu):
+                impulse, regime, denom = stick[0], "stick", None
+            elif v[1] != 0.0:
+                impulse, denom = sliding_impulse(W, v, e, mu, planar_slide_direction(v, None))
+                regime = "slide"
+            else:
+                raise
         return assemble_result(P, impulse[None], [regime], law, method, effective_mass=denom,
                                tol=1e-12, extras={"stick_test": regime == "stick",
                                                   "slide_rule": "eq. (55)"})

@@ -157,6 +157,8 @@ from .stronge_slip import (  # noqa: F401  (the path in impulse space; its toler
     TAIL_RTOL,
     _failed,
     _run_linear,
+    _scaled_back,
+    _speed_exponent,
     _start,
     _stronge_spatial,
 )
@@ -172,6 +174,19 @@ _INF = math.inf
 
 @_jit
 def _stronge_planar(A, B, C, v0, v1, e, mu, out):
+    """One planar contact (:func:`_stronge_planar_scaled`) in velocity units where the
+    approach speed -v0 is of order one: the works W_n ~ v0^2 / A would underflow to zero for
+    -v0 ~ 1e-300 beside an O(1) slip, and with them the restitution's target (the contact
+    would leave at v_n+ = 0 whatever e). v- is scaled by a power of two, exactly, and the
+    answer scaled back (as :func:`~convimpact.impact.laws.stronge_slip._stronge_spatial`)."""
+    k = _speed_exponent(v0, v1, 0.0)
+    st, regime, p0, p1, p2, mass = _stronge_planar_scaled(
+        A, B, C, math.ldexp(v0, k), math.ldexp(v1, k), e, mu, out)
+    return _scaled_back(out, k, st, regime, p0, p1, p2, mass)
+
+
+@_jit
+def _stronge_planar_scaled(A, B, C, v0, v1, e, mu, out):
     """One planar contact (W = [[A, B], [B, C]]), mu > 0, approaching, W in the safe range:
     linear phases of slip against v_t, stick (ratio -B / C when |B| <= mu C) or slip along
     sgn B (reversal after a slip, onset from rest) until the collision ends; the phases, works

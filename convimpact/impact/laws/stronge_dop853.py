@@ -103,11 +103,17 @@ def _error(h, y0, y1, y2, y3, z0, z1, z2, z3, pref, ref3, K):
         for m in range(_NE):
             s5 += _E5[m] * K[i, m]
             s3 += _E3[m] * K[i, m]
+        # the step's error estimates h K^T E, not the slopes' K^T E, against the scale: the
+        # slopes (|v_t|, mu v_t) can exceed the scale of p by far more than double precision
+        # spans when the contact slides much faster than it approaches (h is then as small)
+        s5 *= h
+        s3 *= h
         e5 += (s5 / sc) * (s5 / sc)
         e3 += (s3 / sc) * (s3 / sc)
     if e5 == 0.0 and e3 == 0.0:
         return 0.0
-    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * 4.0)
+    # scipy's |h| |e5|^2 / sqrt(4 (|e5|^2 + |e3|^2 / 100)) with h moved into e5 and e3
+    return e5 / math.sqrt((e5 + 0.01 * e3) * 4.0)
 
 
 @_jit

@@ -55,6 +55,8 @@ TAIL_RTOL = 1e-8
 FLOOR_RTOL = 1e-10
 #: accepted steps / impulse (in units of |v_n-| / W_nn) beyond which the collision is a jam
 MAX_STEPS = 20000
+#: a rejected step shorter than this times the first step is an underflow of the step size
+H_FLOOR_RTOL = 1e-200
 MAX_IMPULSE = 1e12
 
 #: phase kinds (``out[1:5]``), named by :data:`PHASE_NAMES`
@@ -230,6 +232,9 @@ def _curved_slip(out, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, 
     nb = math.hypot(b1, b2)
     nc = 0.5 * (C11 + C22) + math.hypot(0.5 * (C11 - C22), C12)
     h = 0.05 / (nb + mu * nc + A * f0 / -vn0)
+    # the step's floor, relative to the first step: sigma's scale is p / |v_t| ~ |v_n-| /
+    # (W_nn |v_t|), far below one when the contact slides much faster than it approaches
+    h_floor = H_FLOOR_RTOL * h
     _open(out, PH_SLIP, p)
     g_old = _event(y0, y1, y2, y3, compressing, target, vn0, A, b1, b2)
     steps = 0
@@ -248,7 +253,7 @@ def _curved_slip(out, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, 
             if not math.isfinite(err):
                 err = 1e10
             h *= _pmax2(0.2, 0.9 * err ** -0.125)
-            if h <= 1e-300:
+            if h <= h_floor:
                 out[O_STEPS] += steps
                 return (NO_SOLUTION, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done)
             continue
@@ -332,8 +337,58 @@ def _curved_slip(out, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, 
 # one spatial contact
 
 
+#: max |v-| after the approach speed is scaled to order one stays below 2^SCALED_SPEED_EXP, so
+#: that the integration's products (|v_t| v_n, |v_t| p) stay finite when |v_t| >> |v_n-|
+SCALED_SPEED_EXP = 600
+
+
 @_jit
 def _stronge_spatial(A, b1, b2, C11, C12, C22, v0, v1, v2, e, mu, out):
+    """One spatial contact (:func:`_stronge_spatial_scaled`) in velocity units where the
+    approach speed -v0 is of order one.
+
+    The law is positively homogeneous of degree one in v- (impulses scale with v-, the works
+    W_n with its square), and the curved slip's integration measures its error against the
+    frictionless compression impulse -v0 / A and work v0^2 / A: with -v0 ~ 1e-300 next to a
+    tangential speed of order one, that work underflows to zero (the error norm divides by
+    it) and the first step underflows, so the integration failed. Here v- is scaled by the
+    power of two 2^k with -v0 2^k in [1/2, 1) (bounded so that max |v-| 2^k < 2^600), which
+    is exact, and the impulses (out's phase starts, p_c) and works (W_c, W_n) are scaled back
+    by 2^-k and 2^-2k; the errors' values (dv_n/dp, det W) do not depend on it."""
+    k = _speed_exponent(v0, v1, v2)
+    st, regime, p0, p1, p2, mass = _stronge_spatial_scaled(
+        A, b1, b2, C11, C12, C22, math.ldexp(v0, k), math.ldexp(v1, k), math.ldexp(v2, k), e,
+        mu, out)
+    return _scaled_back(out, k, st, regime, p0, p1, p2, mass)
+
+
+@_jit
+def _speed_exponent(v0, v1, v2):
+    """k with -v0 2^k in [1/2, 1), lowered so that max |v| 2^k < 2^:data:`SCALED_SPEED_EXP`."""
+    vmax = _pmax2(_pmax2(abs(v0), abs(v1)), abs(v2))
+    k = -math.frexp(abs(v0))[1]
+    top = SCALED_SPEED_EXP - math.frexp(vmax)[1]
+    return top if k > top else k
+
+
+@_jit
+def _scaled_back(out, k, st, regime, p0, p1, p2, mass):
+    """A kernel's answer and record computed with v- 2^k, brought back to v-: impulses (the
+    answer, the phases' starts, p_c) times 2^-k, the works W_c, W_n times 2^-2k (exact)."""
+    if st == OK:
+        p0 = math.ldexp(p0, -k)
+        p1 = math.ldexp(p1, -k)
+        p2 = math.ldexp(p2, -k)
+    for i in range(O_STARTS, O_STARTS + int(out[O_NPHASES])):
+        out[i] = math.ldexp(out[i], -k)
+    out[O_PC] = math.ldexp(out[O_PC], -k)
+    out[O_WC] = math.ldexp(out[O_WC], -2 * k)
+    out[O_WN] = math.ldexp(out[O_WN], -2 * k)
+    return st, regime, p0, p1, p2, mass
+
+
+@_jit
+def _stronge_spatial_scaled(A, b1, b2, C11, C12, C22, v0, v1, v2, e, mu, out):
     """One spatial contact (W = [[A, b^T], [b, C]]), mu > 0, approaching, W in the safe range:
     stick or onset from rest, else slip -- along an invariant ray (a linear phase) or curved
     (integrated) -- until it stops, then stick or onset; the phases, works and jams into
