@@ -41,6 +41,11 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder
 from convimpact.scenes import Scene
+from convimpact.validation import Integer, NonNegative, Positive
+
+PARAMETERS = {"n_boxes": Integer(1, 50), "width": Positive(), "height": Positive(),
+              "depth": Positive(), "mass": Positive(), "mu": NonNegative(),
+              "ramp": NonNegative(), "t_push": NonNegative(), "t_end": Positive()}
 
 G = 9.81
 CORNERS = ((-1, -1), (1, -1), (1, 1), (-1, 1))  # (x, z) signs of a box's bottom corners

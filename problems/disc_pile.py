@@ -41,6 +41,10 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder
 from convimpact.scenes import Scene
+from convimpact.validation import Integer, NonNegative, Positive, Unit
+
+PARAMETERS = {"columns": Integer(2, 1000), "rows": Integer(1, 1000), "mu": NonNegative(),
+              "e": Unit(), "seed": Integer(0), "t_end": Positive()}
 
 G = 9.81
 #: disc pairs closer than this factor times the sum of their radii at the start are contacts
@@ -100,8 +104,6 @@ def unlisted_overlap(theta: np.ndarray, radii: np.ndarray, pairs) -> float:
 def make_scene(columns: int = 10, rows: int = 12, mu: float = 0.3, e: float = 0.0,
                seed: int = 0, t_end: float = 1.0) -> Scene:
     """The disc pile (see the module docstring)."""
-    if columns < 2 or rows < 1:
-        raise ValueError(f"columns must be >= 2 and rows >= 1, got {columns}, {rows}")
     width = 2 * R * columns
     centres, radii = layout(columns, rows, seed)
     n = radii.size

@@ -31,6 +31,11 @@ from types import MappingProxyType
 import numpy as np
 
 from convimpact.scenes import Scene
+from convimpact.validation import NonNegative, Positive, Real, Unit
+
+PARAMETERS = {"push": Real(), "t_push": NonNegative(), "duration": NonNegative(),
+              "mu": NonNegative(), "e": Unit(), "kp": NonNegative(), "kd": NonNegative(),
+              "t_end": Positive()}
 
 G = 9.81
 

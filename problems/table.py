@@ -28,6 +28,11 @@ import numpy as np
 
 from convimpact.model import Joint, ModelBuilder
 from convimpact.scenes import Scene
+from convimpact.validation import Integer, NonNegative, Positive, Real
+
+PARAMETERS = {"legs": Integer(1, 10000), "v0": NonNegative(), "direction_deg": Real(),
+              "mu": NonNegative(), "mass": Positive(), "radius": Positive(),
+              "height": Positive(), "t_end": Positive()}
 
 G = 9.81
 
