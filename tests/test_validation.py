@@ -358,3 +358,14 @@ def test_energy_functions_raise_instead_of_returning_inf():
         ci.central_energy_loss(np.eye(2), [1.0, 0.0], [-1e200, 0.0], 0.5)
     # in range: eq. (58) by hand, 1/2 (1 + 4) - 1/2 (1/4 + 1) = 1.875
     assert ci.energy_loss(np.eye(2), [1.0, 2.0], [0.5, 1.0]) == pytest.approx(1.875)
+
+
+@pytest.mark.parametrize("h", ["1e-3", True, 1j, 0.0, -1e-3, float("nan")])
+def test_simulate_moreau_called_directly_refuses_a_step_that_is_not_a_positive_real(h):
+    """The scheme's own entry point (the user guide calls it) checks h as simulate_with does:
+    a string, a boolean or a complex number is refused, not converted."""
+    from convimpact.impact.errors import NonFiniteError, ParameterError
+    from convimpact.simulation.moreau import simulate_moreau
+
+    with pytest.raises((ParameterError, NonFiniteError), match="h must"):
+        simulate_moreau(load_scene("bouncing_ball"), (0.0, 0.1), h=h)

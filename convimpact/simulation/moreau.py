@@ -72,6 +72,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
+from .. import validation
 from ..impact.errors import (
     ConvImpactError,
     LoopConstraintError,
@@ -260,15 +261,8 @@ def simulate_moreau(
     m = int(mech.n_loop_constraints)
     contacts = tuple(mech.contact_names)
     check_law_method(law, method)
-    try:
-        h = float(h)
-        theta_p = float(theta)
-    except (TypeError, ValueError):
-        raise ParameterError("h and theta must be numbers") from None
-    if not (math.isfinite(h) and h > 0):
-        raise ParameterError(f"the step size h must be a positive finite number, got {h!r}")
-    if not (0.0 <= theta_p <= 1.0):
-        raise ParameterError(f"theta must lie in [0, 1] (1/2: midpoint rule), got {theta!r}")
+    h = validation.positive("h", h)  # a real number: "1e-3", True, 1j are refused
+    theta_p = validation.in_range("theta", theta, 0.0, 1.0)  # 1/2: the midpoint rule
     positive(projection_tol=projection_tol, contact_tol=contact_tol)
     if not (np.isfinite(gap_tol) and rest_velocity >= 0):
         raise ParameterError("gap_tol must be finite and rest_velocity >= 0")
