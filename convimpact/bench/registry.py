@@ -20,6 +20,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from ..files import write_whole
 from ..impact.errors import UnknownOptionError
 
 #: schema version of bench.json
@@ -189,8 +190,8 @@ def run_bench(config: BenchConfig, sections: Sequence[str] | None = None,
     report["summary"] = summary
     report["wall_time"] = time.perf_counter() - t0
     report = strict_json(report)
-    (out / "bench.json").write_text(json.dumps(report, separators=(",", ":")) + "\n")
-    (out / "summary.txt").write_text(format_summary(report))
+    write_whole(out / "bench.json", json.dumps(report, separators=(",", ":")) + "\n")
+    write_whole(out / "summary.txt", format_summary(report))
     progress(f"wrote {out / 'bench.json'}, {out / 'summary.txt'} in {report['wall_time']:.1f}s")
     return report
 

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ..files import write_whole
 from ..cli import command
 from ..impact.errors import NotSupportedError, ParameterError, UnknownOptionError
 from ..impact import LAWS, METHODS, available_methods
@@ -212,18 +213,6 @@ def write_plots(scene, res: SimulationResult, out: Path) -> list[Path]:
     return paths
 
 
-def _write_whole(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` under a temporary name renamed when whole (a failed write
-    leaves no file that looks complete)."""
-    partial = path.with_name(path.name + ".partial")
-    try:
-        partial.write_text(text)
-    except BaseException:
-        partial.unlink(missing_ok=True)
-        raise
-    partial.replace(path)
-
-
 def _impact_options(args: argparse.Namespace) -> dict[str, Any]:
     """``impact_options`` of the run: ``--e-t`` for the law that has a tangential restitution,
     refused (UnknownOptionError) with any other."""
@@ -256,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
         text = json.dumps(_strict(rows), indent=1)
         if args.out is not None:
             Path(args.out).mkdir(parents=True, exist_ok=True)
-            _write_whole(Path(args.out) / "simulation_benchmark.json", text)
+            write_whole(Path(args.out) / "simulation_benchmark.json", text)
         if args.json:
             print(text)
         else:

@@ -13,6 +13,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..files import write_whole
 from .. import cli
 from .paper import ASSUMPTIONS, PENDULUM_3D_E, PENDULUM_3D_MU, PaperReport, build_report
 from .paper_figures import write_figures
@@ -92,8 +93,7 @@ def run(args) -> int:
     data["elapsed_total_s"] = time.perf_counter() - t0
     text = dumps(data)
     json_path = os.path.join(out, "paper.json")
-    with open(json_path, "w") as fh:
-        fh.write(text + "\n")
+    write_whole(json_path, text + "\n")  # after the figures it lists
     if args.json:
         sys.stdout.write(text + "\n")
         return 0
