@@ -52,8 +52,10 @@ def test_ratios_and_exponents_follow_from_the_records(run):
         pts = sorted((r["contacts"], r["wall_per_simulated_second"]) for r in rows
                      if r["law"] == law and r["motion"] == motion)
         (n1, t1), (n2, t2) = pts
+        # (bench.json keeps 6 significant digits of each time: the exponent recomputed from
+        # them is off by ~1e-6 absolute, which is large relative to an exponent near 0)
         assert fit["exponent"] == pytest.approx(math.log(t2 / t1) / math.log(n2 / n1),
-                                                rel=1e-4)
+                                                rel=1e-4, abs=1e-5)
 
 
 def test_physics_of_the_runs(run):
