@@ -44,14 +44,33 @@ def _same_bytes(a, b) -> bool:
                for v in a.data_vars)
 
 
+#: Dask's wall-clock limits (connecting, a worker coming back): generous, so that only a
+#: cluster that cannot start or recover reaches them on a loaded machine (Dask's default
+#: connect timeout is 30 s)
+DASK_LIMIT = 600
+
+
 @pytest.fixture(scope="module")
 def client():
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=None)
-    c = distributed.Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
+    import dask
+
+    limits = {"distributed.comm.timeouts.connect": f"{DASK_LIMIT}s",
+              "distributed.comm.timeouts.tcp": f"{DASK_LIMIT}s"}
+    with dask.config.set(limits):
+        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                           dashboard_address=None)
+        c = distributed.Client(cluster, timeout=DASK_LIMIT)
+        yield c
+        c.close()
+        cluster.close()
+
+
+def _wait_for_workers(client, n: int) -> None:
+    try:
+        client.wait_for_workers(n, timeout=DASK_LIMIT)
+    except TimeoutError as exc:  # pragma: no cover - a broken cluster, not a slow one
+        pytest.fail(f"wall-clock limit hit: the Dask cluster did not have {n} workers within "
+                    f"{DASK_LIMIT} s ({exc})")
 
 
 @pytest.fixture(scope="module")
@@ -127,7 +146,7 @@ def test_worker_killed_mid_study_loses_and_duplicates_nothing(client, serial_ens
     records = StudyStore(path).records()
     assert [r["chunk"] for r in records] == list(range(run.n_chunks)) == list(range(6))
     assert _same_bytes(run.dataset, serial_ensemble)
-    client.wait_for_workers(2, timeout=60)
+    _wait_for_workers(client, 2)  # the nanny restarted the killed one
 
 
 def test_interrupted_study_resumes_and_recomputes_only_the_rest(serial_ensemble, tmp_path):
