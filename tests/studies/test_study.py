@@ -114,6 +114,37 @@ def test_impacts_match_resolve_impact_point_by_point(serial_impacts):
         assert ds.attrs["regime_names"][int(pt["regime"])] == r.regime
 
 
+def test_store_opens_in_xarray_without_a_warning(serial_impacts, tmp_path):
+    """A study store carries consolidated metadata: xarray opens it directly, in one read and
+    without a warning (no "failed to open with consolidated metadata", nothing about the
+    bookkeeping folder), and reads the study's dataset; a store made without it (an older
+    version) is consolidated when the study is resumed."""
+    import warnings
+
+    import xarray as xr
+
+    path = tmp_path / "c.zarr"
+    run_study(spec_from_dict(IMPACTS), path, "serial", progress=False)
+    for open_store in (lambda: xr.open_zarr(path),
+                       lambda: xr.open_dataset(path, engine="zarr", chunks=None)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            ds = open_store().load()
+        assert _same_bytes(ds[list(serial_impacts.data_vars)], serial_impacts)
+    # an older store: its root metadata without the consolidated block
+    root = path / "zarr.json"
+    meta = json.loads(root.read_text())
+    meta.pop("consolidated_metadata")
+    root.write_text(json.dumps(meta))
+    assert not StudyStore(path).consolidated()
+    again = run_study(spec_from_dict(IMPACTS), path, "serial", progress=False)
+    assert again.chunks_computed == 0 and StudyStore(path).consolidated()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _same_bytes(xr.open_zarr(path).load()[list(serial_impacts.data_vars)],
+                           serial_impacts)
+
+
 def test_dask_and_processes_give_the_serial_bytes(client, serial_impacts, tmp_path):
     run = run_study(spec_from_dict(IMPACTS), tmp_path / "d.zarr", client=client,
                     progress=False)
