@@ -145,6 +145,23 @@ def test_store_opens_in_xarray_without_a_warning(serial_impacts, tmp_path):
                            serial_impacts)
 
 
+def test_progress_goes_to_a_log_as_lines(tmp_path, capsys):
+    """stderr not a terminal (a log, a batch job): the default progress is plain lines -- the
+    chunks to compute, then each tenth and the end -- not a bar's carriage returns."""
+    run = run_study(spec_from_dict(IMPACTS), tmp_path / "l.zarr", "serial")
+    lines = capsys.readouterr().err.splitlines()
+    mine = [ln for ln in lines if "] pendulum impacts: " in ln]
+    assert mine[0].endswith(f"pendulum impacts: {run.n_chunks} of {run.n_chunks} chunks to "
+                            "compute")
+    assert mine[-1].endswith(f"{run.n_chunks}/{run.n_chunks} chunks (100 %)")
+    # a line each tenth of the chunks (12 chunks: every 2nd)
+    n = run.n_chunks
+    step = -(-n // 10)
+    counts = [int(ln.split(": ")[1].split("/")[0]) for ln in mine[1:]]
+    assert counts == sorted(set(list(range(step, n + 1, step)) + [n]))
+    assert not any("\r" in ln for ln in lines)
+
+
 def test_dask_and_processes_give_the_serial_bytes(client, serial_impacts, tmp_path):
     run = run_study(spec_from_dict(IMPACTS), tmp_path / "d.zarr", client=client,
                     progress=False)
