@@ -18,8 +18,11 @@ from pathlib import Path
 
 import pytest
 
-nbformat = pytest.importorskip("nbformat")
-nbclient = pytest.importorskip("nbclient")
+NEEDS = "the notebooks run in a Jupyter kernel: pip install -e \".[test-full]\""
+nbformat = pytest.importorskip("nbformat", reason=NEEDS)
+nbclient = pytest.importorskip("nbclient", reason=NEEDS)
+pytest.importorskip("jupyter_client", reason=NEEDS)
+pytest.importorskip("ipykernel", reason=NEEDS)
 
 NOTEBOOKS = sorted((Path(__file__).resolve().parent.parent / "notebooks").glob("*.ipynb"))
 

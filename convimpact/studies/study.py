@@ -190,13 +190,13 @@ def _progress_bar(enabled: bool | None, total: int, initial: int, label: str):
 
 def require_studies_extra() -> None:
     """Raise :class:`~convimpact.impact.errors.NotSupportedError` naming the ``studies`` extra
-    unless xarray, zarr and dask are importable."""
+    unless xarray, zarr, dask and tqdm are importable."""
     import importlib
 
     from ..impact.errors import NotSupportedError
 
     missing = []
-    for name in ("xarray", "zarr", "dask"):
+    for name in ("xarray", "zarr", "dask", "tqdm"):
         try:
             importlib.import_module(name)
         except ImportError:
@@ -238,7 +238,7 @@ def run_study(spec: StudySpec | str | Path, store: str | Path, executor: Executo
     StudyStoreError
         when ``store`` holds another study or is not a study store;
     NotSupportedError
-        when xarray, zarr or dask (the ``studies`` extra) are not installed.
+        when xarray, zarr, dask or tqdm (the ``studies`` extra) are not installed.
     """
     if not isinstance(spec, StudySpec):
         spec = load_spec(spec)

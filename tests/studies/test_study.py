@@ -18,9 +18,9 @@ from convimpact.studies.study import run_study
 from convimpact.studies.study_spec import StudySpecError, load_spec, spec_from_dict
 from convimpact.studies.study_store import StudyStore, StudyStoreError, chunk_regions, chunk_shape
 
-distributed = pytest.importorskip("distributed")
-pytest.importorskip("xarray")
-pytest.importorskip("zarr")
+distributed = pytest.importorskip("distributed", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
+pytest.importorskip("xarray", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
+pytest.importorskip("zarr", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
 
 IMPACTS = {
     "study": {"kind": "impacts", "title": "pendulum impacts", "chunk_points": 150, "seed": 3},

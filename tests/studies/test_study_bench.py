@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-pytest.importorskip("distributed")
+pytest.importorskip("distributed", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
 
 
 def test_quick_study_section(tmp_path):
