@@ -294,26 +294,37 @@ def test_cli_study_runs_then_finds_everything_done(tmp_path, capsys):
     assert "is empty" in capsys.readouterr().err
 
 
-def test_atlas_maps_on_the_cluster_equal_the_serial_builders(client, tmp_path):
-    """Two quick atlas maps run as studies on the cluster equal the map builders called
-    directly (JSON form, wall time aside), the first error messages included."""
-    from convimpact.studies.atlas_study import ATLAS_MAPS, atlas_map_from_store, atlas_specs
+def _atlas_maps_equal_the_builders(tmp_path, **executor) -> None:
+    """Two quick atlas maps run as studies equal the map builders called directly (JSON form,
+    wall time aside), the first error messages included."""
+    from convimpact.studies.atlas_study import (ATLAS_MAPS, _builder_kwargs,
+                                                atlas_map_from_store, atlas_specs)
 
     specs = {s.options["map"]: s for s in atlas_specs(quick=True)}
     for name in ("slider_crank_isosceles", "rod_zeno"):
         spec = specs[name]
         path = tmp_path / f"{name}.zarr"
-        run_study(spec, path, client=client, progress=False)
+        run_study(spec, path, progress=False, **executor)
         got = atlas_map_from_store(StudyStore(path)).as_dict()
-        d = ATLAS_MAPS[name]
-        from convimpact.studies.atlas_study import _builder_kwargs
         kw = _builder_kwargs(spec.options["fixed"])
         kw.update({a.name: np.array(a.values) for a in spec.grid})
-        want = d.builder(**kw).as_dict()
+        want = ATLAS_MAPS[name].builder(**kw).as_dict()
         got.pop("wall_time"), want.pop("wall_time")
         assert json.dumps(got, sort_keys=True) == json.dumps(want, sort_keys=True)
         if name == "slider_crank_isosceles":
             assert got["counts"]["pereira-nikravesh/fast"]["singular_loop"] > 0
+
+
+def test_atlas_maps_as_studies_equal_the_serial_builders(tmp_path):
+    _atlas_maps_equal_the_builders(tmp_path, executor="serial")
+
+
+@pytest.mark.slow
+def test_atlas_maps_on_the_cluster_equal_the_serial_builders(client, tmp_path):
+    """The same on the Dask cluster (slow: its workers build the maps' models and kernels
+    again); the fast suite checks the atlas as serial studies (above) and the Dask executor
+    on the impacts and ensemble studies (the serial bytes, a killed worker)."""
+    _atlas_maps_equal_the_builders(tmp_path, client=client)
 
 
 def test_a_missing_studies_extra_is_a_clear_error(monkeypatch, tmp_path):
