@@ -162,7 +162,11 @@ def test_progress_goes_to_a_log_as_lines(tmp_path, capsys):
     assert not any("\r" in ln for ln in lines)
 
 
+@pytest.mark.slow
 def test_dask_and_processes_give_the_serial_bytes(client, serial_impacts, tmp_path):
+    # slow (on a cold cache each worker compiles the batch kernels); the fast suite checks
+    # every executor's bytes against serial in tests/studies/test_study_bench.py and Dask's
+    # under a killed worker below
     run = run_study(spec_from_dict(IMPACTS), tmp_path / "d.zarr", client=client,
                     progress=False)
     assert run.executor == "dask" and run.n_workers == 2 and run.chunks_computed == run.n_chunks
