@@ -1,8 +1,8 @@
 """The reproduction of Pereira & Nikravesh (1996): the examples of Section 9 and their data.
 
 One call of :func:`build_report` computes every number (the impact examples of Section 9 under
-the five laws, the Table 1 analogue, the data of Figs. 3, 5-7, 9 and 10 and the law
-landscapes) as plain JSON; :func:`convimpact.studies.paper_figures.write_figures` draws the PNG
+the six laws of ``convimpact.LAWS``, the Table 1 analogue, the data of Figs. 3, 5-7, 9 and 10
+and the law landscapes) as plain JSON; :func:`convimpact.studies.paper_figures.write_figures` draws the PNG
 figures from it; :mod:`convimpact.studies.paper_cli` prints its summary and is the subcommand
 ``convimpact paper [--out DIR] [--json] [--quick]``.
 

@@ -376,7 +376,7 @@ def test_law_figures_share_one_colour_bar(paper_out):
     finally:
         plt.Figure.savefig = orig
     per_name = dict(zip(names, created))
-    assert per_name["laws_pendulum_a.png"] == len(ci.LAWS) + 1  # five laws, one colour bar
+    assert per_name["laws_pendulum_a.png"] == len(ci.LAWS) + 1  # six laws, one colour bar
     assert per_name["laws_pendulum_b.png"] == len(ci.LAWS) + 1
     assert per_name["fig10_tangent_plane.png"] == 2  # velocities and impulses apart
     for name in names:
