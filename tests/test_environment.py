@@ -29,3 +29,12 @@ def test_blas_runs_one_thread():
     blas = [p for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas"]
     assert blas, "no BLAS library found loaded"
     assert {p["num_threads"] for p in blas} == {1}, blas
+
+
+def test_hypothesis_is_derandomized_without_deadline():
+    # every property test draws the same examples on every run, and no example can fail for
+    # taking long on a loaded machine (the tests' own @settings inherit this profile)
+    from hypothesis import settings
+
+    assert settings.default.derandomize is True and settings.default.deadline is None
+    assert settings().derandomize is True and settings(max_examples=5).deadline is None
