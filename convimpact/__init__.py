@@ -48,22 +48,35 @@ from .scenes import Scene, list_scenes, load_scene
 _sys.modules.setdefault(__name__ + ".errors", errors)
 
 
+#: the public names that load on first use (so ``import convimpact`` stays light), by the
+#: module that holds them
+_LAZY = {
+    "simulate": "convimpact.simulation",
+    "solve_contact_problem": "convimpact.impact.contacts.contact_problem",
+    "ContactSolution": "convimpact.impact.contacts.contact_problem",
+    "UncertifiedSolutionError": "convimpact.impact.contacts.contact_problem",
+    "impact_arguments": "convimpact.model",
+    "resolve_mechanism_impact": "convimpact.model",
+    "ModelBuilder": "convimpact.model",
+    "Joint": "convimpact.model",
+    "place_resting": "convimpact.model",
+    "rest_velocity": "convimpact.model",
+}
+
+
 def __getattr__(name):
     # heavier layers load on first use, so ``import convimpact`` stays light
-    if name == "simulate":
-        from .simulation import simulate
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'convimpact' has no attribute {name!r}")
+    import importlib
 
-        return simulate
-    if name in ("solve_contact_problem", "ContactSolution", "UncertifiedSolutionError"):
-        from .impact.contacts import contact_problem
+    return getattr(importlib.import_module(module), name)
 
-        return getattr(contact_problem, name)
-    if name in ("impact_arguments", "resolve_mechanism_impact", "ModelBuilder", "Joint",
-                "place_resting", "rest_velocity"):
-        from . import model
 
-        return getattr(model, name)
-    raise AttributeError(f"module 'convimpact' has no attribute {name!r}")
+def __dir__():
+    # dir() and tab completion list the lazy names too, before their first use
+    return sorted(set(globals()) | set(_LAZY))
 
 __version__ = "0.1.0"
 

@@ -24,6 +24,21 @@ def command(name: str, help: str):
     return deco
 
 
+def progress_printer(label: str, stream=None, start: float | None = None) -> Callable[[str], None]:
+    """A progress callback for long commands: each message goes at once to stderr (``stream``)
+    as ``[  12.3s] label: message``, the time since ``start`` (default: now)."""
+    import time
+
+    t0 = time.perf_counter() if start is None else start
+
+    def progress(message: str) -> None:
+        out = stream or sys.stderr
+        out.write(f"[{time.perf_counter() - t0:7.1f}s] {label}: {message}\n")
+        out.flush()
+
+    return progress
+
+
 def rod_on_floor(angle_deg: float = 30.0, vx: float = 1.0, vy: float = -1.0,
                  omega: float = 0.0, mass: float = 1.0, length: float = 1.0):
     """Raw matrices of a slender rod whose lower end strikes a horizontal floor.

@@ -389,5 +389,10 @@ def __getattr__(name):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def __dir__():
+    # dir() and tab completion list the decorators read on first use too
+    return sorted(set(globals()) | {"jit", "jit_internal", "literally"})
+
+
 __all__ = ["jit", "jit_internal", "literally", "JIT_OPTIONS", "JIT_INTERNAL_OPTIONS", "ENV", "cache_root",
            "cache_dir", "compiled_sources", "source_key", "cached", "announce"]

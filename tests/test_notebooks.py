@@ -18,8 +18,11 @@ from pathlib import Path
 
 import pytest
 
-nbformat = pytest.importorskip("nbformat")
-nbclient = pytest.importorskip("nbclient")
+NEEDS = "the notebooks run in a Jupyter kernel: pip install -e \".[test-full]\""
+nbformat = pytest.importorskip("nbformat", reason=NEEDS)
+nbclient = pytest.importorskip("nbclient", reason=NEEDS)
+pytest.importorskip("jupyter_client", reason=NEEDS)
+pytest.importorskip("ipykernel", reason=NEEDS)
 
 NOTEBOOKS = sorted((Path(__file__).resolve().parent.parent / "notebooks").glob("*.ipynb"))
 
@@ -27,6 +30,14 @@ NOTEBOOKS = sorted((Path(__file__).resolve().parent.parent / "notebooks").glob("
 MAX_BYTES = 600_000
 #: and so does each stored figure (pixels on a side)
 MAX_PIXELS = 1200
+#: wall-clock limits of a notebook's run, in seconds: generous, so that only a hung kernel or
+#: cell reaches them on a loaded machine (the cells take seconds; the kernel starts in one or
+#: two). Each failure names the limit it hit.
+CELL_LIMIT = 1800
+KERNEL_START_LIMIT = 600
+#: after a cell's reply, the wait for its last outputs (nbclient's default, 4 s, can drop a
+#: figure on a loaded machine, which would read as a changed notebook)
+OUTPUT_LIMIT = 300
 #: figures each notebook draws, at least
 MIN_FIGURES = {"01_paper_tour": 5, "02_dissipation_landscapes": 5,
                "03_where_laws_disagree": 3}
@@ -91,9 +102,21 @@ def test_notebook_runs_and_matches_its_outputs(path, tmp_path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
     committed = nbformat.read(path, as_version=4)
     nb = nbformat.read(path, as_version=4)
-    client = nbclient.NotebookClient(nb, timeout=120, kernel_name="python3",
-                                     resources={"metadata": {"path": str(tmp_path)}})
-    client.execute()
+    client = nbclient.NotebookClient(
+        nb, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}},
+        timeout=CELL_LIMIT, startup_timeout=KERNEL_START_LIMIT, iopub_timeout=OUTPUT_LIMIT,
+        raise_on_iopub_timeout=True)
+    try:
+        client.execute()
+    except nbclient.exceptions.CellTimeoutError as exc:
+        pytest.fail(f"{path.name}: wall-clock limit hit -- a cell ran longer than {CELL_LIMIT} s "
+                    f"or its outputs came more than {OUTPUT_LIMIT} s after its reply (a hung "
+                    f"cell or a machine overloaded far beyond normal): {exc}")
+    except RuntimeError as exc:
+        if "respond" not in str(exc):
+            raise
+        pytest.fail(f"{path.name}: wall-clock limit hit -- the python3 kernel did not start "
+                    f"within {KERNEL_START_LIMIT} s: {exc}")
     for fresh, old in zip(_code_cells(nb), _code_cells(committed)):
         assert fresh.execution_count is not None
         assert not [o for o in fresh.get("outputs", []) if o.get("output_type") == "error"]

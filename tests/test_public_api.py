@@ -2,6 +2,11 @@
 from the same place (the list below is the flat layout's, written out, not read from the code)."""
 
 import importlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -66,3 +71,33 @@ def test_placement_names_resolve():
 
     for name, obj in (("place_resting", place_resting), ("rest_velocity", rest_velocity)):
         assert getattr(ci, name) is obj and name in ci.__all__
+
+
+def test_dir_lists_every_public_name_before_first_use():
+    """dir() (and so tab completion) shows the names that load on first use -- simulate,
+    ModelBuilder, impact_arguments, place_resting... -- in a fresh interpreter, without loading
+    their modules; each then resolves."""
+    code = ("import json, sys, convimpact as ci\n"
+            "names = dir(ci)\n"
+            "print(json.dumps({'dir': names, 'all': ci.__all__, 'loaded': sorted(m for m in "
+            "sys.modules if m in ('convimpact.simulation', 'convimpact.model'))}))\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(Path(ci.__file__).resolve().parent.parent), os.environ.get("PYTHONPATH", "")]))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         check=True)
+    got = json.loads(out.stdout)
+    assert got["loaded"] == []  # dir() imported nothing heavy
+    for name in ("simulate", "ModelBuilder", "impact_arguments", "place_resting",
+                 "solve_contact_problem", *FLAT_TOP_LEVEL, *ERRORS):
+        assert name in got["dir"], name
+    assert set(got["all"]) <= set(got["dir"])
+    for name in got["dir"]:
+        assert hasattr(ci, name), name
+    with pytest.raises(AttributeError, match="no attribute 'simulate_later'"):
+        ci.simulate_later  # noqa: B018
+
+
+def test_compiled_module_lists_its_decorators():
+    from convimpact import compiled
+
+    assert {"jit", "jit_internal", "literally"} <= set(dir(compiled))

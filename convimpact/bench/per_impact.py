@@ -373,6 +373,7 @@ def per_impact_section(config: BenchConfig, progress: Progress) -> SectionResult
             if have_pin:
                 records += _measure_peers(bp, law, ref, ref_label, config)
     aggs = aggregate(records)
+    progress(f"per-impact: {len(records)} measurements done; drawing the charts")
     figures = per_impact_charts(aggs, config.out, BENCH_LAWS, CLASSES)
     figures = [*figures, *law_speed_chart(aggs, config.out, BENCH_LAWS)]
     meta = {

@@ -291,8 +291,10 @@ def check_single_contact(problem, options, method: str, takes: str, several: str
     <takes> got a, b``) and a problem of several contacts (:class:`NotSupportedError` saying
     ``several``, which may name the count as ``{n}``)."""
     if options:
+        from .resolve import options_help
+
         raise UnknownOptionError(f"method {method!r} takes {takes} got "
-                                 f"{', '.join(sorted(options))}")
+                                 f"{', '.join(sorted(options))}; {options_help()}")
     if problem.n_contacts != 1:
         raise NotSupportedError(several.format(n=problem.n_contacts))
 

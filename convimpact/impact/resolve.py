@@ -111,6 +111,25 @@ def check_law_method(law: str, method: str) -> None:
 
 #: methods that treat one contact only
 SINGLE_CONTACT_METHODS = ("closed-form", "fast", "sweep")
+#: the keyword options each method takes (``resolve_impact(..., **options)``; defaults and
+#: meanings in its docstring's table): the methods' own option checks accept exactly these
+METHOD_OPTIONS: dict[str, tuple[str, ...]] = {
+    "closed-form": (),
+    "sweep": ("xtol", "n_grid"),
+    "fast": (),
+    "interior": ("tol", "max_iter", "newton_iter"),
+    "clarabel": ("tol", "max_iter", "fixed_point_tol", "max_fixed_point_iter",
+                 "anderson_memory"),
+    "cvxpy": ("tol", "max_iter", "fixed_point_tol", "max_fixed_point_iter",
+              "anderson_memory"),
+}
+
+
+def options_help() -> str:
+    """One line naming every method's options (for the messages of UnknownOptionError)."""
+    by = "; ".join(f"{m}: {', '.join(o) if o else 'none'}" for m, o in METHOD_OPTIONS.items())
+    return (f"options by method -- {by} (under method='auto' they go to the method it picks; "
+            "see resolve_impact's docstring)")
 
 
 _CANDIDATES: dict[tuple, list[str]] = {}
@@ -240,13 +259,10 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0); the
         other laws have none.
     **options
-        Options of the method: ``sweep``: ``xtol`` (1e-10), ``n_grid`` (360); ``interior``:
-        ``tol`` (1e-10), ``max_iter`` (100), ``newton_iter`` (20); ``clarabel`` and
-        ``cvxpy``: ``tol`` (1e-10), ``max_iter`` (200) and, for ``"coulomb"``,
-        ``fixed_point_tol`` (1e-9), ``max_fixed_point_iter`` (100), ``anderson_memory`` (5);
-        ``closed-form`` and ``fast`` take none (the user guide's table, "Choosing a law and
-        a method", says what each means). An option the method does not take raises
-        UnknownOptionError naming the ones it does.
+        Solver options (tolerances, iteration limits) of the method: see the table in the
+        Notes (:data:`METHOD_OPTIONS`). A name the method does not take raises
+        UnknownOptionError listing the ones it takes. Under ``method="auto"`` the options go
+        to the method it picks for the impact, so pass the method whose options you set.
 
     Returns
     -------
@@ -271,6 +287,31 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         when an iterative or conic solver does not converge;
     NotSupportedError
         when the method cannot treat the case (the message names one that can).
+
+    Notes
+    -----
+    The methods and their options (keyword arguments, defaults in brackets):
+
+    ============  ==========================================================================
+    method        options
+    ============  ==========================================================================
+    auto          those of the method it picks: ``fast`` for one contact; ``interior`` for
+                  several under laws ccp, dissipative and coulomb, else ``clarabel``
+    closed-form   none (law pereira-nikravesh, one contact)
+    fast          none (every law, one contact)
+    sweep         ``xtol`` [1e-10] tolerance of the slip angle (rad); ``n_grid`` [360] grid
+                  angles bracketing the energy-loss maxima (law pereira-nikravesh, one
+                  contact)
+    interior      ``tol`` [1e-10] acceptance of the KKT certificate (relative residual);
+                  ``max_iter`` [100] interior-point iterations; ``newton_iter`` [20] Newton
+                  steps (laws ccp, dissipative, coulomb; any number of contacts)
+    clarabel      ``tol`` [1e-10] gap and feasibility of the scaled cone program;
+                  ``max_iter`` [200] interior-point iterations; for law coulomb's fixed
+                  point of programs also ``fixed_point_tol`` [1e-9, relative],
+                  ``max_fixed_point_iter`` [100] and ``anderson_memory`` [5] (every law,
+                  any number of contacts)
+    cvxpy         as clarabel (the same programs through cvxpy)
+    ============  ==========================================================================
 
     Examples
     --------

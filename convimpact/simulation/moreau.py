@@ -210,7 +210,8 @@ def simulate_moreau(
     law, method : str
         Impact law and solver path of :func:`convimpact.resolve_impact` for the per-step
         impulse (default "coulomb", the complementarity law of Moreau–Jean). Several active
-        contacts need a multi-contact method ("auto" picks "clarabel").
+        contacts need a multi-contact method: "auto" (the default) picks "interior" for ccp,
+        dissipative and coulomb, else "clarabel".
     gap_tol : float
         A contact is active when its predicted end-of-step gap is at most this.
     rest_velocity : float

@@ -107,8 +107,10 @@ def simulate(
         Initial state: a *tuple* of joint coordinates and velocities, or the canonical array
         ``y = [theta, p]`` of eq. (15) as an ndarray (sigma0 = 0). Default: the scene's.
     law, method : str
-        Impact law and solver path passed to :func:`convimpact.resolve_impact`. Several
-        contacts closing together need a multi-contact method ("clarabel", "cvxpy").
+        Impact law and solver path passed to :func:`convimpact.resolve_impact`. The default
+        "auto" treats several contacts closing together ("interior" for ccp, dissipative and
+        coulomb, else "clarabel"); the single-contact methods ("closed-form", "fast",
+        "sweep") refuse them.
     integrator : str or OdeSolver subclass
         "DOP853" (default), "RK45", "RK23", "Radau", "BDF", "LSODA", or a scipy OdeSolver.
     rtol, atol, max_step, first_step : integrator controls (as in ``solve_ivp``), real

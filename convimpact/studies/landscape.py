@@ -15,8 +15,9 @@ to it and to :func:`contact_landscape` (refused with the other laws) and kept in
 
 :func:`contact_landscape` evaluates any law with the exact single-contact kernels of
 ``method="fast"``: the contact-space data are reduced once, the grid is solved by the
-compiled batch (:func:`convimpact.impact.batch.impacts.contact_impulses`; one Python kernel call per
-point only where the batch has no compiled kernel, or without numba), and energy, velocities
+compiled batch (:func:`convimpact.impact.batch.impacts.contact_impulses`, which compiles every law,
+planar and spatial -- Stronge's curved spatial slip integrated by its compiled DOP853; one
+Python kernel call per point only on small grids or without numba), and energy, velocities
 and the diagnostics' flags are computed in numpy over the grid (identical flags to
 :func:`law_landscape`).
 
@@ -342,9 +343,9 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
     everything after the impulse -- energy loss (eq. 58 in contact space), post-impact velocity
     and the failure flags -- is evaluated in numpy over the whole grid, with the same
     definitions and tolerance as :func:`convimpact.impact.diagnostics.assemble_result` for
-    ``method="fast"``. Planar or spatial, one contact, every law (``"stronge"`` in space too:
-    the batch integrates its curved slip with a compiled DOP853); a smaller grid, or any grid
-    without numba, takes one
+    ``method="fast"``. Planar or spatial, one contact, every law on the batch (``"stronge"``
+    in space too: its curved slip integrated by the batch's compiled DOP853); a smaller grid,
+    or any grid without numba, takes one
     :func:`~convimpact.impact.exact.dispatch.solve_contact` call per point (same answers to round-off;
     below that size the loop costs less than the batch's one-time compilation, so a first
     ``convimpact paper`` compiles nothing for its landscapes).
@@ -397,7 +398,7 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
 def _batch_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law: str,
                 e_t: float | None = None):
     """(pi, regime, jam, failed) over the flattened grid from the compiled batch, or None when
-    the batch does not treat ``law`` or numba is missing."""
+    numba is missing (or a law registered later has no batch code)."""
     from ..impact.errors import NotSupportedError
 
     try:

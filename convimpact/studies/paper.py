@@ -1,8 +1,8 @@
 """The reproduction of Pereira & Nikravesh (1996): the examples of Section 9 and their data.
 
 One call of :func:`build_report` computes every number (the impact examples of Section 9 under
-every law, the Table 1 analogue, the data of Figs. 3, 5-7, 9 and 10 and the law
-landscapes) as plain JSON; :func:`convimpact.studies.paper_figures.write_figures` draws the PNG
+the six laws of ``convimpact.LAWS``, the Table 1 analogue, the data of Figs. 3, 5-7, 9 and 10
+and the law landscapes) as plain JSON; :func:`convimpact.studies.paper_figures.write_figures` draws the PNG
 figures from it; :mod:`convimpact.studies.paper_cli` prints its summary and is the subcommand
 ``convimpact paper [--out DIR] [--json] [--quick]``.
 
@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -296,15 +296,20 @@ def _pendulum_landscapes(examples, n: int) -> dict[str, Any]:
     return out
 
 
-def _law_landscapes(examples, n: int) -> dict[str, Any]:
+def _law_landscapes(examples, n: int,
+                    progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     from ..impact import LAWS
     from .landscape import contact_landscape
 
-    out = {}
-    for key in ("pendulum_a", "pendulum_b"):
+    out: dict[str, Any] = {}
+    keys = ("pendulum_a", "pendulum_b")
+    for k, key in enumerate(keys):
         ex = examples[key]
         e = np.linspace(0.0, 1.0, n)
         mu = np.linspace(0.0, 0.6, n)
+        if progress:
+            progress(f"law landscapes {k + 1}/{len(keys)}: {key}, {len(LAWS)} laws on "
+                     f"{n} x {n} (e, mu)")
         out[key] = {law: contact_landscape(ex.M, ex.Jc, ex.dq, e, mu, ex.C, law=law,
                                            progress=False) for law in LAWS}
     return out
@@ -427,25 +432,43 @@ class PaperReport:
     law_landscapes: Mapping[str, Any]
 
 
-def build_report(quick: bool = False) -> PaperReport:
-    """Compute every number of the reproduction (``quick``: coarser grids)."""
+def build_report(quick: bool = False,
+                 progress: Callable[[str], None] | None = None) -> PaperReport:
+    """Compute every number of the reproduction (``quick``: coarser grids).
+
+    ``progress``, when given, is told each step as it starts (``convimpact paper`` prints
+    them on stderr): the examples, each example under each law (a law's first use compiles
+    its kernels: most of a first run's time), the figures' data, each law landscape.
+    """
+    from ..impact import LAWS
+
+    say = progress or (lambda message: None)
     t0 = time.perf_counter()
     n_land, n_law, n_e, n_alpha = (41, 21, 21, 361) if quick else (101, 51, 101, 1441)
     # the figures of Figs. 5-7 and of the law landscapes are drawn on finer grids
     n_fig, n_fig_law = (121, 41) if quick else (301, 101)
+    say("building the examples: pendulums a, b and 3D, the slider-crank at "
+        f"{len(MASS_RATIOS)} mass ratios (a first run on this machine spends most of its "
+        "time compiling the kernels, once)")
     examples = paper_examples()
-    results = {k: resolve_under_laws(ex) for k, ex in examples.items()}
+    results = {}
+    for i, (k, ex) in enumerate(examples.items()):
+        say(f"example {i + 1}/{len(examples)}: {k} under the {len(LAWS)} laws")
+        results[k] = resolve_under_laws(ex)
     data: dict[str, Any] = {k: _example_json(ex, results[k]) for k, ex in examples.items()}
     sc = results["slider_crank"]["pereira-nikravesh"]
+    say(f"Table 1 and Fig. 3 ({n_e} restitutions)")
     data["table1"] = table1(examples["slider_crank"], sc)
     data["fig3"] = fig3_data(examples, np.linspace(0.0, 1.0, n_e))
+    say(f"Figs. 5-7: the pendulums' landscapes, {n_land} x {n_land} (e, mu)")
     lands = _pendulum_landscapes(examples, n_land)
     data["fig5_6"] = _landscape_json(*lands["pendulum_a"])
     data["fig7"] = _landscape_json(*lands["pendulum_b"])
+    say(f"Figs. 9-10: the 3D pendulum over {n_alpha} tangent angles")
     data["fig9"] = fig9_data(examples["pendulum_3d"], n_alpha)
     p3 = results["pendulum_3d"]["pereira-nikravesh"]
     data["fig10"] = fig10_data(p3)
-    law_lands = _law_landscapes(examples, n_law)
+    law_lands = _law_landscapes(examples, n_law, progress)
     data["law_landscapes"] = {
         key: {law: {"e": L.e.tolist(), "mu": L.mu.tolist(), "counts": L.counts(),
                     "energy_loss_fraction": np.where(np.isfinite(L.energy_loss_fraction),

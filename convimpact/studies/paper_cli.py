@@ -85,9 +85,10 @@ def dumps(data: Mapping[str, Any]) -> str:
 def run(args) -> int:
     """``convimpact paper``: compute, write the figures and JSON, print the summary."""
     t0 = time.perf_counter()
-    report = build_report(quick=args.quick)
+    progress = None if args.quiet else cli.progress_printer("paper", start=t0)
+    report = build_report(quick=args.quick, progress=progress)
     out = args.out
-    paths = write_figures(report, out)
+    paths = write_figures(report, out, progress)
     data = dict(report.data)
     data["figures"] = [os.path.basename(p) for p in paths]
     data["elapsed_total_s"] = time.perf_counter() - t0
@@ -109,6 +110,8 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true",
                    help="print the JSON document to standard output instead of the table")
     p.add_argument("--quick", action="store_true", help="coarser grids (for tests and CI)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress lines on stderr (each step, example, law and figure)")
 
 
 run.add_arguments = _add_arguments

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import os
+from typing import Callable
 
 import numpy as np
 
@@ -32,8 +33,11 @@ FIGURES = ("fig3_energy_loss.png", "fig5_tangential_velocity_a.png", "fig6_energ
            "laws_pendulum_3d.png")
 
 
-def write_figures(report: PaperReport, out: str) -> list[str]:
-    """Draw the PNG figures of the report into ``out``; returns their paths."""
+def write_figures(report: PaperReport, out: str,
+                  progress: Callable[[str], None] | None = None) -> list[str]:
+    """Draw the PNG figures of the report into ``out``; returns their paths. ``progress``,
+    when given, is told each figure as it is drawn (and the fine law landscapes as they are
+    computed)."""
     import matplotlib
 
     if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
@@ -53,6 +57,8 @@ def write_figures(report: PaperReport, out: str) -> list[str]:
         fig.savefig(path, dpi=110, bbox_inches="tight")
         plt.close(fig)
         paths.append(path)
+        if progress:
+            progress(f"figure {len(paths)}/{len(FIGURES)} written: {name}")
 
     d = report.data
     grid = d["settings"]
@@ -139,7 +145,7 @@ def write_figures(report: PaperReport, out: str) -> list[str]:
                         title="the examples under each law: properties kept "
                               "(green: all; red: broken ones listed)")
     save(fig, FIGURES[6])
-    fine_laws = _law_landscapes(report.examples, grid["figure_law_landscape_grid"])
+    fine_laws = _law_landscapes(report.examples, grid["figure_law_landscape_grid"], progress)
     for name, key in ((FIGURES[7], "pendulum_a"), (FIGURES[8], "pendulum_b")):
         per = fine_laws[key]
         low = min(float(np.nanmin(L.energy_loss_fraction)) for L in per.values())

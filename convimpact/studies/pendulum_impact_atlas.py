@@ -1,11 +1,12 @@
-"""A shipped study: the four impact laws over a million configurations of the double pendulum.
+"""A shipped study: four impact laws over a million configurations of the double pendulum.
 
 The paper's planar double pendulum (rods 1 m, 1 kg; ``pendulum_planar``) strikes the floor
 with its tip at every configuration theta1 x theta2 of a 1000 x 1000 grid (theta1 in
 [-pi, 0], rod 1 from +x; theta2 in [-pi, pi], rod 2 relative to rod 1), at the paper's joint
-rates (1, 1) rad/s, restitution e = 0.5, under each law and mu in {0.3, 0.8}: 8e6 impacts
-through the compiled batch (study kind ``impacts``). The spec is ``studies/
-pendulum_impact_atlas.toml`` (the same as :func:`study_spec`); the figure
+rates (1, 1) rad/s, restitution e = 0.5, under the laws pereira-nikravesh, coulomb, ccp and
+dissipative (Stronge's and Chatterjee-Ruina's are not in this shipped spec) and mu in
+{0.3, 0.8}: 8e6 impacts through the compiled batch (study kind ``impacts``). The spec is
+``studies/pendulum_impact_atlas.toml`` (the same as :func:`study_spec`); the figure
 (:func:`plot_pendulum_impact_atlas`, ``docs/figures/pendulum_impact_atlas.png``) colours each
 configuration by its regime and marks where the law gains energy.
 

@@ -20,6 +20,7 @@ Example (8e6 impacts, about a minute on two cores)::
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import socket
@@ -147,24 +148,56 @@ def run_chunk(store_path: str, digest: str, index: int) -> dict[str, Any]:
     return record
 
 
+class _LineProgress:
+    """Progress as plain lines on a stream that is not a terminal (a log, a pipe, a batch
+    job's output): a line at the start, then one each tenth of the chunks and at the end."""
+
+    def __init__(self, total: int, initial: int, label: str, stream=None):
+        self.total, self.done, self.label = total, initial, label
+        self.stream = stream or sys.stderr
+        self.start = time.perf_counter()
+        self.next = initial
+        self._step = max(1, math.ceil((total - initial) / 10))
+        self._say(f"{total - initial} of {total} chunks to compute"
+                  + (f" ({initial} already in the store)" if initial else ""))
+        self.next = initial + self._step
+
+    def _say(self, text: str) -> None:
+        self.stream.write(f"[{time.perf_counter() - self.start:7.1f}s] {self.label}: {text}\n")
+        self.stream.flush()
+
+    def update(self, n: int = 1) -> None:
+        self.done += n
+        if self.done >= self.next or self.done == self.total:
+            self._say(f"{self.done}/{self.total} chunks ({100 * self.done // self.total} %)")
+            self.next = self.done + self._step
+
+    def close(self) -> None:
+        pass
+
+
 def _progress_bar(enabled: bool | None, total: int, initial: int, label: str):
+    """tqdm's bar on a terminal; plain lines on any other stderr unless ``enabled`` is False
+    (``None``: a bar on a terminal, lines otherwise)."""
     from tqdm import tqdm
 
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    return tqdm(total=total, initial=initial, disable=not enabled, file=sys.stderr,
-                unit="chunk", desc=label, dynamic_ncols=True)
+    if enabled is False or (enabled is None and not sys.stderr.isatty()):
+        if enabled is None and initial < total:
+            return _LineProgress(total, initial, label)
+        return tqdm(total=total, initial=initial, disable=True)
+    return tqdm(total=total, initial=initial, file=sys.stderr, unit="chunk", desc=label,
+                dynamic_ncols=True)
 
 
 def require_studies_extra() -> None:
     """Raise :class:`~convimpact.impact.errors.NotSupportedError` naming the ``studies`` extra
-    unless xarray, zarr and dask are importable."""
+    unless xarray, zarr, dask and tqdm are importable."""
     import importlib
 
     from ..impact.errors import NotSupportedError
 
     missing = []
-    for name in ("xarray", "zarr", "dask"):
+    for name in ("xarray", "zarr", "dask", "tqdm"):
         try:
             importlib.import_module(name)
         except ImportError:
@@ -189,7 +222,8 @@ def run_study(spec: StudySpec | str | Path, store: str | Path, executor: Executo
         ``scheduler`` or ``client`` is given.
     workers : processes of the local pool (default: usable cores).
     scheduler, client : a Dask scheduler address or ``distributed.Client``.
-    progress : a tqdm progress bar on stderr (default: when stderr is a terminal).
+    progress : a tqdm progress bar on stderr (True); none (False); default: the bar when
+        stderr is a terminal, else plain lines (the start, each tenth of the chunks, the end).
     load : load the dataset into memory (False: a lazy, Dask-backed dataset).
     on_chunk : called with each completed chunk's record, in completion order.
 
@@ -205,7 +239,7 @@ def run_study(spec: StudySpec | str | Path, store: str | Path, executor: Executo
     StudyStoreError
         when ``store`` holds another study or is not a study store;
     NotSupportedError
-        when xarray, zarr or dask (the ``studies`` extra) are not installed.
+        when xarray, zarr, dask or tqdm (the ``studies`` extra) are not installed.
     """
     if not isinstance(spec, StudySpec):
         spec = load_spec(spec)

@@ -108,6 +108,8 @@ class StudyStore:
                     f"{store.path} holds another study ({held['spec']['study'].get('title')!r}"
                     f", kind {held['spec']['study']['kind']!r}); choose another store or "
                     "remove it")
+            if not store.consolidated():  # a store made before consolidated metadata
+                store._consolidate()
             return store
         if store.path.exists() and any(store.path.iterdir()):
             raise StudyStoreError(f"{store.path} exists and is not a study store; choose "
@@ -174,10 +176,34 @@ class StudyStore:
         ds.to_zarr(str(self.path), mode="w", compute=False, consolidated=False,
                    zarr_format=3, encoding=encoding)
         self.done_dir.mkdir(parents=True, exist_ok=True)
+        self._consolidate()
         n = len(chunk_regions(spec.shape, chunks))
         _atomic_write(self.meta_dir / "spec.json", json.dumps(
             {"schema": STORE_SCHEMA, "spec": spec.to_dict(), "digest": spec.digest(),
              "chunks": list(chunks), "n_chunks": n}, indent=1))
+
+    def consolidated(self) -> bool:
+        """Whether the store carries consolidated metadata (one read opens it)."""
+        try:
+            root = json.loads((self.path / "zarr.json").read_text())
+        except (FileNotFoundError, ValueError):
+            return False
+        return bool(root.get("consolidated_metadata"))
+
+    def _consolidate(self) -> None:
+        """Write the store's metadata consolidated into its root ``zarr.json``, so that
+        ``xarray.open_zarr(path)`` opens it in one read and without a warning. The arrays'
+        metadata never change after creation (the chunks only fill them), so once is enough."""
+        import warnings
+
+        import zarr
+
+        with warnings.catch_warnings():
+            # the bookkeeping folder .study is not a Zarr node; and Zarr 3 notes that
+            # consolidated metadata is its own extension of format 3 (which xarray reads)
+            warnings.filterwarnings("ignore", message=r"Object at \.study is not recognized")
+            warnings.filterwarnings("ignore", message="Consolidated metadata is currently not")
+            zarr.consolidate_metadata(str(self.path))
 
     # -- chunks ---------------------------------------------------------------------------
 
@@ -219,9 +245,12 @@ class StudyStore:
 
         import xarray as xr
 
-        with warnings.catch_warnings():  # the bookkeeping folder .study is not a Zarr node
-            warnings.filterwarnings("ignore", message=r"Object at \.study is not recognized")
-            ds = xr.open_zarr(str(self.path), consolidated=False)
+        if self.consolidated():
+            ds = xr.open_zarr(str(self.path), consolidated=True)
+        else:  # a store made before consolidated metadata, opened read-only
+            with warnings.catch_warnings():  # the bookkeeping folder .study is not a Zarr node
+                warnings.filterwarnings("ignore", message=r"Object at \.study is not recognized")
+                ds = xr.open_zarr(str(self.path), consolidated=False)
         order = [v.name for v in get_kind(self.spec.kind).outputs(self.spec)]
         ds = ds[order]
         return ds.load() if load else ds

@@ -37,6 +37,15 @@ def _strict_load(path: Path) -> dict:
     return json.loads(path.read_text(), parse_constant=bad)
 
 
+#: slow: the quick run of the per-impact and landscape sections times every path of every law
+#: (on a cold cache it compiles them all: a minute and a half). The fast suite keeps what these
+#: tests check: the bench's JSON and charts (test_sections_plug_in below, and each other
+#: section's tests), the exact paths against independent references
+#: (tests/impact/test_crosscheck_matrix.py, test_fast.py, test_clarabel_backend.py) and
+#: Pinocchio's impulse against the closed form (test_pinocchio_peers_against_hand_results).
+slow_bench_run = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
@@ -47,6 +56,7 @@ def quick_run(tmp_path_factory):
     return out, _strict_load(out / "bench.json")
 
 
+@slow_bench_run
 def test_json_documented_keys(quick_run):
     out, report = quick_run
     for key in ("schema", "command", "config", "machine", "sections", "summary", "wall_time"):
@@ -85,6 +95,7 @@ def test_json_documented_keys(quick_run):
     assert report["summary"] and (out / "summary.txt").read_text().count("fast is") >= 1
 
 
+@slow_bench_run
 def test_charts_are_real_pngs(quick_run):
     out, report = quick_run
     figures = [f for s in report["sections"].values() for f in s["figures"]]
@@ -101,6 +112,7 @@ def test_charts_are_real_pngs(quick_run):
         assert img.std() > 0.05, f"{name} looks blank"
 
 
+@slow_bench_run
 def test_exact_paths_agree_with_independent_references(quick_run):
     _, report = quick_run
     recs = report["sections"]["per-impact"]["records"]
@@ -212,6 +224,14 @@ def test_sections_plug_in(tmp_path):
         data = _strict_load(tmp_path / "bench.json")
         assert data["sections"]["dummy-test"]["records"] == [{"x": 1.0, "y": None}]
         assert data == report
+        # the documented keys of every bench.json (the slow quick run checks them on the
+        # per-impact and landscape sections too)
+        for key in ("schema", "command", "config", "machine", "sections", "summary",
+                    "wall_time"):
+            assert key in data, key
+        for key in ("timestamp", "cpu_model", "cpu_count", "load_average", "versions",
+                    "blas_threads"):
+            assert key in data["machine"], key
         assert "dummy ran" in (tmp_path / "summary.txt").read_text()
         with pytest.raises(UnknownOptionError, match="dummy-test"):
             run_bench(config, ["no-such-section"], lines.append)

@@ -18,6 +18,15 @@ import pytest
 
 from convimpact import cli
 
+#: slow: the two sections run every scheme on three scenes and build the six atlas maps (about
+#: a minute quiet, several on a cold cache). The fast suite keeps the facts they rest on:
+#: event-driven convergence (tests/simulation/test_simulate*.py), Moreau-Jean's O(h) approach
+#: (tests/simulation/test_moreau.py), the compliant model's k-scaling
+#: (tests/simulation/test_compliant.py), the atlas maps and the singular lines theta2 in
+#: {0, +-pi} (tests/studies/test_atlas.py, and the atlas as studies in test_study.py), and the
+#: bench's JSON and charts (tests/bench/test_bench.py and the other sections' tests).
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):

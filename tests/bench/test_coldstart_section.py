@@ -17,6 +17,10 @@ from convimpact.bench.registry import strict_json
 
 pytest.importorskip("numba")
 
+#: slow: compiles the kernels from nothing in fresh processes, whatever the cache holds; the
+#: fast suite checks the same cold compile and warm load in tests/test_compile_cache.py
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):

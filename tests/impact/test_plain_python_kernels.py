@@ -118,7 +118,12 @@ def _check_oracles(W, v, e, mu, row) -> None:
         assert _oracle(W, v, e, mu, law, row[law]["impulse"], row[law]["extras"]), law
 
 
+@pytest.mark.slow
 def test_plain_python_kernels_agree_with_the_oracles_and_the_compiled_run():
+    # slow (a cold cache compiles every law's spatial kernels in its compiled subprocess); the
+    # fast suite runs the same plain-Python kernels against the same oracles under sabotage
+    # (below), Stronge's in tests/impact/test_batch_stronge_spatial.py and the CCP's in
+    # tests/impact/test_ccp_kernels.py
     cases, e, mu = _cases(), 0.5, 0.8
     plain = _run(cases, LAWS4 + ("stronge",), 0, e, mu)
     compiled = _run(cases, LAWS4 + ("stronge",), 0, e, mu, jit=True)

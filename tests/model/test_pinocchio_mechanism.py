@@ -36,7 +36,7 @@ def solo12_or_skip():
     try:
         return robots.solo12()
     except robots.RobotDataUnavailableError:
-        pytest.skip("example-robot-data is not installed")
+        pytest.skip("the robot models need example-robot-data (pip install -e \".[test-full]\")")
 
 
 def twin(model):

@@ -21,7 +21,8 @@ from convimpact.scenes import list_scenes, load_scene  # noqa: E402
 try:
     robots.robot_data_dir()
 except robots.RobotDataUnavailableError:
-    pytest.skip("example-robot-data is not installed", allow_module_level=True)
+    pytest.skip("the robot models need example-robot-data (pip install -e \".[test-full]\")",
+                allow_module_level=True)
 
 
 def test_robot_data_is_found_without_downloading():

@@ -176,8 +176,8 @@ def test_atlas_maps_the_new_law():
 # ---- study kinds -------------------------------------------------------------------------
 
 def _run(spec_dict, tmp_path):
-    pytest.importorskip("xarray")
-    pytest.importorskip("zarr")
+    pytest.importorskip("xarray", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
+    pytest.importorskip("zarr", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
     from convimpact.studies.study import run_study
     from convimpact.studies.study_spec import spec_from_dict
 

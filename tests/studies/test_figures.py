@@ -6,7 +6,7 @@ import fnmatch
 import io
 import json
 import os
-from contextlib import redirect_stdout
+from contextlib import redirect_stderr, redirect_stdout
 
 import matplotlib
 
@@ -21,6 +21,7 @@ from convimpact import cli  # noqa: E402
 from convimpact.studies.landscape import (closed_form_landscape, contact_landscape,  # noqa: E402
                                           landscape_stick_boundary, stick_boundary)
 from convimpact.studies.paper import NULL_VALUES, paper_examples  # noqa: E402
+from convimpact.studies.paper_figures import FIGURES  # noqa: E402
 from convimpact.studies.plotting import (nice_levels, plot_angle_sweep,  # noqa: E402
                                          plot_landscape, plot_tangent_vectors,
                                          plot_velocity_comparison)
@@ -270,13 +271,39 @@ def test_reference_values_are_labelled_as_the_papers(examples):
 # the command's figures and JSON
 
 
+#: what ``convimpact paper`` printed on stderr as it went (filled by the paper_out fixture)
+PAPER_PROGRESS: list[str] = []
+
+
 @pytest.fixture(scope="module")
 def paper_out(tmp_path_factory):
     out = tmp_path_factory.mktemp("paper_figs")
-    with redirect_stdout(io.StringIO()):
+    err = io.StringIO()
+    with redirect_stdout(io.StringIO()), redirect_stderr(err):
         assert cli.main(["paper", "--quick", "--out", str(out)]) == 0
+    PAPER_PROGRESS[:] = err.getvalue().splitlines()
     with open(os.path.join(out, "paper.json")) as fh:
         return out, json.load(fh)
+
+
+def test_paper_shows_its_progress(paper_out):
+    """``convimpact paper`` says what it does as it goes, on stderr: each step with the time
+    since the start, the six examples one by one, every figure as it is written."""
+    import re
+
+    lines = [ln for ln in PAPER_PROGRESS if "] paper: " in ln]
+    stamps = [float(re.match(r"\[\s*([\d.]+)s\] paper: ", ln).group(1)) for ln in lines]
+    assert stamps == sorted(stamps) and stamps[0] >= 0.0
+    text = "\n".join(lines)
+    for i, key in enumerate(("pendulum_a", "pendulum_b", "pendulum_3d", "slider_crank",
+                             "slider_crank_ratio5", "slider_crank_ratio10")):
+        assert f"example {i + 1}/6: {key} under the 6 laws" in text
+    written = [ln.split("written: ")[1] for ln in lines if " written: " in ln]
+    assert written == list(FIGURES)
+    assert [ln.split("paper: ")[1][:22] for ln in lines if "law landscapes" in ln] == \
+        ["law landscapes 1/2: pe", "law landscapes 2/2: pe"] * 2  # the JSON's, the figures'
+    # --quiet turns them off
+    assert cli.build_parser().parse_args(["paper", "--quiet"]).quiet is True
 
 
 def _nulls(x, path=""):
@@ -349,7 +376,7 @@ def test_law_figures_share_one_colour_bar(paper_out):
     finally:
         plt.Figure.savefig = orig
     per_name = dict(zip(names, created))
-    assert per_name["laws_pendulum_a.png"] == len(ci.LAWS) + 1  # five laws, one colour bar
+    assert per_name["laws_pendulum_a.png"] == len(ci.LAWS) + 1  # six laws, one colour bar
     assert per_name["laws_pendulum_b.png"] == len(ci.LAWS) + 1
     assert per_name["fig10_tangent_plane.png"] == 2  # velocities and impulses apart
     for name in names:

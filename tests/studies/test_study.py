@@ -18,9 +18,9 @@ from convimpact.studies.study import run_study
 from convimpact.studies.study_spec import StudySpecError, load_spec, spec_from_dict
 from convimpact.studies.study_store import StudyStore, StudyStoreError, chunk_regions, chunk_shape
 
-distributed = pytest.importorskip("distributed")
-pytest.importorskip("xarray")
-pytest.importorskip("zarr")
+distributed = pytest.importorskip("distributed", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
+pytest.importorskip("xarray", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
+pytest.importorskip("zarr", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
 
 IMPACTS = {
     "study": {"kind": "impacts", "title": "pendulum impacts", "chunk_points": 150, "seed": 3},
@@ -44,14 +44,33 @@ def _same_bytes(a, b) -> bool:
                for v in a.data_vars)
 
 
+#: Dask's wall-clock limits (connecting, a worker coming back): generous, so that only a
+#: cluster that cannot start or recover reaches them on a loaded machine (Dask's default
+#: connect timeout is 30 s)
+DASK_LIMIT = 600
+
+
 @pytest.fixture(scope="module")
 def client():
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=None)
-    c = distributed.Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
+    import dask
+
+    limits = {"distributed.comm.timeouts.connect": f"{DASK_LIMIT}s",
+              "distributed.comm.timeouts.tcp": f"{DASK_LIMIT}s"}
+    with dask.config.set(limits):
+        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                           dashboard_address=None)
+        c = distributed.Client(cluster, timeout=DASK_LIMIT)
+        yield c
+        c.close()
+        cluster.close()
+
+
+def _wait_for_workers(client, n: int) -> None:
+    try:
+        client.wait_for_workers(n, timeout=DASK_LIMIT)
+    except TimeoutError as exc:  # pragma: no cover - a broken cluster, not a slow one
+        pytest.fail(f"wall-clock limit hit: the Dask cluster did not have {n} workers within "
+                    f"{DASK_LIMIT} s ({exc})")
 
 
 @pytest.fixture(scope="module")
@@ -95,7 +114,59 @@ def test_impacts_match_resolve_impact_point_by_point(serial_impacts):
         assert ds.attrs["regime_names"][int(pt["regime"])] == r.regime
 
 
+def test_store_opens_in_xarray_without_a_warning(serial_impacts, tmp_path):
+    """A study store carries consolidated metadata: xarray opens it directly, in one read and
+    without a warning (no "failed to open with consolidated metadata", nothing about the
+    bookkeeping folder), and reads the study's dataset; a store made without it (an older
+    version) is consolidated when the study is resumed."""
+    import warnings
+
+    import xarray as xr
+
+    path = tmp_path / "c.zarr"
+    run_study(spec_from_dict(IMPACTS), path, "serial", progress=False)
+    for open_store in (lambda: xr.open_zarr(path),
+                       lambda: xr.open_dataset(path, engine="zarr", chunks=None)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            ds = open_store().load()
+        assert _same_bytes(ds[list(serial_impacts.data_vars)], serial_impacts)
+    # an older store: its root metadata without the consolidated block
+    root = path / "zarr.json"
+    meta = json.loads(root.read_text())
+    meta.pop("consolidated_metadata")
+    root.write_text(json.dumps(meta))
+    assert not StudyStore(path).consolidated()
+    again = run_study(spec_from_dict(IMPACTS), path, "serial", progress=False)
+    assert again.chunks_computed == 0 and StudyStore(path).consolidated()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _same_bytes(xr.open_zarr(path).load()[list(serial_impacts.data_vars)],
+                           serial_impacts)
+
+
+def test_progress_goes_to_a_log_as_lines(tmp_path, capsys):
+    """stderr not a terminal (a log, a batch job): the default progress is plain lines -- the
+    chunks to compute, then each tenth and the end -- not a bar's carriage returns."""
+    run = run_study(spec_from_dict(IMPACTS), tmp_path / "l.zarr", "serial")
+    lines = capsys.readouterr().err.splitlines()
+    mine = [ln for ln in lines if "] pendulum impacts: " in ln]
+    assert mine[0].endswith(f"pendulum impacts: {run.n_chunks} of {run.n_chunks} chunks to "
+                            "compute")
+    assert mine[-1].endswith(f"{run.n_chunks}/{run.n_chunks} chunks (100 %)")
+    # a line each tenth of the chunks (12 chunks: every 2nd)
+    n = run.n_chunks
+    step = -(-n // 10)
+    counts = [int(ln.split(": ")[1].split("/")[0]) for ln in mine[1:]]
+    assert counts == sorted(set(list(range(step, n + 1, step)) + [n]))
+    assert not any("\r" in ln for ln in lines)
+
+
+@pytest.mark.slow
 def test_dask_and_processes_give_the_serial_bytes(client, serial_impacts, tmp_path):
+    # slow (on a cold cache each worker compiles the batch kernels); the fast suite checks
+    # every executor's bytes against serial in tests/studies/test_study_bench.py and Dask's
+    # under a killed worker below
     run = run_study(spec_from_dict(IMPACTS), tmp_path / "d.zarr", client=client,
                     progress=False)
     assert run.executor == "dask" and run.n_workers == 2 and run.chunks_computed == run.n_chunks
@@ -127,7 +198,7 @@ def test_worker_killed_mid_study_loses_and_duplicates_nothing(client, serial_ens
     records = StudyStore(path).records()
     assert [r["chunk"] for r in records] == list(range(run.n_chunks)) == list(range(6))
     assert _same_bytes(run.dataset, serial_ensemble)
-    client.wait_for_workers(2, timeout=60)
+    _wait_for_workers(client, 2)  # the nanny restarted the killed one
 
 
 def test_interrupted_study_resumes_and_recomputes_only_the_rest(serial_ensemble, tmp_path):
@@ -227,26 +298,37 @@ def test_cli_study_runs_then_finds_everything_done(tmp_path, capsys):
     assert "is empty" in capsys.readouterr().err
 
 
-def test_atlas_maps_on_the_cluster_equal_the_serial_builders(client, tmp_path):
-    """Two quick atlas maps run as studies on the cluster equal the map builders called
-    directly (JSON form, wall time aside), the first error messages included."""
-    from convimpact.studies.atlas_study import ATLAS_MAPS, atlas_map_from_store, atlas_specs
+def _atlas_maps_equal_the_builders(tmp_path, **executor) -> None:
+    """Two quick atlas maps run as studies equal the map builders called directly (JSON form,
+    wall time aside), the first error messages included."""
+    from convimpact.studies.atlas_study import (ATLAS_MAPS, _builder_kwargs,
+                                                atlas_map_from_store, atlas_specs)
 
     specs = {s.options["map"]: s for s in atlas_specs(quick=True)}
     for name in ("slider_crank_isosceles", "rod_zeno"):
         spec = specs[name]
         path = tmp_path / f"{name}.zarr"
-        run_study(spec, path, client=client, progress=False)
+        run_study(spec, path, progress=False, **executor)
         got = atlas_map_from_store(StudyStore(path)).as_dict()
-        d = ATLAS_MAPS[name]
-        from convimpact.studies.atlas_study import _builder_kwargs
         kw = _builder_kwargs(spec.options["fixed"])
         kw.update({a.name: np.array(a.values) for a in spec.grid})
-        want = d.builder(**kw).as_dict()
+        want = ATLAS_MAPS[name].builder(**kw).as_dict()
         got.pop("wall_time"), want.pop("wall_time")
         assert json.dumps(got, sort_keys=True) == json.dumps(want, sort_keys=True)
         if name == "slider_crank_isosceles":
             assert got["counts"]["pereira-nikravesh/fast"]["singular_loop"] > 0
+
+
+def test_atlas_maps_as_studies_equal_the_serial_builders(tmp_path):
+    _atlas_maps_equal_the_builders(tmp_path, executor="serial")
+
+
+@pytest.mark.slow
+def test_atlas_maps_on_the_cluster_equal_the_serial_builders(client, tmp_path):
+    """The same on the Dask cluster (slow: its workers build the maps' models and kernels
+    again); the fast suite checks the atlas as serial studies (above) and the Dask executor
+    on the impacts and ensemble studies (the serial bytes, a killed worker)."""
+    _atlas_maps_equal_the_builders(tmp_path, client=client)
 
 
 def test_a_missing_studies_extra_is_a_clear_error(monkeypatch, tmp_path):

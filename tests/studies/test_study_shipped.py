@@ -18,8 +18,8 @@ from convimpact.studies.pendulum_impact_atlas import (categories, plot_pendulum_
 from convimpact.studies.study import run_study
 from convimpact.studies.study_spec import load_spec, spec_from_dict
 
-pytest.importorskip("xarray")
-pytest.importorskip("zarr")
+pytest.importorskip("xarray", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
+pytest.importorskip("zarr", reason="studies need dask, xarray and zarr (pip install -e \".[test-full]\")")
 
 ROOT = Path(__file__).resolve().parents[2]
 
