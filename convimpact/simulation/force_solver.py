@@ -284,16 +284,6 @@ def _kept(best, failures: list):
     if best is None and failures:
         raise failures[0]
     return best
-    for k, picks in enumerate(itertools.product(*[opts for _, opts in edges])):
-        if k == 0:
-            continue  # the first combination, tried above
-        choice = list(first)
-        for (i, _), pick in zip(edges, picks):
-            choice[i] = pick
-        cand = _exact(P, choice, rtol)
-        if cand is not None and (best is None or _rank(cand) < _rank(best)):
-            best = cand
-    return best
 
 
 def _rank(s: ContactForceSolution) -> tuple[int, int]:
