@@ -330,6 +330,9 @@ def test_cli_successful_run_writes_result_json(tmp_path):
 
 
 def test_study_workers_refused_before_the_store(tmp_path):
+    for package in ("xarray", "zarr", "dask"):
+        pytest.importorskip(package, reason="studies need dask, xarray and zarr "
+                                            "(pip install -e \".[test-full]\")")
     from convimpact.studies.study import run_study
 
     for workers in (0, -1, 2.5, "2"):
