@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.model import Joint, ModelBuilder
+from convimpact.scenes import load_scene
 from convimpact.simulation.contact_forces import ContactForceProblem, force_solutions
 from convimpact.simulation.force_solver import ENUMERATE_MAX, islands, solve_contact_forces
 
@@ -71,20 +71,6 @@ def test_agrees_with_the_enumerator_on_random_problems(n, d, kind):
     assert unique >= draws // 2
 
 
-def _table(legs: int, mu: float, radius=0.3, height=0.2, m=2.0):
-    """A rigid table (a disc of legs on a circle of ``radius``, the centre of mass
-    ``height`` above the feet) on the floor y = 0, free in space."""
-    b = ModelBuilder(planar=False)
-    inertia = m * np.diag([0.05, 0.08, 0.05])
-    b.add_body("table", "ground", Joint.free(), m, (0, 0, 0), inertia, joint_name="float")
-    for i in range(legs):
-        a = 2 * np.pi * i / legs + 0.3
-        b.add_contact(f"leg{i}", body="table",
-                      point=(radius * np.cos(a), -height, radius * np.sin(a)),
-                      normal=(0, 1, 0), plane_point=(0, 0, 0), e=0.0, mu=mu)
-    return b.build().mechanism()
-
-
 @pytest.mark.parametrize("legs", [3, 4, 5, 8])
 def test_tables_on_n_legs_slide_to_rest_at_the_closed_form_distance(legs):
     """Redundant supports sliding: the normal forces are indeterminate (more legs than the
@@ -92,13 +78,12 @@ def test_tables_on_n_legs_slide_to_rest_at_the_closed_form_distance(legs):
     resolves by its documented choice, noted in the run's warnings; the motion is the rigid
     body's: deceleration mu g along -v, stop after t = v0 / (mu g) at v0^2 / (2 mu g)."""
     m, mu, v0, psi, height = 2.0, 0.3, 0.6, 0.4, 0.2
-    mech = _table(legs, mu, height=height, m=m)
-    th0 = np.zeros(6)
-    th0[1] = height
-    dth0 = np.zeros(6)
-    dth0[[0, 2]] = v0 * np.cos(psi), v0 * np.sin(psi)
+    scene = load_scene("table", legs=legs, v0=v0, direction_deg=np.degrees(psi), mu=mu,
+                       mass=m, height=height)
+    mech, th0 = scene.mechanism, scene.theta0
+    np.testing.assert_allclose(scene.dtheta0[[0, 2]], v0 * np.array([np.cos(psi), np.sin(psi)]))
     t_stop, d_stop = v0 / (mu * G), v0 ** 2 / (2 * mu * G)
-    res = ci.simulate(mech, (0.0, t_stop + 0.05), (th0, dth0))
+    res = ci.simulate(mech, (0.0, t_stop + 0.05), (th0, scene.dtheta0))
     assert res.status == 0, res.message
     rest_velocity = res.settings["rest_velocity"]  # slower slip counts as stopped
     for name in mech.contact_names:
