@@ -2,7 +2,8 @@
 
 Run by the Sphinx build (``docs/conf.py``) when ``docs/gallery/_generated/`` lacks them, or by
 hand: ``python docs/gallery/make_figures.py [--force]``. Each scene is simulated over its
-default span with the default law, as ``convimpact simulate SCENE`` does, and drawn by the same
+default span as ``convimpact simulate SCENE`` does (the default law, or the scheme a scene
+declares), and drawn by the same
 plotting code (trajectory, energy, contact modes); ``robot_drop`` needs the optional Pinocchio
 and example-robot-data packages and a long run, so the gallery shows its committed figure
 instead. The paper's figures are those of ``convimpact paper``. Nothing here is committed: the
@@ -183,10 +184,11 @@ def write_scene_pages(record: dict) -> None:
             stale.unlink()
     header = "<!-- written by docs/gallery/make_figures.py at build time: edit that script -->"
     index = [header, "", "# The scenes", "",
-             "Every scene of `convimpact.list_scenes()`, simulated over its default span with the "
-             "default law (`pereira-nikravesh`) at the default tolerances, as "
-             "`convimpact simulate SCENE` does; the animations and figures are drawn by the "
-             "build from the code as it is.", "", "| | | |", "|---|---|---|"]
+             "Every scene of `convimpact.list_scenes()`, simulated over its default span as "
+             "`convimpact simulate SCENE` does: event-driven with the default law "
+             "(`pereira-nikravesh`) at the default tolerances, unless the scene declares its "
+             "own scheme (`disc_pile`: Moreau–Jean, law `coulomb`); the animations and figures "
+             "are drawn by the build from the code as it is.", "", "| | | |", "|---|---|---|"]
     cells = []
     for name in names:
         info = record["scenes"].get(name)
