@@ -119,6 +119,8 @@ def figure(result, mechanism, path) -> "Path":
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from convimpact.bench.charts import save_chart
+
     from convimpact.simulation.result import MODE_NAMES
 
     t = result.t
@@ -173,9 +175,7 @@ def figure(result, mechanism, path) -> "Path":
                  f"{len(result.impacts)} impacts, event-driven, 8 sole corners", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.96))
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_chart(fig, path.parent, path.name, dpi=110)
     return path
 
 

@@ -97,6 +97,8 @@ def figure(result, mechanism, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from convimpact.bench.charts import save_chart
+
     from convimpact.simulation.result import MODE_NAMES
 
     t = result.t
@@ -172,9 +174,7 @@ def figure(result, mechanism, path: Path) -> Path:
                  fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.96))
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_chart(fig, path.parent, path.name, dpi=110)
     return path
 
 

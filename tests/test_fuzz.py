@@ -11,12 +11,12 @@ and every draw is used (no ``assume``).
 
 from __future__ import annotations
 
-import contextlib
-import io
 import math
 
 import numpy as np
 import pytest
+
+from .cli_run import run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -236,16 +236,7 @@ COMMANDS = {
 }
 
 
-def _cli(argv) -> tuple[int, str]:
-    from convimpact.cli import main
-
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        try:
-            code = main(argv)
-        except SystemExit as exc:
-            code = exc.code
-    return code, err.getvalue()
+_cli = run_cli
 
 
 @SOME

@@ -4,13 +4,13 @@ passed (or correctly, where the input is valid), one test each; and the checkers
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from .cli_run import run_cli
 
 from convimpact import resolve_impact
 from convimpact.cli import main
@@ -275,14 +275,7 @@ def test_every_scene_declares_every_parameter_and_its_defaults_fit():
 # the command line
 
 
-def _run(argv) -> tuple[int, str]:
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        try:
-            code = main(argv)
-        except SystemExit as exc:
-            code = exc.code
-    return code, err.getvalue()
+_run = run_cli
 
 
 @pytest.mark.parametrize("argv,option", [
