@@ -310,3 +310,5 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     return independent_contacts_result(P, LAW, method)
 
 
+
+from .stronge_derivative import impulse_derivative, several_impulse_derivative  # noqa: E402,F401

@@ -1,0 +1,250 @@
+"""Law ``"stronge"``: the sensitivities of the curved spatial slip (the derivative of the
+impulse-space integration of :mod:`convimpact.impact.laws.stronge_slip`).
+
+The curved slip is integrated in ``sigma`` (``dsigma = dp / |v_t|``), state
+``y = (p, pi_t, W_n)``, ``dy/dsigma = f(y, theta) = (|v_t|, -mu v_t, |v_t| v_n)`` with
+``v = v- + W pi``; ``theta`` collects the contact-space data (W's upper triangle, v-, e, mu).
+Here the state is integrated together with its sensitivity ``S = dy/dtheta``, which obeys
+the variational equations ``dS/dsigma = f_y S + f_theta``::
+
+    dv = W dpi + dW pi + dv-,       d|v_t| = s.dv_t,      s = v_t / |v_t|,
+    dS_p = s.dv_t,   dS_pi_t = -mu dv_t - v_t dmu,   dS_Wn = v_n s.dv_t + |v_t| dv_n,
+
+by the same embedded Runge--Kutta pair as the law's own integration (DOP853, scipy.integrate's
+tableau), the error of every component -- state and sensitivities -- kept below
+:data:`SENSITIVITY_RTOL` relative to its scale. The stage's events are located inside the
+accepted step by Newton iterations on the step length, each re-taking the step, and carry
+their event sensitivities: where ``g(y, theta) = 0`` (``g = v_n`` at the end of compression,
+``g = W_n - (1 - e^2) W_n(p_c)`` at the end of restitution) the event's ``sigma`` moves by
+``dsigma = -(g_y S + g_theta) / (g_y f)``, so the state's total derivative there is
+``S + f dsigma``. A decelerating slip is handed to the caller's exact straight finish once its
+direction has settled (a tighter test than the law's own, :data:`SETTLE_RTOL`); the hand-over
+point is a cut that does not depend on the data, so the sensitivities there are ``S`` itself.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate._ivp import dop853_coefficients as _dop853
+
+from ..errors import SolverError
+
+#: local error tolerance of the variational integration (state and sensitivities)
+SENSITIVITY_RTOL = 1e-13
+#: hand-over to the straight finish: its first-order error in the normal impulse below this
+#: times the frictionless compression impulse (the law's own test uses 1e-13)
+SETTLE_RTOL = 1e-15
+#: slip speed (relative to max |v-|) at which the slip counts as stopped whatever its angle
+FLOOR_RTOL = 1e-12
+#: most accepted steps of one curved slip
+MAX_STEPS = 200000
+
+_NS = int(_dop853.N_STAGES)
+_A = np.asarray(_dop853.A, dtype=float)[:_NS, :_NS]
+_B = np.asarray(_dop853.B, dtype=float)
+_E3 = np.asarray(_dop853.E3, dtype=float)
+_E5 = np.asarray(_dop853.E5, dtype=float)
+
+
+class SlipSystem:
+    """The variational system of one contact's curved slip on normalized data.
+
+    Parameters
+    ----------
+    W : (3, 3) array, v_minus : (3,) array, mu : float
+        The contact's Delassus block, pre-impact velocity and friction.
+    W_grad : (m, 3, 3) array
+        dW / dtheta_k per parameter (zero for parameters other than W's).
+    v_grad : (m, 3) array
+        dv- / dtheta_k.
+    mu_grad : (m,) array
+        dmu / dtheta_k.
+    """
+
+    def __init__(self, W, v_minus, mu, W_grad, v_grad, mu_grad):
+        self.W = np.asarray(W, dtype=float)
+        self.vm = np.asarray(v_minus, dtype=float)
+        self.mu = float(mu)
+        self.Wg = W_grad
+        self.vg = v_grad.T  # (3, m)
+        self.mug = mu_grad
+        self.m = W_grad.shape[0]
+
+    def velocity(self, z):
+        """v and dv/dtheta (3, m) at the augmented state z (4, 1 + m)."""
+        pi = z[:3, 0]
+        v = self.vm + self.W @ pi
+        gv = self.W @ z[:3, 1:] + (self.Wg @ pi).T + self.vg
+        return v, gv
+
+    def rhs(self, z):
+        """The augmented slope (4, 1 + m): (f, f_y S + f_theta)."""
+        v, gv = self.velocity(z)
+        vt = v[1:]
+        r = math.hypot(vt[0], vt[1])
+        out = np.empty_like(z)
+        out[0, 0] = r
+        out[1:3, 0] = -self.mu * vt
+        out[3, 0] = r * v[0]
+        gr = (vt @ gv[1:]) / r if r > 0.0 else np.zeros(self.m)
+        out[0, 1:] = gr
+        out[1:3, 1:] = -self.mu * gv[1:] - np.outer(vt, self.mug)
+        out[3, 1:] = gr * v[0] + r * gv[0]
+        return out
+
+    def step(self, z, f0, h):
+        """One DOP853 step of length h: (z_new, the stage slopes (13, 4, 1 + m))."""
+        K = np.empty((_NS + 1,) + z.shape)
+        K[0] = f0
+        for i in range(1, _NS):
+            K[i] = self.rhs(z + h * np.tensordot(_A[i, :i], K[:i], axes=1))
+        z_new = z + h * np.tensordot(_B, K[:_NS], axes=1)
+        K[_NS] = self.rhs(z_new)
+        return z_new, K
+
+
+def _error(h, z, z_new, K, scale):
+    """DOP853's error norm (scipy's combination of the 5th- and 3rd-order estimators), each
+    component against SENSITIVITY_RTOL (scale + |z|); the sensitivities' columns averaged."""
+    sc = SENSITIVITY_RTOL * (scale + np.maximum(np.abs(z), np.abs(z_new)))
+    e5 = (h * np.tensordot(_E5, K, axes=1) / sc) ** 2
+    e3 = (h * np.tensordot(_E3, K, axes=1) / sc) ** 2
+    s5 = float(e5[:, 0].sum() + e5[:, 1:].mean(axis=1).sum()) if z.shape[1] > 1 \
+        else float(e5.sum())
+    s3 = float(e3[:, 0].sum() + e3[:, 1:].mean(axis=1).sum()) if z.shape[1] > 1 \
+        else float(e3.sum())
+    if s5 == 0.0 and s3 == 0.0:
+        return 0.0
+    return s5 / math.sqrt((s5 + 0.01 * s3) * 4.0)
+
+
+def _event_value(sys: SlipSystem, z, compressing, target):
+    if compressing:
+        return float(sys.vm[0] + sys.W[0] @ z[:3, 0])
+    return float(z[3, 0] - target)
+
+
+def _event_rate(sys: SlipSystem, f, compressing):
+    """dg/dsigma from the slope f."""
+    if compressing:
+        return float(sys.W[0, :3] @ f[:3, 0])
+    return float(f[3, 0])
+
+
+def _locate(sys, z, f0, h, g0, g1, compressing, target):
+    """The event inside the accepted step [0, h] (Newton on the step length, bracketed, each
+    iterate re-taking the step): the state there."""
+    lo, hi = 0.0, h
+    tau = h * g0 / (g0 - g1)
+    zt = z
+    for _ in range(60):
+        zt, _ = sys.step(z, f0, tau)
+        g = _event_value(sys, zt, compressing, target)
+        if g == 0.0:
+            break
+        if g < 0.0:
+            lo = tau
+        else:
+            hi = tau
+        rate = _event_rate(sys, sys.rhs(zt), compressing)
+        new = tau - g / rate if rate > 0.0 else 0.5 * (lo + hi)
+        if not lo <= new <= hi:
+            new = 0.5 * (lo + hi)
+        if abs(new - tau) <= 1e-14 * h:
+            zt, _ = sys.step(z, f0, new)
+            break
+        tau = new
+    return zt
+
+
+def integrate_slip(sys: SlipSystem, z, compressing: bool, target: float,
+                   target_grad: np.ndarray, events: bool = True):
+    """Integrate the curved slip with its sensitivities from z (4, 1 + m).
+
+    Returns ``(kind, z)``: ``kind`` "compression" or "restitution" (an event, z its state with
+    the event's sensitivity folded in), "settled" (the direction has settled on the one the
+    slip stops along: hand over to the straight finish), "floor" (the slip speed reached the
+    round-off floor without decreasing: stopped) or, without ``events``, "diverging" (the
+    slip grows past 1e3 max |v-|: it does not stop).
+
+    Raises
+    ------
+    SolverError
+        when the slip neither ends nor stops within :data:`MAX_STEPS` steps, or the step size
+        underflows.
+    """
+    W, mu = sys.W, sys.mu
+    A = W[0, 0]
+    b = W[1:, 0]
+    C = W[1:, 1:]
+    vm = sys.vm
+    pref = -vm[0] / A if vm[0] < 0.0 else 1.0 / A
+    vscale = float(np.max(np.abs(vm)))
+    scale = np.empty(z.shape)
+    scale[:3] = pref
+    scale[3] = pref * max(-vm[0], 1e-300)
+    f = sys.rhs(z)
+    nb = math.hypot(b[0], b[1])
+    nc = float(np.linalg.eigvalsh(C)[-1])
+    h = 0.05 / (nb + mu * nc + A * f[0, 0] / max(-vm[0], 1e-300 + abs(vm[0])))
+    h_floor = 1e-200 * h
+    g_old = _event_value(sys, z, compressing, target) if events else -1.0
+    steps = 0
+    while True:
+        z_new, K = sys.step(z, f, h)
+        err = _error(h, z, z_new, K, scale)
+        if not err <= 1.0:
+            if not math.isfinite(err):
+                err = 1e10
+            h *= max(0.2, 0.9 * err ** -0.125)
+            if h <= h_floor:
+                raise SolverError("law 'stronge' derivative: the curved slip's sensitivity "
+                                  "integration could not meet its tolerance (step size "
+                                  "underflow)")
+            continue
+        steps += 1
+        if steps > MAX_STEPS:
+            raise SolverError("law 'stronge' derivative: the curved slip did not end or stop "
+                              f"within {MAX_STEPS} integration steps")
+        if events:
+            g_new = _event_value(sys, z_new, compressing, target)
+            if g_new >= 0.0 and g_old < 0.0:
+                ze = _locate(sys, z, f, h, g_old, g_new, compressing, target)
+                fe = sys.rhs(ze)
+                # the event's sensitivity: dsigma = -(g_y S + g_theta) / (g_y f)
+                if compressing:
+                    _, gv = sys.velocity(ze)
+                    dg = gv[0]
+                else:
+                    dg = ze[3, 1:] - target_grad
+                rate = _event_rate(sys, fe, compressing)
+                ze = ze.copy()
+                ze[:, 1:] -= np.outer(fe[:, 0], dg / rate)
+                return ("compression" if compressing else "restitution"), ze
+            g_old = g_new
+        z, f = z_new, K[_NS]
+        v, _ = sys.velocity(z)
+        vt = v[1:]
+        r = math.hypot(vt[0], vt[1])
+        if r == 0.0:
+            return "floor", z
+        s = vt / r
+        a = b - mu * (C @ s)
+        rate = float(s @ a)
+        settled = False
+        if rate < 0.0:
+            g = s[0] * a[1] - s[1] * a[0]
+            sp = np.array([-s[1], s[0]])
+            cs = float(s @ C @ sp)
+            cp = float(sp @ C @ sp)
+            dh = g - mu * cs
+            dg = -rate - mu * cp
+            settled = (dg < 0.0 and abs(g) <= 1e-3 * -dg
+                       and r * abs(dh * g) <= SETTLE_RTOL * pref * -rate * (-rate - dg) * -dg)
+        if not events and rate > 0.0 and r > 1e3 * vscale:
+            return "diverging", z
+        if settled or r <= FLOOR_RTOL * vscale:
+            return ("settled" if rate < 0.0 else "floor"), z
+        h *= min(10.0, 0.9 * err ** -0.125) if err > 0.0 else 10.0
