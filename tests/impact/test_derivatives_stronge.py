@@ -118,12 +118,230 @@ def test_every_phase_sequence_against_finite_differences(name, W, v, e, mu, phas
     D, r = derivative(W, v, e, mu)
     assert D.regimes == (phases,)
     d = len(v)
+    # a zero pre-impact slip followed by an onset is a boundary in v_t; followed by a stick
+    # it is none, but the impulse is only once differentiable there (a central difference
+    # straddles the kink of its second derivative): both tested one-sided below
     zero_slip = not np.any(v[1:])
-    # a zero pre-impact slip is a boundary in v_t: tested one-sided below
+    onset = zero_slip and phases == "onset"
     skip = [("v", j) for j in range(1, d)] if zero_slip else []
     assert worst_error(W, v, e, mu, D, skip) < 1e-8
-    if zero_slip:
+    if onset:
         assert any("zero pre-impact slip" in s for s in D.one_sided)
     else:
         assert D.one_sided == ()
 
+
+
+# --------------------------------------------------------------------------------------------
+# closed forms derived by hand
+
+
+def test_frictionless_newton_closed_form_and_right_derivative_in_mu():
+    """mu = 0: pi_n = -(1 + e) v_n / W_nn. For mu -> 0+ a slip that does not stop has one
+    linear phase, pi = (1 + e) p_c (1, -mu s) with p_c = -v_n / (W_nn - mu s W_tn): so
+    d pi_n / d mu = -(1 + e) v_n s W_tn / W_nn^2 and d pi_t / d mu = (1 + e) v_n s / W_nn."""
+    A, B, vn, e, s = 2.0, 0.5, -1.0, 0.5, 1.0
+    D, r = derivative(W2, [vn, 0.3], e, 0.0)
+    assert D.regimes == ("frictionless",)
+    np.testing.assert_allclose(r.impulse, [-(1 + e) * vn / A, 0.0], rtol=1e-15)
+    np.testing.assert_allclose(column(D, "e"), [-vn / A, 0.0], rtol=1e-14, atol=1e-16)
+    np.testing.assert_allclose(column(D, ("v", 0)), [-(1 + e) / A, 0.0], rtol=1e-14,
+                               atol=1e-16)
+    np.testing.assert_allclose(column(D, ("W", 0, 0)), [(1 + e) * vn / A ** 2, 0.0],
+                               rtol=1e-14, atol=1e-16)
+    np.testing.assert_allclose(column(D, "mu"),
+                               [-(1 + e) * vn * s * B / A ** 2, (1 + e) * vn * s / A],
+                               rtol=1e-13)
+    assert any("mu = 0" in t for t in D.one_sided)
+    # the right derivative is the forward difference's
+    np.testing.assert_allclose(column(D, "mu"), one_sided(W2, [vn, 0.3], e, 0.0, "mu", +1),
+                               rtol=1e-7)
+
+
+def test_stick_from_the_start_closed_form():
+    """A contact at rest that can stick (|W_tn| <= mu W_tt) sticks throughout, one linear
+    phase: pi = (1 + e) p_c (1, lambda_s), lambda_s = -W_tn / W_tt,
+    p_c = -v_n W_tt / det W. By hand: d pi / d e = p_c (1, lambda_s),
+    d pi_n / d v_n = -(1 + e) W_tt / det W, d pi_n / d mu = 0."""
+    A, B, C, vn, e = 2.0, 0.5, 1.0, -1.0, 0.5
+    det = A * C - B * B
+    pc, lam = -vn * C / det, -B / C
+    D, r = derivative(W2, [vn, 0.0], e, 0.8)
+    assert D.regimes == ("stick",)
+    np.testing.assert_allclose(r.impulse, (1 + e) * pc * np.array([1.0, lam]), rtol=1e-14)
+    np.testing.assert_allclose(column(D, "e"), pc * np.array([1.0, lam]), rtol=1e-13)
+    np.testing.assert_allclose(column(D, ("v", 0)), -(1 + e) * C / det * np.array([1, lam]),
+                               rtol=1e-13)
+    np.testing.assert_allclose(column(D, "mu"), [0.0, 0.0], atol=1e-15)
+    # d pi / d W_nn = (1 + e) v_n C^2 / det^2 (1, lambda_s) (lambda_s does not depend on A)
+    np.testing.assert_allclose(column(D, ("W", 0, 0)),
+                               (1 + e) * vn * C * C / det ** 2 * np.array([1, lam]),
+                               rtol=1e-13)
+
+
+def test_slip_throughout_closed_form():
+    """One slip phase: pi = (1 + e) p_c (1, -mu s), p_c = -v_n / a_n, a_n = W_nn - mu s W_tn;
+    d pi_n / d W_tn = -(1 + e) v_n mu s / a_n^2 (the symmetric pair W_nt = W_tn)."""
+    A, B, vn, e, mu, s = 2.0, 0.5, -1.0, 0.5, 0.3, 1.0
+    an = A - mu * s * B
+    D, r = derivative(W2, [vn, 2.0], e, mu)
+    assert D.regimes == ("slip",)
+    pn = -(1 + e) * vn / an
+    np.testing.assert_allclose(r.impulse, [pn, -mu * s * pn], rtol=1e-14)
+    dn = -(1 + e) * vn * mu * s / an ** 2
+    np.testing.assert_allclose(column(D, ("W", 0, 1)), [dn, -mu * s * dn], rtol=1e-13)
+    np.testing.assert_allclose(column(D, ("W", 1, 1)), [0.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(column(D, ("v", 1)), [0.0, 0.0], atol=1e-15)
+
+
+# --------------------------------------------------------------------------------------------
+# mode boundaries
+
+
+def _sides_match(D, W, v, e, mu, which):
+    """The derivative and its other side are the two one-sided differences (either way)."""
+    plus, minus = (one_sided(W, v, e, mu, which, sg, 1e-5) for sg in (1, -1))
+    ours, other = column(D, which), column(D.other_side, which)
+    scale = max(np.max(np.abs(plus)), np.max(np.abs(minus)))
+    assert np.max(np.abs(plus - minus)) > 1e-3 * scale  # a true kink
+    err = min(max(np.max(np.abs(ours - plus)), np.max(np.abs(other - minus))),
+              max(np.max(np.abs(ours - minus)), np.max(np.abs(other - plus))))
+    assert err < 1e-6 * scale
+
+
+def test_stick_or_slip_at_rest_boundary_is_one_sided_in_mu():
+    """|W_tn| = mu W_tt when the slip stops: stick for mu above, reversal below."""
+    D, _ = derivative(W2, [-1.0, -0.2], 0.5, 0.5, other_side=True)
+    assert any("between stick and slip" in t for t in D.one_sided)
+    assert D.regimes == ("slip-stick",) and D.other_side.regimes == ("slip-reversal",)
+    np.testing.assert_allclose(column(D, "mu"), one_sided(W2, [-1.0, -0.2], 0.5, 0.5, "mu",
+                                                           +1, 1e-5), rtol=1e-6)
+    np.testing.assert_allclose(column(D.other_side, "mu"),
+                               one_sided(W2, [-1.0, -0.2], 0.5, 0.5, "mu", -1, 1e-5),
+                               rtol=1e-6)
+
+
+def test_slip_stopping_at_the_end_of_restitution_is_one_sided():
+    """p_s = v_t / (mu W_tt - W_tn) = 0.35625 / 0.3 = 1.1875 = (1 + e) p_c = p_f."""
+    W, v, e, mu = W2, [-1.0, 0.35625], 0.9, 0.8
+    D, _ = derivative(W, v, e, mu, other_side=True)
+    assert any("end of restitution" in t for t in D.one_sided)
+    _sides_match(D, W, v, e, mu, ("v", 1))
+
+
+def test_slip_stopping_at_the_end_of_compression_is_no_boundary():
+    """p_s = p_c = 0.1875 / 0.3 = 0.625: p_c(theta) has a kink there, the impulse has none
+    (W_n(p_c) is the minimum of W_n, stationary in p): both one-sided differences agree with
+    the derivative, and no boundary is stated."""
+    W, v, e, mu = W2, [-1.0, 0.1875], 0.5, 0.8
+    D, _ = derivative(W, v, e, mu)
+    assert D.one_sided == ()
+    for which in (("v", 1), ("W", 0, 1), "mu"):
+        for sg in (1, -1):
+            np.testing.assert_allclose(column(D, which),
+                                       one_sided(W, v, e, mu, which, sg, 1e-5), rtol=1e-6)
+
+
+@pytest.mark.parametrize("W, v, e, mu", [
+    ([[2.0, 0.9], [0.9, 1.0]], [-1.0, 0.0], 0.5, 0.3),  # planar onset from rest
+    ([[2.0, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, 0.0, 2.0]], [-1.0, 0.0, 0.0], 0.5, 0.5),
+])
+def test_zero_pre_impact_slip_with_onset_is_one_sided_in_v_t(W, v, e, mu):
+    """At rest with |W_tt^-1 W_tn| > mu: a slip started along +t and one along -t lead to
+    different first-order impulses (along the onset direction nothing changes; against it,
+    the slip stops first; across it (space), it turns toward it): one-sided, per tangent."""
+    D, _ = derivative(W, v, e, mu, other_side=True)
+    assert any("zero pre-impact slip" in t for t in D.one_sided)
+    for j in range(1, len(v)):
+        _sides_match(D, W, v, e, mu, ("v", j))
+
+
+@pytest.mark.parametrize("W, v, e, mu", [
+    (W2, [-1.0, 0.0], 0.5, 0.8),
+    (W3, [-1.0, 0.0, 0.0], 0.5, 0.9),
+])
+def test_zero_pre_impact_slip_that_sticks_is_two_sided(W, v, e, mu):
+    """A contact at rest that sticks: a small slip either way stops and sticks, and the
+    impulse is differentiable in v_t (both one-sided differences agree with it)."""
+    D, _ = derivative(W, v, e, mu)
+    assert D.one_sided == ()
+    for j in range(1, len(v)):
+        for sg in (1, -1):
+            np.testing.assert_allclose(column(D, ("v", j)),
+                                       one_sided(W, v, e, mu, ("v", j), sg, 1e-5), rtol=1e-6)
+
+
+@pytest.mark.parametrize("W, v", [(W2, [-1.0, 0.3]), (W3, [-1.0, 0.3, 0.2])])
+def test_zero_restitution_gives_the_right_derivative_in_e(W, v):
+    """e = 0 ends the collision at p_c; for e -> 0+ restitution adds
+    e sqrt(2 |W_n(p_c)| / a_n) of normal impulse (step 1e-3: the law's restitution target
+    (1 - e^2) W_n(p_c) loses e^2's digits to round-off for tiny e)."""
+    mu = 0.8 if len(v) == 2 else 0.4
+    D, _ = derivative(W, v, 0.0, mu)
+    assert any("e = 0" in t for t in D.one_sided)
+    np.testing.assert_allclose(column(D, "e"), one_sided(W, v, 0.0, mu, "e", +1, 1e-3),
+                               rtol=1e-7)
+
+
+def test_touching_contact_is_one_sided_in_v_n():
+    """v_n- = 0: no impulse (zero derivative); the other side is the approaching limit,
+    pi = -(1 + e) v_n (1, -mu s) / (W_nn - mu s W_tn) + o(v_n)."""
+    A, B, e, mu = 2.0, 0.5, 0.5, 0.5
+    D, r = derivative(W2, [0.0, 0.3], e, mu, other_side=True)
+    assert D.regimes == ("separating",) and np.all(D.v == 0.0)
+    assert any("v_n- = 0" in t for t in D.one_sided)
+    expect = -(1 + e) * np.array([1.0, -mu]) / (A - mu * B)
+    np.testing.assert_allclose(column(D.other_side, ("v", 0)), expect, rtol=1e-14)
+    np.testing.assert_allclose(expect, one_sided(W2, [0.0, 0.3], e, mu, ("v", 0), -1),
+                               rtol=1e-8)
+
+
+# --------------------------------------------------------------------------------------------
+# several contacts, the contract's shapes, errors
+
+
+def _two_contacts(dq, coupling=0.0):
+    from scipy.linalg import block_diag
+    M = np.linalg.inv(block_diag(np.array(W2), np.array([[1.5, -0.3], [-0.3, 0.8]])))
+    J = np.zeros((2, 2, 4))
+    J[0, :, :2] = np.eye(2)
+    J[1, :, 2:] = np.eye(2)
+    J[0, 0, 2] = coupling
+    return M, J, np.asarray(dq, dtype=float)
+
+
+def test_independent_contacts_block_by_block():
+    M, J, dq = _two_contacts([-1.0, 0.2, -0.5, 0.3])
+    e, mu = np.array([0.5, 0.3]), np.array([0.8, 0.4])
+    P = build_problem(M, J, dq, e, mu)
+    D = several_impulse_derivative(P, solve_problem(P, "stronge"))
+    assert D.W.shape == (4, 4, 4) and D.v.shape == (4, 4) and D.e.shape == (4, 2)
+    assert D.regimes == ("slip-stick", "slip")
+    for i, (Wi, vi) in enumerate(((W2, [-1.0, 0.2]), ([[1.5, -0.3], [-0.3, 0.8]],
+                                                       [-0.5, 0.3]))):
+        sl = slice(2 * i, 2 * i + 2)
+        one, _ = derivative(Wi, vi, e[i], mu[i])
+        np.testing.assert_allclose(D.v[sl, sl], central(Wi, vi, e[i], mu[i], ("v", 0))[:, None]
+                                   * [1, 0] + central(Wi, vi, e[i], mu[i], ("v", 1))[:, None]
+                                   * [0, 1], rtol=1e-8, atol=1e-12)
+        np.testing.assert_allclose(D.mu[sl, i], central(Wi, vi, e[i], mu[i], "mu"),
+                                   rtol=1e-8, atol=1e-12)
+        assert np.all(D.v[sl, 2 - 2 * i:4 - 2 * i] == 0.0)
+
+
+def test_coupled_contacts_are_not_supported():
+    M, J, dq = _two_contacts([-1.0, 0.2, -0.5, 0.3], coupling=0.3)
+    P = build_problem(M, J, dq, 0.5, 0.4)
+    with pytest.raises(NotSupportedError, match="two-phase"):
+        several_impulse_derivative(P, solve_problem(P, "stronge"))
+    with pytest.raises(NotSupportedError, match="several_impulse_derivative"):
+        impulse_derivative(P, solve_problem(P, "stronge"))
+
+
+def test_a_result_of_another_problem_or_law_is_refused():
+    P, r = solve(W2, [-1.0, 0.2], 0.5, 0.8)
+    P2, r2 = solve(W2, [-1.0, 0.4], 0.5, 0.8)
+    with pytest.raises(ParameterError, match="not this problem's answer"):
+        impulse_derivative(P, r2)
+    with pytest.raises(ParameterError, match="law"):
+        impulse_derivative(P, solve_problem(P, "ccp"))

@@ -40,6 +40,9 @@ from .stronge_slip import JAM_RTOL, STICK_RTOL, STOP_RTOL, _onset
 #: two events closer than this (relative to the impulse) are one boundary: the derivative is
 #: one-sided there
 BOUNDARY_RTOL = 1e-9
+#: a zero pre-impact slip's two directional derivatives in v_t closer than this (relative)
+#: are one: the derivative is two-sided there
+ZERO_SLIP_RTOL = 1e-9
 #: the recomputed impulse must agree with the result's to this (relative), else the result is
 #: not this problem's answer of law "stronge"
 CONSISTENCY_RTOL = 1e-7
@@ -49,7 +52,7 @@ class _Path:
     """One contact's path in impulse space (normalized data) with the gradients of its state
     ``(p, pi_t, W_n)`` with respect to theta = (W upper triangle, v-, e, mu)."""
 
-    def __init__(self, W, v, e, mu, flip=False, slip_direction=None):
+    def __init__(self, W, v, e, mu, flip=False, zero_sign=None):
         d = W.shape[0]
         self.d, self.dt = d, d - 1
         self.W, self.vm, self.e, self.mu = W, v, e, mu
@@ -73,7 +76,9 @@ class _Path:
         self.gA, self.gb, self.gC = Wg[:, 0, 0], Wg[:, 1:, 0].T, Wg[:, 1:, 1:]
         self.tr = float(np.trace(W))
         self.flip = flip
-        self.slip_direction = slip_direction  # zero pre-impact slip: the side's direction
+        # zero pre-impact slip: the side (+1: v_t along +t) of the directional derivative
+        self.zero_sign = zero_sign if zero_sign is not None else (-1.0 if flip else 1.0)
+        self.zero_slip = False
         self.p, self.pt, self.Wn = 0.0, np.zeros(d - 1), 0.0
         self.vn, self.vt = float(v[0]), np.array(v[1:], dtype=float)
         self.gp, self.gpt, self.gWn = np.zeros(m), np.zeros((d - 1, m)), np.zeros(m)
@@ -160,11 +165,15 @@ class _Path:
                 gend = (-(self.gWn + end * gvn + 0.5 * end * end * gan - self.gtarget) / den
                         if den > 0.0 else np.zeros(self.m))
             stops = stop <= end
-            if math.isfinite(stop) and math.isfinite(end):
-                stage = "compression" if self.compressing else "restitution"
+            # a slip stopping exactly at the end of restitution: slip throughout on one side,
+            # a vanishing stick (or reversal) on the other, with another d pi_t. (Stopping at
+            # the end of compression is no boundary of the impulse: W_n(p_c) = min W_n is
+            # stationary in p, so the kink of p_c(theta) does not reach p_f or pi_t.)
+            if not self.compressing and math.isfinite(stop) and math.isfinite(end):
                 near = abs(stop - end) <= BOUNDARY_RTOL * (self.p + max(stop, end))
-                if self.boundary(f"the slip stops at the end of {stage}: one-sided (the other "
-                                 "side's slip stops on the other side of that event)", near):
+                if self.boundary("the slip stops at the end of restitution: one-sided (slip "
+                                 "throughout on one side, a vanishing last phase on the "
+                                 "other)", near):
                     stops = not stops
             if stops and not math.isfinite(stop):
                 raise ParameterError("law 'stronge' derivative: this contact jams (the kernel "
@@ -304,7 +313,8 @@ class _Path:
         eps u (u a tangent's unit vector) stops after eps dp_u of normal impulse (dp_u = 0 when
         it grows: the onset along u), then the path from rest; to first order the state at
         that stop is eps (dp_u, dpi_t_u, v_n- dp_u)."""
-        sign = -1.0 if self.flip else 1.0
+        self.zero_slip = True
+        sign = self.zero_sign
         for j in range(self.dt):
             u = np.zeros(self.dt)
             u[j] = sign
@@ -316,7 +326,8 @@ class _Path:
 
     def _stop_from(self, u):
         """(dp, dpi_t) until a slip started at v_t = u (with v_n far from its events) stops;
-        (0, 0) when it does not slow down (it then follows the onset)."""
+        when it does not stop (it turns toward the onset direction and grows), (0, the
+        offset of its tangential impulse from the onset path's, :func:`_turn_offset`)."""
         b, C, mu = self.b, self.C, self.mu
         if self.dt == 1:
             at = b[0] - mu * C[0, 0] * u[0]
@@ -325,7 +336,7 @@ class _Path:
                 return dp, np.array([-mu * u[0] * dp])
             return 0.0, np.zeros(1)
         W = self.W.copy()
-        v = np.concatenate(([-1e30], u))
+        v = np.concatenate(([-1.0], u))  # v_n plays no part without events
         m0 = np.zeros((0, 3, 3))
         sys = SlipSystem(W, v, mu, m0, np.zeros((0, 3)), np.zeros(0))
         z = np.zeros((4, 1))
@@ -334,11 +345,7 @@ class _Path:
             return 0.0, np.zeros(2)
         kind, z = integrate_slip(sys, z, True, 0.0, np.zeros(0), events=False)
         if kind == "diverging":
-            self.boundaries.append(
-                f"zero pre-impact slip: a slip started along t{1 + int(np.argmax(np.abs(u)))} "
-                "does not stop (it turns toward the onset direction); that tangent's column "
-                "is the onset path's, which neglects the turn")
-            return 0.0, np.zeros(2)
+            return 0.0, _turn_offset(b, C, mu, u)
         vt = u + b * z[0, 0] + C @ z[1:3, 0]
         r = float(np.linalg.norm(vt))
         if kind == "settled" and r > 0.0:
@@ -347,6 +354,45 @@ class _Path:
             dp = r / -float(s @ at)
             return float(z[0, 0]) + dp, z[1:3, 0] - mu * s * dp
         return float(z[0, 0]), z[1:3, 0].copy()
+
+
+def _turn_offset(b, C, mu, u):
+    """A slip started at v_t = u (self-similar: the data's other velocities far away) that
+    turns toward the onset direction s* and grows: the offset D = lim (pi_t - pi_t^onset).
+
+    With w = v_t - kappa s* p (kappa s* = b - mu C s*), ``dw/dp = -mu C (s - s*)``; in sigma
+    (dp = |v_t| dsigma) ``dw/dsigma = -mu C (w_perp - |w_perp|^2 / (r + a) s*)``,
+    a = kappa p + s*.w, r = |v_t| (cancellation-free). For large p this is linear,
+    ``dw/dln p = -(mu / kappa) C P_perp w``, whose solutions tend to the component of w
+    along s* in the basis (s*, C s*_perp) (the other mode decays like p^-m,
+    m = (mu / kappa) s*_perp.C.s*_perp > 0). Integrated until p >= 1e14 (the linearization's
+    error ~ 1/p), then projected: w_inf = alpha s*, and D = C^-1 (w_inf - u).
+    """
+    from scipy.integrate import solve_ivp
+    kappa, s1, s2 = _onset(b[0], b[1], C[0, 0], C[0, 1], C[1, 1], mu)
+    s = np.array([s1, s2])
+    sp = np.array([-s2, s1])
+
+    def rhs(_, y):
+        p, w = y[0], y[1:]
+        a = kappa * p + s @ w
+        wp = w - (s @ w) * s
+        r = math.hypot(a, float(np.linalg.norm(wp)))
+        return np.concatenate(([r], -mu * (C @ (wp - (wp @ wp) / (r + a) * s))))
+
+    def big(_, y):
+        return y[0] - 1e14
+    big.terminal = True
+    y = np.concatenate(([0.0], u))
+    sigma = 0.0
+    for _ in range(100):
+        sol = solve_ivp(rhs, (sigma, sigma + 50.0 / kappa), y, method="DOP853", rtol=1e-13,
+                        atol=1e-15, events=big)
+        y, sigma = sol.y[:, -1], float(sol.t[-1])
+        if sol.status == 1:
+            break
+    alpha = np.linalg.solve(np.column_stack((s, C @ sp)), y[1:])[0]
+    return np.linalg.solve(C, alpha * s - u)
 
 
 def _tensor_W(path: _Path, g: np.ndarray) -> np.ndarray:
@@ -380,6 +426,15 @@ def contact_derivative(W, v, e: float, mu: float, other_side: bool = False
     Wh, vh = W / ws, v / vs
     path = _Path(Wh, vh, e, mu, flip=other_side)
     pi_h, g = path.run()
+    if path.zero_slip:
+        # both directional derivatives in v_t agree (a contact that sticks from the start):
+        # the derivative is two-sided there
+        twin = _Path(Wh, vh, e, mu, flip=other_side, zero_sign=-path.zero_sign)
+        _, g2 = twin.run()
+        cols = path.iv[1:]
+        if np.max(np.abs(g2[:, cols] - g[:, cols])) <= ZERO_SLIP_RTOL * max(
+                float(np.max(np.abs(g))), 1e-300):
+            path.boundaries = [t for t in path.boundaries if not t.startswith("zero pre")]
     if mu == 0.0:
         path.boundaries.append("mu = 0: d pi / d mu is the right derivative (mu -> 0+)")
         regime = "frictionless"
