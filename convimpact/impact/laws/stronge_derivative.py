@@ -590,6 +590,15 @@ def several_impulse_derivative(problem: ImpactProblem, result: ImpactResult,
             tgt["e"][sl, i] = src.e[:, 0]
             tgt["mu"][sl, i] = src.mu[:, 0]
         any_other = any_other or dc.other_side is not None
+    if formulation.startswith("one approaching contact"):
+        vp = np.asarray(result.v_plus, dtype=float).reshape(n, d)[:, 0]
+        vscale = float(np.max(np.abs(problem.v_minus)))
+        for j in range(n):
+            if not problem.approaching[j] and abs(vp[j]) <= BOUNDARY_RTOL * vscale:
+                sided.append(
+                    f"contact {j} lifts with v_n+ = 0: one-sided (driven any further, it "
+                    "would approach and the coupled two-phase formulation, which has no "
+                    "derivative, would take over)")
     side = (ContactDerivative(e_t=None, regimes=tuple(regimes), **other)
             if other_side and any_other else None)
     return ContactDerivative(e_t=None, regimes=tuple(regimes), one_sided=tuple(sided),
