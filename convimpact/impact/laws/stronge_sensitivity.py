@@ -27,9 +27,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.integrate import solve_ivp
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
 from ..errors import SolverError
+from .stronge_slip import _onset
 
 #: local error tolerance of the variational integration (state and sensitivities)
 SENSITIVITY_RTOL = 1e-13
@@ -248,3 +250,41 @@ def integrate_slip(sys: SlipSystem, z, compressing: bool, target: float,
         if settled or r <= FLOOR_RTOL * vscale:
             return ("settled" if rate < 0.0 else "floor"), z
         h *= min(10.0, 0.9 * err ** -0.125) if err > 0.0 else 10.0
+
+
+def turn_offset(b, C, mu, u):
+    """A slip started at v_t = u (self-similar: the data's other velocities far away) that
+    turns toward the onset direction s* and grows: the offset D = lim (pi_t - pi_t^onset).
+
+    With w = v_t - kappa s* p (kappa s* = b - mu C s*), ``dw/dp = -mu C (s - s*)``; in sigma
+    (dp = |v_t| dsigma) ``dw/dsigma = -mu C (w_perp - |w_perp|^2 / (r + a) s*)``,
+    a = kappa p + s*.w, r = |v_t| (cancellation-free). For large p this is linear,
+    ``dw/dln p = -(mu / kappa) C P_perp w``, whose solutions tend to the component of w
+    along s* in the basis (s*, C s*_perp) (the other mode decays like p^-m,
+    m = (mu / kappa) s*_perp.C.s*_perp > 0). Integrated until p >= 1e14 (the linearization's
+    error ~ 1/p), then projected: w_inf = alpha s*, and D = C^-1 (w_inf - u).
+    """
+    kappa, s1, s2 = _onset(b[0], b[1], C[0, 0], C[0, 1], C[1, 1], mu)
+    s = np.array([s1, s2])
+    sp = np.array([-s2, s1])
+
+    def rhs(_, y):
+        p, w = y[0], y[1:]
+        a = kappa * p + s @ w
+        wp = w - (s @ w) * s
+        r = math.hypot(a, float(np.linalg.norm(wp)))
+        return np.concatenate(([r], -mu * (C @ (wp - (wp @ wp) / (r + a) * s))))
+
+    def big(_, y):
+        return y[0] - 1e14
+    big.terminal = True
+    y = np.concatenate(([0.0], u))
+    sigma = 0.0
+    for _ in range(100):
+        sol = solve_ivp(rhs, (sigma, sigma + 50.0 / kappa), y, method="DOP853", rtol=1e-13,
+                        atol=1e-15, events=big)
+        y, sigma = sol.y[:, -1], float(sol.t[-1])
+        if sol.status == 1:
+            break
+    alpha = np.linalg.solve(np.column_stack((s, C @ sp)), y[1:])[0]
+    return np.linalg.solve(C, alpha * s - u)
