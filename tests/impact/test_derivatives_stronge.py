@@ -371,3 +371,17 @@ def test_one_approaching_contact_among_coupled_ones():
     for k in range(4):
         fd = (-pi(2 * H, k) + 8 * pi(H, k) - 8 * pi(-H, k) + pi(-2 * H, k)) / (12 * H)
         np.testing.assert_allclose(D.v[:, k], fd, rtol=1e-8, atol=1e-10)
+
+
+def test_spatial_stick_or_onset_at_rest_boundary():
+    """mu = |W_tt^-1 W_tn| with the contact at rest: stick for mu above, onset below (mu and
+    W_tn move the contact across); v_t has no directional derivative there (a slip started
+    along a tangent slows without stopping): stated."""
+    W, v, e = np.array(W3), [-1.0, 0.0, 0.0], 0.5
+    mu = float(np.linalg.norm(np.linalg.solve(W[1:, 1:], W[1:, 0])))
+    D, _ = derivative(W, v, e, mu, other_side=True)
+    assert D.regimes == ("stick",) and D.other_side.regimes == ("onset",)
+    assert any("between stick and slip" in t for t in D.one_sided)
+    assert any("slows without stopping" in t for t in D.one_sided)
+    for which in ("mu", ("W", 0, 1)):
+        _sides_match(D, W, v, e, mu, which)

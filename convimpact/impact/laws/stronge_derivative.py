@@ -58,7 +58,7 @@ from ..derivatives.contact import ContactDerivative
 from ..errors import NotSupportedError, ParameterError
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
-from .stronge_path import BOUNDARY_RTOL, _Path
+from .stronge_path import BOUNDARY_RTOL, ZERO_SLIP, _Path
 from .stronge_slip import _onset
 #: a zero pre-impact slip's two directional derivatives in v_t closer than this (relative)
 #: are one: the derivative is two-sided there
@@ -107,7 +107,7 @@ def contact_derivative(W, v, e: float, mu: float, other_side: bool = False
         cols = path.iv[1:]
         if np.max(np.abs(g2[:, cols] - g[:, cols])) <= ZERO_SLIP_RTOL * max(
                 float(np.max(np.abs(g))), 1e-300):
-            path.boundaries = [t for t in path.boundaries if not t.startswith("zero pre")]
+            path.boundaries = [t for t in path.boundaries if t != ZERO_SLIP]
     if mu == 0.0:
         path.boundaries.append("mu = 0: d pi / d mu is the right derivative (mu -> 0+)")
         regime = "frictionless"

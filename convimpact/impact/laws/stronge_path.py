@@ -13,6 +13,9 @@ from ..errors import ParameterError
 from .stronge_sensitivity import SlipSystem, integrate_slip, turn_offset
 from .stronge_slip import JAM_RTOL, STICK_RTOL, STOP_RTOL, _onset
 
+#: the statement of a zero pre-impact slip (dropped when both sides agree)
+ZERO_SLIP = ("zero pre-impact slip: d pi / d v_t is one-sided, the directional derivative "
+             "along +t (each tangent's +direction in space; the other side: along -t)")
 #: two events closer than this (relative to the impulse) are one boundary: the derivative is
 #: one-sided there
 BOUNDARY_RTOL = 1e-9
@@ -168,13 +171,14 @@ class _Path:
 
     # -- the phases
 
-    def slip(self, s, gs, kind="slip"):
-        """A linear slip along s (fixed), stopping where |v_t| + rate dp = 0 if it slows."""
+    def slip(self, s, gs, kind="slip", from_rest=False):
+        """A linear slip along s (fixed), stopping where |v_t| + rate dp = 0 if it slows (not
+        one from rest: it grows along s, the kernel's onset and reversal)."""
         lam = -self.mu * s
         glam = -np.outer(s, self.unit_mu) - self.mu * gs
         _, _, at, gat = self.rates(lam, glam)
         rate = float(s @ at)
-        if rate < 0.0:
+        if rate < 0.0 and not from_rest:
             r = float(s @ self.vt)
             if self.dt == 1:
                 stop = -self.vt[0] / at[0]  # the kernel's expression
@@ -203,7 +207,7 @@ class _Path:
         kind = "reversal" if s0 and self.dt == 1 else "onset"  # the kernel's names
         if self.dt == 1:
             s = np.array([math.copysign(1.0, b[0])])
-            return self.slip(s, np.zeros((1, self.m)), kind)
+            return self.slip(s, np.zeros((1, self.m)), kind, from_rest=True)
         if near:
             kappa, s = 0.0, -lam_s / x  # the boundary's limit of the onset direction
         elif mu == 0.0:
@@ -217,7 +221,7 @@ class _Path:
         q = Mi @ s
         gk = (q @ R) / (s @ q)
         gs = Mi @ (R - np.outer(s, gk))
-        return self.slip(s, gs, kind)
+        return self.slip(s, gs, kind, from_rest=True)
 
     def curved(self):
         """The spatial curved slip by its variational equations, then its straight finish."""
@@ -259,9 +263,7 @@ class _Path:
             rest = float(np.linalg.norm(self.vt)) <= STOP_RTOL * vscale
         s0 = not rest
         if rest and float(np.linalg.norm(self.vt)) == 0.0 and self.mu > 0.0:
-            self.boundary("zero pre-impact slip: d pi / d v_t is one-sided, the directional "
-                          "derivative along +t (each tangent's +direction in space; the other "
-                          "side: along -t)", True)
+            self.boundary(ZERO_SLIP, True)
             self._zero_slip_start()
         elif rest:
             self.vt = np.zeros(self.dt)
@@ -316,6 +318,12 @@ class _Path:
         kind, z = integrate_slip(sys, z, True, 0.0, np.zeros(0), events=False)
         if kind == "diverging":
             return 0.0, turn_offset(b, C, mu, u)
+        if kind == "undecided":
+            self.boundary(
+                "zero pre-impact slip with |W_tt^-1 W_tn| = mu: a slip started along a "
+                "tangent slows without stopping, so the impulse has no directional derivative "
+                "in v_t here; the v_t columns are those of the path held at rest", True)
+            return 0.0, np.zeros(2)
         vt = u + b * z[0, 0] + C @ z[1:3, 0]
         r = float(np.linalg.norm(vt))
         if kind == "settled" and r > 0.0:

@@ -40,8 +40,13 @@ SENSITIVITY_RTOL = 1e-13
 SETTLE_RTOL = 1e-15
 #: slip speed (relative to max |v-|) at which the slip counts as stopped whatever its angle
 FLOOR_RTOL = 1e-12
-#: most accepted steps of one curved slip
-MAX_STEPS = 200000
+#: most accepted steps of one curved slip (the law's own bound)
+MAX_STEPS = 20000
+#: a vanishing slip's self-similar stop (events off, |u| = 1, tr W = 1): a slip that neither
+#: stops nor grows within this many accepted steps or this much normal impulse does not stop
+#: (it slows forever: |W_tt^-1 W_tn| = mu)
+MAX_STEPS_SELF_SIMILAR = 500
+MAX_IMPULSE_SELF_SIMILAR = 1e3
 
 _NS = int(_dop853.N_STAGES)
 _A = np.asarray(_dop853.A, dtype=float)[:_NS, :_NS]
@@ -169,7 +174,8 @@ def integrate_slip(sys: SlipSystem, z, compressing: bool, target: float,
     the event's sensitivity folded in), "settled" (the direction has settled on the one the
     slip stops along: hand over to the straight finish), "floor" (the slip speed reached the
     round-off floor without decreasing: stopped) or, without ``events``, "diverging" (the
-    slip grows past 1e3 max |v-|: it does not stop).
+    slip grows past 1e3 max |v-|: it does not stop) or "undecided" (neither stops nor grows
+    within :data:`MAX_STEPS_SELF_SIMILAR` steps or :data:`MAX_IMPULSE_SELF_SIMILAR`).
 
     Raises
     ------
@@ -247,6 +253,9 @@ def integrate_slip(sys: SlipSystem, z, compressing: bool, target: float,
                        and r * abs(dh * g) <= SETTLE_RTOL * pref * -rate * (-rate - dg) * -dg)
         if not events and rate > 0.0 and r > 1e3 * vscale:
             return "diverging", z
+        if not events and rate <= 0.0 and (steps > MAX_STEPS_SELF_SIMILAR
+                                           or z[0, 0] > MAX_IMPULSE_SELF_SIMILAR):
+            return "undecided", z
         if settled or r <= FLOOR_RTOL * vscale:
             return ("settled" if rate < 0.0 else "floor"), z
         h *= min(10.0, 0.9 * err ** -0.125) if err > 0.0 else 10.0
