@@ -277,8 +277,9 @@ def test_zero_restitution_gives_the_right_derivative_in_e(W, v):
     e sqrt(2 |W_n(p_c)| / a_n) of normal impulse (step 1e-3: the law's restitution target
     (1 - e^2) W_n(p_c) loses e^2's digits to round-off for tiny e)."""
     mu = 0.8 if len(v) == 2 else 0.4
-    D, _ = derivative(W, v, 0.0, mu)
+    D, _ = derivative(W, v, 0.0, mu, other_side=True)
     assert any("e = 0" in t for t in D.one_sided)
+    assert D.other_side is None  # e < 0 is no restitution: there is no other side
     np.testing.assert_allclose(column(D, "e"), one_sided(W, v, 0.0, mu, "e", +1, 1e-3),
                                rtol=1e-7)
 
@@ -289,6 +290,7 @@ def test_touching_contact_is_one_sided_in_v_n():
     A, B, e, mu = 2.0, 0.5, 0.5, 0.5
     D, r = derivative(W2, [0.0, 0.3], e, mu, other_side=True)
     assert D.regimes == ("separating",) and np.all(D.v == 0.0)
+    assert D.other_side.regimes == ("slip",)
     assert any("v_n- = 0" in t for t in D.one_sided)
     expect = -(1 + e) * np.array([1.0, -mu]) / (A - mu * B)
     np.testing.assert_allclose(column(D.other_side, ("v", 0)), expect, rtol=1e-14)
@@ -385,3 +387,24 @@ def test_spatial_stick_or_onset_at_rest_boundary():
     assert any("slows without stopping" in t for t in D.one_sided)
     for which in ("mu", ("W", 0, 1)):
         _sides_match(D, W, v, e, mu, which)
+
+
+def test_inside_a_mode_there_is_no_other_side():
+    D, _ = derivative(W3, [-1.0, 0.3, -0.4], 0.6, 0.9, other_side=True)
+    assert D.one_sided == () and D.other_side is None
+
+
+@pytest.mark.parametrize("v", [[-1.0, 0.2], [-1.0, 0.3, -0.4]])
+def test_units(v):
+    """The law is homogeneous, pi(a W, b v) = (b / a) pi(W, v): in units where W is 1e6 and
+    v 1e-3 times larger, d pi / dW scales by b / a^2, d pi / dv by 1 / a, d pi / d(e, mu) by
+    b / a -- and the derivative there still matches central differences (steps scaled)."""
+    W = np.array(W2 if len(v) == 2 else W3)
+    a, b = 1e6, 1e-3
+    D, _ = derivative(W, v, 0.6, 0.9)
+    Ds, _ = derivative(a * W, b * np.array(v), 0.6, 0.9)
+    np.testing.assert_allclose(Ds.W, D.W * b / a ** 2, rtol=1e-9, atol=1e-12 * b / a ** 2)
+    np.testing.assert_allclose(Ds.v, D.v / a, rtol=1e-9, atol=1e-12 / a)
+    np.testing.assert_allclose(Ds.mu, D.mu * b / a, rtol=1e-9, atol=1e-12 * b / a)
+    fd = central(a * W, b * np.array(v), 0.6, 0.9, ("W", 0, 1), h=1e-4 * a)
+    np.testing.assert_allclose(column(Ds, ("W", 0, 1)), fd, rtol=1e-7)

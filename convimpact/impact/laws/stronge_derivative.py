@@ -82,12 +82,12 @@ def _tensor_W(path: _Path, g: np.ndarray) -> np.ndarray:
 
 
 def contact_derivative(W, v, e: float, mu: float, other_side: bool = False
-                       ) -> tuple[np.ndarray, ContactDerivative]:
+                       ) -> tuple[np.ndarray, ContactDerivative, bool]:
     """One contact's impulse and its derivative (contact space, unnormalized data).
 
-    Returns ``(pi, ContactDerivative)``; the derivative is that of the mode the answer is in,
-    or with ``other_side`` of the neighbouring mode at the boundaries met (its ``other_side``
-    is then None).
+    Returns ``(pi, ContactDerivative, sided)``; the derivative is that of the mode the answer
+    is in, or with ``other_side`` of the neighbouring mode at the boundaries met (its
+    ``other_side`` is then None); ``sided``: some boundary met has a neighbouring mode.
     """
     W = np.asarray(W, dtype=float)
     v = np.asarray(v, dtype=float)
@@ -95,7 +95,7 @@ def contact_derivative(W, v, e: float, mu: float, other_side: bool = False
     vs = float(np.max(np.abs(v)))
     ws = float(np.trace(W))
     if not v[0] < 0.0:
-        return np.zeros(d), _separating(W, v, e, mu, vs, ws, other_side)
+        return np.zeros(d), _separating(W, v, e, mu, vs, ws, other_side), v[0] == 0.0
     Wh, vh = W / ws, v / vs
     path = _Path(Wh, vh, e, mu, flip=other_side)
     pi_h, g = path.run()
@@ -108,6 +108,7 @@ def contact_derivative(W, v, e: float, mu: float, other_side: bool = False
         if np.max(np.abs(g2[:, cols] - g[:, cols])) <= ZERO_SLIP_RTOL * max(
                 float(np.max(np.abs(g))), 1e-300):
             path.boundaries = [t for t in path.boundaries if t != ZERO_SLIP]
+            path.sided.discard(ZERO_SLIP)
     if mu == 0.0:
         path.boundaries.append("mu = 0: d pi / d mu is the right derivative (mu -> 0+)")
         regime = "frictionless"
@@ -121,7 +122,7 @@ def contact_derivative(W, v, e: float, mu: float, other_side: bool = False
     dmu = (g[:, path.imu] * scale)[:, None]
     deriv = ContactDerivative(W=dW, v=dv, e=de, mu=dmu, e_t=None, regimes=(regime,),
                               one_sided=tuple(path.boundaries))
-    return pi, deriv
+    return pi, deriv, bool(path.sided)
 
 
 def _separating(W, v, e, mu, vs, ws, other_side) -> ContactDerivative:
@@ -140,6 +141,7 @@ def _separating(W, v, e, mu, vs, ws, other_side) -> ContactDerivative:
                                  regimes=("separating",), one_sided=(text,))
     path = _Path(W / ws, np.concatenate(([-1.0], v[1:] / vs)), e, mu)
     vt = path.vt
+    kind = "slip"
     if d == 2 and vt[0] != 0.0:
         lam = np.array([-mu * math.copysign(1.0, vt[0])])
     elif d == 3 and float(np.linalg.norm(vt)) > 0.0:
@@ -148,7 +150,9 @@ def _separating(W, v, e, mu, vs, ws, other_side) -> ContactDerivative:
         Ci = np.linalg.inv(path.C)
         lam = -Ci @ path.b
         x = float(np.linalg.norm(lam))
+        kind = "stick"
         if x > mu:
+            kind = "onset"
             if d == 2:
                 lam = np.array([-mu * math.copysign(1.0, path.b[0])])
             else:
@@ -158,7 +162,7 @@ def _separating(W, v, e, mu, vs, ws, other_side) -> ContactDerivative:
     dv = np.zeros((d, d))
     dv[:, 0] = -(1.0 + e) * np.concatenate(([1.0], lam)) / (an * ws)
     return ContactDerivative(W=zero.W, v=dv, e=zero.e, mu=zero.mu, e_t=None,
-                             regimes=("approaching limit",), one_sided=(text,))
+                             regimes=(kind,), one_sided=(text,))
 
 
 def _check(problem: ImpactProblem, result: ImpactResult, pi: np.ndarray, i: int) -> None:
@@ -175,9 +179,9 @@ def _check(problem: ImpactProblem, result: ImpactResult, pi: np.ndarray, i: int)
 def _with_other(problem, i, other_side):
     W, v = (np.array(x, dtype=float) for x in problem.contact_lists(i))
     e, mu = float(problem.restitution[i]), float(problem.friction[i])
-    pi, deriv = contact_derivative(W, v, e, mu)
-    if other_side and deriv.one_sided:
-        _, other = contact_derivative(W, v, e, mu, other_side=True)
+    pi, deriv, sided = contact_derivative(W, v, e, mu)
+    if other_side and sided:
+        _, other, _ = contact_derivative(W, v, e, mu, other_side=True)
         deriv = ContactDerivative(W=deriv.W, v=deriv.v, e=deriv.e, mu=deriv.mu, e_t=None,
                                   regimes=deriv.regimes, one_sided=deriv.one_sided,
                                   other_side=other)

@@ -59,6 +59,7 @@ class _Path:
         self.target, self.gtarget = 0.0, np.zeros(m)
         self.phases: list[str] = []
         self.boundaries: list[str] = []
+        self.sided: set[str] = set()  # the boundaries that have another side
 
     # -- the state's velocity and the phases' rates, with their gradients
 
@@ -76,12 +77,15 @@ class _Path:
         gat = self.gb + (self.gC @ lam).T + self.C @ glam
         return an, gan, at, gat
 
-    def boundary(self, text: str, near: bool) -> bool:
-        """Record a boundary statement when ``near``; True when the decision is to be reversed."""
+    def boundary(self, text: str, near: bool, sided: bool = True) -> bool:
+        """Record a boundary statement when ``near``; True when the decision is to be reversed.
+        ``sided``: the boundary has a neighbouring mode (not e = 0, nor an undefined one)."""
         if near:
             if text not in self.boundaries:
                 self.boundaries.append(text)
-            return self.flip
+            if sided:
+                self.sided.add(text)
+            return self.flip and sided
         return False
 
     def _open(self, kind):
@@ -103,7 +107,8 @@ class _Path:
                 self.done = True
                 if e == 0.0:
                     self.boundary("e = 0: d pi / d e is the right derivative (e -> 0+), "
-                                  "p_f - p_c = e sqrt(2 |W_n(p_c)| / a_n) + O(e^2)", True)
+                                  "p_f - p_c = e sqrt(2 |W_n(p_c)| / a_n) + O(e^2)", True,
+                                  sided=False)
                     if an > 0.0:
                         k = math.sqrt(2.0 * abs(self.Wn) / an)
                         self.gp = self.gp + k * self.unit_e
@@ -322,7 +327,8 @@ class _Path:
             self.boundary(
                 "zero pre-impact slip with |W_tt^-1 W_tn| = mu: a slip started along a "
                 "tangent slows without stopping, so the impulse has no directional derivative "
-                "in v_t here; the v_t columns are those of the path held at rest", True)
+                "in v_t here; the v_t columns are those of the path held at rest", True,
+                sided=False)
             return 0.0, np.zeros(2)
         vt = u + b * z[0, 0] + C @ z[1:3, 0]
         r = float(np.linalg.norm(vt))
