@@ -117,3 +117,5 @@ def poisson_warnings(P, W: np.ndarray, predicted: float) -> list[str]:
                 "not unique, so the Poisson-scaled answer (theta_dot+) depends on which plastic "
                 "impulse the solver found; use one e for coupled contacts")
     return warnings
+
+from .cone_derivative import dissipative_several_impulse_derivative as several_impulse_derivative  # noqa: E402,F401
