@@ -312,3 +312,5 @@ def closed_form(problem: ImpactProblem, **options) -> ImpactResult:
                            effective_mass=denom, tol=1e-12)
 
 
+
+from .pn_complementarity_derivative import several_impulse_derivative  # noqa: E402,F401
