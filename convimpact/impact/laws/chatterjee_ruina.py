@@ -108,3 +108,5 @@ def program_result(P, backend, method: str, opts):
             "'dissipative' or 'coulomb' (method='interior'), or 'stronge' (its two-phase "
             "coupled formulation)")
     return result
+
+from .chatterjee_ruina_derivative import several_impulse_derivative  # noqa: E402,F401
