@@ -46,7 +46,7 @@ def stick_margin(W: np.ndarray, v: np.ndarray, e: float, mu: float, et: float) -
 
 
 def contact_tangent(W, v, e, mu, et, dW, dv, de, dmu, det, regime: str) -> np.ndarray:
-    """``dJ`` of one contact in ``regime`` ("stick" or "slide") along the tangent
+    """``dJ`` of one contact in ``regime`` ("stick", "slide" or "frictionless") along the tangent
     ``(dW, dv, de, dmu, det)`` (dW symmetric)."""
     a0, x, b = _plastic(W, v)
     da0 = -dv[0] / W[0, 0] + v[0] * dW[0, 0] / W[0, 0] ** 2
@@ -59,6 +59,8 @@ def contact_tangent(W, v, e, mu, et, dW, dv, de, dmu, det, regime: str) -> np.nd
     if regime == "stick":
         return dJ + det * b + (1.0 + et) * db
     bt = float(np.linalg.norm(b[1:]))
+    if regime == "frictionless":  # mu = 0: J = (1 + e) J_I (kappa = 0), mu's right derivative
+        return dJ + (dmu * s * a0 / bt) * b if bt > 0.0 else dJ
     dbt = float(b[1:] @ db[1:]) / bt
     q = bt - mu * b[0]
     kappa = mu * s * a0 / q
@@ -154,15 +156,15 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
             continue
         margin = stick_margin(Wi, vi, e, mu, et)
         regime = "stick" if margin >= 0.0 else "slide"
-        if mu == 0.0:
-            regime = "slide"  # kappa = 0: the frictionless impulse (1 + e) J_I
+        if mu == 0.0:  # kappa = 0 (or b = 0): the frictionless impulse (1 + e) J_I
+            regime = "frictionless"
         other = regime
         if mu > 0.0 and abs(margin) <= BOUNDARY_RTOL * float(np.linalg.norm(pi[i])) * max(mu, 1):
             other = "slide" if regime == "stick" else "stick"
             any_boundary = True
             notes.append(f"contact {i}: at the stick limit (J^ on the cone's boundary): "
                          f"one-sided derivative of the {regime} regime, the other side {other}")
-        regimes.append("frictionless" if mu == 0.0 else regime)
+        regimes.append(regime)
         others.append(other)
         for dest, reg in ((out, regime), (flip, other)):
             DW, Dv, De, Dmu, Det = _block(Wi, vi, e, mu, et, reg)

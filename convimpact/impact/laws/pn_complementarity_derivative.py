@@ -286,9 +286,10 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
         if singular:
             notes.append("redundant contacts (W singular on the active set): the stick "
                          "impulse is the law's minimum-norm choice, and its derivative holds "
-                         "along the perturbations that keep the rank of W on the active set "
-                         "(every perturbation of M, Jc, C that keeps the contacts redundant); "
-                         "W d pi, the velocity's derivative, holds for all")
+                         "along the perturbations that keep the stick equations consistent "
+                         "and of the same rank (those of a rigid body's geometry and inertia "
+                         "that keep its contacts redundant); elsewhere the law leaves this "
+                         "active set")
         other = None
         if other_side and (grow or shrink):
             B = sorted((set(A) | set(grow)) - set(shrink))
