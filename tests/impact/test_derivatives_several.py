@@ -76,9 +76,11 @@ def _construct(rng, law, modes, d, mu=0.4, e=0.5):
     W = J @ np.linalg.solve(M, J.T)
     lift = 0.0 if law == "coulomb" else 1.0
     pi, u = np.zeros(n * d), np.zeros(n * d)
+    mus = np.broadcast_to(np.asarray(mu, dtype=float), (n,))
     for i, m in enumerate(modes):
         s = slice(i * d, (i + 1) * d)
         t = _unit(rng, d - 1)
+        mu = mus[i]
         pn, sig = rng.uniform(0.5, 1.5), rng.uniform(0.3, 1.0)
         if m in ("sep", "touch"):
             ut = rng.standard_normal(d - 1) * (0.2 if m == "touch" else 1.0)
@@ -86,12 +88,14 @@ def _construct(rng, law, modes, d, mu=0.4, e=0.5):
             u[s] = np.r_[lift * mu * np.linalg.norm(ut) + gap, ut]
         elif m == "stick":
             pi[s] = np.r_[pn, mu * pn * rng.uniform(0.1, 0.7) * t]
+        elif m == "zero":  # no impulse and no velocity: at the apex
+            pass
         elif m == "limit":
             pi[s] = np.r_[pn, mu * pn * t]
         else:  # slide
             pi[s] = np.r_[pn, mu * pn * t]
             u[s] = np.r_[lift * mu * sig, -sig * t]
-    pressed = [i for i in range(n) if modes[i] not in ("sep", "touch")]
+    pressed = [i for i in range(n) if modes[i] not in ("sep", "touch", "zero")]
     for _ in range(20):  # a pressed contact must approach (b_n < 0): press it harder
         b = u - W @ pi
         low = [i for i in pressed if not b[i * d] < 0.0]
@@ -108,7 +112,7 @@ def _construct(rng, law, modes, d, mu=0.4, e=0.5):
     dq = np.linalg.lstsq(J, v, rcond=None)[0]
     if law == "dissipative":
         pi = pi * (1.0 + e)
-    return M, _split(J, n, d), dq, e, mu, pi
+    return M, _split(J, n, d), dq, e, mus if np.ndim(mus) and np.ptp(mus) else mus[0], pi
 
 
 def _predicted(D, dW, dv, de=None, dmu=None):
@@ -127,7 +131,8 @@ def _directions(rng, M, Jl, dq, e, mu):
     J = np.vstack(Jl)
     G = np.linalg.inv(M)
     k = M.shape[0]
-    e0, mu0 = np.full(n, float(e)), np.full(n, float(mu))
+    e0 = np.broadcast_to(np.asarray(e, dtype=float), (n,)).copy()
+    mu0 = np.broadcast_to(np.asarray(mu, dtype=float), (n,)).copy()
     ddq = rng.standard_normal(k)
     dJ = rng.standard_normal(J.shape)
     A = rng.standard_normal((k, k))
@@ -392,6 +397,32 @@ def test_cone_laws_at_a_mode_boundary_are_one_sided(law, boundary):
         crossed = max(np.max(np.abs(fwd - two)), np.max(np.abs(bwd - one)))
         assert min(straight, crossed) <= tol
         assert np.max(np.abs(one - two)) > 1e2 * tol  # the two sides differ
+
+
+def test_pereira_nikravesh_contact_about_to_press_is_one_sided():
+    """Stick tier, frictionless contact 2 with no impulse and u_n = 0: the active sets with and
+    without it give the same answer (the law picks one), and each continues it on one side.
+    The derivative is one-sided, its other side the other active set's; the forward and
+    backward differences match one each."""
+    rng = np.random.default_rng(70)
+    law = "pereira-nikravesh"
+    M, Jl, dq, e, mu, pi = _construct(rng, "ccp", ["stick", "stick", "zero"], 3,
+                                      mu=np.array([0.4, 0.4, 0.0]))
+    P, R = _solve(M, Jl, dq, e, mu, law)
+    assert R.diagnostics.extras["active_set"] in ([0, 1], [0, 1, 2])  # a tie at the boundary
+    D = law_module(law).several_impulse_derivative(P, R, other_side=True)
+    assert len(D.one_sided) == 1 and "contact 2" in D.one_sided[0]
+    assert {D.regimes[2], D.other_side.regimes[2]} == {"separating", "frictionless"}
+    matched = 0
+    for _ in range(3):
+        direction = rng.standard_normal(dq.size)
+        fwd, bwd, one, two = _one_sided_pair(law, M, Jl, dq, e, mu, D, direction)
+        tol = 1e-4 * max(np.max(np.abs(one)), np.max(np.abs(two)))
+        straight = max(np.max(np.abs(fwd - one)), np.max(np.abs(bwd - two)))
+        crossed = max(np.max(np.abs(fwd - two)), np.max(np.abs(bwd - one)))
+        assert min(straight, crossed) <= tol
+        matched += np.max(np.abs(one - two)) > 1e2 * tol
+    assert matched >= 1  # the sides differ
 
 
 def _flat_box(slip, mu):

@@ -27,9 +27,10 @@ contact of A whose impulse vanishes, a contact off A about to press (``u_n = 0``
 limit, a P_N contact between the cone's interior and its boundary (sigma = 0), a slip
 ``v_t- = 0`` that fixes eq. (55)'s direction. ``other_side=True`` gives the neighbouring
 mode's derivative where that mode is this law's answer across the boundary by continuity (the
-stick tier gaining or losing a contact, a P_N contact leaving or reaching its cone's
-boundary); where the law re-selects its tier or active set globally (the stick limit: its
-answer may jump) none is given and the statement says so. Ties between active sets (another
+stick tier gaining or losing a frictionless contact, a P_N contact leaving or reaching its
+cone's boundary); where the law re-selects its tier or active set globally (the stick limit,
+a frictional contact at its cone's apex: the admissible sets then depend on the direction of
+the perturbation, and the answer may jump) none is given and the statement says so. Ties between active sets (another
 admissible set exactly as dissipative) are not detected: the law then warns of several
 admissible active sets.
 """
@@ -252,11 +253,17 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
     pscale = impulse_scale(problem)
     vscale = max(float(np.max(np.abs(problem.v_minus))), 1e-300)
     notes: list[str] = []
+    grow = []  # contacts about to press whose sticking continues the answer (no slip)
     for i in range(n):
         if i not in A and u[i * d] <= BOUNDARY_RTOL * vscale:
-            notes.append(f"contact {i}: off the active set with u_n = 0 (about to press): "
-                         "one-sided" + (" derivative of the active set without it, the other "
-                                        "side with it" if tier == "stick" else _NO_OTHER))
+            if tier == "stick" and problem.friction[i] == 0.0:
+                grow.append(i)
+                notes.append(f"contact {i}: frictionless, off the active set with u_n = 0 "
+                             "(about to press): one-sided derivative of the active set without "
+                             "it, the other side with it")
+            else:
+                notes.append(f"contact {i}: off the active set with u_n = 0 (about to press): "
+                             "one-sided" + _NO_OTHER)
         if i in A and problem.v_minus[i, 0] == 0.0 and problem.restitution[i] > 0.0:
             notes.append(f"contact {i}: touching (v_n- = 0) with e > 0, the kink of Newton's "
                          "b_n = v_n + e min(v_n, 0): the derivative is an approaching "
@@ -268,16 +275,18 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
                                  one_sided=tuple(statements), other_side=other)
 
     if tier == "stick":
-        grow = [i for i in range(n) if i not in A and u[i * d] <= BOUNDARY_RTOL * vscale]
         shrink = []
         for i in A:
             p = pi[i * d:(i + 1) * d]
             size = float(np.linalg.norm(p))
-            if size <= BOUNDARY_RTOL * pscale:
+            if size <= BOUNDARY_RTOL * pscale and problem.friction[i] == 0.0:
                 shrink.append(i)
-                notes.append(f"contact {i}: in the active set with zero impulse (about to "
-                             "separate): one-sided derivative of the active set with it, the "
-                             "other side without it")
+                notes.append(f"contact {i}: frictionless, in the active set with zero impulse "
+                             "(about to separate): one-sided derivative of the active set with "
+                             "it, the other side without it")
+            elif size <= BOUNDARY_RTOL * pscale:
+                notes.append(f"contact {i}: in the active set with zero impulse (at its "
+                             "cone's apex): one-sided" + _NO_OTHER)
             elif problem.friction[i] > 0.0 and problem.friction[i] * p[0] - \
                     float(np.linalg.norm(p[1:])) <= BOUNDARY_RTOL * size:
                 notes.append(f"contact {i}: at the stick limit (|pi_t| = mu pi_n): one-sided "
