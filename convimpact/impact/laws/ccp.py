@@ -274,4 +274,4 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     regimes = regimes_from_slip(P, pi, vplus, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc, extras=extras)
 
-from .cone_derivative import ccp_several_impulse_derivative as several_impulse_derivative  # noqa: E402,F401
+from .cone_derivative import ccp_several as several_impulse_derivative  # noqa: E402,F401

@@ -231,9 +231,10 @@ def _entry(law: str):
     return several_impulse_derivative
 
 
-ccp_several_impulse_derivative = _entry("ccp")
-coulomb_several_impulse_derivative = _entry("coulomb")
-dissipative_several_impulse_derivative = _entry("dissipative")
+#: each law's ``several_impulse_derivative`` (re-exported under that name by its module)
+ccp_several = _entry("ccp")
+coulomb_several = _entry("coulomb")
+dissipative_several = _entry("dissipative")
 
-__all__ = ["ccp_several_impulse_derivative", "coulomb_several_impulse_derivative",
-           "dissipative_several_impulse_derivative", "classify", "NotSupportedError"]
+__all__ = ["ccp_several", "coulomb_several", "dissipative_several", "classify",
+           "NotSupportedError"]

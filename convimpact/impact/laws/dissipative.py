@@ -118,4 +118,4 @@ def poisson_warnings(P, W: np.ndarray, predicted: float) -> list[str]:
                 "impulse the solver found; use one e for coupled contacts")
     return warnings
 
-from .cone_derivative import dissipative_several_impulse_derivative as several_impulse_derivative  # noqa: E402,F401
+from .cone_derivative import dissipative_several as several_impulse_derivative  # noqa: E402,F401

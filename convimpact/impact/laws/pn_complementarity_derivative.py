@@ -30,9 +30,9 @@ mode's derivative where that mode is this law's answer across the boundary by co
 stick tier gaining or losing a frictionless contact, a P_N contact leaving or reaching its
 cone's boundary); where the law re-selects its tier or active set globally (the stick limit,
 a frictional contact at its cone's apex: the admissible sets then depend on the direction of
-the perturbation, and the answer may jump) none is given and the statement says so. Ties between active sets (another
-admissible set exactly as dissipative) are not detected: the law then warns of several
-admissible active sets.
+the perturbation, and the answer may jump) none is given and the statement says so. Ties
+between active sets with different velocities (another admissible set exactly as
+dissipative) are not detected here: the law then warns of several admissible active sets.
 """
 
 from __future__ import annotations
