@@ -372,13 +372,13 @@ def _one_sided_pair(law, M, Jl, dq, e, mu, D, direction):
     return fwd, bwd, D.v @ dv, D.other_side.v @ dv
 
 
-@pytest.mark.parametrize("law", ["ccp", "coulomb"])
+@pytest.mark.parametrize("law", CONE_LAWS)
 @pytest.mark.parametrize("boundary", ["touch", "limit"])
 def test_cone_laws_at_a_mode_boundary_are_one_sided(law, boundary):
     """A contact about to separate (pi = 0 with u on the dual cone's boundary), or at the stick
     limit (pi on the cone's boundary, no slip): the derivative is one-sided, stated, and the
     other side is the neighbouring mode's; each matches one of the one-sided differences."""
-    rng = np.random.default_rng(50 + (boundary == "limit") + 2 * (law == "coulomb"))
+    rng = np.random.default_rng(50 + (boundary == "limit") + 2 * CONE_LAWS.index(law))
     modes = ["stick", "slide", boundary]
     M, Jl, dq, e, mu, _ = _construct(rng, law, modes, 3)
     P, R = _solve(M, Jl, dq, e, mu, law)

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..conic.paths import approaching, impulse_scale
+from ..conic.paths import APPROACH_RTOL, approaching, impulse_scale
 from ..errors import NotSupportedError, ParameterError
 from ..problem.build import ImpactProblem
 from .mode_system import ModeSystem
@@ -171,6 +171,12 @@ def _derivative(problem: ImpactProblem, result, law: str, other_side: bool):
     found = classify(problem, pi, S.u, mu, lift, _reported(result, n))
     notes = [s for _, _, s in found if s]
     vn = problem.v_minus[:, 0]
+    if not all_friction:  # a contact touching within round-off takes no friction of its own
+        notes += [f"contact {i}: touching within round-off (|v_n-| <= {APPROACH_RTOL:g} "
+                  "max |v-|) and pressed: the law gives it no friction of its own, as it "
+                  "would by approaching faster (then its friction acts: the answer jumps); "
+                  "one-sided" for i in range(n) if problem.friction[i] > 0.0 and mu[i] == 0.0
+                  and vn[i] < 0.0 and found[i][0] != "separating"]
     if newton:
         notes += [f"contact {i}: touching (v_n- = 0) with e > 0, the kink of Newton's "
                   "b_n = v_n + e min(v_n, 0): the derivative is that of an approaching contact"
