@@ -302,6 +302,33 @@ def test_chatterjee_ruina_independent_contacts_match_finite_differences(d):
     assert regimes == {"stick", "slide"}
 
 
+def test_chatterjee_ruina_one_approaching_coupled_contact():
+    """Coupled contacts, only contact 0 approaching, the others lifting: the law's impulse is
+    contact 0's single-contact answer, so its derivative lives in contact 0's block (no
+    domain statement: a generic perturbation keeps the others lifting)."""
+    rng = np.random.default_rng(45)
+    law = "chatterjee-ruina"
+    n, d = 3, 3
+    M, J = _system(rng, n, d, coupling=0.3)
+    v = np.array([-0.8, 0.5, -0.2, 1.0, 0.3, 0.1, 0.9, -0.4, 0.2])
+    dq = np.linalg.lstsq(J, v, rcond=None)[0]
+    Jl = _split(J, n, d)
+    P, R = _solve(M, Jl, dq, 0.4, 0.3, law, e_t=0.2)
+    assert R.regime[1:] == ("separating", "separating") and R.regime[0] in ("stick", "slide")
+    D = law_module(law).several_impulse_derivative(P, R)
+    assert D.one_sided == ()
+    assert np.all(D.W[d:] == 0.0) and np.all(D.v[:, d:] == 0.0)
+    G = np.linalg.inv(M)
+    dJ = rng.standard_normal(J.shape)
+    ddq = rng.standard_normal(dq.size)
+    fd = (_solve(M, _split(J + H * dJ, n, d), dq + H * ddq, 0.4, 0.3, law,
+                 e_t=0.2)[1].impulse.ravel()
+          - _solve(M, _split(J - H * dJ, n, d), dq - H * ddq, 0.4, 0.3, law,
+                   e_t=0.2)[1].impulse.ravel()) / (2 * H)
+    pred = _predicted(D, dJ @ G @ J.T + J @ G @ dJ.T, dJ @ dq + J @ ddq)
+    assert np.max(np.abs(fd - pred)) <= RTOL * np.max(np.abs(fd))
+
+
 ALL_LAWS = ("pereira-nikravesh", "ccp", "coulomb", "dissipative")
 
 
@@ -485,11 +512,56 @@ def test_redundant_contacts_cone_laws():
     assert max(errors.values()) <= RTOL, errors
 
 
+@pytest.mark.parametrize("law", CONE_LAWS)
+def test_redundant_contacts_velocity_derivative(law):
+    """The sticking box under the cone laws with ``redundant="velocity"``: the impulse
+    derivative given is one of many, but the velocities' derivatives it implies,
+    ``d v+ = dv + dW pi + W dpi`` and ``d theta_dot+ = d dq + d(G Jc^T) pi + G Jc^T dpi``, match
+    central differences of the public result's v_plus and dq_plus (unique although the impulse
+    is not) along perturbations that keep the contacts redundant: dq, e, M, and the box's
+    geometry (its half-width and height)."""
+    rng = np.random.default_rng(62)
+    M, Jl, dq, e, mu = _flat_box(0.1, 0.8)
+    P, R = _solve(M, Jl, dq, e, mu, law)
+    assert R.regime == ("stick", "stick")
+    D = law_module(law).several_impulse_derivative(P, R, redundant="velocity")
+    assert any("minimum-norm" in s for s in D.one_sided)
+    J = np.vstack(Jl)
+    G = np.linalg.inv(M)
+    pi = R.impulse.ravel()
+    dJ = np.zeros_like(J)
+    dJ[0, 2], dJ[2, 2], dJ[1, 2], dJ[3, 2] = -0.7, 0.7, 0.4, 0.4  # da = 0.7, dh = 0.4
+    A = rng.standard_normal((3, 3))
+    dM = A + A.T
+    ddq = rng.standard_normal(3)
+    zero = np.zeros(2)
+    cases = (  # (arguments at step s, dJ, dM, ddq, de)
+        (lambda s: (M, _split(J + s * dJ, 2, 2), dq, e, mu), dJ, 0 * dM, 0 * ddq, zero),
+        (lambda s: (M + s * dM, Jl, dq, e, mu), 0 * dJ, dM, 0 * ddq, zero),
+        (lambda s: (M, Jl, dq + s * ddq, e, mu), 0 * dJ, 0 * dM, ddq, zero),
+        (lambda s: (M, Jl, dq, e + s, mu), 0 * dJ, 0 * dM, 0 * ddq, np.ones(2)))
+    for at, dJc, dMc, dqc, dec in cases:
+        hi, lo = _solve(*at(H), law)[1], _solve(*at(-H), law)[1]
+        dG = -G @ dMc @ G
+        dW = dJc @ G @ J.T + J @ G @ dJc.T + J @ dG @ J.T
+        dv = dJc @ dq + J @ dqc
+        dpi = _predicted(D, dW, dv, dec)
+        fd_vplus = (hi.v_plus.ravel() - lo.v_plus.ravel()) / (2 * H)
+        assert np.max(np.abs(fd_vplus - (dv + dW @ pi + P.delassus @ dpi))) <= \
+            RTOL * max(np.max(np.abs(fd_vplus)), 1.0)
+        fd_dq = (hi.dq_plus - lo.dq_plus) / (2 * H)
+        pred = dqc + (dG @ J.T + G @ dJc.T) @ pi + G @ J.T @ dpi
+        assert np.max(np.abs(fd_dq - pred)) <= RTOL * max(np.max(np.abs(fd_dq)), 1.0)
+
+
 def test_bad_input_is_refused():
     M, Jl, dq, e, mu = _flat_box(3.0, 0.3)
     P, R = _solve(M, Jl, dq, e, mu, "ccp")
     with pytest.raises(ParameterError, match="law 'ccp'"):
         law_module("coulomb").several_impulse_derivative(P, R)
+    for law in ("ccp", "pereira-nikravesh"):
+        with pytest.raises(ParameterError, match="redundant"):
+            law_module(law).several_impulse_derivative(P, R, redundant="min-norm")
     P1 = build_problem(M, Jl[0], dq, e, mu)
     R1 = solve_problem(P1, "pereira-nikravesh")
     with pytest.raises(NotSupportedError, match="one contact"):

@@ -30,9 +30,14 @@ the neighbouring mode's, all boundary contacts flipped at once):
 * a contact touching at ``v_n- = 0`` with e > 0: the kink of ``b_n = v_n + e min(v_n, 0)``
   (the derivative given is ``v_n- < 0``'s).
 
-Redundant contacts (W singular on the pressing contacts) leave the impulse non-unique while the
-velocity is unique: the engine's choice (the analytic centre of the solution set) has no
-derivative written here, and the functions raise NotSupportedError naming the reason.
+Redundant contacts (W singular on the pressing contacts, a singular mode system) leave the
+impulse non-unique while the velocity is unique: the engine's choice (the analytic centre of
+the solution set) has no derivative written here. By default the functions then raise
+NotSupportedError naming the reason; with ``redundant="velocity"`` they give the
+minimum-norm solution of the linearized mode equations, which differs from any other
+derivative of the solution set by an impulse the bodies do not feel: ``W dpi`` and
+``G Jc^T dpi`` -- all the chain needs for ``dq_plus`` -- are exact along perturbations that
+keep the equations consistent (stated in ``one_sided``).
 """
 
 from __future__ import annotations
@@ -42,7 +47,7 @@ import numpy as np
 from ..conic.paths import APPROACH_RTOL, approaching, impulse_scale
 from ..errors import NotSupportedError, ParameterError
 from ..problem.build import ImpactProblem
-from .mode_system import ModeSystem
+from .mode_system import VELOCITY_ONLY, ModeSystem, check_redundant
 
 #: relative distance to a mode boundary below which the answer counts as on it
 BOUNDARY_RTOL = 1e-7
@@ -124,7 +129,7 @@ def classify(problem: ImpactProblem, pi: np.ndarray, u: np.ndarray, mu: np.ndarr
 
 
 def _solve_mode(problem: ImpactProblem, pi: np.ndarray, modes: list[str], mu: np.ndarray,
-                lift: float, newton: bool, law: str):
+                lift: float, newton: bool, law: str, redundant: str):
     """``d pi / d (W, v, e, mu)`` of the given modes (the law's own b and friction)."""
     n, d = problem.n_contacts, problem.dim
     W = problem.delassus
@@ -152,13 +157,14 @@ def _solve_mode(problem: ImpactProblem, pi: np.ndarray, modes: list[str], mu: np
                             [S.velocity(i * d + k) for k in range(d)])
         else:  # "slide-slip"
             S.slide_on_slip(i, float(mu[i]), lift)
-    dW, dv, de, dmu = S.solve(f"law {law!r} at {n} contacts ({', '.join(modes)})")
+    dW, dv, de, dmu, singular = S.solve(f"law {law!r} at {n} contacts ({', '.join(modes)})",
+                                        redundant)
     if not newton:
         de = np.zeros_like(de)
-    return dW, dv, de, dmu
+    return dW, dv, de, dmu, singular
 
 
-def _derivative(problem: ImpactProblem, result, law: str, other_side: bool):
+def _derivative(problem: ImpactProblem, result, law: str, other_side: bool, redundant: str):
     from ..derivatives.contact import ContactDerivative
 
     lift, newton, all_friction = _LAWS[law]
@@ -184,7 +190,10 @@ def _derivative(problem: ImpactProblem, result, law: str, other_side: bool):
                   and found[i][0] != "separating"]
 
     def build(modes, statements, other):
-        dW, dv, de, dmu = _solve_mode(problem, pi, modes, mu, lift, newton, law)
+        dW, dv, de, dmu, singular = _solve_mode(problem, pi, modes, mu, lift, newton, law,
+                                                redundant)
+        if singular:
+            statements = [*statements, VELOCITY_ONLY]
         if law == "dissipative":  # pi = (1 + e_i) pi_p,i
             scale = np.repeat(1.0 + problem.restitution, d)
             dW, dv = dW * scale[:, None, None], dv * scale[:, None]
@@ -197,14 +206,15 @@ def _derivative(problem: ImpactProblem, result, law: str, other_side: bool):
                                  one_sided=tuple(statements), other_side=other)
 
     other = None
-    if other_side and any(o is not None for _, o, _ in found):
+    if other_side and any(o is not None for _, o, _ in found):  # every boundary flipped
         flipped = [o if o is not None else m for m, o, _ in found]
         other = build(flipped, [s + " (this is the other side)" for s in notes if s], None)
     return build([m for m, _, _ in found], notes, other)
 
 
 def _entry(law: str):
-    def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool = False):
+    def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool = False,
+                                   *, redundant: str = "raise"):
         """Derivative of the contact-frame impulse of law ``{law}`` at several contacts with
         respect to ``(W, v_minus, e, mu)`` inside the answer's mode (module docstring).
 
@@ -216,6 +226,10 @@ def _entry(law: str):
             An answer of law ``{law}`` (any method).
         other_side : bool
             At a mode boundary, also the neighbouring mode's derivative (``.other_side``).
+        redundant : {{"raise", "velocity"}}
+            Where redundant contacts leave the impulse non-unique: raise NotSupportedError,
+            or give the minimum-norm derivative of the mode's equations, exact for the
+            velocity (``W dpi``, ``G Jc^T dpi``), stated in ``one_sided``.
 
         Returns
         -------
@@ -224,14 +238,16 @@ def _entry(law: str):
         Raises
         ------
         NotSupportedError
-            Redundant contacts: the impulse is not unique (the velocity is).
+            Redundant contacts with ``redundant="raise"``: the impulse is not unique (the
+            velocity is).
         ParameterError
-            The result is another law's.
+            The result is another law's, or ``redundant`` is not one of its values.
         """
-        return _derivative(problem, result, law, other_side)
+        check_redundant(redundant)
+        return _derivative(problem, result, law, other_side, redundant)
 
     several_impulse_derivative.__doc__ = several_impulse_derivative.__doc__.replace(
-        "{law}", law)
+        "{law}", law).replace("{{", "{").replace("}}", "}")
     several_impulse_derivative.__name__ = "several_impulse_derivative"
     several_impulse_derivative.__qualname__ = f"{law}.several_impulse_derivative"
     return several_impulse_derivative

@@ -29,10 +29,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import NotSupportedError
+from ..errors import NotSupportedError, ParameterError
 
 #: condition number of the mode's Jacobian above which the impulse is taken as not unique
 JACOBIAN_COND_MAX = 1e11
+
+
+def check_redundant(redundant) -> None:
+    """``redundant`` must be "raise" or "velocity" (a ParameterError otherwise)."""
+    if not (type(redundant) is str and redundant in ("raise", "velocity")):
+        raise ParameterError(f"redundant must be 'raise' or 'velocity', got {redundant!r}")
 
 
 class Row:
@@ -202,30 +208,52 @@ class ModeSystem:
 
     # -- the solve ----------------------------------------------------------------------
 
-    def solve(self, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``d pi`` with respect to W (N, N, N), v (N, N), e (N, n), mu (N, n).
+    def solve(self, what: str, redundant: str = "raise"
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+        """``d pi`` with respect to W (N, N, N), v (N, N), e (N, n), mu (N, n), and whether
+        the mode's Jacobian was singular.
 
-        Raises NotSupportedError when the mode's Jacobian is singular: the impulse is then
-        not unique (``what`` names the law's situation in the message).
+        A singular Jacobian (redundant contacts: the impulse is not unique, the velocity is)
+        raises NotSupportedError (``what`` names the law's situation in the message), or with
+        ``redundant="velocity"`` gives the minimum-norm solution of the linearized equations:
+        along a perturbation that keeps them consistent it is one derivative of the solution
+        set, and every other differs from it by an impulse the bodies do not feel (``W dpi``
+        and ``G Jc^T dpi`` are the same).
         """
         if len(self.rows) != self.m:
             raise AssertionError(f"{len(self.rows)} equations for {self.m} unknowns")
         J = np.array([r.x for r in self.rows])
         cond = np.linalg.cond(J)
-        if not cond < JACOBIAN_COND_MAX:
+        singular = not cond < JACOBIAN_COND_MAX
+        if singular and redundant != "velocity":
             raise NotSupportedError(
                 f"{what}: the equations of this mode do not determine the impulse (their "
                 f"Jacobian has condition number {cond:.1e}): redundant contacts (more "
                 "contact rows than the bodies' degrees of freedom, W singular) leave the "
                 "impulse non-unique while the post-impact velocity is unique, and the law "
-                "has no selection rule of its own whose derivative is defined here")
+                "has no selection rule of its own whose derivative is defined here; "
+                "redundant='velocity' gives a derivative exact for the velocity (W dpi, "
+                "G Jc^T dpi)")
         N, n = self.N, self.n
         rhs = np.concatenate([
             np.array([r.W.ravel() for r in self.rows]), np.array([r.v for r in self.rows]),
             np.array([r.e for r in self.rows]), np.array([r.mu for r in self.rows])], axis=1)
-        dx = -np.linalg.solve(J, rhs)[:N]
+        if singular:
+            dx = -(np.linalg.pinv(J, rcond=1.0 / JACOBIAN_COND_MAX) @ rhs)[:N]
+        else:
+            dx = -np.linalg.solve(J, rhs)[:N]
         dW = dx[:, :N * N].reshape(N, N, N)
         dv = dx[:, N * N:N * N + N]
         de = dx[:, N * N + N:N * N + N + n]
         dmu = dx[:, N * N + N + n:]
-        return dW, dv, de, dmu
+        return dW, dv, de, dmu, singular
+
+
+#: the statement of a derivative taken with ``redundant="velocity"`` on a singular mode
+VELOCITY_ONLY = (
+    "redundant contacts: the impulse is not unique (the post-impact velocity is), and this "
+    "derivative is the minimum-norm solution of the mode's linearized equations: exact for "
+    "the velocity (W d pi, and d theta_dot+ through G Jc^T d pi) along perturbations that keep "
+    "those equations consistent (the contacts staying redundant, e.g. a rigid body's geometry "
+    "and inertia), while d pi itself is one of the impulse derivatives compatible with the law, "
+    "not necessarily its solver's")

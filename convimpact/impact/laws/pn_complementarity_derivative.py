@@ -42,7 +42,7 @@ import numpy as np
 from ..conic.paths import impulse_scale
 from ..errors import NotSupportedError, ParameterError, SolverError
 from ..problem.build import ImpactProblem
-from .mode_system import ModeSystem
+from .mode_system import VELOCITY_ONLY, ModeSystem, check_redundant
 from .pn_complementarity import STICK_COND_MAX, newton_velocity_shift
 
 LAW = "pereira-nikravesh"
@@ -120,7 +120,8 @@ def _multipliers(problem: ImpactProblem, A: list[int], kinds: dict[int, str],
     return sol[:len(A)], sol[len(A):]
 
 
-def _slide(problem: ImpactProblem, A: list[int], kinds: dict[int, str], pi: np.ndarray):
+def _slide(problem: ImpactProblem, A: list[int], kinds: dict[int, str], pi: np.ndarray,
+           redundant: str):
     """The slide tier's derivative for the kinds of the contacts of A ("interior",
     "boundary", "frictionless", "apex", "planar" for eq. (55)'s one-contact slide)."""
     n, d = problem.n_contacts, problem.dim
@@ -139,7 +140,7 @@ def _slide(problem: ImpactProblem, A: list[int], kinds: dict[int, str], pi: np.n
             s = float(np.sign(pi[i * d + 1]))
             S.add(S.velocity(i * d), S.unknown(i * d + 1) - (mu[i] * s) * S.unknown(i * d)
                   - (s * pi[i * d]) * S.friction(i))
-        return S.solve(f"law {LAW!r}, slide tier on contact {i}")
+        return S.solve(f"law {LAW!r}, slide tier on contact {i}", redundant)
     lam, sig = _multipliers(problem, A, kinds, pi)
     bnd = [i for i in A if kinds[i] == "boundary"]
     S = ModeSystem(W, v, e, d, pi, len(A) + len(bnd), np.concatenate([lam, sig]))
@@ -158,7 +159,7 @@ def _slide(problem: ImpactProblem, A: list[int], kinds: dict[int, str], pi: np.n
         else:
             S.slide_on_cone(i, float(mu[i]), 1.0, scol[i], y)
     S.add(*(S.velocity(j * d) for j in A))
-    return S.solve(f"law {LAW!r}, P_N over active set {A}")
+    return S.solve(f"law {LAW!r}, P_N over active set {A}", redundant)
 
 
 def _slide_kinds(problem: ImpactProblem, A: list[int], pi: np.ndarray,
@@ -203,7 +204,8 @@ def _slide_kinds(problem: ImpactProblem, A: list[int], pi: np.ndarray,
     return kinds, notes, flips
 
 
-def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool = False):
+def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool = False, *,
+                               redundant: str = "raise"):
     """Derivative of the ``pereira-nikravesh`` impulse at several contacts with respect to
     ``(W, v_minus, e, mu)`` inside the answer's mode (module docstring).
 
@@ -216,6 +218,11 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
     other_side : bool
         At a mode boundary, also the neighbouring mode's derivative (``.other_side``) where
         the law's answer continues into it.
+    redundant : {"raise", "velocity"}
+        In the slide tier, where redundant contacts leave the impulse non-unique: raise
+        NotSupportedError, or give the minimum-norm derivative of the mode's equations, exact
+        for the velocity (``W dpi``, ``G Jc^T dpi``), stated in ``one_sided``. (The stick
+        tier has the law's own minimum-norm rule and its derivative.)
 
     Returns
     -------
@@ -233,6 +240,7 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
     """
     from ..derivatives.contact import ContactDerivative
 
+    check_redundant(redundant)
     if getattr(result, "law", LAW) != LAW:
         raise ParameterError(f"the result is law {result.law!r}'s, not {LAW!r}'s")
     n, d = problem.n_contacts, problem.dim
@@ -313,8 +321,9 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
     notes += more
     other = None
     if other_side and flips:
-        flipped = {**kinds, **flips}
-        labels = list(reported)
-        other = derivative(_slide(problem, A, flipped, pi), labels,
-                           [s + " (this is the other side)" for s in notes])
-    return derivative(_slide(problem, A, kinds, pi), reported, notes, other)
+        *parts, singular = _slide(problem, A, {**kinds, **flips}, pi, redundant)
+        other = derivative(parts, list(reported),
+                           [s + " (this is the other side)" for s in notes]
+                           + ([VELOCITY_ONLY] if singular else []))
+    *parts, singular = _slide(problem, A, kinds, pi, redundant)
+    return derivative(parts, reported, notes + ([VELOCITY_ONLY] if singular else []), other)
