@@ -178,6 +178,8 @@ def test_cone_laws_mixed_modes_match_finite_differences(law, d):
         names = {"sep": "separating", "stick": "stick", "slide": "slide"}
         assert D.regimes == tuple(names[m] for m in modes)
         assert D.one_sided == () and D.other_side is None
+        assert law_module(law).several_impulse_derivative(P, R, other_side=True).other_side \
+            is None  # no boundary: no other side
         errors = _check_fd(rng, law, M, Jl, dq, e, mu, D, 1e-3 * np.max(np.abs(pi)))
         assert max(errors.values()) <= RTOL, (modes, errors)
 

@@ -45,7 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..conic.paths import APPROACH_RTOL, approaching, impulse_scale
-from ..errors import NotSupportedError, ParameterError
+from ..errors import ParameterError
 from ..problem.build import ImpactProblem
 from .mode_system import VELOCITY_ONLY, ModeSystem, check_redundant
 
@@ -258,5 +258,4 @@ ccp_several = _entry("ccp")
 coulomb_several = _entry("coulomb")
 dissipative_several = _entry("dissipative")
 
-__all__ = ["ccp_several", "coulomb_several", "dissipative_several", "classify",
-           "NotSupportedError"]
+__all__ = ["ccp_several", "coulomb_several", "dissipative_several", "classify"]
