@@ -233,6 +233,80 @@ def test_pereira_nikravesh_slide_tier_matches_finite_differences(d):
     assert max(sizes) > 1
 
 
+def _construct_pn(rng, kinds, d, mu=0.4, e=0.5, sigma=None):
+    """A KKT point of P-N's slide program P_N(A) with the given kinds per contact
+    ("boundary": on the cone with multiplier sigma (mu, -t), "interior", "sep": off A):
+    pi and the cone multipliers s are chosen, the multipliers lambda of ``u_n = 0`` on A
+    solve ``(W (pi - N lambda))_n + v_n = s_n`` with ``v_n = -(W pi)_n / (1 + e)`` (so that
+    ``u_n = 0``), and ``v = s - W (pi - N lambda)`` on A."""
+    n = len(kinds)
+    M, J = _system(rng, n, d)
+    W = J @ np.linalg.solve(M, J.T)
+    A = [i for i, k in enumerate(kinds) if k != "sep"]
+    pi, s = np.zeros(n * d), np.zeros(n * d)
+    for i, k in enumerate(kinds):
+        t, pn = _unit(rng, d - 1), rng.uniform(0.5, 1.5)
+        if k == "boundary":
+            pi[i * d:(i + 1) * d] = np.r_[pn, mu * pn * t]
+            sig = rng.uniform(0.3, 1.0) if sigma is None or i else sigma
+            s[i * d:(i + 1) * d] = sig * np.r_[mu, -t]
+        elif k == "interior":
+            pi[i * d:(i + 1) * d] = np.r_[pn, mu * pn * rng.uniform(0.1, 0.7) * t]
+    nA = [i * d for i in A]
+    Wpi = W @ pi
+    vn = -Wpi[nA] / (1 + e)
+    lam = np.linalg.solve(W[np.ix_(nA, nA)], Wpi[nA] + vn - s[nA])
+    z = pi.copy()
+    z[nA] -= lam
+    v = s - W @ z
+    for i, k in enumerate(kinds):
+        if k == "sep":
+            v[i * d] = rng.uniform(0.5, 1.0)
+    return M, _split(J, n, d), np.linalg.lstsq(J, v, rcond=None)[0], e, mu, pi
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_pereira_nikravesh_slide_program_mixed_kinds(d):
+    """Constructed KKT points of P_N(A) with contacts on their cone's boundary, inside it, and
+    off A: the law's answer (checked), and its derivative against central differences."""
+    rng = np.random.default_rng(80 + d)
+    law = "pereira-nikravesh"
+    for kinds in (["boundary", "interior"], ["boundary", "interior", "sep"],
+                  ["interior", "boundary", "boundary", "sep", "interior"]):
+        M, Jl, dq, e, mu, pi = _construct_pn(rng, kinds, d)
+        P, R = _solve(M, Jl, dq, e, mu, law)
+        assert R.diagnostics.extras["tier"] == "slide"
+        assert np.max(np.abs(R.impulse.ravel() - pi)) <= 1e-9
+        D = law_module(law).several_impulse_derivative(P, R)
+        assert D.one_sided == ()
+        errors = _check_fd(rng, law, M, Jl, dq, e, mu, D, 1e-3 * np.max(np.abs(pi)))
+        assert max(errors.values()) <= RTOL, (kinds, errors)
+
+
+def test_pereira_nikravesh_slide_program_zero_multiplier_is_one_sided():
+    """Contact 0 of P_N(A) on its cone's boundary with a zero multiplier: on one side it
+    stays on the boundary, on the other it moves inside; the derivative is one-sided, its
+    other side the interior kind's, and the one-sided differences match one each."""
+    rng = np.random.default_rng(90)
+    law = "pereira-nikravesh"
+    M, Jl, dq, e, mu, pi = _construct_pn(rng, ["boundary", "boundary", "interior"], 3,
+                                         sigma=0.0)
+    P, R = _solve(M, Jl, dq, e, mu, law)
+    assert R.diagnostics.extras["active_set"] == [0, 1, 2]
+    D = law_module(law).several_impulse_derivative(P, R, other_side=True)
+    assert len(D.one_sided) == 1 and "contact 0" in D.one_sided[0]
+    matched = 0
+    for _ in range(3):
+        direction = rng.standard_normal(dq.size)
+        fwd, bwd, one, two = _one_sided_pair(law, M, Jl, dq, e, mu, D, direction)
+        tol = 1e-4 * max(np.max(np.abs(one)), np.max(np.abs(two)))
+        straight = max(np.max(np.abs(fwd - one)), np.max(np.abs(bwd - two)))
+        crossed = max(np.max(np.abs(fwd - two)), np.max(np.abs(bwd - one)))
+        assert min(straight, crossed) <= tol
+        matched += np.max(np.abs(one - two)) > 1e2 * tol
+    assert matched >= 1
+
+
 @pytest.mark.parametrize("d", [2, 3])
 def test_pereira_nikravesh_one_contact_slide_among_lifting_contacts(d):
     """One approaching contact slides (eq. 55 in the plane, maximal dissipation in space), the
