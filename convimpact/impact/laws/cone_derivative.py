@@ -28,7 +28,8 @@ the neighbouring mode's, all boundary contacts flipped at once):
   (parametrized by the slip, :meth:`~.mode_system.ModeSystem.slide_on_slip`) on the other;
 * the stick limit: pi on the cone's boundary with no slip (``u = 0``): stick | slide;
 * a contact touching at ``v_n- = 0`` with e > 0: the kink of ``b_n = v_n + e min(v_n, 0)``
-  (the derivative given is ``v_n- < 0``'s).
+  (the derivative given is ``v_n- >= 0``'s); for the CCP and the dissipative law, a pressed
+  contact approaching within round-off, which they give no friction of its own.
 
 Redundant contacts (W singular on the pressing contacts, a singular mode system) leave the
 impulse non-unique while the velocity is unique: the engine's choice (the analytic centre of
@@ -182,10 +183,11 @@ def _derivative(problem: ImpactProblem, result, law: str, other_side: bool, redu
                   "max |v-|) and pressed: the law gives it no friction of its own, as it "
                   "would by approaching faster (then its friction acts: the answer jumps); "
                   "one-sided" for i in range(n) if problem.friction[i] > 0.0 and mu[i] == 0.0
-                  and vn[i] < 0.0 and found[i][0] != "separating"]
+                  and vn[i] <= 0.0 and found[i][0] != "separating"]
     if newton:
         notes += [f"contact {i}: touching (v_n- = 0) with e > 0, the kink of Newton's "
-                  "b_n = v_n + e min(v_n, 0): the derivative is that of an approaching contact"
+                  "b_n = v_n + e min(v_n, 0): the derivative is that of a contact not "
+                  "approaching (d b_n / d v_n = 1; approaching, 1 + e)"
                   for i in range(n) if vn[i] == 0.0 and problem.restitution[i] > 0.0
                   and found[i][0] != "separating"]
 

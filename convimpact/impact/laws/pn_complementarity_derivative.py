@@ -274,8 +274,8 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
                              "one-sided" + _NO_OTHER)
         if i in A and problem.v_minus[i, 0] == 0.0 and problem.restitution[i] > 0.0:
             notes.append(f"contact {i}: touching (v_n- = 0) with e > 0, the kink of Newton's "
-                         "b_n = v_n + e min(v_n, 0): the derivative is an approaching "
-                         "contact's")
+                         "b_n = v_n + e min(v_n, 0): the derivative is that of a contact "
+                         "not approaching (d b_n / d v_n = 1; approaching, 1 + e)")
 
     def derivative(parts, regimes, statements, other=None):
         dW, dv, de, dmu = parts
