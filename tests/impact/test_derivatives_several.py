@@ -184,6 +184,23 @@ def test_cone_laws_mixed_modes_match_finite_differences(law, d):
         assert max(errors.values()) <= RTOL, (modes, errors)
 
 
+@pytest.mark.parametrize("law", CONE_LAWS)
+def test_cone_laws_derivative_is_the_same_from_every_method(law):
+    """The derivative depends on the law's answer and mode, not on the method: from the
+    answers of the conic paths (KKT-polished) it equals the interior point's."""
+    rng = np.random.default_rng(110 + CONE_LAWS.index(law))
+    M, Jl, dq, e, mu, _ = _construct(rng, law, ["stick", "slide", "sep", "slide"], 3)
+    P = build_problem(M, Jl, dq, e, mu)
+    ref = law_module(law).several_impulse_derivative(P, solve_problem(P, law,
+                                                                      method="interior"))
+    for method in ("clarabel", "cvxpy"):
+        D = law_module(law).several_impulse_derivative(P, solve_problem(P, law, method=method))
+        assert D.regimes == ref.regimes
+        for name in ("W", "v", "e", "mu"):
+            a, b = getattr(D, name), getattr(ref, name)
+            assert np.max(np.abs(a - b)) <= 1e-7 * max(np.max(np.abs(b)), 1.0), (method, name)
+
+
 def _free_draw(rng, n, d, slip, approach=0.8):
     """A problem drawn freely (no prescribed mode): normal approach, slip of size ``slip``."""
     M, J = _system(rng, n, d, coupling=0.3)
