@@ -58,6 +58,7 @@ from ..errors import SolverError
 from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
+from .cone_derivative import ccp_several as several_impulse_derivative  # noqa: F401
 
 LAW = "ccp"
 #: the SolverError of status NO_SOLUTION: in the plane no boundary ray descends (unreachable
@@ -273,5 +274,3 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     acc = opts.accuracy(sol.polished)
     regimes = regimes_from_slip(P, pi, vplus, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc, extras=extras)
-
-from .cone_derivative import ccp_several as several_impulse_derivative  # noqa: E402,F401
