@@ -58,6 +58,7 @@ from ..errors import SolverError
 from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
+from .cone_derivative import ccp_several as several_impulse_derivative  # noqa: F401
 
 LAW = "ccp"
 #: the SolverError of status NO_SOLUTION: in the plane no boundary ray descends (unreachable

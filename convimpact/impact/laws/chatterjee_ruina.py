@@ -46,6 +46,7 @@ from .algebra import _inverse3, _linsolve3, _solve2
 from .codes import FAILED, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone, _jit
 from ..errors import NotSupportedError
 from ..exact.dispatch import compiled_kernel, coupled, independent_contacts_result
+from .chatterjee_ruina_derivative import several_impulse_derivative  # noqa: F401
 
 LAW = "chatterjee-ruina"
 #: the tangential restitution's admissible range (the law creates energy outside it)

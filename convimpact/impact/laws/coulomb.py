@@ -55,6 +55,7 @@ from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from ..problem.dense import angle_from_slip
 from .coulomb_program import coulomb_fixed_point, coulomb_residual  # noqa: F401 (re-exported)
+from .cone_derivative import coulomb_several as several_impulse_derivative  # noqa: F401
 
 LAW = "coulomb"
 

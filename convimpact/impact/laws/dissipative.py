@@ -29,6 +29,7 @@ from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .ccp import _ccp_planar, _ccp_spatial, _errors, solve_ccp
+from .cone_derivative import dissipative_several as several_impulse_derivative  # noqa: F401
 
 LAW = "dissipative"
 #: ``out`` of the kernels: the plastic impulse (pi_n, pi_t1[, pi_t2]) at [0, 1, 2]

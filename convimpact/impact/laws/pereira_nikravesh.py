@@ -68,6 +68,7 @@ from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from ..problem.dense import angle_from_slip
 from .pn_complementarity import newton_velocity_shift, several_contacts_result, stick_on
+from .pn_complementarity_derivative import several_impulse_derivative  # noqa: F401
 
 LAW = "pereira-nikravesh"
 #: relative distance from the cone boundary below which a P_N optimum counts as "on it"
