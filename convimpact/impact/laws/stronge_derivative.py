@@ -242,10 +242,12 @@ def several_impulse_derivative(problem: ImpactProblem, result: ImpactResult,
     extras = getattr(result.diagnostics, "extras", None) or {}
     formulation = str(extras.get("formulation", ""))
     if coupled(problem) and not formulation.startswith("one approaching contact"):
-        raise NotSupportedError(
-            "law 'stronge' on coupled contacts (the two-phase compression / expansion "
-            "formulation of stronge_contacts) has no derivative; use law 'ccp' or "
-            "'dissipative' for derivatives of several coupled contacts")
+        if not formulation.startswith("compression then expansion"):
+            raise NotSupportedError(
+                "law 'stronge' on coupled contacts: the result does not say how it was "
+                "formed (extras['formulation']); pass the result of solving this problem")
+        from .stronge_contacts_derivative import coupled_derivative
+        return coupled_derivative(problem, result, other_side)
     N = n * d
     out = {k: np.zeros(s) for k, s in (("W", (N, N, N)), ("v", (N, N)), ("e", (N, n)),
                                        ("mu", (N, n)))}
