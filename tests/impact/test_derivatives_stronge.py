@@ -319,6 +319,7 @@ def test_independent_contacts_block_by_block():
     D = several_impulse_derivative(P, solve_problem(P, "stronge"))
     assert D.W.shape == (4, 4, 4) and D.v.shape == (4, 4) and D.e.shape == (4, 2)
     assert D.regimes == ("slip-stick", "slip")
+    assert any("off-diagonal blocks" in t for t in D.one_sided)
     for i, (Wi, vi) in enumerate(((W2, [-1.0, 0.2]), ([[1.5, -0.3], [-0.3, 0.8]],
                                                        [-0.5, 0.3]))):
         sl = slice(2 * i, 2 * i + 2)

@@ -97,8 +97,9 @@ says so). Coupled contacts go to the two-phase formulation of
 :mod:`convimpact.impact.laws.stronge_contacts` (compression by a cone program, expansion by
 Poisson's normal impulses with maximal-dissipation friction; never creates energy).
 
-Derivative. :func:`impulse_derivative` (and :func:`several_impulse_derivative` for
-independent contacts, or one approaching among coupled ones) gives ``d pi / d(W, v-, e, mu)``
+Derivative. :func:`impulse_derivative` (and :func:`several_impulse_derivative`, which also
+differentiates the coupled contacts' two-phase formulation,
+:mod:`convimpact.impact.laws.stronge_contacts_derivative`) gives ``d pi / d(W, v-, e, mu)``
 (:mod:`convimpact.impact.laws.stronge_derivative`): the path re-traced with the kernel's
 decisions, each linear phase's rates and each event differentiated in closed form (the slip
 stop, the end of compression ``v_n = 0``, the end of restitution

@@ -47,6 +47,9 @@ Assumptions and consequences, stated:
   phase), so answers change continuously with the coupling only within each model.
 * Frictionless contacts: the compression is the plastic linear complementarity problem and
   the answer is Poisson's multi-contact law (= Newton's for orthogonal contacts).
+
+Its derivative (phase by phase: Coulomb's plastic compression, then the expansion's KKT
+conditions) is :mod:`convimpact.impact.laws.stronge_contacts_derivative`.
 """
 
 from __future__ import annotations

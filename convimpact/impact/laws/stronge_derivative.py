@@ -40,6 +40,10 @@ A slip that stops exactly at the end of compression is *no* boundary of the impu
 ``p_c(theta)`` has a kink there, but ``W_n(p_c) = min W_n`` is stationary in p, so neither
 ``p_f`` nor ``pi_t`` sees it (both one-sided differences agree; tested).
 
+Several contacts: :func:`several_impulse_derivative` (independent contacts one by one; one
+approaching contact among coupled ones; coupled contacts by
+:mod:`convimpact.impact.laws.stronge_contacts_derivative`).
+
 Accuracy against fourth-order central differences of the public law (step 1e-4; 150 random
 planar and 100 random spatial contacts away from boundaries): planar median 2e-12, 90th
 percentile 6e-12, worst 1e-9; spatial median 1e-11, 90th percentile 9e-11, worst 2e-8 -- the
@@ -227,15 +231,38 @@ def several_impulse_derivative(problem: ImpactProblem, result: ImpactResult,
                                other_side: bool = False) -> ContactDerivative:
     """The derivative of Stronge's impulses at several contacts.
 
-    Exact where the law is: dynamically independent contacts (block-diagonal W, each contact's
-    derivative by :func:`impulse_derivative`'s path, the off-diagonal blocks' derivative that
-    of the independent answer) and one approaching contact whose impulse lifts the others.
+    Per the law's formulation of the answer: dynamically independent contacts (block-diagonal
+    W) contact by contact on :func:`impulse_derivative`'s path; one approaching contact whose
+    impulse lifts the others, that contact's; coupled contacts, the two-phase formulation
+    differentiated phase by phase
+    (:func:`~convimpact.impact.laws.stronge_contacts_derivative.coupled_derivative`).
+
+    Independent contacts: any coupling hands the impulse to the two-phase formulation, which
+    does not reduce to the exact integration as the coupling vanishes -- the impulse jumps.
+    The derivative in W's off-diagonal blocks is therefore the independent model's (zero),
+    stated in ``one_sided``.
+
+    Parameters
+    ----------
+    problem : ImpactProblem
+        The impact (several contacts).
+    result : ImpactResult
+        Its answer under law ``"stronge"`` (any method).
+    other_side : bool
+        At a mode boundary, also the neighbouring mode's derivative (``.other_side``).
+
+    Returns
+    -------
+    ContactDerivative
 
     Raises
     ------
     NotSupportedError
-        for coupled contacts resolved by the two-phase formulation
-        (:mod:`convimpact.impact.laws.stronge_contacts`), whose derivative is not provided.
+        for a coupled two-phase answer whose expansion was scaled down (kappa < 1) or
+        followed by a second plastic compression, or whose compression has redundant
+        contacts.
+    ParameterError
+        when ``result`` is not this problem's answer of law ``"stronge"``.
     """
     from ..exact.dispatch import coupled
     n, d = problem.n_contacts, problem.dim
@@ -269,6 +296,10 @@ def several_impulse_derivative(problem: ImpactProblem, result: ImpactResult,
             tgt["e"][sl, i] = src.e[:, 0]
             tgt["mu"][sl, i] = src.mu[:, 0]
         any_other = any_other or dc.other_side is not None
+    if not coupled(problem):
+        sided.append("independent contacts: the derivative in W's off-diagonal blocks is the "
+                     "independent model's (zero); any coupling switches the law to its "
+                     "two-phase formulation, where the impulse jumps")
     if formulation.startswith("one approaching contact"):
         vp = np.asarray(result.v_plus, dtype=float).reshape(n, d)[:, 0]
         vscale = float(np.max(np.abs(problem.v_minus)))
