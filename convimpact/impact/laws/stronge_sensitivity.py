@@ -75,6 +75,7 @@ class SlipSystem:
         self.vm = np.asarray(v_minus, dtype=float)
         self.mu = float(mu)
         self.Wg = W_grad
+        self.WgT = np.ascontiguousarray(np.transpose(W_grad, (1, 0, 2)))  # (3, m, 3)
         self.vg = v_grad.T  # (3, m)
         self.mug = mu_grad
         self.m = W_grad.shape[0]
@@ -83,7 +84,7 @@ class SlipSystem:
         """v and dv/dtheta (3, m) at the augmented state z (4, 1 + m)."""
         pi = z[:3, 0]
         v = self.vm + self.W @ pi
-        gv = self.W @ z[:3, 1:] + (self.Wg @ pi).T + self.vg
+        gv = self.W @ z[:3, 1:] + self.WgT @ pi + self.vg
         return v, gv
 
     def rhs(self, z):
@@ -97,19 +98,21 @@ class SlipSystem:
         out[3, 0] = r * v[0]
         gr = (vt @ gv[1:]) / r if r > 0.0 else np.zeros(self.m)
         out[0, 1:] = gr
-        out[1:3, 1:] = -self.mu * gv[1:] - np.outer(vt, self.mug)
+        out[1:3, 1:] = -self.mu * gv[1:] - vt[:, None] * self.mug
         out[3, 1:] = gr * v[0] + r * gv[0]
         return out
 
     def step(self, z, f0, h):
         """One DOP853 step of length h: (z_new, the stage slopes (13, 4, 1 + m))."""
-        K = np.empty((_NS + 1,) + z.shape)
-        K[0] = f0
+        shape = z.shape
+        K = np.empty((_NS + 1, z.size))
+        K[0] = f0.ravel()
+        zf = z.ravel()
         for i in range(1, _NS):
-            K[i] = self.rhs(z + h * np.tensordot(_A[i, :i], K[:i], axes=1))
-        z_new = z + h * np.tensordot(_B, K[:_NS], axes=1)
-        K[_NS] = self.rhs(z_new)
-        return z_new, K
+            K[i] = self.rhs((zf + h * (_A[i, :i] @ K[:i])).reshape(shape)).ravel()
+        z_new = (zf + h * (_B @ K[:_NS])).reshape(shape)
+        K[_NS] = self.rhs(z_new).ravel()
+        return z_new, K.reshape((_NS + 1,) + shape)
 
 
 def _error(h, z, z_new, K, scale):
