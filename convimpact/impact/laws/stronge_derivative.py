@@ -48,8 +48,9 @@ Accuracy against fourth-order central differences of the public law (step 1e-4; 
 planar and 100 random spatial contacts away from boundaries): planar median 2e-12, 90th
 percentile 6e-12, worst 1e-9; spatial median 1e-11, 90th percentile 9e-11, worst 2e-8 -- the
 worst cases are the differences' own limit (the law's answer carries ~1e-12 of integration
-noise; their value moves by 1e-8 with the step). Cost: planar ~0.3 ms, spatial ~30 ms (median;
-the variational system has 4 x 12 components), pure Python.
+noise; their value moves by 1e-8 with the step). Cost (pure Python, a loaded 2-core machine):
+planar ~0.4 ms, spatial ~20 ms (median; up to ~0.2 s for stiff slips: the variational system
+has 4 x 12 components and takes the law's 10-300 steps), against ~0.15 ms for the solve.
 """
 
 from __future__ import annotations
