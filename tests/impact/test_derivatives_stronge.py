@@ -486,3 +486,22 @@ def test_units(v):
     np.testing.assert_allclose(Ds.mu, D.mu * b / a, rtol=1e-9, atol=1e-12 * b / a)
     fd = central(a * W, b * np.array(v), 0.6, 0.9, ("W", 0, 1), h=1e-4 * a)
     np.testing.assert_allclose(column(Ds, ("W", 0, 1)), fd, rtol=1e-7)
+
+
+@pytest.mark.parametrize("W, v, mu", [
+    ([[2.0, 0.9], [0.9, 1.0]], [-1.0, -1e-17], 0.3),  # a round-off slip against W_tn
+    ([[2.0, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, 0.0, 2.0]], [-1.0, 0.0, 1e-17], 0.5),
+])
+def test_round_off_pre_impact_slip_is_a_zero_slip(W, v, mu):
+    """A pre-impact slip of 1e-17 (cos / sin round-off) is a zero slip's boundary too: the
+    derivative is one side's (in the plane the round-off slip's sign), the other side the
+    opposite direction's -- as the one-sided differences from exactly zero slip say."""
+    e = 0.5
+    D, _ = derivative(W, v, e, mu, other_side=True)
+    assert any("zero pre-impact slip" in t for t in D.one_sided)
+    zero = [v[0]] + [0.0] * (len(v) - 1)
+    plus, minus = (one_sided(W, zero, e, mu, ("v", 1), sg, 1e-5) for sg in (1, -1))
+    first, second = (minus, plus) if len(v) == 2 else (plus, minus)
+    scale = np.max(np.abs(plus)) + np.max(np.abs(minus))
+    np.testing.assert_allclose(column(D, ("v", 1)), first, atol=1e-6 * scale)
+    np.testing.assert_allclose(column(D.other_side, ("v", 1)), second, atol=1e-6 * scale)

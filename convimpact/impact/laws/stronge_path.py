@@ -14,8 +14,9 @@ from .stronge_sensitivity import SlipSystem, integrate_slip, turn_offset
 from .stronge_slip import JAM_RTOL, STICK_RTOL, STOP_RTOL, _onset
 
 #: the statement of a zero pre-impact slip (dropped when both sides agree)
-ZERO_SLIP = ("zero pre-impact slip: d pi / d v_t is one-sided, the directional derivative "
-             "along +t (each tangent's +direction in space; the other side: along -t)")
+ZERO_SLIP = ("zero pre-impact slip (within round-off): d pi / d v_t is one-sided, the "
+             "directional derivative along +t (each tangent's +direction in space; in the "
+             "plane, along a round-off slip's sign), the other side along the opposite")
 #: two events closer than this (relative to the impulse) are one boundary: the derivative is
 #: one-sided there
 BOUNDARY_RTOL = 1e-9
@@ -267,10 +268,18 @@ class _Path:
         else:
             rest = float(np.linalg.norm(self.vt)) <= STOP_RTOL * vscale
         s0 = not rest
-        if rest and float(np.linalg.norm(self.vt)) == 0.0 and self.mu > 0.0:
+        tiny = float(np.linalg.norm(self.vt)) <= STOP_RTOL * vscale
+        if rest and self.mu > 0.0:
             self.boundary(ZERO_SLIP, True)
             self._zero_slip_start()
-        elif rest:
+        elif tiny and self.mu > 0.0:
+            # a planar slip within round-off of zero: the kernel's path (a vanishing slip) is
+            # the directional derivative along its sign; the mirrored slip's the other side
+            self.boundary(ZERO_SLIP, True)
+            self.zero_slip = True
+            if self.zero_sign < 0.0:
+                self.vt = -self.vt
+        if rest:
             self.vt = np.zeros(self.dt)
         while not self.done:
             if rest:
