@@ -89,7 +89,13 @@ def test_shapes_read_only_and_the_record():
         r.jacobian["new"] = np.zeros(1)
     assert r.derivatives.modes == ("slide",) and r.derivatives.one_sided == ()
     assert r.derivatives.other_jacobian is None
+    d = r.as_dict()  # plain JSON
+    assert np.allclose(d["jacobian"]["dq"], r.jacobian["dq"]) and d["derivatives"]["modes"] == [
+        "slide"]
+    import json
+    json.dumps(d)
     plain = ci.resolve_impact(M, Jc, dq, e=0.4, mu=0.1)
+    assert "jacobian" not in plain.as_dict()
     assert plain.jacobian is None and plain.impulse_jacobian is None and plain.derivatives is None
     np.testing.assert_allclose(r.dq_plus, plain.dq_plus, rtol=1e-13, atol=1e-15)
 

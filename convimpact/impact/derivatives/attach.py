@@ -6,14 +6,13 @@ and the one-sided statements in the diagnostics."""
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Mapping
 
 import numpy as np
 
 from ..errors import NotSupportedError, UnknownOptionError
 from ..laws import TANGENTIAL_LAWS, law_module
-from ..problem.build import ImpactProblem
+from ..problem.build import ImpactProblem, _new
 from ..results import ImpactDerivatives, ImpactResult
 from .chain import impact_jacobians, zero_derivative
 
@@ -77,5 +76,6 @@ def with_derivatives(problem: ImpactProblem, result: ImpactResult, law: str,
     if cd.one_sided:
         diagnostics = diagnostics.with_notes(
             *(f"one-sided derivative: {s}" for s in cd.one_sided))
-    return dataclasses.replace(result, jacobian=jac, impulse_jacobian=ijac,
-                               derivatives=record, diagnostics=diagnostics)
+    # a copy of the frozen result with the derivatives (its fields set as its __init__ would)
+    return _new(type(result), {**vars(result), "jacobian": jac, "impulse_jacobian": ijac,
+                               "derivatives": record, "diagnostics": diagnostics})
