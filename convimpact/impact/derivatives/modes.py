@@ -43,9 +43,17 @@ def n_params(d: int) -> int:
 
 def seeds(d: int):
     """The derivatives of (W, v, e, mu, e_t) with respect to theta: (d, d, P), (d, P), then
-    three (P,) rows."""
-    eye = np.eye(n_params(d))
-    return (eye[:d * d].reshape(d, d, -1), eye[d * d:d * d + d], eye[-3], eye[-2], eye[-1])
+    three (P,) rows (read-only, shared)."""
+    found = _SEEDS.get(d)
+    if found is None:
+        eye = np.eye(n_params(d))
+        eye.flags.writeable = False
+        found = _SEEDS[d] = (eye[:d * d].reshape(d, d, -1), eye[d * d:d * d + d], eye[-3],
+                             eye[-2], eye[-1])
+    return found
+
+
+_SEEDS: dict = {}
 
 
 def contact_derivative(dp: np.ndarray, regime: str, tangential: bool = False,
