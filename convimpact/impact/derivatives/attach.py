@@ -10,7 +10,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import NotSupportedError, UnknownOptionError
+from ..errors import NotSupportedError, SingularSystemError, UnknownOptionError
 from ..laws import TANGENTIAL_LAWS, law_module
 from ..problem.build import ImpactProblem, _new
 from ..results import ImpactDerivatives, ImpactResult
@@ -63,6 +63,10 @@ def with_derivatives(problem: ImpactProblem, result: ImpactResult, law: str,
     both = derivatives == "both"
     cd = law_derivative(problem, result, law, other_side=both)
     jac, ijac = impact_jacobians(problem, result.impulse, cd, scalar)
+    if not all(np.isfinite(a).all() for a in jac.values()):
+        raise SingularSystemError(
+            f"law {law!r}: the derivative of this impact is not finite (a singular or "
+            "degenerate mode, or units beyond double precision's range); it is not returned")
     other = cd.other_side if both else None
     if other is not None:
         at = result.impulse if other.impulse is None else other.impulse
