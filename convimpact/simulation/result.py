@@ -203,13 +203,17 @@ class SimulationResult:
         gives one entry of ``warnings``.
     state_transition : (2k, 2k) ``dx(t_final)/dx(t_0)``, x = (theta, theta_dot), with
         ``simulate(..., sensitivities=True)`` (the monodromy matrix of a periodic orbit);
-        else None. t_final is the last sample's time (``t[-1]``).
+        else None. t_final is the run's last instant (the span's end unless it stopped
+        early), x(t_0) the state given (before the contacts touching at t_0 are closed).
     parameter_sensitivity : {"e": (2k, n_contacts), "mu": (2k, n_contacts)}: the derivatives
         of x(t_final) with respect to each contact's restitution and friction coefficients
         (columns in the order of ``contact_names``), with ``sensitivities=True``; else empty.
     event_sensitivities : one :class:`~convimpact.simulation.saltation.EventSensitivity`
         per event instant (impacts, lift-offs, stick/slip transitions, the start), in time
         order, with ``sensitivities=True``; else empty.
+    sensitivity_series : with ``sensitivities=True`` and ``t_eval``: {"t": (n,), "state":
+        (n, 2k, 2k) dx(t)/dx(t_0), "e", "mu": (n, 2k, n_contacts) dx(t)/d(e, mu)} at the
+        samples (right-continuous at events, like the series); else empty.
     """
 
     t: np.ndarray
@@ -247,6 +251,8 @@ class SimulationResult:
     parameter_sensitivity: Mapping[str, np.ndarray] = field(
         default_factory=lambda: MappingProxyType({}))
     event_sensitivities: tuple = ()
+    sensitivity_series: Mapping[str, np.ndarray] = field(
+        default_factory=lambda: MappingProxyType({}))
 
     def modes_of(self, contact: str) -> tuple[ModeInterval, ...]:
         """The mode timeline of one contact."""

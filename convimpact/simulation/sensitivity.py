@@ -27,6 +27,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from .canonical import CanonicalEquations
+from .result import PiecewiseSolution
 from .saltation import (EventSensitivity, ResetStep, event_sensitivity, impact_step,
                         impact_jacobian_by_differences, projection_step)
 from .variational import interval_flow, lift, physical, to_physical
@@ -97,36 +98,57 @@ class SensitivityTracking:
 
     # ---- the final sensitivities -------------------------------------------------------------
     def final_sensitivities(self) -> dict[str, Any]:
-        """``state_transition``, ``parameter_sensitivity`` and ``event_sensitivities`` of the
-        run (empty when not tracking)."""
+        """``state_transition``, ``parameter_sensitivity``, ``event_sensitivities`` and (with
+        ``t_eval``) ``sensitivity_series`` of the run; empty when not tracking."""
         if not self.tracking:
             return {}
         o, k, n = self.opts, self.k, len(self.contacts)
         Phi = np.eye(2 * k)
         d_e = np.zeros((2 * k, n))
         d_mu = np.zeros((2 * k, n))
+        samples = (np.zeros(0) if o.t_eval is None
+                   else np.asarray(o.t_eval, float)[np.asarray(o.t_eval) <= self.t])
+        series: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = []
         t_a, y_a, eq_a = o.t0, self.y_initial, self.eq_initial
-        ends = [(t, ym, eqm, yp, eqp, rec) for t, ym, eqm, yp, eqp, rec in self.instants]
-        ends.append((self.t, self.y, self.eq, None, None, None))
-        for t_b, y_b, eq_b, y_plus, eq_plus, rec in ends:
+        ends = list(self.instants) + [(self.t, self.y, self.eq, None, None, None)]
+        for t_b, y_b, _, y_plus, eq_plus, rec in ends:
+            last = rec is None
+            inside = samples[(samples >= t_a) & ((samples <= t_b) if last else (samples < t_b))]
             segs = [s for s in self.segments if s[0] >= t_a and s[1] <= t_b and s[1] > s[0]]
-            flow, flow_mu = interval_flow(eq_a, segs, t_a, t_b, self.contacts, o.solver_cls,
-                                          o.rtol, o.atol)
+            flow, flow_mu, at = interval_flow(eq_a, segs, t_a, t_b, self.contacts,
+                                              o.solver_cls, o.rtol, o.atol, inside)
+            L_a = lift(self.mech, physical(eq_a, y_a))
+            if len(inside):
+                sol = PiecewiseSolution(segs) if segs else None
+                for t, (F_y, F_mu) in zip(inside, at):
+                    y_t = y_a if (t == t_a or sol is None) else (y_b if t == t_b else sol(t))
+                    T_t = to_physical(eq_a, y_t)
+                    step = T_t @ F_y @ L_a
+                    series.append((float(t), step @ Phi, step @ d_e,
+                                   step @ d_mu + T_t @ F_mu))
             T_b = to_physical(eq_a, y_b)
-            step = T_b @ flow @ lift(self.mech, physical(eq_a, y_a))
+            step = T_b @ flow @ L_a
             Phi = step @ Phi
             d_e = step @ d_e
             d_mu = step @ d_mu + T_b @ flow_mu
-            if rec is None:
+            if last:
                 break
             S = rec.saltation
             Phi = S @ Phi
             d_e = S @ d_e + rec.parameter_jump["e"]
             d_mu = S @ d_mu + rec.parameter_jump["mu"]
             t_a, y_a, eq_a = t_b, y_plus, eq_plus
-        return {"state_transition": Phi,
-                "parameter_sensitivity": MappingProxyType({"e": d_e, "mu": d_mu}),
-                "event_sensitivities": tuple(rec for *_, rec in self.instants)}
+        out: dict[str, Any] = {
+            "state_transition": Phi,
+            "parameter_sensitivity": MappingProxyType({"e": d_e, "mu": d_mu}),
+            "event_sensitivities": tuple(rec for *_, rec in self.instants)}
+        if o.t_eval is not None:
+            out["sensitivity_series"] = MappingProxyType({
+                "t": np.array([s[0] for s in series]),
+                "state": np.array([s[1] for s in series]).reshape(-1, 2 * k, 2 * k),
+                "e": np.array([s[2] for s in series]).reshape(-1, 2 * k, n),
+                "mu": np.array([s[3] for s in series]).reshape(-1, 2 * k, n)})
+        return out
 
 
 __all__ = ["SensitivityTracking"]

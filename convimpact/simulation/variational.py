@@ -133,17 +133,20 @@ def friction_rate(eq: CanonicalEquations, t: float, y: np.ndarray,
 
 
 def interval_flow(eq: CanonicalEquations, segments: Sequence, t_a: float, t_b: float,
-                  contacts: Sequence[str], solver_cls, rtol: float,
-                  atol: float) -> tuple[np.ndarray, np.ndarray]:
+                  contacts: Sequence[str], solver_cls, rtol: float, atol: float,
+                  times: np.ndarray | None = None):
     """The variational equations over one event-free interval [t_a, t_b].
 
     ``segments`` are the run's accepted steps ``(t_old, t_new, interpolant)`` inside the
-    interval. Returns ``(Phi, S_mu)``: ``dy(t_b)/dy(t_a)`` (2k x 2k) and the response of
-    y(t_b) to the friction coefficients from a zero start (2k x n_contacts).
+    interval. Returns ``(Phi, S_mu, at)``: ``dy(t_b)/dy(t_a)`` (2k x 2k), the response of
+    y(t_b) to the friction coefficients from a zero start (2k x n_contacts), and the same
+    pair at each of ``times`` (within [t_a, t_b]) as a list.
     """
     n2, nc = 2 * eq.k, len(contacts)
+    times = np.zeros(0) if times is None else np.asarray(times, float)
     if t_b <= t_a or not segments:
-        return np.eye(n2), np.zeros((n2, nc))
+        same = (np.eye(n2), np.zeros((n2, nc)))
+        return same[0], same[1], [same] * len(times)
     sol = PiecewiseSolution(segments)
     sliding = bool(eq.slipping)
 
@@ -157,15 +160,18 @@ def interval_flow(eq: CanonicalEquations, segments: Sequence, t_a: float, t_b: f
         return out.ravel()
 
     z0 = np.hstack([np.eye(n2), np.zeros((n2, nc))]).ravel()
-    method = solver_cls if solver_cls.__name__ in ("DOP853", "RK45", "RK23", "Radau") else "DOP853"
-    r = solve_ivp(rhs, (t_a, t_b), z0, method=method, rtol=max(rtol, VAR_RTOL),
-                  atol=max(atol, 1e-2 * VAR_RTOL))
+    r = solve_ivp(rhs, (t_a, t_b), z0, method=solver_cls, rtol=max(rtol, VAR_RTOL),
+                  atol=max(atol, 1e-2 * VAR_RTOL), dense_output=bool(len(times)))
     if not r.success:
         from ..impact.errors import SimulationError
         raise SimulationError(f"the variational equations failed on [{t_a:.9g}, {t_b:.9g}]: "
                               f"{r.message}")
     Z = r.y[:, -1].reshape(n2, n2 + nc)
-    return Z[:, :n2], Z[:, n2:]
+    at = []
+    for t in times:
+        Zt = r.sol(float(t)).reshape(n2, n2 + nc) if t < t_b else Z
+        at.append((Zt[:, :n2], Zt[:, n2:]))
+    return Z[:, :n2], Z[:, n2:], at
 
 
 __all__ = ["FD_STEP", "central_jacobian", "central_derivative", "quiet_rhs", "with_friction",
