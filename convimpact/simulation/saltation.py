@@ -173,6 +173,8 @@ def impact_jacobian_by_differences(M, J, dq, e, mu, C, **kwargs) -> dict[str, np
     from ..impact import resolve_impact
 
     def dq_plus(M_, J_, dq_, e_, mu_, C_):
+        if C_ is not None:  # the admissible part of dq (C dq = 0), as the run's velocities
+            dq_ = project_onto(M_, np.asarray(C_, float), dq_)
         return np.asarray(resolve_impact(M_, J_, dq_, e_, mu_, C_, **kwargs).dq_plus, float)
 
     M = np.asarray(M, float)

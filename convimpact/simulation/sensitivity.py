@@ -62,8 +62,7 @@ class SensitivityTracking:
         """Keep the jacobian of one ``resolve_impact`` call (differenced when the law's
         result carries none)."""
         if self.tracking and getattr(result, "jacobian", None) is None:
-            self.fd_jacobians[id(result)] = impact_jacobian_by_differences(
-                M, J, dq, e, mu, C, **kwargs)
+            self.fd_jacobians[id(result)] = (M, J, dq, e, mu, C, kwargs)
 
     def track_impact(self, result, th: np.ndarray, closing: Sequence[str],
                      constraint: Callable[[np.ndarray], np.ndarray] | None,
@@ -73,7 +72,8 @@ class SensitivityTracking:
             cols = [self.contact_at[c] for c in closing]
             jac = getattr(result, "jacobian", None)
             if jac is None:
-                jac = self.fd_jacobians.pop(id(result))
+                M, J, dq, e, mu, C, kwargs = self.fd_jacobians.pop(id(result))
+                jac = impact_jacobian_by_differences(M, J, dq, e, mu, C, **kwargs)
             self.fd_jacobians.clear()
             self.reset_steps.append(impact_step(self.mech, jac, th, closing, constraint,
                                                 cols, len(self.contacts), plastic))
