@@ -29,7 +29,7 @@ import numpy as np
 from .canonical import CanonicalEquations
 from .result import PiecewiseSolution
 from .saltation import EventSensitivity, ResetStep, event_sensitivity, impact_step, projection_step
-from .variational import interval_flow, lift, physical, to_physical
+from .variational import interval_flow, lift, to_physical
 
 
 class SensitivityTracking:
@@ -105,7 +105,7 @@ class SensitivityTracking:
             segs = [s for s in self.segments if s[0] >= t_a and s[1] <= t_b and s[1] > s[0]]
             flow, flow_mu, at = interval_flow(eq_a, segs, t_a, t_b, self.contacts,
                                               o.solver_cls, o.rtol, o.atol, inside)
-            L_a = lift(self.mech, physical(eq_a, y_a))
+            L_a = lift(eq_a, y_a)
             if len(inside):
                 sol = PiecewiseSolution(segs) if segs else None
                 for t, (F_y, F_mu) in zip(inside, at):
