@@ -48,8 +48,9 @@ class EventSensitivity:
     Attributes
     ----------
     time : the instant.
-    kind : "impact", "lift-off", "stick-slip", "slip-stick", "touch" (a contact found
-        closing at rest), "start" (the contacts touching at t0, a fixed instant) or "mode".
+    kind : "impact", "lift-off", "stick-slip", "slip-stick", "slip-reversal", "touch" (a
+        contact found closing at rest), "start" (the contacts touching at t0, a fixed
+        instant) or "mode" (a margin reached zero and the force problem kept the modes).
     contacts : the contact whose switching function located the event (the impacting
         contacts for an impact); empty at the start.
     switching : what that function is ("gap", "normal force", "friction margin", "slip
@@ -273,6 +274,11 @@ def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEq
     kind, who, description, g, g_mu = switching_function(mech, eq_minus, t, y_minus, trigger)
     if impacted and kind != "start":
         kind, who = "impact", tuple(impacted)
+    elif who and kind in ("slip-stick", "stick-slip", "lift-off"):
+        after = eq_plus.modes.get(who[0])
+        kind = ("lift-off" if after is None else "slip-stick" if after.kind == "stick"
+                else "slip-reversal" if kind == "slip-stick" else "stick-slip"
+                if kind == "stick-slip" else "mode")
     rate_m = physical_rate(eq_minus, t, y_minus)
     rate_p = physical_rate(eq_plus, t, y_plus)
     S, jump_e, jump_mu = X.copy(), Xe, Xm.copy()

@@ -208,6 +208,51 @@ def test_rocking_block_matches_finite_differences_along_its_pivoting_motion(e):
         assert_close(res.parameter_sensitivity["e"].sum(axis=1), fd_e, rtol=1e-6)
 
 
+# ---- a rod falling over on a rough floor: stick -> slip, then a slip reversal --------------------
+def falling_rod(mu: float = 0.3, tilt: float = 80.0):
+    """A uniform rod (1 m, 1 kg) standing on its end on the floor, tilted ``tilt`` degrees
+    from the horizontal, released from rest: it pivots on its sticking end until the friction
+    it needs exceeds mu times the normal force, then the end slides (and later reverses)."""
+    from convimpact.model import Joint, ModelBuilder, place_resting
+
+    b = ModelBuilder(planar=True)
+    b.add_body("rod", "ground", Joint.free(), 1.0, (0.0, 0.0), 1.0 / 12.0, joint_name="float",
+               coordinate_names=["x", "y", "phi"])
+    b.add_contact("base", body="rod", point=(-0.5, 0.0), normal=(0.0, 1.0),
+                  plane_point=(0.0, 0.0), e=0.0, mu=mu)
+    mech = b.build().mechanism()
+    phi = np.radians(tilt)
+    guess = np.array([0.5 * np.cos(phi), 0.5 * np.sin(phi), phi])
+    return mech, place_resting(mech, guess, ["base"], fixed=["phi"])
+
+
+def test_falling_rod_stick_slip_and_slip_reversal_match_finite_differences():
+    """Stick -> slip is located on the friction-cone margin mu lambda_n - |lambda_t|, which
+    depends on mu: the parameter jump's g_mu term is checked by the mu column. The
+    accelerations are continuous at the onset, so S is the identity on the admissible
+    directions (a rate about the sticking end, say)."""
+    span = (0.0, 0.7)
+    mech, th0 = falling_rod()
+    res = simulate(mech, span, (th0, np.zeros(3)), sensitivities=True, **TIGHT)
+    kinds = [ev.kind for ev in res.event_sensitivities]
+    assert kinds == ["start", "stick-slip", "slip-reversal"]
+    onset = res.event_sensitivities[1]
+    assert onset.switching == "friction margin" and onset.contacts == ("base",)
+    th_onset = res.theta[np.searchsorted(res.t, onset.time)]
+    turn = np.r_[0.0, 0.0, 0.0, np.linalg.svd(mech.contact_jacobian("base", th_onset))[2][-1]]
+    np.testing.assert_allclose(onset.saltation @ turn, turn, atol=1e-7)
+    d_tilt = (falling_rod(tilt=80.0 + H)[1] - falling_rod(tilt=80.0 - H)[1]) / (2 * H)
+    about_end = np.linalg.svd(mech.contact_jacobian("base", th0))[2][-1]
+    Phi = res.state_transition
+
+    def run(mu=0.3, tilt=80.0, rate=0.0):
+        m, th = falling_rod(mu, tilt)
+        return final_state(simulate(m, span, (th, rate * about_end), **TIGHT))
+    assert_close(Phi[:, :3] @ d_tilt, (run(tilt=80.0 + H) - run(tilt=80.0 - H)) / (2 * H))
+    assert_close(Phi[:, 3:] @ about_end, (run(rate=H) - run(rate=-H)) / (2 * H))
+    assert_close(res.parameter_sensitivity["mu"][:, 0], (run(mu=0.3 + H) - run(mu=0.3 - H)) / (2 * H))
+
+
 # ---- the box sliding to rest: the slip -> stick transition ---------------------------------------
 def test_box_sliding_to_rest_matches_the_closed_form_and_its_stop_saltation():
     """The box decelerates at mu g and stops at x0 + v0^2/(2 mu g) (then sticks): at the end
