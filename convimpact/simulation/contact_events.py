@@ -13,7 +13,7 @@ from typing import Any, Collection, Mapping, Sequence
 import numpy as np
 
 from ..impact import resolve_impact
-from ..impact.errors import ConvImpactError, PainleveError, SimulationError
+from ..impact.errors import ConvImpactError, NotSupportedError, PainleveError, SimulationError
 from ..impact.results import ImpactResult
 from .canonical import CanonicalEquations
 from .force_solver import solve_contact_forces
@@ -115,6 +115,10 @@ class ContactEvents:
         except ConvImpactError as exc:
             exc.add_note(f"(while resolving the impact of {', '.join(closing)} at "
                          f"t = {t:.9g} in convimpact.simulation.simulate)")
+            if o.sensitivities and isinstance(exc, NotSupportedError):
+                exc.add_note("(sensitivities=True differentiates every impact with "
+                             "resolve_impact(..., derivatives=True); the run without "
+                             "sensitivities does not need the law's derivative)")
             raise
         finally:
             spent = _time.perf_counter() - t_start
