@@ -263,6 +263,19 @@ def switching_function(mech, eq: CanonicalEquations, t: float, y: np.ndarray,
     return "mode", (), "none", None, None
 
 
+def _transition(located: str, after) -> str:
+    """The name of a held contact's transition from what located it ("slip-stick": its slip
+    velocity, "stick-slip": its friction margin, "lift-off": its normal force) and its mode
+    after the event (None: released); "mode" when the force problem kept the mode."""
+    if after is None:
+        return "lift-off"
+    if located == "slip-stick":
+        return "slip-stick" if after.kind == "stick" else "slip-reversal"
+    if located == "stick-slip" and after.kind == "slip":
+        return "stick-slip"
+    return "mode"
+
+
 def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEquations,
                       y_plus: np.ndarray, eq_plus: CanonicalEquations, trigger,
                       steps: Sequence[ResetStep], contacts: Sequence[str],
@@ -275,10 +288,7 @@ def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEq
     if impacted and kind != "start":
         kind, who = "impact", tuple(impacted)
     elif who and kind in ("slip-stick", "stick-slip", "lift-off"):
-        after = eq_plus.modes.get(who[0])
-        kind = ("lift-off" if after is None else "slip-stick" if after.kind == "stick"
-                else "slip-reversal" if kind == "slip-stick" else "stick-slip"
-                if kind == "stick-slip" else "mode")
+        kind = _transition(kind, eq_plus.modes.get(who[0]))
     rate_m = physical_rate(eq_minus, t, y_minus)
     rate_p = physical_rate(eq_plus, t, y_plus)
     S, jump_e, jump_mu = X.copy(), Xe, Xm.copy()
