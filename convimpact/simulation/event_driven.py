@@ -461,6 +461,8 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
         warnings += tuple(f"{note} (at {count} mode selection{'s' if count > 1 else ''} from "
                           f"t = {t0:.9g})" for note, (t0, count) in self.force_notes.items())
         n, d = len(rows["t"]), self.d
+        sensitivities = self.final_sensitivities()
+        warnings += self.sensitivity_warnings
         res = SimulationResult(
             **series_from_rows(rows, self.k, self.m), held=np.array(rows["held"], dtype=int),
             impacts=tuple(self.impacts), contact_events=tuple(self.contact_events),
@@ -473,7 +475,7 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
             contact_force=np.array(rows["force"], float).reshape(n, len(self.contacts), d),
             mode_intervals=self.modes.intervals(self.t), painleve=tuple(self.painleve),
             friction_dissipation=np.array(rows["friction"], float), law_flags=flag_counts,
-            **self.final_sensitivities())
+            **sensitivities)
         if self.painleve_error is not None:
             self.painleve_error.result = res
             raise self.painleve_error

@@ -72,6 +72,10 @@ class EventSensitivity:
     parameter_sensitivity : {"e", "mu": (2k, n_contacts)} ``dx(tau+)/d(e, mu)``, likewise.
     time_sensitivity : {"state": (2k,), "e", "mu": (n_contacts,)}: ``d tau / dx(t_0)`` and
         ``d tau / d(e, mu)``, the event time's derivatives (a stride's period's, say).
+    one_sided : statements, empty when the derivatives are two-sided: an impact law's mode
+        boundary (``ImpactResult.derivatives.one_sided``: the derivative is that of the mode
+        the answer is in), or a grazing event (``g_x x_dot-`` nearly zero: the saltation
+        matrix is ill-conditioned).
     """
 
     time: float
@@ -91,10 +95,15 @@ class EventSensitivity:
         default_factory=lambda: MappingProxyType({}))
     time_sensitivity: Mapping[str, np.ndarray] = field(
         default_factory=lambda: MappingProxyType({}))
+    one_sided: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view."""
         return {k: _jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
+
+
+#: |g_x . x_dot-| below this fraction of |g_x| |x_dot-|: a grazing event
+GRAZING = 1e-6
 
 
 # ---- the reset map's steps: theta_dot_out = F(theta, theta_dot_in, e, mu) ----------------------
@@ -296,7 +305,7 @@ def _transition(located: str, after) -> str:
 def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEquations,
                       y_plus: np.ndarray, eq_plus: CanonicalEquations, trigger,
                       steps: Sequence[ResetStep], contacts: Sequence[str],
-                      impacted: Sequence[str]) -> EventSensitivity:
+                      impacted: Sequence[str], notes: Sequence[str] = ()) -> EventSensitivity:
     """The :class:`EventSensitivity` of one event instant (see the module docstring)."""
     k = eq_minus.k
     n = len(contacts)
@@ -315,6 +324,10 @@ def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEq
         x_m = physical(eq_minus, y_minus)
         g_x = central_jacobian(lambda v: np.array([g(v)]), x_m)[0]
         denom = float(g_x @ rate_m)
+        if abs(denom) <= GRAZING * float(np.linalg.norm(g_x) * np.linalg.norm(rate_m)):
+            notes = tuple(notes) + (
+                f"grazing {description} of {', '.join(who)}: g_x . x_dot- = {denom:.3g} (the "
+                "event's time and saltation matrix are ill-conditioned)",)
         if denom != 0.0:
             w = rate_p - X @ rate_m
             S = X + np.outer(w, g_x) / denom
@@ -329,7 +342,8 @@ def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEq
         time=float(t), kind=kind, contacts=tuple(who), switching=description, saltation=S,
         reset_jacobian=X, parameter_jump=MappingProxyType({"e": jump_e, "mu": jump_mu}),
         time_gradient=grad, rate_minus=rate_m, rate_plus=rate_p,
-        parameter_time_gradient=MappingProxyType({"e": np.zeros(n), "mu": tau_mu}))
+        parameter_time_gradient=MappingProxyType({"e": np.zeros(n), "mu": tau_mu}),
+        one_sided=tuple(notes))
 
 
 __all__ = ["EventSensitivity", "ResetStep", "projection_step", "impact_step", "compose",

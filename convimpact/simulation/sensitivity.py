@@ -45,7 +45,9 @@ class SensitivityTracking:
         self.eq_initial = self.eq
         self.trigger: tuple[str, str] | None = None
         self.reset_steps: list[ResetStep] = []
+        self.boundary_notes: list[str] = []
         #: (t, y-, eq-, y+, eq+, EventSensitivity) per event instant
+        self.sensitivity_warnings: tuple[str, ...] = ()
         self.instants: list[tuple[float, np.ndarray, CanonicalEquations, np.ndarray,
                                   CanonicalEquations, EventSensitivity]] = []
 
@@ -64,6 +66,9 @@ class SensitivityTracking:
         ``resolve_impact(..., derivatives=True)``)."""
         if self.tracking:
             cols = [self.contact_at[c] for c in closing]
+            record = getattr(result, "derivatives", None)
+            for note in (record.one_sided if record is not None else ()):
+                self.boundary_notes.append(f"impact of {', '.join(closing)}: {note}")
             self.reset_steps.append(impact_step(self.mech, result, th, dq, closing,
                                                 constraint, cols, len(self.contacts), plastic))
 
@@ -75,13 +80,15 @@ class SensitivityTracking:
             return
         impacted = tuple(dict.fromkeys(c for ev in self.impacts[n_impacts:] for c in ev.contacts))
         rec = event_sensitivity(self.mech, t, y_minus, eq_minus, self.y, self.eq,
-                                self.trigger, self.reset_steps, self.contacts, impacted)
+                                self.trigger, self.reset_steps, self.contacts, impacted,
+                                self.boundary_notes)
         for i in range(n_impacts, len(self.impacts)):
             self.impacts[i] = replace(self.impacts[i], saltation=rec.saltation)
         for i in range(n_contact_events, len(self.contact_events)):
             self.contact_events[i] = replace(self.contact_events[i], saltation=rec.saltation)
         self.instants.append((t, y_minus.copy(), eq_minus, self.y.copy(), self.eq, rec))
         self.reset_steps = []
+        self.boundary_notes = []
         self.trigger = None
 
     # ---- the final sensitivities -------------------------------------------------------------
@@ -137,6 +144,16 @@ class SensitivityTracking:
                 parameter_sensitivity=MappingProxyType(
                     {"e": d_e + np.outer(v, tau["e"]), "mu": d_mu + np.outer(v, tau["mu"])}),
                 time_sensitivity=MappingProxyType(tau)))
+        # a frictionless contact's derivative in mu is right-sided by nature (mu >= 0): kept
+        # on the records, not warned about
+        flagged = [(ev, [s for s in ev.one_sided if not s.split(": ", 1)[-1].startswith(
+            "mu = 0")]) for ev in done]
+        flagged = [(ev, notes) for ev, notes in flagged if notes]
+        if flagged:
+            self.sensitivity_warnings = (
+                f"sensitivities: {len(flagged)} event(s) with one-sided or ill-conditioned "
+                f"derivatives, the first at t = {flagged[0][0].time:.9g}: "
+                f"{flagged[0][1][0]} (see event_sensitivities[i].one_sided)",)
         out: dict[str, Any] = {
             "state_transition": Phi,
             "parameter_sensitivity": MappingProxyType({"e": d_e, "mu": d_mu}),

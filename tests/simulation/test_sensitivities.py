@@ -199,6 +199,7 @@ def test_spinning_rod_bouncing_on_its_ends_matches_finite_differences():
     span = (0.0, 0.7)
     res = simulate(scene, span, sensitivities=True, **TIGHT)
     assert [ev.contacts for ev in res.impacts] == [("end_a",), ("end_b",), ("end_a",)]
+    assert not any(ev.one_sided for ev in res.event_sensitivities)
     assert_close(res.state_transition, fd_state(scene, span, np.eye(6), **TIGHT))
     sens = {name: res.parameter_sensitivity[name] for name in ("e", "mu")}
     assert sens["e"].shape == (6, 2)  # one column per contact (end_a, end_b)
@@ -288,6 +289,15 @@ def test_falling_rod_stick_slip_and_slip_reversal_match_finite_differences():
     assert_close(Phi[:, :3] @ d_tilt, (run(tilt=80.0 + H) - run(tilt=80.0 - H)) / (2 * H))
     assert_close(Phi[:, 3:] @ about_end, (run(rate=H) - run(rate=-H)) / (2 * H))
     assert_close(res.parameter_sensitivity["mu"][:, 0], (run(mu=0.3 + H) - run(mu=0.3 - H)) / (2 * H))
+
+
+def test_rod_dropped_from_rest_says_its_first_impact_is_one_sided():
+    """Dropped from rest the rod's end hits with zero slip, where the sliding impact's
+    tangent -sgn(v_t-) jumps: the derivative exists on each side only, and the run says so."""
+    res = simulate(bouncing_rod.make_scene(), (0.0, 0.45), sensitivities=True)
+    first = res.event_sensitivities[0]
+    assert first.kind == "impact" and first.one_sided  # the law's statement of the boundary
+    assert any(w.startswith("sensitivities: 1 event(s) with one-sided") for w in res.warnings)
 
 
 # ---- the box sliding to rest: the slip -> stick transition ---------------------------------------
