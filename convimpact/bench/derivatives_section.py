@@ -4,9 +4,11 @@ differentiates, and against central finite differences (time and accuracy).
 For every law with a single-contact derivative, planar and spatial (k = 6 joint coordinates, a
 random SPD M and contact Jacobian, seed from the config), in its stick and slide modes (mu
 chosen per mode, the regime reached recorded), three calls are timed
-(:func:`convimpact.bench.timing.time_call`, medians over the config's batches):
+(:func:`timed`: the median process CPU time per call over the config's batches of at least
+20 ms; the machine is shared, and the wall time, recorded too, also counts the other
+processes' turns):
 
-* ``solve``: ``resolve_impact(...)``, the answer alone;
+* ``solve``: ``resolve_impact(...)``, the answer alone (its compiled lane);
 * ``solve + derivatives``: ``resolve_impact(..., derivatives=True)``, the answer and every
   jacobian (dq, M, Jc, e, mu; e_t for chatterjee-ruina) of dq+ and of the impulse;
 * ``central FD``: the same jacobians of dq+ by central differences of the public call
@@ -20,23 +22,31 @@ eps / h, sets it: about 1e-9 to 1e-10 is what they can show).
 
 from __future__ import annotations
 
+import math
+import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .registry import BenchConfig, Progress, SectionResult, register_section
-from .timing import time_call
+from .timing import MAX_INNER
 
 LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge", "chatterjee-ruina")
 #: joint coordinates of the measured impacts
 K = 6
+#: larger systems, measured for a few laws and modes: the finite differences' call count
+#: grows as k^2 / 2 (M's symmetric pairs), the analytic jacobian's cost slowly
+LARGE_K = 24
+LARGE = (("pereira-nikravesh", 3, "slide"), ("ccp", 3, "slide"), ("coulomb", 2, "stick"))
 #: mu per mode (the regime reached is recorded: a random W may stick or slide elsewhere)
 MODE_MU = {"slide": 0.1, "stick": 3.0}
 E = 0.4
 E_T = 0.3
 REL_STEP = 1e-6
 PATHS = ("solve", "solve + derivatives", "central FD")
+#: shortest timed batch (full, quick), seconds
+BATCH_TIME = {False: 0.02, True: 0.005}
 
 
 def problem(seed: int, d: int, k: int = K) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -49,6 +59,26 @@ def problem(seed: int, d: int, k: int = K) -> tuple[np.ndarray, np.ndarray, np.n
     v = np.concatenate(([-1.0], rng.normal(size=d - 1)))
     dq = np.linalg.lstsq(Jc, v, rcond=None)[0]
     return 0.5 * (M + M.T), Jc, dq
+
+
+def timed(fn, repeat: int, batch_time: float) -> tuple[dict[str, float], Any]:
+    """Median process CPU time and wall time per call of ``fn`` over ``repeat`` batches of
+    about ``batch_time`` seconds each, after a warm-up call. CPU time is the section's measure:
+    on a shared machine the wall time also counts the other processes' turns."""
+    value = fn()
+    t = time.perf_counter()
+    value = fn()
+    n_inner = int(min(MAX_INNER, max(1, math.ceil(batch_time / max(
+        time.perf_counter() - t, 1e-9)))))
+    cpu, wall = [], []
+    for _ in range(max(1, repeat)):
+        c, w = time.process_time(), time.perf_counter()
+        for _ in range(n_inner):
+            value = fn()
+        cpu.append((time.process_time() - c) / n_inner)
+        wall.append((time.perf_counter() - w) / n_inner)
+    return {"cpu": float(np.median(cpu)), "wall": float(np.median(wall)),
+            "n_inner": n_inner}, value
 
 
 def fd_jacobian(call, M, Jc, dq, e, mu, e_t) -> dict[str, np.ndarray]:
@@ -106,13 +136,14 @@ def deviations(jac, fd) -> dict[str, float]:
     return out
 
 
-def measure(law: str, d: int, mode: str, config: BenchConfig) -> dict[str, Any] | None:
+def measure(law: str, d: int, mode: str, config: BenchConfig,
+            k: int = K) -> dict[str, Any] | None:
     import convimpact as ci
     from convimpact.impact.laws import TANGENTIAL_LAWS, law_module
 
     if getattr(law_module(law), "impulse_derivative", None) is None:
         return None
-    M, Jc, dq = problem(config.seed, d)
+    M, Jc, dq = problem(config.seed, d, k)
     e_t = E_T if law in TANGENTIAL_LAWS else None
     mu = MODE_MU[mode]
 
@@ -122,21 +153,24 @@ def measure(law: str, d: int, mode: str, config: BenchConfig) -> dict[str, Any] 
     def dq_plus(M_, Jc_, dq_, e_, mu_, et_):
         return ci.resolve_impact(M_, Jc_, dq_, e=e_, mu=mu_, law=law, e_t=et_).dq_plus
 
-    t_solve, r = time_call(solve, config.repeat, config.min_batch_time)
-    t_der, rd = time_call(lambda: solve(derivatives=True), config.repeat,
-                          config.min_batch_time)
-    t_fd, fd = time_call(lambda: fd_jacobian(dq_plus, M, Jc, dq, E, mu, e_t),
-                         max(3, config.repeat // 2), config.min_batch_time)
+    # batches of at least BATCH_TIME: the FD jacobian takes about a millisecond, so shorter
+    # batches would hold one or two calls, too few against bursts of load on a shared machine
+    batch = max(config.min_batch_time, BATCH_TIME[config.quick])
+    t_solve, r = timed(solve, config.repeat, batch)
+    t_der, rd = timed(lambda: solve(derivatives=True), config.repeat, batch)
+    t_fd, fd = timed(lambda: fd_jacobian(dq_plus, M, Jc, dq, E, mu, e_t), config.repeat,
+                     batch)
     dev = deviations(rd.jacobian, fd)
     return {
-        "law": law, "d": d, "k": K, "mode": mode, "mu": mu, "regime": rd.regime,
+        "law": law, "d": d, "k": k, "mode": mode, "mu": mu, "regime": rd.regime,
         "one_sided": bool(rd.derivatives.one_sided),
-        "time_solve": t_solve.median, "time_solve_iqr": t_solve.iqr,
-        "time_derivatives": t_der.median, "time_derivatives_iqr": t_der.iqr,
-        "time_fd": t_fd.median, "time_fd_iqr": t_fd.iqr,
-        "fd_calls": fd_calls(K, d, e_t is not None),
-        "derivative_over_solve": t_der.median / t_solve.median,
-        "fd_over_derivative": t_fd.median / t_der.median,
+        "time_solve": t_solve["cpu"], "time_derivatives": t_der["cpu"], "time_fd": t_fd["cpu"],
+        "wall_solve": t_solve["wall"], "wall_derivatives": t_der["wall"],
+        "wall_fd": t_fd["wall"], "calls_per_batch": [t["n_inner"] for t in
+                                                      (t_solve, t_der, t_fd)],
+        "fd_calls": fd_calls(k, d, e_t is not None),
+        "derivative_over_solve": t_der["cpu"] / t_solve["cpu"],
+        "fd_over_derivative": t_fd["cpu"] / t_der["cpu"],
         "fd_deviation": max(dev.values()), "fd_deviation_by_key": dev,
         "answer_matches": bool(np.allclose(r.dq_plus, rd.dq_plus, rtol=1e-12, atol=1e-14)),
     }
@@ -148,8 +182,8 @@ def chart(records: list[dict[str, Any]], out: Path) -> str:
     from .charts import _plt, save_chart
 
     plt = _plt()
-    labels = [f"{r['law']}\n{'planar' if r['d'] == 2 else 'spatial'} {r['regime']}"
-              for r in records]
+    labels = [f"{r['law']}\n{'planar' if r['d'] == 2 else 'spatial'} {r['regime']}, "
+              f"k = {r['k']}" for r in records]
     x = np.arange(len(records))
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(max(8.0, 0.55 * len(records) + 2), 8.5),
                                  sharex=True)
@@ -158,8 +192,8 @@ def chart(records: list[dict[str, Any]], out: Path) -> str:
     for j, (key, name) in enumerate(zip(keys, PATHS)):
         ax.bar(x + (j - 1) * width, [1e6 * r[key] for r in records], width, label=name)
     ax.set_yscale("log")
-    ax.set_ylabel("median time per call (µs)")
-    ax.set_title(f"impact derivatives, k = {K}: time per call")
+    ax.set_ylabel("median CPU time per call (µs)")
+    ax.set_title("impact derivatives: time per call")
     ax.legend(loc="upper left", fontsize=8)
     ax.grid(axis="y", which="both", alpha=0.3)
     bx.bar(x, [max(r["fd_deviation"], 1e-17) for r in records], 0.5, color="tab:gray")
@@ -195,26 +229,45 @@ def derivatives_section(config: BenchConfig, progress: Progress) -> SectionResul
                 records.append(rec)
             if law in skipped:
                 break
+    if not config.quick:
+        for law, d, mode in LARGE:
+            rec = measure(law, d, mode, config, LARGE_K)
+            if rec is not None:
+                progress(f"derivatives {law} d={d} k={LARGE_K} {rec['regime']}: with "
+                         f"derivatives {1e6 * rec['time_derivatives']:.1f} µs, central FD "
+                         f"{1e6 * rec['time_fd']:.0f} µs")
+                records.append(rec)
     figures = [chart(records, config.out)] if records else []
     summary = []
-    if records:
-        ratio = [r["derivative_over_solve"] for r in records]
-        fd = [r["fd_over_derivative"] for r in records]
+    small = [r for r in records if r["k"] == K]
+    large = [r for r in records if r["k"] != K]
+    if small:
+        ratio = [r["derivative_over_solve"] for r in small]
+        fd = [r["fd_over_derivative"] for r in small]
         dev = [r["fd_deviation"] for r in records]
-        tder = [1e6 * r["time_derivatives"] for r in records]
+        tder = [1e6 * r["time_derivatives"] for r in small]
         summary.append(
-            f"resolve_impact with derivatives=True takes {min(tder):.0f}-{max(tder):.0f} µs "
+            f"resolve_impact with derivatives=True takes {min(tder):.0f}-{max(tder):.0f} µs CPU "
             f"(k = {K}), {min(ratio):.1f}-{max(ratio):.1f}x the solve alone (median "
             f"{np.median(ratio):.1f}x); a central-difference jacobian of dq+ "
-            f"({records[0]['fd_calls']}-{max(r['fd_calls'] for r in records)} calls) takes "
-            f"{min(fd):.0f}-{max(fd):.0f}x the analytic one")
+            f"({min(r['fd_calls'] for r in small)}-{max(r['fd_calls'] for r in small)} calls) "
+            f"takes {min(fd):.1f}-{max(fd):.1f}x the analytic one")
         summary.append(
             f"central differences agree with the analytic jacobians to {min(dev):.1e}-"
             f"{max(dev):.1e} (relative, every law, planar and spatial, stick and slide)")
+    if large:
+        summary.append(
+            f"at k = {LARGE_K}: the analytic jacobians take "
+            f"{min(1e6 * r['time_derivatives'] for r in large):.0f}-"
+            f"{max(1e6 * r['time_derivatives'] for r in large):.0f} µs CPU, a central-"
+            f"difference jacobian ({min(r['fd_calls'] for r in large)}-"
+            f"{max(r['fd_calls'] for r in large)} calls) "
+            f"{min(r['fd_over_derivative'] for r in large):.0f}-"
+            f"{max(r['fd_over_derivative'] for r in large):.0f}x that")
     if skipped:
         summary.append(f"no single-contact derivative (skipped): {', '.join(skipped)}")
     return SectionResult(name="derivatives", records=records, figures=figures,
                          summary=summary,
-                         meta={"k": K, "e": E, "e_t": E_T, "mode_mu": MODE_MU,
+                         meta={"k": K, "large_k": LARGE_K, "e": E, "e_t": E_T, "mode_mu": MODE_MU,
                                "rel_step": REL_STEP, "paths": list(PATHS),
                                "skipped": skipped})

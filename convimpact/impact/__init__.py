@@ -17,6 +17,10 @@ takes them (each folder's docstring tells its part in a few lines):
    :class:`~convimpact.impact.results.ImpactResult` with the law's invariants measured;
    :mod:`~convimpact.impact.energy` holds the paper's energy formulas (eqs. 58-62).
 
+:mod:`~convimpact.impact.derivatives` differentiates an answer exactly (``resolve_impact(...,
+derivatives=True)``): each law's ``impulse_derivative`` beside its kernel, then the chain rule
+to the derivatives of dq_plus and of the impulse with respect to dq, M, Jc, e and mu.
+
 :mod:`~convimpact.impact.errors` is the exception hierarchy the whole library raises.
 """
 

@@ -253,6 +253,10 @@ class ImpactResult:
             "law": self.law,
             "method": self.method,
             "diagnostics": self.diagnostics.as_dict(),
+            **({} if self.jacobian is None else {
+                "jacobian": _jsonable(self.jacobian),
+                "impulse_jacobian": _jsonable(self.impulse_jacobian),
+                "derivatives": self.derivatives.as_dict()}),
         }
 
 
@@ -286,6 +290,15 @@ class ImpactDerivatives:
     def at_boundary(self) -> bool:
         """Whether the derivative is one-sided (a mode boundary was met)."""
         return bool(self.one_sided)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-JSON view (the other side's jacobians as nested lists, or None)."""
+        return {"modes": list(self.modes), "one_sided": list(self.one_sided),
+                "other_modes": None if self.other_modes is None else list(self.other_modes),
+                "other_jacobian": None if self.other_jacobian is None
+                else _jsonable(self.other_jacobian),
+                "other_impulse_jacobian": None if self.other_impulse_jacobian is None
+                else _jsonable(self.other_impulse_jacobian)}
 
 
 def _jsonable(v):

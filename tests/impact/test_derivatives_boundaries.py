@@ -144,3 +144,26 @@ def test_zero_pre_impact_slip_of_eq_55():
             return ci.resolve_impact(M, Jc, dq + s * 1e-3 * delta,
                                      **{**kw, name: kw[name] + x}).dq_plus
         np.testing.assert_allclose(rec.other_jacobian[name], one_sided(g, 1.0), atol=1e-5)
+
+
+@pytest.mark.parametrize("law", ["pereira-nikravesh", "coulomb", "ccp"])
+@pytest.mark.parametrize("d", [2, 3])
+def test_mu_zero_where_the_stick_impulse_needs_no_friction(law, d):
+    """v_t- = -W_tn c / W_nn (c = (1 + e) |v_n-|): the frictionless impulse already stops the
+    slip, so the contact sticks for every mu > 0 and dq+ does not move with mu: the right
+    derivative at mu = 0 is zero (by hand), and so is the one-sided difference."""
+    M, Jc, _, _ = scene(d, seed=2)
+    W = Jc @ np.linalg.solve(M, Jc.T)
+    e = 0.5
+    c = 1.0 + e
+    v = np.concatenate(([-1.0], -W[1:, 0] * c / W[0, 0]))
+    dq = np.linalg.lstsq(Jc, v, rcond=None)[0]
+    r = ci.resolve_impact(M, Jc, dq, e=e, mu=0.0, law=law, derivatives=True)
+    assert r.regime == "frictionless"
+    np.testing.assert_allclose(r.jacobian["mu"], 0.0, atol=1e-12)
+    assert ci.resolve_impact(M, Jc, dq, e=e, mu=0.01, law=law).regime == "stick"
+
+    def f(s):
+        return ci.resolve_impact(M, Jc, dq, e=e, mu=s, law=law).dq_plus
+
+    np.testing.assert_allclose(one_sided(f, 1.0), 0.0, atol=1e-8)

@@ -89,7 +89,13 @@ def test_shapes_read_only_and_the_record():
         r.jacobian["new"] = np.zeros(1)
     assert r.derivatives.modes == ("slide",) and r.derivatives.one_sided == ()
     assert r.derivatives.other_jacobian is None
+    d = r.as_dict()  # plain JSON
+    assert np.allclose(d["jacobian"]["dq"], r.jacobian["dq"]) and d["derivatives"]["modes"] == [
+        "slide"]
+    import json
+    json.dumps(d)
     plain = ci.resolve_impact(M, Jc, dq, e=0.4, mu=0.1)
+    assert "jacobian" not in plain.as_dict()
     assert plain.jacobian is None and plain.impulse_jacobian is None and plain.derivatives is None
     np.testing.assert_allclose(r.dq_plus, plain.dq_plus, rtol=1e-13, atol=1e-15)
 
@@ -136,3 +142,16 @@ def test_a_law_without_a_derivative_is_named(monkeypatch):
     J2 = np.roll(J1, 1, axis=1)
     with pytest.raises(NotSupportedError, match="'coulomb'"):
         ci.resolve_impact(M, [J1, J2], dq, e=0.4, mu=0.1, law="coulomb", derivatives=True)
+
+
+def test_a_singular_mode_raises_a_typed_error():
+    """W = [[1, 2], [2, 4]] is singular: the dissipative law's stick impulse (found by the
+    conic path) is not unique, so it has no derivative -- a typed error, never NaN; the
+    paper's law slides there along eq. (55), whose denominator W_nn + mu s W_nt = 2 is
+    regular: dq+_x = dq_x - (1 + e) dq_x (1 + 2 mu s) / 2 = -0.5 dq_x."""
+    M, Jc, dq = np.eye(2), np.array([[1.0, 0.0], [2.0, 0.0]]), [-1.0, 0.0]
+    with pytest.raises(ci.SingularSystemError, match="not a differentiable"):
+        ci.resolve_impact(M, Jc, dq, e=0.5, mu=0.5, law="dissipative", derivatives=True)
+    r = ci.resolve_impact(M, Jc, dq, e=0.5, mu=0.5, derivatives=True)
+    assert r.regime == "slide"
+    np.testing.assert_allclose(r.jacobian["dq"], [[-0.5, 0.0], [0.0, 1.0]], atol=1e-12)

@@ -50,11 +50,14 @@ def test_per_contact_coefficients_and_the_jacobian_of_a_list(law):
     assert_matches(r.impulse_jacobian, fd["impulse"])
 
 
-def test_the_method_does_not_change_the_derivative():
-    """The derivative depends on the law's answer, not on the method: ccp by its compiled
-    kernel and by Clarabel's cone program (to the program's accuracy)."""
+@pytest.mark.parametrize("law", ["ccp", "pereira-nikravesh", "coulomb"])
+def test_the_method_does_not_change_the_derivative(law):
+    """The derivative depends on the law's answer, not on the method: the compiled kernel's
+    and Clarabel's cone program's (P_N and its boundary direction for the paper's law, the
+    fixed point of programs for Coulomb's) agree to the program's accuracy."""
     M, Jc, dq, C = scene(3, seed=0)
-    a = call(M, Jc, dq, 0.4, 0.1, law="ccp", method="fast", derivatives=True)
-    b = call(M, Jc, dq, 0.4, 0.1, law="ccp", method="clarabel", derivatives=True)
+    a = call(M, Jc, dq, 0.4, 0.1, law=law, method="fast", derivatives=True)
+    b = call(M, Jc, dq, 0.4, 0.1, law=law, method="clarabel", derivatives=True)
+    assert a.regime == b.regime == "slide"
     for name in a.jacobian:
         np.testing.assert_allclose(b.jacobian[name], a.jacobian[name], atol=1e-6)

@@ -6,14 +6,13 @@ and the one-sided statements in the diagnostics."""
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Mapping
 
 import numpy as np
 
-from ..errors import NotSupportedError, UnknownOptionError
+from ..errors import NotSupportedError, SingularSystemError, UnknownOptionError
 from ..laws import TANGENTIAL_LAWS, law_module
-from ..problem.build import ImpactProblem
+from ..problem.build import ImpactProblem, _new
 from ..results import ImpactDerivatives, ImpactResult
 from .chain import impact_jacobians, zero_derivative
 
@@ -64,6 +63,10 @@ def with_derivatives(problem: ImpactProblem, result: ImpactResult, law: str,
     both = derivatives == "both"
     cd = law_derivative(problem, result, law, other_side=both)
     jac, ijac = impact_jacobians(problem, result.impulse, cd, scalar)
+    if not all(np.isfinite(a).all() for a in jac.values()):
+        raise SingularSystemError(
+            f"law {law!r}: the derivative of this impact is not finite (a singular or "
+            "degenerate mode, or units beyond double precision's range); it is not returned")
     other = cd.other_side if both else None
     if other is not None:
         at = result.impulse if other.impulse is None else other.impulse
@@ -77,5 +80,6 @@ def with_derivatives(problem: ImpactProblem, result: ImpactResult, law: str,
     if cd.one_sided:
         diagnostics = diagnostics.with_notes(
             *(f"one-sided derivative: {s}" for s in cd.one_sided))
-    return dataclasses.replace(result, jacobian=jac, impulse_jacobian=ijac,
-                               derivatives=record, diagnostics=diagnostics)
+    # a copy of the frozen result with the derivatives (its fields set as its __init__ would)
+    return _new(type(result), {**vars(result), "jacobian": jac, "impulse_jacobian": ijac,
+                               "derivatives": record, "diagnostics": diagnostics})

@@ -32,15 +32,14 @@ from typing import Mapping
 import numpy as np
 
 from ..problem.build import ImpactProblem
+from ..problem.dense import tri_solve
 from .contact import ContactDerivative
 
 
 def projected_inverse(problem: ImpactProblem) -> np.ndarray:
     """``G``: ``M^-1`` for open loops, the loop-projected inverse for closed ones (k x k)."""
-    M = problem.mass_matrix
     L = problem.cholesky
-    k = M.shape[0]
-    Linv = np.linalg.solve(L, np.eye(k))
+    Linv = tri_solve(L, np.eye(L.shape[0]))
     G = Linv.T @ Linv
     if problem.n_loops:
         GC = G @ problem.loop_jacobian.T
@@ -83,10 +82,9 @@ def impact_jacobians(problem: ImpactProblem, impulse: np.ndarray, cd: ContactDer
     Pv = np.asarray(cd.v, dtype=float).reshape(N, N)
     # the impulse
     dp = {"dq": Pv @ J}
-    m = -np.einsum("abc,bi,cj->aij", Pw, H, H)
-    dp["M"] = 0.5 * (m + m.transpose(0, 2, 1))
-    dp["Jc"] = (np.einsum("acd,dm->acm", Pw + Pw.transpose(0, 2, 1), H)
-                + np.einsum("ac,m->acm", Pv, dq))
+    m = np.tensordot(np.tensordot(Pw, H, ([1], [0])), H, ([1], [0]))  # (a, i, j)
+    dp["M"] = -0.5 * (m + m.transpose(0, 2, 1))
+    dp["Jc"] = (Pw + Pw.transpose(0, 2, 1)) @ H + Pv[:, :, None] * dq
     params = {"e": cd.e, "mu": cd.mu}
     if cd.e_t is not None:
         params["e_t"] = cd.e_t
@@ -94,23 +92,23 @@ def impact_jacobians(problem: ImpactProblem, impulse: np.ndarray, cd: ContactDer
         value = np.asarray(value, dtype=float).reshape(N, n)
         dp[name] = value.sum(axis=1) if scalar.get(name, False) else value
     # dq_plus = dq + G Jc^T pi
-    y = H.T @ p
-    dv = {"dq": np.eye(k) + H.T @ dp["dq"]}
-    gm = np.einsum("ai,j->aij", G, y)
-    dv["M"] = -0.5 * (gm + gm.transpose(0, 2, 1)) + np.einsum("ab,bij->aij", H.T, dp["M"])
-    dv["Jc"] = np.einsum("am,c->acm", G, p) + np.einsum("ab,bcm->acm", H.T, dp["Jc"])
+    Ht = H.T
+    y = Ht @ p
+    dv = {"dq": np.eye(k) + Ht @ dp["dq"]}
+    gm = G[:, :, None] * y
+    dv["M"] = -0.5 * (gm + gm.transpose(0, 2, 1)) + (Ht @ dp["M"].reshape(N, k * k)).reshape(
+        k, k, k)
+    dv["Jc"] = G[:, None, :] * p[:, None] + (Ht @ dp["Jc"].reshape(N, N * k)).reshape(k, N, k)
     for name in params:
-        dv[name] = H.T @ dp[name]
+        dv[name] = Ht @ dp[name]
     # shapes: the impulse as the result gives it, Jc as it was passed
     ishape = (d,) if problem.single else (n, d)
     jshape = (d, k) if problem.single else (n, d, k)
     out_q, out_p = {}, {}
     for name in dv:
-        tail = dp[name].shape[1:]
-        if name == "Jc":
-            tail = jshape
-        out_q[name] = np.ascontiguousarray(dv[name].reshape((k,) + tail))
-        out_p[name] = np.ascontiguousarray(dp[name].reshape(ishape + tail))
+        tail = jshape if name == "Jc" else dp[name].shape[1:]
+        out_q[name] = dv[name].reshape((k,) + tail)
+        out_p[name] = dp[name].reshape(ishape + tail)
     return _read_only(out_q), _read_only(out_p)
 
 

@@ -43,9 +43,17 @@ def n_params(d: int) -> int:
 
 def seeds(d: int):
     """The derivatives of (W, v, e, mu, e_t) with respect to theta: (d, d, P), (d, P), then
-    three (P,) rows."""
-    eye = np.eye(n_params(d))
-    return (eye[:d * d].reshape(d, d, -1), eye[d * d:d * d + d], eye[-3], eye[-2], eye[-1])
+    three (P,) rows (read-only, shared)."""
+    found = _SEEDS.get(d)
+    if found is None:
+        eye = np.eye(n_params(d))
+        eye.flags.writeable = False
+        found = _SEEDS[d] = (eye[:d * d].reshape(d, d, -1), eye[d * d:d * d + d], eye[-3],
+                             eye[-2], eye[-1])
+    return found
+
+
+_SEEDS: dict = {}
 
 
 def contact_derivative(dp: np.ndarray, regime: str, tangential: bool = False,
@@ -189,8 +197,9 @@ def mu_zero_column(kind: str, W: np.ndarray, v: np.ndarray, e: float) -> np.ndar
     against the post-impact slip of the frictionless answer, ``u_t = b_t + W_tn pi_n`` (laws
     "ccp", "coulomb"); the maximal-dissipation direction's limit ("max-dissipation", from
     dT_L/dmu at mu = 0: against the plastic frictionless answer's slip,
-    ``v_t - W_tn v_n / W_nn``). A contact whose limiting slip is zero sticks: zero. A contact
-    whose tangents move no mass has mu forced to 0: zero. Then, with pi = pi_n (1, mu t):
+    ``v_t - W_tn v_n / W_nn``). A contact whose stick impulse has no tangential part sticks for
+    every mu > 0, and one whose limiting slip is zero too: zero. A contact whose tangents move
+    no mass has mu forced to 0: zero. Then, with pi = pi_n (1, mu t):
     ``d pi_t / d mu = pi_n t`` and ``d pi_n / d mu = -c W_nt.t / W_nn^2`` (Newton laws:
     W_n . pi = c) or ``-(b_t.t) / W_nn + 2 b_n W_nt.t / W_nn^2`` (ccp: the ray's optimum).
     """
@@ -200,14 +209,18 @@ def mu_zero_column(kind: str, W: np.ndarray, v: np.ndarray, e: float) -> np.ndar
     if not np.diag(W)[1:].max() > 1e-12 * A:  # immobile tangents: mu is not used
         return col
     b, _ = newton_shift(v, e)
+    try:
+        ps = stick_impulse(W, v, e)  # the stick impulse, the same for every kind
+    except np.linalg.LinAlgError:
+        ps = None
+    if ps is not None and not float(np.linalg.norm(ps[1:])) > 1e-14 * float(
+            np.linalg.norm(ps)):
+        return col  # no tangential impulse needed to stick: it sticks for every mu > 0
     if kind == "eq55":
         if v[1] != 0.0:
             t = np.array([-np.sign(v[1])])
         else:
-            ps = stick_impulse(W, v, e)
-            if ps[1] == 0.0:
-                return col
-            t = np.array([np.sign(ps[1])])
+            t = np.array([np.sign(ps[1]) if ps is not None else 1.0])
     else:
         if kind == "max-dissipation":
             slip = v[1:] - W[1:, 0] * v[0] / A

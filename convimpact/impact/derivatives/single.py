@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import ConvImpactError, NotSupportedError
+from ..errors import ConvImpactError, NotSupportedError, SingularSystemError
 from .contact import ContactDerivative
 from .modes import at_stick_limit, contact_derivative, zero
 
@@ -90,11 +90,20 @@ def one_contact_derivative(problem, result, law: str, mode: Mode, *, other_side:
                      "right-sided one (mu < 0 is outside the law), that of the mode entered "
                      "for mu > 0")
         return split(dp, regime, (statement,))
-    dp = mode(W, v, e, mu, et, regime, p)
+    try:
+        dp = mode(W, v, e, mu, et, regime, p)
+    except np.linalg.LinAlgError:
+        raise SingularSystemError(
+            f"law {law!r}: the {regime} mode's equations are singular at this answer (a "
+            "singular Delassus block, or a degenerate slide): the impulse is not a "
+            "differentiable function of the data here") from None
     statements: list[str] = []
     other = None
-    if stick_of is not None and regime in ("stick", "slide"):
-        ps = stick_of(W, v, e, mu, et)
+    try:
+        ps = stick_of(W, v, e, mu, et) if stick_of is not None else None
+    except np.linalg.LinAlgError:  # singular W: the law has no unique stick impulse to test
+        ps = None
+    if ps is not None and regime in ("stick", "slide"):
         if at_stick_limit(ps, mu):
             side = "inside the cone" if regime == "stick" else "outside the cone"
             statements.append(
