@@ -384,8 +384,15 @@ def _label_frictionless(mu, sliding, s: ContactForceSolution) -> ContactForceSol
     return ContactForceSolution(s.force, s.acceleration, tuple(modes), direction, s.margin)
 
 
-def _rank(s: ContactForceSolution) -> tuple[int, int, float]:
-    return (sum(m == OPEN for m in s.modes), sum(m == SLIP for m in s.modes), -s.margin)
+def _rank(s: ContactForceSolution) -> tuple[bool, int, int, float]:
+    """Order of preference among solutions of the same acceleration: one valid only within
+    the tolerance (a negative margin) last -- at the instant a held contact's force crosses
+    zero (or a sticking force reaches the cone) the closed (sticking) solution and the open
+    (slipping) one coincide, and the event says which way the force goes: a held contact that
+    stayed held with a tensile force would pull ever harder --; then fewer open contacts,
+    fewer slipping ones, the larger margin."""
+    return (s.margin < 0.0, sum(m == OPEN for m in s.modes), sum(m == SLIP for m in s.modes),
+            -s.margin)
 
 
 def _distinct(found: list[ContactForceSolution], ascale: float) -> list:

@@ -254,7 +254,7 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
     edges = sorted(edges, key=lambda e: -len(e[1]))[:EDGE_MAX]
     failures: list[SolverError] = []
     best = _attempt(P, first, rtol, failures)
-    if best is not None or not edges:
+    if (best is not None and best.margin >= 0.0) or not edges:
         return _kept(best, failures)
     for k, picks in enumerate(itertools.product(*[opts for _, opts in edges])):
         if k == 0:
@@ -286,8 +286,11 @@ def _kept(best, failures: list):
     return best
 
 
-def _rank(s: ContactForceSolution) -> tuple[int, int]:
-    return (sum(m == OPEN for m in s.modes), sum(m == SLIP for m in s.modes))
+def _rank(s: ContactForceSolution) -> tuple[bool, int, int]:
+    """Preference among the edge combinations: a solution valid only within the tolerance
+    (a negative margin: a held force crossing zero, a sticking force crossing the cone) after
+    one valid outright, then fewer open contacts, then fewer slipping ones."""
+    return (s.margin < 0.0, sum(m == OPEN for m in s.modes), sum(m == SLIP for m in s.modes))
 
 
 def _exact(P: ContactForceProblem, choice, rtol: float):

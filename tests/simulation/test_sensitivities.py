@@ -191,6 +191,19 @@ def test_pendulum_striking_the_floor_matches_finite_differences():
     assert_close(second.time_sensitivity["state"], (when[0] - when[1]) / (2 * H))
 
 
+def test_lift_off_of_a_held_contact_matches_finite_differences_of_whole_runs():
+    """A plastic strike closes the tip on the floor (t = 0.4415 s); the held tip's normal
+    force then falls through zero and the tip lifts off (t = 0.9055 s): the lift-off's
+    saltation (a switched vector field, the state continuous) carries the transition."""
+    scene = pendulum_planar.make_scene(case="a", e=0.0, mu=0.0)
+    span = (0.0, 1.2)
+    res = simulate(scene, span, sensitivities=True, **TIGHT)
+    kinds = [ev.kind for ev in res.contact_events]
+    assert kinds == ["persist", "release"]
+    assert res.contact_events[1].time == pytest.approx(0.9055182, abs=1e-6)
+    assert_close(res.state_transition, fd_state(scene, span, np.eye(4), **TIGHT))
+
+
 # ---- the bouncing rod: frictional impacts with rotation ------------------------------------------
 def test_spinning_rod_bouncing_on_its_ends_matches_finite_differences():
     make = bouncing_rod.make_scene

@@ -262,3 +262,20 @@ def test_spatial_box_at_rest_off_centre_carries_the_least_squares_loads_without_
                                rtol=1e-12)
     np.testing.assert_allclose(force[:, :, 1:], 0.0, atol=1e-12 * m * cf.G)
     assert_coulomb(res, mech)
+
+
+def test_a_held_contact_whose_force_falls_through_zero_lifts_off():
+    """Signorini's condition on a held contact: the double pendulum's tip, closed on the floor
+    by a plastic strike, is pressed and then pulled by the swinging rods. At the instant its
+    normal force crosses zero the closed and the open solutions of the force problem coincide;
+    the contact must open there (it once stayed held and its force grew to -100 N)."""
+    from convimpact.problems import pendulum_planar
+
+    res = ci.simulate(pendulum_planar.make_scene(case="a", e=0.0, mu=0.0), (0.0, 1.2))
+    force = np.asarray(res.contact_force)[:, 0, 0]
+    assert float(np.max(force)) > 5.0  # it was pressed
+    assert float(np.min(force)) >= -1e-9 * float(np.max(force))  # never pulled
+    release = [ev for ev in res.contact_events if ev.kind == "release"]
+    assert len(release) == 1
+    after = np.asarray(res.t) > release[0].time + 0.05
+    assert not np.asarray(res.held)[after].any()  # open after the release
