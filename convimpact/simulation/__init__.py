@@ -16,6 +16,8 @@ from .result import ContactEvent, ImpactEvent, PiecewiseSolution, SimulationResu
 from .simulate import INTEGRATORS, simulate
 from .zeno import Accumulation, AccumulationDetector
 from .schemes import SCHEMES, simulate_with  # noqa: F401  (moreau-jean, compliant)
+from .periodic import (PeriodicOrbit, PeriodicOrbitError, TrivialMultiplier,
+                       find_periodic_orbit, stride_map)
 
 __all__ = [
     "simulate",
@@ -30,4 +32,9 @@ __all__ = [
     "Accumulation",
     "AccumulationDetector",
     "INTEGRATORS",
+    "find_periodic_orbit",
+    "stride_map",
+    "PeriodicOrbit",
+    "TrivialMultiplier",
+    "PeriodicOrbitError",
 ]
