@@ -20,9 +20,13 @@ legs' bisector from the normal, zero at heel strike; it is negative between the 
 and of phi_sw). Goswami et al. (1998) and Garcia et al. (1998) ignore this interference:
 only the heel-strike root of the collision condition counts. Here, as there, the swing
 foot's contact is inactive until the swing leg has passed the stance leg: its gap is the
-foot's height once phi_sw >= ``activation`` (a small positive interleg angle, by which
-the foot has come back above the slope), and before that |height| + L (activation - phi_sw)
-> 0, continuous at the switch. The stance foot's gap is always its height. Roles are fixed
+foot's height once phi_sw >= ``activation`` (a positive interleg angle by which the
+foot has come back above the slope: the swing foot is below it between the legs' crossing
+and the zero of psi, and above it from there to heel strike, where psi = 0 again), and
+before that |height| + L (activation - phi_sw) > 0, continuous at the switch when the foot
+is above the slope there. A state far from a gait (a swing foot still below the slope at
+``activation``) gives a spurious strike there: the scenes choose ``activation`` about half
+the gait's interleg angle at heel strike. The stance foot's gap is always its height. Roles are fixed
 within a stride; at heel strike the swing foot sticks, the stance foot lifts off (the impact
 law with e = 0: the old foot's contact is released when it would pull), and the stride map's
 ``reduce`` (:func:`swap_legs`) relabels the legs and puts the new stance foot at the origin.
@@ -88,8 +92,8 @@ def stance_state(stance_angle: float, stance_rate: float, interleg: float,
 
 def swap_legs(theta: np.ndarray, dtheta: np.ndarray, leg_length: float):
     """The leg switch at heel strike: the swing leg becomes the stance leg (phi_st' = phi_st +
-    phi_sw, phi_sw' = -phi_sw), and the walker is translated along the slope... and normal to
-    it, so that the new stance foot is at the origin (velocities unchanged by a translation).
+    phi_sw, phi_sw' = -phi_sw), and the walker is translated (along the slope: both feet are on it)
+    so that the new stance foot is at the origin (velocities unchanged by a translation).
     """
     th = np.array(theta, float)
     dth = np.array(dtheta, float)
@@ -106,3 +110,39 @@ def gait_parameters(theta: np.ndarray, dtheta: np.ndarray, slope: float) -> dict
     angle and rate."""
     return {"stance_angle": float(theta[2] + slope), "stance_rate": float(dtheta[2]),
             "interleg_angle": float(theta[3]), "interleg_rate": float(dtheta[3])}
+
+
+def gait_vector(orbit, slope: float) -> np.ndarray:
+    """(stance angle, its rate, interleg angle, its rate) of a fixed point."""
+    return np.array(list(gait_parameters(orbit.theta, orbit.dtheta, slope).values()))
+
+
+def find_gait(scene, guess, *, strides: int = 1, **options):
+    """Newton shooting for the walker's gait from the papers' variables ``guess`` (stance
+    angle, its rate, interleg angle, its rate just after heel strike)."""
+    from convimpact.simulation import find_periodic_orbit
+
+    p = scene.parameters
+    L = float(p["leg_length"])
+    y0 = stance_state(*guess, float(p["slope"]), L)
+    options.setdefault("t_max", 4.0 * float(scene.t_end))
+    return find_periodic_orbit(scene, y0, reduce=lambda th, dth: swap_legs(th, dth, L),
+                               strides=strides, **options)
+
+
+def continue_gait(make, start_slope: float, start_gait, target: float, max_step: float,
+                  **options):
+    """The gait at ``target`` by continuation in slope from ``start_gait`` at
+    ``start_slope`` (steps of at most ``max_step``, a secant predictor)."""
+    n = int(np.ceil(abs(target - start_slope) / max_step - 1e-12))
+    slopes = np.linspace(start_slope, target, n + 1)
+    guess = np.asarray(start_gait, float)
+    previous = None
+    orbit = None
+    for i, s in enumerate(slopes):
+        orbit = find_gait(make(float(s)), guess, **options)
+        current = gait_vector(orbit, float(s))
+        if i + 1 < len(slopes):
+            guess = current if previous is None else 2.0 * current - previous
+        previous = current
+    return orbit

@@ -79,13 +79,15 @@ class TrivialMultiplier:
 
     Attributes
     ----------
-    name : what the direction is ("time shift along the orbit", "removed by reduce").
-    value : the computed multiplier (0 up to the differencing error).
-    direction : the direction in the state space (theta, theta_dot), unit norm.
+    name : what the direction is ("time shift along the orbit", "symmetry removed by
+        reduce").
+    value : |DP n| for the unit direction n, as computed: 0 by construction, so its size
+        is the differencing error of the Jacobian.
+    direction : the direction n in the state space (theta, theta_dot), unit norm.
     """
 
     name: str
-    value: complex
+    value: float
     direction: np.ndarray
 
 
@@ -109,6 +111,9 @@ class PeriodicOrbit:
     held_contacts : contacts held closed at the section.
     section_contacts : contacts leaving the ground at the section (the section's gaps).
     impact_contacts : the contacts that strike at the end of the stride.
+    strides : impacts per period (the map whose fixed point this is: P applied that often).
+    points : the orbit's states on the section, one per stride, the fixed point first
+        ((strides, 2k)).
     """
 
     theta: np.ndarray
@@ -125,6 +130,8 @@ class PeriodicOrbit:
     held_contacts: tuple[str, ...]
     section_contacts: tuple[str, ...]
     impact_contacts: tuple[str, ...] = field(default=())
+    strides: int = 1
+    points: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     @property
     def state(self) -> np.ndarray:
@@ -143,12 +150,14 @@ class _Stride:
     raw: np.ndarray  # end state before reduce
     time: float
     contacts: tuple[str, ...]
+    points: tuple[np.ndarray, ...]
 
 
 class _Problem:
     """The stride map of one system with fixed options."""
 
-    def __init__(self, mech, reduce, t_max, sim_options):
+    def __init__(self, mech, reduce, t_max, sim_options, strides=1):
+        self.strides = int(strides)
         self.mech = mech
         self.k = int(mech.n_coordinates)
         self.reduce = reduce
@@ -168,6 +177,17 @@ class _Problem:
         return np.concatenate([th, dth])
 
     def stride(self, z: np.ndarray) -> _Stride:
+        """``self.strides`` strides from z (each to just after the next impact, reduced)."""
+        total, points, contacts = 0.0, [], ()
+        for _ in range(self.strides):
+            s = self.one_stride(z)
+            total += s.time
+            points.append(s.state)
+            contacts = contacts or s.contacts
+            z = s.state
+        return _Stride(s.state, s.raw, total, contacts, tuple(points))
+
+    def one_stride(self, z: np.ndarray) -> _Stride:
         from .simulate import simulate
 
         k = self.k
@@ -192,7 +212,7 @@ class _Problem:
             raise PeriodicOrbitError(f"the stride's simulation stopped early: {res.message}")
         ev = res.impacts[-1]
         raw = np.concatenate([res.theta[-1], res.dtheta[-1]])
-        return _Stride(self.apply_reduce(raw), raw, float(ev.time), tuple(ev.contacts))
+        return _Stride(self.apply_reduce(raw), raw, float(ev.time), tuple(ev.contacts), ())
 
 
 # ---- the section ---------------------------------------------------------------------------
@@ -347,31 +367,32 @@ def _multipliers(DPT, Nt):
     d = DPT.shape[0]
     n = Nt.shape[1]
     if n == 0:
-        return DPT, np.eye(d), np.linalg.eigvals(DPT), np.zeros(0, complex)
+        return DPT, np.eye(d), np.linalg.eigvals(DPT)
     W = sla.null_space(Nt.T)
     Q = np.column_stack([W, Nt])
     B = np.linalg.solve(Q, DPT @ Q)
     A = B[: d - n, : d - n]
-    triv = np.linalg.eigvals(B[d - n:, d - n:])
-    return A, W, np.linalg.eigvals(A), triv
+    return A, W, np.linalg.eigvals(A)
 
 
 # ---- the public call -----------------------------------------------------------------------
 
 
 def stride_map(system, y0=None, *, reduce: Callable | None = None, t_max: float | None = None,
-               simulate_options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, float]:
-    """One stride: the state just after the next impact, reduced, and the stride's duration.
+               strides: int = 1, simulate_options: Mapping[str, Any] | None = None
+               ) -> tuple[np.ndarray, float]:
+    """The stride map P (``strides`` times): the state just after the next impact, reduced,
+    and the time it took.
 
     Parameters are those of :func:`find_periodic_orbit`. Returns ``(z, time)`` with
     ``z = [theta, theta_dot]``.
     """
-    prob, z0 = _setup(system, y0, reduce, t_max, simulate_options)
+    prob, z0 = _setup(system, y0, reduce, t_max, simulate_options, strides)
     s = prob.stride(z0)
     return s.state, s.time
 
 
-def _setup(system, y0, reduce, t_max, simulate_options):
+def _setup(system, y0, reduce, t_max, simulate_options, strides=1):
     from .simulate import _as_mechanism
 
     mech, scene = _as_mechanism(system)
@@ -399,12 +420,13 @@ def _setup(system, y0, reduce, t_max, simulate_options):
     for bad in ("max_impacts", "t_span", "y0", "dense_output", "t_eval"):
         if bad in opts:
             raise ParameterError(f"simulate_options may not set {bad!r}: the stride map sets it")
-    return _Problem(mech, reduce, t_max, opts), z0
+    strides = integer("strides", strides, minimum=1)
+    return _Problem(mech, reduce, t_max, opts, strides), z0
 
 
 def find_periodic_orbit(system, y0=None, *, section: str = "impact",
                         reduce: Callable | None = None, t_max: float | None = None,
-                        tol: float = 1e-9, max_iterations: int = 25,
+                        strides: int = 1, tol: float = 1e-9, max_iterations: int = 25,
                         jacobian: str = "auto", step: float = 1e-5,
                         simulate_options: Mapping[str, Any] | None = None,
                         touch_tol: float = 1e-7, rest_velocity: float = 1e-6,
@@ -425,6 +447,9 @@ def find_periodic_orbit(system, y0=None, *, section: str = "impact",
         slope, relabelling of legs, an angle modulo a spoke). Smooth near the orbit.
     t_max : float, optional
         The longest stride (default: the scene's ``t_end``); no impact by then is an error.
+    strides : int
+        Impacts per period: 1 for a period-one orbit, 2 for a period-two orbit (a fixed point
+        of the doubled map P o P, after a period doubling), ...
     tol : float
         Convergence: max |P(z) - z| <= tol (state units).
     max_iterations : int
@@ -464,10 +489,10 @@ def find_periodic_orbit(system, y0=None, *, section: str = "impact",
     max_iterations = integer("max_iterations", max_iterations, minimum=1)
     if not isinstance(progress, (bool, np.bool_)):
         raise ParameterError(f"progress must be True or False, got {progress!r}")
-    prob, z0 = _setup(system, y0, reduce, t_max, simulate_options)
+    prob, z0 = _setup(system, y0, reduce, t_max, simulate_options, strides)
     mech, k = prob.mech, prob.k
 
-    s = prob.stride(z0)
+    s = prob.one_stride(z0)
     z = s.state
     sec = _classify(mech, z, k, touch_tol, rest_velocity)
     if not sec.held and not sec.leaving:
@@ -518,20 +543,20 @@ def find_periodic_orbit(system, y0=None, *, section: str = "impact",
     U = _null_space(_jac(_constraints(mech, sec, k), z, 1e-7), 2 * k)
     DPT = U.T @ _stride_jacobian(prob, z, U, step)
     Nt, names = _trivial_directions(prob, sec, z, U, s.raw, k)
-    A, W, mult, triv = _multipliers(DPT, Nt)
+    A, W, mult = _multipliers(DPT, Nt)
     order = np.argsort(-np.abs(mult), kind="stable")
     mult = mult[order]
-    trivial = tuple(TrivialMultiplier(name, complex(v), U @ Nt[:, j])
-                    for j, (name, v) in enumerate(zip(names, _match(triv, Nt, DPT))))
+    trivial = tuple(TrivialMultiplier(name, float(v), U @ Nt[:, j])
+                    for j, (name, v) in enumerate(zip(names, _images(Nt, DPT))))
     return PeriodicOrbit(
         theta=z[:k].copy(), dtheta=z[k:].copy(), period=s.time, multipliers=mult,
         trivial_multipliers=trivial, stable=bool(np.all(np.abs(mult) < 1.0)),
         iterations=iterations, residual=residual, jacobian=A, basis=U @ W,
         jacobian_method="finite-differences", held_contacts=sec.held,
-        section_contacts=sec.leaving, impact_contacts=s.contacts)
+        section_contacts=sec.leaving, impact_contacts=s.contacts, strides=prob.strides,
+        points=np.vstack([z] + list(s.points[:-1])))
 
 
-def _match(triv, Nt, DPT):
-    """The computed multiplier of each trivial direction: |DP n| / |n| (0 by construction),
-    in the order of N's columns (the N-block's eigenvalues carry no order)."""
+def _images(Nt, DPT):
+    """|DP n| of each trivial unit direction n (0 by construction)."""
     return [float(np.linalg.norm(DPT @ Nt[:, j])) for j in range(Nt.shape[1])]
