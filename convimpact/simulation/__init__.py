@@ -17,7 +17,7 @@ from .simulate import INTEGRATORS, simulate
 from .zeno import Accumulation, AccumulationDetector
 from .schemes import SCHEMES, simulate_with  # noqa: F401  (moreau-jean, compliant)
 from .periodic import (PeriodicOrbit, PeriodicOrbitError, TrivialMultiplier,
-                       find_periodic_orbit, stride_map)
+                       find_periodic_orbit, project_to_section, stride_map)
 
 __all__ = [
     "simulate",
@@ -34,6 +34,7 @@ __all__ = [
     "INTEGRATORS",
     "find_periodic_orbit",
     "stride_map",
+    "project_to_section",
     "PeriodicOrbit",
     "TrivialMultiplier",
     "PeriodicOrbitError",

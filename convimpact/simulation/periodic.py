@@ -60,7 +60,7 @@ from .initial import state_vector
 from .projection import project_positions, project_velocities
 
 __all__ = ["find_periodic_orbit", "PeriodicOrbit", "TrivialMultiplier", "PeriodicOrbitError",
-           "stride_map"]
+           "stride_map", "project_to_section"]
 
 SECTIONS = ("impact",)
 JACOBIANS = ("auto", "finite-differences")
@@ -109,6 +109,7 @@ class PeriodicOrbit:
     basis : (2k, d) orthonormal basis of the quotient's complement W in the state space.
     jacobian_method : how the stride map was differentiated.
     held_contacts : contacts held closed at the section.
+    sticking_contacts : those of them that stick (all their rows held).
     section_contacts : contacts leaving the ground at the section (the section's gaps).
     impact_contacts : the contacts that strike at the end of the stride.
     strides : impacts per period (the map whose fixed point this is: P applied that often).
@@ -128,6 +129,7 @@ class PeriodicOrbit:
     basis: np.ndarray
     jacobian_method: str
     held_contacts: tuple[str, ...]
+    sticking_contacts: tuple[str, ...]
     section_contacts: tuple[str, ...]
     impact_contacts: tuple[str, ...] = field(default=())
     strides: int = 1
@@ -211,6 +213,11 @@ class _Problem:
         if res.status != 1:
             raise PeriodicOrbitError(f"the stride's simulation stopped early: {res.message}")
         ev = res.impacts[-1]
+        if ev.time <= 1e-9 * self.t_max:
+            raise PeriodicOrbitError(
+                f"the stride from {np.array2string(z, precision=6)} strikes at its start "
+                f"(contacts {', '.join(ev.contacts)} approach there): the state is not on the "
+                "section; move it there with project_to_section")
         raw = np.concatenate([res.theta[-1], res.dtheta[-1]])
         return _Stride(self.apply_reduce(raw), raw, float(ev.time), tuple(ev.contacts), ())
 
@@ -392,6 +399,25 @@ def stride_map(system, y0=None, *, reduce: Callable | None = None, t_max: float 
     return s.state, s.time
 
 
+def project_to_section(system, state, like: PeriodicOrbit) -> np.ndarray:
+    """Move ``state`` [theta, theta_dot] onto the section of the orbit ``like``: its held
+    contacts' gaps and velocities and its section contacts' gaps zeroed (loops closed) by
+    M-weighted minimal corrections (:func:`~convimpact.simulation.project_positions`,
+    :func:`~convimpact.simulation.project_velocities`). For starting guesses made by
+    displacing a fixed point (a branch switch at a period doubling): a displacement along
+    the section's tangent space leaves its constraints violated at second order, enough for a
+    held foot to strike at t = 0.
+    """
+    from .simulate import _as_mechanism
+
+    mech, _ = _as_mechanism(system)
+    k = int(mech.n_coordinates)
+    z = state_vector("state", state, 2 * k)
+    sec = _Section(tuple(like.held_contacts), tuple(like.sticking_contacts),
+                   tuple(like.section_contacts))
+    return _project(mech, sec, z, k)
+
+
 def _setup(system, y0, reduce, t_max, simulate_options, strides=1):
     from .simulate import _as_mechanism
 
@@ -553,6 +579,7 @@ def find_periodic_orbit(system, y0=None, *, section: str = "impact",
         trivial_multipliers=trivial, stable=bool(np.all(np.abs(mult) < 1.0)),
         iterations=iterations, residual=residual, jacobian=A, basis=U @ W,
         jacobian_method="finite-differences", held_contacts=sec.held,
+        sticking_contacts=sec.sticking,
         section_contacts=sec.leaving, impact_contacts=s.contacts, strides=prob.strides,
         points=np.vstack([z] + list(s.points[:-1])))
 
