@@ -53,7 +53,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 import scipy.linalg as sla
 
-from ..impact.errors import (NonFiniteError, NotSupportedError, ParameterError, ShapeError,
+from ..impact.errors import (AssemblyError, NonFiniteError, NotSupportedError, ParameterError, ShapeError,
                              SolverError)
 from ..validation import choice, integer, mapping, positive
 from .initial import state_vector
@@ -307,8 +307,16 @@ def _flow(mech, sec: _Section, z, k):
     return np.concatenate([dth, sol[:k]])
 
 
-def _project(mech, sec: _Section, z, k, tol=1e-13):
-    """z moved onto the section's manifold (M-weighted minimal corrections)."""
+def _project(mech, sec: _Section, z, k, tol=1e-12):
+    """z moved onto the section's manifold (M-weighted minimal corrections); a failed
+    projection is a :class:`PeriodicOrbitError`."""
+    try:
+        return _project_unchecked(mech, sec, z, k, tol)
+    except AssemblyError as exc:
+        raise PeriodicOrbitError(f"the state cannot be moved onto the section: {exc}") from exc
+
+
+def _project_unchecked(mech, sec: _Section, z, k, tol):
     names = sec.held + sec.leaving
     th, dth = z[:k].copy(), z[k:].copy()
     M = np.asarray(mech.mass_matrix(th), float)
