@@ -2,8 +2,10 @@
 
 Two rigid massless legs of length l = 1 hinged at the hip, a point mass M = 1 at the hip and
 point masses m = beta M at the feet, with beta -> 0 in the paper ("infinitesimal"); here
-beta = 1e-6 by default (a mass matrix needs the feet's masses; the gait's variables move by
-O(beta): 1.5e-7 in the stance angle at beta = 1e-6). Units: l = 1, g = 1, time in
+beta = 1e-5 by default (a mass matrix needs the feet's masses; the gait's variables move by
+O(beta): 1.5e-6 in the stance angle, 1.5e-4 in the multipliers at beta = 1e-5; a smaller
+beta makes the mass matrix's condition number 1/beta amplify round-off into the
+differenced stride map: at 1e-6 its multipliers scatter by 5e-4). Units: l = 1, g = 1, time in
 sqrt(l/g). The slope ``slope`` = gamma (radians; default 0.009, the paper's example)
 descends toward +x. Heel strike is a plastic sticking impact of the swing foot (e = 0,
 mu = 1), the stance foot lifting off (its contact is released when it would pull). Foot
@@ -21,7 +23,7 @@ strike, theta_dot* (1 - cos 2 theta*) in the paper's phi) and simulates ONE stri
 4.0: a stride takes 3.8825): the legs keep their labels in a simulation; the stride map's
 ``reduce`` (:func:`reduce`) switches them.
 
-Parameters of :func:`make_scene`: slope (0.009 rad), beta (1e-6, foot mass / hip mass),
+Parameters of :func:`make_scene`: slope (0.009 rad), beta (1e-5, foot mass / hip mass),
 mu (1), activation (None: the guessed stance angle, half the interleg angle at heel strike),
 t_end (4.0).
 """
@@ -53,7 +55,7 @@ def _guess(slope: float) -> tuple[float, float, float, float]:
     return th, thd, -2.0 * th, -thd * (1.0 - np.cos(2.0 * th))
 
 
-def make_scene(slope: float = REFERENCE_SLOPE, beta: float = 1e-6, mu: float = 1.0,
+def make_scene(slope: float = REFERENCE_SLOPE, beta: float = 1e-5, mu: float = 1.0,
                activation: float | None = None, t_end: float = 4.0) -> Scene:
     """The simplest walking model (see the module docstring)."""
     slope = float(slope)

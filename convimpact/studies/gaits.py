@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..impact.errors import ConvImpactError, ParameterError
+from ..simulation.periodic import PeriodicOrbitError
 
 __all__ = ["GaitBranch", "GaitBifurcation", "compass_gait_bifurcation",
            "plot_gait_bifurcation"]
@@ -82,13 +83,29 @@ def _ordered(orbit, slope):
     return pts[first:] + pts[:first]
 
 
-def _continue(period, slopes, guess, make, find_gait, progress, failures):
+def _genuine(orbit, period):
+    """The orbit's period is ``period``, not a divisor (its points half a period apart
+    differ)."""
+    return period == 1 or bool(
+        np.max(np.abs(orbit.points[0] - orbit.points[period // 2])) > 1e-4)
+
+
+def _continue(period, slopes, guess, make, find_gait, progress, failures, parent=None,
+              switch=None):
+    """Follow the period-``period`` branch over ``slopes``; a point that falls back onto the
+    parent branch (period / 2, ``parent``: slope -> orbit) is sought again by a branch
+    switch from the parent's orbit there."""
     out = []
     prev = None
     for s in slopes:
         t0 = time.perf_counter()
         try:
             orbit = find_gait(make(float(s)), guess, strides=period)
+            if not _genuine(orbit, period) and parent is not None and float(s) in parent:
+                orbit = switch(parent[float(s)], float(s), period // 2)
+            if orbit is None or not _genuine(orbit, period):
+                raise PeriodicOrbitError(
+                    f"only the period-{period // 2} orbit found (no period-{period} orbit)")
         except ConvImpactError as exc:
             failures.append((period, float(np.degrees(s)), f"{type(exc).__name__}: {exc}"))
             if progress:
@@ -214,9 +231,15 @@ def compass_gait_bifurcation(min_deg: float = 1.0, max_deg: float = 5.4,
             failures.append((2 * period, float(np.degrees(hi)), "no period-doubled orbit found"))
             break
         rest = [s for s, _ in points[i + 1:]]
+        parent = {s: o for s, o in points}
         guess = _ordered(new, hi)[0]
         period *= 2
-        points = _continue(period, np.array(rest), guess, make, find_gait, progress, failures)
+
+        def switch(orbit, slope, p):
+            return _switch(orbit, slope, p, make, find_periodic, progress)
+
+        points = _continue(period, np.array(rest), guess, make, find_gait, progress, failures,
+                           parent=parent, switch=switch)
         branches.append((period, points))
     if progress:
         print(f"done in {time.perf_counter() - wall:.0f} s; period doublings (deg): "

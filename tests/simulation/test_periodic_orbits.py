@@ -87,14 +87,15 @@ def test_simplest_walker_matches_garcia_and_a_reduced_model():
 
     orbit = sw.periodic_gait()
     g = sw.gait(orbit)
-    # Garcia's numbers (beta -> 0); the scene's feet weigh beta = 1e-6: O(beta) shifts
-    assert g["stance_angle"] == pytest.approx(0.20031090049483, abs=1e-6)
-    assert g["stance_rate"] == pytest.approx(-0.19983247291764, abs=1e-6)
+    # Garcia's numbers (beta -> 0); the scene's feet weigh beta = 1e-5: O(beta) shifts
+    assert g["stance_angle"] == pytest.approx(0.20031090049483, abs=3e-6)
+    assert g["stance_rate"] == pytest.approx(-0.19983247291764, abs=3e-6)
     assert g["interleg_angle"] == pytest.approx(-2 * g["stance_angle"], abs=1e-9)
     z, eig = _garcia_reduced_model(0.009)
     assert z == pytest.approx([0.20031090049483, -0.19983247291764], abs=1e-9)
     pair = orbit.multipliers[:2]
-    assert np.sort_complex(pair) == pytest.approx(np.sort_complex(eig), abs=1e-3)
+    # beta = 1e-5 moves them by ~1.5e-4, the differencing error is ~3e-5
+    assert np.sort_complex(pair) == pytest.approx(np.sort_complex(eig), abs=3e-4)
     # the printed eigenvalues of Garcia's simulation code: -0.19120868949940 +/- 0.5563i
     assert abs(pair[0]) == pytest.approx(abs(-0.19120868949940 + 0.55633363687106j),
                                          abs=2e-3)
