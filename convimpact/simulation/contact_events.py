@@ -13,7 +13,7 @@ from typing import Any, Collection, Mapping, Sequence
 import numpy as np
 
 from ..impact import resolve_impact
-from ..impact.errors import ConvImpactError, PainleveError, SimulationError
+from ..impact.errors import ConvImpactError, NotSupportedError, PainleveError, SimulationError
 from ..impact.results import ImpactResult
 from .canonical import CanonicalEquations
 from .force_solver import solve_contact_forces
@@ -42,6 +42,7 @@ class ContactEvents:
         if candidates:
             # plastic frictionless correction of the (tiny, <= rest_velocity) normal speeds
             normals = CanonicalEquations(self.mech, candidates)
+            self.track_projection(normals.jacobian, th, dth)
             dth = project_onto(M, normals.jacobian(th), dth)
             cs = contact_state(self.mech, t, th, dth, candidates, o.rest_velocity)
             try:
@@ -72,6 +73,7 @@ class ContactEvents:
         self.eq = CanonicalEquations(self.mech, held, modes, dropped, dims,
                                      slip_floor=o.rest_velocity)
         self.eq_log.append((t, self.eq))
+        self.track_projection(self.eq.jacobian, th, dth)
         dth = project_onto(M, self.eq.jacobian(th), dth)
         dT = float(self.mech.kinetic_energy(th, dth)) - T0
         for c in held:
@@ -105,12 +107,18 @@ class ContactEvents:
         if o.tangential_restitution is not None:  # e_t per contact (law chatterjee-ruina)
             ets = [o.tangential_restitution[c] for c in closing]
             law_params["e_t"] = ets[0] if len(closing) == 1 else ets
+        if o.sensitivities:  # the law's analytic jacobian, for the saltation matrix
+            law_params["derivatives"] = True
         try:
             r = resolve_impact(M, J, dth, e, mu, C if len(C) else None,
                                law=o.law, method=o.method, **law_params, **o.impact_options)
         except ConvImpactError as exc:
             exc.add_note(f"(while resolving the impact of {', '.join(closing)} at "
                          f"t = {t:.9g} in convimpact.simulation.simulate)")
+            if o.sensitivities and isinstance(exc, NotSupportedError):
+                exc.add_note("(sensitivities=True differentiates every impact with "
+                             "resolve_impact(..., derivatives=True); the run without "
+                             "sensitivities does not need the law's derivative)")
             raise
         finally:
             spent = _time.perf_counter() - t_start
@@ -157,6 +165,8 @@ class ContactEvents:
         elif persist and any(float(params[c][0]) > 0.0 for c in persist):
             r, Jc, dt = self.solve_impact(t, th, dth, M, closing, params, C, set(persist))
             spent += dt
+        self.track_impact(r, th, dth, closing, normals.jacobian if len(C) else None,
+                          persist if zeno_hit or persist else ())
         dq_plus = np.asarray(r.dq_plus, float)
         at_rest = [c for i, c in enumerate(closing)
                    if c in persist or abs(float(Jc[i][0] @ dq_plus)) <= o.rest_velocity]
