@@ -48,6 +48,16 @@ def test_rimless_wheel_fixed_point_and_multiplier_match_the_closed_form(params):
     assert trivial.value < 1e-6
 
 
+def test_rimless_wheel_multiplier_from_the_state_transition_matrices():
+    from convimpact.problems import rimless_wheel
+
+    orbit = find_periodic_orbit(load_scene("rimless_wheel"), reduce=rimless_wheel.reduce,
+                                jacobian="state-transition")
+    _, multiplier, _ = _rimless_closed_form(5.0, 8, 0.1)
+    assert orbit.jacobian_method == "state-transition"
+    assert orbit.multipliers[0].real == pytest.approx(multiplier, abs=1e-6)
+
+
 # ---- simplest walker: Garcia et al. and an independent reduced model -------------------
 
 
