@@ -293,13 +293,14 @@ def plot_gait_bifurcation(result: GaitBifurcation, path=None):
         for ax in (top, bottom):
             ax.axvspan(lo, hi, color="0.85", zorder=0)
     bottom.axhline(1.0, color="k", lw=0.8, ls="--")
+    bottom.set_yscale("log")
     top.set_ylabel("interleg angle at heel strike (deg)")
     top.set_title("Compass gait (m_H/m = 2, a = b = 0.5 m): period doubling with slope")
     top.legend(fontsize=8, loc="upper left")
-    bottom.set_ylabel("|multiplier| of the period map")
+    bottom.set_ylabel("|multipliers| of the period map")
     bottom.set_xlabel("slope (deg)")
     bottom.legend(fontsize=8, loc="upper left")
-    bottom.set_ylim(0.0, 2.0)
+    bottom.set_ylim(1e-2, 30.0)
     fig.tight_layout()
     if path is not None:
         from ..bench.charts import save_chart
