@@ -41,8 +41,9 @@ The Jacobian
 sensitivities=True)`` (each impact record's d x(tau+)/d x(t_0) with the impact time moving,
 i.e. (I - f g_z / (g_z f)) Phi across the saltation), chained over the strides with
 reduce's Jacobian: one simulation per Jacobian instead of 2 d; on the rimless wheel it gives
-eta^2 to 2e-8, on the compass gait the differenced multipliers to 6e-7; slow on the
-simplest walker (its feet's tiny masses make the variational equations costly).
+eta^2 to 2e-8, on the compass gait the differenced multipliers to 6e-7; on the simplest
+walker it took over ten minutes against 6 s by differences (its feet's tiny masses make the
+variational equations stiff), hence "auto" is finite differences.
 
 ``jacobian="finite-differences"`` (and "auto"): central differences of the stride map along an
 orthonormal basis of T, with step ``step`` (each a full simulation with the tight default
@@ -60,11 +61,11 @@ from typing import Any, Callable, Mapping
 import numpy as np
 import scipy.linalg as sla
 
-from ..impact.errors import (AssemblyError, NonFiniteError, NotSupportedError, ParameterError, ShapeError,
-                             SolverError)
+from ..impact.errors import NonFiniteError, NotSupportedError, ParameterError, ShapeError
 from ..validation import choice, integer, mapping, positive
 from .initial import state_vector
-from .projection import project_positions, project_velocities
+from .periodic_section import (PeriodicOrbitError, _classify, _constraints, _flow, _jac,
+                               _null_space, _project, project_to_section)
 
 __all__ = ["find_periodic_orbit", "PeriodicOrbit", "TrivialMultiplier", "PeriodicOrbitError",
            "stride_map", "project_to_section"]
@@ -73,11 +74,6 @@ SECTIONS = ("impact",)
 JACOBIANS = ("auto", "state-transition", "finite-differences")
 #: simulate's tolerances on the stride map unless the caller sets them
 STRIDE_DEFAULTS = {"rtol": 1e-12, "atol": 1e-12}
-
-
-class PeriodicOrbitError(SolverError):
-    """Newton shooting did not converge, or a stride could not be completed (no impact within
-    ``t_max``, a failed simulation). Never comes with an answer."""
 
 
 @dataclass(frozen=True)
@@ -240,122 +236,6 @@ class _Problem:
                        transition)
 
 
-# ---- the section ---------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class _Section:
-    held: tuple[str, ...]
-    sticking: tuple[str, ...]
-    leaving: tuple[str, ...]
-
-
-def _classify(mech, z, k, touch_tol, rest_velocity) -> _Section:
-    th, dth = z[:k], z[k:]
-    held, sticking, leaving = [], [], []
-    for c in mech.contact_names:
-        gap = float(mech.contact_gap(c, th))
-        if abs(gap) > touch_tol:
-            continue
-        J = np.asarray(mech.contact_jacobian(c, th), float)
-        v = J @ dth
-        if v[0] > rest_velocity:
-            leaving.append(c)
-        else:
-            held.append(c)
-            if np.all(np.abs(v[1:]) <= rest_velocity):
-                sticking.append(c)
-    return _Section(tuple(held), tuple(sticking), tuple(leaving))
-
-
-def _constraints(mech, sec: _Section, k: int):
-    """c(z) = [Psi; gaps of held and leaving; C theta_dot; held rows . theta_dot]."""
-    def c(z):
-        th, dth = z[:k], z[k:]
-        parts = [np.asarray(mech.loop_residual(th), float).ravel()]
-        parts.append(np.array([mech.contact_gap(n, th) for n in sec.held + sec.leaving], float))
-        if mech.n_loop_constraints:
-            parts.append(np.asarray(mech.loop_jacobian(th), float) @ dth)
-        for n in sec.held:
-            J = np.asarray(mech.contact_jacobian(n, th), float)
-            parts.append(J @ dth if n in sec.sticking else J[:1] @ dth)
-        return np.concatenate(parts)
-    return c
-
-
-def _velocity_rows(mech, sec: _Section, th):
-    rows = [np.asarray(mech.loop_jacobian(th), float).reshape(-1, th.size)]
-    for n in sec.held:
-        J = np.asarray(mech.contact_jacobian(n, th), float)
-        rows.append(J if n in sec.sticking else J[:1])
-    return np.vstack(rows)
-
-
-def _jac(fun, x, h):
-    f0 = np.asarray(fun(x), float)
-    out = np.empty((f0.size, x.size))
-    for i in range(x.size):
-        e = np.zeros(x.size)
-        e[i] = h
-        out[:, i] = (np.asarray(fun(x + e), float) - np.asarray(fun(x - e), float)) / (2 * h)
-    return out
-
-
-def _null_space(A, n, rtol=1e-8):
-    if A.shape[0] == 0:
-        return np.eye(n)
-    _, s, vt = np.linalg.svd(A)
-    rank = int(np.sum(s > rtol * max(1.0, s[0])))
-    return vt[rank:].T
-
-
-def _flow(mech, sec: _Section, z, k):
-    """d(theta, theta_dot)/dt at z with the held contacts (stick: all rows) closed."""
-    th, dth = z[:k], z[k:]
-    M = np.asarray(mech.mass_matrix(th), float)
-    f = np.asarray(mech.generalized_forces(0.0, th, dth), float)
-    A = _velocity_rows(mech, sec, th)
-    if A.shape[0] == 0:
-        return np.concatenate([dth, np.linalg.solve(M, f)])
-    h = 1e-7 / max(1.0, float(np.linalg.norm(dth)))
-    Adot_dth = (_velocity_rows(mech, sec, th + h * dth) - _velocity_rows(mech, sec, th - h * dth)
-                ) @ dth / (2 * h)
-    kkt = np.block([[M, -A.T], [A, np.zeros((A.shape[0], A.shape[0]))]])
-    sol = np.linalg.solve(kkt, np.concatenate([f, -Adot_dth]))
-    return np.concatenate([dth, sol[:k]])
-
-
-def _project(mech, sec: _Section, z, k, tol=1e-12):
-    """z moved onto the section's manifold (M-weighted minimal corrections); a failed
-    projection is a :class:`PeriodicOrbitError`."""
-    try:
-        return _project_unchecked(mech, sec, z, k, tol)
-    except AssemblyError as exc:
-        raise PeriodicOrbitError(f"the state cannot be moved onto the section: {exc}") from exc
-
-
-def _project_unchecked(mech, sec: _Section, z, k, tol):
-    names = sec.held + sec.leaving
-    th, dth = z[:k].copy(), z[k:].copy()
-    M = np.asarray(mech.mass_matrix(th), float)
-
-    def residual(t):
-        return np.concatenate([np.asarray(mech.loop_residual(t), float).ravel(),
-                               [mech.contact_gap(n, t) for n in names]])
-
-    def jacobian(t):
-        rows = [np.asarray(mech.loop_jacobian(t), float).reshape(-1, k)]
-        rows += [np.asarray(mech.contact_jacobian(n, t), float)[:1] for n in names]
-        return np.vstack(rows)
-
-    if residual(th).size:
-        th, _, _ = project_positions(residual, jacobian, M, th, tol)
-    A = _velocity_rows(mech, sec, th)
-    if A.shape[0]:
-        dth = project_velocities(np.asarray(mech.mass_matrix(th), float), A, dth)
-    return np.concatenate([th, dth])
-
-
 # ---- Jacobian of the stride map ------------------------------------------------------------
 
 
@@ -433,25 +313,6 @@ def stride_map(system, y0=None, *, reduce: Callable | None = None, t_max: float 
     prob, z0 = _setup(system, y0, reduce, t_max, simulate_options, strides)
     s = prob.stride(z0)
     return s.state, s.time
-
-
-def project_to_section(system, state, like: PeriodicOrbit) -> np.ndarray:
-    """Move ``state`` [theta, theta_dot] onto the section of the orbit ``like``: its held
-    contacts' gaps and velocities and its section contacts' gaps zeroed (loops closed) by
-    M-weighted minimal corrections (:func:`~convimpact.simulation.project_positions`,
-    :func:`~convimpact.simulation.project_velocities`). For starting guesses made by
-    displacing a fixed point (a branch switch at a period doubling): a displacement along
-    the section's tangent space leaves its constraints violated at second order, enough for a
-    held foot to strike at t = 0.
-    """
-    from .simulate import _as_mechanism
-
-    mech, _ = _as_mechanism(system)
-    k = int(mech.n_coordinates)
-    z = state_vector("state", state, 2 * k)
-    sec = _Section(tuple(like.held_contacts), tuple(like.sticking_contacts),
-                   tuple(like.section_contacts))
-    return _project(mech, sec, z, k)
 
 
 def _setup(system, y0, reduce, t_max, simulate_options, strides=1):
