@@ -31,9 +31,13 @@ complement of N in T), Q^-1 DP Q is block triangular, its W-block the reduced st
 Jacobian (``result.jacobian``) and its N-block the trivial multipliers (0 up to the
 differencing error, reported as computed).
 
-For an exact state transition matrix Phi of a stride ending on a section g(z) = 0 at the
-variable time t_f(z0), the chain rule with dt_f/dz0 = -g_z Phi / (g_z f) gives
-DP = (I - f g_z / (g_z f)) Phi: the flow direction at the section is projected out.
+For an exact state transition matrix Phi (at fixed time) of a stride ending on a section
+g(x) = 0 at the variable time t_f(z0): g_x (Phi dz0 + f dt_f) = 0 gives
+dt_f = -g_x Phi dz0 / (g_x f), and the end state moves by dx = Phi dz0 + f dt_f, so
+DP = (I - f g_x / (g_x f)) Phi: the flow direction at the section is projected out. Across
+the impact x+ = Delta(x-) that ends the stride (g the striking gap, f- the flow before it),
+DP = D Delta (I - f- g_x / (g_x f-)) Phi- = (S - f+ g_x / (g_x f-)) Phi-, S = D Delta +
+(f+ - D Delta f-) g_x / (g_x f-) the saltation matrix; then D reduce in front.
 
 The Jacobian
 ------------

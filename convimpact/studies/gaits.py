@@ -203,7 +203,7 @@ def compass_gait_bifurcation(min_deg: float = 1.0, max_deg: float = 5.4,
         k = scene.mechanism.n_coordinates
         return find_periodic_orbit(scene, (state[:k], state[k:]), strides=strides,
                                    reduce=lambda th, dth: cg.reduce(th, dth, L),
-                                   t_max=4.0 * float(scene.t_end))
+                                   t_max=4.0 * float(scene.t_end), max_iterations=12)
 
     failures: list = []
     up = np.radians(np.arange(start_deg, max_deg + 1e-9, step_deg))
