@@ -19,9 +19,11 @@ the legs keep their labels in a simulation, so the next stride's leg switch is t
 map's ``reduce`` (:func:`reduce`); :func:`periodic_gait` chains strides that way.
 
 Goswami et al. report a stable symmetric period-one gait at small slopes that period-doubles
-as the slope grows, then a cascade of doublings to chaos (their bifurcation diagram is in
-slope degrees); here the period-one gait's multiplier crosses -1 between 4.0 and 4.5 degrees
-(see :func:`convimpact.studies.gaits.compass_gait_bifurcation`).
+as the slope grows, then a cascade of doublings to chaos; here the period-one gait's
+multiplier crosses -1 between 4.35 and 4.40 degrees, the period-two gait's between 4.90 and
+4.95, the period-four gait's between 5.00 and 5.05
+(:func:`convimpact.studies.gaits.compass_gait_bifurcation`, docs/figures/
+compass_gait_bifurcation.png).
 
 Parameters of :func:`make_scene`: slope (0.05236 rad = 3 degrees), hip_mass (10 kg), leg_mass
 (5 kg), a (0.5 m), b (0.5 m), mu (1), activation (None: 0.3 rad scaled with the slope as the
