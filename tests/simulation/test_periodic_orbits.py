@@ -158,6 +158,27 @@ def test_compass_gait_fixed_point_and_multipliers_by_finite_differences():
 # ---- reduce and bad input -----------------------------------------------------------------
 
 
+def test_the_leg_switch_relabels_the_legs_and_moves_the_new_stance_foot_to_the_origin():
+    from convimpact.problems import compass_gait as cg
+    from convimpact.problems._walker import stance_state
+
+    scene = load_scene("compass_gait")
+    slope = scene.parameters["slope"]
+    # a heel-strike posture: stance leg 0.25 rad forward of the normal, swing 0.25 behind it
+    th, dth = stance_state(-0.25, -1.0, 0.5, 0.7, slope, 1.0)
+    th2, dth2 = cg.reduce(th, dth)
+    # by hand: the swing leg's absolute angle phi_st + phi_sw becomes the stance leg's
+    assert th2[2] == pytest.approx(th[2] + th[3]) and th2[3] == pytest.approx(-th[3])
+    assert dth2[2] == pytest.approx(dth[2] + dth[3]) and dth2[3] == pytest.approx(-dth[3])
+    assert dth2[:2] == pytest.approx(dth[:2])  # a translation keeps the hip's velocity
+    foot = th2[:2] + [np.sin(th2[2]), -np.cos(th2[2])]
+    assert foot == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert scene.mechanism.contact_gap("stance_foot", th2) == pytest.approx(0.0, abs=1e-12)
+    # twice: the legs back in their roles, the other foot at the origin
+    th3, _ = cg.reduce(th2, dth2)
+    assert th3[2:] == pytest.approx(th[2:])
+
+
 def test_without_reduce_a_walker_has_no_fixed_point():
     scene = load_scene("rimless_wheel")
     with pytest.raises(PeriodicOrbitError):
