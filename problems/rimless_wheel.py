@@ -29,10 +29,29 @@ w+*^2 > 2 g_0 (1 - cos(alpha - g)) / (l (1 + rho^2)).
 (0.504 for the defaults); from omega0 = 0.7 the first strike's w-^2 is 2.7 % above it, so
 the gait is steady after two or three steps (a step takes about 0.8 s).
 
+Stride map and its multiplier (derived here). On the Poincare section just after a foot
+strike the state is one number, w+ (the stance foot sticks, the trailing foot has just left,
+the angle is alpha - g behind the vertical). Energy over the step gives
+w-^2 = w+^2 + c, c = 4 g_0 sin(alpha) sin(g) / (l (1 + rho^2)), and the strike
+w+_next = eta w-, so P(w) = eta sqrt(w^2 + c) and P'(w) = eta w / sqrt(w^2 + c) =
+eta^2 w / P(w). At the fixed point P(w*) = w*, hence the multiplier is exactly
+P'(w*) = eta^2 = ((cos(2 pi / n) + rho^2) / (1 + rho^2))^2 (0.50411 for the defaults), the
+same on any section (a multiplier is invariant under a change of coordinates; on the
+pre-strike section w- the map is w -> sqrt(eta^2 w^2 + c), derivative eta^2 w / w_next, again
+eta^2 at the fixed point). :func:`periodic_gait` finds it by Newton shooting on the full
+state (x, y, phi, velocities): the held foot's three constraints and the trailing foot's gap
+define the section, the translation along the slope is removed by :func:`reduce` (named in
+``trivial_multipliers``), and the one multiplier left is eta^2.
+
 Assumptions: massless spokes, the hub's mass at its centre; feet stick (mu = 1 exceeds the
 ratio of the strike impulses, (1 - eta) cot(alpha) / (1 + eta) = 0.41 here, and of the stance
 forces, about tan(alpha) = 0.41); a plastic strike with the old foot lifting off; no scuffing
 of the swing feet (spokes are rigid and the slope is flat).
+
+:func:`reduce` (the stride map's reduction: phi less one spoke angle, the stance foot put at
+the origin) and :func:`periodic_gait` (the gait by Newton shooting) take the scene's
+parameters; the slope stays ``slope_deg`` in degrees (the scene's parameter since its
+first version; ``parameters["slope"]`` has it in radians).
 
 Parameters of :func:`make_scene`: slope_deg (5), n_spokes (8), leg_length (1 m), mass (1 kg),
 rho (0.1, radius of gyration / l), omega0 (0.7 rad/s), e (0), mu (1), t_end (3 s).
@@ -120,3 +139,32 @@ def make_scene(slope_deg: float = 5.0, n_spokes: int = 8, leg_length: float = 1.
                      "feet stick; plastic strikes, the old foot lifting off"])
     return Scene(name="rimless_wheel", description=description, mechanism=mech, theta0=theta0,
                  dtheta0=dtheta0, t_end=t_end, parameters=MappingProxyType(params))
+
+
+def reduce(theta: np.ndarray, dtheta: np.ndarray, n_spokes: int = 8, leg_length: float = 1.0):
+    """The stride map's reduce: phi less one spoke angle (foot{n-1}, which struck, takes
+    foot0's place) and the wheel translated along the slope so that foot0 is at the origin."""
+    th = np.array(theta, float)
+    th[2] -= 2.0 * np.pi / int(n_spokes)
+    foot = np.array([th[0] + leg_length * np.sin(th[2]), th[1] - leg_length * np.cos(th[2])])
+    th[:2] -= foot
+    return th, np.array(dtheta, float)
+
+
+def periodic_gait(**parameters):
+    """The steady gait as a fixed point of the stride map (Newton shooting from the scene's
+    start, :func:`convimpact.simulation.find_periodic_orbit`); its one multiplier is
+    ``parameters["eta"] ** 2`` (module docstring).
+
+    Raises
+    ------
+    PeriodicOrbitError
+        when the slope is too shallow for a steady gait (the wheel stops: no strike).
+    """
+    from convimpact.scenes import load_scene
+    from convimpact.simulation import find_periodic_orbit
+
+    scene = load_scene("rimless_wheel", **parameters)
+    n, leg = int(scene.parameters["n_spokes"]), float(scene.parameters["leg_length"])
+    return find_periodic_orbit(scene, reduce=lambda th, dth: reduce(th, dth, n, leg),
+                               t_max=max(float(scene.t_end), 3.0))

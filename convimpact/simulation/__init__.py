@@ -17,6 +17,8 @@ from .saltation import EventSensitivity
 from .simulate import INTEGRATORS, simulate
 from .zeno import Accumulation, AccumulationDetector
 from .schemes import SCHEMES, simulate_with  # noqa: F401  (moreau-jean, compliant)
+from .periodic import (PeriodicOrbit, PeriodicOrbitError, TrivialMultiplier,
+                       find_periodic_orbit, project_to_section, stride_map)
 
 __all__ = [
     "simulate",
@@ -32,4 +34,10 @@ __all__ = [
     "Accumulation",
     "AccumulationDetector",
     "INTEGRATORS",
+    "find_periodic_orbit",
+    "stride_map",
+    "project_to_section",
+    "PeriodicOrbit",
+    "TrivialMultiplier",
+    "PeriodicOrbitError",
 ]
