@@ -423,12 +423,15 @@ def _summarise(run, model, params, observations, sigma, level, x0, jacobian) -> 
         Jn = J[:, idx] / norms[idx]
         _, s, Vt = np.linalg.svd(Jn, full_matrices=False)
         for k in np.flatnonzero(s < RANK_TOLERANCE * s[0]):
-            v = Vt[k]
-            involved = idx[np.abs(v) > 0.1]
-            combo = " + ".join(f"{v[list(idx).index(i)] / norms[i]:.3g} {names[i]}"
-                               for i in involved)
-            notes.append(f"only a combination of {', '.join(names[i] for i in involved)} is "
-                         f"determined (the direction {combo} leaves the observations unchanged)")
+            direction = Vt[k] / norms[idx]  # back to the parameters' own units
+            direction /= np.linalg.norm(direction)
+            keep = np.abs(direction) > 0.05
+            involved = idx[keep]
+            notes.append(
+                f"only a combination of {', '.join(names[i] for i in involved)} is determined: "
+                f"moving ({', '.join(names[i] for i in involved)}) along "
+                f"({', '.join(f'{d:.3g}' for d in direction[keep])}) leaves the observations "
+                "unchanged")
             identifiable[involved] = False
     idx = np.flatnonzero(identifiable)
     n_obs = observations.n_samples
