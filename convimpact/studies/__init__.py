@@ -6,6 +6,7 @@ fitted to observed trajectories (:mod:`convimpact.studies.fitting`)."""
 _LAZY = {
     "fit_coefficients": "fitting", "CoefficientFit": "fitting", "FitError": "fitting",
     "Observations": "fitting_model", "synthetic_observations": "fitting_model",
+    "with_coefficients": "fitting_model",
 }
 
 __all__ = sorted(_LAZY)
