@@ -21,6 +21,8 @@ from .result import ContactEvent, ImpactEvent
 from .run_record import painleve_event, project_onto
 from .sustained import contact_state, held_modes, redundant_rows
 
+#: resolve_impact takes ``derivatives=True`` (the law's analytic jacobian)
+IMPACT_DERIVATIVES = "derivatives" in __import__("inspect").signature(resolve_impact).parameters
 #: events (or impacts) at one instant beyond which the run is declared chattering
 MAX_EVENTS_AT_ONE_INSTANT = 50
 
@@ -42,6 +44,7 @@ class ContactEvents:
         if candidates:
             # plastic frictionless correction of the (tiny, <= rest_velocity) normal speeds
             normals = CanonicalEquations(self.mech, candidates)
+            self.track_projection(normals.jacobian, th, dth)
             dth = project_onto(M, normals.jacobian(th), dth)
             cs = contact_state(self.mech, t, th, dth, candidates, o.rest_velocity)
             try:
@@ -72,6 +75,7 @@ class ContactEvents:
         self.eq = CanonicalEquations(self.mech, held, modes, dropped, dims,
                                      slip_floor=o.rest_velocity)
         self.eq_log.append((t, self.eq))
+        self.track_projection(self.eq.jacobian, th, dth)
         dth = project_onto(M, self.eq.jacobian(th), dth)
         dT = float(self.mech.kinetic_energy(th, dth)) - T0
         for c in held:
@@ -105,9 +109,15 @@ class ContactEvents:
         if o.tangential_restitution is not None:  # e_t per contact (law chatterjee-ruina)
             ets = [o.tangential_restitution[c] for c in closing]
             law_params["e_t"] = ets[0] if len(closing) == 1 else ets
+        if o.sensitivities and IMPACT_DERIVATIVES:
+            law_params["derivatives"] = True
         try:
             r = resolve_impact(M, J, dth, e, mu, C if len(C) else None,
                                law=o.law, method=o.method, **law_params, **o.impact_options)
+            if o.sensitivities:
+                extra = {k: v for k, v in law_params.items() if k != "derivatives"}
+                self.impact_jacobian(r, M, J, dth, e, mu, C if len(C) else None, law=o.law,
+                                     method=o.method, **extra, **o.impact_options)
         except ConvImpactError as exc:
             exc.add_note(f"(while resolving the impact of {', '.join(closing)} at "
                          f"t = {t:.9g} in convimpact.simulation.simulate)")
@@ -157,6 +167,8 @@ class ContactEvents:
         elif persist and any(float(params[c][0]) > 0.0 for c in persist):
             r, Jc, dt = self.solve_impact(t, th, dth, M, closing, params, C, set(persist))
             spent += dt
+        self.track_impact(r, th, closing, normals.jacobian if len(C) else None,
+                          persist if zeno_hit or persist else ())
         dq_plus = np.asarray(r.dq_plus, float)
         at_rest = [c for i, c in enumerate(closing)
                    if c in persist or abs(float(Jc[i][0] @ dq_plus)) <= o.rest_velocity]

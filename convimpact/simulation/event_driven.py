@@ -29,6 +29,7 @@ from .projection import project_positions
 from .result import (SERIES, ContactEvent, ImpactEvent, PainleveEvent, PiecewiseSolution,
                      SimulationResult, append_sample, series_from_rows)
 from .run_record import ModeLog, contact_rows, law_flags, project_onto
+from .sensitivity import SensitivityTracking
 from .sustained import MARGIN_SLACK, held_forces, painleve_indicator
 from .zeno import AccumulationDetector
 
@@ -82,7 +83,7 @@ class StepSamples:
         return v[c]
 
 
-class EventDrivenRun(ContactEvents):
+class EventDrivenRun(ContactEvents, SensitivityTracking):
     """The state of one event-driven run and the steps that advance it.
 
     Parameters
@@ -142,6 +143,7 @@ class EventDrivenRun(ContactEvents):
         self.last_event_t: float | None = None
         self.n_steps = self.n_projections = self.n_restarts = self.nevents_fev = 0
         self.impact_time = 0.0
+        self.start_tracking()
 
     @property
     def held(self) -> Held:
@@ -308,7 +310,9 @@ class EventDrivenRun(ContactEvents):
                 f"{self.same_instant} events at t = {te:.9g} without progress (chattering "
                 f"contacts {sorted({f[2] for f in group})}); loosen contact_tol or "
                 "rest_velocity, or use zeno='stop'")
-        self.y, stop_msg = self.handle(te, ye, [f[2] for f in group if f[1] == "impact"],
+        first = min(group)
+        self.trigger = (first[1], first[2])
+        stop_msg = self.handle_instant(te, ye, [f[2] for f in group if f[1] == "impact"],
                                        [f[2] for f in group if f[1] == "touch"])
         self.t = te
         self.record(self.t, self.y)
@@ -323,6 +327,15 @@ class EventDrivenRun(ContactEvents):
                 "raise it or check for accumulating impacts")
         elif self.t >= o.t1:
             self.status, self.message = 0, END_OF_SPAN
+
+    def handle_instant(self, t: float, y: np.ndarray, closing: Sequence[str],
+                       touching: Sequence[str]) -> str | None:
+        """:meth:`handle` the events at t, set the state, and record the instant's
+        sensitivities when tracking; returns the stop message or None."""
+        eq_minus, n_imp, n_ce = self.eq, len(self.impacts), len(self.contact_events)
+        self.y, stop_msg = self.handle(t, y, closing, touching)
+        self.track_event(t, y, eq_minus, n_imp, n_ce)
+        return stop_msg
 
     # ---- integration -----------------------------------------------------------------------
     def run(self) -> SimulationResult:
@@ -339,7 +352,7 @@ class EventDrivenRun(ContactEvents):
         touching = [c for c in self.contacts
                     if float(self.mech.contact_gap(c, self.y[:self.k])) <= self.opts.contact_tol]
         if touching:
-            self.y, stop_msg = self.handle(self.t, self.y, [], touching)
+            stop_msg = self.handle_instant(self.t, self.y, [], touching)
             self.record(self.t, self.y)
             if stop_msg and self.status is None:
                 self.status, self.message = 1, stop_msg
@@ -459,7 +472,8 @@ class EventDrivenRun(ContactEvents):
             contact_mode=np.array(rows["mode"], dtype=int).reshape(n, len(self.contacts)),
             contact_force=np.array(rows["force"], float).reshape(n, len(self.contacts), d),
             mode_intervals=self.modes.intervals(self.t), painleve=tuple(self.painleve),
-            friction_dissipation=np.array(rows["friction"], float), law_flags=flag_counts)
+            friction_dissipation=np.array(rows["friction"], float), law_flags=flag_counts,
+            **self.final_sensitivities())
         if self.painleve_error is not None:
             self.painleve_error.result = res
             raise self.painleve_error

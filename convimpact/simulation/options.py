@@ -18,7 +18,9 @@ class EventDrivenOptions:
     projected after a step. ``t_eval`` is None or a sorted array within ``(t0, t1)``.
     ``impact_options`` are the solver options forwarded to ``resolve_impact``;
     ``tangential_restitution`` is the law's e_t per contact (law ``"chatterjee-ruina"``,
-    from ``impact_options["e_t"]``; None: the law's default).
+    from ``impact_options["e_t"]``; None: the law's default). ``sensitivities``: integrate the
+    variational equations and the events' saltation matrices
+    (:mod:`~convimpact.simulation.sensitivity`).
     """
 
     t0: float
@@ -45,6 +47,7 @@ class EventDrivenOptions:
     painleve: str = "stop"
     impacts: str = "simultaneous"
     tangential_restitution: Mapping[str, float] | None = None
+    sensitivities: bool = False
 
     def settings(self) -> dict[str, Any]:
         """The options as reported in :attr:`SimulationResult.settings`."""
@@ -58,6 +61,7 @@ class EventDrivenOptions:
             "max_impacts": int(self.max_impacts), "painleve": self.painleve,
             "impacts": self.impacts,
             "t_span": [self.t0, self.t1],
+            **({"sensitivities": True} if self.sensitivities else {}),
             **({} if self.tangential_restitution is None
                else {"e_t": dict(self.tangential_restitution)}),
         }

@@ -35,6 +35,9 @@ class ImpactEvent:
     result : the law's full :class:`~convimpact.impact.results.ImpactResult` (with
         diagnostics), or None for a Moreau–Jean step solved on the contact engine
         (:mod:`convimpact.simulation.moreau_loop`: certified by the natural-map residual).
+    saltation : (2k, 2k) the saltation matrix ``dx+/dx-`` of the event instant in
+        x = (theta, theta_dot) (with ``simulate(..., sensitivities=True)``; else None), see
+        :class:`~convimpact.simulation.saltation.EventSensitivity`.
     """
 
     time: float
@@ -54,6 +57,7 @@ class ImpactEvent:
     released: tuple[str, ...]
     resolve_time: float
     result: ImpactResult | None
+    saltation: np.ndarray | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view."""
@@ -70,6 +74,7 @@ class ImpactEvent:
             "resolve_time": self.resolve_time,
             "diagnostics": (None if self.result is None
                             else self.result.diagnostics.as_dict()),
+            "saltation": None if self.saltation is None else _jsonable(self.saltation),
         }
 
 
@@ -87,6 +92,8 @@ class ContactEvent:
     accumulation_time : for "persist" after a detected accumulation, the extrapolated limit
         t_inf of the geometric sequence of impact times; None otherwise.
     energy_change : T+ - T- of the velocity correction applied at the switch (<= 0).
+    saltation : (2k, 2k) the saltation matrix of the instant in x = (theta, theta_dot)
+        (with ``simulate(..., sensitivities=True)``; else None).
     """
 
     time: float
@@ -95,6 +102,7 @@ class ContactEvent:
     reason: str
     accumulation_time: float | None = None
     energy_change: float = 0.0
+    saltation: np.ndarray | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {k: _jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
@@ -193,6 +201,19 @@ class SimulationResult:
         (``energy_gained``, ``penetration``, ``slip_reversal``, ``friction_pushes_slip`` --
         sliding impacts only) and of Painleve events (``painleve``); each flag raised also
         gives one entry of ``warnings``.
+    state_transition : (2k, 2k) ``dx(t_final)/dx(t_0)``, x = (theta, theta_dot), with
+        ``simulate(..., sensitivities=True)`` (the monodromy matrix of a periodic orbit);
+        else None. t_final is the run's last instant (the span's end unless it stopped
+        early), x(t_0) the state given (before the contacts touching at t_0 are closed).
+    parameter_sensitivity : {"e": (2k, n_contacts), "mu": (2k, n_contacts)}: the derivatives
+        of x(t_final) with respect to each contact's restitution and friction coefficients
+        (columns in the order of ``contact_names``), with ``sensitivities=True``; else empty.
+    event_sensitivities : one :class:`~convimpact.simulation.saltation.EventSensitivity`
+        per event instant (impacts, lift-offs, stick/slip transitions, the start), in time
+        order, with ``sensitivities=True``; else empty.
+    sensitivity_series : with ``sensitivities=True`` and ``t_eval``: {"t": (n,), "state":
+        (n, 2k, 2k) dx(t)/dx(t_0), "e", "mu": (n, 2k, n_contacts) dx(t)/d(e, mu)} at the
+        samples (right-continuous at events, like the series); else empty.
     """
 
     t: np.ndarray
@@ -226,6 +247,12 @@ class SimulationResult:
     painleve: tuple[PainleveEvent, ...] = ()
     friction_dissipation: np.ndarray = field(default_factory=lambda: np.zeros(0))
     law_flags: Mapping[str, int] = field(default_factory=lambda: MappingProxyType({}))
+    state_transition: np.ndarray | None = None
+    parameter_sensitivity: Mapping[str, np.ndarray] = field(
+        default_factory=lambda: MappingProxyType({}))
+    event_sensitivities: tuple = ()
+    sensitivity_series: Mapping[str, np.ndarray] = field(
+        default_factory=lambda: MappingProxyType({}))
 
     def modes_of(self, contact: str) -> tuple[ModeInterval, ...]:
         """The mode timeline of one contact."""

@@ -82,6 +82,9 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
     ------
     UnknownOptionError
         for an unknown scheme or an option the scheme does not take (the message lists them);
+    NotSupportedError
+        for ``sensitivities=True`` with a scheme other than "event-driven" (``False`` is
+        accepted and ignored);
     ParameterError, NonFiniteError, ShapeError
         for an option's value of the wrong type or out of its declared range (e.g. ``h="1e-3"``,
         ``max_step=0``), checked before the scheme runs and naming the option.
@@ -92,6 +95,14 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
         raise UnknownOptionError(f"unknown simulation scheme {scheme!r}; choose one of "
                                  f"{', '.join(SCHEMES)}")
     fn = fns[scheme]
+    if scheme != "event-driven" and "sensitivities" in options:
+        from ..validation import boolean
+        if boolean("sensitivities", options.pop("sensitivities")):
+            from ..impact.errors import NotSupportedError
+            raise NotSupportedError(
+                f"sensitivities=True: trajectory sensitivities (saltation matrices, "
+                f"state_transition) are computed by the event-driven scheme only, not by "
+                f"{scheme!r}; use scheme='event-driven' (convimpact.simulation.simulate)")
     import inspect
 
     accepted = [p.name for p in inspect.signature(fn).parameters.values()

@@ -93,6 +93,7 @@ def simulate(
     painleve: str = "stop",
     impacts: str = "simultaneous",
     impact_options: Mapping[str, Any] | None = None,
+    sensitivities: bool = False,
 ) -> SimulationResult:
     """Integrate the canonical equations of a mechanism through its impacts.
 
@@ -170,6 +171,18 @@ def simulate(
         contact's e and mu: ``"e_t"``, the tangential restitution in [-1, 1] of law
         ``"chatterjee-ruina"`` (one value, or a mapping contact name -> value; default 0),
         refused with any other law before the run starts.
+    sensitivities : bool
+        Also compute the trajectory's derivatives (:mod:`convimpact.simulation.sensitivity`):
+        ``result.state_transition`` = dx(t_final)/dx(t0) with x = (theta, theta_dot),
+        ``result.parameter_sensitivity`` = {"e": ..., "mu": ...} (2k x n_contacts, per
+        contact), every event's saltation matrix (``.saltation`` on the impact and contact
+        records, ``result.event_sensitivities`` for every instant, stick/slip transitions
+        included). The variational equations are integrated over each event-free interval
+        along the run's dense output with the same integrator and tolerances; the impact
+        law's part of each reset is its analytic derivative (``resolve_impact(...,
+        derivatives=True)``), the smooth model functions (M, Jc, the right-hand side) are
+        differenced to ~1e-9 relative. Derivatives are one-sided where the trajectory
+        grazes a contact or an event coincides with another.
 
     Returns
     -------
@@ -242,6 +255,7 @@ def simulate(
     rest_velocity = nonnegative("rest_velocity", rest_velocity)
     max_impacts = integer("max_impacts", max_impacts, minimum=0)
     dense_output = boolean("dense_output", dense_output)
+    sensitivities = boolean("sensitivities", sensitivities)
     assemble = boolean("assemble", assemble)
     zeno_time_tol = None if zeno_time_tol is None else positive("zeno_time_tol", zeno_time_tol)
 
@@ -263,7 +277,8 @@ def simulate(
         projection_tol=projection_tol, in_place=in_place,
         drift_threshold=projection_tol if in_place else max(projection_tol, 1e3 * atol),
         zeno=zeno, zeno_time_tol=zeno_tol, rest_velocity=rest_velocity, max_impacts=max_impacts,
-        painleve=painleve, impacts=impacts, tangential_restitution=e_t)
+        painleve=painleve, impacts=impacts, tangential_restitution=e_t,
+        sensitivities=sensitivities)
 
     # ---- initial state ---------------------------------------------------------------------
     if y0 is None:

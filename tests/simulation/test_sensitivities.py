@@ -1,0 +1,231 @@
+"""Trajectory sensitivities of the event-driven scheme (``simulate(..., sensitivities=True)``).
+
+Every derivative is checked against a second method: closed forms derived here by hand (the
+bouncing ball, the box sliding to rest) and central finite differences of whole simulations
+run at tight tolerances (rtol 1e-11, event_tol 1e-13), the perturbations small enough for
+the run to keep its sequence of events and modes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from convimpact.impact.errors import NotSupportedError, ParameterError
+from convimpact.problems import bouncing_ball, bouncing_rod, pendulum_planar, sliding_box
+from convimpact.simulation import simulate, simulate_with
+
+G = 9.81
+TIGHT = dict(rtol=1e-11, atol=1e-12, event_tol=1e-13)
+#: step of the finite differences of whole simulations: their round-off (~1e-12) over the
+#: step leaves ~1e-6 of noise, their truncation ~h^2 ~1e-12
+H = 1e-6
+
+
+def final_state(res) -> np.ndarray:
+    return np.concatenate([res.theta[-1], res.dtheta[-1]])
+
+
+def fd_state(scene, span, directions, **options) -> np.ndarray:
+    """d x(t_final) / d x(t0) along ``directions`` (columns), central differences."""
+    x0 = np.concatenate([scene.theta0, scene.dtheta0])
+    k = len(scene.theta0)
+    cols = []
+    for d in np.asarray(directions, float).T:
+        xp, xm = x0 + H * d, x0 - H * d
+        rp = simulate(scene, span, (xp[:k], xp[k:]), **options)
+        rm = simulate(scene, span, (xm[:k], xm[k:]), **options)
+        cols.append((final_state(rp) - final_state(rm)) / (2 * H))
+    return np.array(cols).T
+
+
+def fd_parameter(make, parameters, name, span, **options) -> np.ndarray:
+    """d x(t_final) / d parameter (the scene's one coefficient shared by its contacts)."""
+    up = make(**{**parameters, name: parameters[name] + H})
+    down = make(**{**parameters, name: parameters[name] - H})
+    return (final_state(simulate(up, span, **options))
+            - final_state(simulate(down, span, **options))) / (2 * H)
+
+
+def assert_close(actual, expected, rtol=2e-5):
+    scale = max(1.0, float(np.max(np.abs(expected))))
+    np.testing.assert_allclose(actual, expected, rtol=rtol, atol=rtol * scale)
+
+
+# ---- the bouncing ball: closed forms -------------------------------------------------------------
+def ball_first_impact(height: float, radius: float) -> tuple[float, float]:
+    """Time and speed of the first impact of a ball released from rest: the centre falls
+    h' = height - radius, t1 = sqrt(2 h'/g), |v-| = g t1."""
+    t1 = np.sqrt(2 * (height - radius) / G)
+    return float(t1), float(G * t1)
+
+
+@pytest.mark.parametrize("e", [0.5, 0.8])
+def test_ball_saltation_is_the_classic_matrix(e):
+    """Ball on the floor, x = (x, y, vx, vy): the impact reset R = diag(1, 1, 1, -e) on a gap
+    g = y - r with g_x = (0, 1, 0, 0), x_dot- = (vx, v-, 0, -g), x_dot+ = (vx, -e v-, 0, -g):
+    S = R + (x_dot+ - R x_dot-) g_x / v- has S_yy = 1 + (-e v- - v-)/v- = -e,
+    S_vy,y = (-g - e g)/v- = (1 + e) g / |v-|, S_vy,vy = -e, the x and vx rows unchanged."""
+    scene = bouncing_ball.make_scene(e=e, mu=0.0, height=1.0, speed=0.3)
+    res = simulate(scene, (0.0, 0.6), sensitivities=True, **TIGHT)
+    t1, v = ball_first_impact(1.0, 0.1)
+    S = res.impacts[0].saltation
+    expected = np.eye(4)
+    expected[1, 1] = -e
+    expected[3, 1] = (1 + e) * G / v
+    expected[3, 3] = -e
+    np.testing.assert_allclose(S, expected, atol=1e-7)
+    rec = res.event_sensitivities[0]
+    assert rec.kind == "impact" and rec.contacts == ("floor",) and rec.switching == "gap"
+    # the impact time moves by -dy/v-: d tau/dy = 1/|v-|
+    np.testing.assert_allclose(rec.time_gradient, [0.0, 1.0 / v, 0.0, 0.0], atol=1e-9)
+
+
+@pytest.mark.parametrize("e", [0.5, 0.8])
+def test_ball_final_state_derivatives_match_the_hand_derivation(e):
+    """After one bounce, at T: y(T) = r + e V (T - t1) - g (T - t1)^2 / 2, v(T) = e V - g (T - t1)
+    with V = g t1, t1 = sqrt(2 (h - r)/g), dt1/dh = 1/(g t1). Hence
+    dy/de = V (T - t1), dv/de = V; dy/dh = ((1 + e)(T - t1) - e t1)/t1, dv/dh = (1 + e)/t1;
+    x(T) = x0 + u T: dx/dx0 = 1, dx/du = T."""
+    T, u = 0.7, 0.3
+    scene = bouncing_ball.make_scene(e=e, mu=0.0, height=1.0, speed=u)
+    res = simulate(scene, (0.0, T), sensitivities=True, **TIGHT)
+    assert len(res.impacts) == 1
+    t1, V = ball_first_impact(1.0, 0.1)
+    Phi = res.state_transition
+    assert Phi.shape == (4, 4)
+    np.testing.assert_allclose(Phi[1, 1], ((1 + e) * (T - t1) - e * t1) / t1, rtol=1e-8)
+    np.testing.assert_allclose(Phi[3, 1], (1 + e) / t1, rtol=1e-8)
+    np.testing.assert_allclose(Phi[0, [0, 2]], [1.0, T], rtol=1e-9)
+    de = res.parameter_sensitivity["e"]
+    assert de.shape == (4, 1) and res.parameter_sensitivity["mu"].shape == (4, 1)
+    np.testing.assert_allclose(de[:, 0], [0.0, V * (T - t1), 0.0, V], rtol=1e-8, atol=1e-9)
+
+
+def test_ball_sliding_impact_matches_finite_differences_of_whole_runs():
+    """A frictional (sliding) impact: every column of dx/dx0 and d/d(e, mu)."""
+    make = bouncing_ball.make_scene
+    params = dict(e=0.6, mu=0.2, height=1.0, speed=3.0)
+    scene = make(**params)
+    span = (0.0, 0.8)
+    res = simulate(scene, span, sensitivities=True, **TIGHT)
+    assert res.impacts[0].regime == ("slide",)
+    assert_close(res.state_transition, fd_state(scene, span, np.eye(4), **TIGHT))
+    for name in ("e", "mu"):
+        assert_close(res.parameter_sensitivity[name][:, 0],
+                     fd_parameter(make, params, name, span, **TIGHT))
+
+
+def test_sensitivities_at_t_eval_match_finite_differences_of_the_samples():
+    scene = bouncing_ball.make_scene(e=0.5, mu=0.0, height=1.0, speed=0.3)
+    t_eval = np.linspace(0.0, 0.7, 8)  # the impact at 0.428 lies between samples
+    res = simulate(scene, (0.0, 0.7), t_eval=t_eval, sensitivities=True, **TIGHT)
+    series = res.sensitivity_series
+    np.testing.assert_array_equal(series["t"], t_eval)
+    assert series["state"].shape == (8, 4, 4) and series["e"].shape == (8, 4, 1)
+    x0 = np.concatenate([scene.theta0, scene.dtheta0])
+    for j in (1, 3):  # the height and the vertical speed
+        d = np.zeros(4)
+        d[j] = H
+        samples = [simulate(scene, (0.0, 0.7), (x[:2], x[2:]), t_eval=t_eval, **TIGHT)
+                   for x in (x0 + d, x0 - d)]
+        fd = (np.hstack([samples[0].theta, samples[0].dtheta])
+              - np.hstack([samples[1].theta, samples[1].dtheta])) / (2 * H)
+        assert_close(series["state"][:, :, j], fd)
+
+
+# ---- a double pendulum striking the floor: impacts and flight ------------------------------------
+def test_pendulum_striking_the_floor_matches_finite_differences():
+    make = pendulum_planar.make_scene
+    params = dict(case="a", e=0.5, mu=0.3)
+    scene = make(**params)
+    span = (0.0, 0.8)
+    res = simulate(scene, span, sensitivities=True, **TIGHT)
+    assert len(res.impacts) == 2  # two sliding impacts of the tip, flight between
+    assert all(ev.saltation is not None and ev.saltation.shape == (4, 4) for ev in res.impacts)
+    assert_close(res.state_transition, fd_state(scene, span, np.eye(4), **TIGHT))
+    for name in ("e", "mu"):
+        assert_close(res.parameter_sensitivity[name][:, 0],
+                     fd_parameter(make, params, name, span, **TIGHT))
+
+
+# ---- the bouncing rod: frictional impacts with rotation ------------------------------------------
+def test_spinning_rod_bouncing_on_its_ends_matches_finite_differences():
+    make = bouncing_rod.make_scene
+    params = dict(e=0.5, mu=0.3)
+    # launched sideways and spinning, so that each impact slides (from rest the first impact
+    # would start at zero slip, a mode boundary where the derivative is one-sided)
+    scene = dataclasses.replace(make(**params), dtheta0=np.array([0.8, 0.0, 1.0]))
+    span = (0.0, 0.7)
+    res = simulate(scene, span, sensitivities=True, **TIGHT)
+    assert [ev.contacts for ev in res.impacts] == [("end_a",), ("end_b",), ("end_a",)]
+    assert_close(res.state_transition, fd_state(scene, span, np.eye(6), **TIGHT))
+    sens = {name: res.parameter_sensitivity[name] for name in ("e", "mu")}
+    assert sens["e"].shape == (6, 2)  # one column per contact (end_a, end_b)
+    for name in ("e", "mu"):
+        x0 = (scene.theta0, scene.dtheta0)
+
+        def run(value):
+            s = dataclasses.replace(make(**{**params, name: value}), dtheta0=x0[1])
+            return final_state(simulate(s, span, **TIGHT))
+        fd = (run(params[name] + H) - run(params[name] - H)) / (2 * H)
+        assert_close(sens[name].sum(axis=1), fd)  # the scene's coefficient is both ends'
+
+
+# ---- the box sliding to rest: the slip -> stick transition ---------------------------------------
+def test_box_sliding_to_rest_matches_the_closed_form_and_its_stop_saltation():
+    """The box decelerates at mu g and stops at x0 + v0^2/(2 mu g) (then sticks): at the end
+    dx/dx0 = 1, dx/dv0 = v0/(mu g), dx/dmu = -v0^2/(2 mu^2 g), every velocity derivative 0.
+    At the stop (slip velocity g = -vx through zero, t = -x), x_dot- has ax = -mu g and
+    x_dot+ has ax = 0, so S = I + (x_dot+ - x_dot-) g_x/(g_x x_dot-) zeroes vx's row (the
+    box stops whatever its speed was)."""
+    v0, mu = 3.0, 0.3
+    scene = sliding_box.make_scene(v0=v0, mu=mu)
+    span = (0.0, 1.5)
+    res = simulate(scene, span, sensitivities=True, **TIGHT)
+    kinds = [ev.kind for ev in res.event_sensitivities]
+    assert kinds == ["start", "slip-stick"]
+    stop = res.event_sensitivities[1]
+    np.testing.assert_allclose(stop.time, v0 / (mu * G), rtol=1e-9)
+    # the admissible directions (x, vx): S = [[1, 0], [0, 0]] there; velocities that would
+    # violate the held corners (vy, phi_dot) are projected out by the reset (zero columns)
+    S = stop.saltation
+    np.testing.assert_allclose(S[np.ix_([0, 3], [0, 3])], [[1.0, 0.0], [0.0, 0.0]], atol=1e-7)
+    np.testing.assert_allclose(S[3], 0.0, atol=1e-7)
+    np.testing.assert_allclose(S[:, 4:], 0.0, atol=1e-7)
+    Phi = res.state_transition
+    np.testing.assert_allclose(Phi[0, 0], 1.0, rtol=1e-9)
+    np.testing.assert_allclose(Phi[0, 3], v0 / (mu * G), rtol=1e-8)
+    np.testing.assert_allclose(Phi[3:, :], 0.0, atol=1e-8)
+    dmu = res.parameter_sensitivity["mu"]
+    np.testing.assert_allclose(dmu[0].sum(), -v0 ** 2 / (2 * mu ** 2 * G), rtol=1e-8)
+    np.testing.assert_allclose(res.parameter_sensitivity["e"], 0.0, atol=1e-12)
+    # the derivatives along the floor, against finite differences of whole runs (a
+    # perturbation out of the floor would start the box penetrating or flying)
+    along = np.zeros((6, 2))
+    along[0, 0] = along[3, 1] = 1.0
+    assert_close(Phi @ along, fd_state(scene, span, along, **TIGHT))
+
+
+# ---- the options ---------------------------------------------------------------------------------
+def test_without_sensitivities_the_fields_are_empty():
+    res = simulate(bouncing_ball.make_scene(), (0.0, 0.5))
+    assert res.state_transition is None and not res.parameter_sensitivity
+    assert res.event_sensitivities == () and res.impacts[0].saltation is None
+
+
+@pytest.mark.parametrize("value", ["yes", 1, None, 1.0])
+def test_sensitivities_must_be_a_boolean(value):
+    with pytest.raises(ParameterError, match="sensitivities"):
+        simulate(bouncing_ball.make_scene(), (0.0, 0.1), sensitivities=value)
+
+
+def test_moreau_jean_refuses_sensitivities_naming_the_event_driven_scheme():
+    with pytest.raises(NotSupportedError, match="event-driven"):
+        simulate_with(bouncing_ball.make_scene(), (0.0, 0.1), scheme="moreau-jean", h=1e-3,
+                      sensitivities=True)
+    res = simulate_with(bouncing_ball.make_scene(), (0.0, 0.1), scheme="moreau-jean", h=1e-3,
+                        sensitivities=False)
+    assert res.state_transition is None
