@@ -11,7 +11,8 @@ observation model is described in :mod:`convimpact.studies.fitting_model`). It m
 over theta = (e..., mu...) with e in [0, 1] and mu >= 0, by Levenberg–Marquardt (Marquardt's
 diagonal scaling, Nielsen's damping update, bounds by projection: a parameter at a bound
 whose gradient points out of the box is held there), with the derivatives of the simulated
-trajectory with respect to theta.
+trajectory with respect to theta: the simulator's trajectory sensitivities
+(``simulate(..., sensitivities=True)``) by default, or finite differences of whole runs.
 
 Uncertainty (Gauss–Newton, linearised at the estimate): cov = s^2 (J^T J)^-1 with J the
 weighted Jacobian. With ``noise`` given, s = 1 and the intervals use the normal quantile;
@@ -42,7 +43,7 @@ from .fitting_model import (Observations, TrajectoryModel, contact_activity, fit
 __all__ = ["fit_coefficients", "CoefficientFit", "FitError", "JACOBIANS"]
 
 #: how the trajectory's derivatives are obtained
-JACOBIANS = ("finite-differences",)
+JACOBIANS = ("sensitivities", "finite-differences")
 #: a Jacobian column below this fraction of the largest is a zero sensitivity
 ZERO_SENSITIVITY = 1e-9
 #: singular values (of the column-normalised Jacobian) below this fraction of the largest
@@ -96,7 +97,7 @@ class CoefficientFit:
         parameters, descending).
     iterations : Levenberg–Marquardt iterations.
     n_simulations : simulations run (trajectory and derivatives included).
-    jacobian : how the derivatives were obtained ("finite-differences").
+    jacobian : how the derivatives were obtained ("sensitivities" or "finite-differences").
     converged : True for a returned fit (an unconverged one raises :class:`FitError`).
     status : why the iteration stopped ("step", "gradient", "cost", or a failure).
     activity : contact -> counts of impacts, sliding impacts and slip intervals in the fitted
@@ -213,7 +214,7 @@ def fit_coefficients(
     initial: Mapping[str, float] | None = None,
     y0=None,
     t0: float = 0.0,
-    jacobian: str = "finite-differences",
+    jacobian: str = "sensitivities",
     confidence_level: float = 0.95,
     max_iterations: int = 50,
     xtol: float = 1e-8,
@@ -244,9 +245,11 @@ def fit_coefficients(
     y0 : initial state of the motion (default: the scene's), as in ``simulate``.
     t0 : float
         Start time of the motion (the observations lie after it).
-    jacobian : {"finite-differences"}
+    jacobian : {"sensitivities", "finite-differences"}
         How the trajectory's derivatives with respect to the parameters are obtained:
-        central differences of whole simulations (one-sided at a bound).
+        the simulator's trajectory sensitivities at the observation times (one run with
+        ``simulate(..., sensitivities=True)`` per iteration; default), or central differences
+        of whole simulations (two runs per parameter; one-sided at a bound).
     confidence_level : float in (0, 1)
     max_iterations : int
         Levenberg–Marquardt iterations before giving up (:class:`FitError`).
@@ -296,7 +299,8 @@ def fit_coefficients(
         raise ParameterError(f"{n_obs} observed number(s) cannot estimate {len(params)} "
                              "parameter(s) and the noise: give more samples or the noise")
     model = TrajectoryModel(system, observations, params, y0=y0, t0=t0,
-                            simulate_options=simulate_options, step=finite_difference_step)
+                            simulate_options=simulate_options, step=finite_difference_step,
+                            jacobian=jacobian)
     weights = 1.0 / (sigma if sigma is not None else np.ones(p))
     lo = np.array([q.bounds[0] for q in params])
     hi = np.array([q.bounds[1] for q in params])

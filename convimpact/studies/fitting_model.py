@@ -15,7 +15,9 @@ has a derivative that only holds while the impact stays on the same side of it.
 
 :class:`TrajectoryModel` is the fit's one interface to the simulator:
 ``trajectory_and_derivatives(params) -> (predicted (m, p), derivatives (m, p, n))``, from
-central finite differences of whole simulations. The coefficients are set on a copy of the
+the simulator's trajectory sensitivities (``simulate(..., sensitivities=True)``: variational
+equations between events, saltation matrices at them; the default) or from central finite
+differences of whole simulations. The coefficients are set on a copy of the
 mechanism (:func:`with_coefficients`), never on the caller's.
 """
 
@@ -34,9 +36,9 @@ from ..validation import mapping, positive, real, sorted_times
 #: the coefficients a fit can estimate, with their bounds
 PARAMETER_BOUNDS = {"e": (0.0, 1.0), "mu": (0.0, np.inf)}
 #: simulate's options that the fit sets itself (the observation times fix the span)
-RESERVED_OPTIONS = ("t_span", "y0", "t_eval", "dense_output")
+RESERVED_OPTIONS = ("t_span", "y0", "t_eval", "dense_output", "sensitivities")
 #: integration tolerances of the fit's simulations unless given: tight, because the finite
-#: differences divide their error by the step
+#: differences divide their error by the step (and the sensitivities follow the trajectory)
 FIT_TOLERANCES = {"rtol": 1e-10, "atol": 1e-12}
 VELOCITY_SUFFIX = "_dot"
 
@@ -257,14 +259,16 @@ class TrajectoryModel:
     """
 
     def __init__(self, system, observations: Observations, params: Sequence[FitParameter],
-                 *, y0=None, t0: float = 0.0, simulate_options=None, step: float = 1e-5):
+                 *, y0=None, t0: float = 0.0, simulate_options=None, step: float = 1e-5,
+                 jacobian: str = "sensitivities"):
         self.system = system
         self.mech = system.mechanism if hasattr(system, "theta0") else system
         self.observations = observations
         self.params = tuple(params)
         self.y0 = y0
         self.t0 = real("t0", t0)
-        self.step = positive("finite-difference step", step)
+        self.step = positive("finite_difference_step", step)
+        self.jacobian = jacobian
         options = mapping("simulate_options", simulate_options)
         reserved = [k for k in options if k in RESERVED_OPTIONS]
         if reserved:
@@ -293,14 +297,15 @@ class TrajectoryModel:
                 out[c][0 if p.kind == "e" else 1] = float(v)
         return {c: (v[0], v[1]) for c, v in out.items()}
 
-    def simulate(self, values: np.ndarray):
+    def simulate(self, values: np.ndarray, sensitivities: bool = False):
         """The simulation at the parameter values (SimulationError if it did not finish)."""
         from ..simulation import simulate
 
         system = with_coefficients(self.system, self.coefficients(values))
         self.n_simulations += 1
+        extra = {"sensitivities": True} if sensitivities else {}
         result = simulate(system, (self.t0, self.t1), self.y0, t_eval=self.observations.times,
-                          **self.options)
+                          **self.options, **extra)
         if result.status != 0:
             shown = ", ".join(f"{p.name} = {v:.6g}" for p, v in zip(self.params, values))
             raise SimulationError(f"the simulation at {shown} stopped before the last "
@@ -319,12 +324,33 @@ class TrajectoryModel:
         return np.stack(cols, axis=1)
 
     def trajectory_and_derivatives(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(predicted (m, p), d predicted / d params (m, p, n)) by finite differences.
+        """(predicted (m, p), d predicted / d params (m, p, n)) by the method of
+        ``jacobian``: the simulator's sensitivities, or finite differences."""
+        if self.jacobian == "sensitivities":
+            return self.sensitivities(values)
+        return self.finite_differences(values)
 
-        Central differences with the step ``step * max(1, |value|)``; a parameter within a
-        step of its bound gets the second-order one-sided difference into the interior
-        (-3 f0 + 4 f1 - f2) / (2 h), so no simulation leaves the bounds.
-        """
+    def sensitivities(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """From one run with ``simulate(..., sensitivities=True)``: its samples at the
+        observation times (``result.sensitivity_series``: d(theta, theta_dot)(t_i) / d(e, mu)
+        per contact), summed over the contacts a shared parameter sets."""
+        values = np.asarray(values, float)
+        result = self.simulate(values, sensitivities=True)
+        self.last_result = result
+        series = result.sensitivity_series
+        k = int(self.mech.n_coordinates)
+        rows = [j if kind == "theta" else k + j for kind, j in self.channels]
+        names = list(result.contact_names)
+        jac = np.empty((len(self.observations.times), len(rows), len(self.params)))
+        for i, p in enumerate(self.params):
+            cols = [names.index(c) for c in p.contacts]
+            jac[..., i] = series[p.kind][:, rows][:, :, cols].sum(axis=2)
+        return self.channels_of(result), jac
+
+    def finite_differences(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Central differences of whole simulations, with the step ``step * max(1, |value|)``;
+        a parameter within a step of its bound gets the second-order one-sided difference
+        into the interior (-3 f0 + 4 f1 - f2) / (2 h), so no simulation leaves the bounds."""
         values = np.asarray(values, float)
         f0 = self.predict(values)
         result0 = self.last_result
