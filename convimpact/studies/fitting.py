@@ -93,6 +93,9 @@ class CoefficientFit:
     noise_estimated : True when ``noise`` was estimated from the residuals.
     degrees_of_freedom : N - n, observed numbers minus identified parameters.
     cost : 1/2 the weighted sum of squared residuals at the estimate.
+    reduced_chi_square : 2 cost / (N - n) with the noise given (about 1 when the model fits
+        and the noise is right; far above 1 adds a note that the fit is poor); NaN when the
+        noise is estimated.
     singular_values : singular values of the weighted Jacobian at the estimate (all
         parameters, descending).
     iterations : Levenberg–Marquardt iterations.
@@ -124,6 +127,7 @@ class CoefficientFit:
     noise_estimated: bool
     degrees_of_freedom: int
     cost: float
+    reduced_chi_square: float
     singular_values: np.ndarray
     iterations: int
     n_simulations: int
@@ -450,6 +454,13 @@ def _summarise(run, model, params, observations, sigma, level, x0, jacobian) -> 
         s2 = 1.0
         noise = sigma
         quantile = stats.norm.ppf(0.5 + level / 2.0)
+    chi2 = 2.0 * cost / dof if sigma is not None and dof > 0 else np.nan
+    if sigma is not None and dof > 0 and 2.0 * cost > stats.chi2.ppf(0.999, dof):
+        notes.append(
+            f"the residuals are {np.sqrt(chi2):.3g} times the given noise (chi-square "
+            f"{2 * cost:.4g} on {dof} degrees of freedom, above its 99.9 % quantile "
+            f"{stats.chi2.ppf(0.999, dof):.4g}): the model does not fit these data -- a local "
+            "minimum (start elsewhere) or a model error -- and the intervals do not hold")
     cov = np.full((n, n), np.nan)
     if idx.size:
         A = J[:, idx].T @ J[:, idx]
@@ -487,6 +498,7 @@ def _summarise(run, model, params, observations, sigma, level, x0, jacobian) -> 
         channels=observations.channels, observed=observations.values, fitted=fitted,
         residuals=observations.values - fitted, noise=np.asarray(noise, float),
         noise_estimated=sigma is None, degrees_of_freedom=int(dof), cost=float(cost),
+        reduced_chi_square=float(chi2),
         singular_values=singular, iterations=run.iterations,
         n_simulations=model.n_simulations, jacobian=jacobian, converged=run.converged,
         status=run.status,

@@ -29,7 +29,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..impact.errors import ParameterError, ShapeError, SimulationError, UnknownOptionError
+from ..impact.errors import (ConvImpactError, NotSupportedError, ParameterError, ShapeError,
+                             SimulationError, UnknownOptionError)
 from ..mechanism import Mechanism
 from ..validation import mapping, positive, real, sorted_times
 
@@ -335,7 +336,13 @@ class TrajectoryModel:
         observation times (``result.sensitivity_series``: d(theta, theta_dot)(t_i) / d(e, mu)
         per contact), summed over the contacts a shared parameter sets."""
         values = np.asarray(values, float)
-        result = self.simulate(values, sensitivities=True)
+        try:
+            result = self.simulate(values, sensitivities=True)
+        except ConvImpactError as exc:
+            self.simulate(values)  # the plain run's own error, if it has one
+            raise NotSupportedError(
+                f"the simulator's sensitivities failed where the plain simulation runs "
+                f"({type(exc).__name__}: {exc}); pass jacobian='finite-differences'") from exc
         self.last_result = result
         series = result.sensitivity_series
         k = int(self.mech.n_coordinates)

@@ -171,6 +171,21 @@ def test_sensitivities_and_finite_differences_give_the_same_fit():
     assert exact.singular_values == pytest.approx(differenced.singular_values, rel=1e-4)
 
 
+def test_a_model_that_does_not_fit_is_said_so():
+    # mu held at a wrong value: e alone cannot make up for it; with the noise given, the
+    # residuals far above it are flagged (chi-square beyond its 99.9 % quantile)
+    times = np.linspace(0.05, 1.2, 24)
+    obs = ball_observations(times, e=0.8, mu=0.1, speed=3.0, noise=0.003, seed=1)
+    fit = fit_coefficients(guess_ball(3.0, e=0.75, mu=0.3), obs, parameters=("e",),
+                           noise=0.003, jacobian="finite-differences", simulate_options=LOOSE)
+    assert fit.reduced_chi_square > 100
+    assert any("does not fit" in n for n in fit.notes)
+    good = fit_coefficients(guess_ball(3.0, e=0.75, mu=0.1), obs, parameters=("e",),
+                            noise=0.003, jacobian="finite-differences", simulate_options=LOOSE)
+    assert 0.5 < good.reduced_chi_square < 1.6  # chi-square / 47 dof
+    assert not any("does not fit" in n for n in good.notes)
+
+
 # ------------------------------------------------------------------------------------------
 # identifiability
 
