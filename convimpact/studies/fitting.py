@@ -341,10 +341,13 @@ class _LevenbergMarquardt:
     def trial(self, x):
         from ..impact.errors import SimulationError
 
+        kept = self.model.last_result  # the linearisation's run stays the reference
         try:
             return self.residual(self.model.predict(x))
         except SimulationError:  # a failed run counts as an infinitely bad step
             return None
+        finally:
+            self.model.last_result = kept
 
     def solve(self, x):
         x = np.clip(np.asarray(x, float), self.lo, self.hi)

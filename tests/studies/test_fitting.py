@@ -171,6 +171,19 @@ def test_sensitivities_and_finite_differences_give_the_same_fit():
     assert exact.singular_values == pytest.approx(differenced.singular_values, rel=1e-4)
 
 
+def test_a_frictionless_truth_stops_mu_on_its_bound():
+    # data without friction: the unconstrained optimum has mu < 0; the fit holds mu at 0
+    times = np.linspace(0.05, 2.0, 30)
+    obs = ball_observations(times, e=0.8, mu=0.0, speed=3.0, noise=0.003, seed=2)
+    fit = fit_coefficients(guess_ball(3.0, e=0.75, mu=0.05), obs, noise=0.003,
+                           jacobian="finite-differences", simulate_options=LOOSE)
+    assert fit.estimate("mu") == 0.0
+    assert fit.interval("mu")[0] == 0.0 and fit.interval("mu")[1] > 0.0
+    assert any("lies on its bound" in n for n in fit.notes)
+    lo, hi = fit.interval("e")
+    assert lo < 0.8 < hi
+
+
 def test_a_model_that_does_not_fit_is_said_so():
     # mu held at a wrong value: e alone cannot make up for it; with the noise given, the
     # residuals far above it are flagged (chi-square beyond its 99.9 % quantile)
