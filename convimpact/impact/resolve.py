@@ -180,14 +180,37 @@ def _separating(problem: ImpactProblem, law: str, method: str) -> ImpactResult:
 
 
 def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
-                  method: str = "auto", **options) -> ImpactResult:
+                  method: str = "auto", derivatives=False, **options) -> ImpactResult:
     """Resolve an already validated :class:`~convimpact.impact.problem.build.ImpactProblem`.
 
     With ``method="auto"`` the cheapest exact method is tried first; where it cannot treat the
     problem because the Delassus matrix is singular (the closed forms and ``fast`` invert it),
     the conic paths, which do not, are tried next and the result says so in its warnings.
+
+    ``derivatives`` (False, True or "both") as in :func:`resolve_impact`; the keys ``"e"``,
+    ``"mu"`` (``"e_t"``) have the shape of a scalar argument, ``(k,)``, when the problem was
+    built from one Jacobian, and of per-contact ones, ``(k, n)``, otherwise.
     """
     check_law_method(law, method)
+    derivatives = _check_derivatives(derivatives)
+    result = _solve(problem, law, method, options)
+    if derivatives:
+        from .derivatives.attach import with_derivatives
+
+        result = with_derivatives(problem, result, law, derivatives)
+    return result
+
+
+def _check_derivatives(derivatives):
+    if derivatives is False:
+        return False
+    from .derivatives.attach import check_derivatives
+
+    return check_derivatives(derivatives)
+
+
+def _solve(problem: ImpactProblem, law: str, method: str, options: dict) -> ImpactResult:
+    """:func:`solve_problem` without the derivatives (law and method already checked)."""
     if method == "auto":
         candidates = _candidates(problem, law)
         if not candidates:
@@ -229,7 +252,8 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
 
 
 def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikravesh",
-                   method: str = "auto", e_t=None, **options) -> ImpactResult:
+                   method: str = "auto", e_t=None, derivatives=False,
+                   **options) -> ImpactResult:
     """Resolve one impact of a multibody system in joint coordinates.
 
     Parameters
@@ -258,6 +282,16 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     e_t : float or per-contact sequence, optional
         Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0); the
         other laws have none.
+    derivatives : {False, True, "both"}
+        With True the result carries ``jacobian`` and ``impulse_jacobian``: argument name
+        (``"dq"``, ``"M"``, ``"Jc"``, ``"e"``, ``"mu"``; ``"e_t"`` for chatterjee-ruina) ->
+        the derivative of ``dq_plus`` (of ``impulse``) with respect to it, of shape
+        ``dq_plus.shape + shape of the argument`` (``"M"``: with respect to symmetric
+        perturbations, as a symmetric gradient), analytic inside the answer's mode; and
+        ``derivatives``, the record of the mode per contact and of the one-sided statements
+        at a mode boundary (also in the diagnostics' warnings). With "both" the record also
+        holds the other side's jacobians at a boundary. See the user guide's "Impact
+        derivatives".
     **options
         Solver options (tolerances, iteration limits) of the method: see the table in the
         Notes (:data:`METHOD_OPTIONS`). A name the method does not take raises
@@ -325,6 +359,19 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     """
     check_law_method(law, method)
     e_t = check_law_parameters(law, e_t)
+    if derivatives is not False:
+        derivatives = _check_derivatives(derivatives)
+    if derivatives:
+        # the derivatives need the validated problem (W, G, the law's answer): the compiled
+        # lanes below, which return a finished result only, are bypassed; the full path
+        # gives the same answer to round-off
+        from .derivatives.attach import with_derivatives
+
+        problem = build_problem(M, Jc, dq, e, mu, C, e_t)
+        result = _solve(problem, law, method, options)
+        scalar = {"e": np.ndim(e) == 0, "mu": np.ndim(mu) == 0,
+                  "e_t": e_t is None or np.ndim(e_t) == 0}
+        return with_derivatives(problem, result, law, derivatives, scalar)
     if C is None and not options and type(Jc) is np.ndarray and Jc.ndim == 2 \
             and (method == "auto" or method == "fast"):
         # one open-loop contact: the compiled lane (convimpact.impact.exact.lane), which hands
@@ -343,7 +390,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         if result is not None:
             return result
     problem = build_problem(M, Jc, dq, e, mu, C, e_t)
-    return solve_problem(problem, law, method, **options)
+    return _solve(problem, law, method, options)
 
 
 def check_law_parameters(law: str, e_t):

@@ -204,6 +204,16 @@ class ImpactResult:
     v_minus, v_plus : contact-frame relative velocities before and after impact (eq. 17).
     law, method : the impact law and the solver path that produced this result.
     diagnostics : :class:`ImpactDiagnostics`.
+    jacobian : read-only mapping or None
+        With ``resolve_impact(..., derivatives=True)``: argument name (``"dq"``, ``"M"``,
+        ``"Jc"``, ``"e"``, ``"mu"``, and ``"e_t"`` for law chatterjee-ruina) -> the derivative
+        of ``dq_plus`` with respect to it, of shape ``dq_plus.shape + shape of the argument``
+        (read-only arrays; see :mod:`convimpact.impact.derivatives`). None when not asked.
+    impulse_jacobian : read-only mapping or None
+        The same for ``impulse`` (shape ``impulse.shape + shape of the argument``).
+    derivatives : :class:`ImpactDerivatives` or None
+        How the derivatives were obtained: the mode per contact, the one-sided statements at
+        a mode boundary and (``derivatives="both"``) the other side's jacobians.
     """
 
     dq_plus: np.ndarray
@@ -216,6 +226,9 @@ class ImpactResult:
     law: str
     method: str
     diagnostics: ImpactDiagnostics
+    jacobian: Mapping[str, np.ndarray] | None = None
+    impulse_jacobian: Mapping[str, np.ndarray] | None = None
+    derivatives: "ImpactDerivatives | None" = None
 
     @property
     def normal_impulse(self):
@@ -241,6 +254,38 @@ class ImpactResult:
             "method": self.method,
             "diagnostics": self.diagnostics.as_dict(),
         }
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactDerivatives:
+    """The record of an impact's derivatives (``ImpactResult.derivatives``).
+
+    Attributes
+    ----------
+    modes : tuple of str
+        Per contact, the mode the derivative belongs to ("separating", "frictionless",
+        "stick", "slide", or a law's finer name).
+    one_sided : tuple of str
+        Empty inside a mode. At a mode boundary (the stick limit |pi_t| = mu pi_n, zero
+        pre-impact slip under eq. (55), a contact at v_n- = 0, mu = 0), one statement per
+        boundary met: ``jacobian`` is then the one-sided derivative of the mode in ``modes``.
+    other_modes : tuple of str or None
+        At a boundary, with ``derivatives="both"``: the neighbouring mode per contact.
+    other_jacobian, other_impulse_jacobian : read-only mappings or None
+        At a boundary, with ``derivatives="both"``: the derivatives of ``dq_plus`` and
+        ``impulse`` on the other side (same keys and shapes as ``jacobian``).
+    """
+
+    modes: tuple[str, ...]
+    one_sided: tuple[str, ...] = ()
+    other_modes: tuple[str, ...] | None = None
+    other_jacobian: Mapping[str, np.ndarray] | None = None
+    other_impulse_jacobian: Mapping[str, np.ndarray] | None = None
+
+    @property
+    def at_boundary(self) -> bool:
+        """Whether the derivative is one-sided (a mode boundary was met)."""
+        return bool(self.one_sided)
 
 
 def _jsonable(v):

@@ -13,6 +13,7 @@ from .canonical import CanonicalEquations
 from .events import PenetrationError
 from .projection import project_positions, project_velocities
 from .result import ContactEvent, ImpactEvent, PiecewiseSolution, SimulationResult
+from .saltation import EventSensitivity
 from .simulate import INTEGRATORS, simulate
 from .zeno import Accumulation, AccumulationDetector
 from .schemes import SCHEMES, simulate_with  # noqa: F401  (moreau-jean, compliant)
@@ -22,6 +23,7 @@ __all__ = [
     "SimulationResult",
     "ImpactEvent",
     "ContactEvent",
+    "EventSensitivity",
     "PiecewiseSolution",
     "CanonicalEquations",
     "PenetrationError",

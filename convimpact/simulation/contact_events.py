@@ -13,7 +13,7 @@ from typing import Any, Collection, Mapping, Sequence
 import numpy as np
 
 from ..impact import resolve_impact
-from ..impact.errors import ConvImpactError, PainleveError, SimulationError
+from ..impact.errors import ConvImpactError, NotSupportedError, PainleveError, SimulationError
 from ..impact.results import ImpactResult
 from .canonical import CanonicalEquations
 from .force_solver import solve_contact_forces
@@ -21,8 +21,6 @@ from .result import ContactEvent, ImpactEvent
 from .run_record import painleve_event, project_onto
 from .sustained import contact_state, held_modes, redundant_rows
 
-#: resolve_impact takes ``derivatives=True`` (the law's analytic jacobian)
-IMPACT_DERIVATIVES = "derivatives" in __import__("inspect").signature(resolve_impact).parameters
 #: events (or impacts) at one instant beyond which the run is declared chattering
 MAX_EVENTS_AT_ONE_INSTANT = 50
 
@@ -109,18 +107,18 @@ class ContactEvents:
         if o.tangential_restitution is not None:  # e_t per contact (law chatterjee-ruina)
             ets = [o.tangential_restitution[c] for c in closing]
             law_params["e_t"] = ets[0] if len(closing) == 1 else ets
-        if o.sensitivities and IMPACT_DERIVATIVES:
+        if o.sensitivities:  # the law's analytic jacobian, for the saltation matrix
             law_params["derivatives"] = True
         try:
             r = resolve_impact(M, J, dth, e, mu, C if len(C) else None,
                                law=o.law, method=o.method, **law_params, **o.impact_options)
-            if o.sensitivities:
-                extra = {k: v for k, v in law_params.items() if k != "derivatives"}
-                self.impact_jacobian(r, M, J, dth, e, mu, C if len(C) else None, law=o.law,
-                                     method=o.method, **extra, **o.impact_options)
         except ConvImpactError as exc:
             exc.add_note(f"(while resolving the impact of {', '.join(closing)} at "
                          f"t = {t:.9g} in convimpact.simulation.simulate)")
+            if o.sensitivities and isinstance(exc, NotSupportedError):
+                exc.add_note("(sensitivities=True differentiates every impact with "
+                             "resolve_impact(..., derivatives=True); the run without "
+                             "sensitivities does not need the law's derivative)")
             raise
         finally:
             spent = _time.perf_counter() - t_start
@@ -167,7 +165,7 @@ class ContactEvents:
         elif persist and any(float(params[c][0]) > 0.0 for c in persist):
             r, Jc, dt = self.solve_impact(t, th, dth, M, closing, params, C, set(persist))
             spent += dt
-        self.track_impact(r, th, closing, normals.jacobian if len(C) else None,
+        self.track_impact(r, th, dth, closing, normals.jacobian if len(C) else None,
                           persist if zeno_hit or persist else ())
         dq_plus = np.asarray(r.dq_plus, float)
         at_rest = [c for i, c in enumerate(closing)

@@ -318,6 +318,10 @@ class SimulationResult:
             "mode_intervals": [iv.as_dict() for iv in self.mode_intervals],
             "painleve": [ev.as_dict() for ev in self.painleve],
         }
+        if self.state_transition is not None:
+            out["state_transition"] = _jsonable(self.state_transition)
+            out["parameter_sensitivity"] = _jsonable(self.parameter_sensitivity)
+            out["event_sensitivities"] = [ev.as_dict() for ev in self.event_sensitivities]
         if series:
             out["series"] = {
                 "t": self.t.tolist(), "theta": self.theta.tolist(),

@@ -48,8 +48,9 @@ class EventSensitivity:
     Attributes
     ----------
     time : the instant.
-    kind : "impact", "lift-off", "stick-slip", "slip-stick", "touch" (a contact found
-        closing at rest), "start" (the contacts touching at t0, a fixed instant) or "mode".
+    kind : "impact", "lift-off", "stick-slip", "slip-stick", "slip-reversal", "touch" (a
+        contact found closing at rest), "start" (the contacts touching at t0, a fixed
+        instant) or "mode" (a margin reached zero and the force problem kept the modes).
     contacts : the contact whose switching function located the event (the impacting
         contacts for an impact); empty at the start.
     switching : what that function is ("gap", "normal force", "friction margin", "slip
@@ -106,16 +107,22 @@ def projection_step(mech, constraint: Callable[[np.ndarray], np.ndarray], th: np
     return ResetStep(dq, dv, z, z.copy())
 
 
-def impact_step(mech, jac: Mapping[str, Any], th: np.ndarray, closing: Sequence[str],
+def impact_step(mech, result, th: np.ndarray, dq: np.ndarray, closing: Sequence[str],
                 constraint: Callable[[np.ndarray], np.ndarray] | None,
                 columns: Sequence[int], n_contacts: int, plastic=()) -> ResetStep:
-    """One call of ``resolve_impact``: ``d dq_plus / d(dq, e, mu)`` from the law's
-    jacobian ``jac`` (``ImpactResult.jacobian``), and the configuration
-    dependence by the chain rule through M(theta), Jc(theta) (and C(theta) for the loops and
-    held contacts), whose theta-derivatives are differenced."""
+    """One call of ``resolve_impact`` (``result`` from ``derivatives=True``) as a step of the
+    reset map ``theta_dot+ = F(M(theta), Jc(theta), P(theta) theta_dot-, e, mu, C(theta))``.
+
+    ``P`` is the M-orthogonal projection onto ``C theta_dot = 0`` (C: the loops and the held
+    contacts' normal rows taking part in the impact); it is the identity on the admissible
+    velocities the run passes, and it makes F defined off them, so that the configuration
+    derivative is taken along admissible pairs (dtheta, dtheta_dot). The law's part is
+    analytic: ``result.jacobian`` for dq, M, Jc, e, mu, and the dependence on C by the chain
+    of :func:`constraint_derivative`; the theta-derivatives of M, Jc, C and P are
+    differenced (~1e-9 relative)."""
+    jac = result.jacobian
     k = len(th)
     one = len(closing) == 1
-    dv = np.asarray(jac["dq"], float)
 
     def Mq(q):
         return np.asarray(mech.mass_matrix(q), float)
@@ -124,16 +131,21 @@ def impact_step(mech, jac: Mapping[str, Any], th: np.ndarray, closing: Sequence[
         rows = [np.asarray(mech.contact_jacobian(c, q), float) for c in closing]
         return rows[0] if one else np.stack(rows)
 
-    dM = central_jacobian(lambda q: Mq(q).ravel(), th).reshape(k, k, k)  # [a, b, i]
-    dJ = central_jacobian(lambda q: Jq(q).ravel(), th)  # (size of Jc, k)
-    jM = np.asarray(jac["M"], float).reshape(k, k * k)
-    jJ = np.asarray(jac["Jc"], float).reshape(k, -1)
-    d_theta = jM @ dM.reshape(k * k, k) + jJ @ dJ
-    if constraint is not None and "C" in jac:
-        C0 = constraint(th)
-        if C0.size:
-            dC = central_jacobian(lambda q: constraint(q).ravel(), th)
-            d_theta = d_theta + np.asarray(jac["C"], float).reshape(k, -1) @ dC
+    jdq = np.asarray(jac["dq"], float)
+    dM = central_jacobian(lambda q: Mq(q).ravel(), th)  # (k*k, k)
+    dJ = central_jacobian(lambda q: Jq(q).ravel(), th)
+    d_theta = (np.asarray(jac["M"], float).reshape(k, k * k) @ dM
+               + np.asarray(jac["Jc"], float).reshape(k, -1) @ dJ)
+    d_velocity = jdq
+    C0 = constraint(th) if constraint is not None else np.zeros((0, k))
+    if C0.size:
+        def projected(q):
+            return project_onto(Mq(q), constraint(q), dq)
+        P = np.column_stack([project_onto(Mq(th), C0, e) for e in np.eye(k)])
+        d_velocity = jdq @ P
+        d_theta = d_theta + jdq @ central_jacobian(projected, th)
+        dC = central_jacobian(lambda q: constraint(q).ravel(), th).reshape(C0.shape + (k,))
+        d_theta = d_theta + constraint_derivative(result, Mq(th), Jq(th), C0, dC)
     d_e = np.zeros((k, n_contacts))
     d_mu = np.zeros((k, n_contacts))
     je = np.asarray(jac["e"], float).reshape(k, -1)
@@ -142,69 +154,42 @@ def impact_step(mech, jac: Mapping[str, Any], th: np.ndarray, closing: Sequence[
         if closing[i] not in plastic:  # e = 0 was used for it: no dependence on its e
             d_e[:, col] = je[:, i]
         d_mu[:, col] = jm[:, i]
-    return ResetStep(d_theta, dv, d_e, d_mu)
+    return ResetStep(d_theta, d_velocity, d_e, d_mu)
 
 
-def _inside(fun, v: np.ndarray, low: float, high: float) -> np.ndarray:
-    """Differences that stay within [low, high]: one-sided (second order) at a bound."""
-    cols = []
-    for j in range(v.size):
-        h = 1e-6 * max(abs(float(v[j])), 1.0)
-        pts = [v.copy() for _ in range(3)]
-        if v[j] - h < low:  # forward: (-3 f0 + 4 f1 - f2) / 2h
-            w, offs = (-1.5, 2.0, -0.5), (0.0, h, 2 * h)
-        elif v[j] + h > high:
-            w, offs = (1.5, -2.0, 0.5), (0.0, -h, -2 * h)
-        else:
-            w, offs = (0.0, 0.5, -0.5), (0.0, h, -h)
-        acc = 0.0
-        for p, wi, o in zip(pts, w, offs):
-            if wi:
-                p[j] += o
-                acc = acc + wi * np.asarray(fun(p), float)
-        cols.append(acc / h)
-    return np.array(cols).T
+def constraint_derivative(result, M: np.ndarray, Jc: np.ndarray, C: np.ndarray,
+                          dC: np.ndarray) -> np.ndarray:
+    """``d dq_plus`` for the perturbations ``dC[..., i]`` of the constraint rows (k x len i).
 
-
-def impact_jacobian_by_differences(M, J, dq, e, mu, C, **kwargs) -> dict[str, np.ndarray]:
-    """Stand-in for ``resolve_impact(..., derivatives=True).jacobian`` while the law's
-    analytic derivative is not available: central differences of ``dq_plus`` with respect
-    to dq, M (symmetric perturbations), Jc, e and mu (and C)."""
-    from ..impact import resolve_impact
-
-    def dq_plus(M_, J_, dq_, e_, mu_, C_):
-        return np.asarray(resolve_impact(M_, J_, dq_, e_, mu_, C_, **kwargs).dq_plus, float)
-
-    M = np.asarray(M, float)
+    With ``G = A - B S^-1 B^T`` (A = M^-1, B = A C^T, S = C A C^T) the constrained inverse,
+    ``dq_plus = dq + G Jc^T pi(W, v)``, ``W = Jc G Jc^T``, ``v = Jc dq``: a perturbation dC
+    changes ``dG = -dB S^-1 B^T - B S^-1 dB^T + B S^-1 dS S^-1 B^T`` (dB = A dC^T,
+    dS = dC B + B^T dC^T), hence ``dW = Jc dG Jc^T`` and v not at all, and
+    ``d dq_plus = dG Jc^T pi + G Jc^T dpi``. The law's ``dpi = D_W[dW]`` is read from its
+    analytic ``impulse_jacobian["M"]``: a symmetric dM changes W by ``-H dM H^T``
+    (H = Jc G) and nothing else, so ``dM = -H^+ dW H^+T`` (H^+ = H^T (H H^T)^-1) has the
+    effect of dW."""
     k = M.shape[0]
-    Jarr = np.asarray(J, float)
-    several = Jarr.ndim == 3
-    earr = np.atleast_1d(np.asarray(e, float))
-    muarr = np.atleast_1d(np.asarray(mu, float))
-
-    def unpack_J(v):
-        Jv = v.reshape(Jarr.shape)
-        return list(Jv) if several else Jv
-
-    def unpack_p(v):
-        return list(v) if several else float(v[0])
-
-    out = {
-        "dq": central_jacobian(lambda v: dq_plus(M, J, v, e, mu, C), np.asarray(dq, float)),
-        "Jc": central_jacobian(lambda v: dq_plus(M, unpack_J(v), dq, e, mu, C),
-                               Jarr.ravel()).reshape((k,) + Jarr.shape),
-        "e": _inside(lambda v: dq_plus(M, J, dq, unpack_p(v), mu, C), earr, 0.0, 1.0),
-        "mu": _inside(lambda v: dq_plus(M, J, dq, e, unpack_p(v), C), muarr, 0.0, np.inf),
-    }
-
-    def sym(v):
-        A = v.reshape(k, k)
-        return dq_plus(0.5 * (A + A.T), J, dq, e, mu, C)
-    out["M"] = central_jacobian(sym, M.ravel()).reshape(k, k, k)
-    if C is not None and np.asarray(C).size:
-        Carr = np.asarray(C, float)
-        out["C"] = central_jacobian(lambda v: dq_plus(M, J, dq, e, mu, v.reshape(Carr.shape)),
-                                    Carr.ravel()).reshape((k,) + Carr.shape)
+    J = np.asarray(Jc, float).reshape(-1, k)
+    pi = np.asarray(result.impulse, float).ravel()
+    ijM = np.asarray(result.impulse_jacobian["M"], float).reshape(pi.size, k * k)
+    A = np.linalg.inv(M)
+    A = 0.5 * (A + A.T)
+    B = A @ C.T
+    Sinv = np.linalg.inv(C @ B)
+    G = A - B @ Sinv @ B.T
+    H = J @ G
+    Hplus = np.linalg.pinv(H, rcond=1e-12)
+    out = np.zeros((k, dC.shape[-1]))
+    for i in range(dC.shape[-1]):
+        dc = dC[..., i]
+        dB = A @ dc.T
+        dS = dc @ B + B.T @ dc.T
+        dG = -dB @ Sinv @ B.T - B @ Sinv @ dB.T + B @ Sinv @ dS @ Sinv @ B.T
+        dW = J @ dG @ J.T
+        dMeq = -Hplus @ (0.5 * (dW + dW.T)) @ Hplus.T
+        dpi = ijM @ dMeq.ravel()
+        out[:, i] = dG @ (J.T @ pi) + G @ (J.T @ dpi)
     return out
 
 
@@ -278,6 +263,19 @@ def switching_function(mech, eq: CanonicalEquations, t: float, y: np.ndarray,
     return "mode", (), "none", None, None
 
 
+def _transition(located: str, after) -> str:
+    """The name of a held contact's transition from what located it ("slip-stick": its slip
+    velocity, "stick-slip": its friction margin, "lift-off": its normal force) and its mode
+    after the event (None: released); "mode" when the force problem kept the mode."""
+    if after is None:
+        return "lift-off"
+    if located == "slip-stick":
+        return "slip-stick" if after.kind == "stick" else "slip-reversal"
+    if located == "stick-slip" and after.kind == "slip":
+        return "stick-slip"
+    return "mode"
+
+
 def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEquations,
                       y_plus: np.ndarray, eq_plus: CanonicalEquations, trigger,
                       steps: Sequence[ResetStep], contacts: Sequence[str],
@@ -289,6 +287,8 @@ def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEq
     kind, who, description, g, g_mu = switching_function(mech, eq_minus, t, y_minus, trigger)
     if impacted and kind != "start":
         kind, who = "impact", tuple(impacted)
+    elif who and kind in ("slip-stick", "stick-slip", "lift-off"):
+        kind = _transition(kind, eq_plus.modes.get(who[0]))
     rate_m = physical_rate(eq_minus, t, y_minus)
     rate_p = physical_rate(eq_plus, t, y_plus)
     S, jump_e, jump_mu = X.copy(), Xe, Xm.copy()

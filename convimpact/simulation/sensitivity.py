@@ -28,9 +28,8 @@ import numpy as np
 
 from .canonical import CanonicalEquations
 from .result import PiecewiseSolution
-from .saltation import (EventSensitivity, ResetStep, event_sensitivity, impact_step,
-                        impact_jacobian_by_differences, projection_step)
-from .variational import interval_flow, lift, physical, to_physical
+from .saltation import EventSensitivity, ResetStep, event_sensitivity, impact_step, projection_step
+from .variational import interval_flow, lift, to_physical
 
 
 class SensitivityTracking:
@@ -45,7 +44,6 @@ class SensitivityTracking:
         self.eq_initial = self.eq
         self.trigger: tuple[str, str] | None = None
         self.reset_steps: list[ResetStep] = []
-        self.fd_jacobians: dict[int, dict] = {}
         #: (t, y-, eq-, y+, eq+, EventSensitivity) per event instant
         self.instants: list[tuple[float, np.ndarray, CanonicalEquations, np.ndarray,
                                   CanonicalEquations, EventSensitivity]] = []
@@ -58,25 +56,15 @@ class SensitivityTracking:
             self.reset_steps.append(projection_step(self.mech, constraint, th, dth,
                                                     len(self.contacts)))
 
-    def impact_jacobian(self, result, M, J, dq, e, mu, C, **kwargs) -> None:
-        """Keep the jacobian of one ``resolve_impact`` call (differenced when the law's
-        result carries none)."""
-        if self.tracking and getattr(result, "jacobian", None) is None:
-            self.fd_jacobians[id(result)] = impact_jacobian_by_differences(
-                M, J, dq, e, mu, C, **kwargs)
-
-    def track_impact(self, result, th: np.ndarray, closing: Sequence[str],
+    def track_impact(self, result, th: np.ndarray, dq: np.ndarray, closing: Sequence[str],
                      constraint: Callable[[np.ndarray], np.ndarray] | None,
                      plastic: Sequence[str] = ()) -> None:
-        """An impact of ``closing`` was resolved (``result`` from ``derivatives=True``)."""
+        """An impact of ``closing`` at (theta, dq) was resolved (``result`` from
+        ``resolve_impact(..., derivatives=True)``)."""
         if self.tracking:
             cols = [self.contact_at[c] for c in closing]
-            jac = getattr(result, "jacobian", None)
-            if jac is None:
-                jac = self.fd_jacobians.pop(id(result))
-            self.fd_jacobians.clear()
-            self.reset_steps.append(impact_step(self.mech, jac, th, closing, constraint,
-                                                cols, len(self.contacts), plastic))
+            self.reset_steps.append(impact_step(self.mech, result, th, dq, closing,
+                                                constraint, cols, len(self.contacts), plastic))
 
     def track_event(self, t: float, y_minus: np.ndarray, eq_minus: CanonicalEquations,
                     n_impacts: int, n_contact_events: int) -> None:
@@ -117,7 +105,7 @@ class SensitivityTracking:
             segs = [s for s in self.segments if s[0] >= t_a and s[1] <= t_b and s[1] > s[0]]
             flow, flow_mu, at = interval_flow(eq_a, segs, t_a, t_b, self.contacts,
                                               o.solver_cls, o.rtol, o.atol, inside)
-            L_a = lift(self.mech, physical(eq_a, y_a))
+            L_a = lift(eq_a, y_a)
             if len(inside):
                 sol = PiecewiseSolution(segs) if segs else None
                 for t, (F_y, F_mu) in zip(inside, at):

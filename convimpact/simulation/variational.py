@@ -17,10 +17,11 @@ trajectory.
 Coordinates. The run integrates ``y = [theta, p]``, ``p = M theta_dot - C^T sigma``; the
 sensitivities are reported in the physical state ``x = (theta, theta_dot)``:
 ``T(y) = dx/dy`` (theta_dot from eqs. 7 + 13 of the modes in force) maps a variation of y
-to one of x, and ``L(x) = d[theta, M(theta) theta_dot]/dx`` lifts a variation of x to one of y
-(sigma = 0, as :func:`~convimpact.simulation.simulate` builds y0 from a tuple). A variation
-of p along ``C^T dsigma`` changes no velocity and stays such under the flow, so the interval's
-map ``T(y_b) Phi L(x_a)`` does not depend on the lift chosen, and the maps of the intervals
+to one of x, and ``L = d[theta, M theta_dot - C^T sigma]/dx`` (sigma of the interval's start
+held fixed; sigma = 0 at the run's start, as :func:`~convimpact.simulation.simulate` builds
+y0 from a tuple) lifts a variation of x to one of y with ``T L = I``. A variation of p along
+``C^T dsigma`` changes no velocity and stays such under the flow, so the interval's map
+``T(y_b) Phi L(y_a)`` does not depend on the lift chosen, and the maps of the intervals
 and the events' saltation matrices (:mod:`convimpact.simulation.saltation`) multiply to the
 derivative of the final x with respect to the initial one.
 
@@ -104,15 +105,21 @@ def to_physical(eq: CanonicalEquations, y: np.ndarray) -> np.ndarray:
     return central_jacobian(lambda v: physical(eq, v), y)
 
 
-def lift(mechanism, x: np.ndarray) -> np.ndarray:
-    """``L(x) = d[theta, M(theta) theta_dot]/dx`` (2k x 2k)."""
-    k = len(x) // 2
-    th, dth = np.asarray(x[:k], float), np.asarray(x[k:], float)
-    M = np.asarray(mechanism.mass_matrix(th), float)
+def lift(eq: CanonicalEquations, y: np.ndarray) -> np.ndarray:
+    """``L = d[theta, M(theta) theta_dot - C(theta)^T sigma]/dx`` at x = T(y) with the
+    multipliers sigma of ``y`` held fixed (2k x 2k): a variation dx of the physical state
+    lifted to one of y, so that ``T(y + L dx) = x + dx`` to first order (with sigma = 0,
+    as at the start, ``d[theta, M theta_dot]/dx``)."""
+    k = eq.k
+    th, p = np.asarray(y[:k], float), np.asarray(y[k:], float)
+    dth, sigma, _ = eq.velocities(th, p)
+
+    def momentum(v):
+        return eq.momentum(v[:k], v[k:], sigma)
+
     L = np.zeros((2 * k, 2 * k))
     L[:k, :k] = np.eye(k)
-    L[k:, :k] = central_jacobian(lambda q: np.asarray(mechanism.mass_matrix(q), float) @ dth, th)
-    L[k:, k:] = M
+    L[k:] = central_jacobian(momentum, np.concatenate([th, dth]))
     return L
 
 

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from convimpact.impact.errors import NotSupportedError, ParameterError
-from convimpact.problems import bouncing_ball, bouncing_rod, pendulum_planar, sliding_box
+from convimpact.problems import (bouncing_ball, bouncing_rod, pendulum_planar, rocking_block,
+                                 slider_crank, sliding_box)
 from convimpact.simulation import simulate, simulate_with
 
 G = 9.81
@@ -174,6 +175,84 @@ def test_spinning_rod_bouncing_on_its_ends_matches_finite_differences():
         assert_close(sens[name].sum(axis=1), fd)  # the scene's coefficient is both ends'
 
 
+# ---- the rocking block: impacts that close one corner and release the other ---------------------
+@pytest.mark.parametrize("e", [0.0, 0.3])
+def test_rocking_block_matches_finite_differences_along_its_pivoting_motion(e):
+    """Housner's block pivots on a corner, lands on the other (the first lifts off in the
+    impact), rocks back (e = 0.3: the landings bounce until they accumulate). Perturbations
+    that keep the corner on the floor: the initial tilt (the scene places the block on its
+    corner, so the direction is the derivative of theta0) and a rate about the corner (the
+    null direction of its contact Jacobian)."""
+    span = (0.0, 1.2)
+
+    def make(tilt=0.1, **changes):
+        return rocking_block.make_scene(**{"e": e, "mu": 1.0, "tilt": tilt, **changes})
+    scene = make()
+    res = simulate(scene, span, sensitivities=True, **TIGHT)
+    assert res.event_sensitivities[1].kind == "impact"
+    assert res.impacts[0].released == ("right_corner",)
+    Phi = res.state_transition
+    d_tilt = (make(0.1 + H).theta0 - make(0.1 - H).theta0) / (2 * H)
+    fd = (final_state(simulate(make(0.1 + H), span, **TIGHT))
+          - final_state(simulate(make(0.1 - H), span, **TIGHT))) / (2 * H)
+    assert_close(Phi[:, :3] @ d_tilt, fd)
+    J = scene.mechanism.contact_jacobian("right_corner", scene.theta0)
+    about_corner = np.linalg.svd(J)[2][-1]
+    runs = [simulate(scene, span, (scene.theta0, s * H * about_corner), **TIGHT)
+            for s in (1.0, -1.0)]
+    assert_close(Phi[:, 3:] @ about_corner,
+                 (final_state(runs[0]) - final_state(runs[1])) / (2 * H))
+    if e > 0:
+        fd_e = (final_state(simulate(make(e=e + H), span, **TIGHT))
+                - final_state(simulate(make(e=e - H), span, **TIGHT))) / (2 * H)
+        assert_close(res.parameter_sensitivity["e"].sum(axis=1), fd_e, rtol=1e-6)
+
+
+# ---- a rod falling over on a rough floor: stick -> slip, then a slip reversal --------------------
+def falling_rod(mu: float = 0.3, tilt: float = 80.0):
+    """A uniform rod (1 m, 1 kg) standing on its end on the floor, tilted ``tilt`` degrees
+    from the horizontal, released from rest: it pivots on its sticking end until the friction
+    it needs exceeds mu times the normal force, then the end slides (and later reverses)."""
+    from convimpact.model import Joint, ModelBuilder, place_resting
+
+    b = ModelBuilder(planar=True)
+    b.add_body("rod", "ground", Joint.free(), 1.0, (0.0, 0.0), 1.0 / 12.0, joint_name="float",
+               coordinate_names=["x", "y", "phi"])
+    b.add_contact("base", body="rod", point=(-0.5, 0.0), normal=(0.0, 1.0),
+                  plane_point=(0.0, 0.0), e=0.0, mu=mu)
+    mech = b.build().mechanism()
+    phi = np.radians(tilt)
+    guess = np.array([0.5 * np.cos(phi), 0.5 * np.sin(phi), phi])
+    return mech, place_resting(mech, guess, ["base"], fixed=["phi"])
+
+
+def test_falling_rod_stick_slip_and_slip_reversal_match_finite_differences():
+    """Stick -> slip is located on the friction-cone margin mu lambda_n - |lambda_t|, which
+    depends on mu: the parameter jump's g_mu term is checked by the mu column. The
+    accelerations are continuous at the onset, so S is the identity on the admissible
+    directions (a rate about the sticking end, say)."""
+    span = (0.0, 0.7)
+    mech, th0 = falling_rod()
+    res = simulate(mech, span, (th0, np.zeros(3)), sensitivities=True, **TIGHT)
+    kinds = [ev.kind for ev in res.event_sensitivities]
+    assert kinds == ["start", "stick-slip", "slip-reversal"]
+    onset = res.event_sensitivities[1]
+    assert onset.switching == "friction margin" and onset.contacts == ("base",)
+    th_onset = res.theta[np.searchsorted(res.t, onset.time)]
+    turn = np.r_[0.0, 0.0, 0.0, np.linalg.svd(mech.contact_jacobian("base", th_onset))[2][-1]]
+    np.testing.assert_allclose(onset.saltation @ turn, turn, atol=1e-7)
+    d_tilt = (falling_rod(tilt=80.0 + H)[1] - falling_rod(tilt=80.0 - H)[1]) / (2 * H)
+    about_end = np.linalg.svd(mech.contact_jacobian("base", th0))[2][-1]
+    Phi = res.state_transition
+
+    def run(mu=0.3, tilt=80.0, rate=0.0):
+        m, th = falling_rod(mu, tilt)
+        return final_state(simulate(m, span, (th, rate * about_end), **TIGHT))
+    assert_close(Phi[:, :3] @ d_tilt, (run(tilt=80.0 + H) - run(tilt=80.0 - H)) / (2 * H))
+    assert_close(Phi[:, 3:] @ about_end, (run(rate=H) - run(rate=-H)) / (2 * H))
+    assert_close(res.parameter_sensitivity["mu"][:, 0], (run(mu=0.3 + H) - run(mu=0.3 - H)) / (2 * H))
+
+
 # ---- the box sliding to rest: the slip -> stick transition ---------------------------------------
 def test_box_sliding_to_rest_matches_the_closed_form_and_its_stop_saltation():
     """The box decelerates at mu g and stops at x0 + v0^2/(2 mu g) (then sticks): at the end
@@ -207,6 +286,72 @@ def test_box_sliding_to_rest_matches_the_closed_form_and_its_stop_saltation():
     along = np.zeros((6, 2))
     along[0, 0] = along[3, 1] = 1.0
     assert_close(Phi @ along, fd_state(scene, span, along, **TIGHT))
+
+
+# ---- a closed loop: the slider-crank striking a free slider -------------------------------------
+def test_slider_crank_impact_through_its_loop_matches_finite_differences():
+    """The loop (C, 2 rows) takes part in the impact and in the flow; the perturbed starts
+    are assembled (theta onto Psi = 0, theta_dot onto C theta_dot = 0), and the analytic
+    derivative is applied to the assembled direction."""
+    from convimpact.simulation.initial import consistent_start
+
+    scene = slider_crank.make_scene()
+    th0 = scene.theta0.copy()
+    th0[3] += 0.005  # the free slider starts 5 mm away: the impact comes at t > 0
+    span = (0.0, 0.05)
+    res = simulate(scene, span, (th0, scene.dtheta0), sensitivities=True, **TIGHT)
+    assert len(res.impacts) == 1 and res.event_sensitivities[0].kind == "impact"
+
+    def start(eps, j):
+        th, dth = th0.copy(), scene.dtheta0.copy()
+        (th if j < 4 else dth)[j % 4] += eps
+        return consistent_start(scene.mechanism, th, dth, assemble=True,
+                                projection_tol=1e-12, contact_tol=1e-8)
+    for j in (0, 3, 4, 7):  # crank angle, free slider, their rates
+        up, down = start(H, j), start(-H, j)
+        direction = (np.concatenate(up) - np.concatenate(down)) / (2 * H)
+        fd = (final_state(simulate(scene, span, up, **TIGHT))
+              - final_state(simulate(scene, span, down, **TIGHT))) / (2 * H)
+        assert_close(res.state_transition @ direction, fd)
+    e = scene.parameters["e"]
+    runs = [simulate(slider_crank.make_scene(e=e + s * H), span, (th0, scene.dtheta0), **TIGHT)
+            for s in (1.0, -1.0)]
+    assert_close(res.parameter_sensitivity["e"][:, 0],
+                 (final_state(runs[0]) - final_state(runs[1])) / (2 * H))
+
+
+# ---- an impact under constraints (loops, held contacts): the chain through C ---------------------
+@pytest.mark.parametrize("seed", [3, 5, 8])
+def test_impact_constraint_derivative_matches_differences_of_resolve_impact(seed):
+    """d dq_plus along a perturbation dC of the constraint rows, the pre-impact velocity kept
+    admissible (projected onto C dq = 0): the law's analytic jacobians chained through the
+    constrained inverse (``constraint_derivative``) plus ``jacobian["dq"]`` times the
+    projection's change, against central differences of resolve_impact itself."""
+    from convimpact.impact import resolve_impact
+    from convimpact.simulation.run_record import project_onto
+    from convimpact.simulation.saltation import constraint_derivative
+
+    rng = np.random.default_rng(seed)
+    k = 4
+    A = rng.normal(size=(k, k))
+    M = A @ A.T + k * np.eye(k)
+    J, C, dC = rng.normal(size=(2, k)), rng.normal(size=(1, k)), rng.normal(size=(1, k))
+    dq0 = rng.normal(size=k)
+    if J[0] @ project_onto(M, C, dq0) >= 0.0:
+        dq0 = -dq0  # approaching
+
+    def run(eps):
+        Ce = C + eps * dC
+        dq = project_onto(M, Ce, dq0)
+        return np.asarray(resolve_impact(M, J, dq, 0.4, 0.3, Ce).dq_plus), dq
+
+    dq = run(0.0)[1]
+    res = resolve_impact(M, J, dq, 0.4, 0.3, C, derivatives=True)
+    up, down = run(H), run(-H)
+    fd = (up[0] - down[0]) / (2 * H)
+    chained = (res.jacobian["dq"] @ ((up[1] - down[1]) / (2 * H))
+               + constraint_derivative(res, M, J, C, dC[..., None])[:, 0])
+    np.testing.assert_allclose(chained, fd, atol=1e-8 * max(1.0, np.max(np.abs(fd))))
 
 
 # ---- the options ---------------------------------------------------------------------------------

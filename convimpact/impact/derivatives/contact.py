@@ -36,6 +36,10 @@ class ContactDerivative:
         one-sided derivative of the mode named in ``regimes``.
     other_side : ContactDerivative or None
         At a boundary, the derivative of the neighbouring mode (when asked for), else None.
+    impulse : (n, d) array or None
+        The impulse this derivative is taken at when it is not the result's (an other side
+        across a boundary where the impulse jumps, e.g. the spatial stick limit of law
+        pereira-nikravesh); None: the result's impulse.
     """
 
     W: np.ndarray
@@ -46,3 +50,4 @@ class ContactDerivative:
     regimes: tuple[str, ...]
     one_sided: tuple[str, ...] = ()
     other_side: "ContactDerivative | None" = None
+    impulse: np.ndarray | None = None

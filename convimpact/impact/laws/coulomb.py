@@ -451,3 +451,4 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     acc = info["accuracy"]
     regimes = regimes_from_slip(P, pi, vplus, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc, extras=info)
+from .coulomb_derivative import impulse_derivative  # noqa: E402,F401 (beside the kernel)

@@ -312,3 +312,4 @@ def closed_form(problem: ImpactProblem, **options) -> ImpactResult:
                            effective_mass=denom, tol=1e-12)
 
 
+from .pereira_nikravesh_derivative import impulse_derivative  # noqa: E402,F401 (beside the kernel)
