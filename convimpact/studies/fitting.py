@@ -514,9 +514,13 @@ def _why(q, activity) -> str:
         slid = sum(activity[c]["sliding_impacts"] + activity[c]["slip_intervals"]
                    for c in q.contacts)
         if not slid:
+            bound = max(activity[c]["stick_friction_ratio"] for c in q.contacts)
+            below = (f"; the data bound it only from below, {q.name} >= {bound:.4g}, the "
+                     "friction ratio |tangential| / normal its sticking impacts and forces "
+                     "needed" if bound > 0 else "")
             return (f"{'contact ' + q.contacts[0] if len(q.contacts) == 1 else 'no contact'} "
                     f"{'never slides' if len(q.contacts) == 1 else 'slides'}: every impact "
-                    "sticks or is frictionless and no sustained contact slips")
+                    f"sticks or is frictionless and no sustained contact slips{below}")
         return "its effect is below the Jacobian's resolution"
     hits = sum(activity[c]["impacts"] for c in q.contacts)
     if not hits:

@@ -378,18 +378,36 @@ class TrajectoryModel:
         return f0, jac
 
 
-def contact_activity(result, contacts: Sequence[str]) -> dict[str, dict[str, int]]:
+def contact_activity(result, contacts: Sequence[str]) -> dict[str, dict[str, Any]]:
     """Per contact, what in a simulation could reveal its coefficients: its impacts, the
-    impacts during which it slid, and its slip intervals of sustained contact."""
-    out = {c: {"impacts": 0, "sliding_impacts": 0, "slip_intervals": 0} for c in contacts}
+    impacts during which it slid, its slip intervals of sustained contact, and
+    ``stick_friction_ratio``, the largest |tangential| / normal ratio of its sticking impacts'
+    impulses and of its sticking forces (the least mu that keeps them sticking; 0 if none)."""
+    out = {c: {"impacts": 0, "sliding_impacts": 0, "slip_intervals": 0,
+               "stick_friction_ratio": 0.0} for c in contacts}
+
+    def stick_ratio(c, vector):
+        vector = np.asarray(vector, float)
+        if vector[0] > 0:
+            ratio = float(np.linalg.norm(vector[1:]) / vector[0])
+            out[c]["stick_friction_ratio"] = max(out[c]["stick_friction_ratio"], ratio)
+
     for ev in result.impacts:
-        for c, regime in zip(ev.contacts, ev.regime):
+        for i, (c, regime) in enumerate(zip(ev.contacts, ev.regime)):
             if c in out:
                 out[c]["impacts"] += 1
                 out[c]["sliding_impacts"] += regime == "slide"
+                if regime == "stick":
+                    stick_ratio(c, ev.impulse[i])
     for iv in result.mode_intervals:
         if iv.contact in out and iv.mode == "slip" and iv.t_end > iv.t_start:
             out[iv.contact]["slip_intervals"] += 1
+    names = list(result.contact_names)
+    if result.contact_mode.size:
+        for c in out:
+            j = names.index(c)
+            for row in np.flatnonzero(result.contact_mode[:, j] == 1):
+                stick_ratio(c, result.contact_force[row, j])
     return out
 
 

@@ -14,7 +14,9 @@ from convimpact.impact.errors import (NonFiniteError, ParameterError, ShapeError
                                       UnknownOptionError)
 from convimpact.problems._box import corner_normal_forces
 from convimpact.scenes import load_scene
-from convimpact.studies import CoefficientFit, FitError, Observations, fit_coefficients
+from convimpact.simulation import simulate
+from convimpact.studies import (CoefficientFit, FitError, Observations, fit_coefficients,
+                                synthetic_observations, with_coefficients)
 
 G = 9.81
 RADIUS = 0.1
@@ -217,6 +219,32 @@ def test_mu_is_not_identifiable_when_the_ball_never_slides():
     assert lo < 0.7 < hi
     with pytest.raises(ParameterError, match="not identifiable"):
         fit.confidence_ellipse("e", "mu")
+
+
+def test_per_contact_rod_one_end_slides_the_other_sticks():
+    """The rod's end_a slides at its impacts, end_b sticks: both e and mu[end_a] are
+    estimated, mu[end_b] is not identifiable but bounded below by the friction its sticking
+    impact needed -- checked by simulating just below (end_b then slides) and above."""
+    truth = with_coefficients(load_scene("bouncing_rod"),
+                              {"end_a": (0.7, 0.25), "end_b": (0.5, 0.4)})
+    sigma = [0.003, 0.003, 0.01]
+    obs = synthetic_observations(truth, np.arange(1, 36) / 50, ("x", "y", "phi"),
+                                 noise=sigma, seed=4)
+    guess = load_scene("bouncing_rod", e=0.6, mu=0.3)
+    fit = fit_coefficients(guess, obs, per_contact=True, noise=sigma,
+                           initial={"mu[end_a]": 0.2, "mu[end_b]": 0.6})
+    for name, true in (("e[end_a]", 0.7), ("e[end_b]", 0.5), ("mu[end_a]", 0.25)):
+        lo, hi = fit.interval(name)
+        assert lo < true < hi, name
+    assert fit.verdicts["mu[end_b]"] == "not identifiable"
+    bound = fit.activity["end_b"]["stick_friction_ratio"]
+    assert 0.3 < bound <= 0.4
+    assert any(f"mu[end_b] >= {bound:.4g}" in n for n in fit.notes)
+    e_b = fit.coefficients["end_b"][0]
+    for factor, regime in ((0.98, "slide"), (1.02, "stick")):
+        run = simulate(with_coefficients(guess, {**fit.coefficients,
+                                                  "end_b": (e_b, factor * bound)}), (0, 0.7))
+        assert [ev.regime[0] for ev in run.impacts if ev.contacts == ("end_b",)] == [regime]
 
 
 def test_sliding_box_recovers_mu_from_its_parabola_and_says_e_is_not_identifiable():
