@@ -62,6 +62,16 @@ class EventSensitivity:
         ``dx/d(e, mu)`` across the event, columns in the order of ``contact_names``.
     time_gradient : (2k,) ``d tau / dx-`` (zero at the start).
     rate_minus, rate_plus : (2k,) x_dot just before and just after.
+    parameter_time_gradient : {"e", "mu": (n_contacts,)} ``d tau / d(e, mu)`` at a fixed
+        pre-event state (nonzero for mu at a stick-to-slip transition, whose friction
+        margin depends on mu).
+    state_transition : (2k, 2k) ``dx(tau+)/dx(t_0)``: the state just after this event as a
+        function of the initial state, the event's time tau moving with it (on a Poincare
+        section at this event, the return map's Jacobian). It differs from the fixed-time
+        derivative ``saltation @ dx(tau-)/dx(t_0)`` by ``x_dot+ dtau/dx(t_0)``.
+    parameter_sensitivity : {"e", "mu": (2k, n_contacts)} ``dx(tau+)/d(e, mu)``, likewise.
+    time_sensitivity : {"state": (2k,), "e", "mu": (n_contacts,)}: ``d tau / dx(t_0)`` and
+        ``d tau / d(e, mu)``, the event time's derivatives (a stride's period's, say).
     """
 
     time: float
@@ -74,6 +84,13 @@ class EventSensitivity:
     time_gradient: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rate_minus: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rate_plus: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    parameter_time_gradient: Mapping[str, np.ndarray] = field(
+        default_factory=lambda: MappingProxyType({}))
+    state_transition: np.ndarray | None = None
+    parameter_sensitivity: Mapping[str, np.ndarray] = field(
+        default_factory=lambda: MappingProxyType({}))
+    time_sensitivity: Mapping[str, np.ndarray] = field(
+        default_factory=lambda: MappingProxyType({}))
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-JSON view."""
@@ -293,6 +310,7 @@ def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEq
     rate_p = physical_rate(eq_plus, t, y_plus)
     S, jump_e, jump_mu = X.copy(), Xe, Xm.copy()
     grad = np.zeros(2 * k)
+    tau_mu = np.zeros(n)
     if g is not None:
         x_m = physical(eq_minus, y_minus)
         g_x = central_jacobian(lambda v: np.array([g(v)]), x_m)[0]
@@ -306,10 +324,12 @@ def event_sensitivity(mech, t: float, y_minus: np.ndarray, eq_minus: CanonicalEq
                 dg = float(central_derivative(lambda m: g_mu(x_m, m), eq_minus.modes[c].mu))
                 jump_mu = jump_mu.copy()
                 jump_mu[:, list(contacts).index(c)] += w * dg / denom
+                tau_mu[list(contacts).index(c)] = -dg / denom
     return EventSensitivity(
         time=float(t), kind=kind, contacts=tuple(who), switching=description, saltation=S,
         reset_jacobian=X, parameter_jump=MappingProxyType({"e": jump_e, "mu": jump_mu}),
-        time_gradient=grad, rate_minus=rate_m, rate_plus=rate_p)
+        time_gradient=grad, rate_minus=rate_m, rate_plus=rate_p,
+        parameter_time_gradient=MappingProxyType({"e": np.zeros(n), "mu": tau_mu}))
 
 
 __all__ = ["EventSensitivity", "ResetStep", "projection_step", "impact_step", "compose",

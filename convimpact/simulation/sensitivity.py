@@ -21,6 +21,7 @@ contacts share one coefficient: add the columns). The drift projections between 
 
 from __future__ import annotations
 
+from dataclasses import replace
 from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
@@ -75,7 +76,6 @@ class SensitivityTracking:
         impacted = tuple(dict.fromkeys(c for ev in self.impacts[n_impacts:] for c in ev.contacts))
         rec = event_sensitivity(self.mech, t, y_minus, eq_minus, self.y, self.eq,
                                 self.trigger, self.reset_steps, self.contacts, impacted)
-        from dataclasses import replace
         for i in range(n_impacts, len(self.impacts)):
             self.impacts[i] = replace(self.impacts[i], saltation=rec.saltation)
         for i in range(n_contact_events, len(self.contact_events)):
@@ -99,6 +99,7 @@ class SensitivityTracking:
         series: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = []
         t_a, y_a, eq_a = o.t0, self.y_initial, self.eq_initial
         ends = list(self.instants) + [(self.t, self.y, self.eq, None, None, None)]
+        done: list[EventSensitivity] = []
         for t_b, y_b, _, y_plus, eq_plus, rec in ends:
             last = rec is None
             inside = samples[(samples >= t_a) & ((samples <= t_b) if last else (samples < t_b))]
@@ -121,15 +122,25 @@ class SensitivityTracking:
             d_mu = step @ d_mu + T_b @ flow_mu
             if last:
                 break
+            # the event time's derivatives, then the fixed-time jump (saltation)
+            g = rec.time_gradient
+            tau = {"state": g @ Phi, "e": g @ d_e + rec.parameter_time_gradient["e"],
+                   "mu": g @ d_mu + rec.parameter_time_gradient["mu"]}
             S = rec.saltation
             Phi = S @ Phi
             d_e = S @ d_e + rec.parameter_jump["e"]
             d_mu = S @ d_mu + rec.parameter_jump["mu"]
             t_a, y_a, eq_a = t_b, y_plus, eq_plus
+            v = rec.rate_plus  # on the section: the time moves with the perturbation
+            done.append(replace(
+                rec, state_transition=Phi + np.outer(v, tau["state"]),
+                parameter_sensitivity=MappingProxyType(
+                    {"e": d_e + np.outer(v, tau["e"]), "mu": d_mu + np.outer(v, tau["mu"])}),
+                time_sensitivity=MappingProxyType(tau)))
         out: dict[str, Any] = {
             "state_transition": Phi,
             "parameter_sensitivity": MappingProxyType({"e": d_e, "mu": d_mu}),
-            "event_sensitivities": tuple(rec for *_, rec in self.instants)}
+            "event_sensitivities": tuple(done)}
         if o.t_eval is not None:
             out["sensitivity_series"] = MappingProxyType({
                 "t": np.array([s[0] for s in series]),

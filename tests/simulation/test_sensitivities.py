@@ -105,6 +105,27 @@ def test_ball_final_state_derivatives_match_the_hand_derivation(e):
     np.testing.assert_allclose(de[:, 0], [0.0, V * (T - t1), 0.0, V], rtol=1e-8, atol=1e-9)
 
 
+def test_ball_state_just_after_the_impact_is_the_return_map():
+    """On the section just after the impact (time moving with the perturbation): the centre
+    is at y = r whatever h, so dy+/dh = 0 (the fixed-time derivative saltation @ Phi- is
+    -e instead: the section moves the time); v+ = e g t1 with dt1/dh = 1/(g t1), so
+    dv+/dh = e / t1; x+ = x0 + u t1, so dx+/dh = u / (g t1); and dv+/de = g t1."""
+    e, u = 0.5, 0.3
+    res = simulate(bouncing_ball.make_scene(e=e, mu=0.0, height=1.0, speed=u), (0.0, 0.6),
+                   sensitivities=True, **TIGHT)
+    t1, V = ball_first_impact(1.0, 0.1)
+    at = res.event_sensitivities[0]
+    np.testing.assert_allclose(at.state_transition[:, 1], [u / V, 0.0, 0.0, e / t1],
+                               rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(at.parameter_sensitivity["e"][:, 0], [0.0, 0.0, 0.0, V],
+                               rtol=1e-8, atol=1e-9)
+    # the impact time: h - r + w t - g t^2/2 = 0 (w the initial vertical speed) gives
+    # dt1/dh = 1/(g t1 - w) = 1/V, dt1/dw = t1/V = 1/g; e does not move it
+    np.testing.assert_allclose(at.time_sensitivity["state"], [0.0, 1.0 / V, 0.0, 1.0 / G],
+                               atol=1e-9)
+    np.testing.assert_allclose(at.time_sensitivity["e"], [0.0], atol=1e-12)
+
+
 def test_ball_sliding_impact_matches_finite_differences_of_whole_runs():
     """A frictional (sliding) impact: every column of dx/dx0 and d/d(e, mu)."""
     make = bouncing_ball.make_scene
@@ -150,6 +171,22 @@ def test_pendulum_striking_the_floor_matches_finite_differences():
     for name in ("e", "mu"):
         assert_close(res.parameter_sensitivity[name][:, 0],
                      fd_parameter(make, params, name, span, **TIGHT))
+    # on the section just after the second impact: its state and time as functions of x(0)
+    second = res.event_sensitivities[1]
+    x0 = np.concatenate([scene.theta0, scene.dtheta0])
+    after, when = [], []
+    for sign in (1.0, -1.0):
+        cols, times = [], []
+        for j in range(4):
+            x = x0.copy()
+            x[j] += sign * H
+            ev = simulate(scene, span, (x[:2], x[2:]), **TIGHT).impacts[1]
+            cols.append(np.concatenate([ev.theta, ev.dtheta_plus]))
+            times.append(ev.time)
+        after.append(np.array(cols).T)
+        when.append(np.array(times))
+    assert_close(second.state_transition, (after[0] - after[1]) / (2 * H))
+    assert_close(second.time_sensitivity["state"], (when[0] - when[1]) / (2 * H))
 
 
 # ---- the bouncing rod: frictional impacts with rotation ------------------------------------------
