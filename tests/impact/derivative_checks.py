@@ -53,30 +53,32 @@ def _side(name, x, h):
 
 
 def finite_differences(M, Jc, dq, e, mu, C=None, law="pereira-nikravesh", e_t=None,
-                       what="dq_plus", method="auto"):
-    """Central differences of ``result.<what>`` with respect to dq (along ker C with loops: the
-    returned "dq" is then (k, r) against a basis Z of ker C), the symmetric pairs of M, Jc's
-    entries, e, mu (and e_t), as arrays laid out as the jacobians'."""
-    args = dict(M=np.array(M, float), Jc=np.array(Jc, float), dq=np.array(dq, float),
+                       method="auto"):
+    """Central differences of ``result.dq_plus`` and ``result.impulse`` with respect to dq
+    (along ker C with loops: "dq" is then laid out against the basis "Z" of ker C), the
+    symmetric pairs of M ("M_pairs": M_ij and M_ji moved together, upper triangle filled),
+    Jc's entries, e, mu (and e_t; one-sided second-order differences at the edges of their
+    ranges). Returns ``{"dq_plus": {...}, "impulse": {...}}`` laid out as the jacobians."""
+    args = dict(M=np.array(M, float), Jc=np.array(Jc, float) if isinstance(Jc, np.ndarray)
+                else [np.array(j, float) for j in Jc], dq=np.array(dq, float),
                 e=e, mu=mu, C=C, law=law, e_t=e_t)
+    r0 = ci.resolve_impact(args["M"], args["Jc"], args["dq"], e=e, mu=mu, C=C, law=law,
+                           e_t=e_t, method=method)
+    k = r0.dq_plus.size
+    ishape = np.shape(r0.impulse)
 
     def out(**over):
         a = {**args, **over}
         r = ci.resolve_impact(a["M"], a["Jc"], a["dq"], e=a["e"], mu=a["mu"], C=a["C"],
                               law=a["law"], e_t=a["e_t"], method=method)
-        return np.array(getattr(r, what), dtype=float)
+        return np.concatenate([r.dq_plus, np.ravel(r.impulse)])
 
     res = {}
     dq0 = args["dq"]
     hq = REL_STEP * max(np.abs(dq0).max(), 1e-300)
-    if C is None:
-        Z = np.eye(dq0.size)
-    else:
-        Z = np.linalg.svd(C)[2][C.shape[0]:].T
+    Z = np.eye(k) if C is None else np.linalg.svd(C)[2][C.shape[0]:].T
     res["dq"] = np.stack([_fd(lambda s: out(dq=dq0 + s * z), 0.0, hq) for z in Z.T], axis=-1)
-    res["Z"] = Z
     M0 = args["M"]
-    k = M0.shape[0]
     hm = REL_STEP * np.abs(M0).max()
     dm = np.zeros(out().shape + (k, k))
     for i in range(k):
@@ -84,14 +86,16 @@ def finite_differences(M, Jc, dq, e, mu, C=None, law="pereira-nikravesh", e_t=No
             E = np.zeros((k, k))
             E[i, j] = E[j, i] = 1.0
             dm[..., i, j] = _fd(lambda s: out(M=M0 + s * E), 0.0, hm)
-    res["M_pairs"] = dm  # perturbing M_ij and M_ji together (upper triangle filled)
-    J0 = args["Jc"]
+    res["M_pairs"] = dm
+    J0 = np.array(args["Jc"], float)
+    as_list = not isinstance(args["Jc"], np.ndarray)
     hj = REL_STEP * np.abs(J0).max()
     dj = np.zeros(out().shape + J0.shape)
     for idx in np.ndindex(*J0.shape):
         E = np.zeros(J0.shape)
         E[idx] = 1.0
-        dj[(...,) + idx] = _fd(lambda s: out(Jc=J0 + s * E), 0.0, hj)
+        dj[(...,) + idx] = _fd(lambda s: out(Jc=list(J0 + s * E) if as_list
+                                             else J0 + s * E), 0.0, hj)
     res["Jc"] = dj
     for name in ("e", "mu") + (("e_t",) if e_t is not None else ()):
         x0 = np.asarray(args[name], float)
@@ -103,7 +107,11 @@ def finite_differences(M, Jc, dq, e, mu, C=None, law="pereira-nikravesh", e_t=No
             res[name] = np.stack([_fd(lambda s: out(**{name: list(x0 + s * ei)}), 0.0, h,
                                       _side(name, float(x0 @ ei), h))
                                   for ei in np.eye(x0.size)], axis=-1)
-    return res
+    split = {"dq_plus": {"Z": Z}, "impulse": {"Z": Z}}
+    for name, a in res.items():
+        split["dq_plus"][name] = a[:k]
+        split["impulse"][name] = a[k:].reshape(ishape + a.shape[1:])
+    return split
 
 
 def assert_matches(jac, fd, rtol=2e-6, floor=1e-3):

@@ -168,7 +168,8 @@ def _coefficients(law: str, e, mu, e_t) -> tuple[tuple, dict]:
 
 
 def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t=None,
-                    C=None, on_error: str = "flag", threads: int | None = None) -> ImpactBatch:
+                    C=None, on_error: str = "flag", threads: int | None = None,
+                    derivatives: bool = False) -> ImpactBatch:
     """Resolve N single-contact impacts at once (the batch form of ``resolve_impact``).
 
     Parameters
@@ -197,6 +198,10 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         Threads a batch of at least :data:`PARALLEL_MIN` items is split over (the compiled
         loop releases the GIL); None: every core this process may use, 1: this thread only
         (e.g. inside a process pool). The answers do not depend on it.
+    derivatives : bool
+        True: also the items' derivatives, ``jacobian`` and ``impulse_jacobian`` stacked over
+        the batch (as ``resolve_impact(..., derivatives=True)`` per item, e, mu and e_t taken
+        per item as scalars), and ``one_sided`` (N,) (:mod:`.derivatives`).
 
     Returns
     -------
@@ -229,6 +234,10 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
     """
     code = _check_options(law, on_error)
     nthreads = _thread_count(threads)
+    if derivatives is not False:
+        from .derivatives import check_batch_derivatives
+
+        derivatives = check_batch_derivatives(derivatives, law)
     if C is not None:
         raise NotSupportedError(
             "resolve_impacts batches open-loop impacts only; for closed loops (C given) call "
@@ -293,6 +302,13 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
             _raise_first(status, errors, W, v_minus, e_all, mu_all, law, et_all)
     else:
         e_all = et_all = np.zeros(0)
+    jac = {}
+    if derivatives:
+        from .derivatives import batch_jacobians
+
+        jac = dict(zip(("jacobian", "impulse_jacobian", "one_sided"), batch_jacobians(
+            law, *(np.broadcast_to(a, (n,) + a.shape[1:]) for a in (Mb, Jb, qb, eb, mb, tb)),
+            dq_plus, impulse, regime, status)))
     return ImpactBatch(
         dq_plus=_frozen(dq_plus), impulse=_frozen(impulse), regime=_frozen(regime),
         energy_loss=_frozen(T0 - T1), v_minus=_frozen(v_minus), v_plus=_frozen(v_plus),
@@ -302,7 +318,7 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
         slip_reversal=_frozen(flags[:, 2].copy()), penetration=_frozen(flags[:, 3].copy()),
         effective_mass=_frozen(effm), delassus=_frozen(W), status=_frozen(status),
         _errors=MappingProxyType(errors), _friction=mu_all, _restitution=e_all,
-        _tangential=et_all)
+        _tangential=et_all, **jac)
 
 
 def _solve_deferred(law: str, code: int, status, regime, effm, W, v, e, mu, et, errors,

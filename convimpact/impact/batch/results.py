@@ -89,6 +89,15 @@ class ImpactBatch(_BatchStatus):
     delassus : (N, d, d) W = Jc M^-1 Jc^T of each impact.
     status : (N,) int8 :data:`OK` or the reason the kernel rejected the impact
         (:data:`SINGULAR`, :data:`JAM`, :data:`NO_SOLUTION`); those items hold NaN.
+    jacobian, impulse_jacobian : read-only mappings or None
+        With ``derivatives=True``: ImpactResult's jacobians stacked over the batch, shape
+        ``(N,) + `` one item's (``"dq"`` (N, k, k), ``"M"`` (N, k, k, k), ``"Jc"``
+        (N, k, d, k), ``"e"``, ``"mu"`` (N, k) for dq_plus; (N, d, ...) for the impulse);
+        NaN for a rejected item. None when not asked.
+    one_sided : (N,) bool or None
+        With ``derivatives=True``: whether item i's derivative is one-sided (a mode boundary;
+        ``resolve_impact(..., derivatives="both")`` on that item gives the statement and the
+        other side).
     """
 
     dq_plus: np.ndarray
@@ -108,6 +117,9 @@ class ImpactBatch(_BatchStatus):
     effective_mass: np.ndarray
     delassus: np.ndarray
     status: np.ndarray
+    jacobian: Mapping[str, np.ndarray] | None = field(default=None, repr=False)
+    impulse_jacobian: Mapping[str, np.ndarray] | None = field(default=None, repr=False)
+    one_sided: np.ndarray | None = field(default=None, repr=False)
     _errors: Mapping[int, ConvImpactError] = field(default=None, repr=False)
     _friction: Any = field(default=None, repr=False)  # effective mu per item (error())
     _restitution: Any = field(default=None, repr=False)

@@ -141,7 +141,6 @@ def cone_slide(kind: str, W: np.ndarray, v: np.ndarray, e: float, mu: float,
         Jx[:d, d + 1] = -w0     # lambda
         Jx[d, :d] = cone_row
         Jx[d + 1, :d] = W[0]
-        c = -(1.0 + e) * v[0]
         dc = -(1.0 + e) * dv[0] - v[0] * de
         F = np.zeros((m, P))
         F[:d] = _dW_times(dW, p) + dv - lam * dW[:, 0]

@@ -27,7 +27,6 @@ from ..derivatives.contact import ContactDerivative
 from ..derivatives.modes import (contact_derivative, cone_slide, eq55_slide, frictionless,
                                  mu_zero_column, stick, stick_impulse)
 from ..derivatives.single import one_contact_derivative
-from ..errors import ConvImpactError
 
 LAW = "pereira-nikravesh"
 
@@ -71,13 +70,10 @@ def _boundaries(W, v, e, mu, et, regime, p, other_side):
                  f"here; the derivative is that of the slide along t = {s:+g} (the side "
                  f"v_t- {'<' if s > 0 else '>'} 0); the other side slides along {-s:+g}")
     other = None
-    if other_side:
-        try:
-            D = float(W[0, 0] - mu * s * W[0, 1])
-            if D > 1e-12 * float(np.max(np.abs(W))):
-                other = contact_derivative(eq55_slide(W, v, e, mu, -s), "slide")
-        except ConvImpactError:  # pragma: no cover - eq55_slide raises nothing typed
-            other = None
+    D = float(W[0, 0] - mu * s * W[0, 1])  # the other side's denominator of eq. (38)
+    if other_side and D > 1e-12 * float(np.max(np.abs(W))):
+        q = (-(1.0 + e) * v[0] / D) * np.array([1.0, -mu * s])  # the impulse jumps to it
+        other = contact_derivative(eq55_slide(W, v, e, mu, -s), "slide", impulse=q)
     return [(statement, other)]
 
 
