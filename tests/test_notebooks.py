@@ -40,7 +40,7 @@ KERNEL_START_LIMIT = 600
 OUTPUT_LIMIT = 300
 #: figures each notebook draws, at least
 MIN_FIGURES = {"01_paper_tour": 5, "02_dissipation_landscapes": 5,
-               "03_where_laws_disagree": 3}
+               "03_where_laws_disagree": 3, "04_fitting_coefficients": 4}
 
 
 def _code_cells(nb):
