@@ -116,6 +116,27 @@ def test_resolve_impacts_malformed_argument(name, value, law):
         assert _finite(b.impulse[ok], b.dq_plus[ok], b.v_plus[ok])
 
 
+@SOME
+@given(name=st.sampled_from(sorted(IMPACT) + ["derivatives"]), value=junk,
+       law=st.sampled_from(LAWS))
+def test_resolve_impact_with_derivatives_malformed_argument(name, value, law):
+    kwargs = {**IMPACT, "law": law, "derivatives": True, name: value}
+    r = _typed(lambda: resolve_impact(**kwargs))
+    if r is not None and r.jacobian is not None:
+        assert _finite(*r.jacobian.values(), *r.impulse_jacobian.values())
+
+
+@FEW
+@given(name=st.sampled_from(sorted(BATCH) + ["derivatives"]), value=junk,
+       law=st.sampled_from(LAWS[:4]))
+def test_resolve_impacts_with_derivatives_malformed_argument(name, value, law):
+    kwargs = {**BATCH, "law": law, "derivatives": True, name: value}
+    b = _typed(lambda: resolve_impacts(**kwargs))
+    if b is not None and getattr(b, "jacobian", None) is not None:
+        ok = b.status == 0
+        assert _finite(*(np.asarray(v)[ok] for v in b.jacobian.values()))
+
+
 CONTACTS = {"W": np.array([[0.7, 0.1], [0.1, 0.9]]), "v": [[-1.0, 0.5], [-0.5, 0.0]],
             "e": 0.5, "mu": 0.3, "law": "stronge", "on_error": "flag", "threads": None}
 
@@ -149,7 +170,7 @@ def ball():
 SIMULATE = ["t_span", "y0", "law", "method", "integrator", "rtol", "atol", "max_step",
             "first_step", "dense_output", "t_eval", "event_tol", "contact_tol",
             "projection_tol", "assemble", "zeno", "zeno_time_tol", "rest_velocity",
-            "max_impacts", "painleve", "impacts", "impact_options"]
+            "max_impacts", "painleve", "impacts", "impact_options", "sensitivities"]
 
 
 @FEW
@@ -168,6 +189,44 @@ SCHEME_OPTIONS = {"moreau-jean": ["h", "theta", "gap_tol", "rest_velocity", "pro
                                 "max_step", "first_step", "regularization_velocity",
                                 "min_impact_velocity", "integrator"]}
 VALID_SCHEME = {"moreau-jean": {"h": 5e-3}, "compliant": {"stiffness": 1e4}}
+
+
+PERIODIC = ["y0", "section", "reduce", "t_max", "strides", "tol", "max_iterations",
+            "jacobian", "step", "simulate_options", "touch_tol", "rest_velocity", "progress"]
+
+
+@settings(max_examples=20, deadline=None)
+@given(name=st.sampled_from(PERIODIC), value=junk)
+def test_find_periodic_orbit_malformed_argument(name, value):
+    from convimpact.problems import rimless_wheel
+    from convimpact.simulation import find_periodic_orbit
+
+    scene = rimless_wheel.make_scene()
+    n, leg = int(scene.parameters["n_spokes"]), float(scene.parameters["leg_length"])
+    kwargs = {"reduce": lambda th, dth: rimless_wheel.reduce(th, dth, n, leg), "t_max": 3.0,
+              name: value}
+    orbit = _typed(lambda: find_periodic_orbit(scene, **kwargs))
+    if orbit is not None:
+        assert _finite(orbit.theta, orbit.dtheta, [orbit.period], np.abs(orbit.multipliers))
+
+
+FIT = ["parameters", "per_contact", "noise", "initial", "y0", "t0", "jacobian",
+       "confidence_level", "max_iterations", "xtol", "gtol", "ftol",
+       "finite_difference_step", "simulate_options"]
+
+
+@settings(max_examples=20, deadline=None)
+@given(name=st.sampled_from(FIT), value=junk)
+def test_fit_coefficients_malformed_argument(name, value):
+    from convimpact.scenes import load_scene
+    from convimpact.studies import Observations, fit_coefficients
+
+    times = np.linspace(0.05, 0.4, 5)  # the ball dropped from 1 m: y = 1 - g t^2 / 2
+    obs = Observations(times, 1.0 - 0.5 * 9.81 * times ** 2, ("y",))
+    scene = load_scene("bouncing_ball", e=0.6, mu=0.2, speed=0.0)
+    fit = _typed(lambda: fit_coefficients(scene, obs, **{name: value}))
+    if fit is not None:
+        assert _finite(fit.estimates, fit.standard_errors[np.isfinite(fit.standard_errors)])
 
 
 @FEW
