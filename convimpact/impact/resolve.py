@@ -187,7 +187,7 @@ def solve_problem(problem: ImpactProblem, law: str = "pereira-nikravesh",
     problem because the Delassus matrix is singular (the closed forms and ``fast`` invert it),
     the conic paths, which do not, are tried next and the result says so in its warnings.
 
-    ``derivatives`` (False, True or "both") as in :func:`resolve_impact`; the keys ``"e"``,
+    ``derivatives`` (False, True, "both" or "velocity") as in :func:`resolve_impact`; the keys ``"e"``,
     ``"mu"`` (``"e_t"``) have the shape of a scalar argument, ``(k,)``, when the problem was
     built from one Jacobian, and of per-contact ones, ``(k, n)``, otherwise.
     """
@@ -282,7 +282,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     e_t : float or per-contact sequence, optional
         Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0); the
         other laws have none.
-    derivatives : {False, True, "both"}
+    derivatives : {False, True, "both", "velocity"}
         With True the result carries ``jacobian`` and ``impulse_jacobian``: argument name
         (``"dq"``, ``"M"``, ``"Jc"``, ``"e"``, ``"mu"``; ``"e_t"`` for chatterjee-ruina) ->
         the derivative of ``dq_plus`` (of ``impulse``) with respect to it, of shape
@@ -290,8 +290,11 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
         perturbations, as a symmetric gradient), analytic inside the answer's mode; and
         ``derivatives``, the record of the mode per contact and of the one-sided statements
         at a mode boundary (also in the diagnostics' warnings). With "both" the record also
-        holds the other side's jacobians at a boundary. See the user guide's "Impact
-        derivatives".
+        holds the other side's jacobians at a boundary. With "velocity", where redundant
+        contacts (more contact rows than the bodies' freedoms) leave a cone law's impulse
+        non-unique, the minimum-norm derivative of the mode's equations is given instead of
+        NotSupportedError: exact for ``dq_plus`` and ``v_plus``, a choice for the impulse
+        (said in the record). See the user guide's "Impact derivatives".
     **options
         Solver options (tolerances, iteration limits) of the method: see the table in the
         Notes (:data:`METHOD_OPTIONS`). A name the method does not take raises

@@ -108,7 +108,9 @@ class ContactEvents:
             ets = [o.tangential_restitution[c] for c in closing]
             law_params["e_t"] = ets[0] if len(closing) == 1 else ets
         if o.sensitivities:  # the law's analytic jacobian, for the saltation matrix
-            law_params["derivatives"] = True
+            # the velocities' derivative (redundant contacts: exact for dq_plus, the
+            # impulse's being the minimum-norm choice)
+            law_params["derivatives"] = "velocity"
         try:
             r = resolve_impact(M, J, dth, e, mu, C if len(C) else None,
                                law=o.law, method=o.method, **law_params, **o.impact_options)

@@ -79,6 +79,12 @@ class SensitivityTracking:
         if not self.tracking:
             return
         impacted = tuple(dict.fromkeys(c for ev in self.impacts[n_impacts:] for c in ev.contacts))
+        if len(impacted) > 1:  # non-generic: almost every perturbation makes them sequential
+            self.boundary_notes.append(
+                f"simultaneous impact of {', '.join(impacted)}: a perturbation that separates "
+                "their impact times makes the impacts sequential (another reset); the "
+                "saltation is the simultaneous impact's, with the first contact's gap as the "
+                "event, exact along the perturbations that keep the impacts simultaneous")
         rec = event_sensitivity(self.mech, t, y_minus, eq_minus, self.y, self.eq,
                                 self.trigger, self.reset_steps, self.contacts, impacted,
                                 self.boundary_notes)

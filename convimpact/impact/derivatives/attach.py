@@ -6,6 +6,7 @@ and the one-sided statements in the diagnostics."""
 
 from __future__ import annotations
 
+import inspect
 from typing import Mapping
 
 import numpy as np
@@ -16,26 +17,31 @@ from ..problem.build import ImpactProblem, _new
 from ..results import ImpactDerivatives, ImpactResult
 from .chain import impact_jacobians, zero_derivative
 
-#: the values of ``derivatives=`` (False: none)
-DERIVATIVE_MODES = (False, True, "both")
+#: the values of ``derivatives=`` (False: none; "both": the other side's too at a mode
+#: boundary; "velocity": as True, but where redundant contacts leave the impulse non-unique
+#: the minimum-norm derivative, exact for dq_plus and v_plus, is given instead of an error)
+DERIVATIVE_MODES = (False, True, "both", "velocity")
 
 
 def check_derivatives(derivatives) -> bool | str:
-    """``derivatives=`` validated: False, True or "both" (UnknownOptionError otherwise; a number
-    is not a boolean)."""
+    """``derivatives=`` validated: False, True, "both" or "velocity" (UnknownOptionError
+    otherwise; a number is not a boolean)."""
     if derivatives is False or derivatives is True or type(derivatives) is np.bool_:
         return bool(derivatives)
-    if type(derivatives) is str and derivatives == "both":
-        return "both"
+    if type(derivatives) is str and derivatives in ("both", "velocity"):
+        return derivatives
     raise UnknownOptionError(
-        f"derivatives must be False, True or 'both' (the other side's too at a mode "
-        f"boundary), got {derivatives!r} of type {type(derivatives).__name__}")
+        f"derivatives must be False, True, 'both' (the other side's too at a mode boundary) "
+        f"or 'velocity' (redundant contacts: the derivative exact for the velocities), got "
+        f"{derivatives!r} of type {type(derivatives).__name__}")
 
 
 def law_derivative(problem: ImpactProblem, result: ImpactResult, law: str,
-                   other_side: bool = False):
+                   other_side: bool = False, redundant: str = "raise"):
     """The law's :class:`~convimpact.impact.derivatives.contact.ContactDerivative` at its
-    answer; NotSupportedError naming the law when its module has none for this many contacts."""
+    answer; NotSupportedError naming the law when its module has none for this many contacts.
+    ``redundant`` ("raise" or "velocity") goes to the several-contact derivatives that take
+    it (redundant contacts: the impulse is not unique, the velocity is)."""
     n = problem.n_contacts
     name = "impulse_derivative" if n == 1 else "several_impulse_derivative"
     if n > 1 and all(v > 0.0 for v in problem.v_minus[:, 0]):
@@ -46,6 +52,8 @@ def law_derivative(problem: ImpactProblem, result: ImpactResult, law: str,
         where = "one contact" if n == 1 else f"{n} simultaneous contacts"
         raise NotSupportedError(
             f"law {law!r} has no derivative at {where} ({name} is not provided by its module)")
+    if redundant != "raise" and "redundant" in inspect.signature(fn).parameters:
+        return fn(problem, result, other_side=other_side, redundant=redundant)
     return fn(problem, result, other_side=other_side)
 
 
@@ -61,7 +69,8 @@ def with_derivatives(problem: ImpactProblem, result: ImpactResult, law: str,
     if scalar is None:
         scalar = dict.fromkeys(("e", "mu", "e_t"), problem.single)
     both = derivatives == "both"
-    cd = law_derivative(problem, result, law, other_side=both)
+    cd = law_derivative(problem, result, law, other_side=both,
+                        redundant="velocity" if derivatives == "velocity" else "raise")
     jac, ijac = impact_jacobians(problem, result.impulse, cd, scalar)
     if not all(np.isfinite(a).all() for a in jac.values()):
         raise SingularSystemError(
