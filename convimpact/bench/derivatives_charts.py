@@ -35,7 +35,9 @@ def single_contact_chart(records: list[dict[str, Any]], out: Path) -> str:
     bx.bar(x, [max(r["fd_deviation"], 1e-17) for r in records], 0.5, color="tab:gray")
     bx.set_yscale("log")
     bx.set_ylabel("max |FD - analytic| / scale")
-    bx.set_title("central differences (step 1e-6 of each argument) vs the analytic jacobians")
+    bx.set_title("central differences (step 1e-6 of each argument) vs the analytic jacobians "
+                 "(scale: the key's largest entry, at least max |dq+| / max(1, |argument|))",
+                 fontsize=9)
     bx.grid(axis="y", which="both", alpha=0.3)
     bx.set_xticks(x)
     bx.set_xticklabels(labels, rotation=60, ha="right", fontsize=7)
@@ -116,8 +118,13 @@ def sensitivities_chart(rows: list[dict[str, Any]], out: Path) -> str:
              ("deviation_mu", "d/dmu"))
     for j, (key, name) in enumerate(names):
         vals = [r.get(key) for r in rows]
-        bx.bar([xi + (j - 1) * width for xi, v in zip(x, vals) if v is not None],
-               [max(v, 1e-16) for v in vals if v is not None], width, label=name)
+        bx.bar([xi + (j - 1) * width for xi, v in zip(x, vals) if v],
+               [v for v in vals if v], width, label=name, color=f"C{j}")
+        for xi, v in zip(x, vals):  # not differenced, or exactly zero both ways: say so
+            if not v:
+                bx.annotate("n/a" if v is None else "0", (xi + (j - 1) * width, 0.02),
+                            xycoords=("data", "axes fraction"), ha="center", fontsize=8,
+                            color=f"C{j}")
     bx.set_yscale("log")
     bx.set_ylabel("max |FD - exact| / max(1, max |exact|)")
     bx.set_title("central FD of whole runs (step 1e-6, rtol 1e-11, atol 1e-12) vs exact",
