@@ -226,6 +226,14 @@ def sensitivities_section(config: BenchConfig, progress: Progress) -> SectionRes
             + ", ".join(f"{r['scene']} {max(r[k] for k in keys if k in r):.1e}" for r in rows)
             + f"; {sum(r['fd_runs_same_events'] for r in rows)} of {len(rows)} scenes kept "
             f"their sequence of events in every differenced run")
+        flagged = [r for r in rows if r["one_sided_events"]]
+        if flagged:
+            summary.append(
+                "events the run itself flags as one-sided or ill-conditioned (grazing "
+                "landings at the end of a bouncing sequence): "
+                + ", ".join(f"{r['scene']} {r['one_sided_events']} of {r['n_impacts']} impacts"
+                            for r in flagged)
+                + " -- where its largest deviation comes from")
     return SectionResult(
         name="sensitivities", records=rows, figures=figures, summary=summary,
         meta={"tight": TIGHT, "step": STEP, "budget": BUDGET,
