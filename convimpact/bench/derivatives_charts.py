@@ -18,7 +18,7 @@ def single_contact_chart(records: list[dict[str, Any]], out: Path) -> str:
     """Two panels: the three calls' median times per law/d/mode (log), and the finite
     differences' deviation from the analytic jacobians."""
     plt = _plt()
-    labels = [f"{r['law']}\n{'planar' if r['d'] == 2 else 'spatial'} {r['regime']}, "
+    labels = [f"{r['law']}, {'planar' if r['d'] == 2 else 'spatial'} {r['regime']}, "
               f"k = {r['k']}" for r in records]
     x = np.arange(len(records))
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(max(8.0, 0.55 * len(records) + 2), 8.5),
@@ -40,7 +40,7 @@ def single_contact_chart(records: list[dict[str, Any]], out: Path) -> str:
                  fontsize=9)
     bx.grid(axis="y", which="both", alpha=0.3)
     bx.set_xticks(x)
-    bx.set_xticklabels(labels, rotation=60, ha="right", fontsize=7)
+    bx.set_xticklabels(labels, rotation=55, ha="right", rotation_mode="anchor", fontsize=8)
     fig.tight_layout()
     return save_chart(fig, out, "derivatives.png")
 
