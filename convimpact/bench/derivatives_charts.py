@@ -14,6 +14,20 @@ PATHS = ("solve", "solve + derivatives", "central FD")
 SIM_PATHS = ("simulate", "simulate, sensitivities=True", "central FD of whole runs")
 
 
+def _time_bars(ax, rows: list[dict[str, Any]], keys, names, unit: float, ylabel: str,
+               title: str, fontsize: int | None = None) -> None:
+    """Three bars per row (log axis): the median times ``rows[i][key]`` times ``unit``."""
+    x = np.arange(len(rows))
+    width = 0.27
+    for j, (key, name) in enumerate(zip(keys, names)):
+        ax.bar(x + (j - 1) * width, [unit * r[key] for r in rows], width, label=name)
+    ax.set_yscale("log")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, **({} if fontsize is None else {"fontsize": fontsize}))
+    ax.legend(loc="upper left", fontsize=8)
+    ax.grid(axis="y", which="both", alpha=0.3)
+
+
 def single_contact_chart(records: list[dict[str, Any]], out: Path) -> str:
     """Two panels: the three calls' median times per law/d/mode (log), and the finite
     differences' deviation from the analytic jacobians."""
@@ -23,15 +37,9 @@ def single_contact_chart(records: list[dict[str, Any]], out: Path) -> str:
     x = np.arange(len(records))
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(max(8.0, 0.55 * len(records) + 2), 8.5),
                                  sharex=True)
-    width = 0.27
-    keys = ("time_solve", "time_derivatives", "time_fd")
-    for j, (key, name) in enumerate(zip(keys, PATHS)):
-        ax.bar(x + (j - 1) * width, [1e6 * r[key] for r in records], width, label=name)
-    ax.set_yscale("log")
-    ax.set_ylabel("median CPU time per call (µs)")
-    ax.set_title("impact derivatives, one contact: time per call (central FD: every argument)")
-    ax.legend(loc="upper left", fontsize=8)
-    ax.grid(axis="y", which="both", alpha=0.3)
+    _time_bars(ax, records, ("time_solve", "time_derivatives", "time_fd"), PATHS, 1e6,
+               "median CPU time per call (µs)",
+               "impact derivatives, one contact: time per call (central FD: every argument)")
     bx.bar(x, [max(r["fd_deviation"], 1e-17) for r in records], 0.5, color="tab:gray")
     bx.set_yscale("log")
     bx.set_ylabel("max |FD - analytic| / scale")
@@ -104,16 +112,11 @@ def sensitivities_chart(rows: list[dict[str, Any]], out: Path) -> str:
     x = np.arange(len(rows))
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(max(8.0, 1.5 * len(rows) + 2.5), 8.0),
                                  sharex=True)
+    _time_bars(ax, rows, ("time_plain", "time_sensitivities", "time_fd"), SIM_PATHS, 1e3,
+               "median CPU time per run (ms)",
+               "trajectory sensitivities at the default tolerances (rtol 1e-8, atol 1e-10); "
+               "FD: 2 runs per state direction", fontsize=9)
     width = 0.27
-    keys = ("time_plain", "time_sensitivities", "time_fd")
-    for j, (key, name) in enumerate(zip(keys, SIM_PATHS)):
-        ax.bar(x + (j - 1) * width, [1e3 * r[key] for r in rows], width, label=name)
-    ax.set_yscale("log")
-    ax.set_ylabel("median CPU time per run (ms)")
-    ax.set_title("trajectory sensitivities at the default tolerances (rtol 1e-8, atol 1e-10); "
-                 "FD: 2 runs per state direction", fontsize=9)
-    ax.legend(loc="upper left", fontsize=8)
-    ax.grid(axis="y", which="both", alpha=0.3)
     names = (("deviation_state", "state_transition"), ("deviation_e", "d/de"),
              ("deviation_mu", "d/dmu"))
     for j, (key, name) in enumerate(names):
