@@ -16,15 +16,23 @@ processes' turns):
   2 (k + k (k + 1) / 2 + d k + 2) calls; the step 1e-6 of each argument's scale).
 
 Accuracy: the largest deviation of the finite differences from the analytic jacobians,
-relative to each key's largest entry (the differences' own error, truncation h^2 and round-off
-eps / h, sets it: about 1e-9 to 1e-10 is what they can show).
+relative to each key's largest entry, or to max |dq+| / max(1, max |argument|) when that is
+larger (a derivative that nearly vanishes, Stronge's in mu while the contact sticks, say, is
+compared on the answer's scale); the differences' own error, truncation h^2 and round-off
+eps / h, sets it: about 1e-9 to 1e-10 is what they can show.
+
+Stronge's law is differentiated through its impulse-space integration: planar in closed form,
+spatial by the variational equations integrated in pure Python (about 20-30 ms a call, against
+the compiled solve's tens of microseconds).
+
+Several contacts (2, 4, 8, spatial; ccp, coulomb, dissipative, pereira-nikravesh, stronge):
+:mod:`convimpact.bench.derivatives_several`. Charts: :mod:`convimpact.bench.derivatives_charts`.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -119,9 +127,11 @@ def fd_calls(k: int, d: int, tangential: bool) -> int:
     return 2 * (k + k * (k + 1) // 2 + d * k + 2 + int(tangential))
 
 
-def deviations(jac, fd) -> dict[str, float]:
-    """Per key, max |FD - analytic| / max |analytic| (M compared on its symmetric pairs)."""
+def deviations(jac, fd, floors: dict[str, float] | None = None) -> dict[str, float]:
+    """Per key, max |FD - analytic| / max(max |analytic|, floors[key]) (M compared on its
+    symmetric pairs)."""
     out = {}
+    floors = floors or {}
     for name, ref in fd.items():
         if name == "M_pairs":
             JM = np.asarray(jac["M"])
@@ -131,7 +141,7 @@ def deviations(jac, fd) -> dict[str, float]:
             a, ref, name = a[:, iu[0], iu[1]], ref[:, iu[0], iu[1]], "M"
         else:
             a = np.asarray(jac[name])
-        scale = max(float(np.abs(a).max()), 1e-300)
+        scale = max(float(np.abs(a).max()), floors.get(name, 0.0), 1e-300)
         out[name] = float(np.abs(a - ref).max()) / scale
     return out
 
@@ -160,7 +170,10 @@ def measure(law: str, d: int, mode: str, config: BenchConfig,
     t_der, rd = timed(lambda: solve(derivatives=True), config.repeat, batch)
     t_fd, fd = timed(lambda: fd_jacobian(dq_plus, M, Jc, dq, E, mu, e_t), config.repeat,
                      batch)
-    dev = deviations(rd.jacobian, fd)
+    size = float(np.abs(rd.dq_plus).max())
+    floors = {name: size / max(1.0, float(np.abs(value).max())) for name, value in
+              (("dq", dq), ("M", M), ("Jc", Jc), ("e", E), ("mu", mu), ("e_t", e_t or 0.0))}
+    dev = deviations(rd.jacobian, fd, floors)
     return {
         "law": law, "d": d, "k": k, "mode": mode, "mu": mu, "regime": rd.regime,
         "one_sided": bool(rd.derivatives.one_sided),
@@ -173,48 +186,20 @@ def measure(law: str, d: int, mode: str, config: BenchConfig,
         "fd_over_derivative": t_fd["cpu"] / t_der["cpu"],
         "fd_deviation": max(dev.values()), "fd_deviation_by_key": dev,
         "answer_matches": bool(np.allclose(r.dq_plus, rd.dq_plus, rtol=1e-12, atol=1e-14)),
+        "derivative_modes": list(rd.derivatives.modes),
     }
 
 
-def chart(records: list[dict[str, Any]], out: Path) -> str:
-    """Two panels per run: the three calls' median times per law/d/mode (log), and the
-    finite differences' deviation from the analytic jacobians."""
-    from .charts import _plt, save_chart
-
-    plt = _plt()
-    labels = [f"{r['law']}\n{'planar' if r['d'] == 2 else 'spatial'} {r['regime']}, "
-              f"k = {r['k']}" for r in records]
-    x = np.arange(len(records))
-    fig, (ax, bx) = plt.subplots(2, 1, figsize=(max(8.0, 0.55 * len(records) + 2), 8.5),
-                                 sharex=True)
-    width = 0.27
-    keys = ("time_solve", "time_derivatives", "time_fd")
-    for j, (key, name) in enumerate(zip(keys, PATHS)):
-        ax.bar(x + (j - 1) * width, [1e6 * r[key] for r in records], width, label=name)
-    ax.set_yscale("log")
-    ax.set_ylabel("median CPU time per call (µs)")
-    ax.set_title("impact derivatives: time per call")
-    ax.legend(loc="upper left", fontsize=8)
-    ax.grid(axis="y", which="both", alpha=0.3)
-    bx.bar(x, [max(r["fd_deviation"], 1e-17) for r in records], 0.5, color="tab:gray")
-    bx.set_yscale("log")
-    bx.set_ylabel("max |FD - analytic| / max |analytic|")
-    bx.set_title("central differences (step 1e-6 of each argument) vs the analytic jacobians")
-    bx.grid(axis="y", which="both", alpha=0.3)
-    bx.set_xticks(x)
-    bx.set_xticklabels(labels, rotation=60, ha="right", fontsize=7)
-    fig.tight_layout()
-    return save_chart(fig, out, "derivatives.png")
+#: laws of the quick run (one of each derivative's kind: closed form, fixed point, Stronge's
+#: integration, the tangential law)
+QUICK_LAWS = ("pereira-nikravesh", "coulomb", "stronge", "chatterjee-ruina")
+#: several-contact runs of the quick run: (law, n contacts)
+QUICK_SEVERAL = (("ccp", 2), ("stronge", 2))
 
 
-@register_section("derivatives", "impact derivatives: resolve_impact with and without "
-                  "derivatives=True, and a central-difference jacobian (time and accuracy), "
-                  "per law")
-def derivatives_section(config: BenchConfig, progress: Progress) -> SectionResult:
-    records = []
-    skipped = []
-    laws = LAWS[:2] + LAWS[-1:] if config.quick else LAWS
-    for law in laws:
+def _single_contact(config: BenchConfig, progress: Progress) -> tuple[list, list]:
+    records, skipped = [], []
+    for law in (QUICK_LAWS if config.quick else LAWS):
         for d in (2, 3):
             for mode in MODE_MU:
                 rec = measure(law, d, mode, config)
@@ -226,7 +211,7 @@ def derivatives_section(config: BenchConfig, progress: Progress) -> SectionResul
                          f"{1e6 * rec['time_derivatives']:.1f} µs, central FD "
                          f"{1e6 * rec['time_fd']:.0f} µs; FD deviation "
                          f"{rec['fd_deviation']:.1e}")
-                records.append(rec)
+                records.append({"part": "one contact", **rec})
             if law in skipped:
                 break
     if not config.quick:
@@ -236,28 +221,68 @@ def derivatives_section(config: BenchConfig, progress: Progress) -> SectionResul
                 progress(f"derivatives {law} d={d} k={LARGE_K} {rec['regime']}: with "
                          f"derivatives {1e6 * rec['time_derivatives']:.1f} µs, central FD "
                          f"{1e6 * rec['time_fd']:.0f} µs")
-                records.append(rec)
-    figures = [chart(records, config.out)] if records else []
+                records.append({"part": "one contact", **rec})
+    return records, skipped
+
+
+def _several_contacts(config: BenchConfig, progress: Progress) -> list:
+    from .derivatives_several import N_CONTACTS, SEVERAL_LAWS, measure_several
+
+    runs = QUICK_SEVERAL if config.quick else [(law, n) for law in SEVERAL_LAWS
+                                                for n in N_CONTACTS]
+    batch = max(config.min_batch_time, BATCH_TIME[config.quick])
+    rows = []
+    for law, n in runs:
+        row = measure_several(law, n, config, batch)
+        if "skipped" in row:
+            progress(f"derivatives {law} {n} contacts: skipped ({row['skipped']})")
+        else:
+            progress(f"derivatives {law} {n} contacts (k = {row['k']}, "
+                     f"{'/'.join(sorted(set(row['regime'])))}): solve "
+                     f"{1e3 * row['time_solve']:.2f} ms, with derivatives "
+                     f"{1e3 * row['time_derivatives']:.2f} ms, central FD (dq, e, mu) "
+                     f"{1e3 * row['time_fd']:.0f} ms; FD deviation {row['fd_deviation']:.1e}")
+        rows.append({"part": "several contacts", **row})
+    return rows
+
+
+def _single_summary(records: list, skipped: list) -> list[str]:
     summary = []
     small = [r for r in records if r["k"] == K]
     large = [r for r in records if r["k"] != K]
-    if small:
-        ratio = [r["derivative_over_solve"] for r in small]
-        fd = [r["fd_over_derivative"] for r in small]
-        dev = [r["fd_deviation"] for r in records]
-        tder = [1e6 * r["time_derivatives"] for r in small]
+    fast = [r for r in small if not (r["law"] == "stronge" and r["d"] == 3)]
+    stronge3 = [r for r in small if r["law"] == "stronge" and r["d"] == 3]
+    if fast:
+        ratio = [r["derivative_over_solve"] for r in fast]
+        fd = [r["fd_over_derivative"] for r in fast]
+        tder = [1e6 * r["time_derivatives"] for r in fast]
         summary.append(
-            f"resolve_impact with derivatives=True takes {min(tder):.0f}-{max(tder):.0f} µs CPU "
-            f"(k = {K}), {min(ratio):.1f}-{max(ratio):.1f}x the solve alone (median "
-            f"{np.median(ratio):.1f}x); a central-difference jacobian of dq+ "
-            f"({min(r['fd_calls'] for r in small)}-{max(r['fd_calls'] for r in small)} calls) "
+            f"one contact, k = {K}: resolve_impact with derivatives=True takes "
+            f"{min(tder):.0f}-{max(tder):.0f} µs CPU, {min(ratio):.0f}-{max(ratio):.0f}x the "
+            f"solve alone (median {np.median(ratio):.0f}x; every law planar, every law but "
+            f"stronge spatial); a central-difference jacobian of dq+ in every argument "
+            f"({min(r['fd_calls'] for r in fast)}-{max(r['fd_calls'] for r in fast)} calls) "
             f"takes {min(fd):.1f}-{max(fd):.1f}x the analytic one")
+    if stronge3:
         summary.append(
-            f"central differences agree with the analytic jacobians to {min(dev):.1e}-"
-            f"{max(dev):.1e} (relative, every law, planar and spatial, stick and slide)")
+            "stronge spatial, one contact: the derivative integrates the variational "
+            "equations of the impulse-space integration in pure Python, "
+            + " and ".join(f"{1e3 * r['time_derivatives']:.0f} ms ({r['regime']})"
+                           for r in stronge3)
+            + f" against the compiled solve's "
+            f"{min(1e6 * r['time_solve'] for r in stronge3):.0f}-"
+            f"{max(1e6 * r['time_solve'] for r in stronge3):.0f} µs; central differences "
+            f"({stronge3[0]['fd_calls']} calls of the compiled solve) take "
+            + " and ".join(f"{1e3 * r['time_fd']:.1f} ms" for r in stronge3))
+    if small:
+        dev = [r["fd_deviation"] for r in records]
+        summary.append(
+            f"one contact: central differences agree with the analytic jacobians to "
+            f"{min(dev):.1e}-{max(dev):.1e} (relative, every law, planar and spatial, stick "
+            f"and slide)")
     if large:
         summary.append(
-            f"at k = {LARGE_K}: the analytic jacobians take "
+            f"one contact, k = {LARGE_K}: the analytic jacobians take "
             f"{min(1e6 * r['time_derivatives'] for r in large):.0f}-"
             f"{max(1e6 * r['time_derivatives'] for r in large):.0f} µs CPU, a central-"
             f"difference jacobian ({min(r['fd_calls'] for r in large)}-"
@@ -266,8 +291,28 @@ def derivatives_section(config: BenchConfig, progress: Progress) -> SectionResul
             f"{max(r['fd_over_derivative'] for r in large):.0f}x that")
     if skipped:
         summary.append(f"no single-contact derivative (skipped): {', '.join(skipped)}")
-    return SectionResult(name="derivatives", records=records, figures=figures,
-                         summary=summary,
-                         meta={"k": K, "large_k": LARGE_K, "e": E, "e_t": E_T, "mode_mu": MODE_MU,
-                               "rel_step": REL_STEP, "paths": list(PATHS),
-                               "skipped": skipped})
+    return summary
+
+
+@register_section("derivatives", "impact derivatives: resolve_impact with and without "
+                  "derivatives=True, and central-difference jacobians (time and accuracy), "
+                  "per law, at one contact and at 2, 4 and 8 contacts")
+def derivatives_section(config: BenchConfig, progress: Progress) -> SectionResult:
+    from .derivatives_charts import several_contacts_chart, single_contact_chart
+    from .derivatives_several import (BUDGET, DIM, E as SEVERAL_E, FD_OPTIONS, N_CONTACTS,
+                                      STEP, several_summary)
+
+    records, skipped = _single_contact(config, progress)
+    several = _several_contacts(config, progress)
+    figures = [single_contact_chart(records, config.out)] if records else []
+    if any("skipped" not in r for r in several):
+        figures.append(several_contacts_chart(several, config.out))
+    summary = _single_summary(records, skipped) + several_summary(several)
+    return SectionResult(
+        name="derivatives", records=records + several, figures=figures, summary=summary,
+        meta={"k": K, "large_k": LARGE_K, "e": E, "e_t": E_T, "mode_mu": MODE_MU,
+              "rel_step": REL_STEP, "paths": list(PATHS), "skipped": skipped,
+              "several": {"n_contacts": list(N_CONTACTS), "d": DIM, "e": SEVERAL_E,
+                          "step": STEP, "fd_options": FD_OPTIONS, "fd_budget": BUDGET,
+                          "fd_arguments": ["dq", "e", "mu"],
+                          "fd_m_jc": "estimated: calls x measured time per call"}})
