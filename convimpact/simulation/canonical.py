@@ -36,6 +36,7 @@ theta_dot; ``contact_jacobian_dot`` when it has one, else a central difference).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
@@ -343,8 +344,16 @@ class CanonicalEquations:
         if len(jac) == 2:
             return stored
         vt = jac[1:] @ dtheta
-        norm = float(np.linalg.norm(vt))
-        return vt / norm if norm > self.slip_floor and norm > 0.0 else stored
+        norm = math.sqrt(float(vt @ vt))
+        if not (norm > self.slip_floor and norm > 0.0):
+            return stored
+        # past a reversal of the slip (vt against the stored direction, which the run
+        # updates at every accepted step) the segment is over: the event "slip:<c>" stops it
+        # there. The mode's equations are continued smoothly through it (the friction keeps
+        # its direction, as while the slip speed is below the floor), so that the
+        # integrator's stages beyond the stop see no jump and its steps need not shrink onto
+        # the stop; before it, this is the slip velocity's direction.
+        return vt / norm if float(vt @ stored) >= 0.0 else -vt / norm
 
     def friction_columns(self, theta: np.ndarray, dtheta: np.ndarray,
                          jac: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
