@@ -137,6 +137,8 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     program runs (and refreshes the hint). The forces returned are then that stand-in's.
     """
     forces = eq.contact_forces(t, y)
+    if hint is not None:  # whether the forces returned are the exact ones (no stand-in)
+        hint["exact"] = True
     if not eq.held:
         return forces, np.inf
     d = max(len(v) for v in forces.values())
@@ -158,6 +160,8 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
                     lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
                     if hint is not None:
                         hint["lam"] = lam
+                elif hint is not None:
+                    hint["exact"] = False
             forces = {c: lam[i * d:i * d + len(forces[c])] for i, c in enumerate(eq.held)}
     margins = []
     for i, c in enumerate(eq.held):
