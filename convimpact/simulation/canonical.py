@@ -78,15 +78,18 @@ class Factors:
     ----------
     M : (k, k) mass matrix; ``L`` its lower Cholesky factor.
     C : (n_constraints, k) loops' C and the held rows.
-    A : (k, n_constraints) ``M^-1 C^T``; ``SL`` the lower Cholesky factor of ``C M^-1 C^T``
-        (None without constraints or until asked for).
-    jac : the held contacts' full Jacobians (rows n, t...).
+    A : (k, n_constraints) ``M^-1 C^T``; ``S`` = ``C M^-1 C^T`` and ``SL`` its lower
+        Cholesky factor (None without constraints or until asked for).
+    jac : the held contacts' full Jacobians (rows n, t...); ``jt`` the sliding contacts'
+        tangential rows stacked (n_sliding, d - 1, k).
     """
 
-    __slots__ = ("M", "L", "C", "A", "SL", "jac")
+    __slots__ = ("M", "L", "C", "A", "SL", "jac", "S", "jt")
 
-    def __init__(self, M, L, C, A, SL, jac):
+    def __init__(self, M, L, C, A, SL, jac, jt=None):
         self.M, self.L, self.C, self.A, self.SL, self.jac = M, L, C, A, SL, jac
+        self.S = None  # C M^-1 C^T, with A
+        self.jt = jt  # (n_sliding, d - 1, k): the sliding contacts' tangential rows
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``M^-1 b`` for a vector or a (k, m) matrix."""
@@ -193,6 +196,12 @@ class CanonicalEquations:
             self._row_contact = np.array([index[c] for c, _ in self.rows], dtype=np.intp)
             self._row_row = np.array([j for _, j in self.rows], dtype=np.intp)
             self._d = mechanism.data.d
+            self._slip_index = np.array([index[c] for c, _ in self.slipping], dtype=np.intp)
+        #: the sliding contacts' columns among the constraints
+        self._slip_cols = np.array([self.n_loops + i for _, i in self.slipping], dtype=np.intp)
+        #: the compiled right-hand side (:mod:`.canonical_kernels`): a model, held rows,
+        #: no loops
+        self._compiled = self._model and bool(self.rows) and not self.n_loops
 
     # ---- terms of one configuration ---------------------------------------------------------
     def factors(self, theta: np.ndarray, constraints: bool = True) -> Factors:
@@ -209,12 +218,13 @@ class CanonicalEquations:
             self._memo[key] = F
         if constraints and F.A is None and F.C.shape[0]:
             A = _cho_solve(F.L, F.C.T)  # M^-1 C^T
-            SL = _cholesky(F.C @ A)  # C M^-1 C^T
+            S = F.C @ A  # C M^-1 C^T
+            SL = _cholesky(S)
             if SL is None:
                 raise SimulationError(
                     "the constraint Jacobian (loops and held contacts) lost rank: C M^-1 C^T is "
                     "singular (a dead-centre configuration or redundant held contacts)")
-            F.A, F.SL = A, SL
+            F.A, F.SL, F.S = A, SL, S
         return F
 
     def _positions(self, theta: np.ndarray) -> Factors:
@@ -225,6 +235,7 @@ class CanonicalEquations:
             rows = d.contact_jacobian[self._row_contact, self._row_row] if self.rows else None
             jac = {c: d.contact_jacobian[i, :self._d].copy()
                    for c, i in zip(self.held, self._held_index)}
+            jt = d.contact_jacobian[self._slip_index, 1:self._d] if self.slipping else None
         else:
             M = np.asarray(self.mechanism.mass_matrix(theta), float)
             L = _cholesky(M)
@@ -232,6 +243,8 @@ class CanonicalEquations:
                    for c in self.held}
             rows = (np.array([jac[c][j] if j < len(jac[c]) else np.zeros(self.k)
                               for c, j in self.rows]) if self.rows else None)
+            jt = (np.array([jac[c][1:] for c, _ in self.slipping]) if self.slipping
+                  else None)
         if L is None:
             raise SimulationError(
                 f"the mass matrix is not positive definite or not finite at theta = "
@@ -242,7 +255,7 @@ class CanonicalEquations:
         if rows is not None:
             parts.append(rows)
         C = (parts[0] if len(parts) == 1 else np.vstack(parts)) if parts else np.zeros((0, self.k))
-        return Factors(M, L, C, None, None, jac)
+        return Factors(M, L, C, None, None, jac, jt)
 
     def contact_jacobians(self, theta: np.ndarray) -> dict[str, np.ndarray]:
         """The full Jacobians (rows n, t...) of the held contacts at theta."""
@@ -353,7 +366,9 @@ class CanonicalEquations:
         # its direction, as while the slip speed is below the floor), so that the
         # integrator's stages beyond the stop see no jump and its steps need not shrink onto
         # the stop; before it, this is the slip velocity's direction.
-        return vt / norm if float(vt @ stored) >= 0.0 else -vt / norm
+        if stored.shape != vt.shape or float(vt @ stored) >= 0.0:
+            return vt / norm
+        return -vt / norm
 
     def friction_columns(self, theta: np.ndarray, dtheta: np.ndarray,
                          jac: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
@@ -362,11 +377,34 @@ class CanonicalEquations:
         D = np.zeros((self.k, self.n_constraints))
         if not self.slipping:
             return D
-        jac = self.contact_jacobians(theta) if jac is None else jac
+        if jac is None:
+            D[:, self._slip_cols] = self._friction(self.factors(theta, False).jt, dtheta)
+            return D
         for c, i in self.slipping:
             s = self.slip_direction(c, jac[c], dtheta)
             D[:, self.n_loops + i] = -self.modes[c].mu * (jac[c][1:].T @ s)
         return D
+
+    def _friction(self, jt: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
+        """The sliding contacts' columns of D (k, n_sliding) from their tangential rows
+        ``jt`` (n_sliding, d - 1, k): :meth:`slip_direction` for all of them at once."""
+        modes = [self.modes[c] for c, _ in self.slipping]
+        if any(len(m.direction) != jt.shape[1] for m in modes):  # no stored direction
+            return np.stack([-m.mu * (J.T @ self.slip_direction(c, np.vstack([J[:1], J]),
+                                                                dtheta))
+                             for (c, _), m, J in zip(self.slipping, modes, jt)], axis=1)
+        stored = np.array([m.direction for m in modes], float)
+        mu = np.array([m.mu for m in modes])
+        s = stored
+        if jt.shape[1] > 1:  # in space: the slip velocity's direction
+            vt = jt @ dtheta  # (n_sliding, d - 1)
+            norm = np.sqrt(np.einsum("ij,ij->i", vt, vt))
+            moving = (norm > self.slip_floor) & (norm > 0.0)
+            if moving.any():
+                sign = np.where(np.einsum("ij,ij->i", vt, stored) >= 0.0, 1.0, -1.0)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    s = np.where(moving[:, None], vt / (sign * norm)[:, None], stored)
+        return np.einsum("ijk,ij->ki", jt, s) * -mu
 
     # ---- eqs. (7) + (13) ---------------------------------------------------------------------
     def velocities(self, theta: np.ndarray, p: np.ndarray):
@@ -398,11 +436,14 @@ class CanonicalEquations:
     def _multipliers(self, t: float, theta: np.ndarray, dtheta: np.ndarray, F: Factors, f,
                      Cdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(nu, D): ``C M^-1 (C^T + D) nu = -(C M^-1 f + C_dot theta_dot)`` (eqs. 8, 9)."""
-        D = self.friction_columns(theta, dtheta, F.jac)
         rhs = F.C @ _cho_solve(F.L, f) + Cdot @ dtheta
         if not self.slipping:
-            return -_cho_solve(F.SL, rhs), D
-        K = F.C @ F.A + F.C @ _cho_solve(F.L, D)
+            return -_cho_solve(F.SL, rhs), np.zeros((self.k, self.n_constraints))
+        Ds = self._friction(F.jt, dtheta)  # the sliding contacts' columns of D
+        D = np.zeros((self.k, self.n_constraints))
+        D[:, self._slip_cols] = Ds
+        K = F.S.copy()
+        K[:, self._slip_cols] += F.C @ _cho_solve(F.L, Ds)
         try:
             nu = -np.linalg.solve(K, rhs)
         except np.linalg.LinAlgError:
@@ -418,6 +459,10 @@ class CanonicalEquations:
         theta, p = y[:k], y[k:]
         if self._model and not self.n_constraints:  # free motion: two compiled passes
             out = self._free_rate(t, theta, p)
+            if out is not None:
+                return out
+        elif self._compiled:  # held contacts, no loops: the compiled passes
+            out = self._held_rate(t, theta, p)
             if out is not None:
                 return out
         try:
@@ -437,6 +482,49 @@ class CanonicalEquations:
             raise SimulationError(
                 f"the right-hand side became non-finite at t = {t:.9g} (theta = "
                 f"{np.round(theta, 6).tolist()}); check the model's forces or reduce max_step")
+        return out
+
+    def _held_rate(self, t: float, theta: np.ndarray, p: np.ndarray) -> np.ndarray | None:
+        """y_dot with held contacts and no loops: the model's two compiled passes around
+        :func:`~.canonical_kernels.held_velocities` and :func:`~.canonical_kernels.held_rates`
+        (the general path's numbers to round-off, without its factor cache); None where
+        that path must decide (M or C M^-1 C^T not positive definite, the sliding
+        contacts' system singular, a non-finite state or rate: it raises)."""
+        from . import canonical_kernels as ck
+
+        theta = np.ascontiguousarray(theta, dtype=float)
+        p = np.ascontiguousarray(p, dtype=float)
+        k, m = self.k, len(self.rows)
+        try:
+            d = self.mechanism.rhs_positions(theta)
+        except NonFiniteError:
+            return None
+        if not d.chol_ok:
+            return None
+        L, C, A = np.empty((k, k)), np.empty((m, k)), np.empty((k, m))
+        S, SL = np.empty((m, m)), np.zeros((m, m))
+        dtheta, sigma = np.empty(k), np.empty(m)
+        if ck.held_velocities(d.L, d.contact_jacobian, self._row_contact, self._row_row, p,
+                              L, C, A, S, SL, dtheta, sigma) != ck.OK:
+            return None
+        try:
+            f, pdot, dv = self.mechanism.rhs_velocities(t, theta, dtheta, True)
+        except NonFiniteError:
+            return None
+        if self.slipping:
+            modes = [self.modes[c] for c, _ in self.slipping]
+            if any(len(md.direction) != self._d - 1 for md in modes):
+                return None  # no stored direction (a hand-built mode): the general path
+            stored = np.array([md.direction for md in modes], float)
+            mu = np.array([md.mu for md in modes])
+        else:
+            stored, mu = np.zeros((0, 1)), np.zeros(0)
+        out = np.empty(2 * k)
+        # the positions' Jacobians of this theta (the velocity pass recomputed them there)
+        if ck.held_rates(L, C, A, S, dv.contact_jacobian, dv.contact_jacobian_dot,
+                         self._row_contact, self._row_row, self._slip_index, self._slip_cols,
+                         stored, mu, self.slip_floor, f, pdot, dtheta, sigma, out) != ck.OK:
+            return None
         return out
 
     def _free_rate(self, t: float, theta: np.ndarray, p: np.ndarray) -> np.ndarray | None:
