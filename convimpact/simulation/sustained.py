@@ -18,7 +18,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from .canonical import CanonicalEquations, HeldMode, Row
+from .canonical import CanonicalEquations, HeldMode, Row, _cho_solve, _cholesky
 from .contact_forces import (OPEN, SLIP, STICK, ContactForceProblem, max_margin_distribution)
 from .force_distribution import _smallest_margin
 
@@ -100,14 +100,24 @@ def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[R
                    jac: Mapping[str, np.ndarray]) -> frozenset:
     """Rows to leave out so that the constraints are independent: loops first, then normal
     rows, then tangential rows, each kept when it raises the rank of C M^-1 C^T."""
-    cho = sla.cho_factor(M, lower=True)
+    M = np.asarray(M, float)
+    L = _cholesky(M)
+    if L is None:
+        sla.cho_factor(M, lower=True)  # raises scipy's error, as before
+        raise np.linalg.LinAlgError("the mass matrix is not positive definite")
     kept = [] if loop_rows is None else [r for r in np.atleast_2d(loop_rows)]
-    order = sorted(rows, key=lambda r: (r[1] > 0, rows.index(r)))
+    position: dict = {}
+    for i, r in enumerate(rows):
+        position.setdefault(r, i)
+    order = sorted(rows, key=lambda r: (r[1] > 0, position[r]))
     dropped = []
-    scale = max(float(np.max(np.abs(sla.cho_solve(cho, np.eye(len(M)))))), 1e-300)
+    scale = max(float(np.max(np.abs(_cho_solve(L, np.eye(len(M)))))), 1e-300)
     for c, j in order:
+        if len(kept) >= len(M):  # as many independent rows as coordinates: the rest depend
+            dropped.append((c, j))
+            continue
         trial = np.array(kept + [jac[c][j]])
-        S = trial @ sla.cho_solve(cho, trial.T)
+        S = trial @ _cho_solve(L, trial.T)
         smin = float(np.linalg.eigvalsh(0.5 * (S + S.T))[0])
         norm = float(np.sum(jac[c][j] ** 2)) * scale
         if smin > RANK_RTOL * max(norm, 1e-300):
