@@ -484,7 +484,8 @@ class CanonicalEquations:
                 f"{np.round(theta, 6).tolist()}); check the model's forces or reduce max_step")
         return out
 
-    def _held_rate(self, t: float, theta: np.ndarray, p: np.ndarray) -> np.ndarray | None:
+    def _held_rate(self, t: float, theta: np.ndarray, p: np.ndarray,
+                   aux: np.ndarray | None = None) -> np.ndarray | None:
         """y_dot with held contacts and no loops: the model's two compiled passes around
         :func:`~.canonical_kernels.held_velocities` and :func:`~.canonical_kernels.held_rates`
         (the general path's numbers to round-off, without its factor cache); None where
@@ -520,12 +521,29 @@ class CanonicalEquations:
         else:
             stored, mu = np.zeros((0, 1)), np.zeros(0)
         out = np.empty(2 * k)
+        if aux is None:
+            aux = np.empty(m + 1)
         # the positions' Jacobians of this theta (the velocity pass recomputed them there)
         if ck.held_rates(L, C, A, S, dv.contact_jacobian, dv.contact_jacobian_dot,
                          self._row_contact, self._row_row, self._slip_index, self._slip_cols,
-                         stored, mu, self.slip_floor, f, pdot, dtheta, sigma, out) != ck.OK:
+                         stored, mu, self.slip_floor, f, pdot, dtheta, sigma, out,
+                         aux) != ck.OK:
             return None
         return out
+
+    def friction_power(self, t: float, y: np.ndarray) -> float:
+        """Power of the sliding contacts' friction forces, ``sum lambda_t . v_t`` (<= 0),
+        lambda_t = -mu lambda_n s (:meth:`contact_forces`)."""
+        if not self.slipping:
+            return 0.0
+        k = self.k
+        if self._compiled:
+            aux = np.empty(len(self.rows) + 1)
+            if self._held_rate(t, y[:k], y[k:], aux) is not None:
+                return float(aux[-1])
+        dtheta, _, F = self.velocities(y[:k], y[k:])
+        forces = self.contact_forces(t, y)
+        return sum(float(forces[c][1:] @ (F.jac[c][1:] @ dtheta)) for c, _ in self.slipping)
 
     def _free_rate(self, t: float, theta: np.ndarray, p: np.ndarray) -> np.ndarray | None:
         """y_dot with no constraint in force (the model's two compiled passes,

@@ -114,18 +114,22 @@ def _solve_chol(L, b, out):
 
 @jit
 def held_rates(L, C, A, S, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot, dtheta,
-               sigma, out):
+               sigma, out, aux):
     """y_dot = [theta_dot, p_dot - C_dot^T sigma + D nu] into ``out`` (2k,).
 
     ``CJD`` the Jacobians' rates (C_dot's rows as C's), ``si`` the sliding contacts'
     indices into CJ, ``cols`` their normal rows among C's, ``stored`` (n_s, d - 1) their
     stored slip directions, ``mu`` their friction coefficients, ``floor`` the slip speed
-    below which the stored direction is kept. Returns OK, SINGULAR_K (Painleve: the
-    sliding contacts' force system singular) or NOT_FINITE.
+    below which the stored direction is kept. ``aux`` (m + 1,): the multipliers nu of the
+    sliding system (zeros without sliding contacts) and, last, the sliding contacts'
+    friction power ``sum lambda_t . v_t``. Returns OK, SINGULAR_K (Painleve: the sliding
+    contacts' force system singular) or NOT_FINITE.
     """
     k = L.shape[0]
     m = C.shape[0]
     ns = si.shape[0]
+    for i in range(m + 1):
+        aux[i] = 0.0
     for i in range(k):
         out[i] = dtheta[i]
         s = pdot[i]
@@ -136,26 +140,32 @@ def held_rates(L, C, A, S, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot
         dt = stored.shape[1]
         # D's columns of the sliding contacts (k, ns) and M^-1 of them
         D = np.empty((k, ns))
+        vs = np.empty(ns)  # s . v_t of each sliding contact
         for c in range(ns):
             sdir = np.empty(dt)
             for j in range(dt):
                 sdir[j] = stored[c, j]
+            vt = np.empty(dt)
+            for j in range(dt):
+                v = 0.0
+                for q in range(k):
+                    v += CJ[si[c], 1 + j, q] * dtheta[q]
+                vt[j] = v
             if dt > 1:  # in space: the slip velocity's direction
-                vt = np.empty(dt)
                 nn = 0.0
                 dot = 0.0
                 for j in range(dt):
-                    v = 0.0
-                    for q in range(k):
-                        v += CJ[si[c], 1 + j, q] * dtheta[q]
-                    vt[j] = v
-                    nn += v * v
-                    dot += v * stored[c, j]
+                    nn += vt[j] * vt[j]
+                    dot += vt[j] * stored[c, j]
                 norm = math.sqrt(nn)
                 if norm > floor and norm > 0.0:
                     sg = norm if dot >= 0.0 else -norm
                     for j in range(dt):
                         sdir[j] = vt[j] / sg
+            v = 0.0
+            for j in range(dt):
+                v += sdir[j] * vt[j]
+            vs[c] = v
             for q in range(k):
                 s = 0.0
                 for j in range(dt):
@@ -217,6 +227,12 @@ def held_rates(L, C, A, S, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot
             for c in range(ns):
                 s += D[i, c] * rhs[cols[c]]
             out[k + i] = s
+        for i in range(m):
+            aux[i] = rhs[i]
+        power = 0.0
+        for c in range(ns):  # lambda_t = -mu nu_n s
+            power -= mu[c] * rhs[cols[c]] * vs[c]
+        aux[m] = power
     for i in range(2 * k):
         if not math.isfinite(out[i]):
             return NOT_FINITE

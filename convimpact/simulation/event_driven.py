@@ -172,12 +172,7 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
 
     def friction_power(self, t: float, y: np.ndarray) -> float:
         """Power of the sliding contacts' friction forces, sum of lambda_t . v_t (<= 0)."""
-        if not self.eq.slipping:
-            return 0.0
-        th, dth, _ = self.state(y)
-        forces = self.eq.contact_forces(t, y)
-        return sum(float(forces[c][1:] @ (self.contact_row(c, th)[1:] @ dth))
-                   for c, _ in self.eq.slipping)
+        return self.eq.friction_power(t, y)
 
     def dissipate(self, interp, ta: float, tb: float) -> None:
         """Add the friction work over [ta, tb] (Gauss-Legendre, 4 points on the interpolant)."""
