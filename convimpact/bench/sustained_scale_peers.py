@@ -77,8 +77,9 @@ def stack_mjcf(p: Mapping[str, Any]) -> str:
             '</worldbody></mujoco>')
 
 
-def run_table(p: Mapping[str, Any], t_end: float) -> PeerRun:
-    """The table launched at v0 (at ``direction_deg``) or at rest, rolled out in C."""
+def run_table(p: Mapping[str, Any], t_end: float, repeat: int = 1) -> PeerRun:
+    """The table launched at v0 (at ``direction_deg``) or at rest, rolled out in C
+    (``repeat`` rollouts from the same state: the median wall time)."""
     import mujoco
     from mujoco import rollout
 
@@ -92,15 +93,26 @@ def run_table(p: Mapping[str, Any], t_end: float) -> PeerRun:
     mujoco.mj_getState(model, data, s0, spec)
     nstep = int(round(t_end / TIMESTEP))
     rollout.rollout(model, data, s0[None], nstep=min(nstep, 10))  # warm-up
-    t0 = time.perf_counter()
-    states, _ = rollout.rollout(model, data, s0[None], nstep=nstep)
-    wall = time.perf_counter() - t0
+    walls = []
+    for _ in range(max(1, repeat)):
+        t0 = time.perf_counter()
+        states, _ = rollout.rollout(model, data, s0[None], nstep=nstep)
+        walls.append(time.perf_counter() - t0)
+    wall = float(np.median(walls))
     st = states[0]
     return PeerRun(st[:, 0].copy(), st[:, 1:8].copy(), st[:, 8:14].copy(), wall)
 
 
-def run_stack(p: Mapping[str, Any], t_end: float) -> PeerRun:
-    """The box stack pushed at the top, stepped in a Python loop (the push changes)."""
+def run_stack(p: Mapping[str, Any], t_end: float, repeat: int = 1) -> PeerRun:
+    """The box stack pushed at the top, stepped in a Python loop (the push changes); the
+    median over ``repeat`` runs (at most 3) of the stepping's summed wall time."""
+    runs = [_run_stack(p, t_end) for _ in range(max(1, min(repeat, 3)))]
+    wall = float(np.median([r.wall_time for r in runs]))
+    r = runs[-1]
+    return PeerRun(r.time, r.qpos, r.qvel, wall)
+
+
+def _run_stack(p: Mapping[str, Any], t_end: float) -> PeerRun:
     import mujoco
 
     model = mujoco.MjModel.from_xml_string(stack_mjcf(p))
