@@ -484,17 +484,23 @@ class CanonicalEquations:
                 f"{np.round(theta, 6).tolist()}); check the model's forces or reduce max_step")
         return out
 
-    def _held_rate(self, t: float, theta: np.ndarray, p: np.ndarray,
-                   aux: np.ndarray | None = None) -> np.ndarray | None:
-        """y_dot with held contacts and no loops: the model's two compiled passes around
-        :func:`~.canonical_kernels.held_velocities` and :func:`~.canonical_kernels.held_rates`
-        (the general path's numbers to round-off, without its factor cache); None where
-        that path must decide (M or C M^-1 C^T not positive definite, the sliding
-        contacts' system singular, a non-finite state or rate: it raises)."""
+    def theta_dot(self, theta: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(theta_dot, sigma) of :meth:`velocities`, by the compiled pass where the
+        right-hand side has one (the same numbers to round-off, no factor cache)."""
+        if self._compiled:
+            got = self._held_velocities(np.ascontiguousarray(theta, dtype=float),
+                                        np.ascontiguousarray(p, dtype=float))
+            if got is not None:
+                return got[6], got[7]
+        dtheta, sigma, _ = self.velocities(theta, p)
+        return dtheta, sigma
+
+    def _held_velocities(self, theta: np.ndarray, p: np.ndarray):
+        """(data, L, C, A, S, SL, theta_dot, sigma) by
+        :func:`~.canonical_kernels.held_velocities`, or None where the general path must
+        decide."""
         from . import canonical_kernels as ck
 
-        theta = np.ascontiguousarray(theta, dtype=float)
-        p = np.ascontiguousarray(p, dtype=float)
         k, m = self.k, len(self.rows)
         try:
             d = self.mechanism.rhs_positions(theta)
@@ -508,6 +514,24 @@ class CanonicalEquations:
         if ck.held_velocities(d.L, d.contact_jacobian, self._row_contact, self._row_row, p,
                               L, C, A, S, SL, dtheta, sigma) != ck.OK:
             return None
+        return d, L, C, A, S, SL, dtheta, sigma
+
+    def _held_rate(self, t: float, theta: np.ndarray, p: np.ndarray,
+                   aux: np.ndarray | None = None) -> np.ndarray | None:
+        """y_dot with held contacts and no loops: the model's two compiled passes around
+        :func:`~.canonical_kernels.held_velocities` and :func:`~.canonical_kernels.held_rates`
+        (the general path's numbers to round-off, without its factor cache); None where
+        that path must decide (M or C M^-1 C^T not positive definite, the sliding
+        contacts' system singular, a non-finite state or rate: it raises)."""
+        from . import canonical_kernels as ck
+
+        theta = np.ascontiguousarray(theta, dtype=float)
+        p = np.ascontiguousarray(p, dtype=float)
+        k, m = self.k, len(self.rows)
+        got = self._held_velocities(theta, p)
+        if got is None:
+            return None
+        _, L, C, A, S, SL, dtheta, sigma = got
         try:
             f, pdot, dv = self.mechanism.rhs_velocities(t, theta, dtheta, True)
         except NonFiniteError:

@@ -167,7 +167,7 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
     def state(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(theta, theta_dot, sigma) of ``y`` under the equations in force."""
         th = y[:self.k]
-        dth, sig, _ = self.eq.velocities(th, y[self.k:])
+        dth, sig = self.eq.theta_dot(th, y[self.k:])
         return th, dth, sig
 
     def friction_power(self, t: float, y: np.ndarray) -> float:
@@ -288,9 +288,10 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
             out["margin"] = margin + MARGIN_SLACK
         if anchors:
             th, dth, _ = self.state(y)
+            J = self._jacobians(th)
             for c, a in anchors.items():
                 if want("slip:" + c):
-                    out["slip:" + c] = float((self.contact_row(c, th)[1:] @ dth) @ a)
+                    out["slip:" + c] = float((J(c)[1:] @ dth) @ a)
             if same:
                 out["painleve"] = memo[5]
             elif want("painleve"):
@@ -299,6 +300,16 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
             exact = forces if self.margin_hint.get("exact", True) else None
             self._watched = (self.eq, t, key, exact, out["margin"], out.get("painleve"))
         return out
+
+    def _jacobians(self, th: np.ndarray):
+        """contact name -> its Jacobian at theta (rows n, t...): from one compiled pass on a
+        model (the state's pass, already done), else :meth:`contact_row`."""
+        if self.eq._model:
+            d = self.mech.rhs_positions(np.ascontiguousarray(th, dtype=float))
+            if all(d.contact_ok):
+                J, at, dd = d.contact_jacobian, self.contact_at, self.d
+                return lambda c: J[at[c], :dd]
+        return lambda c: self.contact_row(c, th)
 
     def slip_anchors(self, y: np.ndarray) -> dict[str, np.ndarray]:
         """Per sliding contact with friction, its slip direction now (the event functions of
