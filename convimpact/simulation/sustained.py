@@ -157,16 +157,35 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     lam0 = np.concatenate([np.r_[forces[c], np.zeros(d - len(forces[c]))] for c in eq.held])
     fscale = max(float(np.max(np.abs(lam0))), 1e-300)
     if eq.dropped:
-        Z = _indeterminate(eq, y, d)
-        if Z.shape[1]:
-            Q = np.linalg.qr(Z)[0]
-            lam = lam0 - Q @ (Q.T @ lam0)  # the least-norm distribution
+        # P: the projection onto the forces' determinate part (the complement of the
+        # indeterminate directions Z); for sticking contacts alone the orthonormal rows R
+        # of the thin SVD span it (P = R^T R), else P = I - Q Q^T with Q an orthonormal
+        # basis of Z. lam0 - (I - P) lam0 = P lam0 is the least-norm distribution.
+        R = _determinate_rows(eq, y, d)
+        Z = None
+        if R is not None:
+            null = R.shape[0] < R.shape[1]
+
+            def project(v):
+                return R.T @ (R @ v)
+        else:
+            Z = _indeterminate(eq, y, d)
+            null = Z.shape[1] > 0
+            if null:
+                Q = np.linalg.qr(Z)[0]
+
+                def project(v):
+                    return v - Q @ (Q.T @ v)
+        if null:
+            lam = project(lam0)  # the least-norm distribution
             if _smallest_margin(mu, d, combo, lam) <= MARGIN_SLACK * fscale:
                 prev = None if hint is None else hint.get("lam")
                 if prev is not None and prev.shape == lam0.shape:
-                    lam = lam0 + Q @ (Q.T @ (prev - lam0))
+                    lam = prev - project(prev - lam0)
                 if prev is None or prev.shape != lam0.shape or (
                         _smallest_margin(mu, d, combo, lam) <= HINT_MARGIN * fscale):
+                    if Z is None:
+                        Z = _indeterminate(eq, y, d)
                     lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
                     if hint is not None:
                         hint["lam"] = lam
@@ -180,6 +199,21 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
             margins.append(mu[i] * lam[0] - float(np.linalg.norm(lam[1:])))
         margins.append(lam[0])
     return forces, min(margins) / fscale
+
+
+def _determinate_rows(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray | None:
+    """For sticking contacts of d rows each and no loops: orthonormal rows (rank, n d)
+    spanning the held forces' determinate part (the complement of :func:`_indeterminate`'s
+    directions, same rank rule); else None."""
+    if eq.n_loops or any(eq.modes[c].kind != "stick" for c in eq.held):
+        return None
+    jac = eq.contact_jacobians(y[:eq.k])
+    if any(len(jac[c]) != d for c in eq.held):
+        return None
+    B = np.vstack([jac[c] for c in eq.held]).T  # (k, n d): the unknowns in order
+    _, sv, Vt = np.linalg.svd(B, full_matrices=False)
+    rank = int(np.sum(sv > 1e-8 * sv[0])) if sv.size else 0
+    return Vt[:rank]
 
 
 def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
