@@ -259,7 +259,8 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
                 J = d.contact_jacobian
                 return {c: float(J[self.contact_at[c], 0] @ dth) for c in contacts}
         th, dth, _ = self.state(y)
-        return {c: self.normal_speed(c, th, dth) for c in contacts}
+        J = self._jacobians(th)
+        return {c: float(J(c)[0] @ dth) for c in contacts}
 
     def watch(self, t: float, y: np.ndarray, anchors: Mapping[str, np.ndarray],
               keys: Sequence[str] | None = None) -> dict:
