@@ -20,7 +20,7 @@ import scipy.linalg as sla
 
 from .canonical import CanonicalEquations, HeldMode, Row, _cho_solve, _cholesky
 from .contact_forces import (OPEN, SLIP, STICK, ContactForceProblem, max_margin_distribution)
-from .force_distribution import _smallest_margin
+
 
 #: relative slack below which a margin counts as violated (a mode on the cone's boundary, e.g.
 #: a box on an incline with mu = tan(slope) exactly, keeps sticking)
@@ -154,8 +154,11 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     d = max(len(v) for v in forces.values())
     mu = np.array([eq.modes[c].mu for c in eq.held])
     combo = [STICK if eq.modes[c].kind == "stick" else SLIP for c in eq.held]
-    lam0 = np.concatenate([np.r_[forces[c], np.zeros(d - len(forces[c]))] for c in eq.held])
+    lam0 = np.zeros(len(eq.held) * d)
+    for i, c in enumerate(eq.held):
+        lam0[i * d:i * d + len(forces[c])] = forces[c]
     fscale = max(float(np.max(np.abs(lam0))), 1e-300)
+    smallest = _margins(mu, d, combo)
     if eq.dropped:
         # P: the projection onto the forces' determinate part (the complement of the
         # indeterminate directions Z); for sticking contacts alone the orthonormal rows R
@@ -178,12 +181,12 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
                     return v - Q @ (Q.T @ v)
         if null:
             lam = project(lam0)  # the least-norm distribution
-            if _smallest_margin(mu, d, combo, lam) <= MARGIN_SLACK * fscale:
+            if smallest(lam) <= MARGIN_SLACK * fscale:
                 prev = None if hint is None else hint.get("lam")
                 if prev is not None and prev.shape == lam0.shape:
                     lam = prev - project(prev - lam0)
                 if prev is None or prev.shape != lam0.shape or (
-                        _smallest_margin(mu, d, combo, lam) <= HINT_MARGIN * fscale):
+                        smallest(lam) <= HINT_MARGIN * fscale):
                     if Z is None:
                         Z = _indeterminate(eq, y, d)
                     lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
@@ -192,13 +195,27 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
                 elif hint is not None:
                     hint["exact"] = False
             forces = {c: lam[i * d:i * d + len(forces[c])] for i, c in enumerate(eq.held)}
-    margins = []
-    for i, c in enumerate(eq.held):
-        lam = forces[c]
-        if combo[i] == STICK and mu[i] > 0.0:
-            margins.append(mu[i] * lam[0] - float(np.linalg.norm(lam[1:])))
-        margins.append(lam[0])
-    return forces, min(margins) / fscale
+            lam0 = lam
+    return forces, smallest(lam0) / fscale
+
+
+def _margins(mu: np.ndarray, d: int, combo):
+    """lam (n d,) -> its smallest margin: lambda_n of every contact, mu lambda_n - |lambda_t|
+    of the sticking ones with friction (:func:`~.force_distribution._smallest_margin`,
+    vectorized)."""
+    cone = np.array([kind == STICK for kind in combo]) & (mu > 0.0)
+    any_cone = bool(cone.any())
+    mu_c = mu[cone]
+
+    def smallest(lam: np.ndarray) -> float:
+        F = lam.reshape(-1, d)
+        margin = float(np.min(F[:, 0]))
+        if any_cone:
+            T = F[cone, 1:]
+            tangential = np.sqrt(np.einsum("ij,ij->i", T, T))
+            margin = min(margin, float(np.min(mu_c * F[cone, 0] - tangential)))
+        return margin
+    return smallest
 
 
 def _determinate_rows(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray | None:
@@ -220,7 +237,7 @@ def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
     """A basis of the held forces (n d,) that produce no generalized force (redundancy)."""
     k = eq.k
     theta = y[:k]
-    dtheta, _, _ = eq.velocities(theta, y[k:])
+    dtheta, _ = eq.theta_dot(theta, y[k:])
     jac = eq.contact_jacobians(theta)
     cols, index = [], []
     for i, c in enumerate(eq.held):
@@ -244,9 +261,10 @@ def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
     rank = int(np.sum(sv > 1e-8 * sv[0])) if sv.size else 0
     N = Vt[rank:].T[:len(cols)]  # null directions restricted to the contact unknowns
     Z = np.zeros((len(eq.held) * d, N.shape[1]))
-    for u, entries in enumerate(index):
-        for row, coef in entries:
-            Z[row] += coef * N[u]
+    rows = [row for entries in index for row, _ in entries]  # each force row once
+    units = [u for u, entries in enumerate(index) for _ in entries]
+    coefs = np.array([coef for entries in index for _, coef in entries])
+    Z[rows] = coefs[:, None] * N[units]
     return Z
 
 
