@@ -116,6 +116,18 @@ def _cholesky(M: np.ndarray) -> np.ndarray | None:
     return L if _rc.cholesky(np.ascontiguousarray(M, dtype=float), L) else None
 
 
+_KERNELS = None
+
+
+def _kernels():
+    """:mod:`.canonical_kernels`, imported on first use (it imports numba)."""
+    global _KERNELS
+    if _KERNELS is None:
+        from . import canonical_kernels
+        _KERNELS = canonical_kernels
+    return _KERNELS
+
+
 def _is_model(mechanism) -> bool:
     """True for a :class:`~convimpact.model.ModelMechanism` evaluated as it is (no subclass
     overriding the protocol, no wrapper forwarding to one)."""
@@ -499,7 +511,7 @@ class CanonicalEquations:
         """(data, L, C, A, S, SL, theta_dot, sigma) by
         :func:`~.canonical_kernels.held_velocities`, or None where the general path must
         decide."""
-        from . import canonical_kernels as ck
+        ck = _kernels()
 
         k, m = self.k, len(self.rows)
         try:
@@ -523,7 +535,7 @@ class CanonicalEquations:
         (the general path's numbers to round-off, without its factor cache); None where
         that path must decide (M or C M^-1 C^T not positive definite, the sliding
         contacts' system singular, a non-finite state or rate: it raises)."""
-        from . import canonical_kernels as ck
+        ck = _kernels()
 
         theta = np.ascontiguousarray(theta, dtype=float)
         p = np.ascontiguousarray(p, dtype=float)
