@@ -14,7 +14,9 @@ and the cost of one stop's contact force problem against the enumerator it repla
    default settings, 2 ms steps) on the same scenes: wall time per simulated second, the
    deepest penetration, the observables with closed forms (the table's stop time and
    distance v0 / (mu g), v0^2 / (2 mu g), the energy it loses, 1/2 m v0^2; at rest the
-   energy drift over m g h; the stack's tipping time, 0.44 s) and their errors. Both are
+   energy drift over m g h; the stack's tipping time, 0.44 s) and their errors. Wall time
+   and the process's CPU time (which a loaded machine inflates less: a run of ours is
+   milliseconds to seconds, a MuJoCo rollout often less than one scheduler slice), each
    the median of ``repeat`` runs of the scene (ours: fewer once :data:`RUN_BUDGET` seconds
    are spent; after one untimed run of another scene, which warms the caches); MuJoCo's
    rollouts after a 10-step warm-up.
@@ -102,28 +104,30 @@ def measure_stops(config: BenchConfig, progress: Progress) -> list[dict[str, Any
 
 
 def _ours_run(scene, repeat: int):
-    """(median wall time, result) of ``repeat`` runs of the scene (fewer past
-    :data:`RUN_BUDGET` seconds in all; at least one)."""
+    """(median wall time, median CPU time, result) of ``repeat`` runs of the scene (fewer
+    past :data:`RUN_BUDGET` seconds in all; at least one)."""
     from ..simulation import simulate
 
-    walls, res = [], None
+    walls, cpus, res = [], [], None
     for _ in range(max(1, repeat)):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         res = simulate(scene.mechanism, (0.0, scene.t_end), (scene.theta0, scene.dtheta0))
         walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
         if sum(walls) > RUN_BUDGET:
             break
-    return float(np.median(walls)), res
+    return float(np.median(walls)), float(np.median(cpus)), res
 
 
 def _ours_table(scene, repeat: int = 1) -> dict[str, Any]:
     p = scene.parameters
-    wall, res = _ours_run(scene, repeat)
+    wall, cpu, res = _ours_run(scene, repeat)
     mech = scene.mechanism
     gaps = np.array([[mech.contact_gap(c, th) for c in mech.contact_names] for th in res.theta])
     E = res.kinetic_energy + res.potential_energy
     m, g, h, v0 = p["mass"], p["gravity"], p["height"], p["v0"]
-    out = {"wall_per_second": wall / scene.t_end, "status": res.status,
+    out = {"wall_per_second": wall / scene.t_end, "cpu_per_second": cpu / scene.t_end,
+           "status": res.status,
            "penetration": float(max(0.0, -gaps.min())),
            "distance": float(np.hypot(res.theta[-1, 0] - scene.theta0[0],
                                       res.theta[-1, 2] - scene.theta0[2]))}
@@ -168,6 +172,7 @@ def measure_simulations(config: BenchConfig, progress: Progress,
                 run = peers.run_table(p, scene.t_end, config.repeat)
                 mj = {"part": "simulation", "scene": f"table-{kind}", "contacts": legs,
                       "scheme": "mujoco", "wall_per_second": run.wall_time / scene.t_end,
+                      "cpu_per_second": run.cpu_time / scene.t_end,
                       **peers.table_observables(p, run)}
                 if kind == "rest":
                     mj.pop("stop_time", None)
@@ -177,11 +182,11 @@ def measure_simulations(config: BenchConfig, progress: Progress,
             progress(line)
     scene = load_scene("box_stack")
     p = scene.parameters
-    wall, res = _ours_run(scene, config.repeat)
+    wall, cpu, res = _ours_run(scene, config.repeat)
     back = [iv.t_start for iv in res.modes_of("box0_c0") if iv.mode == "open"]
     rec = {"part": "simulation", "scene": "box_stack", "contacts": 4 * p["n_boxes"],
            "scheme": "event-driven", "wall_per_second": wall / scene.t_end,
-           "status": res.status, "tip_time": back[0] if back else math.nan,
+           "cpu_per_second": cpu / scene.t_end, "status": res.status, "tip_time": back[0] if back else math.nan,
            "penetration": float(max(0.0, -min(scene.mechanism.contact_gap(c, th)
                                               for th in res.theta
                                               for c in scene.mechanism.contact_names)))}
@@ -192,6 +197,7 @@ def measure_simulations(config: BenchConfig, progress: Progress,
         run = peers.run_stack(p, scene.t_end, config.repeat)
         mj = {"part": "simulation", "scene": "box_stack", "contacts": 4 * p["n_boxes"],
               "scheme": "mujoco", "wall_per_second": run.wall_time / scene.t_end,
+              "cpu_per_second": run.cpu_time / scene.t_end,
               **peers.stack_observables(p, run)}
         mj["tip_time_error"] = abs(mj["tip_time"] - p["tip_time"]) / p["tip_time"]
         records.append(mj)
@@ -229,8 +235,12 @@ def aggregate(records: list[dict[str, Any]]) -> dict[str, Any]:
         mj = {r["contacts"]: r for r in sims if r["scene"] == scene and r["scheme"] == "mujoco"}
         ratio = {n: ours[n]["wall_per_second"] / mj[n]["wall_per_second"] for n in ours
                  if n in mj}
+        ratio_cpu = {n: ours[n]["cpu_per_second"] / mj[n]["cpu_per_second"] for n in ours
+                     if n in mj and ours[n].get("cpu_per_second")
+                     and mj[n].get("cpu_per_second")}
         out[scene] = {
             "ratio_ours_over_mujoco": ratio,
+            "ratio_ours_over_mujoco_cpu": ratio_cpu,
             "ours_growth": growth(list(ours.values()), "wall_per_second"),
             "mujoco_growth": growth(list(mj.values()), "wall_per_second"),
             "worst_penetration": {"ours": max(r["penetration"] for r in ours.values()),
@@ -267,6 +277,10 @@ def summary_lines(agg: dict[str, Any]) -> list[str]:
                          + (f"; growth ours n^{a['ours_growth']:.2f}, MuJoCo "
                             f"n^{a['mujoco_growth']:.2f}" if a["ours_growth"] is not None
                             and a["mujoco_growth"] is not None else ""))
+            cpu = a.get("ratio_ours_over_mujoco_cpu")
+            if cpu:
+                lines.append("  in CPU time (the process's, robust to a loaded machine): "
+                             + ", ".join(f"{n}: {r:.1f}x" for n, r in sorted(cpu.items())))
         for key, label in (("worst_stop_time_error", "stop time error"),
                            ("worst_distance_error", "distance error"),
                            ("worst_tip_time_error", "tip time error"),
