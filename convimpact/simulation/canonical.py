@@ -214,6 +214,8 @@ class CanonicalEquations:
         #: the compiled right-hand side (:mod:`.canonical_kernels`): a model, held rows,
         #: no loops
         self._compiled = self._model and bool(self.rows) and not self.n_loops
+        if self._compiled:  # nu, power, indicator, the slip directions
+            self._aux_size = len(self.rows) + 2 + len(self.slipping) * max(self._d - 1, 1)
 
     # ---- terms of one configuration ---------------------------------------------------------
     def factors(self, theta: np.ndarray, constraints: bool = True) -> Factors:
@@ -557,15 +559,29 @@ class CanonicalEquations:
         else:
             stored, mu = np.zeros((0, 1)), np.zeros(0)
         out = np.empty(2 * k)
+        want_nu = aux is not None
         if aux is None:
-            aux = np.empty(m + 1)
+            aux = np.empty(self._aux_size)
         # the positions' Jacobians of this theta (the velocity pass recomputed them there)
-        if ck.held_rates(L, C, A, S, dv.contact_jacobian, dv.contact_jacobian_dot,
+        if ck.held_rates(L, C, A, S, SL, dv.contact_jacobian, dv.contact_jacobian_dot,
                          self._row_contact, self._row_row, self._slip_index, self._slip_cols,
                          stored, mu, self.slip_floor, f, pdot, dtheta, sigma, out,
-                         aux) != ck.OK:
+                         aux, want_nu) != ck.OK:
             return None
         return out
+
+    def _compiled_terms(self, t: float, y: np.ndarray):
+        """(nu, friction power, Painleve indicator, slip directions (n_s, d - 1),
+        theta_dot) by the compiled pass, or None where the general path must decide."""
+        if not self._compiled:
+            return None
+        k, m = self.k, len(self.rows)
+        aux = np.empty(self._aux_size)
+        out = self._held_rate(t, y[:k], y[k:], aux)
+        if out is None:
+            return None
+        return (aux[:m], float(aux[m]), float(aux[m + 1]),
+                aux[m + 2:].reshape(len(self.slipping), max(self._d - 1, 1)), out[:k])
 
     def friction_power(self, t: float, y: np.ndarray) -> float:
         """Power of the sliding contacts' friction forces, ``sum lambda_t . v_t`` (<= 0),
@@ -573,10 +589,9 @@ class CanonicalEquations:
         if not self.slipping:
             return 0.0
         k = self.k
-        if self._compiled:
-            aux = np.empty(len(self.rows) + 1)
-            if self._held_rate(t, y[:k], y[k:], aux) is not None:
-                return float(aux[-1])
+        got = self._compiled_terms(t, y)
+        if got is not None:
+            return got[1]
         dtheta, _, F = self.velocities(y[:k], y[k:])
         forces = self.contact_forces(t, y)
         return sum(float(forces[c][1:] @ (F.jac[c][1:] @ dtheta)) for c, _ in self.slipping)
@@ -600,6 +615,9 @@ class CanonicalEquations:
         From ``M theta_ddot - (C^T + D) nu = f`` and ``C theta_ddot + C_dot theta_dot = 0``
         (eq. 8). A held contact pushes (compressive) while its normal entry is positive.
         """
+        got = self._compiled_terms(t, y)
+        if got is not None:
+            return got[0].copy()
         k = self.k
         theta, p = y[:k], y[k:]
         dtheta, _, F = self.velocities(theta, p)
@@ -613,6 +631,15 @@ class CanonicalEquations:
         """The held contacts' forces in their frames (normal first) from the multipliers;
         a redundant (dropped) row reads zero, a sliding contact's friction is -mu lambda_n s."""
         k, m = self.k, self.n_loops
+        got = self._compiled_terms(t, y)
+        if got is not None:  # n_loops = 0
+            nu, _, _, dirs, _ = got
+            out = {c: np.zeros(self._d) for c in self.held}
+            for i, (c, j) in enumerate(self.rows):
+                out[c][j] = nu[i]
+            for (c, _), s in zip(self.slipping, dirs):
+                out[c][1:] = -self.modes[c].mu * out[c][0] * s
+            return out
         theta = y[:k]
         nu = self.multipliers(t, y)
         dtheta, _, F = self.velocities(theta, y[k:])

@@ -113,23 +113,26 @@ def _solve_chol(L, b, out):
 
 
 @jit
-def held_rates(L, C, A, S, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot, dtheta,
-               sigma, out, aux):
+def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot,
+               dtheta, sigma, out, aux, want_nu):
     """y_dot = [theta_dot, p_dot - C_dot^T sigma + D nu] into ``out`` (2k,).
 
     ``CJD`` the Jacobians' rates (C_dot's rows as C's), ``si`` the sliding contacts'
     indices into CJ, ``cols`` their normal rows among C's, ``stored`` (n_s, d - 1) their
     stored slip directions, ``mu`` their friction coefficients, ``floor`` the slip speed
-    below which the stored direction is kept. ``aux`` (m + 1,): the multipliers nu of the
-    sliding system (zeros without sliding contacts) and, last, the sliding contacts'
-    friction power ``sum lambda_t . v_t``. Returns OK, SINGULAR_K (Painleve: the sliding
+    below which the stored direction is kept. ``aux`` (m + 2 + n_s (d - 1),): the
+    multipliers nu (eq. 9; without sliding contacts only with ``want_nu``, else zeros), the
+    sliding contacts' friction power ``sum lambda_t . v_t``, the Painleve indicator
+    ``det(C M^-1 (C^T + D)) / det(C M^-1 C^T)`` (1 without sliding contacts) and the
+    sliding contacts' slip directions s. Returns OK, SINGULAR_K (Painleve: the sliding
     contacts' force system singular) or NOT_FINITE.
     """
     k = L.shape[0]
     m = C.shape[0]
     ns = si.shape[0]
-    for i in range(m + 1):
+    for i in range(aux.shape[0]):
         aux[i] = 0.0
+    aux[m + 1] = 1.0
     for i in range(k):
         out[i] = dtheta[i]
         s = pdot[i]
@@ -165,6 +168,7 @@ def held_rates(L, C, A, S, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot
             v = 0.0
             for j in range(dt):
                 v += sdir[j] * vt[j]
+                aux[m + 2 + c * dt + j] = sdir[j]
             vs[c] = v
             for q in range(k):
                 s = 0.0
@@ -200,6 +204,7 @@ def held_rates(L, C, A, S, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot
                 s += C[i, q] * Mf[q] + CJD[rc[i], rr[i], q] * dtheta[q]
             rhs[i] = -s
         # nu = K^-1 rhs: LU with partial pivoting (singular only at a zero pivot, as LAPACK)
+        ratio = 1.0  # det K / det S, pivot by pivot
         for j in range(m):
             best = j
             for i in range(j + 1, m):
@@ -211,6 +216,8 @@ def held_rates(L, C, A, S, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot
                 for q in range(m):
                     K[j, q], K[best, q] = K[best, q], K[j, q]
                 rhs[j], rhs[best] = rhs[best], rhs[j]
+                ratio = -ratio
+            ratio *= K[j, j] / (SL[j, j] * SL[j, j])
             for i in range(j + 1, m):
                 g = K[i, j] / K[j, j]
                 if g != 0.0:
@@ -233,6 +240,19 @@ def held_rates(L, C, A, S, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot
         for c in range(ns):  # lambda_t = -mu nu_n s
             power -= mu[c] * rhs[cols[c]] * vs[c]
         aux[m] = power
+        aux[m + 1] = ratio
+    elif want_nu:  # nu = -(C M^-1 C^T)^-1 (C M^-1 f + C_dot theta_dot)
+        Mf = np.empty(k)
+        _solve_chol(L, f, Mf)
+        rhs = np.empty(m)
+        for i in range(m):
+            s = 0.0
+            for q in range(k):
+                s += C[i, q] * Mf[q] + CJD[rc[i], rr[i], q] * dtheta[q]
+            rhs[i] = s
+        _solve_chol(SL, rhs, rhs)
+        for i in range(m):
+            aux[i] = -rhs[i]
     for i in range(2 * k):
         if not math.isfinite(out[i]):
             return NOT_FINITE

@@ -273,6 +273,9 @@ def painleve_indicator(eq: CanonicalEquations, t: float, y: np.ndarray) -> float
     through zero where the sliding contacts' force system turns singular (Painleve)."""
     if not eq.slipping:
         return 1.0
+    got = eq._compiled_terms(t, y)
+    if got is not None:
+        return got[2]
     k = eq.k
     theta = y[:k]
     dtheta, _, F = eq.velocities(theta, y[k:])
