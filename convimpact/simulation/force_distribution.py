@@ -372,9 +372,11 @@ def _cone_violation(v: np.ndarray, cones) -> float:
         part = v[k:k + size]
         k += size
         if kind == "nn":
-            worst = max(worst, float(np.max(-part, initial=0.0)))
+            if size:
+                worst = max(worst, -float(part.min()))
         else:
-            worst = max(worst, float(np.linalg.norm(part[1:]) - part[0]))
+            tail = part[1:]
+            worst = max(worst, math.sqrt(float(tail @ tail)) - float(part[0]))
     return worst
 
 
