@@ -161,16 +161,13 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     smallest = _margins(mu, d, combo)
     if eq.dropped:
         # P: the projection onto the forces' determinate part (the complement of the
-        # indeterminate directions Z); for sticking contacts alone the orthonormal rows R
-        # of the thin SVD span it (P = R^T R), else P = I - Q Q^T with Q an orthonormal
-        # basis of Z. lam0 - (I - P) lam0 = P lam0 is the least-norm distribution.
-        R = _determinate_rows(eq, y, d)
+        # indeterminate directions Z): without forming Z where that is cheap
+        # (_determinate_part), else P = I - Q Q^T with Q an orthonormal basis of Z.
+        # lam0 - (I - P) lam0 = P lam0 is the least-norm distribution.
+        cheap = _determinate_part(eq, y, d)
         Z = None
-        if R is not None:
-            null = R.shape[0] < R.shape[1]
-
-            def project(v):
-                return R.T @ (R @ v)
+        if cheap is not None:
+            project, null = cheap
         else:
             Z = _indeterminate(eq, y, d)
             null = Z.shape[1] > 0
@@ -218,19 +215,56 @@ def _margins(mu: np.ndarray, d: int, combo):
     return smallest
 
 
-def _determinate_rows(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray | None:
-    """For sticking contacts of d rows each and no loops: orthonormal rows (rank, n d)
-    spanning the held forces' determinate part (the complement of :func:`_indeterminate`'s
-    directions, same rank rule); else None."""
-    if eq.n_loops or any(eq.modes[c].kind != "stick" for c in eq.held):
+def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
+    """The projection onto the held forces' determinate part (the orthogonal complement of
+    :func:`_indeterminate`'s directions, same rank rule) without forming them, where that is
+    cheap: no loops, every contact of d rows, and either all sticking (the unknowns are the
+    forces: the complement is spanned by the thin SVD's rows R of B, P = R^T R) or all
+    sliding with one mu (each unknown, a normal force, enters its contact's block along
+    (1, -mu s), of one norm for all: with T those unit columns, P = I - T (I - R^T R) T^T).
+    Returns (v -> P v, whether there are indeterminate directions), or None (then
+    :func:`_indeterminate` and a QR)."""
+    if eq.n_loops:
         return None
-    jac = eq.contact_jacobians(y[:eq.k])
+    kinds = {eq.modes[c].kind for c in eq.held}
+    if kinds != {"stick"} and kinds != {"slip"}:
+        return None
+    theta = y[:eq.k]
+    jac = eq.contact_jacobians(theta)
     if any(len(jac[c]) != d for c in eq.held):
         return None
-    B = np.vstack([jac[c] for c in eq.held]).T  # (k, n d): the unknowns in order
+    n = len(eq.held)
+    if kinds == {"stick"}:
+        B = np.vstack([jac[c] for c in eq.held]).T  # (k, n d): the unknowns in order
+        T = None
+    else:
+        mus = {eq.modes[c].mu for c in eq.held}
+        if len(mus) != 1:
+            return None
+        mu = mus.pop()
+        dtheta, _ = eq.theta_dot(theta, y[eq.k:])
+        S = np.array([eq.slip_direction(c, jac[c], dtheta) if mu > 0 else np.zeros(d - 1)
+                      for c in eq.held]).reshape(n, d - 1)
+        Jn = np.array([jac[c][0] for c in eq.held])  # (n, k)
+        Jt = np.array([jac[c][1:] for c in eq.held])  # (n, d - 1, k)
+        B = (Jn - mu * np.einsum("ijk,ij->ik", Jt, S)).T
+        cols = np.hstack([np.ones((n, 1)), -mu * S])  # (n, d): each unknown's block
+        norms = np.sqrt(np.einsum("ij,ij->i", cols, cols))
+        if np.max(norms) - np.min(norms) > 1e-12 * np.max(norms):
+            return None  # unit slip directions of unequal length: the general path
+        T = cols / norms[:, None]
     _, sv, Vt = np.linalg.svd(B, full_matrices=False)
     rank = int(np.sum(sv > 1e-8 * sv[0])) if sv.size else 0
-    return Vt[:rank]
+    R = Vt[:rank]
+    null = rank < B.shape[1]  # indeterminate directions exist
+    if T is None:
+        return (lambda v: R.T @ (R @ v)), null
+
+    def project(v):
+        u = np.einsum("ij,ij->i", T, v.reshape(n, d))  # T^T v
+        w = u - R.T @ (R @ u)  # its indeterminate part
+        return v - (T * w[:, None]).ravel()
+    return project, null
 
 
 def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
