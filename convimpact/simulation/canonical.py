@@ -216,6 +216,9 @@ class CanonicalEquations:
         self._compiled = self._model and bool(self.rows) and not self.n_loops
         if self._compiled:  # nu, power, indicator, the slip directions
             self._aux_size = len(self.rows) + 2 + len(self.slipping) * max(self._d - 1, 1)
+        #: the last state's compiled velocities and terms (asked for several times at a
+        #: step's end)
+        self._velocity_memo = self._terms_memo = None
 
     # ---- terms of one configuration ---------------------------------------------------------
     def factors(self, theta: np.ndarray, constraints: bool = True) -> Factors:
@@ -502,10 +505,16 @@ class CanonicalEquations:
         """(theta_dot, sigma) of :meth:`velocities`, by the compiled pass where the
         right-hand side has one (the same numbers to round-off, no factor cache)."""
         if self._compiled:
-            got = self._held_velocities(np.ascontiguousarray(theta, dtype=float),
-                                        np.ascontiguousarray(p, dtype=float))
+            theta = np.ascontiguousarray(theta, dtype=float)
+            p = np.ascontiguousarray(p, dtype=float)
+            key = theta.tobytes() + p.tobytes()
+            memo = self._velocity_memo
+            if memo is not None and memo[0] == key:
+                return memo[1].copy(), memo[2].copy()
+            got = self._held_velocities(theta, p)
             if got is not None:
-                return got[6], got[7]
+                self._velocity_memo = (key, got[6], got[7])
+                return got[6].copy(), got[7].copy()
         dtheta, sigma, _ = self.velocities(theta, p)
         return dtheta, sigma
 
@@ -576,12 +585,21 @@ class CanonicalEquations:
         if not self._compiled:
             return None
         k, m = self.k, len(self.rows)
-        aux = np.empty(self._aux_size)
-        out = self._held_rate(t, y[:k], y[k:], aux)
-        if out is None:
-            return None
-        return (aux[:m], float(aux[m]), float(aux[m + 1]),
-                aux[m + 2:].reshape(len(self.slipping), max(self._d - 1, 1)), out[:k])
+        y = np.ascontiguousarray(y, dtype=float)
+        # (the stored slip directions enter below the slip floor: part of the key)
+        key = (t, y.tobytes(), tuple(self.modes[c] for c, _ in self.slipping))
+        memo = self._terms_memo
+        if memo is not None and memo[0] == key:
+            aux, out = memo[1], memo[2]
+        else:
+            aux = np.empty(self._aux_size)
+            out = self._held_rate(t, y[:k], y[k:], aux)
+            if out is None:
+                return None
+            self._terms_memo = (key, aux, out)
+        return (aux[:m].copy(), float(aux[m]), float(aux[m + 1]),
+                aux[m + 2:].reshape(len(self.slipping), max(self._d - 1, 1)).copy(),
+                out[:k].copy())
 
     def friction_power(self, t: float, y: np.ndarray) -> float:
         """Power of the sliding contacts' friction forces, ``sum lambda_t . v_t`` (<= 0),
