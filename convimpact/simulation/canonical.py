@@ -45,6 +45,7 @@ import numpy as np
 from ..impact.errors import NonFiniteError, SimulationError
 from ..mechanism import Mechanism
 from ..model import recursive as _rc
+from .canonical_compiled import CompiledHeldPath
 
 #: a held contact's rows: (contact name, row of its Jacobian: 0 normal, 1.. tangents)
 Row = tuple[str, int]
@@ -80,16 +81,14 @@ class Factors:
     C : (n_constraints, k) loops' C and the held rows.
     A : (k, n_constraints) ``M^-1 C^T``; ``S`` = ``C M^-1 C^T`` and ``SL`` its lower
         Cholesky factor (None without constraints or until asked for).
-    jac : the held contacts' full Jacobians (rows n, t...); ``jt`` the sliding contacts'
-        tangential rows stacked (n_sliding, d - 1, k).
+    jac : the held contacts' full Jacobians (rows n, t...).
     """
 
-    __slots__ = ("M", "L", "C", "A", "SL", "jac", "S", "jt")
+    __slots__ = ("M", "L", "C", "A", "SL", "jac", "S")
 
-    def __init__(self, M, L, C, A, SL, jac, jt=None):
+    def __init__(self, M, L, C, A, SL, jac):
         self.M, self.L, self.C, self.A, self.SL, self.jac = M, L, C, A, SL, jac
         self.S = None  # C M^-1 C^T, with A
-        self.jt = jt  # (n_sliding, d - 1, k): the sliding contacts' tangential rows
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``M^-1 b`` for a vector or a (k, m) matrix."""
@@ -116,18 +115,6 @@ def _cholesky(M: np.ndarray) -> np.ndarray | None:
     return L if _rc.cholesky(np.ascontiguousarray(M, dtype=float), L) else None
 
 
-_KERNELS = None
-
-
-def _kernels():
-    """:mod:`.canonical_kernels`, imported on first use (it imports numba)."""
-    global _KERNELS
-    if _KERNELS is None:
-        from . import canonical_kernels
-        _KERNELS = canonical_kernels
-    return _KERNELS
-
-
 def _is_model(mechanism) -> bool:
     """True for a :class:`~convimpact.model.ModelMechanism` evaluated as it is (no subclass
     overriding the protocol, no wrapper forwarding to one)."""
@@ -140,7 +127,7 @@ def _is_model(mechanism) -> bool:
                          "contact_jacobian", "contact_gap", "rhs_positions", "rhs_velocities"))
 
 
-class CanonicalEquations:
+class CanonicalEquations(CompiledHeldPath):
     """The canonical equations of a mechanism with a fixed set of held contacts and modes.
 
     Built once per set of held contacts and modes (they change only at events); calling the
@@ -252,7 +239,6 @@ class CanonicalEquations:
             rows = d.contact_jacobian[self._row_contact, self._row_row] if self.rows else None
             jac = {c: d.contact_jacobian[i, :self._d].copy()
                    for c, i in zip(self.held, self._held_index)}
-            jt = d.contact_jacobian[self._slip_index, 1:self._d] if self.slipping else None
         else:
             M = np.asarray(self.mechanism.mass_matrix(theta), float)
             L = _cholesky(M)
@@ -260,8 +246,6 @@ class CanonicalEquations:
                    for c in self.held}
             rows = (np.array([jac[c][j] if j < len(jac[c]) else np.zeros(self.k)
                               for c, j in self.rows]) if self.rows else None)
-            jt = (np.array([jac[c][1:] for c, _ in self.slipping]) if self.slipping
-                  else None)
         if L is None:
             raise SimulationError(
                 f"the mass matrix is not positive definite or not finite at theta = "
@@ -272,7 +256,7 @@ class CanonicalEquations:
         if rows is not None:
             parts.append(rows)
         C = (parts[0] if len(parts) == 1 else np.vstack(parts)) if parts else np.zeros((0, self.k))
-        return Factors(M, L, C, None, None, jac, jt)
+        return Factors(M, L, C, None, None, jac)
 
     def contact_jacobians(self, theta: np.ndarray) -> dict[str, np.ndarray]:
         """The full Jacobians (rows n, t...) of the held contacts at theta."""
@@ -394,34 +378,11 @@ class CanonicalEquations:
         D = np.zeros((self.k, self.n_constraints))
         if not self.slipping:
             return D
-        if jac is None:
-            D[:, self._slip_cols] = self._friction(self.factors(theta, False).jt, dtheta)
-            return D
+        jac = self.contact_jacobians(theta) if jac is None else jac
         for c, i in self.slipping:
             s = self.slip_direction(c, jac[c], dtheta)
             D[:, self.n_loops + i] = -self.modes[c].mu * (jac[c][1:].T @ s)
         return D
-
-    def _friction(self, jt: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
-        """The sliding contacts' columns of D (k, n_sliding) from their tangential rows
-        ``jt`` (n_sliding, d - 1, k): :meth:`slip_direction` for all of them at once."""
-        modes = [self.modes[c] for c, _ in self.slipping]
-        if any(len(m.direction) != jt.shape[1] for m in modes):  # no stored direction
-            return np.stack([-m.mu * (J.T @ self.slip_direction(c, np.vstack([J[:1], J]),
-                                                                dtheta))
-                             for (c, _), m, J in zip(self.slipping, modes, jt)], axis=1)
-        stored = np.array([m.direction for m in modes], float)
-        mu = np.array([m.mu for m in modes])
-        s = stored
-        if jt.shape[1] > 1:  # in space: the slip velocity's direction
-            vt = jt @ dtheta  # (n_sliding, d - 1)
-            norm = np.sqrt(np.einsum("ij,ij->i", vt, vt))
-            moving = (norm > self.slip_floor) & (norm > 0.0)
-            if moving.any():
-                sign = np.where(np.einsum("ij,ij->i", vt, stored) >= 0.0, 1.0, -1.0)
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    s = np.where(moving[:, None], vt / (sign * norm)[:, None], stored)
-        return np.einsum("ijk,ij->ki", jt, s) * -mu
 
     # ---- eqs. (7) + (13) ---------------------------------------------------------------------
     def velocities(self, theta: np.ndarray, p: np.ndarray):
@@ -453,14 +414,11 @@ class CanonicalEquations:
     def _multipliers(self, t: float, theta: np.ndarray, dtheta: np.ndarray, F: Factors, f,
                      Cdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(nu, D): ``C M^-1 (C^T + D) nu = -(C M^-1 f + C_dot theta_dot)`` (eqs. 8, 9)."""
+        D = self.friction_columns(theta, dtheta, F.jac)
         rhs = F.C @ _cho_solve(F.L, f) + Cdot @ dtheta
         if not self.slipping:
-            return -_cho_solve(F.SL, rhs), np.zeros((self.k, self.n_constraints))
-        Ds = self._friction(F.jt, dtheta)  # the sliding contacts' columns of D
-        D = np.zeros((self.k, self.n_constraints))
-        D[:, self._slip_cols] = Ds
-        K = F.S.copy()
-        K[:, self._slip_cols] += F.C @ _cho_solve(F.L, Ds)
+            return -_cho_solve(F.SL, rhs), D
+        K = F.S + F.C @ _cho_solve(F.L, D)
         try:
             nu = -np.linalg.solve(K, rhs)
         except np.linalg.LinAlgError:
@@ -500,106 +458,6 @@ class CanonicalEquations:
                 f"the right-hand side became non-finite at t = {t:.9g} (theta = "
                 f"{np.round(theta, 6).tolist()}); check the model's forces or reduce max_step")
         return out
-
-    def theta_dot(self, theta: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(theta_dot, sigma) of :meth:`velocities`, by the compiled pass where the
-        right-hand side has one (the same numbers to round-off, no factor cache)."""
-        if self._compiled:
-            theta = np.ascontiguousarray(theta, dtype=float)
-            p = np.ascontiguousarray(p, dtype=float)
-            key = theta.tobytes() + p.tobytes()
-            memo = self._velocity_memo
-            if memo is not None and memo[0] == key:
-                return memo[1].copy(), memo[2].copy()
-            got = self._held_velocities(theta, p)
-            if got is not None:
-                self._velocity_memo = (key, got[6], got[7])
-                return got[6].copy(), got[7].copy()
-        dtheta, sigma, _ = self.velocities(theta, p)
-        return dtheta, sigma
-
-    def _held_velocities(self, theta: np.ndarray, p: np.ndarray):
-        """(data, L, C, A, S, SL, theta_dot, sigma) by
-        :func:`~.canonical_kernels.held_velocities`, or None where the general path must
-        decide."""
-        ck = _kernels()
-
-        k, m = self.k, len(self.rows)
-        try:
-            d = self.mechanism.rhs_positions(theta)
-        except NonFiniteError:
-            return None
-        if not d.chol_ok:
-            return None
-        L, C, A = np.empty((k, k)), np.empty((m, k)), np.empty((k, m))
-        S, SL = np.empty((m, m)), np.zeros((m, m))
-        dtheta, sigma = np.empty(k), np.empty(m)
-        if ck.held_velocities(d.L, d.contact_jacobian, self._row_contact, self._row_row, p,
-                              L, C, A, S, SL, dtheta, sigma) != ck.OK:
-            return None
-        return d, L, C, A, S, SL, dtheta, sigma
-
-    def _held_rate(self, t: float, theta: np.ndarray, p: np.ndarray,
-                   aux: np.ndarray | None = None) -> np.ndarray | None:
-        """y_dot with held contacts and no loops: the model's two compiled passes around
-        :func:`~.canonical_kernels.held_velocities` and :func:`~.canonical_kernels.held_rates`
-        (the general path's numbers to round-off, without its factor cache); None where
-        that path must decide (M or C M^-1 C^T not positive definite, the sliding
-        contacts' system singular, a non-finite state or rate: it raises)."""
-        ck = _kernels()
-
-        theta = np.ascontiguousarray(theta, dtype=float)
-        p = np.ascontiguousarray(p, dtype=float)
-        k, m = self.k, len(self.rows)
-        got = self._held_velocities(theta, p)
-        if got is None:
-            return None
-        _, L, C, A, S, SL, dtheta, sigma = got
-        try:
-            f, pdot, dv = self.mechanism.rhs_velocities(t, theta, dtheta, True)
-        except NonFiniteError:
-            return None
-        if self.slipping:
-            modes = [self.modes[c] for c, _ in self.slipping]
-            if any(len(md.direction) != self._d - 1 for md in modes):
-                return None  # no stored direction (a hand-built mode): the general path
-            stored = np.array([md.direction for md in modes], float)
-            mu = np.array([md.mu for md in modes])
-        else:
-            stored, mu = np.zeros((0, 1)), np.zeros(0)
-        out = np.empty(2 * k)
-        want_nu = aux is not None
-        if aux is None:
-            aux = np.empty(self._aux_size)
-        # the positions' Jacobians of this theta (the velocity pass recomputed them there)
-        if ck.held_rates(L, C, A, S, SL, dv.contact_jacobian, dv.contact_jacobian_dot,
-                         self._row_contact, self._row_row, self._slip_index, self._slip_cols,
-                         stored, mu, self.slip_floor, f, pdot, dtheta, sigma, out,
-                         aux, want_nu) != ck.OK:
-            return None
-        return out
-
-    def _compiled_terms(self, t: float, y: np.ndarray):
-        """(nu, friction power, Painleve indicator, slip directions (n_s, d - 1),
-        theta_dot) by the compiled pass, or None where the general path must decide."""
-        if not self._compiled:
-            return None
-        k, m = self.k, len(self.rows)
-        y = np.ascontiguousarray(y, dtype=float)
-        # (the stored slip directions enter below the slip floor: part of the key)
-        key = (t, y.tobytes(), tuple(self.modes[c] for c, _ in self.slipping))
-        memo = self._terms_memo
-        if memo is not None and memo[0] == key:
-            aux, out = memo[1], memo[2]
-        else:
-            aux = np.empty(self._aux_size)
-            out = self._held_rate(t, y[:k], y[k:], aux)
-            if out is None:
-                return None
-            self._terms_memo = (key, aux, out)
-        return (aux[:m].copy(), float(aux[m]), float(aux[m + 1]),
-                aux[m + 2:].reshape(len(self.slipping), max(self._d - 1, 1)).copy(),
-                out[:k].copy())
 
     def friction_power(self, t: float, y: np.ndarray) -> float:
         """Power of the sliding contacts' friction forces, ``sum lambda_t . v_t`` (<= 0),

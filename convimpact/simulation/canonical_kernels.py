@@ -26,6 +26,8 @@ import math
 import numpy as np
 
 from ..compiled import jit
+from ..impact.problem.compiled_reduction import cholesky_into
+from ..model.compiled_algebra import cho_solve_mat, cho_solve_vec
 
 OK, SINGULAR_S, SINGULAR_K, NOT_FINITE = 0, 1, 2, 3
 
@@ -46,46 +48,26 @@ def held_velocities(Lm, CJ, rc, rr, p, L, C, A, S, SL, dtheta, sigma):
     for i in range(m):
         for j in range(k):
             C[i, j] = CJ[rc[i], rr[i], j]
-    # A = M^-1 C^T, column by column
-    for c in range(m):
-        for i in range(k):
-            s = C[c, i]
-            for q in range(i):
-                s -= L[i, q] * A[q, c]
-            A[i, c] = s / L[i, i]
-        for i in range(k - 1, -1, -1):
-            s = A[i, c]
-            for q in range(i + 1, k):
-                s -= L[q, i] * A[q, c]
-            A[i, c] = s / L[i, i]
+    for i in range(k):  # A = M^-1 C^T
+        for c in range(m):
+            A[i, c] = C[c, i]
+    cho_solve_mat(L, A, A)
     for i in range(m):
         for j in range(m):
             s = 0.0
             for q in range(k):
                 s += C[i, q] * A[q, j]
             S[i, j] = s
-    # Cholesky factor of S
-    for j in range(m):
-        s = S[j, j]
-        for q in range(j):
-            s -= SL[j, q] * SL[j, q]
-        if not s > 0.0 or not math.isfinite(s):
-            return SINGULAR_S
-        dg = math.sqrt(s)
-        SL[j, j] = dg
-        for i in range(j + 1, m):
-            s = S[i, j]
-            for q in range(j):
-                s -= SL[i, q] * SL[j, q]
-            SL[i, j] = s / dg
-    _solve_chol(L, p, dtheta)
+    if not cholesky_into(S, SL, m, 0.0):
+        return SINGULAR_S
+    cho_solve_vec(L, p, dtheta)
     # sigma = -(S^-1) C dtheta0
     for i in range(m):
         s = 0.0
         for q in range(k):
             s += C[i, q] * dtheta[q]
         sigma[i] = s
-    _solve_chol(SL, sigma, sigma)
+    cho_solve_vec(SL, sigma, sigma)
     for i in range(m):
         sigma[i] = -sigma[i]
     for i in range(k):
@@ -94,22 +76,6 @@ def held_velocities(Lm, CJ, rc, rr, p, L, C, A, S, SL, dtheta, sigma):
             s += A[i, q] * sigma[q]
         dtheta[i] = s
     return OK
-
-
-@jit
-def _solve_chol(L, b, out):
-    """out = (L L^T)^-1 b (out may be b)."""
-    n = L.shape[0]
-    for i in range(n):
-        s = b[i]
-        for q in range(i):
-            s -= L[i, q] * out[q]
-        out[i] = s / L[i, i]
-    for i in range(n - 1, -1, -1):
-        s = out[i]
-        for q in range(i + 1, n):
-            s -= L[q, i] * out[q]
-        out[i] = s / L[i, i]
 
 
 @jit
@@ -176,17 +142,7 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, 
                     s += CJ[si[c], 1 + j, q] * sdir[j]
                 D[q, c] = -mu[c] * s
         X = np.empty((k, ns))
-        for c in range(ns):
-            for i in range(k):
-                s = D[i, c]
-                for q in range(i):
-                    s -= L[i, q] * X[q, c]
-                X[i, c] = s / L[i, i]
-            for i in range(k - 1, -1, -1):
-                s = X[i, c]
-                for q in range(i + 1, k):
-                    s -= L[q, i] * X[q, c]
-                X[i, c] = s / L[i, i]
+        cho_solve_mat(L, D, X)  # M^-1 D
         K = S.copy()
         for i in range(m):
             for c in range(ns):
@@ -196,7 +152,7 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, 
                 K[i, cols[c]] += s
         # rhs = C M^-1 f + C_dot theta_dot
         Mf = np.empty(k)
-        _solve_chol(L, f, Mf)
+        cho_solve_vec(L, f, Mf)
         rhs = np.empty(m)
         for i in range(m):
             s = 0.0
@@ -243,14 +199,14 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, 
         aux[m + 1] = ratio
     elif want_nu:  # nu = -(C M^-1 C^T)^-1 (C M^-1 f + C_dot theta_dot)
         Mf = np.empty(k)
-        _solve_chol(L, f, Mf)
+        cho_solve_vec(L, f, Mf)
         rhs = np.empty(m)
         for i in range(m):
             s = 0.0
             for q in range(k):
                 s += C[i, q] * Mf[q] + CJD[rc[i], rr[i], q] * dtheta[q]
             rhs[i] = s
-        _solve_chol(SL, rhs, rhs)
+        cho_solve_vec(SL, rhs, rhs)
         for i in range(m):
             aux[i] = -rhs[i]
     for i in range(2 * k):
