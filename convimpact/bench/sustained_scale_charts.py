@@ -45,8 +45,9 @@ def stop_chart(records: list[dict[str, Any]], out: Path) -> str:
 
 def simulation_chart(records: list[dict[str, Any]], out: Path) -> str:
     plt = _plt()
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5.8))
+    fig, (ax, rx, bx) = plt.subplots(1, 3, figsize=(19, 5.8))
     sims = [r for r in records if r["part"] == "simulation"]
+    _ratio_panel(rx, sims)
     for scheme in ("event-driven", "mujoco"):
         for kind in ("rest", "slide"):
             rs = sorted((r for r in sims if r["scheme"] == scheme
@@ -79,3 +80,30 @@ def simulation_chart(records: list[dict[str, Any]], out: Path) -> str:
     bx.legend(fontsize=8)
     fig.tight_layout()
     return save_chart(fig, out, "sustained_scale_simulation.png")
+
+
+def _ratio_panel(ax, sims: list[dict[str, Any]]) -> None:
+    """Ours / MuJoCo per simulated second against the contacts, wall and CPU time, with
+    the 10x target."""
+    for kind, marker in (("rest", "o"), ("slide", "s"), ("box_stack", "*")):
+        scene = kind if kind == "box_stack" else f"table-{kind}"
+        ours = {r["contacts"]: r for r in sims if r["scene"] == scene
+                and r["scheme"] == "event-driven"}
+        mj = {r["contacts"]: r for r in sims if r["scene"] == scene and r["scheme"] == "mujoco"}
+        n = sorted(c for c in ours if c in mj)
+        if not n:
+            continue
+        for key, style, what in (("wall_per_second", "-", "wall"), ("cpu_per_second", ":",
+                                                                     "CPU")):
+            if not all(ours[c].get(key) and mj[c].get(key) for c in n):
+                continue
+            ax.loglog(n, [ours[c][key] / mj[c][key] for c in n], style, marker=marker,
+                      ms=10 if marker == "*" else 6, color=COLORS["event-driven"]
+                      if what == "wall" else "tab:green",
+                      label=f"{scene}, {what} time")
+    ax.axhline(10.0, color="tab:red", lw=1, ls="--", label="10x (target)")
+    ax.set_xlabel("contacts")
+    ax.set_ylabel("ours / MuJoCo per simulated second")
+    ax.set_title("ratio to MuJoCo (same run; CPU time: the process's)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)

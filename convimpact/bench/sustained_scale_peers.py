@@ -39,6 +39,7 @@ class PeerRun:
     qpos: np.ndarray
     qvel: np.ndarray
     wall_time: float
+    cpu_time: float = float("nan")  # the process's CPU time of the stepping
 
 
 def _quat_matrix(q: np.ndarray) -> np.ndarray:
@@ -77,8 +78,9 @@ def stack_mjcf(p: Mapping[str, Any]) -> str:
             '</worldbody></mujoco>')
 
 
-def run_table(p: Mapping[str, Any], t_end: float) -> PeerRun:
-    """The table launched at v0 (at ``direction_deg``) or at rest, rolled out in C."""
+def run_table(p: Mapping[str, Any], t_end: float, repeat: int = 1) -> PeerRun:
+    """The table launched at v0 (at ``direction_deg``) or at rest, rolled out in C
+    (``repeat`` rollouts from the same state: the median wall time)."""
     import mujoco
     from mujoco import rollout
 
@@ -92,15 +94,28 @@ def run_table(p: Mapping[str, Any], t_end: float) -> PeerRun:
     mujoco.mj_getState(model, data, s0, spec)
     nstep = int(round(t_end / TIMESTEP))
     rollout.rollout(model, data, s0[None], nstep=min(nstep, 10))  # warm-up
-    t0 = time.perf_counter()
-    states, _ = rollout.rollout(model, data, s0[None], nstep=nstep)
-    wall = time.perf_counter() - t0
+    walls, cpus = [], []
+    for _ in range(max(1, repeat)):
+        t0, c0 = time.perf_counter(), time.process_time()
+        states, _ = rollout.rollout(model, data, s0[None], nstep=nstep)
+        walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
     st = states[0]
-    return PeerRun(st[:, 0].copy(), st[:, 1:8].copy(), st[:, 8:14].copy(), wall)
+    return PeerRun(st[:, 0].copy(), st[:, 1:8].copy(), st[:, 8:14].copy(),
+                   float(np.median(walls)), float(np.median(cpus)))
 
 
-def run_stack(p: Mapping[str, Any], t_end: float) -> PeerRun:
-    """The box stack pushed at the top, stepped in a Python loop (the push changes)."""
+def run_stack(p: Mapping[str, Any], t_end: float, repeat: int = 1) -> PeerRun:
+    """The box stack pushed at the top, stepped in a Python loop (the push changes); the
+    median over ``repeat`` runs (at most 3) of the stepping's summed wall time."""
+    runs = [_run_stack(p, t_end) for _ in range(max(1, min(repeat, 3)))]
+    wall = float(np.median([r.wall_time for r in runs]))
+    cpu = float(np.median([r.cpu_time for r in runs]))
+    r = runs[-1]
+    return PeerRun(r.time, r.qpos, r.qvel, wall, cpu)
+
+
+def _run_stack(p: Mapping[str, Any], t_end: float) -> PeerRun:
     import mujoco
 
     model = mujoco.MjModel.from_xml_string(stack_mjcf(p))
@@ -109,17 +124,18 @@ def run_stack(p: Mapping[str, Any], t_end: float) -> PeerRun:
     top = model.body(f"box{n - 1}").id
     nstep = int(round(t_end / TIMESTEP))
     qpos, qvel, times = [], [], []
-    wall = 0.0
+    wall = cpu = 0.0
     for _ in range(nstep):
         data.xfrc_applied[top, 0] = p["ramp"] * p["mass"] * GRAVITY * max(0.0, data.time
                                                                           - p["t_push"])
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         mujoco.mj_step(model, data)
         wall += time.perf_counter() - t0
+        cpu += time.process_time() - c0
         times.append(data.time)
         qpos.append(data.qpos.copy())
         qvel.append(data.qvel.copy())
-    return PeerRun(np.array(times), np.array(qpos), np.array(qvel), wall)
+    return PeerRun(np.array(times), np.array(qpos), np.array(qvel), wall, cpu)
 
 
 def table_observables(p: Mapping[str, Any], run: PeerRun) -> dict[str, float]:

@@ -36,6 +36,7 @@ theta_dot; ``contact_jacobian_dot`` when it has one, else a central difference).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
@@ -44,6 +45,7 @@ import numpy as np
 from ..impact.errors import NonFiniteError, SimulationError
 from ..mechanism import Mechanism
 from ..model import recursive as _rc
+from .canonical_compiled import CompiledHeldPath
 
 #: a held contact's rows: (contact name, row of its Jacobian: 0 normal, 1.. tangents)
 Row = tuple[str, int]
@@ -77,15 +79,16 @@ class Factors:
     ----------
     M : (k, k) mass matrix; ``L`` its lower Cholesky factor.
     C : (n_constraints, k) loops' C and the held rows.
-    A : (k, n_constraints) ``M^-1 C^T``; ``SL`` the lower Cholesky factor of ``C M^-1 C^T``
-        (None without constraints or until asked for).
+    A : (k, n_constraints) ``M^-1 C^T``; ``S`` = ``C M^-1 C^T`` and ``SL`` its lower
+        Cholesky factor (None without constraints or until asked for).
     jac : the held contacts' full Jacobians (rows n, t...).
     """
 
-    __slots__ = ("M", "L", "C", "A", "SL", "jac")
+    __slots__ = ("M", "L", "C", "A", "SL", "jac", "S")
 
     def __init__(self, M, L, C, A, SL, jac):
         self.M, self.L, self.C, self.A, self.SL, self.jac = M, L, C, A, SL, jac
+        self.S = None  # C M^-1 C^T, with A
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``M^-1 b`` for a vector or a (k, m) matrix."""
@@ -124,7 +127,7 @@ def _is_model(mechanism) -> bool:
                          "contact_jacobian", "contact_gap", "rhs_positions", "rhs_velocities"))
 
 
-class CanonicalEquations:
+class CanonicalEquations(CompiledHeldPath):
     """The canonical equations of a mechanism with a fixed set of held contacts and modes.
 
     Built once per set of held contacts and modes (they change only at events); calling the
@@ -192,6 +195,17 @@ class CanonicalEquations:
             self._row_contact = np.array([index[c] for c, _ in self.rows], dtype=np.intp)
             self._row_row = np.array([j for _, j in self.rows], dtype=np.intp)
             self._d = mechanism.data.d
+            self._slip_index = np.array([index[c] for c, _ in self.slipping], dtype=np.intp)
+        #: the sliding contacts' columns among the constraints
+        self._slip_cols = np.array([self.n_loops + i for _, i in self.slipping], dtype=np.intp)
+        #: the compiled right-hand side (:mod:`.canonical_kernels`): a model, held rows,
+        #: no loops
+        self._compiled = self._model and bool(self.rows) and not self.n_loops
+        if self._compiled:  # nu, power, indicator, the slip directions
+            self._aux_size = len(self.rows) + 2 + len(self.slipping) * max(self._d - 1, 1)
+        #: the last state's compiled velocities and terms (asked for several times at a
+        #: step's end)
+        self._velocity_memo = self._terms_memo = None
 
     # ---- terms of one configuration ---------------------------------------------------------
     def factors(self, theta: np.ndarray, constraints: bool = True) -> Factors:
@@ -208,12 +222,13 @@ class CanonicalEquations:
             self._memo[key] = F
         if constraints and F.A is None and F.C.shape[0]:
             A = _cho_solve(F.L, F.C.T)  # M^-1 C^T
-            SL = _cholesky(F.C @ A)  # C M^-1 C^T
+            S = F.C @ A  # C M^-1 C^T
+            SL = _cholesky(S)
             if SL is None:
                 raise SimulationError(
                     "the constraint Jacobian (loops and held contacts) lost rank: C M^-1 C^T is "
                     "singular (a dead-centre configuration or redundant held contacts)")
-            F.A, F.SL = A, SL
+            F.A, F.SL, F.S = A, SL, S
         return F
 
     def _positions(self, theta: np.ndarray) -> Factors:
@@ -343,8 +358,18 @@ class CanonicalEquations:
         if len(jac) == 2:
             return stored
         vt = jac[1:] @ dtheta
-        norm = float(np.linalg.norm(vt))
-        return vt / norm if norm > self.slip_floor and norm > 0.0 else stored
+        norm = math.sqrt(float(vt @ vt))
+        if not (norm > self.slip_floor and norm > 0.0):
+            return stored
+        # past a reversal of the slip (vt against the stored direction, which the run
+        # updates at every accepted step) the segment is over: the event "slip:<c>" stops it
+        # there. The mode's equations are continued smoothly through it (the friction keeps
+        # its direction, as while the slip speed is below the floor), so that the
+        # integrator's stages beyond the stop see no jump and its steps need not shrink onto
+        # the stop; before it, this is the slip velocity's direction.
+        if stored.shape != vt.shape or float(vt @ stored) >= 0.0:
+            return vt / norm
+        return -vt / norm
 
     def friction_columns(self, theta: np.ndarray, dtheta: np.ndarray,
                          jac: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
@@ -393,7 +418,7 @@ class CanonicalEquations:
         rhs = F.C @ _cho_solve(F.L, f) + Cdot @ dtheta
         if not self.slipping:
             return -_cho_solve(F.SL, rhs), D
-        K = F.C @ F.A + F.C @ _cho_solve(F.L, D)
+        K = F.S + F.C @ _cho_solve(F.L, D)
         try:
             nu = -np.linalg.solve(K, rhs)
         except np.linalg.LinAlgError:
@@ -409,6 +434,10 @@ class CanonicalEquations:
         theta, p = y[:k], y[k:]
         if self._model and not self.n_constraints:  # free motion: two compiled passes
             out = self._free_rate(t, theta, p)
+            if out is not None:
+                return out
+        elif self._compiled:  # held contacts, no loops: the compiled passes
+            out = self._held_rate(t, theta, p)
             if out is not None:
                 return out
         try:
@@ -430,6 +459,19 @@ class CanonicalEquations:
                 f"{np.round(theta, 6).tolist()}); check the model's forces or reduce max_step")
         return out
 
+    def friction_power(self, t: float, y: np.ndarray) -> float:
+        """Power of the sliding contacts' friction forces, ``sum lambda_t . v_t`` (<= 0),
+        lambda_t = -mu lambda_n s (:meth:`contact_forces`)."""
+        if not self.slipping:
+            return 0.0
+        k = self.k
+        got = self._compiled_terms(t, y)
+        if got is not None:
+            return got[1]
+        dtheta, _, F = self.velocities(y[:k], y[k:])
+        forces = self.contact_forces(t, y)
+        return sum(float(forces[c][1:] @ (F.jac[c][1:] @ dtheta)) for c, _ in self.slipping)
+
     def _free_rate(self, t: float, theta: np.ndarray, p: np.ndarray) -> np.ndarray | None:
         """y_dot with no constraint in force (the model's two compiled passes,
         :meth:`~convimpact.model.mechanism.ModelMechanism.rhs_free`): the general path's
@@ -449,6 +491,9 @@ class CanonicalEquations:
         From ``M theta_ddot - (C^T + D) nu = f`` and ``C theta_ddot + C_dot theta_dot = 0``
         (eq. 8). A held contact pushes (compressive) while its normal entry is positive.
         """
+        got = self._compiled_terms(t, y)
+        if got is not None:
+            return got[0].copy()
         k = self.k
         theta, p = y[:k], y[k:]
         dtheta, _, F = self.velocities(theta, p)
@@ -462,6 +507,15 @@ class CanonicalEquations:
         """The held contacts' forces in their frames (normal first) from the multipliers;
         a redundant (dropped) row reads zero, a sliding contact's friction is -mu lambda_n s."""
         k, m = self.k, self.n_loops
+        got = self._compiled_terms(t, y)
+        if got is not None:  # n_loops = 0
+            nu, _, _, dirs, _ = got
+            out = {c: np.zeros(self._d) for c in self.held}
+            for i, (c, j) in enumerate(self.rows):
+                out[c][j] = nu[i]
+            for (c, _), s in zip(self.slipping, dirs):
+                out[c][1:] = -self.modes[c].mu * out[c][0] * s
+            return out
         theta = y[:k]
         nu = self.multipliers(t, y)
         dtheta, _, F = self.velocities(theta, y[k:])

@@ -134,6 +134,9 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
         self.force_notes: dict[str, tuple[float, int]] = {}
         #: the event functions' stand-in distribution (:func:`~.sustained.held_forces`)
         self.margin_hint: dict[str, Any] = {}
+        #: the last full :meth:`watch`: (eq, t, y's bytes, the exact forces or None,
+        #: margin, Painleve indicator)
+        self._watched: tuple | None = None
         self.modes = ModeLog(self.contacts, self.t)
         self.detector = AccumulationDetector(options.zeno_time_tol, options.rest_velocity)
         self.status: int | None = None
@@ -164,17 +167,12 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
     def state(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(theta, theta_dot, sigma) of ``y`` under the equations in force."""
         th = y[:self.k]
-        dth, sig, _ = self.eq.velocities(th, y[self.k:])
+        dth, sig = self.eq.theta_dot(th, y[self.k:])
         return th, dth, sig
 
     def friction_power(self, t: float, y: np.ndarray) -> float:
         """Power of the sliding contacts' friction forces, sum of lambda_t . v_t (<= 0)."""
-        if not self.eq.slipping:
-            return 0.0
-        th, dth, _ = self.state(y)
-        forces = self.eq.contact_forces(t, y)
-        return sum(float(forces[c][1:] @ (self.contact_row(c, th)[1:] @ dth))
-                   for c, _ in self.eq.slipping)
+        return self.eq.friction_power(t, y)
 
     def dissipate(self, interp, ta: float, tb: float) -> None:
         """Add the friction work over [ta, tb] (Gauss-Legendre, 4 points on the interpolant)."""
@@ -192,8 +190,18 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
         th, dth, sig = self.state(y)
         append_sample(self.rows, self.mech, t, th, dth, y[self.k:], sig)
         self.rows["friction"].append(self.dissipated)
-        forces, _ = held_forces(self.eq, t, y) if self.held else ({}, 0.0)
+        forces = self.exact_forces(t, y) if self.held else {}
         contact_rows(self.rows, self.contacts, self.eq, forces, self.d)
+
+    def exact_forces(self, t: float, y: np.ndarray) -> dict[str, np.ndarray]:
+        """The held contacts' forces at (t, y) (:func:`~.sustained.held_forces` without a
+        hint): those the last :meth:`watch` found at the same state when it computed them
+        exactly (no stand-in), else computed."""
+        memo = self._watched
+        if (memo is not None and memo[0] is self.eq and memo[1] == t
+                and memo[3] is not None and memo[2] == y.tobytes()):
+            return memo[3]
+        return held_forces(self.eq, t, y)[0]
 
     def project_state(self, y: np.ndarray) -> np.ndarray:
         """Project theta onto Psi = 0 (loops, held gaps) and theta_dot onto the velocity
@@ -251,21 +259,58 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
                 J = d.contact_jacobian
                 return {c: float(J[self.contact_at[c], 0] @ dth) for c in contacts}
         th, dth, _ = self.state(y)
-        return {c: self.normal_speed(c, th, dth) for c in contacts}
+        J = self._jacobians(th)
+        return {c: float(J(c)[0] @ dth) for c in contacts}
 
-    def watch(self, t: float, y: np.ndarray, anchors: Mapping[str, np.ndarray]) -> dict:
+    def watch(self, t: float, y: np.ndarray, anchors: Mapping[str, np.ndarray],
+              keys: Sequence[str] | None = None) -> dict:
         """The held contacts' event functions at (t, y): the force margin, the slip
-        velocities along their anchors, and the Painleve indicator."""
+        velocities along their anchors, and the Painleve indicator (only ``keys`` when
+        given: locating one of them evaluates that one alone).
+
+        The margin and the indicator do not depend on the anchors at a state where every
+        slip keeps its direction (they enter only past a reversal or below the slip floor,
+        where the anchors are left as they were): watching the same state again after
+        :meth:`slip_anchors` (the next step's start) takes them from this evaluation.
+        """
         self.nevents_fev += 1
         if self.margin_hint.get("eq") is not self.eq:  # a new segment's modes
             self.margin_hint = {"eq": self.eq}
-        out = {"margin": held_forces(self.eq, t, y, self.margin_hint)[1] + MARGIN_SLACK}
+        want = (lambda key: True) if keys is None else (lambda key: key in keys)
+        out = {}
+        memo = self._watched
+        key = y.tobytes()
+        same = (keys is None and memo is not None and memo[0] is self.eq and memo[1] == t
+                and memo[2] == key)
+        if same:
+            out["margin"] = memo[4]
+        elif want("margin"):
+            forces, margin = held_forces(self.eq, t, y, self.margin_hint)
+            out["margin"] = margin + MARGIN_SLACK
         if anchors:
             th, dth, _ = self.state(y)
+            J = self._jacobians(th)
             for c, a in anchors.items():
-                out["slip:" + c] = float((self.contact_row(c, th)[1:] @ dth) @ a)
-            out["painleve"] = painleve_indicator(self.eq, t, y)
+                if want("slip:" + c):
+                    out["slip:" + c] = float((J(c)[1:] @ dth) @ a)
+            if same:
+                out["painleve"] = memo[5]
+            elif want("painleve"):
+                out["painleve"] = painleve_indicator(self.eq, t, y)
+        if keys is None and not same:
+            exact = forces if self.margin_hint.get("exact", True) else None
+            self._watched = (self.eq, t, key, exact, out["margin"], out.get("painleve"))
         return out
+
+    def _jacobians(self, th: np.ndarray):
+        """contact name -> its Jacobian at theta (rows n, t...): from one compiled pass on a
+        model (the state's pass, already done), else :meth:`contact_row`."""
+        if self.eq._model:
+            d = self.mech.rhs_positions(np.ascontiguousarray(th, dtype=float))
+            if all(d.contact_ok):
+                J, at, dd = d.contact_jacobian, self.contact_at, self.d
+                return lambda c: J[at[c], :dd]
+        return lambda c: self.contact_row(c, th)
 
     def slip_anchors(self, y: np.ndarray) -> dict[str, np.ndarray]:
         """Per sliding contact with friction, its slip direction now (the event functions of
@@ -286,7 +331,7 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
             new = w_new[key]
             if prev > 0.0 >= new:
                 def fun(s, key=key):
-                    return self.watch(s, np.asarray(interp(s), float), anchors)[key]
+                    return self.watch(s, np.asarray(interp(s), float), anchors, (key,))[key]
                 te = locate_crossing(fun, t_old, t_new, prev, new, self.opts.event_tol)
                 found.append((te, "mode", key))
         return found

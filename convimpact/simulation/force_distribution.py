@@ -372,10 +372,25 @@ def _cone_violation(v: np.ndarray, cones) -> float:
         part = v[k:k + size]
         k += size
         if kind == "nn":
-            worst = max(worst, float(np.max(-part, initial=0.0)))
+            if size:
+                worst = max(worst, -float(part.min()))
         else:
-            worst = max(worst, float(np.linalg.norm(part[1:]) - part[0]))
+            tail = part[1:]
+            worst = max(worst, math.sqrt(float(tail @ tail)) - float(part[0]))
     return worst
+
+
+def _csc(M: np.ndarray):
+    """The CSC matrix of the dense M's nonzero entries (as ``scipy.sparse.csc_matrix(M)``,
+    the same entries and pattern, built directly: the generic conversion cost more than
+    the small programs' solves)."""
+    import scipy.sparse as sp
+
+    M = np.asarray(M, dtype=float)
+    cols, rows = np.nonzero(M.T)  # column by column, rows ascending
+    indptr = np.zeros(M.shape[1] + 1, dtype=np.int32)
+    np.cumsum(np.bincount(cols, minlength=M.shape[1]), out=indptr[1:])
+    return sp.csc_matrix((M[rows, cols], rows.astype(np.int32), indptr), shape=M.shape)
 
 
 def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray, cones,
@@ -386,15 +401,13 @@ def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray,
     (evaluated here, not taken from the solver): s = b - A x and the multipliers z in their
     (self-dual) cones, P x + q + A'z = 0 and s'z = 0."""
     import clarabel
-    import scipy.sparse as sp
 
     settings = clarabel.DefaultSettings()
     settings.verbose = False
     settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-11
     kinds = {"nn": clarabel.NonnegativeConeT, "soc": clarabel.SecondOrderConeT}
-    solver = clarabel.DefaultSolver(sp.triu(sp.csc_matrix(P), format="csc"), q,
-                                    sp.csc_matrix(A), b, [kinds[k](n) for k, n in cones],
-                                    settings)
+    solver = clarabel.DefaultSolver(_csc(np.triu(P)), q, _csc(A), b,
+                                    [kinds[k](n) for k, n in cones], settings)
     sol = solver.solve()
     status = str(sol.status)
     if status not in ("Solved", "AlmostSolved"):

@@ -18,9 +18,9 @@ from typing import Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from .canonical import CanonicalEquations, HeldMode, Row
+from .canonical import CanonicalEquations, HeldMode, Row, _cho_solve, _cholesky
 from .contact_forces import (OPEN, SLIP, STICK, ContactForceProblem, max_margin_distribution)
-from .force_distribution import _smallest_margin
+
 
 #: relative slack below which a margin counts as violated (a mode on the cone's boundary, e.g.
 #: a box on an incline with mu = tan(slope) exactly, keeps sticking)
@@ -100,14 +100,24 @@ def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[R
                    jac: Mapping[str, np.ndarray]) -> frozenset:
     """Rows to leave out so that the constraints are independent: loops first, then normal
     rows, then tangential rows, each kept when it raises the rank of C M^-1 C^T."""
-    cho = sla.cho_factor(M, lower=True)
+    M = np.asarray(M, float)
+    L = _cholesky(M)
+    if L is None:
+        sla.cho_factor(M, lower=True)  # raises scipy's error, as before
+        raise np.linalg.LinAlgError("the mass matrix is not positive definite")
     kept = [] if loop_rows is None else [r for r in np.atleast_2d(loop_rows)]
-    order = sorted(rows, key=lambda r: (r[1] > 0, rows.index(r)))
+    position: dict = {}
+    for i, r in enumerate(rows):
+        position.setdefault(r, i)
+    order = sorted(rows, key=lambda r: (r[1] > 0, position[r]))
     dropped = []
-    scale = max(float(np.max(np.abs(sla.cho_solve(cho, np.eye(len(M)))))), 1e-300)
+    scale = max(float(np.max(np.abs(_cho_solve(L, np.eye(len(M)))))), 1e-300)
     for c, j in order:
+        if len(kept) >= len(M):  # as many independent rows as coordinates: the rest depend
+            dropped.append((c, j))
+            continue
         trial = np.array(kept + [jac[c][j]])
-        S = trial @ sla.cho_solve(cho, trial.T)
+        S = trial @ _cho_solve(L, trial.T)
         smin = float(np.linalg.eigvalsh(0.5 * (S + S.T))[0])
         norm = float(np.sum(jac[c][j] ** 2)) * scale
         if smin > RANK_RTOL * max(norm, 1e-300):
@@ -137,42 +147,131 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     program runs (and refreshes the hint). The forces returned are then that stand-in's.
     """
     forces = eq.contact_forces(t, y)
+    if hint is not None:  # whether the forces returned are the exact ones (no stand-in)
+        hint["exact"] = True
     if not eq.held:
         return forces, np.inf
     d = max(len(v) for v in forces.values())
     mu = np.array([eq.modes[c].mu for c in eq.held])
     combo = [STICK if eq.modes[c].kind == "stick" else SLIP for c in eq.held]
-    lam0 = np.concatenate([np.r_[forces[c], np.zeros(d - len(forces[c]))] for c in eq.held])
+    lam0 = np.zeros(len(eq.held) * d)
+    for i, c in enumerate(eq.held):
+        lam0[i * d:i * d + len(forces[c])] = forces[c]
     fscale = max(float(np.max(np.abs(lam0))), 1e-300)
+    smallest = _margins(mu, d, combo)
     if eq.dropped:
-        Z = _indeterminate(eq, y, d)
-        if Z.shape[1]:
-            Q = np.linalg.qr(Z)[0]
-            lam = lam0 - Q @ (Q.T @ lam0)  # the least-norm distribution
-            if _smallest_margin(mu, d, combo, lam) <= MARGIN_SLACK * fscale:
+        # P: the projection onto the forces' determinate part (the complement of the
+        # indeterminate directions Z): without forming Z where that is cheap
+        # (_determinate_part), else P = I - Q Q^T with Q an orthonormal basis of Z.
+        # lam0 - (I - P) lam0 = P lam0 is the least-norm distribution.
+        cheap = _determinate_part(eq, y, d)
+        Z = None
+        if cheap is not None:
+            project, null = cheap
+        else:
+            Z = _indeterminate(eq, y, d)
+            null = Z.shape[1] > 0
+            if null:
+                Q = np.linalg.qr(Z)[0]
+
+                def project(v):
+                    return v - Q @ (Q.T @ v)
+        if null:
+            lam = project(lam0)  # the least-norm distribution
+            if smallest(lam) <= MARGIN_SLACK * fscale:
                 prev = None if hint is None else hint.get("lam")
                 if prev is not None and prev.shape == lam0.shape:
-                    lam = lam0 + Q @ (Q.T @ (prev - lam0))
+                    lam = prev - project(prev - lam0)
                 if prev is None or prev.shape != lam0.shape or (
-                        _smallest_margin(mu, d, combo, lam) <= HINT_MARGIN * fscale):
+                        smallest(lam) <= HINT_MARGIN * fscale):
+                    if Z is None:
+                        Z = _indeterminate(eq, y, d)
                     lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
                     if hint is not None:
                         hint["lam"] = lam
+                elif hint is not None:
+                    hint["exact"] = False
             forces = {c: lam[i * d:i * d + len(forces[c])] for i, c in enumerate(eq.held)}
-    margins = []
-    for i, c in enumerate(eq.held):
-        lam = forces[c]
-        if combo[i] == STICK and mu[i] > 0.0:
-            margins.append(mu[i] * lam[0] - float(np.linalg.norm(lam[1:])))
-        margins.append(lam[0])
-    return forces, min(margins) / fscale
+            lam0 = lam
+    return forces, smallest(lam0) / fscale
+
+
+def _margins(mu: np.ndarray, d: int, combo):
+    """lam (n d,) -> its smallest margin: lambda_n of every contact, mu lambda_n - |lambda_t|
+    of the sticking ones with friction (:func:`~.force_distribution._smallest_margin`,
+    vectorized)."""
+    cone = np.array([kind == STICK for kind in combo]) & (mu > 0.0)
+    any_cone = bool(cone.any())
+    mu_c = mu[cone]
+
+    def smallest(lam: np.ndarray) -> float:
+        F = lam.reshape(-1, d)
+        margin = float(np.min(F[:, 0]))
+        if any_cone:
+            T = F[cone, 1:]
+            tangential = np.sqrt(np.einsum("ij,ij->i", T, T))
+            margin = min(margin, float(np.min(mu_c * F[cone, 0] - tangential)))
+        return margin
+    return smallest
+
+
+def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
+    """The projection onto the held forces' determinate part (the orthogonal complement of
+    :func:`_indeterminate`'s directions, same rank rule) without forming them, where that is
+    cheap: no loops, every contact of d rows, and either all sticking (the unknowns are the
+    forces: the complement is spanned by the thin SVD's rows R of B, P = R^T R) or all
+    sliding with one mu (each unknown, a normal force, enters its contact's block along
+    (1, -mu s), of one norm for all: with T those unit columns, P = I - T (I - R^T R) T^T).
+    Returns (v -> P v, whether there are indeterminate directions), or None (then
+    :func:`_indeterminate` and a QR)."""
+    if eq.n_loops:
+        return None
+    kinds = {eq.modes[c].kind for c in eq.held}
+    if kinds != {"stick"} and kinds != {"slip"}:
+        return None
+    theta = y[:eq.k]
+    jac = eq.contact_jacobians(theta)
+    if any(len(jac[c]) != d for c in eq.held):
+        return None
+    n = len(eq.held)
+    if kinds == {"stick"}:
+        B = np.vstack([jac[c] for c in eq.held]).T  # (k, n d): the unknowns in order
+        T = None
+    else:
+        mus = {eq.modes[c].mu for c in eq.held}
+        if len(mus) != 1:
+            return None
+        mu = mus.pop()
+        dtheta, _ = eq.theta_dot(theta, y[eq.k:])
+        S = np.array([eq.slip_direction(c, jac[c], dtheta) if mu > 0 else np.zeros(d - 1)
+                      for c in eq.held]).reshape(n, d - 1)
+        Jn = np.array([jac[c][0] for c in eq.held])  # (n, k)
+        Jt = np.array([jac[c][1:] for c in eq.held])  # (n, d - 1, k)
+        B = (Jn - mu * np.einsum("ijk,ij->ik", Jt, S)).T
+        cols = np.hstack([np.ones((n, 1)), -mu * S])  # (n, d): each unknown's block
+        norms = np.sqrt(np.einsum("ij,ij->i", cols, cols))
+        if np.max(norms) - np.min(norms) > 1e-12 * np.max(norms):
+            return None  # unit slip directions of unequal length: the general path
+        T = cols / norms[:, None]
+    _, sv, Vt = np.linalg.svd(B, full_matrices=False)
+    rank = int(np.sum(sv > 1e-8 * sv[0])) if sv.size else 0
+    R = Vt[:rank]
+    null = rank < B.shape[1]  # indeterminate directions exist
+    if T is None:
+        return (lambda v: R.T @ (R @ v)), null
+
+    def project(v):
+        u = np.einsum("ij,ij->i", T, v.reshape(n, d))  # T^T v
+        w = u - R.T @ (R @ u)  # its indeterminate part
+        return v - (T * w[:, None]).ravel()
+    return project, null
 
 
 def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
     """A basis of the held forces (n d,) that produce no generalized force (redundancy)."""
     k = eq.k
     theta = y[:k]
-    dtheta, _, _ = eq.velocities(theta, y[k:])
+    dtheta, _ = eq.theta_dot(theta, y[k:])
     jac = eq.contact_jacobians(theta)
     cols, index = [], []
     for i, c in enumerate(eq.held):
@@ -196,9 +295,10 @@ def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
     rank = int(np.sum(sv > 1e-8 * sv[0])) if sv.size else 0
     N = Vt[rank:].T[:len(cols)]  # null directions restricted to the contact unknowns
     Z = np.zeros((len(eq.held) * d, N.shape[1]))
-    for u, entries in enumerate(index):
-        for row, coef in entries:
-            Z[row] += coef * N[u]
+    rows = [row for entries in index for row, _ in entries]  # each force row once
+    units = [u for u, entries in enumerate(index) for _ in entries]
+    coefs = np.array([coef for entries in index for _, coef in entries])
+    Z[rows] = coefs[:, None] * N[units]
     return Z
 
 
@@ -207,6 +307,9 @@ def painleve_indicator(eq: CanonicalEquations, t: float, y: np.ndarray) -> float
     through zero where the sliding contacts' force system turns singular (Painleve)."""
     if not eq.slipping:
         return 1.0
+    got = eq._compiled_terms(t, y)
+    if got is not None:
+        return got[2]
     k = eq.k
     theta = y[:k]
     dtheta, _, F = eq.velocities(theta, y[k:])

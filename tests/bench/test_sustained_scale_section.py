@@ -56,3 +56,24 @@ def test_stops_agree_with_the_enumerator_on_the_quick_tables():
     assert all(r["ours_time"] > 0 for r in records)
     rest = {r["contacts"]: r for r in records if r["scene"] == "table-rest"}
     assert all(set(r["ours_modes"]) == {"stick"} for r in rest.values())
+
+
+def test_aggregate_reports_wall_and_cpu_ratios_per_contact_count():
+    """Hand-made records: the ratios ours / MuJoCo are those of the given times, wall and
+    CPU apart, and the summary quotes both."""
+    from convimpact.bench.sustained_scale_section import aggregate, summary_lines
+
+    def rec(scheme, n, wall, cpu):
+        return {"part": "simulation", "scene": "table-slide", "contacts": n, "scheme": scheme,
+                "wall_per_second": wall, "cpu_per_second": cpu, "penetration": 0.0}
+
+    stops = [{"part": "stop", "scene": f"table-{k}", "contacts": n, "ours_time": 1e-3 * n,
+              "enumerator_time": None, "agree": None} for k in ("rest", "slide") for n in (4, 8)]
+    records = stops + [rec("event-driven", 4, 0.04, 0.02), rec("mujoco", 4, 0.002, 0.0025),
+                       rec("event-driven", 8, 0.06, 0.03), rec("mujoco", 8, 0.004, 0.005)]
+    agg = aggregate(records)["table-slide"]
+    assert agg["ratio_ours_over_mujoco"] == pytest.approx({4: 20.0, 8: 15.0}, rel=1e-12)
+    assert agg["ratio_ours_over_mujoco_cpu"] == pytest.approx({4: 8.0, 8: 6.0}, rel=1e-12)
+    lines = summary_lines(aggregate(records))
+    assert any("4: 20.0x, 8: 15.0x" in line for line in lines)
+    assert any("CPU time" in line and "4: 8.0x, 8: 6.0x" in line for line in lines)
