@@ -63,11 +63,16 @@ def simulation_chart(records: list[dict[str, Any]], out: Path) -> str:
             if kind == "slide":
                 bx.loglog(n, [max(r["distance_error"], 1e-16) for r in rs], marker="o",
                           color=COLORS[scheme], label=name)
+        who = "ours" if scheme == "event-driven" else "MuJoCo"
         for r in sims:
             if r["scene"] == "box_stack" and r["scheme"] == scheme:
                 ax.loglog([r["contacts"]], [r["wall_per_second"]], marker="*", ms=13, ls="",
-                          color=COLORS[scheme], label=f"{'ours' if scheme == 'event-driven' else 'MuJoCo'}, "
-                          f"box stack (tip time error {r['tip_time_error']:.1e})")
+                          color=COLORS[scheme], label=f"{who}, box stack (tip time error "
+                          f"{r['tip_time_error']:.1e})")
+            if r["scene"] == "humanoid_push" and r["scheme"] == scheme:
+                ax.loglog([r["contacts"]], [r["wall_per_second"]], marker="P", ms=11, ls="",
+                          color=COLORS[scheme], label=f"{who}, humanoid pushed "
+                          f"(penetration {r['penetration']:.1e} m)")
     ax.set_xlabel("contacts")
     ax.set_ylabel("wall seconds per simulated second")
     ax.set_title("simulation cost against the number of contacts (dashed: at rest)")
@@ -85,8 +90,9 @@ def simulation_chart(records: list[dict[str, Any]], out: Path) -> str:
 def _ratio_panel(ax, sims: list[dict[str, Any]]) -> None:
     """Ours / MuJoCo per simulated second against the contacts, wall and CPU time, with
     the 10x target."""
-    for kind, marker in (("rest", "o"), ("slide", "s"), ("box_stack", "*")):
-        scene = kind if kind == "box_stack" else f"table-{kind}"
+    for kind, marker in (("rest", "o"), ("slide", "s"), ("box_stack", "*"),
+                         ("humanoid_push", "P")):
+        scene = f"table-{kind}" if kind in ("rest", "slide") else kind
         ours = {r["contacts"]: r for r in sims if r["scene"] == scene
                 and r["scheme"] == "event-driven"}
         mj = {r["contacts"]: r for r in sims if r["scene"] == scene and r["scheme"] == "mujoco"}
@@ -98,7 +104,7 @@ def _ratio_panel(ax, sims: list[dict[str, Any]]) -> None:
             if not all(ours[c].get(key) and mj[c].get(key) for c in n):
                 continue
             ax.loglog(n, [ours[c][key] / mj[c][key] for c in n], style, marker=marker,
-                      ms=10 if marker == "*" else 6, color=COLORS["event-driven"]
+                      ms=6 if marker in "os" else 10, color=COLORS["event-driven"]
                       if what == "wall" else "tab:green",
                       label=f"{scene}, {what} time")
     ax.axhline(10.0, color="tab:red", lw=1, ls="--", label="10x (target)")

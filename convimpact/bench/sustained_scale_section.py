@@ -20,6 +20,12 @@ and the cost of one stop's contact force problem against the enumerator it repla
    the median of ``repeat`` runs of the scene (ours: fewer once :data:`RUN_BUDGET` seconds
    are spent; after one untimed run of another scene, which warms the caches); MuJoCo's
    rollouts after a 10-step warm-up.
+3. **A humanoid pushed** (full run, with the ``robots`` extra): ``humanoid_push`` (TALOS on
+   its 8 sole corners) ours once against MuJoCo on the same 18 coordinates
+   (:mod:`.humanoid_peer`: the MJCF written from our reduced Pinocchio model, PD as MuJoCo's
+   joint springs and dampers): time per simulated second, the soles' penetration, and how far
+   the push carries the base (sideways displacement, roll, sole slip), computed with our
+   model on both runs' states.
 
 The growth with the number of contacts is the least-squares slope of log time against log
 contacts, per series.
@@ -203,7 +209,32 @@ def measure_simulations(config: BenchConfig, progress: Progress,
         records.append(mj)
         line += f", MuJoCo {mj['wall_per_second']:.4f} s/s"
     progress(line)
+    if mujoco and not config.quick:
+        records += _humanoid(config, progress)
     return records
+
+
+#: what the humanoid's two runs are compared on (:func:`.humanoid_peer.observables`)
+HUMANOID_OBSERVABLES = {"base_y_end": "base y at the end [m]", "max_roll": "largest roll [rad]",
+                        "sole_slip": "sole slip [m]",
+                        "energy_rise_before_push": "energy rise before the push [J]"}
+
+
+def _humanoid(config: BenchConfig, progress: Progress) -> list[dict[str, Any]]:
+    """TALOS pushed (:mod:`.humanoid_peer`), when Pinocchio and example-robot-data are
+    installed (the ``robots`` extra); nothing otherwise."""
+    from ..model.pinocchio_robots import RobotDataUnavailableError
+    from . import humanoid_peer
+
+    try:
+        recs = humanoid_peer.humanoid_records(config.repeat)
+    except (ImportError, RobotDataUnavailableError) as exc:
+        progress(f"sustained-scale simulate: humanoid_push skipped ({exc})")
+        return []
+    ours, mj = recs
+    progress(f"sustained-scale simulate: humanoid_push: ours {ours['wall_per_second']:.3f} "
+             f"s/s, MuJoCo {mj['wall_per_second']:.4f} s/s")
+    return recs
 
 
 def growth(records: list[dict[str, Any]], key: str) -> float | None:
@@ -246,6 +277,10 @@ def aggregate(records: list[dict[str, Any]]) -> dict[str, Any]:
             "worst_penetration": {"ours": max(r["penetration"] for r in ours.values()),
                                   "mujoco": max((r["penetration"] for r in mj.values()),
                                                 default=None)}}
+        if scene == "humanoid_push":
+            out[scene]["observables"] = {
+                s: {k: d[8][k] for k in HUMANOID_OBSERVABLES if k in d.get(8, {})}
+                for s, d in (("ours", ours), ("mujoco", mj))}
         for key in ("stop_time_error", "distance_error", "energy_lost_error",
                     "tip_time_error", "energy_drift"):
             vals = {s: max((r[key] for r in d.values() if r.get(key) is not None),
@@ -266,7 +301,7 @@ def summary_lines(agg: dict[str, Any]) -> list[str]:
             f"over {min(ours)}-{max(ours)} legs (growth n^{a['ours_growth']:.2f}); enumerator "
             + ", ".join(f"{n} legs {t:.2f} s" for n, t in enum.items())
             + ("; answers agree" if a["agree"] else "; ANSWERS DIFFER"))
-    for scene in ("table-rest", "table-slide", "box_stack"):
+    for scene in ("table-rest", "table-slide", "box_stack", "humanoid_push"):
         if scene not in agg:
             continue
         a = agg[scene]
@@ -281,6 +316,11 @@ def summary_lines(agg: dict[str, Any]) -> list[str]:
             if cpu:
                 lines.append("  in CPU time (the process's, robust to a loaded machine): "
                              + ", ".join(f"{n}: {r:.1f}x" for n, r in sorted(cpu.items())))
+        obs = a.get("observables")
+        if obs and obs.get("ours") and obs.get("mujoco"):
+            lines.append("  " + "; ".join(
+                f"{label}: ours {obs['ours'][k]:.2g}, MuJoCo {obs['mujoco'][k]:.2g}"
+                for k, label in HUMANOID_OBSERVABLES.items()))
         for key, label in (("worst_stop_time_error", "stop time error"),
                            ("worst_distance_error", "distance error"),
                            ("worst_tip_time_error", "tip time error"),
@@ -293,7 +333,8 @@ def summary_lines(agg: dict[str, Any]) -> list[str]:
 
 
 @register_section("sustained-scale", "event-driven many-contact scenes (tables on 3-48 legs, "
-                                     "a box stack) against MuJoCo, and one stop's force problem "
+                                     "a box stack, a humanoid pushed) against MuJoCo, and one "
+                                     "stop's force problem "
                                      "against the mode enumerator")
 def sustained_scale_section(config: BenchConfig, progress: Progress) -> SectionResult:
     from .mujoco_peers import mujoco_version
