@@ -1,0 +1,323 @@
+"""Compiled stages of a Moreau–Jean step (:mod:`.moreau_loop`), allocation-free.
+
+* :func:`predict_model`: the predictor of a step on a model of :mod:`convimpact.model`
+  without loops or applied forces, in one call: the intermediate configuration, M, the
+  contacts' gaps and Jacobians (the model's compiled pass,
+  :func:`convimpact.model.recursive.evaluate`, on its work buffer), the inverse mass block by
+  block (:func:`.moreau_kernels.block_inverses`), the smooth forces at t_m (twice for
+  theta < 1), the free velocity and the active contacts' rows (:func:`contact_rows_into`);
+* :func:`contact_rows_into`: the active set by gap prediction and the contact problem's
+  ``b`` with Newton's restitution, into preallocated buffers;
+* :func:`solve_small_islands`: every small island's Delassus ``W = J_I G_II J_I^T`` and its
+  certified solve (warm-started Newton on the law's natural map, else the engine's compiled
+  kernels), as :func:`.moreau_kernels.solve_islands` does for one island;
+* :func:`apply_impulses`: ``v_{k+1} = v_free + G J^T r`` and the warm start of the next
+  step;
+* :func:`advance`: ``q_{k+1} = q_m + h theta v_{k+1}`` into the recorded rows;
+* :func:`model_series`: the recorded run's momenta, energies and smallest gap, sample by
+  sample, on the model's compiled pass.
+
+Status codes of :func:`predict_model`: :data:`OK`, :data:`REGROUP` (M has a nonzero outside
+the cached coordinate groups: regroup and call again), :data:`NOT_DEFINITE` (a block of M is
+not positive definite), :data:`NOT_FINITE` (M is not finite) and the model's own error bits
+shifted by :data:`EVAL_SHIFT` (the caller re-runs the evaluation through the model's Python
+entry, which raises its typed error).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..compiled import jit as _jit
+from ..model.recursive import BIAS, CONTACT, HAS_V, MASS, evaluate
+from .moreau_kernels import _warm, block_inverses, natural_map_residual
+from ..impact.contacts.newton import ccp_kernel, coulomb_kernel
+
+OK, REGROUP, NOT_DEFINITE, NOT_FINITE = 0, 1, 2, 3
+EVAL_SHIFT = 8
+#: the model's error bits (non-finite or wrongly shaped state)
+_EVAL_ERRORS = 1 | 2 | 32 | 64
+#: a contact whose predicted end-of-step gap is at most gap_tol + this (times max(1, max|q|))
+#: takes part: round-off of the configuration, not an opening
+GAP_ROUNDOFF = 1e-12
+_POSITIONS = MASS | CONTACT
+_FORCES = BIAS | HAS_V
+
+
+@_jit
+def contact_rows_into(gaps, J, v, v_free, e, h_theta, limit, rest_velocity, active, Ja, b,
+                      vn_k):
+    """The step's active contacts and their data, into the buffers; returns their number.
+
+    A contact is active when ``gaps[c] + h_theta J_n v_free <= limit``. Fills ``active``
+    (indices), ``Ja`` (their Jacobian rows), ``b = J v_free`` with Newton's restitution
+    ``e_eff min(v_n,free, 0)`` added to the normal (``e_eff = min(e v_n,k / v_n,free, 1)``
+    on contacts approaching at the step's start, ``v_n,k < -rest_velocity`` and
+    ``v_n,free < 0``; 0 otherwise) and ``vn_k``, the normal velocities at the start.
+    """
+    nc, d, k = J.shape
+    i = 0
+    for c in range(nc):
+        vnf = 0.0
+        for a in range(k):
+            vnf += J[c, 0, a] * v_free[a]
+        if not (gaps[c] + h_theta * vnf <= limit):
+            continue
+        active[i] = c
+        for r in range(d):
+            s = 0.0
+            for a in range(k):
+                Ja[i, r, a] = J[c, r, a]
+                s += J[c, r, a] * v_free[a]
+            b[i, r] = s
+        s = 0.0
+        for a in range(k):
+            s += J[c, 0, a] * v[a]
+        vn_k[i] = s
+        if s < -rest_velocity and vnf < 0.0:
+            b[i, 0] += min(e[c] * s / vnf, 1.0) * vnf
+        i += 1
+    return i
+
+
+@_jit
+def _times(A, x, out):
+    k = x.shape[0]
+    for i in range(k):
+        s = 0.0
+        for j in range(k):
+            s += A[i, j] * x[j]
+        out[i] = s
+
+
+@_jit
+def predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, theta, gflat, gsize, goff, inside,
+                  Minv, qm, vtmp, vfree, e, gap_tol, rest_velocity, active, Ja, b, vn_k):
+    """The predictor of a step (module docstring) from ``(q, v)`` with step ``hk``.
+
+    ``Mv, gapv, Jv, biasv``: the model's views of M, the gaps, the contact Jacobians
+    (n_contacts, d, k) and f in ``work``. The coordinate groups: blocks of size
+    ``gsize[s]`` with flat indices ``gflat[goff[s]:goff[s + 1]]`` into M; ``inside`` (k k)
+    marks their entries. Writes ``Minv``, ``qm``, ``vfree`` and the active rows; returns
+    ``(status, n_active)``.
+    """
+    k = q.shape[0]
+    c1 = hk * (1.0 - theta)
+    for i in range(k):
+        qm[i] = q[i] + c1 * v[i]
+    code = evaluate(_POSITIONS, qm, qm, work)
+    if code & _EVAL_ERRORS:
+        return code << EVAL_SHIFT, 0
+    nz = 0
+    nzi = 0
+    for i in range(k):
+        for j in range(k):
+            x = Mv[i, j]
+            if not math.isfinite(x):
+                return NOT_FINITE, 0
+            if x != 0.0:
+                nz += 1
+                if inside[i * k + j]:
+                    nzi += 1
+    if nz != nzi:
+        return REGROUP, 0
+    Mflat = Mv.reshape(-1)
+    Iflat = Minv.reshape(-1)
+    for s in range(gsize.shape[0]):
+        if not block_inverses(Mflat, gflat[goff[s]:goff[s + 1]], gsize[s], Iflat):
+            return NOT_DEFINITE, 0
+    code = evaluate(_FORCES, qm, v, work)
+    if code & _EVAL_ERRORS:
+        return code << EVAL_SHIFT, 0
+    if theta < 1.0:
+        _times(Minv, biasv, vfree)
+        for i in range(k):
+            vtmp[i] = v[i] + c1 * vfree[i]
+        code = evaluate(_FORCES, qm, vtmp, work)
+        if code & _EVAL_ERRORS:
+            return code << EVAL_SHIFT, 0
+    _times(Minv, biasv, vfree)
+    for i in range(k):
+        vfree[i] = v[i] + hk * vfree[i]
+    qmax = 1.0
+    for i in range(k):
+        qmax = max(qmax, abs(qm[i]))
+    na = contact_rows_into(gapv, Jv, v, vfree, e, hk * theta,
+                           gap_tol + GAP_ROUNDOFF * qmax, rest_velocity, active, Ja, b, vn_k)
+    return OK, na
+
+
+@_jit
+def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d, coulomb,
+                        tol, max_iter, newton_iter, last, use_start, r, res, used):
+    """Solve the small islands of a step: island i has the active contacts
+    ``icon[icoff[i]:icoff[i + 1]]`` (indices into ``Ja``, ``b``, ``active``) and the
+    coordinates ``icol[icoloff[i]:icoloff[i + 1]]``; its W is assembled as
+    :func:`.moreau_kernels.assemble_islands` does. With ``use_start`` and a nonzero previous
+    impulse (``last[active[c]]``) on the island, Newton on the law's natural map from there
+    first, kept when certified; else the engine's compiled kernel. Writes the impulses into
+    ``r`` (n_active, d), the residuals into ``res`` and the warm starts kept into ``used``;
+    returns the iterations."""
+    n_isl = icoff.shape[0] - 1
+    total = 0
+    for i in range(n_isl):
+        c0, c1 = icoff[i], icoff[i + 1]
+        k0, k1 = icoloff[i], icoloff[i + 1]
+        nc = c1 - c0
+        nk = k1 - k0
+        N = nc * d
+        JI = np.empty((N, nk))
+        X = np.empty((N, nk))
+        for c in range(nc):
+            for rr in range(d):
+                for a in range(nk):
+                    JI[c * d + rr, a] = Ja[icon[c0 + c], rr, icol[k0 + a]]
+        for p in range(N):
+            for a in range(nk):
+                s = 0.0
+                for q in range(nk):
+                    s += JI[p, q] * G[icol[k0 + q], icol[k0 + a]]
+                X[p, a] = s
+        W = np.empty((N, N))
+        for p in range(N):
+            for q in range(p + 1):
+                s = 0.0
+                for a in range(nk):
+                    s += X[p, a] * JI[q, a]
+                W[p, q] = s
+                W[q, p] = s
+        bi = np.empty(N)
+        mi = np.empty(nc)
+        start = np.empty(N)
+        warm = False
+        for c in range(nc):
+            ca = icon[c0 + c]
+            mi[c] = mu_all[active[ca]]
+            for rr in range(d):
+                bi[c * d + rr] = b[ca, rr]
+                s0 = last[active[ca], rr] if use_start else 0.0
+                start[c * d + rr] = s0
+                if s0 != 0.0:
+                    warm = True
+        used[i] = False
+        done = False
+        x = start
+        if warm:
+            x, steps = _warm(W, bi, mi, d, start, coulomb, newton_iter)
+            total += steps
+            rr_ = natural_map_residual(W, bi, mi, d, x, coulomb)
+            if rr_ <= tol:
+                used[i] = True
+                res[i] = rr_
+                done = True
+        if not done:
+            if coulomb:
+                x, status, it, steps, g1, g2 = coulomb_kernel(W, bi, mi, d, 1e-9, max_iter,
+                                                              newton_iter)
+            else:
+                x, status, it, steps, g1, g2 = ccp_kernel(W, bi, mi, d, 1e-9, max_iter,
+                                                          newton_iter)
+            total += it + steps
+            res[i] = natural_map_residual(W, bi, mi, d, x, coulomb)
+        for c in range(nc):
+            for rr in range(d):
+                r[icon[c0 + c], rr] = x[c * d + rr]
+    return total
+
+
+@_jit
+def apply_impulses(Ja, r, G, v_free, v_new, gen, last, active, vn_k, rest_velocity):
+    """``gen = J^T r``, ``v_new = v_free + G gen``, ``last`` the impulses of every contact
+    (zero where inactive); returns the number of contacts approaching at the step's start
+    (``v_n,k < -rest_velocity``) that received a normal impulse."""
+    na, d, k = Ja.shape
+    for a in range(k):
+        gen[a] = 0.0
+    for c in range(na):
+        for rr in range(d):
+            x = r[c, rr]
+            for a in range(k):
+                gen[a] += Ja[c, rr, a] * x
+    for i in range(k):
+        s = 0.0
+        for j in range(k):
+            s += G[i, j] * gen[j]
+        v_new[i] = v_free[i] + s
+    last[:, :] = 0.0
+    hits = 0
+    for c in range(na):
+        for rr in range(d):
+            last[active[c], rr] = r[c, rr]
+        if vn_k[c] < -rest_velocity and r[c, 0] > 0.0:
+            hits += 1
+    return hits
+
+
+@_jit
+def advance(qm, v_new, h_theta, q_out, v_out):
+    """``q_out = qm + h_theta v_new``, ``v_out = v_new``; False when either is not finite."""
+    ok = True
+    for i in range(qm.shape[0]):
+        x = qm[i] + h_theta * v_new[i]
+        q_out[i] = x
+        v_out[i] = v_new[i]
+        if not (math.isfinite(x) and math.isfinite(v_new[i])):
+            ok = False
+    return ok
+
+
+@_jit
+def model_series(work, Mv, gapv, pos3, rot3, body_mass, body_com, gravity, thetas, dthetas,
+                 p, T, V):
+    """Per recorded sample: ``p = M v``, ``T = v M v / 2``, the gravitational potential
+    ``V = -sum_b m_b g . c_b`` and the smallest gap (returned, +inf without contacts)."""
+    n, k = thetas.shape
+    nb = body_mass.shape[0]
+    gmin = np.inf
+    q = np.empty(k)
+    for s in range(n):
+        for i in range(k):
+            q[i] = thetas[s, i]
+        evaluate(_POSITIONS, q, q, work)
+        t = 0.0
+        for i in range(k):
+            x = 0.0
+            for j in range(k):
+                x += Mv[i, j] * dthetas[s, j]
+            p[s, i] = x
+            t += dthetas[s, i] * x
+        T[s] = 0.5 * t
+        e = 0.0
+        for bb in range(nb):
+            for a in range(3):
+                c = pos3[bb, a]
+                for j in range(3):
+                    c += rot3[bb, a, j] * body_com[bb, j]
+                e -= body_mass[bb] * gravity[a] * c
+        V[s] = e
+        for c in range(gapv.shape[0]):
+            gmin = min(gmin, gapv[c])
+    return gmin
+
+
+@_jit
+def same_pattern(Ja, active, key_active, key_moves):
+    """True when the active contacts are ``key_active`` and the columns their rows move
+    (nonzero entries, ``key_moves`` (n_active, k)) are those of the key."""
+    na, d, k = Ja.shape
+    if key_active.shape[0] != na:
+        return False
+    for c in range(na):
+        if active[c] != key_active[c]:
+            return False
+        for a in range(k):
+            moves = False
+            for r in range(d):
+                if Ja[c, r, a] != 0.0:
+                    moves = True
+                    break
+            if moves != key_moves[c, a]:
+                return False
+    return True
