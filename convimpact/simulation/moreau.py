@@ -13,7 +13,9 @@ of size h from (q_k, v_k) at t_k:
 3. free-flight velocity: ``v_free = v_k + h M^-1 f``, M-orthogonally projected onto
    ``C(q_m) v = 0`` for closed loops (the loop impulse of the step);
 4. active set by gap prediction: a contact takes part when its gap predicted at the end of the
-   step with the free velocity closes, ``g(q_m) + h theta c_n(q_m)^T v_free <= gap_tol``;
+   step with the free velocity closes, ``g(q_m) + h theta c_n(q_m)^T v_free <= gap_tol``
+   up to the positions' round-off (``1e-12 max(1, max |q_m|)``: a resting contact's
+   predicted gap is 0 up to that, which must not switch it off);
 5. the contact impulse of the active contacts comes from :func:`convimpact.resolve_impact`
    with the step's matrices (its Delassus ``W = Jc G Jc^T`` with G the loop-constrained inverse
    of ``M(q_m)``, so ``C v_{k+1} = 0`` holds), the chosen ``law`` and ``method``, applied to the
@@ -27,18 +29,24 @@ of size h from (q_k, v_k) at t_k:
    it restitutes the slip of the free velocity, which is the slip at t_k when no smooth
    force acts along the contact's tangent during the step (a ball on a level floor);
    **Laws "ccp" and "coulomb" under method "auto" or "interior"** take the contact engine
-   instead (:mod:`.moreau_loop`, :mod:`.moreau_engine`): the step's problem
-   ``u = J v_{k+1} = W r + b``, ``W = J G J^T``, built in the block structure of M (batched
-   factorizations of the coordinate groups), split into independent islands
-   (:mod:`.islands`), warm-started from the previous step's impulses, solved by the engine's
-   compiled kernels in one call for the small islands and by
-   :func:`convimpact.impact.contacts.engine.solve` for the large ones, each island certified
-   by its natural-map residual (``impact_options["tol"]``, default 1e-8) or
+   instead (:mod:`.moreau_engine`): the step's problem ``u = J v_{k+1} = W r + b``,
+   ``W = J G J^T``, built in the block structure of M (batched factorizations of the
+   coordinate groups), split into independent islands (:mod:`.islands`), warm-started from
+   the previous step's impulses, solved by the engine's compiled kernels in one call for
+   the small islands and by :func:`convimpact.impact.contacts.engine.solve` for the large
+   ones, each island certified by its natural-map residual (``impact_options["tol"]``,
+   default 1e-8) or
    :class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` naming the
    step and the contacts;
 6. ``q_{k+1} = q_m + h theta v_{k+1}``; for closed loops theta is projected back onto
    ``Psi = 0`` (M-weighted, when the drift exceeds ``projection_tol``) and ``v_{k+1}`` onto
    ``C(q_{k+1}) v = 0``.
+
+Every law runs through one step loop (:mod:`.moreau_loop`): a predictor (steps 1-4; one
+compiled call per step on the models of :mod:`convimpact.model` without loops or applied
+forces) and a per-step solver (step 5: :class:`.moreau_engine.EngineSolver` or
+:class:`.moreau_impact.ImpactSolver`); the loop stores the raw states and computes momenta,
+energies, loop drifts and penetrations from them once, at the end of the run.
 
 Known artefacts (measured by the bench section ``simulation`` and the failure atlas):
 

@@ -1,40 +1,45 @@
 """The contact problem of a Moreau–Jean step on the contact engine, island by island.
 
-Used by :func:`convimpact.simulation.moreau.simulate_moreau` for the laws ``"ccp"`` and
-``"coulomb"`` (under ``method`` "auto" or "interior"). Per step, at the intermediate
-configuration ``q_m``:
+The step solver (:class:`EngineSolver`) of :func:`convimpact.simulation.moreau.simulate_moreau`
+for the laws ``"ccp"`` and ``"coulomb"`` (under ``method`` "auto" or "interior"), and what
+the step loop's predictors share (:mod:`.moreau_loop`): :class:`Evaluator` (M, gaps and
+contact Jacobians at a configuration) and the inverse mass of a step.
 
-1. one evaluation of M, every contact's gap and Jacobian (one compiled pass for the models of
-   :mod:`convimpact.model`; name by name for any other mechanism);
-2. the coordinate groups of M and the loops (:func:`.islands.coordinate_groups`, kept while
-   M has no nonzero outside their blocks) and the inverse mass G block by block (compiled
-   Cholesky of each block, :func:`.moreau_kernels.block_inverses`; a mass matrix that is
-   not positive definite or not finite raises
-   :class:`~convimpact.impact.errors.SimulationError`); with loops G is the
-   loop-constrained inverse ``M^-1 - A (C A)^-1 A^T``, ``A = M^-1 C^T``, so
-   ``C v_{k+1} = 0``;
-3. the candidate contacts (:mod:`.moreau_loop`): those whose gap predicted at the end of the
-   step with the free velocity closes, ``g + h theta J_n v_free <= gap_tol`` (up to the
-   positions' round-off); no other contact enters;
-4. their islands (:func:`.islands.contact_islands`; the layout kept while the active set
-   stays, :func:`layout`) and per island the problem ``u = W r + b`` with ``W = J G J^T``
-   (compiled for the small islands, :func:`.moreau_kernels.assemble_islands`; sparse for an
-   island of :data:`SPARSE_MIN_ROWS` rows or more) and
-   ``b = J v_free + e_eff min(J_n v_free, 0) e_n`` (Newton's restitution at the velocity
-   level, ``e_eff`` as in :mod:`.moreau`); every active contact carries its friction;
-5. islands of at most :data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` rows are
-   solved together in one compiled call (:func:`.moreau_kernels.solve_islands`); one it
-   leaves uncertified is finished by the engine backend's regularized Newton from its
-   answer (:func:`convimpact.impact.contacts.engine.warm_newton`), then by the full engine;
-   larger islands go to :func:`convimpact.impact.contacts.engine.solve` (sparse LDL^T, its
-   symbolic analysis reused within the solve, not across steps). With ``warm_start`` each
-   island starts from the previous step's impulses of its contacts (Newton on the law's
-   natural map; the cold path when that is not certified).
+* **Inverse mass**: the coordinate groups of M and the loops
+  (:func:`.islands.coordinate_groups`, kept while M, or with loops the coupling of M and C,
+  has no nonzero outside their blocks) and G block by block (compiled Cholesky of each
+  block, :func:`.moreau_step_kernels.block_inverses`; a mass matrix that is not positive
+  definite or not finite raises :class:`~convimpact.impact.errors.SimulationError`); with
+  loops G is the loop-constrained inverse ``M^-1 - A (C A)^-1 A^T``, ``A = M^-1 C^T``, so
+  ``C v_{k+1} = 0`` (:func:`inverse_mass`).
+* **Islands**: the active contacts' islands (:func:`.islands.contact_islands`; the layout
+  kept while the active set and the columns their rows move stay, :func:`layout`) and per
+  island the problem ``u = W r + b`` with ``W = J G J^T`` and
+  ``b = J v_free + e_eff min(J_n v_free, 0) e_n`` (Newton's restitution at the velocity
+  level, ``e_eff`` as in :mod:`.moreau`); every active contact carries its friction.
+* **Solves** (:func:`solve_step`): islands of at most
+  :data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` rows are assembled and solved
+  together in one compiled call (:func:`.moreau_kernels.solve_small_islands`); one it leaves
+  uncertified is finished by the engine backend's regularized Newton from its answer
+  (:func:`convimpact.impact.contacts.engine.warm_newton`), then by the full engine; larger
+  islands go to :func:`convimpact.impact.contacts.engine.solve` (W sparse from
+  :data:`SPARSE_MIN_ROWS` rows). With ``warm_start`` each island starts from the previous
+  step's impulses of its contacts (Newton on the law's natural map; the cold path when that
+  is not certified).
 
 Every island's answer is certified: its relative natural-map residual (the engine's
 measure) is at most ``tol``, else
 :class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` naming the step
 and the contacts; no answer above ``tol`` is ever applied.
+
+Differences from the step solver through :func:`convimpact.resolve_impact`
+(:mod:`.moreau_impact`, other laws and methods): every active contact carries its friction
+(the per-impact law ``ccp`` of ``resolve_impact`` keeps only the normal of a contact that
+does not approach); the impact events carry no
+:class:`~convimpact.impact.results.ImpactResult` (``result=None``): the step's certificate is
+the engine's natural-map residual; ``regime`` is read off the answer (``"separating"`` for a
+zero normal impulse, ``"stick"`` where the contact's slip after the step is at most 1e-9 of
+the step's velocity scale, else ``"slide"``; ``"frictionless"`` for mu = 0).
 """
 
 from __future__ import annotations
@@ -49,8 +54,8 @@ from ..impact.contacts import engine
 from ..impact.contacts.contact_problem import ContactSolution, UncertifiedSolutionError
 from ..impact.errors import ConvImpactError, LoopConstraintError, SimulationError
 from .islands import Groups, contact_islands, coordinate_groups
-from .moreau_kernels import assemble_islands, block_inverses
-from .moreau_step_kernels import apply_impulses, same_pattern, solve_small_islands
+from .moreau_kernels import apply_impulses, assemble_islands, same_pattern, solve_small_islands
+from .moreau_step_kernels import block_inverses
 from .result import ImpactEvent
 
 #: the laws whose step problem the engine solves
@@ -195,12 +200,18 @@ def inverse_mass(M: np.ndarray, C: np.ndarray, cache: GroupCache) -> InverseMass
     """The step's G (see the module docstring); raises SimulationError for an M that is not
     positive definite or not finite and LoopConstraintError for a singular ``C M^-1 C^T``.
 
-    The groups are recomputed only when M has a nonzero (or non-finite) entry outside the
-    cached groups' blocks (one count of M's nonzeros per step) or the mechanism has loops.
+    The groups are recomputed only when M (or, with loops, the coupling of M and C) has a
+    nonzero (or non-finite) entry outside the cached groups' blocks (one count of M's
+    nonzeros per step; with loops, one comparison of the coupling patterns).
     """
     flatM = M.reshape(-1)
-    if (cache.groups is None or C.shape[0]
-            or np.count_nonzero(flatM) != np.count_nonzero(flatM[cache.inside])):
+    if C.shape[0]:
+        rows = C != 0.0
+        pattern = (M != 0.0) | ((rows.T.astype(float) @ rows.astype(float)) > 0.0)
+        if cache.pattern is None or np.any(pattern & ~cache.pattern):
+            regroup(M, C, cache)
+    elif (cache.groups is None
+          or np.count_nonzero(flatM) != np.count_nonzero(flatM[cache.inside])):
         regroup(M, C, cache)
     groups = cache.groups
     Minv = cache.Minv
@@ -274,7 +285,7 @@ def layout(active: np.ndarray, J: np.ndarray, groups: Groups, split: bool,
 def solve_step(active: np.ndarray, J: np.ndarray, b: np.ndarray, mu_all: np.ndarray,
                inv: InverseMass, *, coulomb: bool, tol: float, last: np.ndarray | None,
                split: bool, counters: EngineCounters, names: tuple = (),
-               max_iter: int = 100, newton_iter: int = 20, where: str = "",
+               max_iter: int = 100, newton_iter: int = 20, where: str | tuple = "",
                cached: Layout | None = None, out: np.ndarray | None = None
                ) -> tuple[np.ndarray, Layout]:
     """The certified impulses (na, d) of the step's contact problem, island by island, and
@@ -283,6 +294,7 @@ def solve_step(active: np.ndarray, J: np.ndarray, b: np.ndarray, mu_all: np.ndar
     ``active`` (na,) indexes the mechanism's contacts (``mu_all``, ``last``, ``names``);
     ``J`` (na, d, k) and ``b`` (na, d) are the active contacts' rows. ``last`` (n_contacts,
     d), optional: the previous step's impulses, each island's warm start where nonzero.
+    ``where`` (for the error message): a string, or ``(t_m, step)``.
     """
     t0 = _time.perf_counter()
     na, d, k = J.shape
@@ -292,15 +304,15 @@ def solve_step(active: np.ndarray, J: np.ndarray, b: np.ndarray, mu_all: np.ndar
     warm = last is not None
     prev = last if warm else _NO_LAST
     if lay.icoff.size > 1:
-        its = solve_small_islands(J, b, mu_all, active, G, lay.icon, lay.icoff, lay.icol,
+        its, kept, worst = solve_small_islands(J, b, mu_all, active, G, lay.icon, lay.icoff, lay.icol,
                                   lay.icoloff, d, coulomb, tol, max_iter, newton_iter,
                                   prev, warm, r,
                                   lay.res, lay.used)
         n_small = lay.icoff.size - 1
         counters.iterations += its
-        counters.warm_started += int(np.count_nonzero(lay.used))
+        counters.warm_started += kept
         counters.problems += n_small
-        if float(lay.res.max()) > tol:
+        if worst > tol:
             for i in np.flatnonzero(lay.res > tol):
                 cs = lay.icon[lay.icoff[i]:lay.icoff[i + 1]]
                 cols = lay.icol[lay.icoloff[i]:lay.icoloff[i + 1]]
@@ -356,6 +368,8 @@ def _engine(W, b, mu, d, coulomb, tol, start, counters, max_iter, where, names):
         counters.warm_started += 1
     if not R.converged:
         law = "coulomb" if coulomb else "ccp"
+        if not isinstance(where, str):
+            where = f"at t = {where[0]:.9g}, step {where[1]}"
         sol = ContactSolution(R.impulse, R.velocity, float(R.residual), "not certified",
                               int(R.iterations), law, tol)
         raise UncertifiedSolutionError(
@@ -407,7 +421,7 @@ class EngineSolver:
                        tol=self.tol, last=self.last if self.warm_start else None,
                        split=self.split, counters=self.counters, names=self.contacts,
                        max_iter=self.max_iter, newton_iter=self.newton_iter,
-                       where=f"at t = {st.tm:.9g}, step {st.index}", cached=self.layout,
+                       where=(st.tm, st.index), cached=self.layout,
                        out=r)
         except ConvImpactError as exc:
             exc.add_note(f"(while solving the step's contact problem at t = {st.tm:.9g}, "

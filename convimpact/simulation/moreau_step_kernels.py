@@ -1,18 +1,16 @@
-"""Compiled stages of a Moreau–Jean step (:mod:`.moreau_loop`), allocation-free.
+"""Compiled stages of a Moreau–Jean step's predictor and positions (:mod:`.moreau_loop`),
+allocation-free.
 
 * :func:`predict_model`: the predictor of a step on a model of :mod:`convimpact.model`
   without loops or applied forces, in one call: the intermediate configuration, M, the
   contacts' gaps and Jacobians (the model's compiled pass,
   :func:`convimpact.model.recursive.evaluate`, on its work buffer), the inverse mass block by
-  block (:func:`.moreau_kernels.block_inverses`), the smooth forces at t_m (twice for
-  theta < 1), the free velocity and the active contacts' rows (:func:`contact_rows_into`);
+  block (:func:`block_inverses`), the smooth forces at t_m (twice for theta < 1), the free
+  velocity and the active contacts' rows (:func:`contact_rows_into`);
+* :func:`block_inverses`: the inverse of M's diagonal blocks (the coordinate groups) by
+  Cholesky;
 * :func:`contact_rows_into`: the active set by gap prediction and the contact problem's
   ``b`` with Newton's restitution, into preallocated buffers;
-* :func:`solve_small_islands`: every small island's Delassus ``W = J_I G_II J_I^T`` and its
-  certified solve (warm-started Newton on the law's natural map, else the engine's compiled
-  kernels), as :func:`.moreau_kernels.solve_islands` does for one island;
-* :func:`apply_impulses`: ``v_{k+1} = v_free + G J^T r`` and the warm start of the next
-  step;
 * :func:`advance`: ``q_{k+1} = q_m + h theta v_{k+1}`` into the recorded rows;
 * :func:`model_series`: the recorded run's momenta, energies and smallest gap, sample by
   sample, on the model's compiled pass.
@@ -32,8 +30,6 @@ import numpy as np
 
 from ..compiled import jit as _jit
 from ..model.recursive import BIAS, CONTACT, HAS_V, MASS, evaluate
-from .moreau_kernels import _warm, block_inverses, natural_map_residual
-from ..impact.contacts.newton import ccp_kernel, coulomb_kernel
 
 OK, REGROUP, NOT_DEFINITE, NOT_FINITE = 0, 1, 2, 3
 EVAL_SHIFT = 8
@@ -44,6 +40,47 @@ _EVAL_ERRORS = 1 | 2 | 32 | 64
 GAP_ROUNDOFF = 1e-12
 _POSITIONS = MASS | CONTACT
 _FORCES = BIAS | HAS_V
+
+
+@_jit
+def block_inverses(Mflat, flat, s, out):
+    """Invert the SPD blocks ``Mflat[flat]`` (n_blocks of s x s, row-major) into
+    ``out[flat]`` by Cholesky; returns False (out undefined) when a block is not positive
+    definite or not finite."""
+    nb = flat.shape[0] // (s * s)
+    L = np.empty((s, s))
+    Li = np.empty((s, s))
+    for b in range(nb):
+        o = b * s * s
+        for i in range(s):
+            for j in range(i + 1):
+                v = Mflat[flat[o + i * s + j]]
+                for p in range(j):
+                    v -= L[i, p] * L[j, p]
+                if i == j:
+                    if not (v > 0.0) or not math.isfinite(v):
+                        return False
+                    L[i, i] = math.sqrt(v)
+                else:
+                    L[i, j] = v / L[j, j]
+        # Li = L^-1 (lower)
+        for j in range(s):
+            for i in range(s):
+                Li[i, j] = 0.0
+            Li[j, j] = 1.0 / L[j, j]
+            for i in range(j + 1, s):
+                v = 0.0
+                for p in range(j, i):
+                    v -= L[i, p] * Li[p, j]
+                Li[i, j] = v / L[i, i]
+        # M^-1 = Li^T Li
+        for i in range(s):
+            for j in range(s):
+                v = 0.0
+                for p in range(max(i, j), s):
+                    v += Li[p, i] * Li[p, j]
+                out[flat[o + i * s + j]] = v
+    return True
 
 
 @_jit
@@ -150,112 +187,6 @@ def predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, theta, gflat, gsize, goff
 
 
 @_jit
-def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d, coulomb,
-                        tol, max_iter, newton_iter, last, use_start, r, res, used):
-    """Solve the small islands of a step: island i has the active contacts
-    ``icon[icoff[i]:icoff[i + 1]]`` (indices into ``Ja``, ``b``, ``active``) and the
-    coordinates ``icol[icoloff[i]:icoloff[i + 1]]``; its W is assembled as
-    :func:`.moreau_kernels.assemble_islands` does. With ``use_start`` and a nonzero previous
-    impulse (``last[active[c]]``) on the island, Newton on the law's natural map from there
-    first, kept when certified; else the engine's compiled kernel. Writes the impulses into
-    ``r`` (n_active, d), the residuals into ``res`` and the warm starts kept into ``used``;
-    returns the iterations."""
-    n_isl = icoff.shape[0] - 1
-    total = 0
-    for i in range(n_isl):
-        c0, c1 = icoff[i], icoff[i + 1]
-        k0, k1 = icoloff[i], icoloff[i + 1]
-        nc = c1 - c0
-        nk = k1 - k0
-        N = nc * d
-        JI = np.empty((N, nk))
-        X = np.empty((N, nk))
-        for c in range(nc):
-            for rr in range(d):
-                for a in range(nk):
-                    JI[c * d + rr, a] = Ja[icon[c0 + c], rr, icol[k0 + a]]
-        for p in range(N):
-            for a in range(nk):
-                s = 0.0
-                for q in range(nk):
-                    s += JI[p, q] * G[icol[k0 + q], icol[k0 + a]]
-                X[p, a] = s
-        W = np.empty((N, N))
-        for p in range(N):
-            for q in range(p + 1):
-                s = 0.0
-                for a in range(nk):
-                    s += X[p, a] * JI[q, a]
-                W[p, q] = s
-                W[q, p] = s
-        bi = np.empty(N)
-        mi = np.empty(nc)
-        start = np.empty(N)
-        warm = False
-        for c in range(nc):
-            ca = icon[c0 + c]
-            mi[c] = mu_all[active[ca]]
-            for rr in range(d):
-                bi[c * d + rr] = b[ca, rr]
-                s0 = last[active[ca], rr] if use_start else 0.0
-                start[c * d + rr] = s0
-                if s0 != 0.0:
-                    warm = True
-        used[i] = False
-        done = False
-        x = start
-        if warm:
-            x, steps = _warm(W, bi, mi, d, start, coulomb, newton_iter)
-            total += steps
-            rr_ = natural_map_residual(W, bi, mi, d, x, coulomb)
-            if rr_ <= tol:
-                used[i] = True
-                res[i] = rr_
-                done = True
-        if not done:
-            if coulomb:
-                x, status, it, steps, g1, g2 = coulomb_kernel(W, bi, mi, d, 1e-9, max_iter,
-                                                              newton_iter)
-            else:
-                x, status, it, steps, g1, g2 = ccp_kernel(W, bi, mi, d, 1e-9, max_iter,
-                                                          newton_iter)
-            total += it + steps
-            res[i] = natural_map_residual(W, bi, mi, d, x, coulomb)
-        for c in range(nc):
-            for rr in range(d):
-                r[icon[c0 + c], rr] = x[c * d + rr]
-    return total
-
-
-@_jit
-def apply_impulses(Ja, r, G, v_free, v_new, gen, last, active, vn_k, rest_velocity):
-    """``gen = J^T r``, ``v_new = v_free + G gen``, ``last`` the impulses of every contact
-    (zero where inactive); returns the number of contacts approaching at the step's start
-    (``v_n,k < -rest_velocity``) that received a normal impulse."""
-    na, d, k = Ja.shape
-    for a in range(k):
-        gen[a] = 0.0
-    for c in range(na):
-        for rr in range(d):
-            x = r[c, rr]
-            for a in range(k):
-                gen[a] += Ja[c, rr, a] * x
-    for i in range(k):
-        s = 0.0
-        for j in range(k):
-            s += G[i, j] * gen[j]
-        v_new[i] = v_free[i] + s
-    last[:, :] = 0.0
-    hits = 0
-    for c in range(na):
-        for rr in range(d):
-            last[active[c], rr] = r[c, rr]
-        if vn_k[c] < -rest_velocity and r[c, 0] > 0.0:
-            hits += 1
-    return hits
-
-
-@_jit
 def advance(qm, v_new, h_theta, q_out, v_out):
     """``q_out = qm + h_theta v_new``, ``v_out = v_new``; False when either is not finite."""
     ok = True
@@ -300,24 +231,3 @@ def model_series(work, Mv, gapv, pos3, rot3, body_mass, body_com, gravity, theta
         for c in range(gapv.shape[0]):
             gmin = min(gmin, gapv[c])
     return gmin
-
-
-@_jit
-def same_pattern(Ja, active, key_active, key_moves):
-    """True when the active contacts are ``key_active`` and the columns their rows move
-    (nonzero entries, ``key_moves`` (n_active, k)) are those of the key."""
-    na, d, k = Ja.shape
-    if key_active.shape[0] != na:
-        return False
-    for c in range(na):
-        if active[c] != key_active[c]:
-            return False
-        for a in range(k):
-            moves = False
-            for r in range(d):
-                if Ja[c, r, a] != 0.0:
-                    moves = True
-                    break
-            if moves != key_moves[c, a]:
-                return False
-    return True
