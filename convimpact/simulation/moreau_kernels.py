@@ -29,6 +29,7 @@ import numpy as np
 from ..compiled import jit as _jit
 from ..impact.contacts.natural_map import natural_map_newton
 from ..impact.contacts.newton import ccp_kernel, coulomb_kernel, scaled_program
+from .moreau_step_kernels import block_times
 
 
 @_jit
@@ -135,7 +136,7 @@ def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d,
     """Solve the small islands of a step: island i has the active contacts
     ``icon[icoff[i]:icoff[i + 1]]`` (indices into ``Ja``, ``b``, ``active``) and the
     coordinates ``icol[icoloff[i]:icoloff[i + 1]]``; its W is assembled as
-    :func:`.moreau_kernels.assemble_islands` does. With ``use_start`` and a nonzero previous
+    :func:`assemble_islands` does. With ``use_start`` and a nonzero previous
     impulse (``last[active[c]]``) on the island, Newton on the law's natural map from there
     first, kept when certified; else the engine's compiled kernel. Writes the impulses into
     ``r`` (n_active, d), the residuals into ``res`` and the warm starts kept into ``used``;
@@ -212,10 +213,13 @@ def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d,
 
 
 @_jit
-def apply_impulses(Ja, r, G, v_free, v_new, gen, last, active, vn_k, rest_velocity):
-    """``gen = J^T r``, ``v_new = v_free + G gen``, ``last`` the impulses of every contact
-    (zero where inactive); returns the number of contacts approaching at the step's start
-    (``v_n,k < -rest_velocity``) that received a normal impulse."""
+def apply_impulses(Ja, r, G, gflat, gsize, goff, v_free, v_new, gen, last, active, vn_k,
+                   rest_velocity):
+    """``gen = J^T r``, ``v_new = v_free + G gen`` (G block diagonal over the coordinate
+    groups: flat indices ``gflat`` as in :func:`.moreau_step_kernels.block_times`), ``last``
+    the impulses of every contact (zero where inactive); returns the number of contacts
+    approaching at the step's start (``v_n,k < -rest_velocity``) that received a normal
+    impulse."""
     na, d, k = Ja.shape
     for a in range(k):
         gen[a] = 0.0
@@ -224,11 +228,9 @@ def apply_impulses(Ja, r, G, v_free, v_new, gen, last, active, vn_k, rest_veloci
             x = r[c, rr]
             for a in range(k):
                 gen[a] += Ja[c, rr, a] * x
+    block_times(G, gflat, gsize, goff, gen, v_new)
     for i in range(k):
-        s = 0.0
-        for j in range(k):
-            s += G[i, j] * gen[j]
-        v_new[i] = v_free[i] + s
+        v_new[i] = v_free[i] + v_new[i]
     last[:, :] = 0.0
     hits = 0
     for c in range(na):

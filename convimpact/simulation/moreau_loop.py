@@ -69,12 +69,13 @@ def end_of_step(mech, qm, v_new, h_theta: float, M, loop_rows, projection_tol: f
 class Step:
     """One step's prediction (arrays may be views of buffers reused by the next step: copy
     what you keep). ``index``, ``tm`` (t_m), ``hk`` (the step), ``qm``, ``v`` (v_k), ``M``
-    and ``inv`` (:class:`.moreau_engine.InverseMass`) at q_m, ``C`` (loop rows at q_m),
+    and ``inv`` (:class:`.moreau_engine.InverseMass`) at q_m, ``blocks`` (the
+    :class:`.moreau_engine.GroupCache` G is block diagonal over), ``C`` (loop rows at q_m),
     ``v_free``, ``sigma`` (the loop impulse after the smooth part), and the active contacts:
     ``active`` (indices), ``Ja`` (na, d, k), ``b`` (na, d), ``vn_k`` (na,)."""
 
-    __slots__ = ("index", "tm", "hk", "qm", "v", "M", "inv", "C", "v_free", "sigma",
-                 "active", "Ja", "b", "vn_k")
+    __slots__ = ("index", "tm", "hk", "qm", "v", "M", "inv", "blocks", "C", "v_free",
+                 "sigma", "active", "Ja", "b", "vn_k")
 
 
 class _Buffers:
@@ -141,6 +142,7 @@ class ModelPredictor:
         st = self.st
         st.index, st.tm, st.hk, st.qm, st.v = index, t + (1.0 - th) * hk, hk, self.qm, v
         st.M, st.inv, st.C, st.v_free, st.sigma = Mv, self.inv, self.C, self.vfree, sigma
+        st.blocks = c
         buf.fill(st, na)
         return st
 
@@ -225,7 +227,7 @@ class ProtocolPredictor:
             v_free = v_star
         st = self.st
         st.index, st.tm, st.hk, st.qm, st.v, st.M, st.inv, st.C = index, tm, hk, qm, v, M, inv, C
-        st.v_free, st.sigma = v_free, sigma
+        st.v_free, st.sigma, st.blocks = v_free, sigma, self.cache
         na = 0
         if self.contacts:
             if self.buf is None:

@@ -120,13 +120,20 @@ def contact_rows_into(gaps, J, v, v_free, e, h_theta, limit, rest_velocity, acti
 
 
 @_jit
-def _times(A, x, out):
+def block_times(A, gflat, gsize, goff, x, out):
+    """``out = A x`` for A (k, k) zero outside the coordinate groups' blocks (flat indices
+    ``gflat``, per size ``gsize[s]`` those at ``goff[s]:goff[s + 1]``, each block row-major
+    over its sorted coordinates): the dense product's sums, in its order, without the
+    zeros."""
     k = x.shape[0]
+    Af = A.reshape(-1)
     for i in range(k):
-        s = 0.0
-        for j in range(k):
-            s += A[i, j] * x[j]
-        out[i] = s
+        out[i] = 0.0
+    for s in range(gsize.shape[0]):
+        for f0 in range(goff[s], goff[s + 1]):
+            f = gflat[f0]
+            i = f // k
+            out[i] += Af[f] * x[f - i * k]
 
 
 @_jit
@@ -169,13 +176,13 @@ def predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, theta, gflat, gsize, goff
     if code & _EVAL_ERRORS:
         return code << EVAL_SHIFT, 0
     if theta < 1.0:
-        _times(Minv, biasv, vfree)
+        block_times(Minv, gflat, gsize, goff, biasv, vfree)
         for i in range(k):
             vtmp[i] = v[i] + c1 * vfree[i]
         code = evaluate(_FORCES, qm, vtmp, work)
         if code & _EVAL_ERRORS:
             return code << EVAL_SHIFT, 0
-    _times(Minv, biasv, vfree)
+    block_times(Minv, gflat, gsize, goff, biasv, vfree)
     for i in range(k):
         vfree[i] = v[i] + hk * vfree[i]
     qmax = 1.0
