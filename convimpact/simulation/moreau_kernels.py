@@ -101,33 +101,41 @@ def _warm(W, b, mu, d, start, coulomb, newton_iter):
 
 
 @_jit
-def assemble_islands(J, G, C, K, d, out):
-    """``W_b = J_b G_bb J_b^T`` of every island b of one batch (contacts C[b], coordinates
-    K[b]) into ``out`` (B * N * N, row-major, N = nc d), symmetrized."""
-    B, nc = C.shape
-    nk = K.shape[1]
+def island_delassus(J, G, cons, cols, d, W):
+    """``W = J_I G_II J_I^T`` (symmetric, into ``W`` (N, N), N = len(cons) d) of the island
+    with the contacts ``cons`` (rows of J (n, d, k)) and the coordinates ``cols``."""
+    nc, nk = cons.shape[0], cols.shape[0]
     N = nc * d
     JI = np.empty((N, nk))
     X = np.empty((N, nk))
-    for b in range(B):
-        for c in range(nc):
-            for r in range(d):
-                for a in range(nk):
-                    JI[c * d + r, a] = J[C[b, c], r, K[b, a]]
-        for i in range(N):
+    for c in range(nc):
+        for r in range(d):
             for a in range(nk):
-                v = 0.0
-                for e in range(nk):
-                    v += JI[i, e] * G[K[b, e], K[b, a]]
-                X[i, a] = v
-        o = b * N * N
-        for i in range(N):
-            for j in range(i + 1):
-                v = 0.0
-                for a in range(nk):
-                    v += X[i, a] * JI[j, a]
-                out[o + i * N + j] = v
-                out[o + j * N + i] = v
+                JI[c * d + r, a] = J[cons[c], r, cols[a]]
+    for i in range(N):
+        for a in range(nk):
+            v = 0.0
+            for e in range(nk):
+                v += JI[i, e] * G[cols[e], cols[a]]
+            X[i, a] = v
+    for i in range(N):
+        for j in range(i + 1):
+            v = 0.0
+            for a in range(nk):
+                v += X[i, a] * JI[j, a]
+            W[i, j] = v
+            W[j, i] = v
+
+
+@_jit
+def assemble_islands(J, G, C, K, d, out):
+    """``W_b = J_b G_bb J_b^T`` of every island b of one batch (contacts C[b], coordinates
+    K[b]) into ``out`` (B * N * N, row-major, N = nc d), symmetrized
+    (:func:`island_delassus`)."""
+    B, nc = C.shape
+    N = nc * d
+    for b in range(B):
+        island_delassus(J, G, C[b], K[b], d, out[b * N * N:(b + 1) * N * N].reshape(N, N))
 
 
 @_jit
@@ -135,10 +143,10 @@ def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d,
                         tol, max_iter, newton_iter, last, use_start, r, res, used):
     """Solve the small islands of a step: island i has the active contacts
     ``icon[icoff[i]:icoff[i + 1]]`` (indices into ``Ja``, ``b``, ``active``) and the
-    coordinates ``icol[icoloff[i]:icoloff[i + 1]]``; its W is assembled as
-    :func:`assemble_islands` does. With ``use_start`` and a nonzero previous
-    impulse (``last[active[c]]``) on the island, Newton on the law's natural map from there
-    first, kept when certified; else the engine's compiled kernel. Writes the impulses into
+    coordinates ``icol[icoloff[i]:icoloff[i + 1]]``; its W by :func:`island_delassus`.
+    With ``use_start`` and a nonzero previous impulse (``last[active[c]]``) on the island,
+    Newton on the law's natural map from there first, kept when certified; else the
+    engine's compiled kernel. Writes the impulses into
     ``r`` (n_active, d), the residuals into ``res`` and the warm starts kept into ``used``;
     returns ``(iterations, warm starts kept, largest residual)``."""
     n_isl = icoff.shape[0] - 1
@@ -149,28 +157,9 @@ def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d,
         c0, c1 = icoff[i], icoff[i + 1]
         k0, k1 = icoloff[i], icoloff[i + 1]
         nc = c1 - c0
-        nk = k1 - k0
         N = nc * d
-        JI = np.empty((N, nk))
-        X = np.empty((N, nk))
-        for c in range(nc):
-            for rr in range(d):
-                for a in range(nk):
-                    JI[c * d + rr, a] = Ja[icon[c0 + c], rr, icol[k0 + a]]
-        for p in range(N):
-            for a in range(nk):
-                s = 0.0
-                for q in range(nk):
-                    s += JI[p, q] * G[icol[k0 + q], icol[k0 + a]]
-                X[p, a] = s
         W = np.empty((N, N))
-        for p in range(N):
-            for q in range(p + 1):
-                s = 0.0
-                for a in range(nk):
-                    s += X[p, a] * JI[q, a]
-                W[p, q] = s
-                W[q, p] = s
+        island_delassus(Ja, G, icon[c0:c1], icol[k0:k1], d, W)
         bi = np.empty(N)
         mi = np.empty(nc)
         start = np.empty(N)
