@@ -241,7 +241,6 @@ def simulate_moreau(
     wall0 = _time.perf_counter()
     mech, scene = _as_mechanism(system)
     k = int(mech.n_coordinates)
-    m = int(mech.n_loop_constraints)
     contacts = tuple(mech.contact_names)
     check_law_method(law, method)
     h = validation.positive("h", h)  # a real number: "1e-3", True, 1j are refused

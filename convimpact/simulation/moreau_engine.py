@@ -306,16 +306,15 @@ def solve_step(active: np.ndarray, J: np.ndarray, b: np.ndarray, mu_all: np.ndar
     warm = last is not None
     prev = last if warm else _NO_LAST
     if lay.icoff.size > 1:
-        its, kept, worst = solve_small_islands(J, b, mu_all, active, G, lay.icon, lay.icoff, lay.icol,
-                                  lay.icoloff, d, coulomb, tol, max_iter, newton_iter,
-                                  prev, warm, r,
-                                  lay.res, lay.used)
+        its, kept, bad = solve_small_islands(
+            J, b, mu_all, active, G, lay.icon, lay.icoff, lay.icol, lay.icoloff, d, coulomb,
+            tol, max_iter, newton_iter, prev, warm, r, lay.res, lay.used)
         n_small = lay.icoff.size - 1
         counters.iterations += its
         counters.warm_started += kept
         counters.problems += n_small
-        if worst > tol:
-            for i in np.flatnonzero(lay.res > tol):
+        if bad:
+            for i in np.flatnonzero(~(lay.res <= tol)):  # NaN included
                 cs = lay.icon[lay.icoff[i]:lay.icoff[i + 1]]
                 cols = lay.icol[lay.icoloff[i]:lay.icoloff[i + 1]]
                 nd = cs.size * d
@@ -419,12 +418,12 @@ class EngineSolver:
             self.r = np.zeros((self.nc, d))
         r = self.r[:na]
         try:
-            _, self.layout = solve_step(st.active, st.Ja, st.b, self.mu, st.inv, coulomb=self.coulomb,
-                       tol=self.tol, last=self.last if self.warm_start else None,
-                       split=self.split, counters=self.counters, names=self.contacts,
-                       max_iter=self.max_iter, newton_iter=self.newton_iter,
-                       where=(st.tm, st.index), cached=self.layout,
-                       out=r)
+            _, self.layout = solve_step(
+                st.active, st.Ja, st.b, self.mu, st.inv, coulomb=self.coulomb, tol=self.tol,
+                last=self.last if self.warm_start else None, split=self.split,
+                counters=self.counters, names=self.contacts, max_iter=self.max_iter,
+                newton_iter=self.newton_iter, where=(st.tm, st.index), cached=self.layout,
+                out=r)
         except ConvImpactError as exc:
             exc.add_note(f"(while solving the step's contact problem at t = {st.tm:.9g}, "
                          f"step {st.index}, in simulate_moreau)")

@@ -148,11 +148,12 @@ def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d,
     Newton on the law's natural map from there first, kept when certified; else the
     engine's compiled kernel. Writes the impulses into
     ``r`` (n_active, d), the residuals into ``res`` and the warm starts kept into ``used``;
-    returns ``(iterations, warm starts kept, largest residual)``."""
+    returns ``(iterations, warm starts kept, whether an island's residual is above tol or
+    not a number)``."""
     n_isl = icoff.shape[0] - 1
     total = 0
     kept = 0
-    worst = 0.0
+    bad = False
     for i in range(n_isl):
         c0, c1 = icoff[i], icoff[i + 1]
         k0, k1 = icoloff[i], icoloff[i + 1]
@@ -194,11 +195,12 @@ def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d,
                                                           newton_iter)
             total += it + steps
             res[i] = natural_map_residual(W, bi, mi, d, x, coulomb)
-        worst = max(worst, res[i])
+        if not (res[i] <= tol):
+            bad = True
         for c in range(nc):
             for rr in range(d):
                 r[icon[c0 + c], rr] = x[c * d + rr]
-    return total, kept, worst
+    return total, kept, bad
 
 
 @_jit

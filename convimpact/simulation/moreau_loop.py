@@ -98,8 +98,6 @@ class ModelPredictor:
     """The predictor on a model without loops or applied forces: one compiled call per step
     (:func:`.moreau_step_kernels.predict_model`) on the model's work buffer."""
 
-    nfev_per_step = 2
-
     @staticmethod
     def applies(mech) -> bool:
         from ..model.mechanism import ModelMechanism
@@ -128,7 +126,7 @@ class ModelPredictor:
     def predict(self, index: int, t: float, q, v, hk: float, sigma) -> Step:
         c, buf, th = self.cache, self.buf, self.theta
         work, Mv, gapv, Jv, biasv = self.views
-        while True:
+        for _ in range(2):  # the second call only after a regroup, at the same state
             status, na = predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, th, c.gflat,
                                        c.gsize, c.goff, c.mask, c.Minv, self.qm, self.vtmp,
                                        self.vfree, buf.e, self.gap_tol, self.rest_velocity,
@@ -152,6 +150,8 @@ class ModelPredictor:
                                   "on this step")
         if status == NOT_FINITE:
             raise SimulationError("the mass matrix is not finite")
+        if status == REGROUP:
+            raise SimulationError("the mass matrix's coupling changed twice at one state")
         from ..model import recursive as rc
 
         # the model's own error (non-finite or wrongly shaped state): its typed exception

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from convimpact.bench.moreau_scenes import BOX_MASS, HALF, MU, SLIDE_SPEED, box_row
+from convimpact.bench.moreau_scenes import BOX_MASS, MU, SLIDE_SPEED, box_row
 from convimpact.scenes import load_scene
 from convimpact.simulation import moreau_engine as me
 from convimpact.simulation.moreau import simulate_moreau
