@@ -88,10 +88,14 @@ class _Buffers:
         self.Ja = np.zeros((nc, d, k))
         self.b = np.zeros((nc, d))
         self.vn_k = np.zeros(nc)
+        self._views: dict = {}
 
     def fill(self, st: Step, na: int) -> None:
-        st.active, st.Ja, st.b, st.vn_k = (self.active[:na], self.Ja[:na], self.b[:na],
-                                           self.vn_k[:na])
+        views = self._views.get(na)
+        if views is None:
+            views = self._views[na] = (self.active[:na], self.Ja[:na], self.b[:na],
+                                       self.vn_k[:na])
+        st.active, st.Ja, st.b, st.vn_k = views
 
 
 class ModelPredictor:
