@@ -13,7 +13,9 @@ of size h from (q_k, v_k) at t_k:
 3. free-flight velocity: ``v_free = v_k + h M^-1 f``, M-orthogonally projected onto
    ``C(q_m) v = 0`` for closed loops (the loop impulse of the step);
 4. active set by gap prediction: a contact takes part when its gap predicted at the end of the
-   step with the free velocity closes, ``g(q_m) + h theta c_n(q_m)^T v_free <= gap_tol``;
+   step with the free velocity closes, ``g(q_m) + h theta c_n(q_m)^T v_free <= gap_tol``
+   up to the positions' round-off (``1e-12 max(1, max |q_m|)``: a resting contact's
+   predicted gap is 0 up to that, which must not switch it off);
 5. the contact impulse of the active contacts comes from :func:`convimpact.resolve_impact`
    with the step's matrices (its Delassus ``W = Jc G Jc^T`` with G the loop-constrained inverse
    of ``M(q_m)``, so ``C v_{k+1} = 0`` holds), the chosen ``law`` and ``method``, applied to the
@@ -27,18 +29,24 @@ of size h from (q_k, v_k) at t_k:
    it restitutes the slip of the free velocity, which is the slip at t_k when no smooth
    force acts along the contact's tangent during the step (a ball on a level floor);
    **Laws "ccp" and "coulomb" under method "auto" or "interior"** take the contact engine
-   instead (:mod:`.moreau_loop`, :mod:`.moreau_engine`): the step's problem
-   ``u = J v_{k+1} = W r + b``, ``W = J G J^T``, built in the block structure of M (batched
-   factorizations of the coordinate groups), split into independent islands
-   (:mod:`.islands`), warm-started from the previous step's impulses, solved by the engine's
-   compiled kernels in one call for the small islands and by
-   :func:`convimpact.impact.contacts.engine.solve` for the large ones, each island certified
-   by its natural-map residual (``impact_options["tol"]``, default 1e-8) or
+   instead (:mod:`.moreau_engine`): the step's problem ``u = J v_{k+1} = W r + b``,
+   ``W = J G J^T``, built in the block structure of M (batched factorizations of the
+   coordinate groups), split into independent islands (:mod:`.islands`), warm-started from
+   the previous step's impulses, solved by the engine's compiled kernels in one call for
+   the small islands and by :func:`convimpact.impact.contacts.engine.solve` for the large
+   ones, each island certified by its natural-map residual (``impact_options["tol"]``,
+   default 1e-8) or
    :class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` naming the
    step and the contacts;
 6. ``q_{k+1} = q_m + h theta v_{k+1}``; for closed loops theta is projected back onto
    ``Psi = 0`` (M-weighted, when the drift exceeds ``projection_tol``) and ``v_{k+1}`` onto
    ``C(q_{k+1}) v = 0``.
+
+Every law runs through one step loop (:mod:`.moreau_loop`): a predictor (steps 1-4; one
+compiled call per step on the models of :mod:`convimpact.model` without loops or applied
+forces) and a per-step solver (step 5: :class:`.moreau_engine.EngineSolver` or
+:class:`.moreau_impact.ImpactSolver`); the loop stores the raw states and computes momenta,
+energies, loop drifts and penetrations from them once, at the end of the run.
 
 Known artefacts (measured by the bench section ``simulation`` and the failure atlas):
 
@@ -70,21 +78,15 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-import scipy.linalg as sla
 
 from .. import validation
-from ..impact.errors import (
-    ConvImpactError,
-    LoopConstraintError,
-    ParameterError,
-    SimulationError,
-    UnknownOptionError,
-)
-from ..impact import check_law_method, resolve_impact
-from .result import ImpactEvent, SimulationResult, series_from_rows
+from ..impact.errors import ParameterError, UnknownOptionError
+from ..impact import check_law_method
+from .result import SimulationResult
 from .initial import consistent_start, initial_state, law_options, positive, time_span
-from .moreau_engine import ENGINE_LAWS, Evaluator
-from .moreau_loop import Recorder, end_of_step, run_engine_steps
+from .moreau_engine import ENGINE_LAWS, EngineSolver
+from .moreau_impact import ImpactSolver
+from .moreau_loop import run_steps
 from .simulate import _as_mechanism
 
 #: steps beyond which a run is refused (h too small for the span)
@@ -108,7 +110,7 @@ class MoreauResult(SimulationResult):
     contact_solver : engine path only, what the contact engine did over the run (islands
         solved, warm starts certified, calls of the full engine, iterations, the largest
         island, seconds in the solves and in the assembly); empty on the other path.
-    max_active_contacts : the most contacts active on one step (engine path; 0 otherwise).
+    max_active_contacts : the most contacts active on one step.
     """
 
     step_size: float = float("nan")
@@ -151,26 +153,6 @@ def _engine_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
                                  f"{value!r}")
         out[key] = ENGINE_OPTIONS[key](value)
     return out
-
-
-def _loop_inverse(M: np.ndarray, C: np.ndarray):
-    """Cholesky factor of M and, for loops, ``A = M^-1 C^T`` with ``C A`` factored."""
-    try:
-        cho = sla.cho_factor(M, lower=True, check_finite=True)
-    except (np.linalg.LinAlgError, ValueError) as exc:
-        raise SimulationError(f"the mass matrix is not positive definite or not finite: "
-                              f"{exc}") from None
-    if C.shape[0] == 0:
-        return cho, None, None
-    A = sla.cho_solve(cho, C.T)
-    S = C @ A
-    try:
-        sfac = sla.cho_factor(S, lower=True)
-    except np.linalg.LinAlgError:
-        raise LoopConstraintError(
-            "the loop matrix C M^-1 C^T is singular on this step (a dead-centre configuration "
-            "or redundant loops); Moreau–Jean cannot keep C v = 0 here") from None
-    return cho, A, sfac
 
 
 def simulate_moreau(
@@ -259,7 +241,6 @@ def simulate_moreau(
     wall0 = _time.perf_counter()
     mech, scene = _as_mechanism(system)
     k = int(mech.n_coordinates)
-    m = int(mech.n_loop_constraints)
     contacts = tuple(mech.contact_names)
     check_law_method(law, method)
     h = validation.positive("h", h)  # a real number: "1e-3", True, 1j are refused
@@ -279,164 +260,38 @@ def simulate_moreau(
 
     # ---- initial state ---------------------------------------------------------------------
     q, v = initial_state(y0, scene, k)
-
-    def loop_rows(th):
-        return (np.asarray(mech.loop_jacobian(th), float).reshape(m, k) if m
-                else np.zeros((0, k)))
-
     q, v = consistent_start(mech, q, v, assemble=assemble, projection_tol=projection_tol,
                             contact_tol=contact_tol)
-    params = {c: mech.contact_parameters(c) for c in contacts}
-
+    settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
+                "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
+                "projection_tol": projection_tol, "t_span": [t0, t1]}
     if engine_path:
         for flag, value in (("warm_start", warm_start), ("islands", islands)):
             if not isinstance(value, (bool, np.bool_)):
                 raise ParameterError(f"{flag} must be True or False, got {value!r}")
-        out = run_engine_steps(mech, q, v, t0=t0, t1=t1, h=h, theta=theta_p,
-                               n_steps=n_steps_total, law=law, gap_tol=float(gap_tol),
-                               rest_velocity=float(rest_velocity),
-                               projection_tol=projection_tol, warm_start=bool(warm_start),
-                               islands=bool(islands), **engine_opts)
-        rows, st = out["rows"], out["stats"]
-        n = len(rows["t"])
-        settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
-                    "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
-                    "projection_tol": projection_tol, "t_span": [t0, t1],
-                    "contact_solver": "engine", "warm_start": bool(warm_start),
-                    "islands": bool(islands), **engine_opts}
-        return MoreauResult(
-            **series_from_rows(rows, k, m), held=np.zeros(n, dtype=int),
-            impacts=tuple(out["impacts"]), contact_events=(), sol=None, status=0,
-            message="the end of the time span was reached", nfev=st["nfev"], nevents_fev=0,
-            n_steps=n - 1, n_projections=st["proj"], n_restarts=0,
-            wall_time=float(_time.perf_counter() - wall0), impact_time=float(st["impact_time"]),
-            settings=settings, step_size=h, theta_parameter=theta_p,
-            n_contact_steps=st["contact_steps"], max_penetration=max(0.0, st["max_pen"]),
-            contact_solver=out["counters"].as_dict(), max_active_contacts=st["max_active"])
+        solver = EngineSolver(mech, law=law, warm_start=bool(warm_start), islands=bool(islands),
+                              rest_velocity=float(rest_velocity), **engine_opts)
+        settings.update(contact_solver="engine", warm_start=bool(warm_start),
+                        islands=bool(islands), **engine_opts)
+    else:
+        solver = ImpactSolver(mech, law=law, method=method, impact_options=impact_options,
+                              e_t=e_t, rest_velocity=float(rest_velocity))
+        if e_t is not None:
+            settings["e_t"] = dict(e_t)
 
     # ---- run ---------------------------------------------------------------------------------
-    sigma = np.zeros(m)
-    impacts: list[ImpactEvent] = []
-    counters = {"nfev": 0, "impact_time": 0.0, "contact_steps": 0, "proj": 0}
-    recorder = Recorder(mech, Evaluator(mech, contacts))
-
-    def record(t, th, dth):
-        recorder(t, th, dth, sigma)
-
-    t = t0
-    record(t, q, v)
-    status, message = 0, "the end of the time span was reached"
-    for step in range(n_steps_total):
-        hk = min(h, t1 - t)
-        if hk <= 0:
-            break
-        tm = t + (1.0 - theta_p) * hk
-        qm = q + hk * (1.0 - theta_p) * v
-        M = np.asarray(mech.mass_matrix(qm), float)
-        f = np.asarray(mech.generalized_forces(tm, qm, v), float)
-        counters["nfev"] += 1
-        C = loop_rows(qm)
-        cho, A, sfac = _loop_inverse(M, C)
-        if theta_p < 1.0:
-            # forces at t_m with the velocity predicted there (second order for theta = 1/2
-            # with velocity-dependent forces and M(q); one more evaluation per step)
-            v_pred = v + (1.0 - theta_p) * hk * sla.cho_solve(cho, f)
-            f = np.asarray(mech.generalized_forces(tm, qm, v_pred), float)
-            counters["nfev"] += 1
-        v_star = v + hk * sla.cho_solve(cho, f)
-        if A is not None:
-            s = sla.cho_solve(sfac, C @ v_star)
-            v_free = v_star - A @ s
-            sigma = sigma - s  # loop impulse of the smooth part (M dv = h f + C^T dsigma)
-        else:
-            v_free = v_star
-        # active set by gap prediction (step 4)
-        active, Jcs, es, mus, vnk, ets = [], [], [], [], [], []
-        for c in contacts:
-            J = np.asarray(mech.contact_jacobian(c, qm), float)
-            g_pred = float(mech.contact_gap(c, qm)) + hk * theta_p * float(J[0] @ v_free)
-            if g_pred <= gap_tol:
-                vn_k, vn_free = float(J[0] @ v), float(J[0] @ v_free)
-                e_c, mu_c = params[c]
-                approaching = vn_k < -rest_velocity and vn_free < 0.0
-                if approaching:
-                    e_eff = min(float(e_c) * vn_k / vn_free, 1.0)
-                else:
-                    e_eff = 0.0
-                if e_t is not None:
-                    ets.append(e_t[c] if approaching else 0.0)
-                active.append(c)
-                Jcs.append(J)
-                es.append(e_eff)
-                mus.append(float(mu_c))
-                vnk.append(vn_k)
-        v_new = v_free
-        if active:
-            counters["contact_steps"] += 1
-            t_start = _time.perf_counter()
-            law_params = {} if e_t is None else {"e_t": ets[0] if len(active) == 1 else ets}
-            try:
-                if len(active) == 1:
-                    r = resolve_impact(M, Jcs[0], v_free, es[0], mus[0], C if m else None,
-                                       law=law, method=method, **law_params, **impact_options)
-                else:
-                    r = resolve_impact(M, Jcs, v_free, es, mus, C if m else None,
-                                       law=law, method=method, **law_params, **impact_options)
-            except ConvImpactError as exc:
-                exc.add_note(f"(while resolving the step impulse of {', '.join(active)} at "
-                             f"t = {tm:.9g}, step {step}, in simulate_moreau)")
-                raise
-            finally:
-                counters["impact_time"] += _time.perf_counter() - t_start
-            v_new = np.asarray(r.dq_plus, float)
-            dsig = np.asarray(r.loop_impulse, float)
-            if m and dsig.size >= m:
-                sigma = sigma + dsig[:m]
-            impulse = np.asarray(r.impulse, float).reshape(len(active), -1)
-            approaching = [i for i, vn in enumerate(vnk) if vn < -rest_velocity
-                           and impulse[i, 0] > 0.0]
-            if approaching:
-                regime = (r.regime,) if isinstance(r.regime, str) else tuple(r.regime)
-                impacts.append(ImpactEvent(
-                    time=tm, contacts=tuple(active[i] for i in approaching),
-                    held_contacts=(), regime=regime, impulse=impulse,
-                    loop_impulse=dsig, generalized_impulse=np.vstack(Jcs).T @ impulse.ravel(),
-                    theta=qm.copy(), dtheta_minus=v.copy(), dtheta_plus=v_new.copy(),
-                    energy_loss=float(r.energy_loss),
-                    kinetic_energy_minus=0.5 * float(v @ M @ v),
-                    kinetic_energy_plus=0.5 * float(v_new @ M @ v_new),
-                    persistent=(), released=(), resolve_time=0.0, result=r))
-        q, v, projected = end_of_step(mech, qm, v_new, hk * theta_p, M, loop_rows,
-                                      projection_tol, t + hk)
-        counters["proj"] += projected
-        t = t1 if step == n_steps_total - 1 else t + hk
-        record(t, q, v)
-
-    wall = _time.perf_counter() - wall0
-    rows = recorder.rows
-    n = len(rows["t"])
-    settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
-                "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
-                "projection_tol": projection_tol, "t_span": [t0, t1],
-                **({} if e_t is None else {"e_t": dict(e_t)})}
+    out = run_steps(mech, q, v, solver, t0=t0, t1=t1, h=h, theta=theta_p,
+                    n_steps=n_steps_total, gap_tol=float(gap_tol),
+                    rest_velocity=float(rest_velocity), projection_tol=projection_tol)
+    series, st = out["series"], out["stats"]
+    n = series["t"].shape[0]
     return MoreauResult(
-        **series_from_rows(rows, k, m),
-        held=np.zeros(n, dtype=int),
-        impacts=tuple(impacts),
-        contact_events=(),
-        sol=None,
-        status=status,
-        message=message,
-        nfev=counters["nfev"],
-        nevents_fev=0,
-        n_steps=n - 1,
-        n_projections=counters["proj"],
-        n_restarts=0,
-        wall_time=float(wall),
-        impact_time=float(counters["impact_time"]),
-        settings=settings,
-        step_size=h,
-        theta_parameter=theta_p,
-        n_contact_steps=counters["contact_steps"],
-        max_penetration=max(0.0, recorder.max_penetration),
-    )
+        **series, held=np.zeros(n, dtype=int), impacts=tuple(solver.impacts),
+        contact_events=(), sol=None, status=0,
+        message="the end of the time span was reached", nfev=st["nfev"], nevents_fev=0,
+        n_steps=n - 1, n_projections=st["proj"], n_restarts=0,
+        wall_time=float(_time.perf_counter() - wall0), impact_time=float(st["impact_time"]),
+        settings=settings, step_size=h, theta_parameter=theta_p,
+        n_contact_steps=st["contact_steps"], max_penetration=max(0.0, st["max_pen"]),
+        contact_solver=(solver.counters.as_dict() if engine_path else {}),
+        max_active_contacts=st["max_active"])

@@ -1,13 +1,17 @@
-"""One compiled call for the many small contact problems of a Moreau–Jean step.
+"""Compiled kernels of a Moreau–Jean step's contact problem on the engine (laws ccp and
+coulomb, :class:`.moreau_engine.EngineSolver`).
 
 A step of :func:`convimpact.simulation.moreau.simulate_moreau` splits its contact problem
 into independent islands (:mod:`.islands`); a scene of separate bodies (boxes side by side)
 has many islands of a few contacts each, where calling the engine once per island would
-spend more time in Python than in the solves. :func:`solve_islands` runs the engine's
-compiled kernels (:mod:`convimpact.impact.contacts.newton`: the interior point and the Newton
-finish of :func:`convimpact.impact.contacts.engine.solve`) over all of them in one call,
-each island warm-started, when asked, by Newton on its law's natural map from the previous
-step's impulses (:func:`convimpact.impact.contacts.engine.warm_newton`'s compiled branch).
+spend more time in Python than in the solves. :func:`solve_small_islands` assembles every
+small island's Delassus matrix ``W = J_I G_II J_I^T`` (as :func:`assemble_islands` does) and
+runs the engine's compiled kernels (:mod:`convimpact.impact.contacts.newton`: the interior
+point and the Newton finish of :func:`convimpact.impact.contacts.engine.solve`) over all of
+them in one call, each island warm-started, when asked, by Newton on its law's natural map
+from the previous step's impulses (:func:`convimpact.impact.contacts.engine.warm_newton`'s
+compiled branch). :func:`apply_impulses` gives ``v_{k+1} = v_free + G J^T r``;
+:func:`same_pattern` tells whether a step keeps the previous step's island layout.
 
 Every answer is judged by the relative natural-map residual on the island's original data,
 :func:`natural_map_residual` (the formula of
@@ -25,6 +29,7 @@ import numpy as np
 from ..compiled import jit as _jit
 from ..impact.contacts.natural_map import natural_map_newton
 from ..impact.contacts.newton import ccp_kernel, coulomb_kernel, scaled_program
+from .moreau_step_kernels import block_times
 
 
 @_jit
@@ -96,161 +101,153 @@ def _warm(W, b, mu, d, start, coulomb, newton_iter):
 
 
 @_jit
-def solve_islands(Wcat, woff, bcat, boff, mucat, moff, d, coulomb, tol, max_iter,
-                  newton_iter, start, warm):
-    """Solve every island ``i``: ``W_i = Wcat[woff[i]:woff[i+1]]`` (row-major, square),
-    ``b_i = bcat[boff[i]:boff[i+1]]``, ``mu_i = mucat[moff[i]:moff[i+1]]``.
-
-    With ``warm[i]``, Newton on the law's natural map from ``start[boff[i]:boff[i+1]]``
-    first, kept when its residual is at most ``tol``; otherwise (or without) the engine's
-    compiled kernel (the interior point and Newton; Coulomb's law: Newton on its map from
-    the CCP answer). Returns ``(impulses, residuals, warm_used, iterations)``; an island
-    whose residual is above ``tol`` is left to the caller.
-    """
-    n_isl = woff.shape[0] - 1
-    out = np.zeros(bcat.shape[0])
-    res = np.empty(n_isl)
-    used = np.zeros(n_isl, dtype=np.bool_)
-    iters = np.zeros(n_isl, dtype=np.int64)
-    for i in range(n_isl):
-        N = boff[i + 1] - boff[i]
-        W = Wcat[woff[i]:woff[i + 1]].reshape(N, N)
-        b = bcat[boff[i]:boff[i + 1]].copy()
-        mu = mucat[moff[i]:moff[i + 1]].copy()
-        if warm[i]:
-            r, steps = _warm(W, b, mu, d, start[boff[i]:boff[i + 1]].copy(), coulomb,
-                             newton_iter)
-            iters[i] = steps
-            rr = natural_map_residual(W, b, mu, d, r, coulomb)
-            if rr <= tol:
-                out[boff[i]:boff[i + 1]] = r
-                res[i] = rr
-                used[i] = True
-                continue
-        if coulomb:
-            r, status, it, steps, g1, g2 = coulomb_kernel(W, b, mu, d, 1e-9, max_iter,
-                                                          newton_iter)
-        else:
-            r, status, it, steps, g1, g2 = ccp_kernel(W, b, mu, d, 1e-9, max_iter,
-                                                      newton_iter)
-        iters[i] += it + steps
-        out[boff[i]:boff[i + 1]] = r
-        res[i] = natural_map_residual(W, b, mu, d, r, coulomb)
-    return out, res, used, iters
-
-
-@_jit
-def block_inverses(Mflat, flat, s, out):
-    """Invert the SPD blocks ``Mflat[flat]`` (n_blocks of s x s, row-major) into
-    ``out[flat]`` by Cholesky; returns False (out undefined) when a block is not positive
-    definite or not finite."""
-    nb = flat.shape[0] // (s * s)
-    L = np.empty((s, s))
-    Li = np.empty((s, s))
-    for b in range(nb):
-        o = b * s * s
-        for i in range(s):
-            for j in range(i + 1):
-                v = Mflat[flat[o + i * s + j]]
-                for p in range(j):
-                    v -= L[i, p] * L[j, p]
-                if i == j:
-                    if not (v > 0.0) or not math.isfinite(v):
-                        return False
-                    L[i, i] = math.sqrt(v)
-                else:
-                    L[i, j] = v / L[j, j]
-        # Li = L^-1 (lower)
-        for j in range(s):
-            for i in range(s):
-                Li[i, j] = 0.0
-            Li[j, j] = 1.0 / L[j, j]
-            for i in range(j + 1, s):
-                v = 0.0
-                for p in range(j, i):
-                    v -= L[i, p] * Li[p, j]
-                Li[i, j] = v / L[i, i]
-        # M^-1 = Li^T Li
-        for i in range(s):
-            for j in range(s):
-                v = 0.0
-                for p in range(max(i, j), s):
-                    v += Li[p, i] * Li[p, j]
-                out[flat[o + i * s + j]] = v
-    return True
+def island_delassus(J, G, cons, cols, d, W):
+    """``W = J_I G_II J_I^T`` (symmetric, into ``W`` (N, N), N = len(cons) d) of the island
+    with the contacts ``cons`` (rows of J (n, d, k)) and the coordinates ``cols``."""
+    nc, nk = cons.shape[0], cols.shape[0]
+    N = nc * d
+    JI = np.empty((N, nk))
+    X = np.empty((N, nk))
+    for c in range(nc):
+        for r in range(d):
+            for a in range(nk):
+                JI[c * d + r, a] = J[cons[c], r, cols[a]]
+    for i in range(N):
+        for a in range(nk):
+            v = 0.0
+            for e in range(nk):
+                v += JI[i, e] * G[cols[e], cols[a]]
+            X[i, a] = v
+    for i in range(N):
+        for j in range(i + 1):
+            v = 0.0
+            for a in range(nk):
+                v += X[i, a] * JI[j, a]
+            W[i, j] = v
+            W[j, i] = v
 
 
 @_jit
 def assemble_islands(J, G, C, K, d, out):
     """``W_b = J_b G_bb J_b^T`` of every island b of one batch (contacts C[b], coordinates
-    K[b]) into ``out`` (B * N * N, row-major, N = nc d), symmetrized."""
+    K[b]) into ``out`` (B * N * N, row-major, N = nc d), symmetrized
+    (:func:`island_delassus`)."""
     B, nc = C.shape
-    nk = K.shape[1]
     N = nc * d
-    JI = np.empty((N, nk))
-    X = np.empty((N, nk))
     for b in range(B):
-        for c in range(nc):
-            for r in range(d):
-                for a in range(nk):
-                    JI[c * d + r, a] = J[C[b, c], r, K[b, a]]
-        for i in range(N):
-            for a in range(nk):
-                v = 0.0
-                for e in range(nk):
-                    v += JI[i, e] * G[K[b, e], K[b, a]]
-                X[i, a] = v
-        o = b * N * N
-        for i in range(N):
-            for j in range(i + 1):
-                v = 0.0
-                for a in range(nk):
-                    v += X[i, a] * JI[j, a]
-                out[o + i * N + j] = v
-                out[o + j * N + i] = v
+        island_delassus(J, G, C[b], K[b], d, out[b * N * N:(b + 1) * N * N].reshape(N, N))
 
 
 @_jit
-def contact_rows(gaps, J, v, v_free, e, h_theta, limit, rest_velocity):
-    """The step's active contacts and their data, in one pass.
+def solve_small_islands(Ja, b, mu_all, active, G, icon, icoff, icol, icoloff, d, coulomb,
+                        tol, max_iter, newton_iter, last, use_start, r, res, used):
+    """Solve the small islands of a step: island i has the active contacts
+    ``icon[icoff[i]:icoff[i + 1]]`` (indices into ``Ja``, ``b``, ``active``) and the
+    coordinates ``icol[icoloff[i]:icoloff[i + 1]]``; its W by :func:`island_delassus`.
+    With ``use_start`` and a nonzero previous impulse (``last[active[c]]``) on the island,
+    Newton on the law's natural map from there first, kept when certified; else the
+    engine's compiled kernel. Writes the impulses into
+    ``r`` (n_active, d), the residuals into ``res`` and the warm starts kept into ``used``;
+    returns ``(iterations, warm starts kept, whether an island's residual is above tol or
+    not a number)``."""
+    n_isl = icoff.shape[0] - 1
+    total = 0
+    kept = 0
+    bad = False
+    for i in range(n_isl):
+        c0, c1 = icoff[i], icoff[i + 1]
+        k0, k1 = icoloff[i], icoloff[i + 1]
+        nc = c1 - c0
+        N = nc * d
+        W = np.empty((N, N))
+        island_delassus(Ja, G, icon[c0:c1], icol[k0:k1], d, W)
+        bi = np.empty(N)
+        mi = np.empty(nc)
+        start = np.empty(N)
+        warm = False
+        for c in range(nc):
+            ca = icon[c0 + c]
+            mi[c] = mu_all[active[ca]]
+            for rr in range(d):
+                bi[c * d + rr] = b[ca, rr]
+                s0 = last[active[ca], rr] if use_start else 0.0
+                start[c * d + rr] = s0
+                if s0 != 0.0:
+                    warm = True
+        used[i] = False
+        done = False
+        x = start
+        if warm:
+            x, steps = _warm(W, bi, mi, d, start, coulomb, newton_iter)
+            total += steps
+            rr_ = natural_map_residual(W, bi, mi, d, x, coulomb)
+            if rr_ <= tol:
+                used[i] = True
+                kept += 1
+                res[i] = rr_
+                done = True
+        if not done:
+            if coulomb:
+                x, status, it, steps, g1, g2 = coulomb_kernel(W, bi, mi, d, 1e-9, max_iter,
+                                                              newton_iter)
+            else:
+                x, status, it, steps, g1, g2 = ccp_kernel(W, bi, mi, d, 1e-9, max_iter,
+                                                          newton_iter)
+            total += it + steps
+            res[i] = natural_map_residual(W, bi, mi, d, x, coulomb)
+        if not (res[i] <= tol):
+            bad = True
+        for c in range(nc):
+            for rr in range(d):
+                r[icon[c0 + c], rr] = x[c * d + rr]
+    return total, kept, bad
 
-    A contact is active when ``gaps[c] + h_theta J_n v_free <= limit``. Returns
-    ``(active, Ja, b, vn_k)``: their indices, Jacobian rows (na, d, k), ``b = J v_free``
-    with Newton's restitution ``e_eff min(v_n,free, 0)`` added to the normal
-    (``e_eff = min(e v_n,k / v_n,free, 1)`` on contacts approaching at the step's start,
-    ``v_n,k < -rest_velocity`` and ``v_n,free < 0``; 0 otherwise) and the normal velocities
-    at the start ``vn_k``.
-    """
-    nc, d, k = J.shape
-    vnf = np.empty(nc)
-    count = 0
-    for c in range(nc):
-        s = 0.0
-        for a in range(k):
-            s += J[c, 0, a] * v_free[a]
-        vnf[c] = s
-        if gaps[c] + h_theta * s <= limit:
-            count += 1
-    active = np.empty(count, dtype=np.int64)
-    Ja = np.empty((count, d, k))
-    b = np.empty((count, d))
-    vn_k = np.empty(count)
-    i = 0
-    for c in range(nc):
-        if not (gaps[c] + h_theta * vnf[c] <= limit):
-            continue
-        active[i] = c
-        for r in range(d):
-            s = 0.0
+
+@_jit
+def apply_impulses(Ja, r, G, gflat, gsize, goff, v_free, v_new, gen, last, active, vn_k,
+                   rest_velocity):
+    """``gen = J^T r``, ``v_new = v_free + G gen`` (G block diagonal over the coordinate
+    groups: flat indices ``gflat`` as in :func:`.moreau_step_kernels.block_times`), ``last``
+    the impulses of every contact (zero where inactive); returns the number of contacts
+    approaching at the step's start (``v_n,k < -rest_velocity``) that received a normal
+    impulse."""
+    na, d, k = Ja.shape
+    for a in range(k):
+        gen[a] = 0.0
+    for c in range(na):
+        for rr in range(d):
+            x = r[c, rr]
             for a in range(k):
-                Ja[i, r, a] = J[c, r, a]
-                s += J[c, r, a] * v_free[a]
-            b[i, r] = s
-        s = 0.0
+                gen[a] += Ja[c, rr, a] * x
+    block_times(G, gflat, gsize, goff, gen, v_new)
+    for i in range(k):
+        v_new[i] = v_free[i] + v_new[i]
+    last[:, :] = 0.0
+    hits = 0
+    for c in range(na):
+        for rr in range(d):
+            last[active[c], rr] = r[c, rr]
+        if vn_k[c] < -rest_velocity and r[c, 0] > 0.0:
+            hits += 1
+    return hits
+
+
+@_jit
+def same_pattern(Ja, active, key_active, key_moves):
+    """True when the active contacts are ``key_active`` and the columns their rows move
+    (nonzero entries, ``key_moves`` (n_active, k)) are those of the key."""
+    na, d, k = Ja.shape
+    if key_active.shape[0] != na:
+        return False
+    for c in range(na):
+        if active[c] != key_active[c]:
+            return False
         for a in range(k):
-            s += J[c, 0, a] * v[a]
-        vn_k[i] = s
-        if s < -rest_velocity and vnf[c] < 0.0:
-            b[i, 0] += min(e[c] * s / vnf[c], 1.0) * vnf[c]
-        i += 1
-    return active, Ja, b, vn_k
+            moves = False
+            for r in range(d):
+                if Ja[c, r, a] != 0.0:
+                    moves = True
+                    break
+            if moves != key_moves[c, a]:
+                return False
+    return True

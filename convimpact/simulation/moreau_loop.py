@@ -1,21 +1,25 @@
-"""The Moreau–Jean loop on the contact engine (laws ``ccp`` and ``coulomb``).
+"""The Moreau–Jean step loop of :func:`convimpact.simulation.moreau.simulate_moreau`: one loop
+for every law, over a per-step contact solver.
 
-The scheme is :mod:`.moreau`'s, step for step (intermediate configuration, explicit smooth
-forces, free velocity, active set by gap prediction, Newton's restitution at the velocity
-level, position update and loop projection); only the contact problem is posed and solved
-differently: by :mod:`.moreau_engine`, in the generalized coordinates' block structure,
-island by island, warm-started from the previous step's impulses, every answer certified.
+Per step (the scheme of :mod:`.moreau`): a *predictor* gives the intermediate configuration
+``q_m``, M and the inverse mass G there, the smooth forces and the free velocity ``v_free``
+(with the loop impulse of the smooth part), and the active contacts by gap prediction with
+their rows ``J`` and ``b = J v_free`` plus Newton's restitution (a :class:`Step`); the
+*solver* turns the step's contact problem into ``v_{k+1}`` and the loop impulse:
 
-Differences from the path through :func:`convimpact.resolve_impact` (other laws, methods
-and options):
+* :class:`.moreau_engine.EngineSolver` (laws ``ccp`` and ``coulomb`` under method "auto" or
+  "interior"): the contact engine island by island, warm-started, every answer certified;
+* :class:`.moreau_impact.ImpactSolver` (every other law and method): one call of
+  :func:`convimpact.resolve_impact` with the step's matrices.
 
-* every active contact carries its friction (the per-impact law ``ccp`` of
-  ``resolve_impact`` keeps only the normal of a contact that does not approach);
-* the impact events carry no :class:`~convimpact.impact.results.ImpactResult`
-  (``result=None``): the step's certificate is the engine's natural-map residual, at most
-  ``tol`` on every island; ``regime`` is read off the answer (``"separating"`` for a zero
-  normal impulse, ``"stick"`` where the contact's slip after the step is at most 1e-9 of the
-  step's velocity scale, else ``"slide"``; ``"frictionless"`` for mu = 0).
+Then the predictor moves the positions, ``q_{k+1} = q_m + h theta v_{k+1}`` (loops projected
+back), and the :class:`Recorder` keeps the raw state; momenta, energies, loop drifts and the
+largest penetration are computed from the stored states once, at the end of the run.
+
+Two predictors compute the same quantities: :class:`ModelPredictor`, one compiled call per
+step (:func:`.moreau_step_kernels.predict_model`) for the models of :mod:`convimpact.model`
+without loops or applied forces, and :class:`ProtocolPredictor` for any mechanism (the
+Mechanism protocol, loops, applied forces).
 """
 
 from __future__ import annotations
@@ -26,18 +30,20 @@ from typing import Any
 import numpy as np
 
 from ..impact.contacts.threads import one_blas_thread
-from ..impact.errors import ConvImpactError, SimulationError
-from .moreau_engine import (
-    EngineCounters,
-    Evaluator,
-    GroupCache,
-    StepProblem,
-    inverse_mass,
-    solve_step,
+from ..impact.errors import SimulationError
+from .moreau_engine import Evaluator, GroupCache, InverseMass, inverse_mass, regroup
+from .moreau_step_kernels import (
+    EVAL_SHIFT,
+    GAP_ROUNDOFF,
+    NOT_DEFINITE,
+    NOT_FINITE,
+    REGROUP,
+    advance,
+    contact_rows_into,
+    model_series,
+    predict_model,
 )
-from .moreau_kernels import contact_rows
 from .projection import project_positions, project_velocities
-from .result import SERIES, ImpactEvent
 
 
 def end_of_step(mech, qm, v_new, h_theta: float, M, loop_rows, projection_tol: float,
@@ -60,171 +66,285 @@ def end_of_step(mech, qm, v_new, h_theta: float, M, loop_rows, projection_tol: f
     return q_new, v_new, projected
 
 
-class Recorder:
-    """The sampled series of a Moreau–Jean run (:data:`~.result.SERIES`) and the largest
-    penetration (-gap) of any contact at a stored state."""
+class Step:
+    """One step's prediction (arrays may be views of buffers reused by the next step: copy
+    what you keep). ``index``, ``tm`` (t_m), ``hk`` (the step), ``qm``, ``v`` (v_k), ``M``
+    and ``inv`` (:class:`.moreau_engine.InverseMass`) at q_m, ``blocks`` (the
+    :class:`.moreau_engine.GroupCache` G is block diagonal over), ``C`` (loop rows at q_m),
+    ``v_free``, ``sigma`` (the loop impulse after the smooth part), and the active contacts:
+    ``active`` (indices), ``Ja`` (na, d, k), ``b`` (na, d), ``vn_k`` (na,)."""
 
-    def __init__(self, mech, evaluator: Evaluator):
-        self.mech, self.ev = mech, evaluator
-        self.k = int(mech.n_coordinates)
-        self.m = int(mech.n_loop_constraints)
-        self.rows: dict[str, list] = {key: [] for key in SERIES}
-        self.max_penetration = 0.0
-
-    def __call__(self, t: float, th: np.ndarray, dth: np.ndarray, sigma: np.ndarray) -> None:
-        mech, m, rows = self.mech, self.m, self.rows
-        M_, g_ = self.ev.mass_and_gaps(th)
-        C_ = (np.asarray(mech.loop_jacobian(th), float).reshape(m, self.k) if m
-              else np.zeros((0, self.k)))
-        rows["t"].append(t)
-        rows["theta"].append(th.copy())
-        rows["dtheta"].append(dth.copy())
-        rows["p"].append(M_ @ dth - C_.T @ sigma)
-        rows["sigma"].append(sigma.copy())
-        rows["T"].append(0.5 * float(dth @ M_ @ dth))
-        rows["V"].append(float(mech.potential_energy(th)))
-        if m:
-            rows["psi"].append(float(np.max(np.abs(mech.loop_residual(th)))))
-            rows["cdq"].append(float(np.max(np.abs(C_ @ dth))))
-        else:
-            rows["psi"].append(0.0)
-            rows["cdq"].append(0.0)
-        if g_.size:
-            self.max_penetration = max(self.max_penetration, -float(np.min(g_)))
+    __slots__ = ("index", "tm", "hk", "qm", "v", "M", "inv", "blocks", "C", "v_free",
+                 "sigma", "active", "Ja", "b", "vn_k")
 
 
-#: a contact whose predicted end-of-step gap is at most gap_tol + this (times max(1, max|q|))
-#: takes part: round-off of the configuration, not an opening
-GAP_ROUNDOFF = 1e-12
+class _Buffers:
+    """The active rows' buffers of a mechanism with nc contacts of dimension d."""
+
+    def __init__(self, mech, nc: int, d: int, k: int):
+        self.e = np.array([float(mech.contact_parameters(c)[0])
+                           for c in mech.contact_names])
+        self.active = np.zeros(nc, dtype=np.int64)
+        self.Ja = np.zeros((nc, d, k))
+        self.b = np.zeros((nc, d))
+        self.vn_k = np.zeros(nc)
+        self._views: dict = {}
+
+    def fill(self, st: Step, na: int) -> None:
+        views = self._views.get(na)
+        if views is None:
+            views = self._views[na] = (self.active[:na], self.Ja[:na], self.b[:na],
+                                       self.vn_k[:na])
+        st.active, st.Ja, st.b, st.vn_k = views
 
 
-def run_engine_steps(mech, q, v, **kwargs) -> dict[str, Any]:
-    """Run the loop (:func:`_run`, keyword arguments as there) with BLAS on one thread: the
-    step's matrices are small, and a threaded BLAS spends more on waking its threads (on a
-    shared machine, far more) than on the products."""
-    with one_blas_thread():
-        return _run(mech, q, v, **kwargs)
+class ModelPredictor:
+    """The predictor on a model without loops or applied forces: one compiled call per step
+    (:func:`.moreau_step_kernels.predict_model`) on the model's work buffer."""
+
+    @staticmethod
+    def applies(mech) -> bool:
+        from ..model.mechanism import ModelMechanism
+
+        return (type(mech) is ModelMechanism and not int(mech.n_loop_constraints)
+                and mech.model.applied_forces is None)
+
+    def __init__(self, mech, theta: float, gap_tol: float, rest_velocity: float):
+        self.mech, self.data = mech, mech.data
+        k, nc, d = int(mech.n_coordinates), len(mech.contact_names), int(mech.model.dim)
+        self.theta, self.gap_tol, self.rest_velocity = theta, gap_tol, rest_velocity
+        self.nfev_per_step = 2 if theta < 1.0 else 1
+        data = self.data
+        self.views = (data.work, data.M, data.gap, data.contact_jacobian[:, :d], data.bias)
+        self.cache = GroupCache()
+        self.cache.mask = np.zeros(k * k, dtype=np.bool_)
+        self.cache.gflat = self.cache.gsize = np.zeros(0, np.int64)
+        self.cache.goff = np.zeros(1, np.int64)
+        self.cache.Minv = np.zeros((k, k))
+        self.inv: InverseMass | None = None
+        self.qm, self.vtmp, self.vfree = np.zeros(k), np.zeros(k), np.zeros(k)
+        self.buf = _Buffers(mech, nc, d, k)
+        self.C = np.zeros((0, k))
+        self.st = Step()
+
+    def predict(self, index: int, t: float, q, v, hk: float, sigma) -> Step:
+        c, buf, th = self.cache, self.buf, self.theta
+        work, Mv, gapv, Jv, biasv = self.views
+        for _ in range(2):  # the second call only after a regroup, at the same state
+            status, na = predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, th, c.gflat,
+                                       c.gsize, c.goff, c.mask, c.Minv, self.qm, self.vtmp,
+                                       self.vfree, buf.e, self.gap_tol, self.rest_velocity,
+                                       buf.active, buf.Ja, buf.b, buf.vn_k)
+            if status != REGROUP:
+                break
+            regroup(Mv, self.C, c)
+            self.inv = InverseMass(c.Minv, c.groups)
+        if status:
+            self._fail(status)
+        st = self.st
+        st.index, st.tm, st.hk, st.qm, st.v = index, t + (1.0 - th) * hk, hk, self.qm, v
+        st.M, st.inv, st.C, st.v_free, st.sigma = Mv, self.inv, self.C, self.vfree, sigma
+        st.blocks = c
+        buf.fill(st, na)
+        return st
+
+    def _fail(self, status: int):
+        if status == NOT_DEFINITE:
+            raise SimulationError("the mass matrix is not positive definite (or not finite) "
+                                  "on this step")
+        if status == NOT_FINITE:
+            raise SimulationError("the mass matrix is not finite")
+        if status == REGROUP:
+            raise SimulationError("the mass matrix's coupling changed twice at one state")
+        from ..model import recursive as rc
+
+        # the model's own error (non-finite or wrongly shaped state): its typed exception
+        self.data.cache.clear()
+        self.data.compute(rc.MASS | rc.CONTACT, np.array(self.qm))
+        raise SimulationError(f"the model's evaluation failed (code {status >> EVAL_SHIFT})")
+
+    def finish(self, st: Step, v_new, t_end: float, q_out, v_out) -> bool:
+        if not advance(st.qm, v_new, st.hk * self.theta, q_out, v_out):
+            raise SimulationError(f"the state became non-finite at t = {t_end:.9g}; reduce h")
+        return False
+
+    def close(self) -> None:
+        # the compiled pass moved the model's state behind its Data's back: drop what the
+        # Data derived from the state it last saw
+        self.data.cache.clear()
+
+    def series(self, theta, dtheta, sigma):
+        data, lay = self.data, self.data.layout
+        n, k = theta.shape
+        p, T, V = np.empty((n, k)), np.empty(n), np.empty(n)
+        try:
+            gmin = model_series(data.work, data.M, data.gap, data.position3, data.rotation3,
+                                lay.body_mass, lay.body_com, lay.gravity, theta, dtheta, p,
+                                T, V)
+        finally:
+            data.cache.clear()
+        zeros = np.zeros(n)
+        return p, T, V, zeros, zeros.copy(), (-gmin if np.isfinite(gmin) else 0.0)
 
 
-def _run(mech, q, v, *, t0: float, t1: float, h: float, theta: float,
-                     n_steps: int, law: str, tol: float, gap_tol: float,
-                     rest_velocity: float, projection_tol: float, warm_start: bool,
-                     islands: bool, max_iter: int = 100, newton_iter: int = 20
-                     ) -> dict[str, Any]:
-    """Run the loop; returns the recorded rows, impacts, counters and figures."""
-    contacts = tuple(mech.contact_names)
-    k = int(mech.n_coordinates)
-    m = int(mech.n_loop_constraints)
-    ev = Evaluator(mech, contacts)
-    params = [mech.contact_parameters(c) for c in contacts]
-    e_all = np.array([float(p[0]) for p in params])
-    mu_all = np.array([float(p[1]) for p in params])
-    coulomb = law == "coulomb"
-    counters = EngineCounters()
-    cache = GroupCache()
-    layout_cache: dict = {}
-    last = None  # previous step's impulses (nc, d)
-    sigma = np.zeros(m)
-    impacts: list[ImpactEvent] = []
-    stats = {"nfev": 0, "contact_steps": 0, "proj": 0, "max_active": 0, "impact_time": 0.0}
+class ProtocolPredictor:
+    """The predictor through the Mechanism protocol (any mechanism; loops, applied forces):
+    :class:`.moreau_engine.Evaluator`, :func:`.moreau_engine.inverse_mass`, the mechanism's
+    forces, :func:`.moreau_step_kernels.contact_rows_into`."""
 
-    def loop_rows(th):
-        return (np.asarray(mech.loop_jacobian(th), float).reshape(m, k) if m
+    def __init__(self, mech, theta: float, gap_tol: float, rest_velocity: float,
+                 projection_tol: float):
+        self.mech = mech
+        self.contacts = tuple(mech.contact_names)
+        self.k, self.m = int(mech.n_coordinates), int(mech.n_loop_constraints)
+        self.theta, self.gap_tol, self.rest_velocity = theta, gap_tol, rest_velocity
+        self.projection_tol = projection_tol
+        self.nfev_per_step = 2 if theta < 1.0 else 1
+        self.ev = Evaluator(mech, self.contacts)
+        self.cache = GroupCache()
+        self.buf = None
+        self.st = Step()
+
+    def loop_rows(self, q):
+        m, k = self.m, self.k
+        return (np.asarray(self.mech.loop_jacobian(q), float).reshape(m, k) if m
                 else np.zeros((0, k)))
 
-    recorder = Recorder(mech, ev)
-
-    def record(t, th, dth):
-        recorder(t, th, dth, sigma)
-
-    t = t0
-    record(t, q, v)
-    for step in range(n_steps):
-        hk = min(h, t1 - t)
-        if hk <= 0:
-            break
-        tm = t + (1.0 - theta) * hk
-        qm = q + hk * (1.0 - theta) * v
-        M, gaps, J = ev.positions(qm)
-        d = J.shape[1] if J.ndim == 3 else 0
-        C = loop_rows(qm)
-        inv = inverse_mass(M, C, cache)
+    def predict(self, index: int, t: float, q, v, hk: float, sigma) -> Step:
+        mech, th = self.mech, self.theta
+        tm = t + (1.0 - th) * hk
+        qm = q + hk * (1.0 - th) * v
+        M, gaps, J = self.ev.positions(qm)
+        C = self.loop_rows(qm)
+        inv = inverse_mass(M, C, self.cache)
         f = np.asarray(mech.generalized_forces(tm, qm, v), float)
-        stats["nfev"] += 1
         Minv = inv.Minv if inv.Minv is not None else inv.G
-        if theta < 1.0:
-            v_pred = v + (1.0 - theta) * hk * (Minv @ f)
+        if th < 1.0:
+            v_pred = v + (1.0 - th) * hk * (Minv @ f)
             f = np.asarray(mech.generalized_forces(tm, qm, v_pred), float)
-            stats["nfev"] += 1
         v_star = v + hk * (Minv @ f)
-        if m:
+        if self.m:
             s = inv.S @ (C @ v_star)
             v_free = v_star - inv.A @ s
-            sigma = sigma - s
+            sigma = sigma - s  # loop impulse of the smooth part (M dv = h f + C^T dsigma)
         else:
             v_free = v_star
-        v_new = v_free
-        if contacts:
+        st = self.st
+        st.index, st.tm, st.hk, st.qm, st.v, st.M, st.inv, st.C = index, tm, hk, qm, v, M, inv, C
+        st.v_free, st.sigma, st.blocks = v_free, sigma, self.cache
+        na = 0
+        if self.contacts:
+            if self.buf is None:
+                self.buf = _Buffers(mech, len(self.contacts), J.shape[1], self.k)
+            buf = self.buf
             # a resting contact's predicted gap is 0 up to the round-off of the positions:
             # that round-off must not switch it off (one corner of two would then carry
             # the load alone and turn the body)
             slack = GAP_ROUNDOFF * max(1.0, float(np.max(np.abs(qm), initial=0.0)))
-            active, Ja, b, vn_k = contact_rows(gaps, J, v, v_free, e_all, hk * theta,
-                                               gap_tol + slack, rest_velocity)
+            na = contact_rows_into(gaps, np.ascontiguousarray(J), v, v_free, buf.e, hk * th,
+                                   self.gap_tol + slack, self.rest_velocity, buf.active,
+                                   buf.Ja, buf.b, buf.vn_k)
+            buf.fill(st, na)
         else:
-            active = np.zeros(0, dtype=np.int64)
-        if active.size:
-            stats["contact_steps"] += 1
-            stats["max_active"] = max(stats["max_active"], int(active.size))
-            start = None
-            if warm_start and last is not None:
-                start = last[active]
-            t_start = _time.perf_counter()
-            try:
-                r = solve_step(StepProblem(active, Ja, b, mu_all[active]), inv,
-                               coulomb=coulomb, tol=tol, start=start, split=islands,
-                               counters=counters, names=contacts, max_iter=max_iter,
-                               newton_iter=newton_iter, where=f"at t = {tm:.9g}, step {step}",
-                               cache=layout_cache)
-            except ConvImpactError as exc:
-                exc.add_note(f"(while solving the step's contact problem at t = {tm:.9g}, "
-                             f"step {step}, in simulate_moreau)")
-                raise
-            finally:
-                stats["impact_time"] += _time.perf_counter() - t_start
-            gen = np.einsum("cdk,cd->k", Ja, r)
-            v_new = v_free + inv.G @ gen
+            st.active = np.zeros(0, dtype=np.int64)
+        return st
+
+    def finish(self, st: Step, v_new, t_end: float, q_out, v_out) -> bool:
+        q_new, v_new, projected = end_of_step(self.mech, st.qm, v_new, st.hk * self.theta,
+                                              st.M, self.loop_rows, self.projection_tol,
+                                              t_end)
+        q_out[:] = q_new
+        v_out[:] = v_new
+        return projected
+
+    def close(self) -> None:
+        pass
+
+    def series(self, theta, dtheta, sigma):
+        mech, m, n = self.mech, self.m, theta.shape[0]
+        p, T, V = np.empty_like(theta), np.empty(n), np.empty(n)
+        psi, cdq = np.zeros(n), np.zeros(n)
+        pen = 0.0
+        for s in range(n):
+            th, dth = theta[s], dtheta[s]
+            M_, g_ = self.ev.mass_and_gaps(th)
+            C_ = self.loop_rows(th)
+            p[s] = M_ @ dth - C_.T @ sigma[s]
+            T[s] = 0.5 * float(dth @ M_ @ dth)
+            V[s] = float(mech.potential_energy(th))
             if m:
-                sigma = sigma - inv.S @ (inv.A.T @ gen)
-            if last is None:
-                last = np.zeros((len(contacts), d))
-            last[:] = 0.0
-            last[active] = r
-            hit = np.flatnonzero((vn_k < -rest_velocity) & (r[:, 0] > 0.0))
-            if hit.size:
-                u = np.einsum("cdk,k->cd", Ja, v_new)
-                scale = max(float(np.abs(b).max()), 1e-300)
-                slip = np.sqrt(np.einsum("cd,cd->c", u[:, 1:], u[:, 1:]))
-                regime = tuple(
-                    "frictionless" if mu_all[active[i]] <= 0.0 else
-                    "separating" if r[i, 0] <= 0.0 else
-                    "stick" if slip[i] <= 1e-9 * scale else "slide" for i in hit)
-                T_minus = 0.5 * float(v_free @ M @ v_free)
-                T_plus = 0.5 * float(v_new @ M @ v_new)
-                impacts.append(ImpactEvent(
-                    time=tm, contacts=tuple(contacts[active[i]] for i in hit),
-                    held_contacts=(), regime=regime, impulse=r[hit].copy(),
-                    loop_impulse=np.zeros(m), generalized_impulse=gen,
-                    theta=qm.copy(), dtheta_minus=v.copy(), dtheta_plus=v_new.copy(),
-                    energy_loss=T_minus - T_plus,
-                    kinetic_energy_minus=0.5 * float(v @ M @ v), kinetic_energy_plus=T_plus,
-                    persistent=(), released=(), resolve_time=0.0, result=None))
-        elif last is not None:
-            last[:] = 0.0
-        q, v, projected = end_of_step(mech, qm, v_new, hk * theta, M, loop_rows,
-                                      projection_tol, t + hk)
-        stats["proj"] += projected
-        t = t1 if step == n_steps - 1 else t + hk
-        record(t, q, v)
-    stats["max_pen"] = recorder.max_penetration
-    return {"rows": recorder.rows, "impacts": impacts, "counters": counters, "stats": stats}
+                psi[s] = float(np.max(np.abs(mech.loop_residual(th))))
+                cdq[s] = float(np.max(np.abs(C_ @ dth)))
+            if g_.size:
+                pen = max(pen, -float(np.min(g_)))
+        return p, T, V, psi, cdq, pen
+
+
+def predictor(mech, theta: float, gap_tol: float, rest_velocity: float,
+              projection_tol: float):
+    """The predictor for ``mech`` (:class:`ModelPredictor` where it applies)."""
+    if ModelPredictor.applies(mech):
+        return ModelPredictor(mech, theta, gap_tol, rest_velocity)
+    return ProtocolPredictor(mech, theta, gap_tol, rest_velocity, projection_tol)
+
+
+def run_steps(mech, q, v, solver, **kwargs) -> dict[str, Any]:
+    """Run the loop (:func:`_run`, keyword arguments as there) with BLAS on one thread: the
+    step's matrices are small, and a threaded BLAS spends more on waking its threads (on a
+    shared machine, far more) than on the products."""
+    with one_blas_thread():
+        return _run(mech, q, v, solver, **kwargs)
+
+
+def _run(mech, q, v, solver, *, t0: float, t1: float, h: float, theta: float, n_steps: int,
+         gap_tol: float, rest_velocity: float, projection_tol: float) -> dict[str, Any]:
+    """The loop; returns the series (:data:`~.result.SERIES` keys as arrays) and the
+    figures (``stats``). ``solver`` has ``solve(step) -> (v_{k+1}, sigma)`` and
+    ``idle()`` (a step without active contacts)."""
+    k, m = int(mech.n_coordinates), int(mech.n_loop_constraints)
+    pred = predictor(mech, theta, gap_tol, rest_velocity, projection_tol)
+    T = np.empty(n_steps + 1)
+    Q, Vel, S = np.empty((n_steps + 1, k)), np.empty((n_steps + 1, k)), np.zeros(
+        (n_steps + 1, m))
+    sigma = np.zeros(m)
+    T[0], Q[0], Vel[0] = t0, q, v
+    q, v = Q[0], Vel[0]
+    stats = {"nfev": 0, "contact_steps": 0, "proj": 0, "max_active": 0, "impact_time": 0.0}
+    t, count = t0, 1
+    clock = _time.perf_counter
+    try:
+        for step in range(n_steps):
+            hk = min(h, t1 - t)
+            if hk <= 0:
+                break
+            st = pred.predict(step, t, q, v, hk, sigma)
+            na = st.active.shape[0]
+            if na:
+                stats["contact_steps"] += 1
+                if na > stats["max_active"]:
+                    stats["max_active"] = na
+                t_start = clock()
+                try:
+                    v_new, sigma = solver.solve(st)
+                finally:
+                    stats["impact_time"] += clock() - t_start
+            else:
+                solver.idle()
+                v_new, sigma = st.v_free, st.sigma
+            stats["proj"] += pred.finish(st, v_new, t + hk, Q[count], Vel[count])
+            t = t1 if step == n_steps - 1 else t + hk
+            q, v = Q[count], Vel[count]
+            T[count] = t
+            if m:
+                S[count] = sigma
+            count += 1
+    finally:
+        pred.close()
+    stats["nfev"] = pred.nfev_per_step * (count - 1)
+    Q, Vel, S = Q[:count], Vel[:count], S[:count]
+    p, E_kin, E_pot, psi, cdq, pen = pred.series(Q, Vel, S)
+    stats["max_pen"] = pen
+    series = {"t": T[:count], "theta": Q, "dtheta": Vel, "p": p, "sigma": S,
+              "kinetic_energy": E_kin, "potential_energy": E_pot, "loop_residual": psi,
+              "loop_velocity_residual": cdq}
+    return {"series": series, "stats": stats}

@@ -80,9 +80,9 @@ def test_resting_stack_impulses_balance_the_weights(law):
     inv = me.inverse_mass(M, np.zeros((0, q.size)), me.GroupCache())
     v_free = h * (inv.G @ np.asarray(mech.generalized_forces(0.0, qm, v), float))
     b = np.einsum("cdk,k->cd", J, v_free)
-    rr = me.solve_step(me.StepProblem(np.arange(2 * n), J, b, np.full(2 * n, 0.5)), inv,
-                       coulomb=law == "coulomb", tol=1e-10, start=None, split=True,
-                       counters=me.EngineCounters(), names=tuple(mech.contact_names))
+    rr, _ = me.solve_step(np.arange(2 * n), J, b, np.full(2 * n, 0.5), inv,
+                          coulomb=law == "coulomb", tol=1e-10, last=None, split=True,
+                          counters=me.EngineCounters(), names=tuple(mech.contact_names))
     for i in range(n):
         assert rr[2 * i, 0] + rr[2 * i + 1, 0] == pytest.approx((n - i) * G * h, rel=1e-8)
         # no net friction across an interface (a self-balanced pair along it is as
