@@ -22,7 +22,7 @@ The law's answer is fixed by its active set A (``extras["active_set"]``) and tie
   one-contact slide is the same system with the boundary imposed (sigma of either sign).
 
 Inside a mode these equations are smooth; their implicit differentiation
-(:mod:`.mode_system`) is the derivative. Mode boundaries are stated in ``one_sided``: a
+(:mod:`convimpact.impact.derivatives.modes`) is the derivative. Mode boundaries are stated in ``one_sided``: a
 contact of A whose impulse vanishes, a contact off A about to press (``u_n = 0``), the stick
 limit, a P_N contact between the cone's interior and its boundary (sigma = 0), a slip
 ``v_t- = 0`` that fixes eq. (55)'s direction. ``other_side=True`` gives the neighbouring
@@ -42,7 +42,7 @@ import numpy as np
 from ..conic.paths import impulse_scale
 from ..errors import NotSupportedError, ParameterError, SolverError
 from ..problem.build import ImpactProblem
-from .mode_system import VELOCITY_ONLY, ModeSystem, check_redundant
+from ..derivatives.modes import VELOCITY_ONLY, ModeSystem, check_redundant
 from .pn_complementarity import STICK_COND_MAX, newton_velocity_shift
 
 LAW = "pereira-nikravesh"
@@ -137,9 +137,7 @@ def _slide(problem: ImpactProblem, A: list[int], kinds: dict[int, str], pi: np.n
         if kinds[i] == "frictionless":
             S.frictionless(i, S.velocity(i * d))
         else:
-            s = float(np.sign(pi[i * d + 1]))
-            S.add(S.velocity(i * d), S.unknown(i * d + 1) - (mu[i] * s) * S.unknown(i * d)
-                  - (s * pi[i * d]) * S.friction(i))
+            S.planar_slide(i, float(mu[i]), float(np.sign(pi[i * d + 1])))
         return S.solve(f"law {LAW!r}, slide tier on contact {i}", redundant)
     lam, sig = _multipliers(problem, A, kinds, pi)
     bnd = [i for i in A if kinds[i] == "boundary"]
