@@ -42,6 +42,7 @@ import numpy as np
 from ..conic.paths import impulse_scale
 from ..errors import NotSupportedError, ParameterError, SolverError
 from ..problem.build import ImpactProblem
+from ..derivatives.chain import zero_derivative
 from ..derivatives.modes import VELOCITY_ONLY, ModeSystem, check_redundant
 from .pn_complementarity import STICK_COND_MAX, newton_velocity_shift
 
@@ -51,15 +52,6 @@ BOUNDARY_RTOL = 1e-7
 #: relative residual of P_N(A)'s stationarity above which the answer is not its KKT point
 KKT_RTOL = 1e-6
 _NO_OTHER = " (no other-side derivative: across it the law re-selects its tier or active set)"
-
-
-def _zero(problem: ImpactProblem, regimes: tuple[str, ...]):
-    from ..derivatives.contact import ContactDerivative
-
-    n, d = problem.n_contacts, problem.dim
-    N = n * d
-    return ContactDerivative(W=np.zeros((N, N, N)), v=np.zeros((N, N)), e=np.zeros((N, n)),
-                             mu=np.zeros((N, n)), e_t=None, regimes=regimes)
 
 
 def _stick(problem: ImpactProblem, A: list[int], b: np.ndarray):
@@ -249,7 +241,7 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
     extras = result.diagnostics.extras
     A = extras.get("active_set")
     if A is None:  # no contact approaches: no impulse, and none nearby
-        return _zero(problem, reported)
+        return zero_derivative(problem, reported, False)
     A = sorted(int(i) for i in A)
     tier = extras.get("tier", "stick")
     N = n * d

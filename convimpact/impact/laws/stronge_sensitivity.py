@@ -31,7 +31,7 @@ from scipy.integrate import solve_ivp
 
 from ..errors import SolverError
 from .stronge_dop853 import _A, _B, _E3, _E5, _NE, _NS, _error_norm, _event, _event_length
-from .stronge_slip import _onset
+from .stronge_slip import MAX_STEPS, _onset  # the law's bound on a curved slip's steps
 
 #: local error tolerance of the variational integration (state and sensitivities)
 SENSITIVITY_RTOL = 1e-13
@@ -40,8 +40,6 @@ SENSITIVITY_RTOL = 1e-13
 SETTLE_RTOL = 1e-15
 #: slip speed (relative to max |v-|) at which the slip counts as stopped whatever its angle
 FLOOR_RTOL = 1e-12
-#: most accepted steps of one curved slip (the law's own bound)
-MAX_STEPS = 20000
 #: a vanishing slip's self-similar stop (events off, |u| = 1, tr W = 1): a slip that neither
 #: stops nor grows within this many accepted steps or this much normal impulse does not stop
 #: (it slows forever: |W_tt^-1 W_tn| = mu)
