@@ -1,6 +1,7 @@
 """Exact derivatives of the cone complementarity laws ``ccp``, ``coulomb`` and
-``dissipative``, at one contact (:data:`ccp_one`, ...) and at several (:data:`ccp_several`, ...):
-the implicit differentiation of their modes' equations (:mod:`convimpact.impact.derivatives.modes`).
+``dissipative``, at one contact (:data:`ccp_one`, ...) and at several (:data:`ccp_several`,
+...): the implicit differentiation of their modes' equations
+(:mod:`convimpact.impact.derivatives.modes`).
 
 Each law's answer solves a cone complementarity problem with ``u = W pi + b``,
 
@@ -18,15 +19,16 @@ the dual cone: ``u_n > mu |u_t|`` for the CCP, ``u_n > 0`` for Coulomb), **frict
 the cone's boundary ``|pi_t| = mu pi_n > 0``, ``u_t = -sigma t`` with ``t = pi_t / |pi_t|`` and
 ``sigma > 0``, ``u_n = mu sigma`` for the CCP -- its normal-velocity lift -- and ``u_n = 0`` for
 Coulomb). Inside a mode these are smooth equations in ``(pi, sigma)``; their implicit
-differentiation (:mod:`convimpact.impact.derivatives.modes`) is the derivative. For the CCP it is exactly the
-differentiation of the KKT system of its cone program with the active cone faces fixed.
+differentiation is the derivative. For the CCP it is exactly the differentiation of the KKT
+system of its cone program with the active cone faces fixed.
 
 Mode boundaries (one-sided derivatives, stated in ``one_sided``; ``other_side=True`` gives
 the neighbouring mode's, all boundary contacts flipped at once):
 
 * about to separate: ``pi_i = 0`` and u on the dual cone's boundary (for the CCP
   ``u_n = mu |u_t|``; Coulomb ``u_n = 0``): separating on one side, stick (u = 0) or slide
-  (parametrized by the slip, :meth:`~convimpact.impact.derivatives.modes.ModeSystem.slide_on_slip`) on the other;
+  (parametrized by the slip,
+  :meth:`~convimpact.impact.derivatives.modes.ModeSystem.slide_on_slip`) on the other;
 * the stick limit: pi on the cone's boundary with no slip (``u = 0``): stick | slide;
 * a contact touching at ``v_n- = 0`` with e > 0: the kink of ``b_n = v_n + e min(v_n, 0)``
   (the derivative given is ``v_n- >= 0``'s); for the CCP and the dissipative law, a pressed
