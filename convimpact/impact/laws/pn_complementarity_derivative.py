@@ -22,8 +22,8 @@ The law's answer is fixed by its active set A (``extras["active_set"]``) and tie
   one-contact slide is the same system with the boundary imposed (sigma of either sign).
 
 Inside a mode these equations are smooth; their implicit differentiation
-(:mod:`convimpact.impact.derivatives.modes`) is the derivative. Mode boundaries are stated in ``one_sided``: a
-contact of A whose impulse vanishes, a contact off A about to press (``u_n = 0``), the stick
+(:mod:`convimpact.impact.derivatives.modes`) is the derivative. Mode boundaries are stated
+in ``one_sided``: a contact of A whose impulse vanishes, a contact off A about to press (``u_n = 0``), the stick
 limit, a P_N contact between the cone's interior and its boundary (sigma = 0), a slip
 ``v_t- = 0`` that fixes eq. (55)'s direction. ``other_side=True`` gives the neighbouring
 mode's derivative where that mode is this law's answer across the boundary by continuity (the

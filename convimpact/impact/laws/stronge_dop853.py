@@ -7,9 +7,9 @@ error control). Here are the integrator's parts, on the tableau of scipy.integra
 :func:`_rhs` (the slope ``dy/dsigma``), :func:`_step` (one step), :func:`_error` (the error
 norm, each component scaled by :data:`ODE_RTOL`), :func:`_event` and :func:`_locate` (the
 stage's event function and its location inside an accepted step). The sensitivities of the
-curved slip (:mod:`convimpact.impact.laws.stronge_sensitivity`) step on the same tableau and
-locate their events with the same :func:`_event_length` and :func:`_event`. The loop that drives them
--- step-size control, the stage's events, the stop and the hand-over to an exact straight
+curved slip (:mod:`convimpact.impact.laws.stronge_sensitivity`) step on the same tableau
+and locate their events with the same :func:`_event_length` and :func:`_event`. The loop
+that drives them -- step-size control, the stage's events, the stop and the hand-over to an exact straight
 finish -- is the law's, ``_curved_slip`` in :mod:`convimpact.impact.laws.stronge_slip`.
 
 Every function runs unchanged as plain Python (``NUMBA_DISABLE_JIT=1``), which reads

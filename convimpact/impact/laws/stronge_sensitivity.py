@@ -14,7 +14,8 @@ by the same embedded Runge--Kutta pair as the law's own integration (DOP853: the
 :mod:`.stronge_dop853`), the error of every component -- state and sensitivities -- kept below
 :data:`SENSITIVITY_RTOL` relative to its scale. The stage's events are located inside the
 accepted step by the law's own compiled locator (:func:`~.stronge_dop853._event_length`:
-the state's slopes do not depend on the sensitivities), and carry their event sensitivities: where ``g(y, theta) = 0`` (``g = v_n`` at the end of compression,
+the state's slopes do not depend on the sensitivities), and carry their event
+sensitivities: where ``g(y, theta) = 0`` (``g = v_n`` at the end of compression,
 ``g = W_n - (1 - e^2) W_n(p_c)`` at the end of restitution) the event's ``sigma`` moves by
 ``dsigma = -(g_y S + g_theta) / (g_y f)``, so the state's total derivative there is
 ``S + f dsigma``. A decelerating slip is handed to the caller's exact straight finish once its
