@@ -23,16 +23,17 @@ The law's answer is fixed by its active set A (``extras["active_set"]``) and tie
 
 Inside a mode these equations are smooth; their implicit differentiation
 (:mod:`convimpact.impact.derivatives.modes`) is the derivative. Mode boundaries are stated
-in ``one_sided``: a contact of A whose impulse vanishes, a contact off A about to press (``u_n = 0``), the stick
-limit, a P_N contact between the cone's interior and its boundary (sigma = 0), a slip
-``v_t- = 0`` that fixes eq. (55)'s direction. ``other_side=True`` gives the neighbouring
-mode's derivative where that mode is this law's answer across the boundary by continuity (the
-stick tier gaining or losing a frictionless contact, a P_N contact leaving or reaching its
-cone's boundary); where the law re-selects its tier or active set globally (the stick limit,
-a frictional contact at its cone's apex: the admissible sets then depend on the direction of
-the perturbation, and the answer may jump) none is given and the statement says so. Ties
-between active sets with different velocities (another admissible set exactly as
-dissipative) are not detected here: the law then warns of several admissible active sets.
+in ``one_sided``: a contact of A whose impulse vanishes, a contact off A about to press
+(``u_n = 0``), the stick limit, a P_N contact between the cone's interior and its boundary
+(sigma = 0), a slip ``v_t- = 0`` that fixes eq. (55)'s direction. ``other_side=True`` gives
+the neighbouring mode's derivative where that mode is this law's answer across the boundary
+by continuity (the stick tier gaining or losing a frictionless contact, a P_N contact
+leaving or reaching its cone's boundary); where the law re-selects its tier or active set
+globally (the stick limit, a frictional contact at its cone's apex: the admissible sets then
+depend on the direction of the perturbation, and the answer may jump) none is given and the
+statement says so. Ties between active sets with different velocities (another admissible
+set exactly as dissipative) are not detected here: the law then warns of several admissible
+active sets.
 """
 
 from __future__ import annotations

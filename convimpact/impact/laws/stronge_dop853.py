@@ -9,8 +9,9 @@ norm, each component scaled by :data:`ODE_RTOL`), :func:`_event` and :func:`_loc
 stage's event function and its location inside an accepted step). The sensitivities of the
 curved slip (:mod:`convimpact.impact.laws.stronge_sensitivity`) step on the same tableau
 and locate their events with the same :func:`_event_length` and :func:`_event`. The loop
-that drives them -- step-size control, the stage's events, the stop and the hand-over to an exact straight
-finish -- is the law's, ``_curved_slip`` in :mod:`convimpact.impact.laws.stronge_slip`.
+that drives them -- step-size control, the stage's events, the stop and the hand-over to an
+exact straight finish -- is the law's, ``_curved_slip`` in
+:mod:`convimpact.impact.laws.stronge_slip`.
 
 Every function runs unchanged as plain Python (``NUMBA_DISABLE_JIT=1``), which reads
 :data:`ODE_RTOL` from this module at run time.
