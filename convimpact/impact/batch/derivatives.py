@@ -14,6 +14,7 @@ from typing import Mapping
 
 import numpy as np
 
+from ..derivatives.attach import check_derivatives
 from ..derivatives.chain import impact_jacobians
 from ..errors import NotSupportedError, UnknownOptionError
 from ..laws import TANGENTIAL_LAWS, law_module
@@ -27,9 +28,11 @@ def check_batch_derivatives(derivatives, law: str) -> bool:
     """``derivatives=`` of the batch: False or True (UnknownOptionError otherwise, "both"
     included: the other side is asked of resolve_impact per item); NotSupportedError when the
     law has no single-contact derivative."""
-    if derivatives is False or derivatives is True or type(derivatives) is np.bool_:
-        derivatives = bool(derivatives)
-    else:
+    try:  # the public call's check, then the batch's refusal of its other values
+        derivatives = check_derivatives(derivatives)
+    except UnknownOptionError:
+        pass
+    if type(derivatives) is not bool:
         extra = (" (the other side at a boundary is given per item by resolve_impact(..., "
                  "derivatives='both'))" if derivatives == "both" else "")
         raise UnknownOptionError(

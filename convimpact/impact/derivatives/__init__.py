@@ -11,9 +11,11 @@ package maps that derivative to the arguments of :func:`convimpact.resolve_impac
 result (:mod:`.attach`).
 
 * :mod:`.contact`: the contract, :class:`ContactDerivative`;
-* :mod:`.modes`: the one-contact modes the laws share (stick, eq. (55)'s slide, the cone
-  slides of the programs and of Coulomb's law, frictionless), differentiated implicitly;
-* :mod:`.single`: the one-contact driver (the mode boundaries a contact meets);
+* :mod:`.modes`: the equations of the laws' contact modes (separate, frictionless, stick,
+  eq. (55)'s slide, the cone slides of the programs, of Coulomb's law and of P_N), at one
+  contact or several, differentiated implicitly;
+* :mod:`.single`: the one-contact driver (the mode boundaries a contact meets) and
+  :func:`~.single.law_entry`, which makes a law's ``impulse_derivative`` from its modes;
 * :mod:`.chain`: :func:`impact_jacobians`, :func:`projected_inverse`;
 * :mod:`.attach`: :func:`with_derivatives`, :func:`law_derivative`, :func:`check_derivatives`.
 """

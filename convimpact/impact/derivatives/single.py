@@ -15,6 +15,10 @@ the mode boundaries a single contact meets:
 * the stick limit ``|pi_t| = mu pi_n`` of the law's stick impulse: one-sided; the other side
   is the neighbouring mode (stick or slide) differentiated at its own answer there;
 * a law's own boundaries (``boundaries`` hook: eq. (55)'s zero pre-impact slip).
+
+A law's ``impulse_derivative`` is :func:`law_entry` with its mode function and its rules; the
+laws whose stick is Newton's (``W pi = -b``) share :func:`newton_mode`, :func:`newton_stick`
+and :func:`mu_zero_column`.
 """
 
 from __future__ import annotations
@@ -25,7 +29,11 @@ import numpy as np
 
 from ..errors import ConvImpactError, NotSupportedError, SingularSystemError
 from .contact import ContactDerivative
-from .modes import at_stick_limit, contact_derivative, zero
+from .modes import (contact_derivative, frictionless, newton_shift, stick, zero)
+
+#: relative distance of the stick impulse from the cone boundary below which a contact is at
+#: the stick limit (its derivative one-sided)
+STICK_LIMIT_RTOL = 1e-9
 
 #: v_n- of the approaching side's evaluation point, relative to max |v-|
 APPROACH_OFFSET = 1e-9
@@ -146,3 +154,126 @@ def _approaching_side(law, mode, W, v, e, mu, et, tangential):
     except (ConvImpactError, np.linalg.LinAlgError):
         return None
     return contact_derivative(dp, sol.regime, tangential, impulse=q)
+
+
+# --------------------------------------------------------------------------------------------
+# the rules at the stick limit and at mu = 0 of the Newton laws
+
+
+def stick_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
+    """The Newton laws' stick impulse, ``W^-1 (-(1 + e) v_n, -v_t)``."""
+    b = newton_shift(v, e)
+    return np.linalg.solve(W, -b)
+
+
+def at_stick_limit(ps: np.ndarray, mu: float) -> bool:
+    """Whether the stick impulse ``ps`` lies on the cone boundary |pi_t| = mu pi_n (to
+    :data:`STICK_LIMIT_RTOL` of |pi|)."""
+    scale = float(np.linalg.norm(ps))
+    return scale > 0.0 and abs(float(np.linalg.norm(ps[1:])) - mu * ps[0]) <= \
+        STICK_LIMIT_RTOL * scale * (1.0 + mu)
+
+
+def mu_zero_column(kind: str, W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
+    """At mu = 0: the right derivative d pi / d mu of the mode entered for mu > 0.
+
+    The friction impulse appears along the tangent t its law picks as mu -> 0+: eq. (55)'s
+    ``-sgn v_t`` in the plane ("eq55", the sign of the stick impulse's pi_t where v_t = 0);
+    against the post-impact slip of the frictionless answer, ``u_t = b_t + W_tn pi_n`` (laws
+    "ccp", "coulomb"); the maximal-dissipation direction's limit ("max-dissipation", from
+    dT_L/dmu at mu = 0: against the plastic frictionless answer's slip,
+    ``v_t - W_tn v_n / W_nn``). A contact whose stick impulse has no tangential part sticks for
+    every mu > 0, and one whose limiting slip is zero too: zero. A contact whose tangents move
+    no mass has mu forced to 0: zero. Then, with pi = pi_n (1, mu t):
+    ``d pi_t / d mu = pi_n t`` and ``d pi_n / d mu = -c W_nt.t / W_nn^2`` (Newton laws:
+    W_n . pi = c) or ``-(b_t.t) / W_nn + 2 b_n W_nt.t / W_nn^2`` (ccp: the ray's optimum).
+    """
+    d = v.size
+    A = W[0, 0]
+    col = np.zeros(d)
+    if not np.diag(W)[1:].max() > 1e-12 * A:  # immobile tangents: mu is not used
+        return col
+    b = newton_shift(v, e)
+    try:
+        ps = stick_impulse(W, v, e)  # the stick impulse, the same for every kind
+    except np.linalg.LinAlgError:
+        ps = None
+    if ps is not None and not float(np.linalg.norm(ps[1:])) > 1e-14 * float(
+            np.linalg.norm(ps)):
+        return col  # no tangential impulse needed to stick: it sticks for every mu > 0
+    if kind == "eq55":
+        if v[1] != 0.0:
+            t = np.array([-np.sign(v[1])])
+        else:
+            t = np.array([np.sign(ps[1]) if ps is not None else 1.0])
+    else:
+        if kind == "max-dissipation":
+            slip = v[1:] - W[1:, 0] * v[0] / A
+        else:
+            slip = b[1:] - W[1:, 0] * b[0] / A
+        size = float(np.linalg.norm(slip))
+        if not size > 1e-14 * float(np.linalg.norm(v)):
+            return col
+        t = -slip / size
+    wt = float(W[0, 1:] @ t)
+    pn = -b[0] / A
+    if kind == "ccp":
+        col[0] = -float(b[1:] @ t) / A + 2.0 * b[0] * wt / A ** 2
+    else:
+        col[0] = -pn * wt / A
+    col[1:] = pn * t
+    return col
+
+
+# --------------------------------------------------------------------------------------------
+# a law's entry
+
+
+def newton_mode(slide: Callable) -> Mode:
+    """The mode function of a law whose stick is Newton's (``W pi = -b``) and whose mu = 0 is
+    Newton's frictionless impulse, with the law's own ``slide(W, v, e, mu, p)``."""
+    def mode(W, v, e, mu, et, regime, p):
+        if regime == "frictionless":
+            return frictionless(W, v, e)
+        if regime == "stick":
+            return stick(W, v, e, p)
+        return slide(W, v, e, mu, p)
+    return mode
+
+
+def newton_stick(W, v, e, mu, et) -> np.ndarray:
+    """The candidate of the Newton laws' stick test, :func:`stick_impulse`."""
+    return stick_impulse(W, v, e)
+
+
+_ENTRY_DOC = """
+
+    Parameters
+    ----------
+    problem : ImpactProblem
+        The validated one-contact impact.
+    result : ImpactResult
+        The law's answer (any method): its impulse and regime select the mode.
+    other_side : bool
+        At a mode boundary, also give the neighbouring mode's derivative
+        (``ContactDerivative.other_side``).
+
+    Returns
+    -------
+    ContactDerivative{extra}
+    """
+
+
+def law_entry(law: str, summary: str, mode: Mode, **rules) -> Callable:
+    """Law ``law``'s ``impulse_derivative(problem, result, other_side=False)``:
+    :func:`one_contact_derivative` with the law's ``mode`` and ``rules`` (its keyword
+    arguments: ``stick_of``, ``slide_at``, ``mu_zero``, ``boundaries``, ``tangential``);
+    ``summary`` opens its docstring."""
+    def impulse_derivative(problem, result, other_side: bool = False) -> ContactDerivative:
+        return one_contact_derivative(problem, result, law, mode, other_side=other_side,
+                                      **rules)
+
+    extra = " (with ``e_t``)" if rules.get("tangential") else ""
+    impulse_derivative.__doc__ = summary + _ENTRY_DOC.format(extra=extra)
+    impulse_derivative.__qualname__ = f"{law}.impulse_derivative"
+    return impulse_derivative

@@ -58,6 +58,7 @@ from ..errors import SolverError
 from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
+from .cone_derivative import ccp_one as impulse_derivative  # noqa: F401
 from .cone_derivative import ccp_several as several_impulse_derivative  # noqa: F401
 
 LAW = "ccp"
@@ -274,46 +275,3 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     acc = opts.accuracy(sol.polished)
     regimes = regimes_from_slip(P, pi, vplus, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc, extras=extras)
-
-
-# --------------------------------------------------------------------------------------------
-# the derivative (one contact): implicit differentiation of the program's KKT conditions
-
-
-def _derivative_mode(W, v, e, mu, et, regime, p):
-    """The modes of the CCP program with b = ((1 + e) v_n, v_t): the interior optimum
-    ``W pi = -b`` (stick), the boundary one ``W pi + b = sigma (mu, -t)``, ``|pi_t| = mu pi_n``
-    (slide), Newton's frictionless impulse (mu = 0)."""
-    from ..derivatives.modes import cone_slide, frictionless, stick
-
-    if regime == "frictionless":
-        return frictionless(W, v, e)
-    if regime == "stick":
-        return stick(W, v, e, p)
-    return cone_slide("ccp", W, v, e, mu, p)
-
-
-def impulse_derivative(problem, result, other_side: bool = False):
-    """Derivative of the CCP impulse of one contact with respect to (W, v_minus, e, mu):
-    implicit differentiation of the program's KKT conditions in the answer's mode (interior:
-    ``W pi + b = 0``; boundary: ``W pi + b = sigma (mu, -t)``, ``|pi_t| = mu pi_n``, with its
-    multiplier sigma). The impulse is continuous at the stick limit (sigma = 0 there), where
-    the derivative is one-sided; at mu = 0 the one with respect to mu is the right-sided one,
-    along the frictionless answer's post-impact slip.
-
-    Parameters
-    ----------
-    problem : ImpactProblem (one contact); result : the law's ImpactResult (any method);
-    other_side : also give the neighbouring mode's derivative at a mode boundary.
-
-    Returns
-    -------
-    ContactDerivative
-    """
-    from ..derivatives.modes import mu_zero_column, stick_impulse
-    from ..derivatives.single import one_contact_derivative
-
-    return one_contact_derivative(
-        problem, result, LAW, _derivative_mode, other_side=other_side,
-        stick_of=lambda W, v, e, mu, et: stick_impulse(W, v, e),
-        mu_zero=lambda W, v, e, et: mu_zero_column("ccp", W, v, e))

@@ -46,7 +46,8 @@ from .algebra import _inverse3, _linsolve3, _solve2
 from .codes import FAILED, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone, _jit
 from ..errors import NotSupportedError
 from ..exact.dispatch import compiled_kernel, coupled, independent_contacts_result
-from .chatterjee_ruina_derivative import several_impulse_derivative  # noqa: F401
+from .chatterjee_ruina_derivative import (impulse_derivative,  # noqa: F401
+                                          several_impulse_derivative)
 
 LAW = "chatterjee-ruina"
 #: the tangential restitution's admissible range (the law creates energy outside it)
@@ -109,77 +110,3 @@ def program_result(P, backend, method: str, opts):
             "'dissipative' or 'coulomb' (method='interior'), or 'stronge' (its two-phase "
             "coupled formulation)")
     return result
-
-
-# --------------------------------------------------------------------------------------------
-# the derivative (one contact): the law's explicit formulas differentiated
-
-
-def _derivative_mode(W, v, e, mu, et, regime, p):
-    """J = s J_I + k b (stick: k = 1 + e_t; slide: k = kappa, which mu, e, W and v move), with
-    s = 1 + e, J_I = a0 n, a0 = -v_n / W_nn, b = J_II - J_I, J_II = -W^-1 v. At mu = 0
-    ("frictionless": kappa = 0) the slide's formula, smooth there."""
-    import numpy as np
-
-    from ..derivatives.modes import seeds
-
-    d = v.size
-    dW, dv, de, dmu, det = seeds(d)
-    A = W[0, 0]
-    a0 = -v[0] / A
-    da0 = -dv[0] / A + (v[0] / A ** 2) * dW[0, 0]
-    j2 = -np.linalg.solve(W, v)
-    dj2 = -np.linalg.solve(W, dv + np.einsum("ijP,j->iP", dW, j2))
-    b = j2.copy()
-    b[0] -= a0
-    db = dj2.copy()
-    db[0] -= da0
-    s = 1.0 + e
-    dJ = np.zeros_like(db)
-    dJ[0] = a0 * de + s * da0  # d (s J_I)
-    if regime == "stick":
-        return dJ + np.outer(b, det) + (1.0 + et) * db
-    bt = float(np.linalg.norm(b[1:]))
-    if bt == 0.0:  # no sticking correction to bring back: J = s J_I + k b with b = 0
-        return dJ + np.outer(b, det) + (1.0 + et) * db
-    den = bt - mu * b[0]
-    kappa = mu * s * a0 / den
-    dN = dmu * s * a0 + mu * de * a0 + mu * s * da0
-    dden = (b[1:] / bt) @ db[1:] - dmu * b[0] - mu * db[0]
-    dk = (dN - kappa * dden) / den
-    return dJ + np.outer(b, dk) + kappa * db
-
-
-def _candidate(W, v, e, mu, et):
-    """J^ = (1 + e) J_I + (1 + e_t) b, the candidate the law's cone test looks at."""
-    import numpy as np
-
-    a0 = -v[0] / W[0, 0]
-    b = -np.linalg.solve(W, v)
-    b[0] -= a0
-    J = (1.0 + et) * b
-    J[0] += (1.0 + e) * a0
-    return J
-
-
-def impulse_derivative(problem, result, other_side: bool = False):
-    """Derivative of the Chatterjee-Ruina impulse of one contact with respect to
-    (W, v_minus, e, mu, e_t): the law's explicit formulas differentiated (stick: the scaled
-    plastic impulses; slide: their segment's exit from the cone, kappa's derivative). The
-    impulse is continuous where the candidate J^ meets the cone (kappa = 1 + e_t), where the
-    derivative is one-sided; at mu = 0 the one with respect to mu is right-sided.
-
-    Parameters
-    ----------
-    problem : ImpactProblem (one contact); result : the law's ImpactResult (any method);
-    other_side : also give the neighbouring mode's derivative at a mode boundary.
-
-    Returns
-    -------
-    ContactDerivative (with ``e_t``)
-    """
-    from ..derivatives.single import one_contact_derivative
-
-    return one_contact_derivative(problem, result, LAW, _derivative_mode,
-                                  other_side=other_side, stick_of=_candidate,
-                                  tangential=True)

@@ -1,4 +1,5 @@
-"""Exact derivative of the ``chatterjee-ruina`` law at several contacts (per contact).
+"""Exact derivative of the ``chatterjee-ruina`` law, at one contact (:func:`impulse_derivative`)
+and at several (per contact).
 
 The law is defined per contact (:mod:`.chatterjee_ruina`): at several contacts it applies
 contact by contact when they are dynamically independent (W block-diagonal), or to the one
@@ -21,6 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..derivatives.modes import seeds
+from ..derivatives.single import law_entry
 from ..errors import NotSupportedError, ParameterError
 from ..exact.dispatch import coupled
 from ..problem.build import ImpactProblem
@@ -38,58 +41,68 @@ def _plastic(W: np.ndarray, v: np.ndarray):
     return a0, x, b
 
 
+def candidate(W: np.ndarray, v: np.ndarray, e: float, et: float) -> np.ndarray:
+    """J^ = (1 + e) J_I + (1 + e_t) b, the candidate the law's cone test looks at."""
+    a0, _, b = _plastic(W, v)
+    J = (1.0 + et) * b
+    J[0] += (1.0 + e) * a0
+    return J
+
+
 def stick_margin(W: np.ndarray, v: np.ndarray, e: float, mu: float, et: float) -> float:
     """``mu n.J^ - |J^_t|`` of the law's candidate (>= 0: inside the cone, the stick regime)."""
-    a0, _, b = _plastic(W, v)
-    s, k = 1.0 + e, 1.0 + et
-    return mu * (s * a0 + k * b[0]) - k * float(np.linalg.norm(b[1:]))
+    J = candidate(W, v, e, et)
+    return mu * J[0] - float(np.linalg.norm(J[1:]))
 
 
 def contact_tangent(W, v, e, mu, et, dW, dv, de, dmu, det, regime: str) -> np.ndarray:
-    """``dJ`` of one contact in ``regime`` ("stick", "slide" or "frictionless") along the tangent
-    ``(dW, dv, de, dmu, det)`` (dW symmetric)."""
+    """``dJ`` of one contact in ``regime`` ("stick", "slide" or "frictionless") along the
+    tangents ``(dW, dv, de, dmu, det)``: one tangent ((d, d), (d,), then scalars) or P of them
+    on a trailing axis ((d, d, P), (d, P), (P,) ...; dJ is then (d, P)). A slide with
+    ``b_t = 0`` has no sticking correction to bring back: the stick formula."""
     a0, x, b = _plastic(W, v)
     da0 = -dv[0] / W[0, 0] + v[0] * dW[0, 0] / W[0, 0] ** 2
-    dx = -np.linalg.solve(W, dW @ x + dv)
+    dx = -np.linalg.solve(W, np.einsum("ij...,j->i...", dW, x) + dv)
     db = dx.copy()
     db[0] -= da0
     s = 1.0 + e
-    dJ = np.zeros_like(v)
+    dJ = np.zeros_like(db)
     dJ[0] = de * a0 + s * da0
-    if regime == "stick":
-        return dJ + det * b + (1.0 + et) * db
     bt = float(np.linalg.norm(b[1:]))
+    if regime == "stick" or (regime == "slide" and bt == 0.0):
+        return dJ + np.multiply.outer(b, det) + (1.0 + et) * db
     if regime == "frictionless":  # mu = 0: J = (1 + e) J_I (kappa = 0), mu's right derivative
-        return dJ + (dmu * s * a0 / bt) * b if bt > 0.0 else dJ
-    dbt = float(b[1:] @ db[1:]) / bt
+        return dJ + np.multiply.outer(b, dmu * s * a0 / bt) if bt > 0.0 else dJ
+    dbt = (b[1:] @ db[1:]) / bt
     q = bt - mu * b[0]
     kappa = mu * s * a0 / q
     dq = dbt - dmu * b[0] - mu * db[0]
     dkappa = (dmu * s * a0 + mu * de * a0 + mu * s * da0) / q - kappa * dq / q
-    return dJ + dkappa * b + kappa * db
+    return dJ + np.multiply.outer(b, dkappa) + kappa * db
+
+
+def _mode(W, v, e, mu, et, regime, p):
+    """One contact's (d, P): at mu = 0 ("frictionless": kappa = 0) the slide's formula,
+    smooth there."""
+    return contact_tangent(W, v, e, mu, et, *seeds(v.size),
+                           "slide" if regime == "frictionless" else regime)
+
+
+impulse_derivative = law_entry(
+    LAW, """Derivative of the Chatterjee-Ruina impulse of one contact with respect to
+    (W, v_minus, e, mu, e_t): the law's explicit formulas differentiated (stick: the scaled
+    plastic impulses; slide: their segment's exit from the cone, kappa's derivative). The
+    impulse is continuous where the candidate J^ meets the cone (kappa = 1 + e_t), where the
+    derivative is one-sided; at mu = 0 the one with respect to mu is right-sided.""",
+    _mode, stick_of=lambda W, v, e, mu, et: candidate(W, v, e, et), tangential=True)
 
 
 def _block(W, v, e, mu, et, regime):
     """The derivative of one contact's impulse: (d, d, d), (d, d), (d,), (d,), (d,)."""
     d = v.size
-    DW = np.zeros((d, d, d))
-    z = np.zeros(d)
-    for i in range(d):
-        for j in range(i, d):
-            E = np.zeros((d, d))
-            E[i, j] = E[j, i] = 1.0
-            g = contact_tangent(W, v, e, mu, et, E, z, 0.0, 0.0, 0.0, regime)
-            if i == j:
-                DW[:, i, i] = g
-            else:
-                DW[:, i, j] = DW[:, j, i] = 0.5 * g
-    Dv = np.column_stack([contact_tangent(W, v, e, mu, et, np.zeros((d, d)), np.eye(d)[k],
-                                          0.0, 0.0, 0.0, regime) for k in range(d)])
-    zero = np.zeros((d, d))
-    De = contact_tangent(W, v, e, mu, et, zero, z, 1.0, 0.0, 0.0, regime)
-    Dmu = contact_tangent(W, v, e, mu, et, zero, z, 0.0, 1.0, 0.0, regime)
-    Det = contact_tangent(W, v, e, mu, et, zero, z, 0.0, 0.0, 1.0, regime)
-    return DW, Dv, De, Dmu, Det
+    g = contact_tangent(W, v, e, mu, et, *seeds(d), regime)
+    return (g[:, :d * d].reshape(d, d, d), g[:, d * d:d * d + d], g[:, -3], g[:, -2],
+            g[:, -1])
 
 
 def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool = False):
@@ -182,4 +195,5 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
                              regimes=tuple(regimes), one_sided=tuple(notes), other_side=other)
 
 
-__all__ = ["several_impulse_derivative", "contact_tangent", "stick_margin"]
+__all__ = ["impulse_derivative", "several_impulse_derivative", "contact_tangent",
+           "stick_margin", "candidate"]

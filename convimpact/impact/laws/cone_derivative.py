@@ -1,5 +1,7 @@
-"""Exact derivatives of the cone complementarity laws at several contacts: ``ccp``,
-``coulomb`` and ``dissipative``.
+"""Exact derivatives of the cone complementarity laws ``ccp``, ``coulomb`` and
+``dissipative``, at one contact (:data:`ccp_one`, ...) and at several (:data:`ccp_several`,
+...): the implicit differentiation of their modes' equations
+(:mod:`convimpact.impact.derivatives.modes`).
 
 Each law's answer solves a cone complementarity problem with ``u = W pi + b``,
 
@@ -17,19 +19,30 @@ the dual cone: ``u_n > mu |u_t|`` for the CCP, ``u_n > 0`` for Coulomb), **frict
 the cone's boundary ``|pi_t| = mu pi_n > 0``, ``u_t = -sigma t`` with ``t = pi_t / |pi_t|`` and
 ``sigma > 0``, ``u_n = mu sigma`` for the CCP -- its normal-velocity lift -- and ``u_n = 0`` for
 Coulomb). Inside a mode these are smooth equations in ``(pi, sigma)``; their implicit
-differentiation (:mod:`.mode_system`) is the derivative. For the CCP it is exactly the
-differentiation of the KKT system of its cone program with the active cone faces fixed.
+differentiation is the derivative. For the CCP it is exactly the differentiation of the KKT
+system of its cone program with the active cone faces fixed.
 
 Mode boundaries (one-sided derivatives, stated in ``one_sided``; ``other_side=True`` gives
 the neighbouring mode's, all boundary contacts flipped at once):
 
 * about to separate: ``pi_i = 0`` and u on the dual cone's boundary (for the CCP
   ``u_n = mu |u_t|``; Coulomb ``u_n = 0``): separating on one side, stick (u = 0) or slide
-  (parametrized by the slip, :meth:`~.mode_system.ModeSystem.slide_on_slip`) on the other;
+  (parametrized by the slip,
+  :meth:`~convimpact.impact.derivatives.modes.ModeSystem.slide_on_slip`) on the other;
 * the stick limit: pi on the cone's boundary with no slip (``u = 0``): stick | slide;
 * a contact touching at ``v_n- = 0`` with e > 0: the kink of ``b_n = v_n + e min(v_n, 0)``
   (the derivative given is ``v_n- >= 0``'s); for the CCP and the dissipative law, a pressed
   contact approaching within round-off, which they give no friction of its own.
+
+At one contact (the laws' ``impulse_derivative``, driven by
+:mod:`convimpact.impact.derivatives.single`) the same modes with ``b = ((1 + e) v_n, v_t)``:
+stick ``W pi = -b``; slide ``W pi + b = sigma (mu, -t)`` (CCP) or ``sigma (0, -t)`` (Coulomb:
+friction opposing the post-impact slip at full strength), the direction t moving with the data
+in space; frictionless, Newton's impulse, with the right derivative with respect to mu at
+mu = 0 along the frictionless answer's post-impact slip. The impulse is continuous at the
+stick limit (sigma = 0 there), where the derivative is one-sided; where Coulomb's law has
+several sliding solutions the derivative is that of the one returned (the most dissipative).
+The dissipative law's is the plastic CCP impulse's, ``d pi = (1 + e) d pi_p + pi_p de``.
 
 Redundant contacts (W singular on the pressing contacts, a singular mode system) leave the
 impulse non-unique while the velocity is unique: the engine's choice (the analytic centre of
@@ -48,7 +61,8 @@ import numpy as np
 from ..conic.paths import APPROACH_RTOL, approaching, impulse_scale
 from ..errors import ParameterError
 from ..problem.build import ImpactProblem
-from .mode_system import VELOCITY_ONLY, ModeSystem, check_redundant
+from ..derivatives.modes import VELOCITY_ONLY, ModeSystem, check_redundant, cone_slide
+from ..derivatives.single import law_entry, mu_zero_column, newton_mode, newton_stick
 
 #: relative distance to a mode boundary below which the answer counts as on it
 BOUNDARY_RTOL = 1e-7
@@ -260,4 +274,50 @@ ccp_several = _entry("ccp")
 coulomb_several = _entry("coulomb")
 dissipative_several = _entry("dissipative")
 
-__all__ = ["ccp_several", "coulomb_several", "dissipative_several", "classify"]
+
+
+# --------------------------------------------------------------------------------------------
+# one contact
+
+
+def _plastic(mode):
+    """pi = (1 + e) pi_p, pi_p the CCP impulse with e = 0 (its derivative with e held at 0)."""
+    def scaled(W, v, e, mu, et, regime, p):
+        pp = p / (1.0 + e)
+        dpp = mode(W, v, 0.0, mu, et, regime, pp)
+        dpp[:, -3] = 0.0  # the plastic impulse does not depend on e
+        dp = (1.0 + e) * dpp
+        dp[:, -3] += pp
+        return dp
+    return scaled
+
+
+def _cone_mode(law):
+    return newton_mode(lambda W, v, e, mu, p: cone_slide(law, W, v, e, mu, p))
+
+
+#: each law's ``impulse_derivative`` (re-exported under that name by its module)
+ccp_one = law_entry(
+    "ccp", """Derivative of the CCP impulse of one contact with respect to (W, v_minus, e, mu):
+    implicit differentiation of the program's KKT conditions in the answer's mode (interior:
+    ``W pi + b = 0``; boundary: ``W pi + b = sigma (mu, -t)``, ``|pi_t| = mu pi_n``, with its
+    multiplier sigma); one-sided at the stick limit and, for mu, at mu = 0 (module docstring).""",
+    _cone_mode("ccp"), stick_of=newton_stick,
+    mu_zero=lambda W, v, e, et: mu_zero_column("ccp", W, v, e))
+coulomb_one = law_entry(
+    "coulomb", """Derivative of the Coulomb impulse of one contact with respect to
+    (W, v_minus, e, mu): stick ``W pi = -b``, slide ``u_n = 0``, ``u_t = -sigma t`` with
+    ``|pi_t| = mu pi_n``, differentiated implicitly with the slip speed sigma; one-sided at
+    the stick limit and, for mu, at mu = 0 (module docstring).""",
+    _cone_mode("coulomb"), stick_of=newton_stick,
+    mu_zero=lambda W, v, e, et: mu_zero_column("coulomb", W, v, e))
+dissipative_one = law_entry(
+    "dissipative", """Derivative of the dissipative impulse of one contact with respect to
+    (W, v_minus, e, mu): ``d pi = (1 + e) d pi_p + pi_p de``, with ``d pi_p`` the CCP law's at
+    e = 0; one-sided at the plastic stick limit and, for mu, at mu = 0.""",
+    _plastic(_cone_mode("ccp")),
+    stick_of=lambda W, v, e, mu, et: (1.0 + e) * newton_stick(W, v, 0.0, mu, et),
+    mu_zero=lambda W, v, e, et: (1.0 + e) * mu_zero_column("ccp", W, v, 0.0))
+
+__all__ = ["ccp_several", "coulomb_several", "dissipative_several", "ccp_one", "coulomb_one",
+           "dissipative_one", "classify"]

@@ -55,6 +55,7 @@ from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from ..problem.dense import angle_from_slip
 from .coulomb_program import coulomb_fixed_point, coulomb_residual  # noqa: F401 (re-exported)
+from .cone_derivative import coulomb_one as impulse_derivative  # noqa: F401
 from .cone_derivative import coulomb_several as several_impulse_derivative  # noqa: F401
 
 LAW = "coulomb"
@@ -452,4 +453,3 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     acc = info["accuracy"]
     regimes = regimes_from_slip(P, pi, vplus, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc, extras=info)
-from .coulomb_derivative import impulse_derivative  # noqa: E402,F401 (beside the kernel)

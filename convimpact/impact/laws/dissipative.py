@@ -29,6 +29,7 @@ from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .ccp import _ccp_planar, _ccp_spatial, _errors, solve_ccp
+from .cone_derivative import dissipative_one as impulse_derivative  # noqa: F401
 from .cone_derivative import dissipative_several as several_impulse_derivative  # noqa: F401
 
 LAW = "dissipative"
@@ -118,43 +119,3 @@ def poisson_warnings(P, W: np.ndarray, predicted: float) -> list[str]:
                 "not unique, so the Poisson-scaled answer (theta_dot+) depends on which plastic "
                 "impulse the solver found; use one e for coupled contacts")
     return warnings
-
-
-# --------------------------------------------------------------------------------------------
-# the derivative (one contact): the plastic CCP impulse's, scaled by Poisson's 1 + e
-
-
-def _derivative_mode(W, v, e, mu, et, regime, p):
-    """pi = (1 + e) pi_p, pi_p the CCP impulse with e = 0 (its derivative with e held at 0)."""
-    from .ccp import _derivative_mode as plastic_mode
-
-    pp = p / (1.0 + e)
-    dpp = plastic_mode(W, v, 0.0, mu, et, regime, pp)
-    dpp[:, -3] = 0.0  # the plastic impulse does not depend on e
-    dp = (1.0 + e) * dpp
-    dp[:, -3] += pp
-    return dp
-
-
-def impulse_derivative(problem, result, other_side: bool = False):
-    """Derivative of the dissipative impulse of one contact with respect to
-    (W, v_minus, e, mu): ``d pi = (1 + e) d pi_p + pi_p de``, with ``d pi_p`` the CCP law's at
-    e = 0 (:func:`convimpact.impact.laws.ccp.impulse_derivative`'s modes); one-sided at the
-    plastic stick limit and, for mu, at mu = 0.
-
-    Parameters
-    ----------
-    problem : ImpactProblem (one contact); result : the law's ImpactResult (any method);
-    other_side : also give the neighbouring mode's derivative at a mode boundary.
-
-    Returns
-    -------
-    ContactDerivative
-    """
-    from ..derivatives.modes import mu_zero_column, stick_impulse
-    from ..derivatives.single import one_contact_derivative
-
-    return one_contact_derivative(
-        problem, result, LAW, _derivative_mode, other_side=other_side,
-        stick_of=lambda W, v, e, mu, et: (1.0 + e) * stick_impulse(W, v, 0.0),
-        mu_zero=lambda W, v, e, et: (1.0 + e) * mu_zero_column("ccp", W, v, 0.0))

@@ -23,26 +23,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..derivatives.contact import ContactDerivative
-from ..derivatives.modes import (contact_derivative, cone_slide, eq55_slide, frictionless,
-                                 mu_zero_column, stick, stick_impulse)
-from ..derivatives.single import one_contact_derivative
+from ..derivatives.modes import contact_derivative, cone_slide, eq55_slide
+from ..derivatives.single import law_entry, mu_zero_column, newton_mode, newton_stick
 
 LAW = "pereira-nikravesh"
 
 
-def _mode(W, v, e, mu, et, regime, p) -> np.ndarray:
-    if regime == "frictionless":
-        return frictionless(W, v, e)
-    if regime == "stick":
-        return stick(W, v, e, p)
+def _slide(W, v, e, mu, p) -> np.ndarray:
+    """Eq. (55) in the plane (its tangent held), eq. (60)'s maximal dissipation in space."""
     if v.size == 2:
         return eq55_slide(W, v, e, mu, float(np.sign(p[1])))
     return cone_slide("max-dissipation", W, v, e, mu, p)
-
-
-def _stick_of(W, v, e, mu, et):
-    return stick_impulse(W, v, e)
 
 
 def _slide_at(W, v, e, mu, et, ps):
@@ -77,23 +68,7 @@ def _boundaries(W, v, e, mu, et, regime, p, other_side):
     return [(statement, other)]
 
 
-def impulse_derivative(problem, result, other_side: bool = False) -> ContactDerivative:
-    """Derivative of the law's impulse for one contact with respect to (W, v_minus, e, mu).
-
-    Parameters
-    ----------
-    problem : ImpactProblem
-        The validated one-contact impact.
-    result : ImpactResult
-        The law's answer (any method): its impulse and regime select the mode.
-    other_side : bool
-        At a mode boundary, also give the neighbouring mode's derivative
-        (``ContactDerivative.other_side``).
-
-    Returns
-    -------
-    ContactDerivative
-    """
-    return one_contact_derivative(problem, result, LAW, _mode, other_side=other_side,
-                                  stick_of=_stick_of, slide_at=_slide_at, mu_zero=_mu_zero,
-                                  boundaries=_boundaries)
+impulse_derivative = law_entry(
+    LAW, """Derivative of the law's impulse for one contact with respect to (W, v_minus, e, mu)
+    in the answer's mode (module docstring).""", newton_mode(_slide), stick_of=newton_stick,
+    slide_at=_slide_at, mu_zero=_mu_zero, boundaries=_boundaries)

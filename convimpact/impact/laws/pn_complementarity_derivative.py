@@ -22,17 +22,18 @@ The law's answer is fixed by its active set A (``extras["active_set"]``) and tie
   one-contact slide is the same system with the boundary imposed (sigma of either sign).
 
 Inside a mode these equations are smooth; their implicit differentiation
-(:mod:`.mode_system`) is the derivative. Mode boundaries are stated in ``one_sided``: a
-contact of A whose impulse vanishes, a contact off A about to press (``u_n = 0``), the stick
-limit, a P_N contact between the cone's interior and its boundary (sigma = 0), a slip
-``v_t- = 0`` that fixes eq. (55)'s direction. ``other_side=True`` gives the neighbouring
-mode's derivative where that mode is this law's answer across the boundary by continuity (the
-stick tier gaining or losing a frictionless contact, a P_N contact leaving or reaching its
-cone's boundary); where the law re-selects its tier or active set globally (the stick limit,
-a frictional contact at its cone's apex: the admissible sets then depend on the direction of
-the perturbation, and the answer may jump) none is given and the statement says so. Ties
-between active sets with different velocities (another admissible set exactly as
-dissipative) are not detected here: the law then warns of several admissible active sets.
+(:mod:`convimpact.impact.derivatives.modes`) is the derivative. Mode boundaries are stated
+in ``one_sided``: a contact of A whose impulse vanishes, a contact off A about to press
+(``u_n = 0``), the stick limit, a P_N contact between the cone's interior and its boundary
+(sigma = 0), a slip ``v_t- = 0`` that fixes eq. (55)'s direction. ``other_side=True`` gives
+the neighbouring mode's derivative where that mode is this law's answer across the boundary
+by continuity (the stick tier gaining or losing a frictionless contact, a P_N contact
+leaving or reaching its cone's boundary); where the law re-selects its tier or active set
+globally (the stick limit, a frictional contact at its cone's apex: the admissible sets then
+depend on the direction of the perturbation, and the answer may jump) none is given and the
+statement says so. Ties between active sets with different velocities (another admissible
+set exactly as dissipative) are not detected here: the law then warns of several admissible
+active sets.
 """
 
 from __future__ import annotations
@@ -42,7 +43,8 @@ import numpy as np
 from ..conic.paths import impulse_scale
 from ..errors import NotSupportedError, ParameterError, SolverError
 from ..problem.build import ImpactProblem
-from .mode_system import VELOCITY_ONLY, ModeSystem, check_redundant
+from ..derivatives.chain import zero_derivative
+from ..derivatives.modes import VELOCITY_ONLY, ModeSystem, check_redundant
 from .pn_complementarity import STICK_COND_MAX, newton_velocity_shift
 
 LAW = "pereira-nikravesh"
@@ -51,15 +53,6 @@ BOUNDARY_RTOL = 1e-7
 #: relative residual of P_N(A)'s stationarity above which the answer is not its KKT point
 KKT_RTOL = 1e-6
 _NO_OTHER = " (no other-side derivative: across it the law re-selects its tier or active set)"
-
-
-def _zero(problem: ImpactProblem, regimes: tuple[str, ...]):
-    from ..derivatives.contact import ContactDerivative
-
-    n, d = problem.n_contacts, problem.dim
-    N = n * d
-    return ContactDerivative(W=np.zeros((N, N, N)), v=np.zeros((N, N)), e=np.zeros((N, n)),
-                             mu=np.zeros((N, n)), e_t=None, regimes=regimes)
 
 
 def _stick(problem: ImpactProblem, A: list[int], b: np.ndarray):
@@ -137,9 +130,7 @@ def _slide(problem: ImpactProblem, A: list[int], kinds: dict[int, str], pi: np.n
         if kinds[i] == "frictionless":
             S.frictionless(i, S.velocity(i * d))
         else:
-            s = float(np.sign(pi[i * d + 1]))
-            S.add(S.velocity(i * d), S.unknown(i * d + 1) - (mu[i] * s) * S.unknown(i * d)
-                  - (s * pi[i * d]) * S.friction(i))
+            S.planar_slide(i, float(mu[i]), float(np.sign(pi[i * d + 1])))
         return S.solve(f"law {LAW!r}, slide tier on contact {i}", redundant)
     lam, sig = _multipliers(problem, A, kinds, pi)
     bnd = [i for i in A if kinds[i] == "boundary"]
@@ -251,7 +242,7 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
     extras = result.diagnostics.extras
     A = extras.get("active_set")
     if A is None:  # no contact approaches: no impulse, and none nearby
-        return _zero(problem, reported)
+        return zero_derivative(problem, reported, False)
     A = sorted(int(i) for i in A)
     tier = extras.get("tier", "stick")
     N = n * d

@@ -36,6 +36,7 @@ from ..derivatives.contact import ContactDerivative
 from ..errors import NotSupportedError
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
+from .stronge_path import symmetric_tensor
 
 #: |x_t| within this (relative) of the disc's radius counts as on its boundary, as the
 #: expansion's own KKT certificate does
@@ -53,15 +54,8 @@ def _columns(D: ContactDerivative, N: int, n: int) -> np.ndarray:
 
 def _tensor(G: np.ndarray, N: int, n: int) -> dict:
     """The matrix over theta back to the contract's arrays (a symmetric pair split evenly)."""
-    iu = list(zip(*np.triu_indices(N)))
-    W = np.zeros((N, N, N))
-    for k, (i, j) in enumerate(iu):
-        if i == j:
-            W[:, i, i] = G[:, k]
-        else:
-            W[:, i, j] = W[:, j, i] = 0.5 * G[:, k]
-    m = len(iu)
-    return {"W": W, "v": G[:, m:m + N], "e": G[:, m + N:m + N + n],
+    m = N * (N + 1) // 2
+    return {"W": symmetric_tensor(G, N), "v": G[:, m:m + N], "e": G[:, m + N:m + N + n],
             "mu": G[:, m + N + n:m + N + 2 * n]}
 
 

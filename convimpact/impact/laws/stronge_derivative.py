@@ -63,7 +63,7 @@ from ..derivatives.contact import ContactDerivative
 from ..errors import NotSupportedError, ParameterError
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
-from .stronge_path import BOUNDARY_RTOL, ZERO_SLIP, _Path
+from .stronge_path import BOUNDARY_RTOL, ZERO_SLIP, _Path, symmetric_tensor
 from .stronge_slip import _onset
 #: a zero pre-impact slip's two directional derivatives in v_t closer than this (relative)
 #: are one: the derivative is two-sided there
@@ -71,19 +71,6 @@ ZERO_SLIP_RTOL = 1e-9
 #: the recomputed impulse must agree with the result's to this (relative), else the result is
 #: not this problem's answer of law "stronge"
 CONSISTENCY_RTOL = 1e-7
-
-
-def _tensor_W(path: _Path, g: np.ndarray) -> np.ndarray:
-    """dpi/dW (d, d, d) from the gradient over W's upper triangle: a symmetric pair's weight
-    split evenly between its two entries."""
-    d = path.d
-    out = np.zeros((g.shape[0], d, d))
-    for k, (i, j) in enumerate(path.iu):
-        if i == j:
-            out[:, i, i] = g[:, k]
-        else:
-            out[:, i, j] = out[:, j, i] = 0.5 * g[:, k]
-    return out
 
 
 def contact_derivative(W, v, e: float, mu: float, other_side: bool = False
@@ -121,7 +108,7 @@ def contact_derivative(W, v, e: float, mu: float, other_side: bool = False
         regime = "-".join(path.phases)
     scale = vs / ws
     pi = scale * pi_h
-    dW = _tensor_W(path, g) * (scale / ws)
+    dW = symmetric_tensor(g, path.d) * (scale / ws)
     dv = g[:, path.iv] / ws
     de = (g[:, path.ie] * scale)[:, None]
     dmu = (g[:, path.imu] * scale)[:, None]

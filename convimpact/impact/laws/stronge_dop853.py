@@ -6,9 +6,12 @@ error control). Here are the integrator's parts, on the tableau of scipy.integra
 (Dormand--Prince 8(5,3), Hairer, Norsett & Wanner) frozen into the machine code:
 :func:`_rhs` (the slope ``dy/dsigma``), :func:`_step` (one step), :func:`_error` (the error
 norm, each component scaled by :data:`ODE_RTOL`), :func:`_event` and :func:`_locate` (the
-stage's event function and its location inside an accepted step). The loop that drives them
--- step-size control, the stage's events, the stop and the hand-over to an exact straight
-finish -- is the law's, ``_curved_slip`` in :mod:`convimpact.impact.laws.stronge_slip`.
+stage's event function and its location inside an accepted step). The sensitivities of the
+curved slip (:mod:`convimpact.impact.laws.stronge_sensitivity`) step on the same tableau
+and locate their events with the same :func:`_event_length` and :func:`_event`. The loop
+that drives them -- step-size control, the stage's events, the stop and the hand-over to an
+exact straight finish -- is the law's, ``_curved_slip`` in
+:mod:`convimpact.impact.laws.stronge_slip`.
 
 Every function runs unchanged as plain Python (``NUMBA_DISABLE_JIT=1``), which reads
 :data:`ODE_RTOL` from this module at run time.
@@ -110,9 +113,15 @@ def _error(h, y0, y1, y2, y3, z0, z1, z2, z3, pref, ref3, K):
         s3 *= h
         e5 += (s5 / sc) * (s5 / sc)
         e3 += (s3 / sc) * (s3 / sc)
+    return _error_norm(e5, e3)
+
+
+@_jit
+def _error_norm(e5, e3):
+    """scipy's DOP853 error norm |h| |e5|^2 / sqrt(4 (|e5|^2 + |e3|^2 / 100)) from the squared
+    norms of the two estimators (h moved into them)."""
     if e5 == 0.0 and e3 == 0.0:
         return 0.0
-    # scipy's |h| |e5|^2 / sqrt(4 (|e5|^2 + |e3|^2 / 100)) with h moved into e5 and e3
     return e5 / math.sqrt((e5 + 0.01 * e3) * 4.0)
 
 
@@ -125,23 +134,21 @@ def _event(y0, y1, y2, y3, compressing, target, vn0, A, b1, b2):
 
 
 @_jit
-def _locate(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target, K, vn0, vt01,
-            vt02, A, b1, b2, C11, C12, C22, mu):
-    """The event inside the accepted step [0, h]: Newton on the step length, bracketed, each
-    iterate re-taking the step (to |dsigma| <= 1e-13 h; at most 60 iterations)."""
+def _event_length(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target, K, vn0,
+                  vt01, vt02, A, b1, b2, C11, C12, C22, mu):
+    """The length of the step from y to the event inside the accepted step [0, h]: Newton on
+    the step length, bracketed, each iterate re-taking the step (to |dsigma| <= 1e-13 h; at
+    most 60 iterations). The law's :func:`_locate` and the sensitivities'
+    (:mod:`convimpact.impact.laws.stronge_sensitivity`) both use it."""
     lo = 0.0
     hi = h
     tau = h * g0 / (g0 - g1)
-    t0, t1, t2, t3 = y0, y1, y2, y3
-    final = False  # the last step, to the converged length (one call site of _step)
-    for it in range(61):
+    for it in range(60):
         t0, t1, t2, t3 = _step(y0, y1, y2, y3, f0, f1, f2, f3, tau, K, vn0, vt01, vt02, A,
                                b1, b2, C11, C12, C22, mu)
-        if final:
-            break
         g = _event(t0, t1, t2, t3, compressing, target, vn0, A, b1, b2)
         if g == 0.0:
-            break
+            return tau
         if g < 0.0:
             lo = tau
         else:
@@ -151,8 +158,19 @@ def _locate(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target, K, v
         new = tau - g / rate if rate > 0.0 else 0.5 * (lo + hi)
         if not lo <= new <= hi:
             new = 0.5 * (lo + hi)
-        final = abs(new - tau) <= 1e-13 * h
-        if it == 59 and not final:
+        if abs(new - tau) <= 1e-13 * h:
+            return new
+        if it == 59:
             break
         tau = new
-    return t0, t1, t2, t3
+    return tau
+
+
+@_jit
+def _locate(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target, K, vn0, vt01,
+            vt02, A, b1, b2, C11, C12, C22, mu):
+    """The state at the event inside the accepted step [0, h] (:func:`_event_length`)."""
+    tau = _event_length(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target, K, vn0,
+                        vt01, vt02, A, b1, b2, C11, C12, C22, mu)
+    return _step(y0, y1, y2, y3, f0, f1, f2, f3, tau, K, vn0, vt01, vt02, A, b1, b2, C11, C12,
+                 C22, mu)

@@ -22,6 +22,18 @@ ZERO_SLIP = ("zero pre-impact slip (within round-off): d pi / d v_t is one-sided
 BOUNDARY_RTOL = 1e-9
 
 
+def symmetric_tensor(G: np.ndarray, N: int) -> np.ndarray:
+    """dpi/dW (rows, N, N) from G's first columns, the gradient over W's upper triangle
+    (``np.triu_indices`` order): a symmetric pair's weight split evenly between its entries."""
+    out = np.zeros((G.shape[0], N, N))
+    for k, (i, j) in enumerate(zip(*np.triu_indices(N))):
+        if i == j:
+            out[:, i, i] = G[:, k]
+        else:
+            out[:, i, j] = out[:, j, i] = 0.5 * G[:, k]
+    return out
+
+
 class _Path:
     """One contact's path in impulse space (normalized data) with the gradients of its state
     ``(p, pi_t, W_n)`` with respect to theta = (W upper triangle, v-, e, mu)."""

@@ -10,11 +10,12 @@ the variational equations ``dS/dsigma = f_y S + f_theta``::
     dv = W dpi + dW pi + dv-,       d|v_t| = s.dv_t,      s = v_t / |v_t|,
     dS_p = s.dv_t,   dS_pi_t = -mu dv_t - v_t dmu,   dS_Wn = v_n s.dv_t + |v_t| dv_n,
 
-by the same embedded Runge--Kutta pair as the law's own integration (DOP853, scipy.integrate's
-tableau), the error of every component -- state and sensitivities -- kept below
+by the same embedded Runge--Kutta pair as the law's own integration (DOP853: the tableau of
+:mod:`.stronge_dop853`), the error of every component -- state and sensitivities -- kept below
 :data:`SENSITIVITY_RTOL` relative to its scale. The stage's events are located inside the
-accepted step by Newton iterations on the step length, each re-taking the step, and carry
-their event sensitivities: where ``g(y, theta) = 0`` (``g = v_n`` at the end of compression,
+accepted step by the law's own compiled locator (:func:`~.stronge_dop853._event_length`:
+the state's slopes do not depend on the sensitivities), and carry their event
+sensitivities: where ``g(y, theta) = 0`` (``g = v_n`` at the end of compression,
 ``g = W_n - (1 - e^2) W_n(p_c)`` at the end of restitution) the event's ``sigma`` moves by
 ``dsigma = -(g_y S + g_theta) / (g_y f)``, so the state's total derivative there is
 ``S + f dsigma``. A decelerating slip is handed to the caller's exact straight finish once its
@@ -28,10 +29,10 @@ import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.integrate._ivp import dop853_coefficients as _dop853
 
 from ..errors import SolverError
-from .stronge_slip import _onset
+from .stronge_dop853 import _A, _B, _E3, _E5, _NE, _NS, _error_norm, _event, _event_length
+from .stronge_slip import MAX_STEPS, _onset  # the law's bound on a curved slip's steps
 
 #: local error tolerance of the variational integration (state and sensitivities)
 SENSITIVITY_RTOL = 1e-13
@@ -40,19 +41,11 @@ SENSITIVITY_RTOL = 1e-13
 SETTLE_RTOL = 1e-15
 #: slip speed (relative to max |v-|) at which the slip counts as stopped whatever its angle
 FLOOR_RTOL = 1e-12
-#: most accepted steps of one curved slip (the law's own bound)
-MAX_STEPS = 20000
 #: a vanishing slip's self-similar stop (events off, |u| = 1, tr W = 1): a slip that neither
 #: stops nor grows within this many accepted steps or this much normal impulse does not stop
 #: (it slows forever: |W_tt^-1 W_tn| = mu)
 MAX_STEPS_SELF_SIMILAR = 500
 MAX_IMPULSE_SELF_SIMILAR = 1e3
-
-_NS = int(_dop853.N_STAGES)
-_A = np.asarray(_dop853.A, dtype=float)[:_NS, :_NS]
-_B = np.asarray(_dop853.B, dtype=float)
-_E3 = np.asarray(_dop853.E3, dtype=float)
-_E5 = np.asarray(_dop853.E5, dtype=float)
 
 
 class SlipSystem:
@@ -79,6 +72,11 @@ class SlipSystem:
         self.vg = v_grad.T  # (3, m)
         self.mug = mu_grad
         self.m = W_grad.shape[0]
+        W = self.W  # the compiled kernel's scalars (vn0, vt01, vt02, A, b1, b2, C11, C12, C22)
+        self.coefficients = (float(self.vm[0]), float(self.vm[1]), float(self.vm[2]),
+                             float(W[0, 0]), float(W[1, 0]), float(W[2, 0]), float(W[1, 1]),
+                             float(W[1, 2]), float(W[2, 2]))
+        self.K = np.empty((4, _NE))  # the compiled step's scratch
 
     def velocity(self, z):
         """v and dv/dtheta (3, m) at the augmented state z (4, 1 + m)."""
@@ -116,8 +114,8 @@ class SlipSystem:
 
 
 def _error(h, z, z_new, K, scale):
-    """DOP853's error norm (scipy's combination of the 5th- and 3rd-order estimators), each
-    component against SENSITIVITY_RTOL (scale + |z|); the sensitivities' columns averaged."""
+    """DOP853's error norm (the law's :func:`~.stronge_dop853._error_norm`), each component
+    against SENSITIVITY_RTOL (scale + |z|); the sensitivities' columns averaged."""
     sc = SENSITIVITY_RTOL * (scale + np.maximum(np.abs(z), np.abs(z_new)))
     e5 = (h * np.tensordot(_E5, K, axes=1) / sc) ** 2
     e3 = (h * np.tensordot(_E3, K, axes=1) / sc) ** 2
@@ -125,15 +123,14 @@ def _error(h, z, z_new, K, scale):
         else float(e5.sum())
     s3 = float(e3[:, 0].sum() + e3[:, 1:].mean(axis=1).sum()) if z.shape[1] > 1 \
         else float(e3.sum())
-    if s5 == 0.0 and s3 == 0.0:
-        return 0.0
-    return s5 / math.sqrt((s5 + 0.01 * s3) * 4.0)
+    return _error_norm(s5, s3)
 
 
 def _event_value(sys: SlipSystem, z, compressing, target):
-    if compressing:
-        return float(sys.vm[0] + sys.W[0] @ z[:3, 0])
-    return float(z[3, 0] - target)
+    """The law's event function (:func:`~.stronge_dop853._event`) at the state of z."""
+    vn0, _, _, A, b1, b2 = sys.coefficients[:6]
+    return _event(float(z[0, 0]), float(z[1, 0]), float(z[2, 0]), float(z[3, 0]), compressing,
+                  target, vn0, A, b1, b2)
 
 
 def _event_rate(sys: SlipSystem, f, compressing):
@@ -144,29 +141,14 @@ def _event_rate(sys: SlipSystem, f, compressing):
 
 
 def _locate(sys, z, f0, h, g0, g1, compressing, target):
-    """The event inside the accepted step [0, h] (Newton on the step length, bracketed, each
-    iterate re-taking the step): the state there."""
-    lo, hi = 0.0, h
-    tau = h * g0 / (g0 - g1)
-    zt = z
-    for _ in range(60):
-        zt, _ = sys.step(z, f0, tau)
-        g = _event_value(sys, zt, compressing, target)
-        if g == 0.0:
-            break
-        if g < 0.0:
-            lo = tau
-        else:
-            hi = tau
-        rate = _event_rate(sys, sys.rhs(zt), compressing)
-        new = tau - g / rate if rate > 0.0 else 0.5 * (lo + hi)
-        if not lo <= new <= hi:
-            new = 0.5 * (lo + hi)
-        if abs(new - tau) <= 1e-14 * h:
-            zt, _ = sys.step(z, f0, new)
-            break
-        tau = new
-    return zt
+    """The event inside the accepted step [0, h]: its length located by the law's own
+    :func:`~.stronge_dop853._event_length` on the state's columns (their slopes do not depend
+    on the sensitivities), then the augmented step of that length."""
+    y, f = z[:, 0], f0[:, 0]
+    tau = _event_length(float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(f[0]),
+                        float(f[1]), float(f[2]), float(f[3]), float(h), float(g0), float(g1),
+                        bool(compressing), float(target), sys.K, *sys.coefficients, sys.mu)
+    return sys.step(z, f0, tau)[0]
 
 
 def integrate_slip(sys: SlipSystem, z, compressing: bool, target: float,
