@@ -27,7 +27,7 @@ limit), so the scene asks for 1e-6; law ``ccp`` is certified at 1e-8.
 
 Expected: the pile comes to rest (kinetic energy -> 0) with no penetration beyond the
 scheme's O(h |v|); e = 0, so the energy only falls (by theta = 1/2's O(h) impact-step error
-at most, see :mod:`convimpact.simulation.moreau_loop`).
+at most, see :mod:`convimpact.simulation.moreau`).
 
 Parameters of :func:`make_scene`: columns (10), rows (12), mu (0.3), e (0), seed (0),
 t_end (1 s).

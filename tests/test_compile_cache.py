@@ -270,3 +270,32 @@ def test_prune_keeps_the_recent_and_the_last_used(tmp_path):
     assert compiled.KEEP == 3 and compiled.PRUNE_DAYS == 7
     assert left == ["0.1.0-cccccccccccc-numba0.68.1", "0.1.0-dddddddddddd-numba0.68.1",
                     "0.1.0-eeeeeeeeeeee-numba0.68.1", current.name, "not-a-key-folder"]
+
+
+DISABLED_JIT_SIMULATION = textwrap.dedent("""
+    import json
+    import convimpact as ci
+    from convimpact.scenes import load_scene
+    from convimpact.simulation.moreau import simulate_moreau
+    from convimpact.bench.moreau_scenes import box_row
+    table = load_scene("table", legs=4, v0=0.6)
+    res = ci.simulate(table)
+    stops = [iv.t_start for iv in res.modes_of("leg0") if iv.mode == "stick"]
+    mech, q, v = box_row(1, True)
+    mj = simulate_moreau(mech, (0.0, 0.1), (q, v), h=0.002, law="coulomb")
+    print(json.dumps({"status": res.status, "stop": stops[0] if stops else None,
+                      "p": dict(table.parameters), "moreau_speed": float(mj.dtheta[-1][0])}))
+""")
+
+
+def test_simulation_runs_as_plain_python_with_numba_disabled():
+    """The simulators' compiled paths (model evaluation, right-hand side, Moreau-Jean steps)
+    run as plain Python under NUMBA_DISABLE_JIT=1, with the closed forms: a sliding table
+    stops at v0 / (mu g), a box sliding on four corners slows at mu g per second."""
+    res = _run(DISABLED_JIT_SIMULATION, _env(NUMBA_DISABLE_JIT="1"))
+    out = json.loads(res.stdout.strip().splitlines()[-1])
+    p = out["p"]
+    assert out["status"] == 0
+    assert out["stop"] == pytest.approx(p["v0"] / (p["mu"] * p["gravity"]), rel=1e-8)
+    from convimpact.bench.moreau_scenes import GRAVITY, MU, SLIDE_SPEED
+    assert out["moreau_speed"] == pytest.approx(SLIDE_SPEED - MU * GRAVITY * 0.1, rel=1e-9)

@@ -43,8 +43,9 @@ def _evaluate():
     instead of compiling a variant."""
     global _READY
     if not _READY:
-        rc.evaluate.compile(rc.EVALUATE_SIGNATURE)
-        rc.evaluate.disable_compile()
+        if hasattr(rc.evaluate, "compile"):  # a plain function under NUMBA_DISABLE_JIT=1
+            rc.evaluate.compile(rc.EVALUATE_SIGNATURE)
+            rc.evaluate.disable_compile()
         _READY = True
     return rc.evaluate
 

@@ -34,7 +34,7 @@ class ImpactEvent:
     resolve_time : wall time spent in ``resolve_impact`` (s).
     result : the law's full :class:`~convimpact.impact.results.ImpactResult` (with
         diagnostics), or None for a Moreau–Jean step solved on the contact engine
-        (:mod:`convimpact.simulation.moreau_loop`: certified by the natural-map residual).
+        (:mod:`convimpact.simulation.moreau_engine`: certified by the natural-map residual).
     saltation : (2k, 2k) the saltation matrix ``dx+/dx-`` of the event instant in
         x = (theta, theta_dot) (with ``simulate(..., sensitivities=True)``; else None), see
         :class:`~convimpact.simulation.saltation.EventSensitivity`.
