@@ -351,10 +351,7 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
             self.last_event_t is not None and te - self.last_event_t <= o.event_tol) else 0
         self.last_event_t = te
         if self.same_instant > MAX_EVENTS_AT_ONE_INSTANT:
-            raise SimulationError(
-                f"{self.same_instant} events at t = {te:.9g} without progress (chattering "
-                f"contacts {sorted({f[2] for f in group})}); loosen contact_tol or "
-                "rest_velocity, or use zeno='stop'")
+            raise SimulationError(self.no_progress_message(te, ye, group))
         first = min(group)
         self.trigger = (first[1], first[2])
         stop_msg = self.handle_instant(te, ye, [f[2] for f in group if f[1] == "impact"],
@@ -372,6 +369,22 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
                 "raise it or check for accumulating impacts")
         elif self.t >= o.t1:
             self.status, self.message = 0, END_OF_SPAN
+
+    def no_progress_message(self, t: float, y: np.ndarray, group: Sequence[Event]) -> str:
+        """Why the run stops when events recur at one instant, and what can help: the
+        events, the free contacts' normal speeds, the options that act on them."""
+        names = sorted({f[2] for f in group})
+        free = [c for c in names if c in self.contact_at and c not in self.held]
+        speeds = self.normal_speeds(free, y) if free else {}
+        told = ", ".join(f"{c} (v_n = {speeds[c]:.3e})" if c in speeds else c for c in names)
+        return (
+            f"{self.same_instant} events at t = {t:.9g} without progress (chattering: "
+            f"{told}): handling them did not carry the run past them, they recur at the same "
+            "instant. A contact approaching or separating slower than "
+            f"rest_velocity (now {self.opts.rest_velocity:.1e}) is closed at the instant and "
+            "its mode left to the contact force problem: a larger rest_velocity may get past "
+            "it; zeno='stop' does not (it stops on impacts accumulating over time, not on "
+            "events repeating at one instant)")
 
     def handle_instant(self, t: float, y: np.ndarray, closing: Sequence[str],
                        touching: Sequence[str]) -> str | None:

@@ -93,6 +93,57 @@ def test_humanoid_stands_still_on_eight_sole_corners_until_pushed():
     assert any("statically indeterminate" in w_ for w_ in res.warnings)
 
 
+@pytest.fixture(scope="module")
+def pushed():
+    """The whole humanoid_push run (15-60 s; only for the slow tests)."""
+    pytest.importorskip("pinocchio")
+    from convimpact.model.pinocchio_robots import RobotDataUnavailableError
+    try:
+        sc = load_scene("humanoid_push")
+    except RobotDataUnavailableError:
+        pytest.skip("example-robot-data not installed")
+    return sc, ci.simulate(sc.mechanism, (0.0, sc.t_end), (sc.theta0, sc.dtheta0))
+
+
+@pytest.mark.slow
+def test_humanoid_push_runs_to_the_end_through_its_impact_cascades(pushed):
+    """The push makes the feet tap the floor in two cascades of e = 0 impacts (near 0.756 s
+    and 0.7964 s) whose sole corners are released and re-close within microseconds; the run
+    reaches t_end (it once looped at t = 0.79638337549: a re-closing read from a gap's
+    round-off, tests/simulation/test_event_reclosing.py). Checked independently of the
+    scheme: the weight carried before the push, every e = 0 impact dissipative (kinetic
+    energies from the mechanism), the soles back on the floor at the end."""
+    sc, res = pushed
+    mech, p = sc.mechanism, sc.parameters
+    assert res.status == 0, res.message
+    assert res.t[-1] == sc.t_end and not res.painleve
+    before = (res.held == 8) & (res.t < p["t_push"])
+    assert before.sum() >= 2
+    np.testing.assert_allclose(res.contact_force[before][:, :, 0].sum(axis=1), p["mass"] * G,
+                               rtol=1e-8)
+    assert res.impacts
+    for ev in res.impacts:
+        assert set(ev.contacts) <= set(mech.contact_names)
+        ke_minus = float(mech.kinetic_energy(ev.theta, ev.dtheta_minus))
+        ke_plus = float(mech.kinetic_energy(ev.theta, ev.dtheta_plus))
+        assert ke_plus <= ke_minus * (1 + 1e-9), f"impact at {ev.time} gains energy"
+    assert res.held[-1] == 8  # standing on both soles again
+    iz = mech.coordinate_index("base_z")
+    assert abs(res.theta[-1, iz] - sc.theta0[iz]) < 1e-3
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "known defect: a sliding group of coplanar sole corners has a normal row dropped as "
+    "redundant (redundant_rows tests the normal rows alone), so the canonical equations put "
+    "that corner's force at 0 and another's turns tensile (-135 N at t = 0.7559998 on "
+    "left_sole_0) while the force problem has an all-compressive solution; the segment "
+    "starts with a negative margin, so no margin crossing stops it"))
+def test_humanoid_push_keeps_coulombs_conditions_on_every_sample(pushed):
+    sc, res = pushed
+    assert_coulomb(res, sc.mechanism)
+
+
 def _corner_offset(name: str) -> np.ndarray:
     from convimpact.model.pinocchio_robots import TALOS_SOLE
     i = int(name[-1])
