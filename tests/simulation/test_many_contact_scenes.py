@@ -93,6 +93,49 @@ def test_humanoid_stands_still_on_eight_sole_corners_until_pushed():
     assert any("statically indeterminate" in w_ for w_ in res.warnings)
 
 
+def _spinning_table(legs: int):
+    """The table scene sliding at 1 m/s (mu = 0.5) and spinning at 5 rad/s about the
+    vertical: the rotation rate whose column moves no leg along the floor's normal."""
+    sc = load_scene("table", legs=legs, v0=1.0, mu=0.5)
+    mech = sc.mechanism
+    th = np.asarray(sc.theta0, float)
+    spin = next(j for j in range(3, mech.n_coordinates)
+                if all(abs(float(np.asarray(mech.contact_jacobian(c, th), float)[0, j])) < 1e-12
+                       for c in mech.contact_names))
+    dth = np.array(sc.dtheta0, float)
+    dth[spin] = 5.0
+    return mech, ci.simulate(mech, (0.0, sc.t_end), (th, dth))
+
+
+def test_spinning_table_run_warns_where_its_held_forces_pull():
+    """Three legs: the sliding forces are determinate, never tensile, no warning. Four or
+    five legs spinning: the legs slide in different directions, so the friction makes the
+    forces' distribution change the motion; wherever a recorded normal force is tensile, the
+    run says so in a warning (the segment it starts cannot be stopped by the margin's
+    crossing)."""
+    for legs in (3, 4, 5):
+        mech, res = _spinning_table(legs)
+        assert res.status == 0, res.message
+        lam_n = res.contact_force[:, :, 0]
+        tensile = bool(np.any(lam_n < -1e-7 * np.max(np.abs(lam_n))))
+        warned = any("tensile or outside their cones" in w for w in res.warnings)
+        if legs == 3:
+            assert not tensile and not warned
+        else:
+            assert warned or not tensile, f"{legs} legs: tensile forces without a warning"
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "known defect: a sliding group with a redundant normal row (four coplanar legs) has that "
+    "row dropped (redundant_rows tests the normal rows alone), so the canonical equations put "
+    "that leg's force at 0 and another's turns tensile (-0.87 N of 12 N), while the force "
+    "problem has an all-compressive solution; the segment starts with a negative margin, so "
+    "no margin crossing stops it (humanoid_push: -135 N on a sole corner at t = 0.7559998)"))
+def test_spinning_four_legged_table_keeps_coulombs_conditions():
+    mech, res = _spinning_table(4)
+    assert_coulomb(res, mech)
+
+
 @pytest.fixture(scope="module")
 def pushed():
     """The whole humanoid_push run (15-60 s; only for the slow tests)."""
@@ -128,6 +171,9 @@ def test_humanoid_push_runs_to_the_end_through_its_impact_cascades(pushed):
         ke_plus = float(mech.kinetic_energy(ev.theta, ev.dtheta_plus))
         assert ke_plus <= ke_minus * (1 + 1e-9), f"impact at {ev.time} gains energy"
     assert res.held[-1] == 8  # standing on both soles again
+    lam_n = res.contact_force[:, :, 0]
+    if np.any(lam_n < -1e-7 * np.max(np.abs(lam_n))):  # the run says so (the xfail below)
+        assert any("tensile or outside their cones" in w for w in res.warnings)
     iz = mech.coordinate_index("base_z")
     assert abs(res.theta[-1, iz] - sc.theta0[iz]) < 1e-3
 
