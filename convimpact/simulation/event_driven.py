@@ -34,6 +34,9 @@ from .sustained import MARGIN_SLACK, held_forces, painleve_indicator
 from .zeno import AccumulationDetector
 
 END_OF_SPAN = "the end of the time span was reached"
+#: smallest margin (relative to the force scale) at a segment's start below which the held
+#: forces count as inadmissible there (the modes' selection leaves it >= 0 up to round-off)
+INADMISSIBLE_MARGIN = 1e-6
 #: per-sample contact series recorded besides the state's
 CONTACT_SERIES = ("held", "mode", "force", "friction")
 #: 4-point Gauss-Legendre nodes and weights on [-1, 1] (the friction work of a step)
@@ -132,6 +135,9 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
         #: the force problem's notes (statically indeterminate contacts): note -> (first
         #: time, count)
         self.force_notes: dict[str, tuple[float, int]] = {}
+        #: segments starting with inadmissible held forces: held set -> (first time, count,
+        #: smallest margin)
+        self.inadmissible: dict[Held, tuple[float, int, float]] = {}
         #: the event functions' stand-in distribution (:func:`~.sustained.held_forces`)
         self.margin_hint: dict[str, Any] = {}
         #: the last full :meth:`watch`: (eq, t, y's bytes, the exact forces or None,
@@ -351,10 +357,7 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
             self.last_event_t is not None and te - self.last_event_t <= o.event_tol) else 0
         self.last_event_t = te
         if self.same_instant > MAX_EVENTS_AT_ONE_INSTANT:
-            raise SimulationError(
-                f"{self.same_instant} events at t = {te:.9g} without progress (chattering "
-                f"contacts {sorted({f[2] for f in group})}); loosen contact_tol or "
-                "rest_velocity, or use zeno='stop'")
+            raise SimulationError(self.no_progress_message(te, ye, group))
         first = min(group)
         self.trigger = (first[1], first[2])
         stop_msg = self.handle_instant(te, ye, [f[2] for f in group if f[1] == "impact"],
@@ -372,6 +375,28 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
                 "raise it or check for accumulating impacts")
         elif self.t >= o.t1:
             self.status, self.message = 0, END_OF_SPAN
+
+    def note_inadmissible(self, margin: float) -> None:
+        """Count a segment whose held forces already leave their cones (or pull) at its
+        start: the margin's crossing cannot stop it, so the run says so in its warnings."""
+        t0, count, worst = self.inadmissible.get(self.held, (self.t, 0, 0.0))
+        self.inadmissible[self.held] = (t0, count + 1, min(worst, margin))
+
+    def no_progress_message(self, t: float, y: np.ndarray, group: Sequence[Event]) -> str:
+        """Why the run stops when events recur at one instant, and what can help: the
+        events, the free contacts' normal speeds, the options that act on them."""
+        names = sorted({f[2] for f in group})
+        free = [c for c in names if c in self.contact_at and c not in self.held]
+        speeds = self.normal_speeds(free, y) if free else {}
+        told = ", ".join(f"{c} (v_n = {speeds[c]:.3e})" if c in speeds else c for c in names)
+        return (
+            f"{self.same_instant} events at t = {t:.9g} without progress (chattering: "
+            f"{told}): handling them did not carry the run past them, they recur at the same "
+            "instant. A contact approaching or separating slower than "
+            f"rest_velocity (now {self.opts.rest_velocity:.1e}) is closed at the instant and "
+            "its mode left to the contact force problem: a larger rest_velocity may get past "
+            "it; zeno='stop' does not (it stops on impacts accumulating over time, not on "
+            "events repeating at one instant)")
 
     def handle_instant(self, t: float, y: np.ndarray, closing: Sequence[str],
                        touching: Sequence[str]) -> str | None:
@@ -421,6 +446,8 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
         g_prev = self.gaps(free, self.y[:k])
         anchors = self.slip_anchors(self.y)
         w_prev = self.watch(self.t, self.y, anchors) if eq.held else {}
+        if w_prev and w_prev["margin"] < -INADMISSIBLE_MARGIN:
+            self.note_inadmissible(w_prev["margin"])
         while True:
             msg = solver.step()
             if solver.status == "failed":
@@ -505,6 +532,13 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
                           f"{', '.join(ev.contacts)}): the run stopped" for ev in self.painleve)
         warnings += tuple(f"{note} (at {count} mode selection{'s' if count > 1 else ''} from "
                           f"t = {t0:.9g})" for note, (t0, count) in self.force_notes.items())
+        warnings += tuple(
+            f"the held contacts' forces ({', '.join(held)}) start {count} segment"
+            f"{'s' if count > 1 else ''} from t = {t0:.9g} tensile or outside their cones "
+            f"(smallest margin {worst:.3g} of the force scale; the canonical equations' "
+            "distribution, not the force problem's): "
+            "carried to each segment's next event" for held, (t0, count, worst)
+            in self.inadmissible.items())
         n, d = len(rows["t"]), self.d
         sensitivities = self.final_sensitivities()
         warnings += self.sensitivity_warnings

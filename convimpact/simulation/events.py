@@ -139,7 +139,8 @@ def first_dip(fun: Callable[[float], float], ta: float, tb: float, fa: float,
 
 
 def reclosing(fun: Callable[[float], float], ta: float, tb: float, g0: float, v0: float,
-              gb: float, xtol: float) -> float | None:
+              gb: float, xtol: float,
+              dfun: Callable[[float], float] | None = None) -> float | None:
     """Closing of a contact that starts the step touching (just impacted or released).
 
     With ``g0 = fun(ta)`` (about 0, possibly slightly negative) and the separation speed
@@ -150,24 +151,39 @@ def reclosing(fun: Callable[[float], float], ta: float, tb: float, g0: float, v0
     When the gap is above its start at ``tb``, interior samples (:func:`first_dip`) still
     catch a return below the start level inside the step.
 
+    The first point tried is ``a = ta + 1e-9 (tb - ta)`` (at least the next float after
+    ``ta``); ``h(a) <= 0`` there reads as a return within it (the contact closes at ``a``).
+    On a short step late in a run ``a`` is one rounding unit of the time away, over which
+    the gap's rise ``v0 (a - ta)`` (1e-22 m at v0 = 1e-6 m/s) lies far below the gap's own
+    round-off: ``fun(a) - g0`` is then 0 or noise and says nothing. With the normal speed
+    ``dfun``, a non-positive ``h(a)`` counts only where the speed at ``a`` has turned
+    negative too (a gap cannot come back below its start while rising at both ends of 1e-9
+    of a step); else ``h(a)`` is its mean rate over (ta, a], ``(v0 + dfun(a)) / 2``.
+
     Returns the re-closing time in (ta, tb], or None when the gap has not come back.
     """
     dt = tb - ta
     hb = (gb - g0) / dt
     if v0 <= 0.0:
         return None
+    a = max(ta + 1e-9 * dt, float(np.nextafter(ta, tb)))
+    ha = (fun(a) - g0) / (a - ta)
+    if ha <= 0.0 and dfun is not None:
+        va = dfun(a)
+        if va > 0.0:  # still rising at a: the quotient there is round-off, not a return
+            ha = 0.5 * (v0 + va)
 
     def h(t: float) -> float:
-        # at ta itself (a step so short that ta + 1e-9 dt rounds to ta) its limit, v0
+        # at a its value above; at ta itself (a step so short that ta + 1e-9 dt rounds to
+        # ta) its limit, v0
+        if t == a:
+            return ha
         return (fun(t) - g0) / (t - ta) if t > ta else v0
 
-    a = max(ta + 1e-9 * dt, float(np.nextafter(ta, tb)))
     if hb > 0.0:
         # open at the step's end: it may still have come back down and up again inside
-        ha = h(a)
         dip = first_dip(h, a, tb, ha) if ha > 0.0 else None
         return None if dip is None else locate_crossing(h, *dip, xtol)
-    ha = h(a)
     if ha <= 0.0:  # returns below its start within 1e-9 of the step: use the sampled start
         return a
     return locate_crossing(h, a, tb, ha, hb, xtol)
@@ -193,7 +209,7 @@ def gap_event(gap: Callable[[float], float], speed: Callable[[float], float], ta
     elif ga <= 0.0:
         v0 = speed(ta)
         if v0 > 0.0:
-            te = reclosing(gap, ta, tb, ga, v0, gb, xtol)
+            te = reclosing(gap, ta, tb, ga, v0, gb, xtol, dfun=speed)
             if te is not None:
                 return te, "impact"
         elif gb < 0.0 and gb < ga:
