@@ -109,7 +109,8 @@ class MoreauResult(SimulationResult):
     max_penetration : largest penetration (-gap) of any contact at a stored state (>= 0).
     contact_solver : engine path only, what the contact engine did over the run (islands
         solved, warm starts certified, calls of the full engine, iterations, the largest
-        island, seconds in the solves and in the assembly); empty on the other path.
+        island, seconds in the solves and in the assembly); on the other path the calls of
+        ``resolve_impact`` (one per island and step) and the largest island (contacts).
     max_active_contacts : the most contacts active on one step.
     """
 
@@ -214,10 +215,15 @@ def simulate_moreau(
         ``tol`` (the natural-map residual every island's answer must reach, default 1e-8),
         ``max_iter`` and ``newton_iter`` are taken.
     warm_start, islands : bool
-        Engine path only (laws ``"ccp"`` and ``"coulomb"`` under ``method`` "auto" or
-        "interior", :mod:`.moreau_loop`): start each step's contact problem from the previous
-        step's impulses, and solve the independent islands of touching bodies apart
-        (:mod:`.islands`). Neither changes the answer beyond the certificate's tolerance.
+        ``warm_start``, engine path only (laws ``"ccp"`` and ``"coulomb"`` under ``method``
+        "auto" or "interior", :mod:`.moreau_loop`): start each step's contact problem from the
+        previous step's impulses; it does not change the answer beyond the certificate's
+        tolerance. ``islands``, every law: solve the independent islands of touching bodies
+        apart (:mod:`.islands`; on the other laws one ``resolve_impact`` call per island,
+        :mod:`.moreau_impact`). The same answer as one coupled problem for every law but
+        ``"pereira-nikravesh"``, whose stick-or-slide tier is then chosen per island rather
+        than for the whole step (see :mod:`.moreau_impact`); False restores the single call
+        and its cap of 8 contacts per step.
 
     Returns
     -------
@@ -265,17 +271,19 @@ def simulate_moreau(
     settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
                 "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
                 "projection_tol": projection_tol, "t_span": [t0, t1]}
+    for flag, value in (("warm_start", warm_start), ("islands", islands)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise ParameterError(f"{flag} must be True or False, got {value!r}")
     if engine_path:
-        for flag, value in (("warm_start", warm_start), ("islands", islands)):
-            if not isinstance(value, (bool, np.bool_)):
-                raise ParameterError(f"{flag} must be True or False, got {value!r}")
         solver = EngineSolver(mech, law=law, warm_start=bool(warm_start), islands=bool(islands),
                               rest_velocity=float(rest_velocity), **engine_opts)
         settings.update(contact_solver="engine", warm_start=bool(warm_start),
                         islands=bool(islands), **engine_opts)
     else:
         solver = ImpactSolver(mech, law=law, method=method, impact_options=impact_options,
-                              e_t=e_t, rest_velocity=float(rest_velocity))
+                              e_t=e_t, rest_velocity=float(rest_velocity),
+                              islands=bool(islands))
+        settings["islands"] = bool(islands)
         if e_t is not None:
             settings["e_t"] = dict(e_t)
 
@@ -293,5 +301,7 @@ def simulate_moreau(
         wall_time=float(_time.perf_counter() - wall0), impact_time=float(st["impact_time"]),
         settings=settings, step_size=h, theta_parameter=theta_p,
         n_contact_steps=st["contact_steps"], max_penetration=max(0.0, st["max_pen"]),
-        contact_solver=(solver.counters.as_dict() if engine_path else {}),
+        contact_solver=(solver.counters.as_dict() if engine_path else
+                        {"resolve_impact_calls": solver.calls,
+                         "largest_island": solver.largest_island}),
         max_active_contacts=st["max_active"])
