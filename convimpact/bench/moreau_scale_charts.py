@@ -3,7 +3,8 @@
 * ``moreau_scale_growth.png`` (:func:`growth_chart`): wall time per simulated second against
   the number of contacts (log-log), one panel per motion (sliding, at rest): ours per law and
   MuJoCo, each with its fitted power law (exponent in the legend) and the 10x MuJoCo line;
-  every law of the section (ccp and coulomb on the engine, the others island by island);
+  every law of the section (ccp, coulomb, dissipative on the engine, the others island by
+  island);
 * ``moreau_pile.png`` (:func:`pile_chart`): the disc pile, E(t) - E(0) of both simulators
   and the final piles side by side.
 """
@@ -57,9 +58,9 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     axes[0].set_ylabel("wall time per simulated second (s)")
-    fig.suptitle(f"Moreau–Jean vs MuJoCo, same step h = {step:g} s: ccp and coulomb on the "
-                 "contact engine (certified at 1e-8), the other laws through resolve_impact "
-                 "island by island", fontsize=10)
+    fig.suptitle(f"Moreau–Jean vs MuJoCo, same step h = {step:g} s: ccp, coulomb and "
+                 "dissipative on the contact engine (certified at 1e-8), pereira-nikravesh and "
+                 "stronge through resolve_impact island by island", fontsize=10)
     fig.tight_layout()
     return save_chart(fig, out, "moreau_scale_growth.png")
 

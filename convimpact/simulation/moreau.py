@@ -28,8 +28,11 @@ of size h from (q_k, v_k) at t_k:
    only, ``e_t = 0`` on those at rest (a resting contact's slip is not reversed every step);
    it restitutes the slip of the free velocity, which is the slip at t_k when no smooth
    force acts along the contact's tangent during the step (a ball on a level floor);
-   **Laws "ccp" and "coulomb" under method "auto" or "interior"** take the contact engine
-   instead (:mod:`.moreau_engine`): the step's problem ``u = J v_{k+1} = W r + b``,
+   the other laws resolve each independent island of contacts by its own call of
+   :func:`convimpact.resolve_impact` (:mod:`.moreau_impact`).
+   **Laws "ccp", "coulomb" and "dissipative" under method "auto" or "interior"** take the
+   contact engine instead (:mod:`.moreau_engine`; "dissipative" as ccp's plastic problem,
+   the impulse scaled by ``1 + e_eff``): the step's problem ``u = J v_{k+1} = W r + b``,
    ``W = J G J^T``, built in the block structure of M (batched factorizations of the
    coordinate groups), split into independent islands (:mod:`.islands`), warm-started from
    the previous step's impulses, solved by the engine's compiled kernels in one call for
@@ -142,7 +145,8 @@ def _engine_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
         if key not in ENGINE_OPTIONS:
             raise UnknownOptionError(
                 f"impact option {key!r} is not taken by Moreau–Jean on the contact engine "
-                f"(laws ccp and coulomb under method auto or interior); its options are "
+                f"(laws ccp, coulomb and dissipative under method auto or interior); its "
+                f"options are "
                 f"{', '.join(ENGINE_OPTIONS)}")
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
                                                              np.floating)):
@@ -215,7 +219,8 @@ def simulate_moreau(
         ``tol`` (the natural-map residual every island's answer must reach, default 1e-8),
         ``max_iter`` and ``newton_iter`` are taken.
     warm_start, islands : bool
-        ``warm_start``, engine path only (laws ``"ccp"`` and ``"coulomb"`` under ``method``
+        ``warm_start``, engine path only (laws ``"ccp"``, ``"coulomb"`` and
+        ``"dissipative"`` under ``method``
         "auto" or "interior", :mod:`.moreau_loop`): start each step's contact problem from the
         previous step's impulses; it does not change the answer beyond the certificate's
         tolerance. ``islands``, every law: solve the independent islands of touching bodies

@@ -1,6 +1,6 @@
 """The contact problem of a Moreau–Jean step through :func:`convimpact.resolve_impact`, island
 by island: the step solver of every law and method outside the contact engine
-(pereira-nikravesh, stronge, dissipative, chatterjee-ruina; ccp and coulomb under the other
+(pereira-nikravesh, stronge, chatterjee-ruina; ccp, coulomb and dissipative under the other
 methods), for :func:`.moreau_loop.run_steps`.
 
 Per step with active contacts: Newton's restitution at the velocity level as the
@@ -18,8 +18,9 @@ island's coordinates (M is block diagonal over the groups, so the block is the i
 matrix, not an approximation), the island's contact rows restricted to those coordinates,
 ``v_free`` there and the loop rows inside the island; coordinates no active contact moves
 keep ``v_free``. An island whose contacts all separate under ``v_free`` still goes to the law
-when the law is a cone complementarity (``ccp``: its dual cone is not ``v_n >= 0``) and is
-skipped otherwise (no impulse: every other law leaves a contact that opens untouched).
+when the law is a cone complementarity (``ccp`` and ``dissipative``, CCP's plastic program:
+a sliding contact with ``0 <= v_n < mu |v_t|`` takes an impulse) and is skipped otherwise
+(every other law leaves contacts that all open without impulse).
 
 **Same answer as one call.** The Delassus matrix ``W = J M^-1 J^T`` is block diagonal over
 the islands, and the impulse of one island changes no velocity of another:
@@ -59,7 +60,7 @@ from .islands import contact_islands
 from .result import ImpactEvent
 
 #: laws whose answer at contacts that all separate under v_free may still be an impulse
-CONE_COMPLEMENTARITY_LAWS = frozenset({"ccp"})
+CONE_COMPLEMENTARITY_LAWS = frozenset({"ccp", "dissipative"})
 
 
 class ImpactSolver:
