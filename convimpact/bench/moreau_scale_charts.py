@@ -59,8 +59,8 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
         ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     axes[0].set_ylabel("wall time per simulated second (s)")
     fig.suptitle(f"Moreau–Jean vs MuJoCo, same step h = {step:g} s: ccp, coulomb and "
-                 "dissipative on the contact engine (certified at 1e-8), pereira-nikravesh and "
-                 "stronge through resolve_impact island by island", fontsize=10)
+                 "dissipative on the contact engine (certified at 1e-8),\npereira-nikravesh and "
+                 "stronge through resolve_impact island by island (medians)", fontsize=10)
     fig.tight_layout()
     return save_chart(fig, out, "moreau_scale_growth.png")
 

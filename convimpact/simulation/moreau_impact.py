@@ -25,10 +25,14 @@ a sliding contact with ``0 <= v_n < mu |v_t|`` takes an impulse) and is skipped 
 **Same answer as one call.** The Delassus matrix ``W = J M^-1 J^T`` is block diagonal over
 the islands, and the impulse of one island changes no velocity of another:
 
-* ``ccp``, ``coulomb``, ``dissipative``, ``stronge``, ``chatterjee-ruina``: the coupled
-  problem is the islands' problems side by side (per-contact complementarity, cone and
+* ``ccp``, ``coulomb``, ``dissipative``, ``chatterjee-ruina``: the coupled problem is the
+  islands' problems side by side (per-contact complementarity, cone and
   maximal-dissipation conditions, and the sum of the islands' kinetic energies as the
   objective), so the islands' answers are the single call's (to the solvers' tolerance);
+* ``stronge``: its compression, expansion and re-compression programs separate likewise;
+  its energy cap (the expansion scaled by the largest ``kappa <= 1`` keeping ``T+ <= T-``,
+  needed only with different e on coupled contacts) is then chosen per island instead of
+  once for the whole step;
 * ``pereira-nikravesh``: the law (:mod:`convimpact.impact.laws.pn_complementarity`) picks an
   active set by tiers, *sticking* on the most dissipative admissible set if one exists, else
   *sliding* on the most dissipative admissible one. Admissibility and dissipation separate
