@@ -1,14 +1,21 @@
-"""Bench section ``moreau-scale``: Moreau–Jean on the contact engine from 4 to 128 contacts
-and on a pile of discs, against MuJoCo in the same run at the same step h.
+"""Bench section ``moreau-scale``: Moreau–Jean from 4 to 128 contacts, every law, and on a
+pile of discs, against MuJoCo in the same run at the same step h.
 
 Scenes (:mod:`.moreau_scenes`): rows of 1 to 32 boxes on the floor (4 to 128 corner contacts;
 the boxes never touch: 1 to 32 islands), sliding at 2 m/s and at rest, and the scene
 ``disc_pile`` (114 discs settling in a box). Ours: :func:`convimpact.simulation.moreau.
-simulate_moreau` (theta = 1/2, laws ``ccp`` and ``coulomb`` on the engine, every step's
-islands certified at the natural-map residual 1e-8, warm starts and islands on); MuJoCo: its
-default solver and soft contact, elliptic cones, Euler, the same h (2 ms, MuJoCo's default).
+simulate_moreau` (theta = 1/2, laws ``ccp``, ``coulomb`` and ``dissipative`` (ccp's plastic
+problem, scaled by 1 + e) on the engine, every step's
+islands certified at the natural-map residual 1e-8, warm starts and islands on; the laws of
+:data:`OTHER_LAWS` through ``resolve_impact``, one call per island and step,
+:mod:`convimpact.simulation.moreau_impact`); MuJoCo: its default solver and soft contact,
+elliptic cones, Euler, the same h (2 ms, MuJoCo's default). ``chatterjee-ruina`` is tried on
+the smallest row and its refusal reported (the law is defined per contact and refuses a box's
+four dynamically coupled corners).
 
-Measured per run (ours: the median wall time of :data:`REPEATS` runs; MuJoCo: of 5):
+Measured per run (ours: the median wall time of :data:`REPEATS` runs over :data:`SPAN`; the
+other laws, which cost milliseconds per island and step, over :data:`OTHER_SPAN`, of
+:data:`OTHER_REPEATS` runs; MuJoCo: of 5):
 
 * ``wall_per_simulated_second``: wall time / simulated span (ours: ``result.wall_time``,
   which includes recording the series; MuJoCo: ``mj_step`` alone);
@@ -21,6 +28,8 @@ Measured per run (ours: the median wall time of :data:`REPEATS` runs; MuJoCo: of
   back: a rise after an impact);
 * sliding boxes: ``speed_error``, the final speed against Coulomb's closed form
   max(v0 - mu g t, 0) (relative to v0);
+* ``max_lift`` (m): the highest any box's centre rose above its resting height (a sliding
+  box lifts off under the cone complementarity laws ccp and dissipative: ``u_n = mu |u_t|``);
 * ours: ``contact_solver`` (islands solved, warm starts certified, engine calls).
 
 Fitted exponents: least squares of log(wall per simulated second) against log(contacts) over
@@ -71,7 +80,13 @@ REPEATS = 5
 #: span of the runs without warm starts or islands (and of their reference run)
 ABLATION_SPAN = 0.2
 MUJOCO_REPEATS = 5
-LAWS = ("ccp", "coulomb")
+LAWS = ("ccp", "coulomb", "dissipative")
+#: the laws solved through resolve_impact island by island (not on the contact engine)
+OTHER_LAWS = ("pereira-nikravesh", "stronge")
+#: their span and repeats (s; they cost milliseconds per island and step)
+OTHER_SPAN = 0.04
+QUICK_OTHER_SPAN = 0.02
+OTHER_REPEATS = 1
 #: the pile's law and certificate tolerance (see the summary)
 PILE_LAW = "coulomb"
 
@@ -82,10 +97,10 @@ def _energy_rise(E: np.ndarray, scale: float) -> float:
 
 
 def _box_record(n: int, sliding: bool, law: str, span: float, progress: Progress,
-                **options) -> dict[str, Any]:
+                repeats: int | None = None, **options) -> dict[str, Any]:
     mech, q, v = box_row(n, sliding)
     walls, res = [], None
-    for _ in range(REPEATS):
+    for _ in range(REPEATS if repeats is None else repeats):
         res = simulate_moreau(mech, (0.0, span), (q, v), h=STEP, law=law, **options)
         walls.append(res.wall_time)
     E = res.total_energy
@@ -95,6 +110,7 @@ def _box_record(n: int, sliding: bool, law: str, span: float, progress: Progress
            "wall_per_simulated_second": statistics.median(walls) / span,
            "walls": walls, "max_penetration": res.max_penetration,
            "energy_rise": _energy_rise(E, scale), "contact_solver": res.contact_solver,
+           "max_lift": float(np.max(np.asarray(res.theta)[:, 2::6]) - HALF[2]),
            "max_active_contacts": res.max_active_contacts, **options}
     if sliding:
         exact = max(SLIDE_SPEED - MU * GRAVITY * span, 0.0)
@@ -173,6 +189,18 @@ def _pile(span: float, progress: Progress, quick: bool = False
     return records, series
 
 
+def _chatterjee_ruina(n: int, span: float) -> str | None:
+    """None if law chatterjee-ruina runs on the row of n boxes at rest, else why it refuses."""
+    from ..impact.errors import ConvImpactError
+
+    mech, q, v = box_row(n, False)
+    try:
+        simulate_moreau(mech, (0.0, span), (q, v), h=STEP, law="chatterjee-ruina")
+    except ConvImpactError as exc:
+        return f"{type(exc).__name__}: {str(exc).split(';')[0]}"
+    return None
+
+
 def _exponents(records: list[dict[str, Any]]) -> dict[str, Any]:
     out = {}
     for sim_law in sorted({(r["simulator"], r["law"]) for r in records}):
@@ -201,9 +229,10 @@ def _ratio_table(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return sorted(rows, key=lambda x: (x["law"], x["motion"], x["contacts"]))
 
 
-@register_section("moreau-scale", "Moreau–Jean on the contact engine (laws ccp, coulomb; "
-                                  "islands, warm starts) from 4 to 128 contacts and on a "
-                                  "pile of 114 discs, against MuJoCo at the same step")
+@register_section("moreau-scale", "Moreau–Jean from 4 to 128 contacts (laws ccp, coulomb, "
+                                  "dissipative on the contact engine; pereira-nikravesh, "
+                                  "stronge island by island) and on a pile of 114 discs, "
+                                  "against MuJoCo at the same step")
 def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResult:
     if mujoco_version() is None:
         return SectionResult("moreau-scale", [], summary=[
@@ -214,12 +243,22 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
     quick = config.quick
     boxes = QUICK_BOXES if quick else BOXES
     span = QUICK_SPAN if quick else SPAN
+    other_span = QUICK_OTHER_SPAN if quick else OTHER_SPAN
     records: list[dict[str, Any]] = []
+    # the other laws are timed once each: load their compiled kernels first (untimed)
+    for law in OTHER_LAWS:
+        for sliding in (True, False):
+            mech, q, v = box_row(1, sliding)
+            simulate_moreau(mech, (0.0, 2 * STEP), (q, v), h=STEP, law=law)
     for sliding in (True, False):
         for n in boxes:
             records.append(_mujoco_box_record(n, sliding, span))
             for law in LAWS:
                 records.append(_box_record(n, sliding, law, span, progress))
+            for law in OTHER_LAWS:
+                records.append(_box_record(n, sliding, law, other_span, progress,
+                                           repeats=OTHER_REPEATS))
+    refused = _chatterjee_ruina(boxes[0], other_span)
     # what warm starts and islands buy: the largest row without each
     n_big = boxes[-1]
     for sliding in (True, False):
@@ -235,13 +274,31 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
     table = _ratio_table(records)
     figures = [growth_chart(records, exps, config.out, STEP),
                pile_chart(series, pile_records, config.out)]
-    worst = max((t["ratio"] for t in table if t["ratio"]), default=math.nan)
-    best = min((t["ratio"] for t in table if t["ratio"]), default=math.nan)
-    summary = [
-        f"moreau-scale: Moreau–Jean (engine, islands, warm starts) against MuJoCo at h = "
-        f"{STEP:g} s from {4 * boxes[0]} to {4 * boxes[-1]} contacts: ours / MuJoCo per "
-        f"simulated second {best:.3g}x to {worst:.3g}x (target <= 10x); exponents " + ", ".join(
-            f"{k} {v['exponent']:.2f}" for k, v in exps.items()) + " (target <= 1.3)"]
+    summary = []
+    for laws, what in ((LAWS, "on the engine (islands, warm starts)"),
+                       (OTHER_LAWS, "through resolve_impact, one call per island and step")):
+        ratios = [t["ratio"] for t in table if t["ratio"] and t["law"] in laws]
+        summary.append(
+            f"moreau-scale: Moreau–Jean {what}, laws {', '.join(laws)}, against MuJoCo at "
+            f"h = {STEP:g} s from {4 * boxes[0]} to {4 * boxes[-1]} contacts: ours / MuJoCo "
+            f"per simulated second {min(ratios, default=math.nan):.3g}x to "
+            f"{max(ratios, default=math.nan):.3g}x (target <= 10x); exponents " + ", ".join(
+                f"{k} {v['exponent']:.2f}" for k, v in exps.items()
+                if k.split("/")[0] in laws) + " (target <= 1.3)")
+    summary.append("  MuJoCo's exponents " + ", ".join(
+        f"{k.split('/')[1]} {v['exponent']:.2f}" for k, v in exps.items()
+        if k.startswith("mujoco/")) + f"; the laws {', '.join(OTHER_LAWS)} timed over "
+        f"{other_span:g} s ({OTHER_REPEATS} run), {', '.join(LAWS)} over {span:g} s (median "
+        f"of {REPEATS})")
+    if refused:
+        summary.append(f"  chatterjee-ruina on {4 * boxes[0]} contacts at rest refuses: {refused}")
+    lifted = sorted({(r["law"], r["motion"]) for r in records
+                     if r["simulator"] == "moreau-jean" and r.get("max_lift", 0.0) > 1e-3})
+    if lifted:
+        summary.append("  boxes that lift off the floor (max lift > 1 mm; a cone "
+                       "complementarity's u_n = mu |u_t|): " + ", ".join(
+                           f"{law} {motion} ({max(r['max_lift'] for r in records if r.get('law') == law and r.get('motion') == motion and 'max_lift' in r):.2g} m)"
+                           for law, motion in lifted))
     for t in table:
         if t["contacts"] == 4 * boxes[-1] or t["contacts"] == 4 * boxes[0]:
             summary.append(f"  {t['law']} {t['motion']} {t['contacts']} contacts: "
@@ -273,7 +330,9 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
                    f"{load_start[1]:.1f}, {load_start[2]:.1f}; at the end "
                    f"{load['end'][0]:.1f}, {load['end'][1]:.1f}, {load['end'][2]:.1f} "
                    "(2 cores, shared: medians)")
-    meta = {"step": STEP, "span": span, "load_average": load, "boxes": list(boxes), "laws": list(LAWS),
+    meta = {"step": STEP, "span": span, "other_span": other_span, "load_average": load,
+            "boxes": list(boxes), "laws": list(LAWS), "other_laws": list(OTHER_LAWS),
+            "other_repeats": OTHER_REPEATS, "chatterjee_ruina_refused": refused,
             "repeats": REPEATS, "mujoco_repeats": MUJOCO_REPEATS, "mujoco": mujoco_version(),
             "exponents": exps, "table": table}
     return SectionResult("moreau-scale", records, figures, summary, meta)

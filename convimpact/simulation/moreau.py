@@ -28,8 +28,11 @@ of size h from (q_k, v_k) at t_k:
    only, ``e_t = 0`` on those at rest (a resting contact's slip is not reversed every step);
    it restitutes the slip of the free velocity, which is the slip at t_k when no smooth
    force acts along the contact's tangent during the step (a ball on a level floor);
-   **Laws "ccp" and "coulomb" under method "auto" or "interior"** take the contact engine
-   instead (:mod:`.moreau_engine`): the step's problem ``u = J v_{k+1} = W r + b``,
+   the other laws resolve each independent island of contacts by its own call of
+   :func:`convimpact.resolve_impact` (:mod:`.moreau_impact`).
+   **Laws "ccp", "coulomb" and "dissipative" under method "auto" or "interior"** take the
+   contact engine instead (:mod:`.moreau_engine`; "dissipative" as ccp's plastic problem,
+   the impulse scaled by ``1 + e_eff``): the step's problem ``u = J v_{k+1} = W r + b``,
    ``W = J G J^T``, built in the block structure of M (batched factorizations of the
    coordinate groups), split into independent islands (:mod:`.islands`), warm-started from
    the previous step's impulses, solved by the engine's compiled kernels in one call for
@@ -109,7 +112,8 @@ class MoreauResult(SimulationResult):
     max_penetration : largest penetration (-gap) of any contact at a stored state (>= 0).
     contact_solver : engine path only, what the contact engine did over the run (islands
         solved, warm starts certified, calls of the full engine, iterations, the largest
-        island, seconds in the solves and in the assembly); empty on the other path.
+        island, seconds in the solves and in the assembly); on the other path the calls of
+        ``resolve_impact`` (one per island and step) and the largest island (contacts).
     max_active_contacts : the most contacts active on one step.
     """
 
@@ -141,7 +145,8 @@ def _engine_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
         if key not in ENGINE_OPTIONS:
             raise UnknownOptionError(
                 f"impact option {key!r} is not taken by Moreau–Jean on the contact engine "
-                f"(laws ccp and coulomb under method auto or interior); its options are "
+                f"(laws ccp, coulomb and dissipative under method auto or interior); its "
+                f"options are "
                 f"{', '.join(ENGINE_OPTIONS)}")
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
                                                              np.floating)):
@@ -214,10 +219,16 @@ def simulate_moreau(
         ``tol`` (the natural-map residual every island's answer must reach, default 1e-8),
         ``max_iter`` and ``newton_iter`` are taken.
     warm_start, islands : bool
-        Engine path only (laws ``"ccp"`` and ``"coulomb"`` under ``method`` "auto" or
-        "interior", :mod:`.moreau_loop`): start each step's contact problem from the previous
-        step's impulses, and solve the independent islands of touching bodies apart
-        (:mod:`.islands`). Neither changes the answer beyond the certificate's tolerance.
+        ``warm_start``, engine path only (laws ``"ccp"``, ``"coulomb"`` and
+        ``"dissipative"`` under ``method``
+        "auto" or "interior", :mod:`.moreau_loop`): start each step's contact problem from the
+        previous step's impulses; it does not change the answer beyond the certificate's
+        tolerance. ``islands``, every law: solve the independent islands of touching bodies
+        apart (:mod:`.islands`; on the other laws one ``resolve_impact`` call per island,
+        :mod:`.moreau_impact`). The same answer as one coupled problem for every law but
+        ``"pereira-nikravesh"``, whose stick-or-slide tier is then chosen per island rather
+        than for the whole step (see :mod:`.moreau_impact`); False restores the single call
+        and its cap of 8 contacts per step.
 
     Returns
     -------
@@ -265,17 +276,19 @@ def simulate_moreau(
     settings = {"scheme": "moreau-jean", "law": law, "method": method, "h": h,
                 "theta": theta_p, "gap_tol": gap_tol, "rest_velocity": rest_velocity,
                 "projection_tol": projection_tol, "t_span": [t0, t1]}
+    for flag, value in (("warm_start", warm_start), ("islands", islands)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise ParameterError(f"{flag} must be True or False, got {value!r}")
     if engine_path:
-        for flag, value in (("warm_start", warm_start), ("islands", islands)):
-            if not isinstance(value, (bool, np.bool_)):
-                raise ParameterError(f"{flag} must be True or False, got {value!r}")
         solver = EngineSolver(mech, law=law, warm_start=bool(warm_start), islands=bool(islands),
                               rest_velocity=float(rest_velocity), **engine_opts)
         settings.update(contact_solver="engine", warm_start=bool(warm_start),
                         islands=bool(islands), **engine_opts)
     else:
         solver = ImpactSolver(mech, law=law, method=method, impact_options=impact_options,
-                              e_t=e_t, rest_velocity=float(rest_velocity))
+                              e_t=e_t, rest_velocity=float(rest_velocity),
+                              islands=bool(islands))
+        settings["islands"] = bool(islands)
         if e_t is not None:
             settings["e_t"] = dict(e_t)
 
@@ -293,5 +306,7 @@ def simulate_moreau(
         wall_time=float(_time.perf_counter() - wall0), impact_time=float(st["impact_time"]),
         settings=settings, step_size=h, theta_parameter=theta_p,
         n_contact_steps=st["contact_steps"], max_penetration=max(0.0, st["max_pen"]),
-        contact_solver=(solver.counters.as_dict() if engine_path else {}),
+        contact_solver=(solver.counters.as_dict() if engine_path else
+                        {"resolve_impact_calls": solver.calls,
+                         "largest_island": solver.largest_island}),
         max_active_contacts=st["max_active"])

@@ -1,7 +1,8 @@
 """The contact problem of a Moreau–Jean step on the contact engine, island by island.
 
 The step solver (:class:`EngineSolver`) of :func:`convimpact.simulation.moreau.simulate_moreau`
-for the laws ``"ccp"`` and ``"coulomb"`` (under ``method`` "auto" or "interior"), and what
+for the laws ``"ccp"``, ``"coulomb"`` and ``"dissipative"`` (under ``method`` "auto" or
+"interior"), and what
 the step loop's predictors share (:mod:`.moreau_loop`): :class:`Evaluator` (M, gaps and
 contact Jacobians at a configuration) and the inverse mass of a step.
 
@@ -17,6 +18,10 @@ contact Jacobians at a configuration) and the inverse mass of a step.
   island the problem ``u = W r + b`` with ``W = J G J^T`` and
   ``b = J v_free + e_eff min(J_n v_free, 0) e_n`` (Newton's restitution at the velocity
   level, ``e_eff`` as in :mod:`.moreau`); every active contact carries its friction.
+  ``"dissipative"`` (CCP's plastic impulse scaled by Poisson's hypothesis,
+  :mod:`convimpact.impact.laws.dissipative`) solves the ccp problem with ``e = 0``
+  (``b = J v_free``) and multiplies each contact's impulse by ``1 + e_eff``: the law's
+  definition, exact; the certificate is the plastic problem's.
 * **Solves** (:func:`solve_step`): islands of at most
   :data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` rows are assembled and solved
   together in one compiled call (:func:`.moreau_kernels.solve_small_islands`); one it leaves
@@ -59,7 +64,7 @@ from .moreau_step_kernels import block_inverses
 from .result import ImpactEvent
 
 #: the laws whose step problem the engine solves
-ENGINE_LAWS = ("ccp", "coulomb")
+ENGINE_LAWS = ("ccp", "coulomb", "dissipative")
 #: islands with at least this many contact rows get a sparse W
 SPARSE_MIN_ROWS = engine.SPARSE_MIN_ROWS
 
@@ -382,7 +387,8 @@ def _engine(W, b, mu, d, coulomb, tol, start, counters, max_iter, where, names):
 
 
 class EngineSolver:
-    """The contact problem of a step on the contact engine (laws ``ccp`` and ``coulomb``),
+    """The contact problem of a step on the contact engine (laws ``ccp``, ``coulomb`` and
+    ``dissipative``),
     for :func:`.moreau_loop.run_steps`: :func:`solve_step` on the step's active rows, then
     ``v_{k+1} = v_free + G J^T r`` (:func:`.moreau_step_kernels.apply_impulses`) and an
     :class:`~.result.ImpactEvent` on the steps where an approaching contact is hit."""
@@ -394,6 +400,7 @@ class EngineSolver:
         self.m = int(mech.n_loop_constraints)
         self.mu = np.array([float(mech.contact_parameters(c)[1]) for c in self.contacts])
         self.coulomb = law == "coulomb"
+        self.poisson = law == "dissipative"  # the plastic ccp impulse times 1 + e_eff
         self.tol, self.max_iter, self.newton_iter = tol, max_iter, newton_iter
         self.warm_start, self.split = warm_start, islands
         self.rest_velocity = rest_velocity
@@ -417,9 +424,19 @@ class EngineSolver:
             self.last = np.zeros((self.nc, d))
             self.r = np.zeros((self.nc, d))
         r = self.r[:na]
+        b = st.b
+        if self.poisson:
+            # b_n = v_n,free (1 + e_eff) where v_n,free < 0: the plastic problem has b_n =
+            # v_n,free, and the impulse is the plastic one times 1 + e_eff (= b_n / v_n,free)
+            vnf = st.Ja[:, 0, :] @ st.v_free
+            closing = vnf < 0.0
+            poisson = np.ones(na)
+            poisson[closing] = b[closing, 0] / vnf[closing]
+            b = b.copy()
+            b[:, 0] = vnf
         try:
             _, self.layout = solve_step(
-                st.active, st.Ja, st.b, self.mu, st.inv, coulomb=self.coulomb, tol=self.tol,
+                st.active, st.Ja, b, self.mu, st.inv, coulomb=self.coulomb, tol=self.tol,
                 last=self.last if self.warm_start else None, split=self.split,
                 counters=self.counters, names=self.contacts, max_iter=self.max_iter,
                 newton_iter=self.newton_iter, where=(st.tm, st.index), cached=self.layout,
@@ -428,6 +445,8 @@ class EngineSolver:
             exc.add_note(f"(while solving the step's contact problem at t = {st.tm:.9g}, "
                          f"step {st.index}, in simulate_moreau)")
             raise
+        if self.poisson:
+            r *= poisson[:, None]
         inv = st.inv
         c = st.blocks
         hits = apply_impulses(st.Ja, r, inv.G, c.gflat, c.gsize, c.goff, st.v_free,

@@ -7,10 +7,11 @@ Per step (the scheme of :mod:`.moreau`): a *predictor* gives the intermediate co
 their rows ``J`` and ``b = J v_free`` plus Newton's restitution (a :class:`Step`); the
 *solver* turns the step's contact problem into ``v_{k+1}`` and the loop impulse:
 
-* :class:`.moreau_engine.EngineSolver` (laws ``ccp`` and ``coulomb`` under method "auto" or
+* :class:`.moreau_engine.EngineSolver` (laws ``ccp``, ``coulomb`` and ``dissipative`` under
+  method "auto" or
   "interior"): the contact engine island by island, warm-started, every answer certified;
 * :class:`.moreau_impact.ImpactSolver` (every other law and method): one call of
-  :func:`convimpact.resolve_impact` with the step's matrices.
+  :func:`convimpact.resolve_impact` per island of the step's active contacts.
 
 Then the predictor moves the positions, ``q_{k+1} = q_m + h theta v_{k+1}`` (loops projected
 back), and the :class:`Recorder` keeps the raw state; momenta, energies, loop drifts and the
