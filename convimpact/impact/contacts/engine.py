@@ -34,6 +34,7 @@ import scipy.sparse as sp
 
 from . import cones
 from .admm import coulomb_admm
+from .admm_kernel import dense_admm
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .threads import one_blas_thread
@@ -50,6 +51,12 @@ HANDOVER_TOL = 1e-9
 _KERNELS = None
 #: the interior point stops at this gap (unit data): the Newton finish takes over from here
 GAP_FLOOR = 1e-14
+#: Coulomb's law: up to this many rows, the compiled ADMM from zero runs first (at most
+#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way)...
+ADMM_FIRST_MAX_ROWS = 300
+#: ...before the compiled kernels above this many rows, after them below
+ADMM_FIRST_MIN_ROWS = 60
+ADMM_FIRST_ITER = 2000
 #: sparse factorization is used for W given sparse with more than this many rows...
 SPARSE_MIN_ROWS = 200
 #: ...and at most this density
@@ -412,16 +419,50 @@ def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
 def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled):
     n = mu.shape[0]
     ccp = None
+    admm_first = coulomb and compiled and n * d <= ADMM_FIRST_MAX_ROWS
+    if admm_first and n * d > ADMM_FIRST_MIN_ROWS:
+        # the compiled interior point's dense Newton grows as rows^3: the ADMM first
+        R = _admm_first(W, b, mu, d, tol, newton_iter, sparse, compiled)
+        if R.converged:
+            return R
+        admm_first = False
     if compiled and n * d <= COMPILED_MAX_ROWS:
         R = _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter)
         if R is not None and R.converged:
             return R
+    if admm_first:
+        R = _admm_first(W, b, mu, d, tol, newton_iter, sparse, compiled)
+        if R.converged:
+            return R
+    if compiled and n * d <= COMPILED_MAX_ROWS:
         if coulomb:  # the compiled CCP answer, Coulomb's start below
             ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
             ccp = ccp if ccp is not None and ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
                       ccp)
+
+
+def _admm_first(W, b, mu, d, tol, newton_iter, sparse, compiled) -> EngineResult:
+    """Coulomb's law by the compiled ADMM from zero (Pinocchio's start), at most
+    :data:`ADMM_FIRST_ITER` iterations, Newton (:func:`warm_newton`) tried on its way."""
+    n = mu.shape[0]
+    Wd = W.toarray() if sp.issparse(W) else np.asarray(W, dtype=float)
+    bb = np.asarray(b, dtype=float).reshape(n, d)
+    steps = [0]
+
+    def polish(r):
+        R = warm_newton(Wd, bb, mu, d, r, coulomb=True, tol=tol,
+                        newton_iter=min(newton_iter, 10), sparse=False, compiled=compiled)
+        steps[0] += R.iterations
+        return R.impulse, R.residual, R.iterations
+
+    with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
+                              max_iter=ADMM_FIRST_ITER, polish=polish)
+        res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=True)
+    ok = bool(res <= tol)
+    return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
 
 
 def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
@@ -485,12 +526,26 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
 
         # the ADMM from the CCP answer (from zero, Pinocchio's start, was 4x faster on a
         # brick wall but 1.2-3x slower on most of the corpus, and running both cost that)
-        run = coulomb_admm(W, b, mu, R.impulse, sparse)
         done = 0
-        while done < admm_iter:
-            done += 10
-            if check(next(run)):
-                break
+        if not sparse:  # compiled, dense
+
+            def polish(r):
+                nonlocal iterations
+                rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
+                                            max_iter=min(newton_iter, 10), sparse=sparse)
+                iterations += k
+                return rn, resn, k
+
+            Wd = W.toarray() if sp.issparse(W) else W
+            r, _, done = dense_admm(Wd, b, mu, d, R.impulse, tol=tol, max_iter=admm_iter,
+                                    polish=polish)
+            check(r)
+        else:
+            run = coulomb_admm(W, b, mu, R.impulse, sparse)
+            while done < admm_iter:
+                done += 10
+                if check(next(run)):
+                    break
         iterations += done
         iterations += k
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
