@@ -34,7 +34,7 @@ import scipy.sparse as sp
 
 from . import cones
 from .admm import coulomb_admm
-from .admm_kernel import dense_admm
+from .admm_kernel import dense_admm, natural_residual
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .threads import one_blas_thread
@@ -57,6 +57,16 @@ ADMM_FIRST_MAX_ROWS = 300
 #: ...before the compiled kernels above this many rows, after them below
 ADMM_FIRST_MIN_ROWS = 60
 ADMM_FIRST_ITER = 2000
+#: ...and for the CCP (whose interior point is fast and sure: the ADMM gets a short try)
+ADMM_FIRST_ITER_CCP = 200
+#: Coulomb's law: the ADMM from the CCP answer is the compiled dense one
+#: (:mod:`.admm_kernel`) for W dense or up to this many rows; above, :mod:`.admm` on W's
+#: sparse factorization (the dense iteration was up to 2x slower on sparse piles and stacks
+#: of 400-900 rows)
+DENSE_ADMM_MAX_ROWS = 300
+#: Newton steps on Coulomb's natural map straight from the CCP answer (when it converges
+#: from there it does in 1-4; else the ADMM's way is the cheaper one)
+DIRECT_NEWTON_STEPS = 4
 #: sparse factorization is used for W given sparse with more than this many rows...
 SPARSE_MIN_ROWS = 200
 #: ...and at most this density
@@ -419,10 +429,10 @@ def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
 def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled):
     n = mu.shape[0]
     ccp = None
-    admm_first = coulomb and compiled and n * d <= ADMM_FIRST_MAX_ROWS
+    admm_first = compiled and n * d <= ADMM_FIRST_MAX_ROWS 
     if admm_first and n * d > ADMM_FIRST_MIN_ROWS:
         # the compiled interior point's dense Newton grows as rows^3: the ADMM first
-        R = _admm_first(W, b, mu, d, tol, newton_iter, sparse, compiled)
+        R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
             return R
         admm_first = False
@@ -431,7 +441,7 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
         if R is not None and R.converged:
             return R
     if admm_first:
-        R = _admm_first(W, b, mu, d, tol, newton_iter, sparse, compiled)
+        R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
             return R
     if compiled and n * d <= COMPILED_MAX_ROWS:
@@ -443,7 +453,7 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
                       ccp)
 
 
-def _admm_first(W, b, mu, d, tol, newton_iter, sparse, compiled) -> EngineResult:
+def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResult:
     """Coulomb's law by the compiled ADMM from zero (Pinocchio's start), at most
     :data:`ADMM_FIRST_ITER` iterations, Newton (:func:`warm_newton`) tried on its way."""
     n = mu.shape[0]
@@ -452,15 +462,16 @@ def _admm_first(W, b, mu, d, tol, newton_iter, sparse, compiled) -> EngineResult
     steps = [0]
 
     def polish(r):
-        R = warm_newton(Wd, bb, mu, d, r, coulomb=True, tol=tol,
+        R = warm_newton(Wd, bb, mu, d, r, coulomb=coulomb, tol=tol,
                         newton_iter=min(newton_iter, 10), sparse=False, compiled=compiled)
         steps[0] += R.iterations
         return R.impulse, R.residual, R.iterations
 
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
-                              max_iter=ADMM_FIRST_ITER, polish=polish)
-        res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=True)
+                              max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
+                              polish=polish, coulomb=coulomb)
+        res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=coulomb)
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
 
@@ -476,9 +487,13 @@ def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
     pi, status, it, steps, _, _ = kernel(Wd, bb, m, d, HANDOVER_TOL, max_iter,
                                          min(newton_iter, 20))
     r = pi.reshape(n, d)
-    res, u = cones.natural_map_residual(Wd, bb.reshape(n, d), m, r, coulomb)
+    # the natural-map residual of cones.natural_map_residual, compiled (its Python form
+    # cost as much as the kernel on the smallest problems); u = W r + b comes with it
+    u, y, p = np.empty(n * d), np.empty(n * d), np.empty(n * d)
+    res = float(natural_residual(Wd, bb, m, d, pi, coulomb, u, y, p))
     ok = bool(res <= tol)
-    return EngineResult(r, u, res, int(it) + int(steps), ok, "converged" if ok else "")
+    return EngineResult(r, u.reshape(n, d), res, int(it) + int(steps), ok,
+                        "converged" if ok else "")
 
 
 def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, ccp=None):
@@ -501,7 +516,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     if not coulomb:
         return R
     r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                              max_iter=min(newton_iter, 10), sparse=sparse)
+                              max_iter=min(newton_iter, DIRECT_NEWTON_STEPS), sparse=sparse)
     iterations += k
     best = [res, r, "converged"]
     if res > tol:
@@ -514,7 +529,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 best[:2] = res, r
             if best[0] <= tol:
                 return True
-            if res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0):
+            k = len(tried)  # Newton tried on each drop by 100 below 1e-4, and below 1e-2 at
+            # the checks 16, 32, 64, ... (each try costs a factorization per step)
+            if res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and k >= 16 and not k & (k - 1)):
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, 10), sparse=sparse)
@@ -527,7 +544,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         # the ADMM from the CCP answer (from zero, Pinocchio's start, was 4x faster on a
         # brick wall but 1.2-3x slower on most of the corpus, and running both cost that)
         done = 0
-        if not sparse:  # compiled, dense
+        if not sparse or n * d <= DENSE_ADMM_MAX_ROWS:  # compiled, dense
 
             def polish(r):
                 nonlocal iterations
@@ -539,7 +556,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             Wd = W.toarray() if sp.issparse(W) else W
             r, _, done = dense_admm(Wd, b, mu, d, R.impulse, tol=tol, max_iter=admm_iter,
                                     polish=polish)
-            check(r)
+            res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+            if res < best[0]:
+                best[:2] = res, r
         else:
             run = coulomb_admm(W, b, mu, R.impulse, sparse)
             while done < admm_iter:
