@@ -331,10 +331,12 @@ def _warm_up(cases, law: str) -> None:
     ADMM (:mod:`convimpact.impact.contacts.admm_kernel`), which the smallest problems do not
     reach."""
     from ..impact.contacts.admm_kernel import dense_admm
+    from ..impact.contacts.engine import warm_newton
 
     _ours_call(cases[0], law)()
-    dense_admm(np.array([[2.0, 0.5], [0.5, 1.0]]), np.array([-1.0, 0.5]), np.array([0.3]), 2,
-               np.zeros((1, 2)), tol=1e-8, max_iter=100, coulomb=law == "coulomb")
+    W, b, mu = np.array([[2.0, 0.5], [0.5, 1.0]]), np.array([-1.0, 0.5]), np.array([0.3])
+    dense_admm(W, b, mu, 2, np.zeros((1, 2)), tol=1e-8, max_iter=100, coulomb=law == "coulomb")
+    warm_newton(W, b, mu, 2, np.zeros((1, 2)), coulomb=law == "coulomb")  # its Newton
 
 
 def _short(t: float | None) -> str:

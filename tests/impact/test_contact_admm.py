@@ -105,7 +105,7 @@ def test_engine_coulomb_through_the_admm_on_a_brick_wall():
     law here (Newton from the CCP answer stalls at 1e-2); the ADMM and Newton certify it."""
     from convimpact.bench.contact_corpus import corpus
 
-    case = next(c for c in corpus() if c.name == "box-wall-2x2-16")
+    (case,) = corpus(names=["box-wall-2x2-16"])
     W = case.W.toarray()
     n, d = case.n_contacts, case.dim
     compiled = engine._compiled(W, case.b, case.mu, d, True, 1e-8, 100, 30)
@@ -115,3 +115,31 @@ def test_engine_coulomb_through_the_admm_on_a_brick_wall():
     assert coulomb_residual(W, case.b, case.mu, sol.impulse) <= 1e-8
     np.testing.assert_allclose(sol.velocity.ravel(), W @ sol.impulse.ravel() + case.b,
                                atol=1e-12 * np.abs(case.b).max())
+
+
+def test_ccp_admm_and_engine_agree_with_clarabel():
+    """box-wall-3x3-44 (44 contacts, W singular) under the CCP: the compiled ADMM alone (the
+    CCP mode of the kernel) and the engine; the velocity u = W r + b (unique, though r is not)
+    of both agrees with the convex program ``min 1/2 |F^T r|^2 + b^T r`` over the friction
+    cones (W = F F^T) solved here by cvxpy and Clarabel."""
+    import cvxpy as cp
+    from convimpact.bench.contact_corpus import corpus
+
+    (case,) = corpus(names=["box-wall-3x3-44"])
+    W = case.W.toarray()
+    n, d = case.n_contacts, case.dim
+    r_admm, res, it = admm_kernel.dense_admm(W, case.b, case.mu, d, np.zeros((n, d)),
+                                             tol=1e-6, max_iter=20000, coulomb=False)
+    assert res <= 1e-6 and it < 20000  # alone, the ADMM is slow past 1e-7 here
+    sol = ci.solve_contact_problem(case.W, case.b, case.mu, law="ccp", dim=d)
+    lam, V = np.linalg.eigh(W)
+    keep = lam > 1e-12 * lam.max()
+    F = V[:, keep] * np.sqrt(lam[keep])
+    r = cp.Variable(n * d)
+    cons = [cp.SOC(case.mu[i] * r[i * d], r[i * d + 1:(i + 1) * d]) for i in range(n)]
+    cp.Problem(cp.Minimize(0.5 * cp.sum_squares(F.T @ r) + case.b @ r), cons).solve(
+        solver=cp.CLARABEL, tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12)
+    u_ref = W @ r.value + case.b
+    scale = np.linalg.norm(case.b)
+    assert np.linalg.norm(sol.velocity.ravel() - u_ref) <= 1e-5 * scale
+    assert np.linalg.norm(W @ r_admm.ravel() + case.b - u_ref) <= 1e-4 * scale

@@ -190,9 +190,9 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
     residual is at most ``tol`` or ``max_iter`` iterations are done.
 
     ``polish(r) -> (r, residual, steps)`` (a Newton finish) is tried on the best iterate when
-    the ADMM first comes within 1e-5, and again after each further drop by 100 (Newton from
+    the ADMM first comes within 1e-5, and again after each further drop by 1000 (Newton from
     there usually certifies in one to three steps; where the solutions are not isolated, as in
-    stacks, the ADMM goes on). Returns the best ``(r, residual, iterations)``; the residual is
+    stacks, it fails again and again, and the ADMM goes on). Returns the best ``(r, residual, iterations)``; the residual is
     the one of :func:`natural_residual` (the engine certifies again on its own).
     """
     n = mu.shape[0]
@@ -217,7 +217,7 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
             best_res, best_r = bres, bw.reshape(n, d).copy()
         if best_res <= tol:
             break
-        if polish is not None and bres < min(1e-5, 1e-2 * tried):
+        if polish is not None and bres < min(1e-5, 1e-3 * tried):
             tried = bres
             rn, resn, _ = polish(bw.reshape(n, d).copy())
             if resn < best_res:

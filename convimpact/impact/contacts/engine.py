@@ -1,8 +1,10 @@
 """The contact engine: a primal-dual interior point on the cone complementarity problem
 ``K ∋ r ⊥ u = W r + b ∈ K*`` (the convex relaxation of Coulomb's law, ``ccp``), finished by
 Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP's answer, or
-where that misses, by an ADMM (:mod:`.admm`) and Newton again. :func:`solve` is the entry;
-small problems go first to the compiled dense kernels of the same method.
+where that misses, by an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W)
+and Newton again. :func:`solve` is the entry; small problems go first to the compiled dense
+kernels of the same method, and up to :data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from
+zero gets a bounded try first (before the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows).
 
 The problem is the optimality system of the convex program ``min 1/2 r^T W r + b^T r`` over
 the product K of friction cones; W is only positive semidefinite (a stack of boxes has more
@@ -55,7 +57,7 @@ GAP_FLOOR = 1e-14
 #: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way)...
 ADMM_FIRST_MAX_ROWS = 300
 #: ...before the compiled kernels above this many rows, after them below
-ADMM_FIRST_MIN_ROWS = 60
+ADMM_FIRST_MIN_ROWS = 40
 ADMM_FIRST_ITER = 2000
 #: ...and for the CCP (whose interior point is fast and sure: the ADMM gets a short try)
 ADMM_FIRST_ITER_CCP = 200
@@ -64,9 +66,12 @@ ADMM_FIRST_ITER_CCP = 200
 #: sparse factorization (the dense iteration was up to 2x slower on sparse piles and stacks
 #: of 400-900 rows)
 DENSE_ADMM_MAX_ROWS = 300
-#: Newton steps on Coulomb's natural map straight from the CCP answer (when it converges
-#: from there it does in 1-4; else the ADMM's way is the cheaper one)
+#: Newton steps on Coulomb's natural map straight from the CCP answer before the compiled
+#: ADMM (when it converges from there it does in 1-4; else the ADMM's way is the cheaper
+#: one); 10 before :mod:`.admm` on large sparse W
 DIRECT_NEWTON_STEPS = 4
+#: Newton steps of a try from an ADMM iterate (within 1e-5 it converges in 1-4 where it does)
+POLISH_STEPS = 4
 #: sparse factorization is used for W given sparse with more than this many rows...
 SPARSE_MIN_ROWS = 200
 #: ...and at most this density
@@ -358,12 +363,19 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
           start: np.ndarray | None = None) -> EngineResult:
     """The engine.
 
-    Up to :data:`COMPILED_MAX_ROWS` rows (and ``compiled``) the compiled dense kernels first,
-    their answer kept when its natural-map residual is at most ``tol``. Then the CCP: the
-    interior point, and the Newton finish where it stops short of ``tol`` (skipped when the
-    compiled CCP kernel's answer is certified). Coulomb's law: Newton on its natural map from
-    the CCP's answer; where that does not reach ``tol``, the ADMM of :mod:`.admm` from there,
-    Newton tried whenever the ADMM has come within 1e-4 (and every 200 iterations below 1e-2).
+    With ``compiled``: from :data:`ADMM_FIRST_MIN_ROWS` to :data:`ADMM_FIRST_MAX_ROWS` rows the
+    compiled ADMM from zero (:func:`.admm_kernel.dense_admm`, at most
+    :data:`ADMM_FIRST_ITER` iterations for Coulomb's law, :data:`ADMM_FIRST_ITER_CCP` for the
+    CCP, Newton tried from its iterate within 1e-5); then up to :data:`COMPILED_MAX_ROWS` rows
+    the compiled dense kernels (interior point and Newton), and below
+    :data:`ADMM_FIRST_MIN_ROWS` rows the ADMM's try after them. Each answer is kept when its
+    natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
+    finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
+    certified). Coulomb's law: Newton on its natural map from the CCP's answer
+    (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the ADMM from there
+    (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
+    sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`), then
+    the fixed point on De Saxce's shift (:mod:`.fixed_point`).
 
     ``start`` (n, d), optional, is a warm start (a time-stepping scheme's impulses of the
     previous step): the law's Newton finish (:func:`warm_newton`) runs from it first, and its
@@ -462,8 +474,11 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
     steps = [0]
 
     def polish(r):
+        # the compiled finish (complete pivoting, rows^3 per step in loops) on the smallest
+        # problems, LAPACK's above
         R = warm_newton(Wd, bb, mu, d, r, coulomb=coulomb, tol=tol,
-                        newton_iter=min(newton_iter, 10), sparse=False, compiled=compiled)
+                        newton_iter=min(newton_iter, POLISH_STEPS), sparse=False,
+                        compiled=compiled and n * d <= ADMM_FIRST_MIN_ROWS)
         steps[0] += R.iterations
         return R.impulse, R.residual, R.iterations
 
@@ -515,8 +530,10 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                              "converged" if res <= tol else R.message)
     if not coulomb:
         return R
+    dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
     r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                              max_iter=min(newton_iter, DIRECT_NEWTON_STEPS), sparse=sparse)
+                              max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if dense_admm_here
+                                            else 10), sparse=sparse)
     iterations += k
     best = [res, r, "converged"]
     if res > tol:
@@ -529,9 +546,10 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 best[:2] = res, r
             if best[0] <= tol:
                 return True
-            k = len(tried)  # Newton tried on each drop by 100 below 1e-4, and below 1e-2 at
-            # the checks 16, 32, 64, ... (each try costs a factorization per step)
-            if res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and k >= 16 and not k & (k - 1)):
+            # Newton tried on each drop by 100 below 1e-4, and every 20 checks below 1e-2
+            # (on the large sparse problems that reach here, those tries took the sphere pile
+            # of 624 contacts to 8e-7, a spacing growing geometrically to 8e-4 only)
+            if res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0):
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, 10), sparse=sparse)
@@ -544,12 +562,13 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         # the ADMM from the CCP answer (from zero, Pinocchio's start, was 4x faster on a
         # brick wall but 1.2-3x slower on most of the corpus, and running both cost that)
         done = 0
-        if not sparse or n * d <= DENSE_ADMM_MAX_ROWS:  # compiled, dense
+        if dense_admm_here:  # compiled, dense
 
             def polish(r):
                 nonlocal iterations
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
-                                            max_iter=min(newton_iter, 10), sparse=sparse)
+                                            max_iter=min(newton_iter, POLISH_STEPS),
+                                            sparse=sparse)
                 iterations += k
                 return rn, resn, k
 
