@@ -65,13 +65,15 @@ ADMM_FIRST_ITER = 5000
 ADMM_FIRST_ITER_CCP = 300
 #: Coulomb's law: the ADMM from the CCP answer is the compiled dense one
 #: (:mod:`.admm_kernel`) for W dense or up to this many rows; above, :mod:`.admm` on W's
-#: sparse factorization (the dense iteration was up to 2x slower on sparse piles and stacks
-#: of 400-900 rows)
-DENSE_ADMM_MAX_ROWS = 300
-#: Newton steps on Coulomb's natural map straight from the CCP answer before the compiled
-#: ADMM (when it converges from there it does in 1-4; else the ADMM's way is the cheaper
-#: one); 10 before :mod:`.admm` on large sparse W
+#: sparse factorization (per iteration the dense one was 1.5-1.8x faster than it at 380-400
+#: rows on piles, 1.5x slower at 670 on a wall)
+DENSE_ADMM_MAX_ROWS = 450
+#: Newton steps on Coulomb's natural map straight from the CCP answer, up to
+#: :data:`SPARING_NEWTON_MAX_ROWS` rows or on dense W (when it converges from there it does
+#: in 1-4; else the ADMM's way is the cheaper one); 10 above, where the ADMM of :mod:`.admm`
+#: also tries Newton more often (the sphere piles of 624-897 contacts)
 DIRECT_NEWTON_STEPS = 4
+SPARING_NEWTON_MAX_ROWS = 900
 #: Newton steps of a try from an ADMM iterate (within 1e-5 it converges in 1-4 where it does)
 POLISH_STEPS = 4
 #: sparse factorization is used for W given sparse with more than this many rows...
@@ -534,8 +536,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     if not coulomb:
         return R
     dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
+    sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
     r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                              max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if dense_admm_here
+                              max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
                                             else 10), sparse=sparse)
     iterations += k
     best = [res, r, "converged"]
@@ -549,13 +552,16 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 best[:2] = res, r
             if best[0] <= tol:
                 return True
-            # Newton tried on each drop by 100 below 1e-4, and every 20 checks below 1e-2
-            # (on the large sparse problems that reach here, those tries took the sphere pile
-            # of 624 contacts to 8e-7, a spacing growing geometrically to 8e-4 only)
-            if res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0):
+            # sparing: Newton tried from within 1e-5, then after each drop by 1000 (as the
+            # compiled ADMM's polish); else on each drop by 100 below 1e-4, and every 20
+            # checks below 1e-2 (on the largest sparse problems those tries took the sphere
+            # pile of 624 contacts to 8e-7, a geometric spacing to 8e-4 only)
+            if (res < min(1e-5, 1e-3 * tried[0]) if sparing else
+                    res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0)):
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
-                                            max_iter=min(newton_iter, 10), sparse=sparse)
+                                            max_iter=min(newton_iter, POLISH_STEPS if sparing
+                                                         else 10), sparse=sparse)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
