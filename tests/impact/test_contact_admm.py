@@ -143,3 +143,23 @@ def test_ccp_admm_and_engine_agree_with_clarabel():
     scale = np.linalg.norm(case.b)
     assert np.linalg.norm(sol.velocity.ravel() - u_ref) <= 1e-5 * scale
     assert np.linalg.norm(W @ r_admm.ravel() + case.b - u_ref) <= 1e-4 * scale
+
+
+def test_admm_patience_ends_a_try_whose_newton_fails():
+    """A polish that never succeeds: without patience the run goes to its iteration limit
+    (tol 0 is never met), with patience 3 it ends within 3x (plus a batch) of the iterations
+    at which the polish was first called, here counted by the polish itself through the
+    residual of what it receives (first within 1e-5)."""
+    seen = []
+
+    def failing(r):
+        seen.append(coulomb_residual(W1, B1, MU1, r))
+        return r, np.inf, 1
+
+    r, res, it = admm_kernel.dense_admm(W1, B1, MU1, 2, np.zeros((1, 2)), tol=0.0,
+                                        max_iter=100_000, polish=failing, patience=3.0)
+    assert it < 100_000 and seen and seen[0] <= 1e-5
+    assert res == pytest.approx(coulomb_residual(W1, B1, MU1, r), rel=1e-9, abs=1e-15)
+    _, _, it_plain = admm_kernel.dense_admm(W1, B1, MU1, 2, np.zeros((1, 2)), tol=0.0,
+                                            max_iter=3000, polish=failing)
+    assert it_plain == 3000

@@ -199,15 +199,19 @@ def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, co
 
 def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *,
                tol: float, max_iter: int, polish=None, coulomb: bool = True,
-               batch: int = 200) -> tuple[np.ndarray, float, int]:
+               batch: int = 200, patience: float | None = None
+               ) -> tuple[np.ndarray, float, int]:
     """The compiled ADMM on dense W from ``r0`` (n, d), batch by batch, until its natural-map
     residual is at most ``tol`` or ``max_iter`` iterations are done.
 
     ``polish(r) -> (r, residual, steps)`` (a Newton finish) is tried on the best iterate when
     the ADMM first comes within 1e-5, and again after each further drop by 1000 (Newton from
     there usually certifies in one to three steps; where the solutions are not isolated, as in
-    stacks, it fails again and again, and the ADMM goes on). Returns the best ``(r, residual, iterations)``; the residual is
-    the one of :func:`natural_residual` (the engine certifies again on its own).
+    stacks, it fails again and again, and the ADMM goes on). With ``patience``, the run also
+    ends once it has gone ``patience`` times as many iterations as it took to come within
+    1e-5 with Newton failing there (a try that the caller backs up with another method).
+    Returns the best ``(r, residual, iterations)``; the residual is the one of
+    :func:`natural_residual` (the engine certifies again on its own).
     """
     n = mu.shape[0]
     N = n * d
@@ -223,7 +227,10 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
     best_res, best_r = np.inf, w.reshape(n, d).copy()
     tried = np.inf
     done = 0
+    first_miss = 0
     while done < max_iter:
+        if first_miss and patience is not None and done >= patience * first_miss:
+            break
         F, rho, it, res, bres, bw = admm_batch(W, q, m, d, F, x, w, lam, rho, ETA, Lmax,
                                                min(batch, max_iter - done), tol, coulomb)
         done += it
@@ -238,4 +245,5 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
                 best_res, best_r = resn, rn
             if best_res <= tol:
                 break
+            first_miss = first_miss or done
     return best_r, float(best_res), done

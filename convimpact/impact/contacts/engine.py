@@ -60,6 +60,10 @@ ADMM_FIRST_MAX_ROWS = 300
 #: ...before the compiled kernels above this many rows, after them below
 ADMM_FIRST_MIN_ROWS = 40
 ADMM_FIRST_ITER = 5000
+#: ...ending at this many times the iterations to 1e-5 where Newton failed from there (the
+#: stacks' ADMM crawls from 1e-5 on: 520 iterations to 1e-5, 6,700 to 1e-8 on two humanoids
+#: and two quadrupeds)
+ADMM_FIRST_PATIENCE = 3.0
 #: ...and for the CCP, from :data:`COMPILED_MAX_ROWS` rows (whose interior point is sure and
 #: fast: the ADMM gets a short try)
 ADMM_FIRST_ITER_CCP = 300
@@ -490,7 +494,7 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
                               max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
-                              polish=polish, coulomb=coulomb)
+                              polish=polish, coulomb=coulomb, patience=ADMM_FIRST_PATIENCE)
         res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=coulomb)
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
