@@ -163,3 +163,11 @@ def test_admm_patience_ends_a_try_whose_newton_fails():
     _, _, it_plain = admm_kernel.dense_admm(W1, B1, MU1, 2, np.zeros((1, 2)), tol=0.0,
                                             max_iter=3000, polish=failing)
     assert it_plain == 3000
+
+
+def test_largest_eigenvalue_against_lapack():
+    rng = np.random.default_rng(7)
+    A = rng.standard_normal((12, 5))
+    W = A @ A.T  # rank 5, positive semidefinite
+    got = admm_kernel.largest_eigenvalue(W, rng.standard_normal(12))
+    assert got == pytest.approx(np.linalg.eigvalsh(W)[-1], rel=1e-6)

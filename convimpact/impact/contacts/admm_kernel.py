@@ -29,7 +29,7 @@ except ImportError:  # the plain-Python form of compiled.jit
     _jit_reassociating = _jit
 else:
     _jit_reassociating = _njit(**compiled.JIT_OPTIONS, fastmath=_REASSOCIATE)
-from .admm import ETA, RHO_POWER, TAU, _largest_eigenvalue
+from .admm import ETA, RHO_POWER, TAU
 from .cones import project
 
 #: iterations between two natural-map checks inside a batch
@@ -84,6 +84,35 @@ def _project_into(v, mu, d, out):
             s = m * pn / t if t > 0.0 else 0.0
             for j in range(o + 1, o + d):
                 out[j] = v[j] * s
+
+
+@_jit
+def largest_eigenvalue(W, v):
+    """W's largest eigenvalue (W symmetric positive semidefinite) by 30 power iterations from
+    v (overwritten): :func:`.admm._largest_eigenvalue` compiled (its Python loop cost more
+    than the whole ADMM on problems of a few contacts)."""
+    N = v.shape[0]
+    w = np.empty(N)
+    lam = 0.0
+    for _ in range(30):
+        nw = 0.0
+        vw = 0.0
+        vv = 0.0
+        for i in range(N):
+            s = 0.0
+            for j in range(N):
+                s += W[i, j] * v[j]
+            w[i] = s
+            nw += s * s
+            vw += v[i] * s
+            vv += v[i] * v[i]
+        if nw == 0.0:
+            return 0.0
+        lam = vw / vv
+        nw = math.sqrt(nw)
+        for i in range(N):
+            v[i] = w[i] / nw
+    return max(lam, 0.0)
 
 
 @_jit
@@ -218,7 +247,7 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
     W = np.ascontiguousarray(W, dtype=float)
     q = np.ascontiguousarray(b, dtype=float).reshape(N)
     m = np.ascontiguousarray(mu, dtype=float)
-    Lmax = _largest_eigenvalue(W, N) or 1.0
+    Lmax = largest_eigenvalue(W, np.random.default_rng(0).standard_normal(N)) or 1.0
     rho = TAU * math.sqrt(Lmax * ETA) * (Lmax / ETA) ** RHO_POWER
     F = _factor(W, rho + ETA)
     x = np.array(r0, dtype=float).reshape(N)
