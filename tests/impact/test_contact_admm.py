@@ -107,7 +107,7 @@ def test_engine_coulomb_through_the_admm_on_a_brick_wall():
 
     (case,) = corpus(names=["box-wall-2x2-16"])
     W = case.W.toarray()
-    n, d = case.n_contacts, case.dim
+    d = case.dim
     compiled = engine._compiled(W, case.b, case.mu, d, True, 1e-8, 100, 30)
     assert not compiled.converged  # the path this test is about
     sol = ci.solve_contact_problem(case.W, case.b, case.mu, law="coulomb", dim=d)

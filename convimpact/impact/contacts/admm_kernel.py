@@ -87,6 +87,21 @@ def _project_into(v, mu, d, out):
 
 
 @_jit
+def _desaxce(v, mu, d, out, add):
+    """De Saxce's shift ``mu |v_t|`` of each contact into ``out``'s normal rows (added to
+    them with ``add``, else written over them; the tangential rows are left alone)."""
+    for c in range(mu.shape[0]):
+        o = c * d
+        t = 0.0
+        for j in range(o + 1, o + d):
+            t += v[j] * v[j]
+        if add:
+            out[o] += mu[c] * math.sqrt(t)
+        else:
+            out[o] = mu[c] * math.sqrt(t)
+
+
+@_jit
 def largest_eigenvalue(W, v):
     """W's largest eigenvalue (W symmetric positive semidefinite) by 30 power iterations from
     v (overwritten): :func:`.admm._largest_eigenvalue` compiled (its Python loop cost more
@@ -132,14 +147,8 @@ def natural_residual(W, b, mu, d, r, coulomb, u, y, p):
         nb += b[i] * b[i]
         nr += r[i] * r[i]
         nu += s * s
-    n = mu.shape[0]
     if coulomb:
-        for c in range(n):
-            o = c * d
-            t = 0.0
-            for j in range(o + 1, o + d):
-                t += u[j] * u[j]
-            y[o] += mu[c] * math.sqrt(t)
+        _desaxce(u, mu, d, y, True)
     for i in range(N):
         y[i] = r[i] - y[i]
     _project_into(y, mu, d, p)
@@ -162,7 +171,6 @@ def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, co
     ``(L, rho, iterations done, last residual, best residual, best w)``.
     """
     N = b.shape[0]
-    n = mu.shape[0]
     rhs = np.empty(N)
     tmp = np.empty(N)
     xn = np.empty(N)
@@ -176,12 +184,7 @@ def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, co
     best_w = w.copy()
     res = np.inf
     if coulomb:
-        for c in range(n):
-            o = c * d
-            t = 0.0
-            for j in range(o + 1, o + d):
-                t += lam[j] * lam[j]
-            s[o] = mu[c] * math.sqrt(t)
+        _desaxce(lam, mu, d, s, False)
     it = 0
     while it < iterations:
         it += 1
@@ -204,12 +207,7 @@ def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, co
             x[i] = xn[i]
             w[i] = wn[i]
         if coulomb:  # -lam tends to the shifted velocity u + s
-            for c in range(n):
-                o = c * d
-                t = 0.0
-                for j in range(o + 1, o + d):
-                    t += lam[j] * lam[j]
-                s[o] = mu[c] * math.sqrt(t)
+            _desaxce(lam, mu, d, s, False)
         if it % CHECK_EVERY == 0:
             res = natural_residual(W, b, mu, d, w, coulomb, u, y, p)
             if res < best:
