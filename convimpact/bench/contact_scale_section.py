@@ -327,8 +327,16 @@ def _cases(config: BenchConfig):
 
 
 def _warm_up(cases, law: str) -> None:
-    """The first call of a law, untimed (compilation, caches)."""
+    """The first call of a law, untimed (compilation, caches), and of the engine's compiled
+    ADMM (:mod:`convimpact.impact.contacts.admm_kernel`), which the smallest problems do not
+    reach."""
+    from ..impact.contacts.admm_kernel import dense_admm
+    from ..impact.contacts.engine import warm_newton
+
     _ours_call(cases[0], law)()
+    W, b, mu = np.array([[2.0, 0.5], [0.5, 1.0]]), np.array([-1.0, 0.5]), np.array([0.3])
+    dense_admm(W, b, mu, 2, np.zeros((1, 2)), tol=1e-8, max_iter=100, coulomb=law == "coulomb")
+    warm_newton(W, b, mu, 2, np.zeros((1, 2)), coulomb=law == "coulomb")  # its Newton
 
 
 def _short(t: float | None) -> str:

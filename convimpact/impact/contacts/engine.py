@@ -1,8 +1,10 @@
 """The contact engine: a primal-dual interior point on the cone complementarity problem
 ``K ∋ r ⊥ u = W r + b ∈ K*`` (the convex relaxation of Coulomb's law, ``ccp``), finished by
 Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP's answer, or
-where that misses, by an ADMM (:mod:`.admm`) and Newton again. :func:`solve` is the entry;
-small problems go first to the compiled dense kernels of the same method.
+where that misses, by an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W)
+and Newton again. :func:`solve` is the entry; small problems go first to the compiled dense
+kernels of the same method, and up to :data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from
+zero gets a bounded try first (before the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows).
 
 The problem is the optimality system of the convex program ``min 1/2 r^T W r + b^T r`` over
 the product K of friction cones; W is only positive semidefinite (a stack of boxes has more
@@ -34,6 +36,7 @@ import scipy.sparse as sp
 
 from . import cones
 from .admm import coulomb_admm
+from .admm_kernel import dense_admm, natural_residual
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .threads import one_blas_thread
@@ -50,6 +53,33 @@ HANDOVER_TOL = 1e-9
 _KERNELS = None
 #: the interior point stops at this gap (unit data): the Newton finish takes over from here
 GAP_FLOOR = 1e-14
+#: up to this many rows, the compiled ADMM from zero runs first (for Coulomb's law at most
+#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way; it needed 80-1,900 on the
+#: corpus's walls, piles and robots of 40-300 rows, 4,500-10,000 on its stacks)...
+ADMM_FIRST_MAX_ROWS = 300
+#: ...before the compiled kernels above this many rows, after them below
+ADMM_FIRST_MIN_ROWS = 40
+ADMM_FIRST_ITER = 5000
+#: ...ending at this many times the iterations to 1e-5 where Newton failed from there (the
+#: stacks' ADMM crawls from 1e-5 on: 520 iterations to 1e-5, 6,700 to 1e-8 on two humanoids
+#: and two quadrupeds)
+ADMM_FIRST_PATIENCE = 3.0
+#: ...and for the CCP, from :data:`COMPILED_MAX_ROWS` rows (whose interior point is sure and
+#: fast: the ADMM gets a short try)
+ADMM_FIRST_ITER_CCP = 300
+#: Coulomb's law: the ADMM from the CCP answer is the compiled dense one
+#: (:mod:`.admm_kernel`) for W dense or up to this many rows; above, :mod:`.admm` on W's
+#: sparse factorization (per iteration the dense one was 1.5-1.8x faster than it at 380-400
+#: rows on piles, 1.5x slower at 670 on a wall)
+DENSE_ADMM_MAX_ROWS = 450
+#: Newton steps on Coulomb's natural map straight from the CCP answer, up to
+#: :data:`SPARING_NEWTON_MAX_ROWS` rows or on dense W (when it converges from there it does
+#: in 1-4; else the ADMM's way is the cheaper one); 10 above, where the ADMM of :mod:`.admm`
+#: also tries Newton more often (the sphere piles of 624-897 contacts)
+DIRECT_NEWTON_STEPS = 4
+SPARING_NEWTON_MAX_ROWS = 900
+#: Newton steps of a try from an ADMM iterate (within 1e-5 it converges in 1-4 where it does)
+POLISH_STEPS = 4
 #: sparse factorization is used for W given sparse with more than this many rows...
 SPARSE_MIN_ROWS = 200
 #: ...and at most this density
@@ -341,12 +371,19 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
           start: np.ndarray | None = None) -> EngineResult:
     """The engine.
 
-    Up to :data:`COMPILED_MAX_ROWS` rows (and ``compiled``) the compiled dense kernels first,
-    their answer kept when its natural-map residual is at most ``tol``. Then the CCP: the
-    interior point, and the Newton finish where it stops short of ``tol`` (skipped when the
-    compiled CCP kernel's answer is certified). Coulomb's law: Newton on its natural map from
-    the CCP's answer; where that does not reach ``tol``, the ADMM of :mod:`.admm` from there,
-    Newton tried whenever the ADMM has come within 1e-4 (and every 200 iterations below 1e-2).
+    With ``compiled``: from :data:`ADMM_FIRST_MIN_ROWS` to :data:`ADMM_FIRST_MAX_ROWS` rows the
+    compiled ADMM from zero (:func:`.admm_kernel.dense_admm`, at most
+    :data:`ADMM_FIRST_ITER` iterations for Coulomb's law, :data:`ADMM_FIRST_ITER_CCP` for the
+    CCP, Newton tried from its iterate within 1e-5); then up to :data:`COMPILED_MAX_ROWS` rows
+    the compiled dense kernels (interior point and Newton), and below
+    :data:`ADMM_FIRST_MIN_ROWS` rows the ADMM's try after them. Each answer is kept when its
+    natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
+    finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
+    certified). Coulomb's law: Newton on its natural map from the CCP's answer
+    (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the ADMM from there
+    (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
+    sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`), then
+    the fixed point on De Saxce's shift (:mod:`.fixed_point`).
 
     ``start`` (n, d), optional, is a warm start (a time-stepping scheme's impulses of the
     previous step): the law's Newton finish (:func:`warm_newton`) runs from it first, and its
@@ -412,16 +449,55 @@ def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
 def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled):
     n = mu.shape[0]
     ccp = None
+    admm_first = compiled and n * d <= ADMM_FIRST_MAX_ROWS
+    # the CCP's compiled kernels are fast and sure on their rows: its ADMM try comes above
+    if admm_first and n * d > (ADMM_FIRST_MIN_ROWS if coulomb else COMPILED_MAX_ROWS):
+        # the compiled interior point's dense Newton grows as rows^3: the ADMM first
+        R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
+        if R.converged:
+            return R
+        admm_first = False
     if compiled and n * d <= COMPILED_MAX_ROWS:
         R = _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter)
         if R is not None and R.converged:
             return R
+    if admm_first and coulomb:
+        R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
+        if R.converged:
+            return R
+    if compiled and n * d <= COMPILED_MAX_ROWS:
         if coulomb:  # the compiled CCP answer, Coulomb's start below
             ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
             ccp = ccp if ccp is not None and ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
                       ccp)
+
+
+def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResult:
+    """Coulomb's law by the compiled ADMM from zero (Pinocchio's start), at most
+    :data:`ADMM_FIRST_ITER` iterations, Newton (:func:`warm_newton`) tried on its way."""
+    n = mu.shape[0]
+    Wd = W.toarray() if sp.issparse(W) else np.asarray(W, dtype=float)
+    bb = np.asarray(b, dtype=float).reshape(n, d)
+    steps = [0]
+
+    def polish(r):
+        # the compiled finish (complete pivoting, rows^3 per step in loops) on the smallest
+        # problems, LAPACK's above
+        R = warm_newton(Wd, bb, mu, d, r, coulomb=coulomb, tol=tol,
+                        newton_iter=min(newton_iter, POLISH_STEPS), sparse=False,
+                        compiled=compiled and n * d <= ADMM_FIRST_MIN_ROWS)
+        steps[0] += R.iterations
+        return R.impulse, R.residual, R.iterations
+
+    with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
+                              max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
+                              polish=polish, coulomb=coulomb, patience=ADMM_FIRST_PATIENCE)
+        res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=coulomb)
+    ok = bool(res <= tol)
+    return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
 
 
 def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
@@ -435,9 +511,13 @@ def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
     pi, status, it, steps, _, _ = kernel(Wd, bb, m, d, HANDOVER_TOL, max_iter,
                                          min(newton_iter, 20))
     r = pi.reshape(n, d)
-    res, u = cones.natural_map_residual(Wd, bb.reshape(n, d), m, r, coulomb)
+    # the natural-map residual of cones.natural_map_residual, compiled (its Python form
+    # cost as much as the kernel on the smallest problems); u = W r + b comes with it
+    u, y, p = np.empty(n * d), np.empty(n * d), np.empty(n * d)
+    res = float(natural_residual(Wd, bb, m, d, pi, coulomb, u, y, p))
     ok = bool(res <= tol)
-    return EngineResult(r, u, res, int(it) + int(steps), ok, "converged" if ok else "")
+    return EngineResult(r, u.reshape(n, d), res, int(it) + int(steps), ok,
+                        "converged" if ok else "")
 
 
 def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, ccp=None):
@@ -459,8 +539,11 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                              "converged" if res <= tol else R.message)
     if not coulomb:
         return R
+    dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
+    sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
     r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                              max_iter=min(newton_iter, 10), sparse=sparse)
+                              max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
+                                            else 10), sparse=sparse)
     iterations += k
     best = [res, r, "converged"]
     if res > tol:
@@ -473,10 +556,16 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 best[:2] = res, r
             if best[0] <= tol:
                 return True
-            if res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0):
+            # sparing: Newton tried from within 1e-5, then after each drop by 1000 (as the
+            # compiled ADMM's polish); else on each drop by 100 below 1e-4, and every 20
+            # checks below 1e-2 (on the largest sparse problems those tries took the sphere
+            # pile of 624 contacts to 8e-7, a geometric spacing to 8e-4 only)
+            if (res < min(1e-5, 1e-3 * tried[0]) if sparing else
+                    res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0)):
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
-                                            max_iter=min(newton_iter, 10), sparse=sparse)
+                                            max_iter=min(newton_iter, POLISH_STEPS if sparing
+                                                         else 10), sparse=sparse)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
@@ -485,12 +574,29 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
 
         # the ADMM from the CCP answer (from zero, Pinocchio's start, was 4x faster on a
         # brick wall but 1.2-3x slower on most of the corpus, and running both cost that)
-        run = coulomb_admm(W, b, mu, R.impulse, sparse)
         done = 0
-        while done < admm_iter:
-            done += 10
-            if check(next(run)):
-                break
+        if dense_admm_here:  # compiled, dense
+
+            def polish(r):
+                nonlocal iterations
+                rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
+                                            max_iter=min(newton_iter, POLISH_STEPS),
+                                            sparse=sparse)
+                iterations += k
+                return rn, resn, k
+
+            Wd = W.toarray() if sp.issparse(W) else W
+            r, _, done = dense_admm(Wd, b, mu, d, R.impulse, tol=tol, max_iter=admm_iter,
+                                    polish=polish)
+            res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+            if res < best[0]:
+                best[:2] = res, r
+        else:
+            run = coulomb_admm(W, b, mu, R.impulse, sparse)
+            while done < admm_iter:
+                done += 10
+                if check(next(run)):
+                    break
         iterations += done
         iterations += k
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
