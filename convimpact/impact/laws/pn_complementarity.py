@@ -32,7 +32,8 @@ one contact, sticking first and maximal dissipation among the admissible choices
 rocking block and McGeer's rimless wheel land sticking on the new corner, the old one
 lifting: the stick tier's answer.) Several
 admissible active sets with different velocities (Newton's law with friction is not unique
-at several contacts) are reported in the warnings. The stick tier solves every active set
+at several contacts) are reported in the warnings; equally dissipative sets with the same
+velocities (redundant contacts) give the largest set's least-norm impulse. The stick tier solves every active set
 (2^n - 1 linear systems, at most :data:`MAX_CONTACTS` contacts; a NotSupportedError names
 the other laws); the slide tier visits them by increasing lower bound of T+ (the same
 minimum without the cones, :func:`relaxed_bound`) and stops when no remaining set can be
@@ -204,13 +205,25 @@ def _regimes(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, tol: float) -
 
 
 def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
-    """The most dissipative candidate, and a warning when others with other velocities exist."""
+    """The most dissipative candidate, and a warning when others with other velocities exist.
+
+    Candidates as dissipative as the best to round-off and with its velocities (redundant
+    contacts: a box at rest on four corners sticks on all four, on a diagonal pair or on
+    three, with the same zero velocity) differ only in how the impulse is shared; the largest
+    active set is taken, then the impulse of least norm, so that the answer does not jump
+    with the data's round-off (on the box: m g h / 4 on each corner)."""
     found.sort(key=lambda c: c[0])
-    best = found[0]
     vs = max(float(np.max(np.abs(P.v_minus))), TINY)
-    vel = (P.delassus @ best[2].ravel())
-    others = [c for c in found[1:]
-              if np.max(np.abs(P.delassus @ c[2].ravel() - vel)) > 1e-8 * vs]
+    energy_scale = max(0.5 * vs ** 2 / float(np.max(np.abs(np.diag(P.delassus)))), TINY)
+    vel = (P.delassus @ found[0][2].ravel())
+
+    def same_velocity(c) -> bool:
+        return bool(np.max(np.abs(P.delassus @ c[2].ravel() - vel)) <= 1e-8 * vs)
+
+    ties = [c for c in found if c[0] <= found[0][0] + 1e-9 * energy_scale
+            and same_velocity(c)]
+    best = min(ties, key=lambda c: (-len(c[1]), float(np.linalg.norm(c[2]))))
+    others = [c for c in found if not same_velocity(c)]
     notes = []
     if others:
         sets = ", ".join(str(list(c[1])) for c in [best, *others])
