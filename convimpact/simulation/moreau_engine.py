@@ -55,7 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ..impact.contacts import engine
+from ..impact.contacts import ccp_interior, engine
 from ..impact.contacts.contact_problem import ContactSolution, UncertifiedSolutionError
 from ..impact.errors import ConvImpactError, LoopConstraintError, SimulationError
 from .islands import Groups, contact_islands, coordinate_groups
@@ -66,7 +66,7 @@ from .result import ImpactEvent
 #: the laws whose step problem the engine solves
 ENGINE_LAWS = ("ccp", "coulomb", "dissipative")
 #: islands with at least this many contact rows get a sparse W
-SPARSE_MIN_ROWS = engine.SPARSE_MIN_ROWS
+SPARSE_MIN_ROWS = ccp_interior.SPARSE_MIN_ROWS
 
 
 @dataclass

@@ -3,10 +3,14 @@
 Saxce's form, certified on the original data.
 
 * :mod:`.engine`: the entry (:func:`~.engine.solve`); the compiled dense kernels first on
-  small problems, else the interior point on dense (LAPACK) or sparse (QDLDL) factorizations;
+  small problems, the compiled ADMM's bounded try on mid-size ones, else
+  :mod:`.ccp_interior`, the interior point on dense (LAPACK) or sparse (QDLDL)
+  factorizations, and Coulomb's law from its answer;
 * :mod:`.cones`: the friction cones' algebra and the natural-map residual; :mod:`.finish`: the
-  regularized semismooth Newton finish; :mod:`.admm`: Coulomb's law where Newton from the CCP
-  answer does not reach it; :mod:`.threads`: the factorizations on one BLAS thread;
+  regularized semismooth Newton finish; :mod:`.admm_kernel` (compiled, dense) and
+  :mod:`.admm` (sparse): the ADMM on Coulomb's law in De Saxce's form; :mod:`.fixed_point`:
+  the fixed point on De Saxce's shift, the last resort; :mod:`.threads`: the
+  factorizations on one BLAS thread;
 * :mod:`.contact_problem`: :func:`~.contact_problem.solve_contact_problem`, the public API on
   ``(W, b, mu)``;
 * the compiled dense kernels: :mod:`.interior_point` (Mehrotra, Nesterov-Todd),
