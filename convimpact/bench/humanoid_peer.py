@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from .sustained_scale_peers import PeerRun
+from .sustained_scale_peers import PeerRun, step_loop
 
 #: MuJoCo's default timestep (s)
 TIMESTEP = 0.002
@@ -195,19 +195,11 @@ def _run_push(scene) -> PeerRun:
     feedforward, push = applied_forces(scene)
     p = scene.parameters
     nstep = int(round(scene.t_end / TIMESTEP))
-    times, qpos, qvel = [0.0], [data.qpos.copy()], [data.qvel.copy()]
-    wall = cpu = 0.0
-    for _ in range(nstep):
+
+    def forces(data):
         on = p["t_push"] <= data.time <= p["t_push"] + p["duration"]
         data.qfrc_applied[:] = feedforward + (push if on else 0.0)
-        t0, c0 = time.perf_counter(), time.process_time()
-        mujoco.mj_step(model, data)
-        wall += time.perf_counter() - t0
-        cpu += time.process_time() - c0
-        times.append(data.time)
-        qpos.append(data.qpos.copy())
-        qvel.append(data.qvel.copy())
-    return PeerRun(np.array(times), np.array(qpos), np.array(qvel), wall, cpu)
+    return step_loop(model, data, nstep, forces)
 
 
 def observables(scene, t: np.ndarray, theta: np.ndarray, dtheta: np.ndarray

@@ -123,11 +123,25 @@ def _run_stack(p: Mapping[str, Any], t_end: float) -> PeerRun:
     n = p["n_boxes"]
     top = model.body(f"box{n - 1}").id
     nstep = int(round(t_end / TIMESTEP))
-    qpos, qvel, times = [], [], []
-    wall = cpu = 0.0
-    for _ in range(nstep):
+
+    def push(data):
         data.xfrc_applied[top, 0] = p["ramp"] * p["mass"] * GRAVITY * max(0.0, data.time
                                                                           - p["t_push"])
+    return step_loop(model, data, nstep, push, record_start=False)
+
+
+def step_loop(model, data, nstep: int, before_step, record_start: bool = True) -> PeerRun:
+    """``nstep`` calls of ``mj_step`` in a Python loop, ``before_step(data)`` setting the
+    applied forces before each; the states after each step (and the start's with
+    ``record_start``), and the summed wall and CPU time of ``mj_step`` alone."""
+    import mujoco
+
+    times, qpos, qvel = [], [], []
+    if record_start:
+        times, qpos, qvel = [data.time], [data.qpos.copy()], [data.qvel.copy()]
+    wall = cpu = 0.0
+    for _ in range(nstep):
+        before_step(data)
         t0, c0 = time.perf_counter(), time.process_time()
         mujoco.mj_step(model, data)
         wall += time.perf_counter() - t0
