@@ -22,7 +22,10 @@ Contacts that the simulator holds closed enter like loop constraints, by their m
 
 Only the normal rows (gaps) are position constraints (``residual``, ``position_jacobian``);
 tangential rows constrain velocities. Rows found redundant at the event that formed the set
-(``dropped``: a box on two corners sticking has one tangential row too many) are left out.
+(``dropped``: a box on two corners sticking has one tangential row too many) are left out of
+the constraints; where a held contact slides with friction their forces stay unknowns (the
+distribution of a sliding redundant group moves the motion: the least-norm one, from the
+force problem's at the segment's start, :meth:`CanonicalEquations._multipliers`).
 
 One evaluation factors M once (Cholesky) and shares the factor between the velocities, the
 multipliers and the friction columns. For a :class:`~convimpact.model.ModelMechanism` the
@@ -166,6 +169,7 @@ class CanonicalEquations(CompiledHeldPath):
         self.rows: list[Row] = []
         self.position_rows: list[Row] = []
         self.slipping: list[tuple[str, int]] = []  # (contact, index of its normal row)
+        dim_of: dict[str, int] = {}
         for c in self.held:
             mode = self.modes[c]
             dim = 1
@@ -177,6 +181,7 @@ class CanonicalEquations(CompiledHeldPath):
                 else:
                     dim = int(np.asarray(mechanism.contact_jacobian(c, np.zeros(self.k)),
                                          float).shape[0])
+            dim_of[c] = dim
             for j in range(dim):
                 if (c, j) in self.dropped:
                     continue
@@ -186,6 +191,28 @@ class CanonicalEquations(CompiledHeldPath):
                         self.slipping.append((c, len(self.rows)))
                 self.rows.append((c, j))
         self.n_constraints = self.n_loops + len(self.rows)
+        #: where a contact slides with friction, the dropped (redundant) rows' forces are
+        #: unknowns too, past the constraints' (the sliding redundant group's distribution
+        #: moves the motion: :meth:`_multipliers`; without loops only): ``redundant`` those
+        #: rows, ``redundant_slipping`` the sliding contacts among them (normal rows)
+        self.redundant: list[Row] = []
+        self.redundant_slipping: list[str] = []
+        if not self.n_loops and self.dropped and any(
+                self.modes[c].kind == "slip" and self.modes[c].mu > 0.0 for c in self.held):
+            for c in self.held:
+                mode = self.modes[c]
+                for j in range(dim_of[c]):
+                    if (c, j) not in self.dropped:
+                        continue
+                    if j == 0 and mode.kind == "slip" and mode.mu > 0.0:
+                        self.slipping.append((c, len(self.rows) + len(self.redundant)))
+                        self.redundant_slipping.append(c)
+                    self.redundant.append((c, j))
+        #: the force unknowns: the constraints' multipliers, then the redundant rows' forces
+        self.n_unknowns = self.n_constraints + len(self.redundant)
+        #: the redundant sliding group's offset from its least-norm distribution (n_unknowns,)
+        #: or None: set at the segment's start (:meth:`start_from`)
+        self.offset: np.ndarray | None = None
         self.nfev = 0
         self._jdot = getattr(mechanism, "contact_jacobian_dot", None)
         self._memo: dict[bytes, Factors] = {}
@@ -196,13 +223,16 @@ class CanonicalEquations(CompiledHeldPath):
             self._row_row = np.array([j for _, j in self.rows], dtype=np.intp)
             self._d = mechanism.data.d
             self._slip_index = np.array([index[c] for c, _ in self.slipping], dtype=np.intp)
+            self._extra_contact = np.array([index[c] for c, _ in self.redundant], dtype=np.intp)
+            self._extra_row = np.array([j for _, j in self.redundant], dtype=np.intp)
         #: the sliding contacts' columns among the constraints
         self._slip_cols = np.array([self.n_loops + i for _, i in self.slipping], dtype=np.intp)
         #: the compiled right-hand side (:mod:`.canonical_kernels`): a model, held rows,
         #: no loops
         self._compiled = self._model and bool(self.rows) and not self.n_loops
         if self._compiled:  # nu, power, indicator, the slip directions
-            self._aux_size = len(self.rows) + 2 + len(self.slipping) * max(self._d - 1, 1)
+            self._aux_size = (self.n_unknowns + 2
+                              + len(self.slipping) * max(self._d - 1, 1))
         #: the last state's compiled velocities and terms (asked for several times at a
         #: step's end)
         self._velocity_memo = self._terms_memo = None
@@ -373,9 +403,10 @@ class CanonicalEquations(CompiledHeldPath):
 
     def friction_columns(self, theta: np.ndarray, dtheta: np.ndarray,
                          jac: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
-        """D (k, n_constraints): the generalized friction force per unit normal multiplier
-        of each sliding contact, ``-mu c_t^T s`` in its normal row's column."""
-        D = np.zeros((self.k, self.n_constraints))
+        """D (k, n_unknowns): the generalized friction force per unit normal multiplier
+        of each sliding contact, ``-mu c_t^T s`` in its normal row's column (a redundant
+        sliding contact's: in its column past the constraints')."""
+        D = np.zeros((self.k, self.n_unknowns))
         if not self.slipping:
             return D
         jac = self.contact_jacobians(theta) if jac is None else jac
@@ -411,16 +442,73 @@ class CanonicalEquations(CompiledHeldPath):
             p = p - self.factors(theta, constraints=False).C.T @ sigma
         return p
 
+    def unknown_weights(self) -> np.ndarray:
+        """(n_unknowns,) the squared force norm per unit of each force unknown: ``1 + mu^2``
+        for a sliding contact's normal force (its friction ``-mu lambda_n s`` follows it),
+        1 for the other rows."""
+        w = np.ones(self.n_unknowns)
+        for c, i in self.slipping:
+            w[self.n_loops + i] = 1.0 + self.modes[c].mu ** 2
+        return w
+
+    def start_from(self, t: float, y: np.ndarray, forces: Mapping[str, np.ndarray]) -> None:
+        """Start the segment from the force problem's distribution ``forces`` (contact ->
+        its force, normal first) of the redundant sliding group.
+
+        Where that distribution is not the least-norm one (the force problem took the
+        largest smallest margin: the least-norm distribution has a normal force <= 0), its
+        difference z0 from the least-norm distribution at (t, y) is kept, and during the
+        segment the unknowns are ``z0 + W^-1 E^T (E W^-1 E^T)^-1 (rhs - E z0)``: the
+        least-norm distribution plus z0's part along the current indeterminate directions
+        (the start's choice exactly at the start, smooth in the state).
+        """
+        self.offset = None
+        self._velocity_memo = self._terms_memo = None
+        if not self.redundant:
+            return
+        x = np.zeros(self.n_unknowns)
+        for i, (c, j) in enumerate(self.rows + self.redundant):
+            x[self.n_loops + i] = float(forces[c][j]) if j < len(forces[c]) else 0.0
+        w = self.unknown_weights()
+        least = self._unknowns(t, y)
+        z0 = x - least
+        scale = max(float(np.sqrt(np.sum(w * x * x))), 1e-300)
+        if float(np.sqrt(np.sum(w * z0 * z0))) > 1e-9 * scale:
+            self.offset = z0
+            self._velocity_memo = self._terms_memo = None
+
     def _multipliers(self, t: float, theta: np.ndarray, dtheta: np.ndarray, F: Factors, f,
                      Cdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(nu, D): ``C M^-1 (C^T + D) nu = -(C M^-1 f + C_dot theta_dot)`` (eqs. 8, 9)."""
+        """(nu, D): ``C M^-1 (C^T + D) nu = -(C M^-1 f + C_dot theta_dot)`` (eqs. 8, 9).
+
+        With redundant rows in a sliding group (:attr:`redundant`) nu has their forces
+        too, past the constraints' multipliers: ``E nu = -(C M^-1 f + C_dot
+        theta_dot)`` with ``E = C M^-1 [C^T + D_c | J_r^T + D_r]`` (m, m + r) of full row
+        rank, and nu is its least-norm solution in the forces' norm (weights
+        :meth:`unknown_weights`, W): ``nu = -W^-1 E^T (E W^-1 E^T)^-1 rhs``, plus the
+        segment's :attr:`offset` z0 along the indeterminate directions (:meth:`start_from`).
+        """
         D = self.friction_columns(theta, dtheta, F.jac)
         rhs = F.C @ _cho_solve(F.L, f) + Cdot @ dtheta
         if not self.slipping:
             return -_cho_solve(F.SL, rhs), D
-        K = F.S + F.C @ _cho_solve(F.L, D)
+        m = self.n_constraints
+        K = F.C @ _cho_solve(F.L, D)
+        K[:, :m] += F.S
+        if self.redundant:
+            Jr = np.array([F.jac[c][j] for c, j in self.redundant])  # (r, k)
+            K[:, m:] += F.C @ _cho_solve(F.L, Jr.T)
         try:
-            nu = -np.linalg.solve(K, rhs)
+            if self.redundant:
+                w = self.unknown_weights()
+                G = (K / w) @ K.T
+                if self.offset is None:
+                    nu = -(K.T @ np.linalg.solve(G, rhs)) / w
+                else:
+                    z0 = self.offset
+                    nu = z0 - (K.T @ np.linalg.solve(G, rhs + K @ z0)) / w
+            else:
+                nu = -np.linalg.solve(K, rhs)
         except np.linalg.LinAlgError:
             raise SimulationError(
                 f"Painleve's paradox at t = {t:.9g}: the sliding contacts' force system "
@@ -491,6 +579,11 @@ class CanonicalEquations(CompiledHeldPath):
         From ``M theta_ddot - (C^T + D) nu = f`` and ``C theta_ddot + C_dot theta_dot = 0``
         (eq. 8). A held contact pushes (compressive) while its normal entry is positive.
         """
+        return self._unknowns(t, y)[:self.n_constraints]
+
+    def _unknowns(self, t: float, y: np.ndarray) -> np.ndarray:
+        """(n_unknowns,) the multipliers nu, then the redundant sliding contacts' normal
+        forces (:meth:`_multipliers`)."""
         got = self._compiled_terms(t, y)
         if got is not None:
             return got[0].copy()
@@ -505,23 +598,24 @@ class CanonicalEquations(CompiledHeldPath):
 
     def contact_forces(self, t: float, y: np.ndarray) -> dict[str, np.ndarray]:
         """The held contacts' forces in their frames (normal first) from the multipliers;
-        a redundant (dropped) row reads zero, a sliding contact's friction is -mu lambda_n s."""
+        a redundant (dropped) row reads zero outside a sliding group (there: its force in
+        the distribution in force), a sliding contact's friction is -mu lambda_n s."""
         k, m = self.k, self.n_loops
         got = self._compiled_terms(t, y)
         if got is not None:  # n_loops = 0
             nu, _, _, dirs, _ = got
             out = {c: np.zeros(self._d) for c in self.held}
-            for i, (c, j) in enumerate(self.rows):
+            for i, (c, j) in enumerate(self.rows + self.redundant):
                 out[c][j] = nu[i]
             for (c, _), s in zip(self.slipping, dirs):
                 out[c][1:] = -self.modes[c].mu * out[c][0] * s
             return out
         theta = y[:k]
-        nu = self.multipliers(t, y)
+        nu = self._unknowns(t, y)
         dtheta, _, F = self.velocities(theta, y[k:])
         jac = F.jac
         out = {c: np.zeros(len(jac[c])) for c in self.held}
-        for i, (c, j) in enumerate(self.rows):
+        for i, (c, j) in enumerate(self.rows + self.redundant):
             out[c][j] = nu[m + i]
         for c, _ in self.slipping:
             out[c][1:] = -self.modes[c].mu * out[c][0] * self.slip_direction(c, jac[c], dtheta)

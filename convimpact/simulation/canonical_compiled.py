@@ -100,6 +100,9 @@ class CompiledHeldPath:
             mu = np.array([md.mu for md in modes])
         else:
             stored, mu = np.zeros((0, 1)), np.zeros(0)
+        w = self.unknown_weights() if self.redundant else np.zeros(0)
+        x0 = (self.offset if self.offset is not None and self.redundant
+              else np.zeros(len(w)))
         out = np.empty(2 * k)
         want_nu = aux is not None
         if aux is None:
@@ -107,7 +110,8 @@ class CompiledHeldPath:
         # the positions' Jacobians of this theta (the velocity pass recomputed them there)
         if ck.held_rates(L, C, A, S, SL, dv.contact_jacobian, dv.contact_jacobian_dot,
                          self._row_contact, self._row_row, self._slip_index, self._slip_cols,
-                         stored, mu, self.slip_floor, f, pdot, dtheta, sigma, out,
+                         stored, mu, self._extra_contact, self._extra_row, w, x0,
+                         self.slip_floor, f, pdot, dtheta, sigma, out,
                          aux, want_nu) != ck.OK:
             return None
         return out
@@ -117,10 +121,11 @@ class CompiledHeldPath:
         theta_dot) by the compiled pass, or None where the general path must decide."""
         if not self._compiled:
             return None
-        k, m = self.k, len(self.rows)
+        k, m = self.k, self.n_unknowns  # (no loops: the rows, the redundant sliding ones)
         y = np.ascontiguousarray(y, dtype=float)
         # (the stored slip directions enter below the slip floor: part of the key)
-        key = (t, y.tobytes(), tuple(self.modes[c] for c, _ in self.slipping))
+        key = (t, y.tobytes(), tuple(self.modes[c] for c, _ in self.slipping),
+               None if self.offset is None else self.offset.tobytes())
         memo = self._terms_memo
         if memo is not None and memo[0] == key:
             aux, out = memo[1], memo[2]

@@ -79,14 +79,20 @@ def held_velocities(Lm, CJ, rc, rr, p, L, C, A, S, SL, dtheta, sigma):
 
 
 @jit
-def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, pdot,
-               dtheta, sigma, out, aux, want_nu):
+def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, xc, xr, w, x0,
+               floor, f, pdot, dtheta, sigma, out, aux, want_nu):
     """y_dot = [theta_dot, p_dot - C_dot^T sigma + D nu] into ``out`` (2k,).
 
     ``CJD`` the Jacobians' rates (C_dot's rows as C's), ``si`` the sliding contacts'
     indices into CJ, ``cols`` their normal rows among C's, ``stored`` (n_s, d - 1) their
     stored slip directions, ``mu`` their friction coefficients, ``floor`` the slip speed
-    below which the stored direction is kept. ``aux`` (m + 2 + n_s (d - 1),): the
+    below which the stored direction is kept. In a sliding group the dropped (redundant)
+    rows ``CJ[xc[j], xr[j]]`` (r,) are unknowns past the multipliers (a sliding one's
+    normal row: among the sliding contacts, last, ``cols`` >= m), and ``w`` (m + r,) the
+    unknowns' weights (``1 + mu^2`` for a sliding normal force, else 1): nu is the
+    least-norm solution ``W^-1 E^T (E W^-1 E^T)^-1 rhs`` of ``E nu = rhs``, E = C M^-1
+    [C^T + D | J_r^T + D_r] (m, m + r); ``xc`` empty without them; ``x0`` (m + r,) the segment's offset z0
+    (``z0 + W^-1 E^T (E W^-1 E^T)^-1 (rhs - E z0)``; zeros: the least-norm one). ``aux`` (m + r + 2 + n_s (d - 1),): the
     multipliers nu (eq. 9; without sliding contacts only with ``want_nu``, else zeros), the
     sliding contacts' friction power ``sum lambda_t . v_t``, the Painleve indicator
     ``det(C M^-1 (C^T + D)) / det(C M^-1 C^T)`` (1 without sliding contacts) and the
@@ -96,9 +102,11 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, 
     k = L.shape[0]
     m = C.shape[0]
     ns = si.shape[0]
+    nx = xc.shape[0]
+    mu_ = m + nx  # the unknowns
     for i in range(aux.shape[0]):
         aux[i] = 0.0
-    aux[m + 1] = 1.0
+    aux[mu_ + 1] = 1.0
     for i in range(k):
         out[i] = dtheta[i]
         s = pdot[i]
@@ -134,7 +142,7 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, 
             v = 0.0
             for j in range(dt):
                 v += sdir[j] * vt[j]
-                aux[m + 2 + c * dt + j] = sdir[j]
+                aux[mu_ + 2 + c * dt + j] = sdir[j]
             vs[c] = v
             for q in range(k):
                 s = 0.0
@@ -143,13 +151,27 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, 
                 D[q, c] = -mu[c] * s
         X = np.empty((k, ns))
         cho_solve_mat(L, D, X)  # M^-1 D
-        K = S.copy()
+        K = np.zeros((m, mu_))
         for i in range(m):
+            for j in range(m):
+                K[i, j] = S[i, j]
             for c in range(ns):
                 s = 0.0
                 for q in range(k):
                     s += C[i, q] * X[q, c]
                 K[i, cols[c]] += s
+        if nx > 0:  # the redundant rows' columns C M^-1 J_r^T
+            Y = np.empty((k, nx))
+            for j in range(nx):
+                for q in range(k):
+                    Y[q, j] = CJ[xc[j], xr[j], q]
+            cho_solve_mat(L, Y, Y)
+            for i in range(m):
+                for j in range(nx):
+                    s = 0.0
+                    for q in range(k):
+                        s += C[i, q] * Y[q, j]
+                    K[i, m + j] += s
         # rhs = C M^-1 f + C_dot theta_dot
         Mf = np.empty(k)
         cho_solve_vec(L, f, Mf)
@@ -159,14 +181,42 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, 
             for q in range(k):
                 s += C[i, q] * Mf[q] + CJD[rc[i], rr[i], q] * dtheta[q]
             rhs[i] = -s
-        # nu = K^-1 rhs: LU with partial pivoting (singular only at a zero pivot, as LAPACK)
-        ratio = 1.0  # det K / det S, pivot by pivot
+        sol = np.empty(mu_)
+        if nx > 0:  # the least-norm solution: G = E W^-1 E^T, nu = W^-1 E^T G^-1 rhs
+            G = np.empty((m, m))
+            for i in range(m):
+                for j in range(m):
+                    s = 0.0
+                    for q in range(mu_):
+                        s += K[i, q] * K[j, q] / w[q]
+                    G[i, j] = s
+            GL = np.zeros((m, m))
+            if not cholesky_into(G, GL, m, 0.0):
+                return SINGULAR_K
+            r2 = np.empty(m)
+            for i in range(m):
+                s = rhs[i]
+                for q in range(mu_):
+                    s -= K[i, q] * x0[q]
+                r2[i] = s
+            cho_solve_vec(GL, r2, r2)
+            for q in range(mu_):
+                s = 0.0
+                for i in range(m):
+                    s += K[i, q] * r2[i]
+                sol[q] = x0[q] + s / w[q]
+        # det K / det S, pivot by pivot (K's first m columns), and with nx = 0 nu = K^-1
+        # rhs: LU with partial pivoting (singular only at a zero pivot, as LAPACK)
+        ratio = 1.0
         for j in range(m):
             best = j
             for i in range(j + 1, m):
                 if abs(K[i, j]) > abs(K[best, j]):
                     best = i
             if K[best, j] == 0.0:
+                if nx > 0:
+                    ratio = 0.0
+                    break
                 return SINGULAR_K
             if best != j:
                 for q in range(m):
@@ -180,23 +230,26 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, floor, f, 
                     for q in range(j + 1, m):
                         K[i, q] -= g * K[j, q]
                     rhs[i] -= g * rhs[j]
-        for i in range(m - 1, -1, -1):
-            s = rhs[i]
-            for q in range(i + 1, m):
-                s -= K[i, q] * rhs[q]
-            rhs[i] = s / K[i, i]
+        if nx == 0:
+            for i in range(m - 1, -1, -1):
+                s = rhs[i]
+                for q in range(i + 1, m):
+                    s -= K[i, q] * rhs[q]
+                rhs[i] = s / K[i, i]
+            for i in range(m):
+                sol[i] = rhs[i]
         for i in range(k):
             s = out[k + i]
             for c in range(ns):
-                s += D[i, c] * rhs[cols[c]]
+                s += D[i, c] * sol[cols[c]]
             out[k + i] = s
-        for i in range(m):
-            aux[i] = rhs[i]
+        for i in range(mu_):
+            aux[i] = sol[i]
         power = 0.0
         for c in range(ns):  # lambda_t = -mu nu_n s
-            power -= mu[c] * rhs[cols[c]] * vs[c]
-        aux[m] = power
-        aux[m + 1] = ratio
+            power -= mu[c] * sol[cols[c]] * vs[c]
+        aux[mu_] = power
+        aux[mu_ + 1] = ratio
     elif want_nu:  # nu = -(C M^-1 C^T)^-1 (C M^-1 f + C_dot theta_dot)
         Mf = np.empty(k)
         cho_solve_vec(L, f, Mf)

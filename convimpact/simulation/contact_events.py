@@ -75,6 +75,9 @@ class ContactEvents:
         self.eq_log.append((t, self.eq))
         self.track_projection(self.eq.jacobian, th, dth)
         dth = project_onto(M, self.eq.jacobian(th), dth)
+        if self.eq.redundant:  # a sliding redundant group starts from sol's forces
+            self.eq.start_from(t, self.pack(th, dth, sig_loops),
+                               {c: sol.force[i] for i, c in enumerate(candidates) if c in held})
         dT = float(self.mech.kinetic_energy(th, dth)) - T0
         for c in held:
             if c not in before:

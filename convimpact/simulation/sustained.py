@@ -313,7 +313,7 @@ def painleve_indicator(eq: CanonicalEquations, t: float, y: np.ndarray) -> float
     k = eq.k
     theta = y[:k]
     dtheta, _, F = eq.velocities(theta, y[k:])
-    D = eq.friction_columns(theta, dtheta, F.jac)
+    D = eq.friction_columns(theta, dtheta, F.jac)[:, :eq.n_constraints]
     S = F.C @ F.A
     K = S + F.C @ F.solve(D)
     return float(np.linalg.det(np.linalg.solve(S, K)))

@@ -53,7 +53,10 @@ def test_sliding_table_decelerates_at_mu_g(legs):
     m, mu, psi = 2.0, 0.3, np.radians(23.0)
     scene = load_scene("table", legs=legs, v0=0.6, mu=mu, mass=m)
     eq = _held_equations(scene, scene.theta0, scene.dtheta0)
-    assert eq._compiled and len(eq.slipping) == 3  # three independent normal rows
+    # three independent normal rows; every leg's normal force is an unknown of the sliding
+    # group (its least-norm distribution)
+    assert eq._compiled and len(eq.rows) == 3 and len(eq.slipping) == legs
+    assert len(eq.redundant_slipping) == legs - 3
     ydot = eq(0.0, _state(eq, scene.theta0, scene.dtheta0))
     np.testing.assert_allclose(ydot[:6], scene.dtheta0, atol=1e-14)
     expected = np.array([-mu * m * G * np.cos(psi), -m * G, -mu * m * G * np.sin(psi)])
@@ -139,3 +142,42 @@ def test_compiled_path_agrees_with_the_numpy_path(scene_args):
             eq._compiled = True
         scale = np.max(np.abs(slow))
         np.testing.assert_allclose(fast, slow, atol=1e-11 * scale)
+
+
+def test_sliding_redundant_group_carries_the_force_problems_distribution():
+    """A four-legged table sliding at 1 m/s and spinning at 5 rad/s about the vertical: its
+    legs slide in different directions, so the legs' normal forces (three independent rows
+    for four legs) move the table. The equations carry every leg's normal force: at the
+    start they are the contact force problem's (force_solver, a second method: its
+    least-norm distribution, all compressive), on the compiled and the numpy path. With an
+    offset along the indeterminate directions (a start distribution other than the least
+    norm) both paths agree and the legs still carry m g (no vertical acceleration)."""
+    m = 2.0
+    scene = load_scene("table", legs=4, v0=1.0, mu=0.5, mass=m)
+    mech = scene.mechanism
+    th = np.asarray(scene.theta0, float)
+    dth = np.array(scene.dtheta0, float)
+    dth[4] = 5.0  # the Cardan angle about the vertical (y)
+    names = mech.contact_names
+    sol = solve_contact_forces(contact_state(mech, 0.0, th, dth, names, 1e-6).problem)
+    assert list(sol.modes) == ["slip"] * 4 and np.all(sol.force[:, 0] > 0.5)
+    eq = _held_equations(scene, th, dth)
+    assert eq.redundant_slipping and len(eq.rows) == 3
+    y = _state(eq, th, dth)
+    for compiled in (True, False):
+        eq._compiled, eq._terms_memo = compiled, None
+        forces = eq.contact_forces(0.0, y)
+        np.testing.assert_allclose([forces[c] for c in names], sol.force, atol=1e-9 * m * G)
+    eq._compiled = True
+    eq.start_from(0.0, y, {c: sol.force[i] for i, c in enumerate(names)})
+    assert eq.offset is None  # the force problem's distribution is the least-norm one
+    eq.offset = np.array([0.3, -0.2, 0.1, 0.4])
+    eq._terms_memo = None
+    fast, fast_forces = eq(0.0, y), eq.contact_forces(0.0, y)
+    eq._compiled, eq._terms_memo = False, None
+    slow, slow_forces = eq(0.0, y), eq.contact_forces(0.0, y)
+    np.testing.assert_allclose(fast, slow, atol=1e-11 * np.max(np.abs(slow)))
+    for c in names:
+        np.testing.assert_allclose(fast_forces[c], slow_forces[c], atol=1e-11 * m * G)
+    assert sum(slow_forces[c][0] for c in names) == pytest.approx(m * G, rel=1e-11)
+    assert max(abs(slow_forces[c][0] - sol.force[i, 0]) for i, c in enumerate(names)) > 0.01

@@ -107,6 +107,46 @@ def _spinning_table(legs: int):
     return mech, ci.simulate(mech, (0.0, sc.t_end), (th, dth))
 
 
+def test_square_table_spinning_in_place_spins_down_at_the_closed_form_rate():
+    """Four legs on a square (radius R), no translation, spinning at omega0 about the
+    vertical through the centre of mass: every leg slides along its circle, so by symmetry
+    the legs' normal forces are m g / 4 each (the friction forces, mu m g / 4 along the four
+    tangents, sum to no force and to no tilting moment), the friction torque is mu m g R and
+    omega = omega0 - mu m g R t / I_z (I_z = 0.08 m, the scene's vertical inertia) until the
+    stop at t_s = I_z omega0 / (mu m g R), turned by omega0^2 / (2 alpha), then rest. The
+    group is redundant (three independent normal rows for four legs): the right-hand side
+    carries all four normal forces (the least-norm distribution, symmetric here)."""
+    mu, omega0, m = 0.5, 5.0, 2.0
+    sc = load_scene("table", legs=4, v0=0.0, mu=mu, mass=m)
+    mech, p = sc.mechanism, sc.parameters
+    th = np.asarray(sc.theta0, float)
+    spin = next(j for j in range(3, mech.n_coordinates)
+                if all(abs(float(np.asarray(mech.contact_jacobian(c, th), float)[0, j])) < 1e-12
+                       for c in mech.contact_names))
+    dth = np.zeros(mech.n_coordinates)
+    dth[spin] = omega0
+    res = ci.simulate(mech, (0.0, 0.4), (th, dth), t_eval=np.linspace(0.0, 0.4, 41))
+    assert res.status == 0, res.message
+    alpha = mu * m * G * p["radius"] / (0.08 * m)
+    t_stop = omega0 / alpha
+    for name in mech.contact_names:
+        ivs = res.modes_of(name)
+        assert [iv.mode for iv in ivs] == ["slip", "stick"]
+        assert ivs[1].t_start == pytest.approx(t_stop, rel=1e-9)
+    sliding = (res.held == 4) & (res.t < t_stop - 1e-9)
+    assert sliding.sum() >= 20
+    np.testing.assert_allclose(res.dtheta[sliding, spin], omega0 - alpha * res.t[sliding],
+                               atol=1e-10 * omega0)
+    np.testing.assert_allclose(res.contact_force[sliding][:, :, 0], m * G / 4, rtol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(res.contact_force[sliding][:, :, 1:], axis=2),
+                               mu * m * G / 4, rtol=1e-9)
+    assert res.theta[-1, spin] == pytest.approx(omega0 ** 2 / (2 * alpha), rel=1e-9)
+    np.testing.assert_allclose(res.theta[:, :3], np.broadcast_to(th[:3], (len(res.t), 3)),
+                               atol=1e-12)
+    np.testing.assert_allclose(res.dtheta[-1], 0.0, atol=1e-9)
+    assert_coulomb(res, mech)
+
+
 def test_spinning_table_run_warns_where_its_held_forces_pull():
     """Three legs: the sliding forces are determinate, never tensile, no warning. Four or
     five legs spinning: the legs slide in different directions, so the friction makes the
@@ -125,15 +165,18 @@ def test_spinning_table_run_warns_where_its_held_forces_pull():
             assert warned or not tensile, f"{legs} legs: tensile forces without a warning"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "known defect: a sliding group with a redundant normal row (four coplanar legs) has that "
-    "row dropped (redundant_rows tests the normal rows alone), so the canonical equations put "
-    "that leg's force at 0 and another's turns tensile (-0.87 N of 12 N), while the force "
-    "problem has an all-compressive solution; the segment starts with a negative margin, so "
-    "no margin crossing stops it (humanoid_push: -135 N on a sole corner at t = 0.7559998)"))
 def test_spinning_four_legged_table_keeps_coulombs_conditions():
+    """Four legs sliding at 1 m/s and spinning at 5 rad/s: the legs slide in different
+    directions, so the forces' distribution moves the table; the right-hand side carries
+    every leg's normal force (the least-norm distribution of the sliding group), all
+    compressive, and the recorded normal forces total m g on every held sample (no vertical
+    motion, no tilt)."""
     mech, res = _spinning_table(4)
+    assert res.status == 0, res.message
+    assert not any("tensile or outside their cones" in w for w in res.warnings)
     assert_coulomb(res, mech)
+    held = res.held == 4
+    np.testing.assert_allclose(res.contact_force[held][:, :, 0].sum(axis=1), 2.0 * G, rtol=1e-9)
 
 
 @pytest.fixture(scope="module")
@@ -179,12 +222,6 @@ def test_humanoid_push_runs_to_the_end_through_its_impact_cascades(pushed):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "known defect: a sliding group of coplanar sole corners has a normal row dropped as "
-    "redundant (redundant_rows tests the normal rows alone), so the canonical equations put "
-    "that corner's force at 0 and another's turns tensile (-135 N at t = 0.7559998 on "
-    "left_sole_0) while the force problem has an all-compressive solution; the segment "
-    "starts with a negative margin, so no margin crossing stops it"))
 def test_humanoid_push_keeps_coulombs_conditions_on_every_sample(pushed):
     sc, res = pushed
     assert_coulomb(res, sc.mechanism)
