@@ -49,6 +49,7 @@ from ..impact.errors import NonFiniteError, SimulationError
 from ..mechanism import Mechanism
 from ..model import recursive as _rc
 from .canonical_compiled import CompiledHeldPath
+from .canonical_forces import HeldForces, _cho_solve, _cholesky  # noqa: F401 (used here and by sustained)
 
 #: a held contact's rows: (contact name, row of its Jacobian: 0 normal, 1.. tangents)
 Row = tuple[str, int]
@@ -102,22 +103,6 @@ class Factors:
         return _cho_solve(self.SL, b)
 
 
-def _cho_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
-    b = np.asarray(b, dtype=float)
-    if b.ndim == 1:
-        out = np.empty(b.shape[0])
-        _rc.cho_solve_vec(L, np.ascontiguousarray(b), out)
-        return out
-    out = np.empty(b.shape)
-    _rc.cho_solve_mat(L, np.ascontiguousarray(b), out)
-    return out
-
-
-def _cholesky(M: np.ndarray) -> np.ndarray | None:
-    L = np.zeros(M.shape)
-    return L if _rc.cholesky(np.ascontiguousarray(M, dtype=float), L) else None
-
-
 def _is_model(mechanism) -> bool:
     """True for a :class:`~convimpact.model.ModelMechanism` evaluated as it is (no subclass
     overriding the protocol, no wrapper forwarding to one)."""
@@ -130,7 +115,7 @@ def _is_model(mechanism) -> bool:
                          "contact_jacobian", "contact_gap", "rhs_positions", "rhs_velocities"))
 
 
-class CanonicalEquations(CompiledHeldPath):
+class CanonicalEquations(HeldForces, CompiledHeldPath):
     """The canonical equations of a mechanism with a fixed set of held contacts and modes.
 
     Built once per set of held contacts and modes (they change only at events); calling the
@@ -442,79 +427,6 @@ class CanonicalEquations(CompiledHeldPath):
             p = p - self.factors(theta, constraints=False).C.T @ sigma
         return p
 
-    def unknown_weights(self) -> np.ndarray:
-        """(n_unknowns,) the squared force norm per unit of each force unknown: ``1 + mu^2``
-        for a sliding contact's normal force (its friction ``-mu lambda_n s`` follows it),
-        1 for the other rows."""
-        w = np.ones(self.n_unknowns)
-        for c, i in self.slipping:
-            w[self.n_loops + i] = 1.0 + self.modes[c].mu ** 2
-        return w
-
-    def start_from(self, t: float, y: np.ndarray, forces: Mapping[str, np.ndarray]) -> None:
-        """Start the segment from the force problem's distribution ``forces`` (contact ->
-        its force, normal first) of the redundant sliding group.
-
-        Where that distribution is not the least-norm one (the force problem took the
-        largest smallest margin: the least-norm distribution has a normal force <= 0), its
-        difference z0 from the least-norm distribution at (t, y) is kept, and during the
-        segment the unknowns are ``z0 + W^-1 E^T (E W^-1 E^T)^-1 (rhs - E z0)``: the
-        least-norm distribution plus z0's part along the current indeterminate directions
-        (the start's choice exactly at the start, smooth in the state).
-        """
-        self.offset = None
-        self._velocity_memo = self._terms_memo = None
-        if not self.redundant:
-            return
-        x = np.zeros(self.n_unknowns)
-        for i, (c, j) in enumerate(self.rows + self.redundant):
-            x[self.n_loops + i] = float(forces[c][j]) if j < len(forces[c]) else 0.0
-        w = self.unknown_weights()
-        least = self._unknowns(t, y)
-        z0 = x - least
-        scale = max(float(np.sqrt(np.sum(w * x * x))), 1e-300)
-        if float(np.sqrt(np.sum(w * z0 * z0))) > 1e-9 * scale:
-            self.offset = z0
-            self._velocity_memo = self._terms_memo = None
-
-    def _multipliers(self, t: float, theta: np.ndarray, dtheta: np.ndarray, F: Factors, f,
-                     Cdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(nu, D): ``C M^-1 (C^T + D) nu = -(C M^-1 f + C_dot theta_dot)`` (eqs. 8, 9).
-
-        With redundant rows in a sliding group (:attr:`redundant`) nu has their forces
-        too, past the constraints' multipliers: ``E nu = -(C M^-1 f + C_dot
-        theta_dot)`` with ``E = C M^-1 [C^T + D_c | J_r^T + D_r]`` (m, m + r) of full row
-        rank, and nu is its least-norm solution in the forces' norm (weights
-        :meth:`unknown_weights`, W): ``nu = -W^-1 E^T (E W^-1 E^T)^-1 rhs``, plus the
-        segment's :attr:`offset` z0 along the indeterminate directions (:meth:`start_from`).
-        """
-        D = self.friction_columns(theta, dtheta, F.jac)
-        rhs = F.C @ _cho_solve(F.L, f) + Cdot @ dtheta
-        if not self.slipping:
-            return -_cho_solve(F.SL, rhs), D
-        m = self.n_constraints
-        K = F.C @ _cho_solve(F.L, D)
-        K[:, :m] += F.S
-        if self.redundant:
-            Jr = np.array([F.jac[c][j] for c, j in self.redundant])  # (r, k)
-            K[:, m:] += F.C @ _cho_solve(F.L, Jr.T)
-        try:
-            if self.redundant:
-                w = self.unknown_weights()
-                G = (K / w) @ K.T
-                if self.offset is None:
-                    nu = -(K.T @ np.linalg.solve(G, rhs)) / w
-                else:
-                    z0 = self.offset
-                    nu = z0 - (K.T @ np.linalg.solve(G, rhs + K @ z0)) / w
-            else:
-                nu = -np.linalg.solve(K, rhs)
-        except np.linalg.LinAlgError:
-            raise SimulationError(
-                f"Painleve's paradox at t = {t:.9g}: the sliding contacts' force system "
-                "C M^-1 (C^T + D) is singular (effective normal mass zero)") from None
-        return nu, D
-
     def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
         """y_dot = [theta_dot, p_dot] (eq. 15)."""
         self.nfev += 1
@@ -547,19 +459,6 @@ class CanonicalEquations(CompiledHeldPath):
                 f"{np.round(theta, 6).tolist()}); check the model's forces or reduce max_step")
         return out
 
-    def friction_power(self, t: float, y: np.ndarray) -> float:
-        """Power of the sliding contacts' friction forces, ``sum lambda_t . v_t`` (<= 0),
-        lambda_t = -mu lambda_n s (:meth:`contact_forces`)."""
-        if not self.slipping:
-            return 0.0
-        k = self.k
-        got = self._compiled_terms(t, y)
-        if got is not None:
-            return got[1]
-        dtheta, _, F = self.velocities(y[:k], y[k:])
-        forces = self.contact_forces(t, y)
-        return sum(float(forces[c][1:] @ (F.jac[c][1:] @ dtheta)) for c, _ in self.slipping)
-
     def _free_rate(self, t: float, theta: np.ndarray, p: np.ndarray) -> np.ndarray | None:
         """y_dot with no constraint in force (the model's two compiled passes,
         :meth:`~convimpact.model.mechanism.ModelMechanism.rhs_free`): the general path's
@@ -572,51 +471,3 @@ class CanonicalEquations(CompiledHeldPath):
         except NonFiniteError:
             return None
         return out if ok and _rc.all_finite(out) else None
-
-    def multipliers(self, t: float, y: np.ndarray) -> np.ndarray:
-        """Constraint forces nu = sigma_dot (eq. 9): loops first, then the held rows.
-
-        From ``M theta_ddot - (C^T + D) nu = f`` and ``C theta_ddot + C_dot theta_dot = 0``
-        (eq. 8). A held contact pushes (compressive) while its normal entry is positive.
-        """
-        return self._unknowns(t, y)[:self.n_constraints]
-
-    def _unknowns(self, t: float, y: np.ndarray) -> np.ndarray:
-        """(n_unknowns,) the multipliers nu, then the redundant sliding contacts' normal
-        forces (:meth:`_multipliers`)."""
-        got = self._compiled_terms(t, y)
-        if got is not None:
-            return got[0].copy()
-        k = self.k
-        theta, p = y[:k], y[k:]
-        dtheta, _, F = self.velocities(theta, p)
-        if not F.C.shape[0]:
-            return np.zeros(0)
-        f, _, Jd = self._rates(t, np.ascontiguousarray(theta, dtype=float), dtheta, True)
-        nu, _ = self._multipliers(t, theta, dtheta, F, f, self._cdot(theta, dtheta, Jd))
-        return nu
-
-    def contact_forces(self, t: float, y: np.ndarray) -> dict[str, np.ndarray]:
-        """The held contacts' forces in their frames (normal first) from the multipliers;
-        a redundant (dropped) row reads zero outside a sliding group (there: its force in
-        the distribution in force), a sliding contact's friction is -mu lambda_n s."""
-        k, m = self.k, self.n_loops
-        got = self._compiled_terms(t, y)
-        if got is not None:  # n_loops = 0
-            nu, _, _, dirs, _ = got
-            out = {c: np.zeros(self._d) for c in self.held}
-            for i, (c, j) in enumerate(self.rows + self.redundant):
-                out[c][j] = nu[i]
-            for (c, _), s in zip(self.slipping, dirs):
-                out[c][1:] = -self.modes[c].mu * out[c][0] * s
-            return out
-        theta = y[:k]
-        nu = self._unknowns(t, y)
-        dtheta, _, F = self.velocities(theta, y[k:])
-        jac = F.jac
-        out = {c: np.zeros(len(jac[c])) for c in self.held}
-        for i, (c, j) in enumerate(self.rows + self.redundant):
-            out[c][j] = nu[m + i]
-        for c, _ in self.slipping:
-            out[c][1:] = -self.modes[c].mu * out[c][0] * self.slip_direction(c, jac[c], dtheta)
-        return out

@@ -12,25 +12,24 @@ from __future__ import annotations
 
 import time as _time
 from bisect import bisect_right
-from dataclasses import replace
-from functools import partial
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
 from ..impact.contacts.threads import one_blas_thread
 from ..impact.errors import PainleveError, SimulationError
 from ..mechanism import Mechanism
-from .canonical import CanonicalEquations, HeldMode, _cho_solve
+from .canonical import CanonicalEquations, HeldMode
 from .contact_events import MAX_EVENTS_AT_ONE_INSTANT, ContactEvents
-from .events import DIP_SAMPLES, fast_interpolant, gap_event, locate_crossing
+from .event_watch import Event, EventWatch, Held
+from .events import fast_interpolant
 from .options import EventDrivenOptions
 from .projection import project_positions
 from .result import (SERIES, ContactEvent, ImpactEvent, PainleveEvent, PiecewiseSolution,
                      SimulationResult, append_sample, series_from_rows)
 from .run_record import ModeLog, contact_rows, law_flags, project_onto
 from .sensitivity import SensitivityTracking
-from .sustained import MARGIN_SLACK, held_forces, painleve_indicator
+from .sustained import held_forces
 from .zeno import AccumulationDetector
 
 END_OF_SPAN = "the end of the time span was reached"
@@ -42,51 +41,7 @@ CONTACT_SERIES = ("held", "mode", "force", "friction")
 #: 4-point Gauss-Legendre nodes and weights on [-1, 1] (the friction work of a step)
 GAUSS4 = np.polynomial.legendre.leggauss(4)
 
-#: an event found in a step: (time, "impact" / "touch" / "mode", contact name)
-Event = tuple[float, str, str]
-Held = tuple[str, ...]
-
-
-class StepSamples:
-    """The free contacts' gaps and normal speeds on one step's interpolant.
-
-    The event functions of :func:`~.events.gap_event` sample every free contact at the same
-    instants (the interior points of :func:`~.events.first_dip`); here each instant's state
-    is interpolated once (the interior points in one vectorized call) and its gaps and normal
-    speeds evaluated once for all contacts, the values those of separate evaluations.
-    """
-
-    def __init__(self, run: "EventDrivenRun", free: Sequence[str], interp, t_old: float,
-                 t_new: float, n: int = DIP_SAMPLES):
-        self.run, self.free, self.interp, self.k = run, tuple(free), interp, run.k
-        times = [t_old + (t_new - t_old) * j / n for j in range(1, n)]
-        self.y: dict[float, np.ndarray] = {}
-        if self.free and times:
-            Y = np.asarray(interp(np.array(times)), float)
-            self.y = {t: np.ascontiguousarray(Y[:, i]) for i, t in enumerate(times)}
-        self._gaps: dict[float, dict[str, float]] = {}
-        self._speeds: dict[float, dict[str, float]] = {}
-
-    def state(self, s: float) -> np.ndarray:
-        y = self.y.get(s)
-        if y is None:
-            y = self.y[s] = np.asarray(self.interp(s), float)
-        return y
-
-    def gap(self, c: str, s: float) -> float:
-        g = self._gaps.get(s)
-        if g is None:
-            g = self._gaps[s] = self.run.gaps(self.free, self.state(s)[:self.k])
-        return g[c]
-
-    def speed(self, c: str, s: float) -> float:
-        v = self._speeds.get(s)
-        if v is None:
-            v = self._speeds[s] = self.run.normal_speeds(self.free, self.state(s))
-        return v[c]
-
-
-class EventDrivenRun(ContactEvents, SensitivityTracking):
+class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
     """The state of one event-driven run and the steps that advance it.
 
     Parameters
@@ -228,119 +183,6 @@ class EventDrivenRun(ContactEvents, SensitivityTracking):
         """``[theta, p]`` with p = M theta_dot - C^T sigma, sigma = (loops' sigma, zeros)."""
         sig = np.concatenate([sig_loops, np.zeros(self.eq.n_constraints - self.m)])
         return np.concatenate([th, self.eq.momentum(th, dth, sig)])
-
-    def closing_in_step(self, free: Sequence[str], interp, t_old: float, t_new: float,
-                        y_new: np.ndarray,
-                        g_prev: Mapping[str, float]) -> tuple[list[Event], dict[str, float]]:
-        """Free contacts closing in the step (see :func:`~.events.gap_event`) and their gaps
-        at its end (the step's samples shared by the contacts, :class:`StepSamples`)."""
-        found: list[Event] = []
-        g_new = self.gaps(free, y_new[:self.k])
-        samples = StepSamples(self, free, interp, t_old, t_new)
-        for c in free:
-            event = gap_event(partial(samples.gap, c), partial(samples.speed, c), t_old, t_new,
-                              g_prev[c], g_new[c], self.opts.event_tol)
-            if event is not None:
-                found.append((*event, c))
-        return found, g_new
-
-    def gaps(self, contacts: Sequence[str], th: np.ndarray) -> dict[str, float]:
-        """The gaps of ``contacts`` at theta (one compiled pass for all of them on a model),
-        counted as event-function evaluations."""
-        self.nevents_fev += len(contacts)
-        if self.eq._model and contacts:
-            d = self.mech.rhs_positions(np.ascontiguousarray(th, dtype=float))
-            idx = [self.contact_at[c] for c in contacts]
-            if all(d.contact_ok[idx]):  # else contact_gap raises the typed error
-                return {c: float(d.gap[i]) for c, i in zip(contacts, idx)}
-        return {c: float(self.mech.contact_gap(c, th)) for c in contacts}
-
-    def normal_speeds(self, contacts: Sequence[str], y: np.ndarray) -> dict[str, float]:
-        """The normal velocities of ``contacts`` at the state ``y``: on a model with no
-        constraint in force, theta_dot = M^-1 p and the Jacobians from one compiled pass."""
-        if self.eq._model and contacts and not self.eq.n_constraints:
-            d = self.mech.rhs_positions(np.ascontiguousarray(y[:self.k], dtype=float))
-            if d.chol_ok:
-                dth = _cho_solve(d.L, y[self.k:])
-                J = d.contact_jacobian
-                return {c: float(J[self.contact_at[c], 0] @ dth) for c in contacts}
-        th, dth, _ = self.state(y)
-        J = self._jacobians(th)
-        return {c: float(J(c)[0] @ dth) for c in contacts}
-
-    def watch(self, t: float, y: np.ndarray, anchors: Mapping[str, np.ndarray],
-              keys: Sequence[str] | None = None) -> dict:
-        """The held contacts' event functions at (t, y): the force margin, the slip
-        velocities along their anchors, and the Painleve indicator (only ``keys`` when
-        given: locating one of them evaluates that one alone).
-
-        The margin and the indicator do not depend on the anchors at a state where every
-        slip keeps its direction (they enter only past a reversal or below the slip floor,
-        where the anchors are left as they were): watching the same state again after
-        :meth:`slip_anchors` (the next step's start) takes them from this evaluation.
-        """
-        self.nevents_fev += 1
-        if self.margin_hint.get("eq") is not self.eq:  # a new segment's modes
-            self.margin_hint = {"eq": self.eq}
-        want = (lambda key: True) if keys is None else (lambda key: key in keys)
-        out = {}
-        memo = self._watched
-        key = y.tobytes()
-        same = (keys is None and memo is not None and memo[0] is self.eq and memo[1] == t
-                and memo[2] == key)
-        if same:
-            out["margin"] = memo[4]
-        elif want("margin"):
-            forces, margin = held_forces(self.eq, t, y, self.margin_hint)
-            out["margin"] = margin + MARGIN_SLACK
-        if anchors:
-            th, dth, _ = self.state(y)
-            J = self._jacobians(th)
-            for c, a in anchors.items():
-                if want("slip:" + c):
-                    out["slip:" + c] = float((J(c)[1:] @ dth) @ a)
-            if same:
-                out["painleve"] = memo[5]
-            elif want("painleve"):
-                out["painleve"] = painleve_indicator(self.eq, t, y)
-        if keys is None and not same:
-            exact = forces if self.margin_hint.get("exact", True) else None
-            self._watched = (self.eq, t, key, exact, out["margin"], out.get("painleve"))
-        return out
-
-    def _jacobians(self, th: np.ndarray):
-        """contact name -> its Jacobian at theta (rows n, t...): from one compiled pass on a
-        model (the state's pass, already done), else :meth:`contact_row`."""
-        if self.eq._model:
-            d = self.mech.rhs_positions(np.ascontiguousarray(th, dtype=float))
-            if all(d.contact_ok):
-                J, at, dd = d.contact_jacobian, self.contact_at, self.d
-                return lambda c: J[at[c], :dd]
-        return lambda c: self.contact_row(c, th)
-
-    def slip_anchors(self, y: np.ndarray) -> dict[str, np.ndarray]:
-        """Per sliding contact with friction, its slip direction now (the event functions of
-        slip reversal are the slip velocities along these); stored as the direction the
-        friction keeps while the slip speed is below the floor."""
-        th, dth, _ = self.state(y)
-        out = {}
-        for c, _ in self.eq.slipping:
-            out[c] = self.eq.slip_direction(c, self.contact_row(c, th), dth)
-            self.eq.modes[c] = replace(self.eq.modes[c], direction=tuple(map(float, out[c])))
-        return out
-
-    def held_in_step(self, interp, t_old: float, t_new: float, w_prev: Mapping[str, float],
-                     w_new: Mapping[str, float], anchors) -> list[Event]:
-        """Held contacts whose mode stops being valid in the step."""
-        found: list[Event] = []
-        for key, prev in w_prev.items():
-            new = w_new[key]
-            if prev > 0.0 >= new:
-                def fun(s, key=key):
-                    return self.watch(s, np.asarray(interp(s), float), anchors, (key,))[key]
-                te = locate_crossing(fun, t_old, t_new, prev, new, self.opts.event_tol)
-                found.append((te, "mode", key))
-        return found
 
     def on_events(self, found: Sequence[Event], interp, t_old: float, t_new: float,
                   y_new: np.ndarray, step_size: float) -> None:
