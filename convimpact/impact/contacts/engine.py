@@ -7,7 +7,9 @@ kernels of the same method, and up to :data:`ADMM_FIRST_MAX_ROWS` rows the compi
 zero gets a bounded try first (before the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows).
 
 The CCP's interior point (Mehrotra's predictor-corrector with Nesterov-Todd scaling, dense or
-sparse) is :mod:`.ccp_interior`.
+sparse) is :mod:`.ccp_interior`. Where W is singular the velocity is unique and the impulses are
+not: the answer is the interior point's iterate where it stops, or, from 120 to 300 rows, the
+ADMM's when its short try is certified first.
 
 The answer is accepted on the natural-map residual in the original data
 (:func:`.cones.natural_map_residual`) and never returned above ``tol``: the caller raises.

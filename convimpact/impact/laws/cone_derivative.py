@@ -45,8 +45,9 @@ several sliding solutions the derivative is that of the one returned (the most d
 The dissipative law's is the plastic CCP impulse's, ``d pi = (1 + e) d pi_p + pi_p de``.
 
 Redundant contacts (W singular on the pressing contacts, a singular mode system) leave the
-impulse non-unique while the velocity is unique: the engine's choice (the analytic centre of
-the solution set) has no derivative written here. By default the functions then raise
+impulse non-unique while the velocity is unique: the engine's choice (where its interior
+point, heading for the analytic centre of the solution set, stops) has no derivative written
+here. By default the functions then raise
 NotSupportedError naming the reason; with ``redundant="velocity"`` they give the
 minimum-norm solution of the linearized mode equations, which differs from any other
 derivative of the solution set by an impulse the bodies do not feel: ``W dpi`` and
