@@ -67,10 +67,17 @@ def test_fast_and_protocol_right_hand_sides_agree(planar, loop, seed):
         if fast.n_constraints >= k:
             continue
         try:
-            slow.factors(th)
+            F = slow.factors(th)
         except Exception:  # a rank-deficient draw: both must refuse it
             with pytest.raises(Exception):
                 fast.factors(th)
+            continue
+        S = F.C @ F.solve(F.C.T)  # C M^-1 C^T
+        if S.size and np.linalg.cond(S) > 1e10:
+            # held rows dependent to round-off (seed 3: two contacts whose normals move
+            # together, cond 3e31): the simulator drops such rows at the event that forms
+            # the set (sustained.redundant_rows); on them both paths divide round-off by
+            # round-off, so there is nothing to compare
             continue
         p = mech.mass_matrix(th) @ dth
         y = np.concatenate([th, p])
