@@ -41,19 +41,11 @@ _AXES = {"X": "1 0 0", "Y": "0 1 0", "Z": "0 0 1"}
 
 
 def _quat(R: np.ndarray) -> str:
-    """MuJoCo's (w, x, y, z) of a rotation matrix."""
-    w = 0.5 * np.sqrt(max(1e-300, 1.0 + R[0, 0] + R[1, 1] + R[2, 2]))
-    if w > 1e-6:
-        q = np.array([w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w),
-                      (R[1, 0] - R[0, 1]) / (4 * w)])
-    else:  # a half turn: read the axis off the largest diagonal entry
-        i = int(np.argmax(np.diag(R)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = np.sqrt(max(1e-300, 1.0 + R[i, i] - R[j, j] - R[k, k])) * 2
-        q = np.zeros(4)
-        q[0] = (R[k, j] - R[j, k]) / s
-        q[1 + i], q[1 + j], q[1 + k] = 0.25 * s, (R[j, i] + R[i, j]) / s, (R[k, i] + R[i, k]) / s
-    q /= np.linalg.norm(q)
+    """MuJoCo's (w, x, y, z) of a rotation matrix (its own conversion)."""
+    import mujoco
+
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).ravel())
     return " ".join(repr(float(v)) for v in q)
 
 

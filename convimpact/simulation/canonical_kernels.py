@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..compiled import jit
+from ..compiled import jit, jit_internal
 from ..impact.problem.compiled_reduction import cholesky_into
 from ..model.compiled_algebra import cho_solve_mat, cho_solve_vec
 
@@ -76,6 +76,21 @@ def held_velocities(Lm, CJ, rc, rr, p, L, C, A, S, SL, dtheta, sigma):
             s += A[i, q] * sigma[q]
         dtheta[i] = s
     return OK
+
+
+@jit_internal
+def _constraint_rhs(L, C, CJD, rc, rr, f, dtheta):
+    """``C M^-1 f + C_dot theta_dot`` (m,): the held rows' acceleration terms (eq. 8)."""
+    k, m = L.shape[0], C.shape[0]
+    Mf = np.empty(k)
+    cho_solve_vec(L, f, Mf)
+    rhs = np.empty(m)
+    for i in range(m):
+        s = 0.0
+        for q in range(k):
+            s += C[i, q] * Mf[q] + CJD[rc[i], rr[i], q] * dtheta[q]
+        rhs[i] = s
+    return rhs
 
 
 @jit
@@ -172,15 +187,9 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, xc, xr, w,
                     for q in range(k):
                         s += C[i, q] * Y[q, j]
                     K[i, m + j] += s
-        # rhs = C M^-1 f + C_dot theta_dot
-        Mf = np.empty(k)
-        cho_solve_vec(L, f, Mf)
-        rhs = np.empty(m)
+        rhs = _constraint_rhs(L, C, CJD, rc, rr, f, dtheta)
         for i in range(m):
-            s = 0.0
-            for q in range(k):
-                s += C[i, q] * Mf[q] + CJD[rc[i], rr[i], q] * dtheta[q]
-            rhs[i] = -s
+            rhs[i] = -rhs[i]
         sol = np.empty(mu_)
         if nx > 0:  # the least-norm solution: G = E W^-1 E^T, nu = W^-1 E^T G^-1 rhs
             G = np.empty((m, m))
@@ -251,14 +260,7 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, xc, xr, w,
         aux[mu_] = power
         aux[mu_ + 1] = ratio
     elif want_nu:  # nu = -(C M^-1 C^T)^-1 (C M^-1 f + C_dot theta_dot)
-        Mf = np.empty(k)
-        cho_solve_vec(L, f, Mf)
-        rhs = np.empty(m)
-        for i in range(m):
-            s = 0.0
-            for q in range(k):
-                s += C[i, q] * Mf[q] + CJD[rc[i], rr[i], q] * dtheta[q]
-            rhs[i] = s
+        rhs = _constraint_rhs(L, C, CJD, rc, rr, f, dtheta)
         cho_solve_vec(SL, rhs, rhs)
         for i in range(m):
             aux[i] = -rhs[i]
