@@ -11,8 +11,7 @@ The public API:
 
 from __future__ import annotations
 
-import sys as _sys
-
+from . import errors
 from .impact import (
     LAWS,
     METHODS,
@@ -27,7 +26,6 @@ from .impact import (
     build_problem,
     central_energy_loss,
     energy_loss,
-    errors,
     frictionless_impulse,
     oblique_coefficients,
     oblique_energy_loss,
@@ -39,22 +37,18 @@ from .impact import (
     sliding_impulse,
     stiction_interval,
 )
-from .impact.errors import *  # noqa: F401,F403  (the exception hierarchy is public)
+from .errors import *  # noqa: F401,F403  (the exception hierarchy is public)
 from .mechanism import Mechanism
 from .scenes import Scene, list_scenes, load_scene
-
-# the exception hierarchy lives in convimpact.impact.errors; ``convimpact.errors`` stays its
-# public name, so `from convimpact.errors import SolverError` keeps working
-_sys.modules.setdefault(__name__ + ".errors", errors)
 
 
 #: the public names that load on first use (so ``import convimpact`` stays light), by the
 #: module that holds them
 _LAZY = {
     "simulate": "convimpact.simulation",
-    "solve_contact_problem": "convimpact.impact.contacts.contact_problem",
-    "ContactSolution": "convimpact.impact.contacts.contact_problem",
-    "UncertifiedSolutionError": "convimpact.impact.contacts.contact_problem",
+    "solve_contact_problem": "convimpact.contacts.contact_problem",
+    "ContactSolution": "convimpact.contacts.contact_problem",
+    "UncertifiedSolutionError": "convimpact.contacts.contact_problem",
     "impact_arguments": "convimpact.model",
     "resolve_mechanism_impact": "convimpact.model",
     "ModelBuilder": "convimpact.model",

@@ -57,7 +57,7 @@ def rod_on_floor(angle_deg: float = 30.0, vx: float = 1.0, vy: float = -1.0,
 
 def _demo(args) -> int:
     from . import LAWS, available_methods, resolve_impact
-    from .impact.errors import ConvImpactError
+    from .errors import ConvImpactError
     from .impact.laws import TANGENTIAL_LAWS
 
     from .impact.problem.build import (check_friction, check_restitution,
@@ -145,7 +145,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from .impact.errors import ConvImpactError
+    from .errors import ConvImpactError
 
     args = build_parser().parse_args(argv)
     try:

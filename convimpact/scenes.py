@@ -18,7 +18,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .impact.errors import ConvImpactError, NonFiniteError, ParameterError, UnknownOptionError
+from .errors import ConvImpactError, NonFiniteError, ParameterError, UnknownOptionError
 from .mechanism import Mechanism
 
 

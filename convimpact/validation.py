@@ -8,11 +8,11 @@ parameters, the studies and the command line -- checks its arguments before any 
 
 * **Bad input raises a subclass of** :class:`convimpact.ConvImpactError` (which also derives
   from ``ValueError``), never another exception, never a silent NaN or inf, never a partial
-  answer: :class:`~convimpact.impact.errors.ShapeError` (wrong shape, or not an array of real
-  numbers), :class:`~convimpact.impact.errors.NonFiniteError` (NaN or infinity, or an answer
-  that leaves double precision's range), :class:`~convimpact.impact.errors.ParameterError`
+  answer: :class:`~convimpact.errors.ShapeError` (wrong shape, or not an array of real
+  numbers), :class:`~convimpact.errors.NonFiniteError` (NaN or infinity, or an answer
+  that leaves double precision's range), :class:`~convimpact.errors.ParameterError`
   (out of range, or not a number: strings such as ``"1e-3"``, booleans, complex numbers and
-  None are refused, not converted), :class:`~convimpact.impact.errors.UnknownOptionError` (an
+  None are refused, not converted), :class:`~convimpact.errors.UnknownOptionError` (an
   unknown name; the message lists the known ones), and the physics' own errors
   (``MassMatrixError``, ``DegenerateContactError``, ``SingularSystemError``, ...).
 * **The message names the argument you passed** (``radius``, ``t_span``, ``max_step``,
@@ -40,8 +40,8 @@ This module holds the small reusable checkers (:func:`real`, :func:`positive`,
 parameter specs a scene lists its parameters with (:class:`Real`, :class:`Integer`,
 :class:`Choice`, :class:`Flag`, :class:`Vector`, :func:`check_parameters`), and argparse
 types for the command line (:func:`arg_finite`, :func:`arg_positive_int`, ...). The typed
-conversions of arrays and numbers are the core's (:func:`convimpact.impact.errors.as_real_array`
-and :func:`~convimpact.impact.errors.real_number`); this module adds finiteness, ranges,
+conversions of arrays and numbers are the core's (:func:`convimpact.errors.as_real_array`
+and :func:`~convimpact.errors.real_number`); this module adds finiteness, ranges,
 integers, choices and shapes on top of them.
 """
 
@@ -54,7 +54,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .impact.errors import (
+from .errors import (
     NonFiniteError,
     ParameterError,
     ShapeError,

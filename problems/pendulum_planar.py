@@ -48,7 +48,7 @@ def make_scene(case: str = "a", e: float = 0.5, mu: float = 0.3, mass: float = 1
                length: float = 1.0) -> Scene:
     """The planar double pendulum of Section 9.2 (see the module docstring)."""
     if case not in ("a", "b", "drop"):
-        from convimpact.impact.errors import UnknownOptionError
+        from convimpact.errors import UnknownOptionError
         raise UnknownOptionError(f"unknown case {case!r}; choose 'a', 'b' or 'drop'")
     if case == "drop":
         floor_y = -1.5 * length
@@ -85,7 +85,7 @@ def make_scene(case: str = "a", e: float = 0.5, mu: float = 0.3, mass: float = 1
 def impact_arguments(case: str = "a", e: float = 0.5, mu: float = 0.3) -> dict:
     """Raw ``resolve_impact`` arguments (M, Jc, dq, C, e, mu) of case "a" or "b"."""
     if case not in ("a", "b"):
-        from convimpact.impact.errors import UnknownOptionError
+        from convimpact.errors import UnknownOptionError
         raise UnknownOptionError(f"case {case!r} has no paper impact; choose 'a' or 'b'")
     scene = make_scene(case=case, e=e, mu=mu)
     theta, dtheta = scene.impact_state

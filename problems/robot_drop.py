@@ -40,7 +40,7 @@ def make_scene(height: float = 0.1, tilt: Sequence[float] = (0.1, 0.05, 0.08), m
     """Solo-12 dropped from ``height`` (m, lowest foot above the floor) with base attitude
     ``tilt`` (yaw, pitch, roll, rad), foot friction ``mu`` and restitution ``e``, joint PD
     gains ``kp`` (N m/rad) and ``kd`` (N m s/rad) around the standing posture."""
-    from convimpact.impact.errors import ParameterError
+    from convimpact.errors import ParameterError
     from convimpact.model.pinocchio_robots import SOLO12_FEET, solo12, solo12_standing
 
     tilt = np.asarray(tilt, dtype=float)

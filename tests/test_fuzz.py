@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 
 from convimpact import resolve_impact
 from convimpact.impact.batch import contact_impulses, resolve_impacts
-from convimpact.impact.errors import ConvImpactError
+from convimpact.errors import ConvImpactError
 
 #: examples per property: the whole file runs in well under 30 s
 FEW = settings(max_examples=40, deadline=None)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.errors import UnknownOptionError
+from convimpact.errors import UnknownOptionError
 from convimpact.mechanism import Mechanism
 from convimpact.scenes import Scene, list_scenes, load_scene
 

@@ -15,7 +15,7 @@ from .cli_run import run_cli
 from convimpact import resolve_impact
 from convimpact.cli import main
 from convimpact.impact.batch import contact_impulses, resolve_impacts
-from convimpact.impact.errors import (
+from convimpact.errors import (
     ConvImpactError,
     DegenerateContactError,
     NonFiniteError,
@@ -360,7 +360,7 @@ def test_energy_functions_raise_instead_of_returning_inf():
 def test_simulate_moreau_called_directly_refuses_a_step_that_is_not_a_positive_real(h):
     """The scheme's own entry point (the user guide calls it) checks h as simulate_with does:
     a string, a boolean or a complex number is refused, not converted."""
-    from convimpact.impact.errors import NonFiniteError, ParameterError
+    from convimpact.errors import NonFiniteError, ParameterError
     from convimpact.simulation.moreau import simulate_moreau
 
     with pytest.raises((ParameterError, NonFiniteError), match="h must"):

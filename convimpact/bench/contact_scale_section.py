@@ -6,7 +6,7 @@ For every problem ``(W, b, mu)`` of the corpus (the whole corpus in the full run
 run) and every law (``ccp``, ``coulomb``), the solvers are
 
 * ``ours``: :func:`convimpact.solve_contact_problem` at ``tol = 1e-8`` (an
-  :class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` is a failure;
+  :class:`~convimpact.contacts.contact_problem.UncertifiedSolutionError` is a failure;
   the answer it carries is recorded with its residual);
 * ``admm``: Pinocchio's ADMM at its tolerance 1e-8 (at most 100,000 iterations: stacks and walls
   need them). ADMM stops on its own primal/dual/complementarity test, not on the natural-map
@@ -182,7 +182,7 @@ class PeerWorker:
 # -- one problem -----------------------------------------------------------------------------
 
 def _ours_call(case, law: str) -> Callable[[], tuple]:
-    from ..impact.contacts.contact_problem import UncertifiedSolutionError, solve_contact_problem
+    from ..contacts.contact_problem import UncertifiedSolutionError, solve_contact_problem
 
     def call():
         try:
@@ -328,10 +328,10 @@ def _cases(config: BenchConfig):
 
 def _warm_up(cases, law: str) -> None:
     """The first call of a law, untimed (compilation, caches), and of the engine's compiled
-    ADMM (:mod:`convimpact.impact.contacts.admm_kernel`), which the smallest problems do not
+    ADMM (:mod:`convimpact.contacts.admm_kernel`), which the smallest problems do not
     reach."""
-    from ..impact.contacts.admm_kernel import dense_admm
-    from ..impact.contacts.engine import warm_newton
+    from ..contacts.admm_kernel import dense_admm
+    from ..contacts.engine import warm_newton
 
     _ours_call(cases[0], law)()
     W, b, mu = np.array([[2.0, 0.5], [0.5, 1.0]]), np.array([-1.0, 0.5]), np.array([0.3])

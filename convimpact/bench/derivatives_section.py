@@ -31,14 +31,12 @@ Several contacts (2, 4, 8, spatial; ccp, coulomb, dissipative, pereira-nikravesh
 
 from __future__ import annotations
 
-import math
-import time
 from typing import Any
 
 import numpy as np
 
 from .registry import BenchConfig, Progress, SectionResult, register_section
-from .timing import MAX_INNER
+from .timing import timed
 
 LAWS = ("pereira-nikravesh", "coulomb", "ccp", "dissipative", "stronge", "chatterjee-ruina")
 #: joint coordinates of the measured impacts
@@ -67,26 +65,6 @@ def problem(seed: int, d: int, k: int = K) -> tuple[np.ndarray, np.ndarray, np.n
     v = np.concatenate(([-1.0], rng.normal(size=d - 1)))
     dq = np.linalg.lstsq(Jc, v, rcond=None)[0]
     return 0.5 * (M + M.T), Jc, dq
-
-
-def timed(fn, repeat: int, batch_time: float) -> tuple[dict[str, float], Any]:
-    """Median process CPU time and wall time per call of ``fn`` over ``repeat`` batches of
-    about ``batch_time`` seconds each, after a warm-up call. CPU time is the section's measure:
-    on a shared machine the wall time also counts the other processes' turns."""
-    value = fn()
-    t = time.perf_counter()
-    value = fn()
-    n_inner = int(min(MAX_INNER, max(1, math.ceil(batch_time / max(
-        time.perf_counter() - t, 1e-9)))))
-    cpu, wall = [], []
-    for _ in range(max(1, repeat)):
-        c, w = time.process_time(), time.perf_counter()
-        for _ in range(n_inner):
-            value = fn()
-        cpu.append((time.process_time() - c) / n_inner)
-        wall.append((time.perf_counter() - w) / n_inner)
-    return {"cpu": float(np.median(cpu)), "wall": float(np.median(wall)),
-            "n_inner": n_inner}, value
 
 
 def fd_jacobian(call, M, Jc, dq, e, mu, e_t) -> dict[str, np.ndarray]:

@@ -123,9 +123,9 @@ def measure_several(law: str, n: int, config: BenchConfig,
     whose several-contact derivative does not apply to the problem gives a row with
     ``skipped`` (the error's message) and no timings."""
     import convimpact as ci
-    from convimpact.impact.errors import NotSupportedError
+    from convimpact.errors import NotSupportedError
 
-    from .derivatives_section import timed
+    from .timing import timed
 
     M, Jc, dq, e, mu = several_problem(config.seed, n)
     k = dq.size

@@ -51,7 +51,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from ..model import contact_jacobian, generalized_forces, mass_matrix
 from ..model import recursive as rc
 from .model_charts import scaling_chart

@@ -191,7 +191,7 @@ def _pile(span: float, progress: Progress, quick: bool = False
 
 def _chatterjee_ruina(n: int, span: float) -> str | None:
     """None if law chatterjee-ruina runs on the row of n boxes at rest, else why it refuses."""
-    from ..impact.errors import ConvImpactError
+    from ..errors import ConvImpactError
 
     mech, q, v = box_row(n, False)
     try:

@@ -25,7 +25,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from ..impact import LAWS, available_methods, solve_problem
 from ..impact.problem.build import ImpactProblem, build_problem
 from . import pinocchio_peers as peers
@@ -336,7 +336,7 @@ def summarize(aggs: list[dict[str, Any]], records: list[dict[str, Any]]) -> list
                  + (f"; failures (recorded in bench.json): {top}" if n_fail else ""))
     odd = [r for r in n_fail if r.get("unexpected") and not r["peer"]]
     if odd:
-        lines.append(f"WARNING: {len(odd)} solves raised exceptions outside convimpact.impact.errors "
+        lines.append(f"WARNING: {len(odd)} solves raised exceptions outside convimpact.errors "
                      f"(e.g. {odd[0]['law']}/{odd[0]['label']} on {odd[0]['problem']}: "
                      f"{odd[0]['error_type']}: {odd[0]['message'][:120]})")
     return lines

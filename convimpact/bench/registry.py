@@ -21,7 +21,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ..files import write_whole
-from ..impact.errors import UnknownOptionError
+from ..errors import UnknownOptionError
 
 #: schema version of bench.json
 SCHEMA = 1
@@ -66,7 +66,7 @@ class BenchConfig:
         """Defaults for a full or a quick run (quick: 3 repeats, 0.5 ms batches)."""
         rep = repeat if repeat is not None else (3 if quick else 7)
         if int(rep) < 1:
-            from ..impact.errors import ParameterError
+            from ..errors import ParameterError
             raise ParameterError(f"repeat must be a positive integer, got {rep!r}")
         return cls(out=Path(out), quick=bool(quick), repeat=int(rep),
                    seed=cls.seed if seed is None else int(seed),

@@ -5,12 +5,12 @@ corners (k = 6, W of size 12 and rank 6; sliding at mu = 0.3, sticking at mu = 1
 impacts of 2-8 contacts, planar and spatial. Two laws, each against the peers that solve it:
 
 * ``ccp`` (Anitescu's program; Pinocchio's ADMM with ``solve_ncp=False``): ``interior`` --
-  :func:`convimpact.impact.contacts.interior.solve_cone_complementarity` on (W, b, mu), the
+  :func:`convimpact.impact.several.interior.solve_cone_complementarity` on (W, b, mu), the
   compiled interior point, its Newton finish and the KKT certificate (the solver against the
   peers' solvers, which also start from W); ``resolve_impact`` -- the public call from the raw
   data (M, the list of Jc, dq, e, mu; ``method="interior"``): validation, the reduction to W,
   the solve and the ImpactResult (for ``ccp`` its compiled lane,
-  :mod:`convimpact.impact.contacts.lane`; ``coulomb`` takes the full path); ``clarabel`` at tol 1e-8 and
+  :mod:`convimpact.impact.several.lane`; ``coulomb`` takes the full path); ``clarabel`` at tol 1e-8 and
   1e-10 (the conic path, equilibrated and KKT-polished); Pinocchio ADMM at 1e-6, 1e-8, 1e-10.
 * ``coulomb`` (Coulomb's law; Pinocchio's ADMM with ``solve_ncp=True`` and PGS): the same
   paths (the conic path is its safeguarded fixed point over CCP programs).
@@ -22,7 +22,7 @@ Accuracy: for ``ccp`` the error ``max |v+ - v+_ref| / max |v-|`` of the contact 
 (unique even where the impulses are not, as on the box) against Clarabel at tol 1e-12; for
 ``coulomb``, whose answer need not be unique at several contacts (the box has a family of
 them), the residual of Coulomb's conditions of each answer
-(:func:`convimpact.impact.contacts.newton.coulomb_certificate`, relative), with the velocity
+(:func:`convimpact.contacts.newton.coulomb_certificate`, relative), with the velocity
 error against the conic path recorded too. The first call's cost is measured: in this
 process (compiling, or loading numba's cached machine code) and, in the full run, in fresh
 processes with an empty and then a filled numba cache.
@@ -52,7 +52,7 @@ ADMM_TOLS = (1e-6, 1e-8, 1e-10)
 RANDOM_FULL = tuple((n, d) for d in (2, 3) for n in (2, 3, 4, 6, 8))
 RANDOM_QUICK = ((3, 3),)
 COMPILE_SNIPPET = ("import time; t = time.perf_counter(); "
-                   "from convimpact.impact.contacts.interior import compile_kernels; "
+                   "from convimpact.impact.several.interior import compile_kernels; "
                    "s = compile_kernels(); print(time.perf_counter() - t)")
 
 
@@ -79,7 +79,7 @@ def _error(P, impulse, ref_vplus) -> float:
 
 def _compile_times(full: bool) -> dict[str, Any]:
     """Seconds of the first call: here, and (full run) in fresh processes, cold and cached."""
-    from convimpact.impact.contacts.interior import compile_kernels
+    from convimpact.impact.several.interior import compile_kernels
 
     out: dict[str, Any] = {}
     t = time.perf_counter()
@@ -106,7 +106,7 @@ def _paths(P, law: str, quick: bool, peers: bool,
     ``raw`` arguments of resolve_impact: M, Jc, dq, e, mu, C)."""
     from convimpact.impact import resolve_impact, solve_problem
     from convimpact.impact.conic.paths import approaching, newton_shift
-    from convimpact.impact.contacts.interior import solve_cone_complementarity
+    from convimpact.impact.several.interior import solve_cone_complementarity
 
     W = P.delassus
     b = P.v_minus.ravel() + newton_shift(P)
@@ -167,7 +167,7 @@ def interleaved_times(paths: list[tuple[str, Callable[[], Any]]], repeat: int,
 def _law_residual(P, law: str, impulse) -> float:
     """The law's own certificate of an answer (relative KKT / Coulomb residual)."""
     from convimpact.impact.conic.paths import approaching, newton_shift
-    from convimpact.impact.contacts.interior import kernels
+    from convimpact.impact.several.interior import kernels
 
     K = kernels()
     b = P.v_minus.ravel() + newton_shift(P)

@@ -35,7 +35,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from ..scenes import load_scene
 from ..simulation import simulate
 from ..simulation.benchmark import benchmark_scene

@@ -82,7 +82,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from ..scenes import load_scene
 from ..simulation import simulate
 from ..simulation.moreau import simulate_moreau
@@ -409,7 +409,7 @@ def run_sustained(config: BenchConfig, progress: Progress,
     wanted = list(scenes) if scenes is not None else scene_keys()
     unknown = [k for k in wanted if k not in scene_keys()]
     if unknown:
-        from ..impact.errors import UnknownOptionError
+        from ..errors import UnknownOptionError
         raise UnknownOptionError(f"unknown sustained scene(s) {', '.join(unknown)}; choose from "
                                  f"{', '.join(scene_keys())}")
     n_rep = 2 if config.quick else 3

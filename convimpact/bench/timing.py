@@ -66,3 +66,23 @@ def time_call(fn: Callable[[], Any], repeat: int = 7, min_batch_time: float = 2e
     a = np.asarray(per_call)
     q1, med, q3 = (float(x) for x in np.percentile(a, [25, 50, 75]))
     return Timing(med, q1, q3, q3 - q1, float(a.min()), len(per_call), n_inner), value
+
+
+def timed(fn, repeat: int, batch_time: float) -> tuple[dict[str, float], Any]:
+    """Median process CPU time and wall time per call of ``fn`` over ``repeat`` batches of
+    about ``batch_time`` seconds each, after a warm-up call. CPU time is the section's measure:
+    on a shared machine the wall time also counts the other processes' turns."""
+    value = fn()
+    t = time.perf_counter()
+    value = fn()
+    n_inner = int(min(MAX_INNER, max(1, math.ceil(batch_time / max(
+        time.perf_counter() - t, 1e-9)))))
+    cpu, wall = [], []
+    for _ in range(max(1, repeat)):
+        c, w = time.process_time(), time.perf_counter()
+        for _ in range(n_inner):
+            value = fn()
+        cpu.append((time.process_time() - c) / n_inner)
+        wall.append((time.perf_counter() - w) / n_inner)
+    return {"cpu": float(np.median(cpu)), "wall": float(np.median(wall)),
+            "n_inner": n_inner}, value

@@ -9,9 +9,9 @@ takes them (each folder's docstring tells its part in a few lines):
 3. the solver paths, which :mod:`~convimpact.impact.resolve` picks from an explicit table
    (``resolve_impact``, ``solve_problem``):
    :mod:`~convimpact.impact.exact` (the kernels, one contact: the compiled lane, the paper's
-   closed forms and sweep), :mod:`~convimpact.impact.contacts` (the several-contact interior
-   point), :mod:`~convimpact.impact.conic` (any law's cone program by Clarabel, directly or
-   through cvxpy: the cross-check); :mod:`~convimpact.impact.batch` drives the same kernels
+   closed forms and sweep), :mod:`~convimpact.impact.several` (several contacts on the
+   contact engine, :mod:`convimpact.contacts`), :mod:`~convimpact.impact.conic` (any law's
+   cone program by Clarabel, directly or through cvxpy: the cross-check); :mod:`~convimpact.impact.batch` drives the same kernels
    over many impacts at once;
 4. :mod:`~convimpact.impact.diagnostics` turns an impulse into an
    :class:`~convimpact.impact.results.ImpactResult` with the law's invariants measured;
@@ -21,12 +21,12 @@ takes them (each folder's docstring tells its part in a few lines):
 derivatives=True)``): each law's ``impulse_derivative`` beside its kernel, then the chain rule
 to the derivatives of dq_plus and of the impulse with respect to dq, M, Jc, e and mu.
 
-:mod:`~convimpact.impact.errors` is the exception hierarchy the whole library raises.
+:mod:`~convimpact.errors` is the exception hierarchy the whole library raises.
 """
 
 from __future__ import annotations
 
-from . import errors
+from .. import errors
 from .energy import (
     StictionInterval,
     central_energy_loss,

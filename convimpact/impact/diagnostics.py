@@ -21,7 +21,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .errors import NonFiniteError
+from ..errors import NonFiniteError
 from .problem.build import ImpactProblem, _new
 from .results import ImpactDiagnostics, ImpactResult
 

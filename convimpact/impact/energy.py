@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import NonFiniteError, ShapeError, SingularSystemError, as_real_array, real_number
+from ..errors import NonFiniteError, ShapeError, SingularSystemError, as_real_array, real_number
 from .problem.build import build_problem, check_friction, check_mass_matrix, check_restitution
 from .problem.reduction import _reduce
 

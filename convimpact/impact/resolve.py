@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from .diagnostics import assemble_result
-from .errors import (
+from ..errors import (
     NonPositiveEffectiveMassError,
     NotSupportedError,
     SingularSystemError,
@@ -24,6 +24,7 @@ from .errors import (
     UnknownOptionError,
 )
 from .exact.lane import resolve_one
+from .options import METHOD_OPTIONS, options_help  # noqa: F401 (public here)
 from .laws import LAW_MODULES, TANGENTIAL_LAWS, law_module
 from .problem.build import ImpactProblem, build_problem
 from .results import ImpactResult
@@ -45,9 +46,9 @@ GENERIC_SOLVERS: dict[str, str] = {
 SPECIFIC_SOLVERS: dict[tuple[str, str], str] = {
     ("pereira-nikravesh", "closed-form"): "convimpact.impact.laws.pereira_nikravesh:closed_form",
     ("pereira-nikravesh", "sweep"): "convimpact.impact.exact.sweep:pereira_nikravesh_sweep",
-    ("ccp", "interior"): "convimpact.impact.contacts.interior:ccp_result",
-    ("coulomb", "interior"): "convimpact.impact.contacts.interior:coulomb_result",
-    ("dissipative", "interior"): "convimpact.impact.contacts.interior:dissipative_result",
+    ("ccp", "interior"): "convimpact.impact.several.interior:ccp_result",
+    ("coulomb", "interior"): "convimpact.impact.several.interior:coulomb_result",
+    ("dissipative", "interior"): "convimpact.impact.several.interior:dissipative_result",
 }
 #: the solvers built from the tables (on first use) and those given to register_solver
 _SOLVERS: dict[tuple[str, str], Solver] = {}
@@ -111,27 +112,6 @@ def check_law_method(law: str, method: str) -> None:
 
 #: methods that treat one contact only
 SINGLE_CONTACT_METHODS = ("closed-form", "fast", "sweep")
-#: the keyword options each method takes (``resolve_impact(..., **options)``; defaults and
-#: meanings in its docstring's table): the methods' own option checks accept exactly these
-METHOD_OPTIONS: dict[str, tuple[str, ...]] = {
-    "closed-form": (),
-    "sweep": ("xtol", "n_grid"),
-    "fast": (),
-    "interior": ("tol", "max_iter", "newton_iter"),
-    "clarabel": ("tol", "max_iter", "fixed_point_tol", "max_fixed_point_iter",
-                 "anderson_memory"),
-    "cvxpy": ("tol", "max_iter", "fixed_point_tol", "max_fixed_point_iter",
-              "anderson_memory"),
-}
-
-
-def options_help() -> str:
-    """One line naming every method's options (for the messages of UnknownOptionError)."""
-    by = "; ".join(f"{m}: {', '.join(o) if o else 'none'}" for m, o in METHOD_OPTIONS.items())
-    return (f"options by method -- {by} (under method='auto' they go to the method it picks; "
-            "see resolve_impact's docstring)")
-
-
 _CANDIDATES: dict[tuple, list[str]] = {}
 #: laws whose several contacts go to the contact engine (method "interior") first under
 #: method="auto": the convex programs (unique velocities) and Coulomb's law, whose answer at
@@ -277,7 +257,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
     method : {"auto", "closed-form", "sweep", "fast", "interior", "clarabel", "cvxpy"}
         The solver path; ``"auto"`` picks the cheapest one exact for the problem. One
         open-loop contact (``fast``) and several under ``interior`` run in compiled lanes
-        (:mod:`convimpact.impact.exact.lane`, :mod:`convimpact.impact.contacts.lane`) when the data
+        (:mod:`convimpact.impact.exact.lane`, :mod:`convimpact.impact.several.lane`) when the data
         are plain; any other case takes the full path, with the same answers to round-off.
     e_t : float or per-contact sequence, optional
         Tangential restitution in [-1, 1] of law ``"chatterjee-ruina"`` (default 0); the
@@ -388,7 +368,7 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
             (method == "auto" and law in INTERIOR_FIRST)
             or (method == "interior" and law in INTERIOR_LANE)):
         # several open-loop contacts on the interior path: the compiled lane
-        # (convimpact.impact.contacts.lane), which hands every case but the plain one back
+        # (convimpact.impact.several.lane), which hands every case but the plain one back
         result = _several_lane()(M, Jc, dq, e, mu, law)
         if result is not None:
             return result
@@ -409,12 +389,12 @@ def check_law_parameters(law: str, e_t):
 
 
 def _several_lane():
-    """The several-contact lane's entry (:func:`convimpact.impact.contacts.lane.resolve_several`),
+    """The several-contact lane's entry (:func:`convimpact.impact.several.lane.resolve_several`),
     imported on first use."""
     global _SEVERAL_LANE
     lane = _SEVERAL_LANE
     if lane is None:
-        from .contacts.lane import resolve_several as lane
+        from .several.lane import resolve_several as lane
 
         _SEVERAL_LANE = lane
     return lane

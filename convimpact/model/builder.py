@@ -23,7 +23,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from ..impact.errors import ModelError
+from ..errors import ModelError
 from .data import Data
 from .geometry import orthonormal_complement, rot2
 from .joints import Joint, Motion

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..impact.errors import SingularSystemError
+from ..errors import SingularSystemError
 from .recursive import CDOT, CONTACT
 
 

@@ -15,7 +15,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from ..impact.errors import NonFiniteError, ShapeError
+from ..errors import NonFiniteError, ShapeError
 from . import recursive as rc
 
 _F64 = np.dtype(np.float64)

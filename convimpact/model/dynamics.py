@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..impact.errors import NonFiniteError, ShapeError
+from ..errors import NonFiniteError, ShapeError
 from .kinematics import check_vector, ensure_configuration, point_jacobian
 from .recursive import BIAS, MASS, MDOT, POS
 

@@ -13,7 +13,7 @@ from typing import Sequence, Union
 
 import numpy as np
 
-from ..impact.errors import ModelError, NonFiniteError, ShapeError
+from ..errors import ModelError, NonFiniteError, ShapeError
 
 #: default tolerance on |gap| for a contact to count as touching
 GAP_TOL = 1e-9

@@ -20,7 +20,7 @@ kind              planar coordinates          spatial coordinates
 The spatial ``free`` joint uses Cardan angles rather than a quaternion so that theta_dot is
 the time derivative of theta; like every three-angle set it is singular where the middle
 angle is +-90 degrees (the mass matrix is then singular), which the model reports through
-:class:`~convimpact.impact.errors.MassMatrixError` when an impact is resolved there.
+:class:`~convimpact.errors.MassMatrixError` when an impact is resolved there.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..impact.errors import ModelError
+from ..errors import ModelError
 
 JOINT_KINDS = ("revolute", "prismatic", "fixed", "translation", "free", "universal")
 

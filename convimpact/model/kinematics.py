@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..impact.errors import ModelError, NonFiniteError, ShapeError
+from ..errors import ModelError, NonFiniteError, ShapeError
 from .recursive import POS, VEL, point_columns
 
 

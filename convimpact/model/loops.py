@@ -14,7 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..impact.errors import AssemblyError, ModelError
+from ..errors import AssemblyError, ModelError
 from .geometry import cross
 from .kinematics import (
     ensure_configuration,

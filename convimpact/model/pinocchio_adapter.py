@@ -19,7 +19,7 @@ Pinocchio ``model``, ``data``, configuration ``q`` and velocity ``v``:
 Pinocchio (PyPI package ``pin``) is an optional extra: ``pip install convimpact[pinocchio]``.
 It is imported on first use; when it is missing every function raises
 :class:`PinocchioUnavailableError`, which is both a
-:class:`~convimpact.impact.errors.NotSupportedError` and an ``ImportError``.
+:class:`~convimpact.errors.NotSupportedError` and an ``ImportError``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..impact.errors import ModelError
+from ..errors import ModelError
 from .pinocchio_mechanism import PinocchioMechanism
 from .pinocchio_terms import (FrameRef, PinocchioContact, PinocchioUnavailableError, _pin, _vec,
                               contact_basis, contact_jacobian, mass_matrix, point_loop_jacobian,

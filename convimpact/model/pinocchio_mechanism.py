@@ -26,7 +26,7 @@ so theta_dot is the Euler angles' rate. (Pinocchio's ``SphericalZYX`` and compos
 would do the same in one joint, but its Coriolis matrix is inexact for them: M_dot differs
 from finite differences of M by 7 % on Solo-12; such joints are refused.)
 Euler angles are singular at pitch = +-90 degrees: there M loses rank (the simulator stops with
-a :class:`~convimpact.impact.errors.SimulationError`); keep the base away from that attitude or
+a :class:`~convimpact.errors.SimulationError`); keep the base away from that attitude or
 re-seat the angles between runs. ``"planar"`` is x, y and a rotation about z.
 """
 
@@ -38,7 +38,7 @@ from typing import Callable, Optional, Sequence, Union
 
 import numpy as np
 
-from ..impact.errors import (ModelError, NonFiniteError, NotSupportedError, ParameterError,
+from ..errors import (ModelError, NonFiniteError, NotSupportedError, ParameterError,
                              ShapeError)
 from .pinocchio_terms import (FrameRef, PinocchioContact, _frame_id, _pin, _skew, contact_basis,
                               mass_matrix, point_loop_jacobian, point_loop_jacobian_dot)

@@ -6,7 +6,7 @@ The PyPI package ``example-robot-data`` (a cmeel wheel) installs its URDF/SRDF f
 module here, so :func:`robot_data_dir` finds that folder through the distribution's installed
 file list (``importlib.metadata``), with cmeel's prefix as a fallback. When the package is
 missing every function raises :class:`RobotDataUnavailableError` (both a
-:class:`~convimpact.impact.errors.NotSupportedError` and an ``ImportError``).
+:class:`~convimpact.errors.NotSupportedError` and an ``ImportError``).
 
 :func:`solo12` loads the Solo-12 quadruped as a :class:`PinocchioMechanism` with a free base
 (translation + Z-Y-X Euler angles) and point contacts at its four feet against the floor z = 0.
@@ -20,7 +20,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from ..impact.errors import ModelError, NotSupportedError
+from ..errors import ModelError, NotSupportedError
 from .pinocchio_adapter import PinocchioContact
 from .pinocchio_mechanism import PinocchioMechanism
 from .placement import place_resting

@@ -13,7 +13,7 @@ These are the pieces that :mod:`convimpact.model.pinocchio_adapter` (single impa
 our models) and :class:`~convimpact.model.pinocchio_mechanism.PinocchioMechanism`
 (simulation) share; both modules hand the public names on. Pinocchio (PyPI package ``pin``)
 is an optional extra, imported on first use by :func:`_pin`, which raises
-:class:`PinocchioUnavailableError` (a :class:`~convimpact.impact.errors.NotSupportedError`
+:class:`PinocchioUnavailableError` (a :class:`~convimpact.errors.NotSupportedError`
 and an ``ImportError``) when it is missing.
 """
 
@@ -24,7 +24,7 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
-from ..impact.errors import ModelError, NotSupportedError, ShapeError
+from ..errors import ModelError, NotSupportedError, ShapeError
 from .geometry import orthonormal_complement
 
 FrameRef = Union[str, int]

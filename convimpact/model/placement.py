@@ -27,7 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..impact.errors import (
+from ..errors import (
     AssemblyError,
     MassMatrixError,
     ModelError,

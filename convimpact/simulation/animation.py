@@ -22,7 +22,7 @@ from typing import Any, Mapping, Union
 
 import numpy as np
 
-from ..impact.errors import ShapeError
+from ..errors import ShapeError
 from .animation_frames import (
     DEFAULT_SPATIAL_VIEW, MAX_FRAMES, MODE_COLORS, NAMED_VIEWS, View, ViewProjection,
     convex_hull, forces_at, frame_times, interpolate_samples, modes_at, states_at)

@@ -14,7 +14,7 @@ from typing import Sequence, Union
 
 import numpy as np
 
-from ..impact.errors import ParameterError, ShapeError
+from ..errors import ParameterError, ShapeError
 from .result import MODE_NAMES, SimulationResult
 
 #: colour of each contact mode (open grey, stick green, slip red)

@@ -15,7 +15,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.errors import NotSupportedError, ParameterError, ShapeError
+from ..errors import NotSupportedError, ParameterError, ShapeError
 
 
 def check_animatable(mechanism: Any):

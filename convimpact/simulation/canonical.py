@@ -45,7 +45,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..impact.errors import NonFiniteError, SimulationError
+from ..errors import NonFiniteError, SimulationError
 from ..mechanism import Mechanism
 from ..model import recursive as _rc
 from .canonical_compiled import CompiledHeldPath

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..impact.errors import NonFiniteError
+from ..errors import NonFiniteError
 
 _KERNELS = None
 

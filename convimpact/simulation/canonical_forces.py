@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 
-from ..impact.errors import SimulationError
+from ..errors import SimulationError
 from ..model import recursive as _rc
 
 if TYPE_CHECKING:

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..files import write_whole
 from ..cli import command
-from ..impact.errors import NotSupportedError, ParameterError, UnknownOptionError
+from ..errors import NotSupportedError, ParameterError, UnknownOptionError
 from ..impact import LAWS, METHODS, available_methods
 from ..impact.results import _jsonable
 from ..scenes import list_scenes, load_scene

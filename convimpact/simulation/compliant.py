@@ -39,7 +39,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from scipy.integrate import OdeSolver
 
-from ..impact.errors import (
+from ..errors import (
     ParameterError,
     SimulationError,
     UnknownOptionError,

@@ -13,7 +13,7 @@ from typing import Any, Collection, Mapping, Sequence
 import numpy as np
 
 from ..impact import resolve_impact
-from ..impact.errors import ConvImpactError, NotSupportedError, PainleveError, SimulationError
+from ..errors import ConvImpactError, NotSupportedError, PainleveError, SimulationError
 from ..impact.results import ImpactResult
 from .canonical import CanonicalEquations
 from .force_solver import solve_contact_forces

@@ -45,7 +45,7 @@ from functools import cached_property
 import numpy as np
 from scipy.optimize import brentq
 
-from ..impact.errors import NotSupportedError, ShapeError
+from ..errors import NotSupportedError, ShapeError
 from .force_distribution import OPEN, RTOL, SLIP, STICK, max_margin_distribution
 
 #: largest number of closed contacts enumerated (4^n combinations in the plane)

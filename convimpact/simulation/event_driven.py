@@ -16,8 +16,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..impact.contacts.threads import one_blas_thread
-from ..impact.errors import PainleveError, SimulationError
+from ..contacts.threads import one_blas_thread
+from ..errors import PainleveError, SimulationError
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations, HeldMode
 from .contact_events import MAX_EVENTS_AT_ONE_INSTANT, ContactEvents

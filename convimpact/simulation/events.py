@@ -13,7 +13,7 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from ..impact.errors import PenetrationError  # noqa: F401  (re-exported for convimpact.simulation)
+from ..errors import PenetrationError  # noqa: F401  (re-exported for convimpact.simulation)
 
 
 def locate_crossing(fun: Callable[[float], float], ta: float, tb: float, fa: float, fb: float,

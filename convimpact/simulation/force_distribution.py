@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ..impact.errors import SolverError
+from ..errors import SolverError
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
 #: default relative tolerance of the inequalities
@@ -88,7 +88,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     stationarity, complementarity) holding to ``CERTIFY_RTOL``, evaluated here; the returned
     margin must be within ``RTOL`` (relative to the force scale and the distribution's size;
     ``CERTIFY_RTOL |t*|`` if larger) of ``t*``. Otherwise
-    :class:`~convimpact.impact.errors.SolverError` is raised, never an unconverged
+    :class:`~convimpact.errors.SolverError` is raised, never an unconverged
     distribution returned.
 
     Returns (lambda, margin): the distribution (n d,) and its smallest margin (force units;

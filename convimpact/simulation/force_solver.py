@@ -13,9 +13,9 @@ contact: exact, but 3^n to 4^n linear systems. Here the modes are *found*, not e
    the acceleration level in De Saxce's form, ``K_mu ∋ lambda ⊥ a + mu |a_t| e_n ∈ K_mu*``
    (stick, or slip onset along ``a_t``). Without sliding contacts this is the contact
    problem of :func:`convimpact.solve_contact_problem` with the symmetric ``W``, solved
-   by the engine (:func:`convimpact.impact.contacts.engine.solve`); with them, a semismooth
+   by the engine (:func:`convimpact.contacts.engine.solve`); with them, a semismooth
    Newton method on the natural map of the (non-symmetric) mixed problem
-   (:func:`~convimpact.impact.contacts.finish.newton_finish`) from the engine's answer with
+   (:func:`~convimpact.contacts.finish.newton_finish`) from the engine's answer with
    the sliding contacts' friction left out.
 3. **The modes, and the exact forces.** Each contact's mode is read off the answer (open
    where ``a_n > 0``; stick where ``a_t = 0``; slip onset along ``a_t`` otherwise) and the
@@ -35,9 +35,9 @@ the solution says so in ``notes``. Painleve's paradox is the loss of existence o
 uniqueness that a contact in slip with a non-positive effective normal mass
 ``A = W_nn - mu W_nt s`` causes (Painleve's rod). Where a slipping contact has ``A <= 0``, or
 no solution is found, the problem is decided by the exact enumerator when it has at most
-:data:`ENUMERATE_MAX` contacts; beyond, :class:`~convimpact.impact.errors.PainleveError` is
+:data:`ENUMERATE_MAX` contacts; beyond, :class:`~convimpact.errors.PainleveError` is
 raised naming the contacts with ``A <= 0`` (or, with every ``A > 0``,
-:class:`~convimpact.impact.errors.SolverError`: the solver failed, no paradox is claimed).
+:class:`~convimpact.errors.SolverError`: the solver failed, no paradox is claimed).
 """
 
 from __future__ import annotations
@@ -46,9 +46,9 @@ import itertools
 
 import numpy as np
 
-from ..impact.contacts.engine import solve as engine_solve
-from ..impact.contacts.finish import newton_finish
-from ..impact.errors import PainleveError, SolverError
+from ..contacts.engine import solve as engine_solve
+from ..contacts.finish import newton_finish
+from ..errors import PainleveError, SolverError
 from .contact_forces import (ContactForceProblem, ContactForceSolution, _candidate,
                              _label_frictionless, _onset_roots, _scales, _unit,
                              force_solutions, planar_contact_force)

@@ -14,7 +14,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
 
-from ..impact.errors import (
+from ..errors import (
     LoopConstraintError,
     NonFiniteError,
     PenetrationError,
@@ -118,7 +118,7 @@ def initial_state(y0, scene, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 def state_vector(name: str, v, k: int) -> np.ndarray:
     """A finite vector of k joint values, or ShapeError / NonFiniteError."""
-    from ..impact.errors import as_real_array
+    from ..errors import as_real_array
 
     a = as_real_array(name, v).ravel()  # a string, boolean or complex entry: ShapeError
     if a.shape != (k,):

@@ -36,10 +36,10 @@ of size h from (q_k, v_k) at t_k:
    ``W = J G J^T``, built in the block structure of M (batched factorizations of the
    coordinate groups), split into independent islands (:mod:`.islands`), warm-started from
    the previous step's impulses, solved by the engine's compiled kernels in one call for
-   the small islands and by :func:`convimpact.impact.contacts.engine.solve` for the large
+   the small islands and by :func:`convimpact.contacts.engine.solve` for the large
    ones, each island certified by its natural-map residual (``impact_options["tol"]``,
    default 1e-8) or
-   :class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` naming the
+   :class:`~convimpact.contacts.contact_problem.UncertifiedSolutionError` naming the
    step and the contacts;
 6. ``q_{k+1} = q_m + h theta v_{k+1}``; for closed loops theta is projected back onto
    ``Psi = 0`` (M-weighted, when the drift exceeds ``projection_tol``) and ``v_{k+1}`` onto
@@ -83,7 +83,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from .. import validation
-from ..impact.errors import ParameterError, UnknownOptionError
+from ..errors import ParameterError, UnknownOptionError
 from ..impact import check_law_method
 from .result import SimulationResult
 from .initial import consistent_start, initial_state, law_options, positive, time_span
@@ -208,7 +208,7 @@ def simulate_moreau(
         Loop drift max |Psi| above which positions are projected after a step.
     assemble : bool
         Project an initial state that violates the loops (True) or raise
-        :class:`~convimpact.impact.errors.LoopConstraintError` (False).
+        :class:`~convimpact.errors.LoopConstraintError` (False).
     contact_tol : float
         Penetration accepted in the initial state.
     impact_options : mapping, optional

@@ -10,7 +10,7 @@ contact Jacobians at a configuration) and the inverse mass of a step.
   (:func:`.islands.coordinate_groups`, kept while M, or with loops the coupling of M and C,
   has no nonzero outside their blocks) and G block by block (compiled Cholesky of each
   block, :func:`.moreau_step_kernels.block_inverses`; a mass matrix that is not positive
-  definite or not finite raises :class:`~convimpact.impact.errors.SimulationError`); with
+  definite or not finite raises :class:`~convimpact.errors.SimulationError`); with
   loops G is the loop-constrained inverse ``M^-1 - A (C A)^-1 A^T``, ``A = M^-1 C^T``, so
   ``C v_{k+1} = 0`` (:func:`inverse_mass`).
 * **Islands**: the active contacts' islands (:func:`.islands.contact_islands`; the layout
@@ -23,18 +23,18 @@ contact Jacobians at a configuration) and the inverse mass of a step.
   (``b = J v_free``) and multiplies each contact's impulse by ``1 + e_eff``: the law's
   definition, exact; the certificate is the plastic problem's.
 * **Solves** (:func:`solve_step`): islands of at most
-  :data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` rows are assembled and solved
+  :data:`~convimpact.contacts.engine.COMPILED_MAX_ROWS` rows are assembled and solved
   together in one compiled call (:func:`.moreau_kernels.solve_small_islands`); one it leaves
   uncertified is finished by the engine backend's regularized Newton from its answer
-  (:func:`convimpact.impact.contacts.engine.warm_newton`), then by the full engine; larger
-  islands go to :func:`convimpact.impact.contacts.engine.solve` (W sparse from
+  (:func:`convimpact.contacts.engine.warm_newton`), then by the full engine; larger
+  islands go to :func:`convimpact.contacts.engine.solve` (W sparse from
   :data:`SPARSE_MIN_ROWS` rows). With ``warm_start`` each island starts from the previous
   step's impulses of its contacts (Newton on the law's natural map; the cold path when that
   is not certified).
 
 Every island's answer is certified: its relative natural-map residual (the engine's
 measure) is at most ``tol``, else
-:class:`~convimpact.impact.contacts.contact_problem.UncertifiedSolutionError` naming the step
+:class:`~convimpact.contacts.contact_problem.UncertifiedSolutionError` naming the step
 and the contacts; no answer above ``tol`` is ever applied.
 
 Differences from the step solver through :func:`convimpact.resolve_impact`
@@ -55,9 +55,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ..impact.contacts import ccp_interior, engine
-from ..impact.contacts.contact_problem import ContactSolution, UncertifiedSolutionError
-from ..impact.errors import ConvImpactError, LoopConstraintError, SimulationError
+from ..contacts import ccp_interior, engine
+from ..contacts.contact_problem import ContactSolution, UncertifiedSolutionError
+from ..errors import ConvImpactError, LoopConstraintError, SimulationError
 from .islands import Groups, contact_islands, coordinate_groups
 from .moreau_kernels import apply_impulses, assemble_islands, same_pattern, solve_small_islands
 from .moreau_step_kernels import block_inverses
@@ -245,7 +245,7 @@ class Layout:
     """How a step's active contacts split into islands (reused while the active set, the
     columns their rows move and the groups stay: a resting or sliding scene keeps it for
     many steps). The small islands (at most
-    :data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` rows) flat, for
+    :data:`~convimpact.contacts.engine.COMPILED_MAX_ROWS` rows) flat, for
     :func:`.moreau_step_kernels.solve_small_islands`: island i has the active contacts
     ``icon[icoff[i]:icoff[i + 1]]`` and the coordinates ``icol[icoloff[i]:icoloff[i + 1]]``;
     the large ones as (contacts, coordinates)."""

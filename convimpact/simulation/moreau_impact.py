@@ -59,7 +59,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..impact import resolve_impact
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from .islands import contact_islands
 from .result import ImpactEvent
 

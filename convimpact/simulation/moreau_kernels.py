@@ -6,16 +6,16 @@ into independent islands (:mod:`.islands`); a scene of separate bodies (boxes si
 has many islands of a few contacts each, where calling the engine once per island would
 spend more time in Python than in the solves. :func:`solve_small_islands` assembles every
 small island's Delassus matrix ``W = J_I G_II J_I^T`` (as :func:`assemble_islands` does) and
-runs the engine's compiled kernels (:mod:`convimpact.impact.contacts.newton`: the interior
-point and the Newton finish of :func:`convimpact.impact.contacts.engine.solve`) over all of
+runs the engine's compiled kernels (:mod:`convimpact.contacts.newton`: the interior
+point and the Newton finish of :func:`convimpact.contacts.engine.solve`) over all of
 them in one call, each island warm-started, when asked, by Newton on its law's natural map
-from the previous step's impulses (:func:`convimpact.impact.contacts.engine.warm_newton`'s
+from the previous step's impulses (:func:`convimpact.contacts.engine.warm_newton`'s
 compiled branch). :func:`apply_impulses` gives ``v_{k+1} = v_free + G J^T r``;
 :func:`same_pattern` tells whether a step keeps the previous step's island layout.
 
 Every answer is judged by the relative natural-map residual on the island's original data,
 :func:`natural_map_residual` (the formula of
-:func:`convimpact.impact.contacts.cones.natural_map_residual`, compiled); an island whose
+:func:`convimpact.contacts.cones.natural_map_residual`, compiled); an island whose
 answer is above ``tol`` is flagged, and the caller hands it to the full engine (its ADMM for
 Coulomb's law) or raises.
 """
@@ -27,8 +27,8 @@ import math
 import numpy as np
 
 from ..compiled import jit as _jit
-from ..impact.contacts.natural_map import natural_map_newton
-from ..impact.contacts.newton import ccp_kernel, coulomb_kernel, scaled_program
+from ..contacts.natural_map import natural_map_newton
+from ..contacts.newton import ccp_kernel, coulomb_kernel, scaled_program
 from .moreau_step_kernels import block_times
 
 

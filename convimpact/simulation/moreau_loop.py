@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from ..impact.contacts.threads import one_blas_thread
-from ..impact.errors import SimulationError
+from ..contacts.threads import one_blas_thread
+from ..errors import SimulationError
 from .moreau_engine import Evaluator, GroupCache, InverseMass, inverse_mass, regroup
 from .moreau_step_kernels import (
     EVAL_SHIFT,

@@ -67,7 +67,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 import scipy.linalg as sla
 
-from ..impact.errors import NonFiniteError, NotSupportedError, ParameterError, ShapeError
+from ..errors import NonFiniteError, NotSupportedError, ParameterError, ShapeError
 from ..validation import choice, integer, mapping, positive
 from .initial import state_vector
 from .periodic_section import (PeriodicOrbitError, _classify, _constraints, _flow, _jac,

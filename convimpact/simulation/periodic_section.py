@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..impact.errors import AssemblyError, SolverError
+from ..errors import AssemblyError, SolverError
 from .initial import state_vector
 from .projection import project_positions, project_velocities
 

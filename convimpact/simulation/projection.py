@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from ..impact.errors import AssemblyError
+from ..errors import AssemblyError
 
 
 def project_positions(residual, jacobian, mass_matrix, theta: np.ndarray, tol: float,

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-from ..impact.errors import ParameterError, UnknownOptionError
+from ..errors import ParameterError, UnknownOptionError
 from .compliant import simulate_compliant
 from .moreau import simulate_moreau
 from .result import SimulationResult
@@ -98,7 +98,7 @@ def simulate_with(system, t_span: Sequence[float] | None = None, y0=None, *,
     if scheme != "event-driven" and "sensitivities" in options:
         from ..validation import boolean
         if boolean("sensitivities", options.pop("sensitivities")):
-            from ..impact.errors import NotSupportedError
+            from ..errors import NotSupportedError
             raise NotSupportedError(
                 f"sensitivities=True: trajectory sensitivities (saltation matrices, "
                 f"state_transition) are computed by the event-driven scheme only, not by "

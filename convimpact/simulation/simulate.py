@@ -38,7 +38,7 @@ import numpy as np
 from scipy.integrate import DOP853, RK23, RK45, OdeSolver, Radau
 
 from ..impact import check_law_method
-from ..impact.errors import ShapeError
+from ..errors import ShapeError
 from ..mechanism import Mechanism
 from .canonical import CanonicalEquations
 from .event_driven import MAX_EVENTS_AT_ONE_INSTANT  # noqa: F401  (re-exported)
@@ -135,7 +135,7 @@ def simulate(
         restart, and are projected only beyond ``max(projection_tol, 1000 atol)``.
     assemble : bool
         If the initial state violates Psi = 0 or C theta_dot = 0: project it onto the
-        constraints (True) or raise :class:`~convimpact.impact.errors.LoopConstraintError` (False).
+        constraints (True) or raise :class:`~convimpact.errors.LoopConstraintError` (False).
     zeno : {"persist", "stop"}
         Accumulating impacts (see :mod:`convimpact.simulation.zeno`): hold the contact closed
         as a bilateral constraint until its normal force turns tensile ("persist"), or stop
@@ -154,7 +154,7 @@ def simulate(
     painleve : {"stop", "raise"}
         Painleve's paradox (the contact force problem of a sliding contact has no solution or
         several): stop the run with status 2, the event in ``result.painleve`` and a warning
-        ("stop"), or raise :class:`~convimpact.impact.errors.PainleveError` carrying that
+        ("stop"), or raise :class:`~convimpact.errors.PainleveError` carrying that
         result as ``.result`` ("raise"). The event-driven scheme never continues past it.
     impacts : {"simultaneous", "sequential"}
         How an impact meets contacts that are closed or touching at rest (a chain of touching

@@ -213,7 +213,7 @@ def interval_flow(eq: CanonicalEquations, segments: Sequence, t_a: float, t_b: f
                   Z0.ravel(), method=solver_cls, rtol=max(rtol, VAR_RTOL),
                   atol=max(atol, VAR_RTOL), dense_output=bool(len(times)))
     if not r.success:
-        from ..impact.errors import SimulationError
+        from ..errors import SimulationError
         raise SimulationError(f"the variational equations failed on [{t_a:.9g}, {t_b:.9g}]: "
                               f"{r.message}")
     Z = r.y[:, -1].reshape(n2, n2 + nc)

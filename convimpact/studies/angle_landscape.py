@@ -10,7 +10,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.errors import ShapeError
+from ..errors import ShapeError
 from ..impact.problem.build import build_problem, check_restitution
 from ..impact.results import _fields_as_json
 from ..validation import grid
@@ -69,7 +69,7 @@ def angle_landscape(M, Jc, dq, e, mu, alpha, C=None) -> AngleLandscape:
     -------
     AngleLandscape
     """
-    from ..impact.errors import ParameterError
+    from ..errors import ParameterError
     from ..impact.laws.max_dissipation import max_dissipation_direction
     from ..impact.problem.build import check_friction
 

@@ -14,14 +14,14 @@ last bit, which the batch forms in another order), loops, and runs without numba
 
 * ``energy_gain``, ``slip_reversal``, ``friction_pushes_slip`` -- the diagnostics' flags;
 * ``non_positive_effective_mass`` --
-  :class:`~convimpact.impact.errors.NonPositiveEffectiveMassError`
+  :class:`~convimpact.errors.NonPositiveEffectiveMassError`
   (Painleve-like jam of a Newton law);
-* ``singular_delassus`` -- :class:`~convimpact.impact.errors.SingularSystemError` (W not invertible:
+* ``singular_delassus`` -- :class:`~convimpact.errors.SingularSystemError` (W not invertible:
   a folded or stretched pendulum, a central impact with friction);
-* ``singular_loop`` -- :class:`~convimpact.impact.errors.LoopConstraintError` (C loses rank: a
+* ``singular_loop`` -- :class:`~convimpact.errors.LoopConstraintError` (C loses rank: a
   slider-crank's change point);
-* ``no_convergence`` -- :class:`~convimpact.impact.errors.SolverError`;
-* ``not_supported`` -- :class:`~convimpact.impact.errors.NotSupportedError`;
+* ``no_convergence`` -- :class:`~convimpact.errors.SolverError`;
+* ``not_supported`` -- :class:`~convimpact.errors.NotSupportedError`;
 * ``unexpected_error`` -- anything else (a bug; its message is kept in ``examples``).
 
 Problems whose contact does not approach are counted as ``separating`` (not a failure).

@@ -174,7 +174,7 @@ def slider_crank_map(crank_angle: Sequence[float] | None = None,
     elif geometry == "isosceles":
         mech = SliderCrank(r=0.2, l=0.2)
     else:
-        from ..impact.errors import UnknownOptionError
+        from ..errors import UnknownOptionError
         raise UnknownOptionError(f"unknown geometry {geometry!r}; choose 'scene' or "
                                  "'isosceles'")
     labels = [_label(p) for p in paths]

@@ -18,7 +18,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..impact.errors import (
+from ..errors import (
     ConvImpactError,
     LoopConstraintError,
     NonPositiveEffectiveMassError,

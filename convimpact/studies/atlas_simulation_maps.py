@@ -10,7 +10,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from .atlas_modes import SIMULATION_MODES, AtlasMap, _MapBuilder
 
 

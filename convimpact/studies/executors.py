@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 from typing import Any, Callable, Iterator, Sequence
 
-from ..impact.errors import UnknownOptionError
+from ..errors import UnknownOptionError
 
 #: executor names of :func:`make_executor`
 EXECUTORS = ("serial", "processes", "dask")

@@ -34,7 +34,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..impact.errors import ParameterError, SolverError, UnknownOptionError
+from ..errors import ParameterError, SolverError, UnknownOptionError
 from ..impact.results import _jsonable
 from ..validation import boolean, choice, in_range, integer, positive
 from .fitting_model import (Observations, TrajectoryModel, contact_activity, fit_parameters,
@@ -339,7 +339,7 @@ class _LevenbergMarquardt:
         return predicted, self.residual(predicted), J
 
     def trial(self, x):
-        from ..impact.errors import SimulationError
+        from ..errors import SimulationError
 
         kept = self.model.last_result  # the linearisation's run stays the reference
         try:

@@ -29,7 +29,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..impact.errors import (ConvImpactError, NotSupportedError, ParameterError, ShapeError,
+from ..errors import (ConvImpactError, NotSupportedError, ParameterError, ShapeError,
                              SimulationError, UnknownOptionError)
 from ..mechanism import Mechanism
 from ..validation import mapping, positive, real, sorted_times
@@ -64,7 +64,7 @@ class Observations:
     channels: tuple[str, ...]
 
     def __post_init__(self):
-        from ..impact.errors import NonFiniteError, as_real_array
+        from ..errors import NonFiniteError, as_real_array
 
         times = as_real_array("observation times", self.times).ravel()
         if times.size == 0:
@@ -440,7 +440,7 @@ def synthetic_observations(system, times, channels: Sequence[str], *, noise=0.0,
 
 def noise_vector(noise, p: int, allow_zero: bool = False) -> np.ndarray:
     """The noise's standard deviation per channel (p,) from a number or a sequence."""
-    from ..impact.errors import as_real_array
+    from ..errors import as_real_array
 
     if isinstance(noise, (int, float, np.integer, np.floating)) and not isinstance(noise, bool):
         sigma = np.full(p, real("noise", noise))
@@ -452,7 +452,7 @@ def noise_vector(noise, p: int, allow_zero: bool = False) -> np.ndarray:
             raise ShapeError(f"noise must be one number or one per channel ({p}), got shape "
                              f"{sigma.shape}")
     if not np.isfinite(sigma).all():
-        from ..impact.errors import NonFiniteError
+        from ..errors import NonFiniteError
         raise NonFiniteError(f"noise must be finite, got {sigma.tolist()}")
     if np.any(sigma < 0) or (not allow_zero and np.any(sigma == 0)):
         raise ParameterError(f"noise must be {'>= 0' if allow_zero else 'positive'} (a standard "

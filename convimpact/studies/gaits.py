@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError, ParameterError
+from ..errors import ConvImpactError, ParameterError
 from ..simulation.periodic import PeriodicOrbitError
 
 __all__ = ["GaitBranch", "GaitBifurcation", "compass_gait_bifurcation",

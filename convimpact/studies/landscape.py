@@ -41,7 +41,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError, NonFiniteError, ShapeError
+from ..errors import ConvImpactError, NonFiniteError, ShapeError
 from ..impact.problem.build import ImpactProblem, build_problem, check_restitution
 from ..impact.results import _fields_as_json
 from ..validation import grid
@@ -177,7 +177,7 @@ def closed_form_landscape(M, Jc, dq, e, mu, C=None) -> Landscape:
         st_n = st_t = np.zeros(shape)
         stick = np.zeros(shape, bool)
     else:
-        from ..impact.errors import SingularSystemError
+        from ..errors import SingularSystemError
 
         raise SingularSystemError(
             f"the Delassus matrix W = Jc M^-1 Jc^T is singular (cond = {np.linalg.cond(W):.3e}):"
@@ -251,10 +251,10 @@ def law_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb", method: str = 
 
     ``e_t`` is the tangential restitution of law ``"chatterjee-ruina"`` (in [-1, 1], default 0;
     one value for the whole grid, recorded in ``meta``), refused with the other laws.
-    Points where the law raises a :class:`~convimpact.impact.errors.ConvImpactError` are marked in
+    Points where the law raises a :class:`~convimpact.errors.ConvImpactError` are marked in
     ``failed`` (and ``jammed`` for a non-positive effective mass) with NaN values there.
     """
-    from ..impact.errors import NonPositiveEffectiveMassError
+    from ..errors import NonPositiveEffectiveMassError
     from ..impact import check_law_method, choose_method, solve_problem
 
     check_law_method(law, method)  # names, before the grid (a list is no law)
@@ -368,7 +368,7 @@ def contact_landscape(M, Jc, dq, e, mu, C=None, law: str = "coulomb",
         (and in ``jammed`` for a non-positive sliding denominator or a jammed collision).
         ``stick_possible`` marks the points where the law stuck.
     """
-    from ..impact.errors import UnknownOptionError
+    from ..errors import UnknownOptionError
     from ..impact.exact.dispatch import FAST_LAWS, FAST_TOL
     from ..impact.problem.build import check_friction
 
@@ -399,7 +399,7 @@ def _batch_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law
                 e_t: float | None = None):
     """(pi, regime, jam, failed) over the flattened grid from the compiled batch, or None when
     numba is missing (or a law registered later has no batch code)."""
-    from ..impact.errors import NotSupportedError
+    from ..errors import NotSupportedError
 
     try:
         from ..impact.batch import impacts as batch
@@ -421,7 +421,7 @@ def _batch_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law
 def _loop_grid(W: np.ndarray, v: np.ndarray, e: np.ndarray, mu: np.ndarray, law: str,
                progress: bool, e_t: float | None = None):
     """(pi, regime, jam, failed) over the flattened grid, one kernel call per point."""
-    from ..impact.errors import NonPositiveEffectiveMassError
+    from ..errors import NonPositiveEffectiveMassError
     from ..impact.exact.dispatch import solve_contact
 
     n = e.size * mu.size

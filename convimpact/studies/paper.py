@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from ..impact.results import _jsonable
 
 #: e, mu of the planar pendulum examples (the paper sweeps them; the scenes' defaults)
@@ -169,7 +169,7 @@ def resolve_under_laws(example: PaperExample) -> dict[str, Any]:
     """:func:`convimpact.resolve_impact` under every law (``method="auto"``).
 
     Returns law -> :class:`~convimpact.impact.results.ImpactResult`, or the error message (str) when
-    the law raised a :class:`~convimpact.impact.errors.ConvImpactError`.
+    the law raised a :class:`~convimpact.errors.ConvImpactError`.
     """
     from ..impact import LAWS, resolve_impact
 

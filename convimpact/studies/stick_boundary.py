@@ -12,7 +12,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.errors import ShapeError
+from ..errors import ShapeError
 from ..impact.problem.build import ImpactProblem, build_problem
 
 
@@ -159,11 +159,11 @@ def stick_boundary(M, Jc, dq, C=None, law: str = "pereira-nikravesh", *,
     """The exact stick boundary of one planar contact (see :class:`StickBoundary`).
 
     ``e_t`` is the tangential restitution of law ``"chatterjee-ruina"`` (in [-1, 1], default
-    0), refused with the other laws. Raises :class:`~convimpact.impact.errors.SingularSystemError`
+    0), refused with the other laws. Raises :class:`~convimpact.errors.SingularSystemError`
     where W is singular (the sticking impulse is not unique) and ``UnknownOptionError`` for an
     unknown law.
     """
-    from ..impact.errors import SingularSystemError, UnknownOptionError
+    from ..errors import SingularSystemError, UnknownOptionError
     from ..impact.problem.build import check_tangential_restitution
     from ..impact.resolve import check_law_parameters
 

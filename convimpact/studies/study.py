@@ -190,11 +190,11 @@ def _progress_bar(enabled: bool | None, total: int, initial: int, label: str):
 
 
 def require_studies_extra() -> None:
-    """Raise :class:`~convimpact.impact.errors.NotSupportedError` naming the ``studies`` extra
+    """Raise :class:`~convimpact.errors.NotSupportedError` naming the ``studies`` extra
     unless xarray, zarr, dask and tqdm are importable."""
     import importlib
 
-    from ..impact.errors import NotSupportedError
+    from ..errors import NotSupportedError
 
     missing = []
     for name in ("xarray", "zarr", "dask", "tqdm"):

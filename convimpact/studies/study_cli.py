@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from ..cli import command
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from ..validation import arg_positive_int
 
 
@@ -47,7 +47,7 @@ def _study(args) -> int:
     except KeyboardInterrupt:
         return _interrupted("study", args.out)
     except ConvImpactError as exc:
-        from ..impact.errors import InputError
+        from ..errors import InputError
         from .study_store import StudyStore, StudyStoreError
 
         # a run that failed after it started keeps its store (with any finished chunks): say

@@ -145,7 +145,7 @@ def get_kind(name: str) -> StudyKind:
 def scene_options(options: dict[str, Any], source: str, kind: str) -> tuple[str, dict]:
     """Pop and check ``scene`` (a name in ``convimpact.problems``) and ``scene_parameters``
     (a table of its ``make_scene`` arguments); the scene is built once to check them."""
-    from ..impact.errors import ConvImpactError
+    from ..errors import ConvImpactError
 
     name = options.pop("scene", None)
     if not isinstance(name, str):

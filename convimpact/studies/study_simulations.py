@@ -24,7 +24,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from .study_kinds import (ChunkOutput, OutputVariable, StudyKind, freeze_parameters, cached_scene,
                           register_kind, scene_of, scene_options)
 from .study_spec import ParameterInfo, StudySpec, StudySpecError, check_value

@@ -25,7 +25,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.errors import ConvImpactError
+from ..errors import ConvImpactError
 from .study_kinds import OutputVariable, get_kind
 from .study_spec import SAMPLE_DIM, StudySpec, spec_from_dict
 

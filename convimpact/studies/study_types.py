@@ -19,7 +19,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..impact.errors import InputError
+from ..errors import InputError
 
 #: name of the sampling dimension
 SAMPLE_DIM = "sample"

@@ -20,7 +20,7 @@ from convimpact.bench import BenchConfig, SectionResult, register_section, run_b
 from convimpact.bench import registry
 from convimpact.bench.problems import CLASSES, random_impact, random_spd
 from convimpact.bench.timing import time_call
-from convimpact.impact.errors import ParameterError, UnknownOptionError
+from convimpact.errors import ParameterError, UnknownOptionError
 from convimpact.impact.problem.build import build_problem
 
 

@@ -25,7 +25,7 @@ from convimpact.bench.sustained_references import (
 )
 from convimpact.bench.sustained_section import equal_error_ratio, run_sustained, scene_keys
 from convimpact.bench.threads import blas_threads
-from convimpact.impact.errors import UnknownOptionError
+from convimpact.errors import UnknownOptionError
 
 SCENES = ["ball", "rocking-block", "painleve-paradox"]
 

@@ -44,7 +44,7 @@ pytest.importorskip("numba")  # the compiled kernels (an optional dependency)
 
 from convimpact.impact.batch import impacts as batch  # noqa: E402
 from convimpact.impact.batch.impacts import REGIMES, contact_impulses, resolve_impacts  # noqa: E402
-from convimpact.impact.errors import (NonPositiveEffectiveMassError,  # noqa: E402
+from convimpact.errors import (NonPositiveEffectiveMassError,  # noqa: E402
                                       SingularSystemError)
 from convimpact.impact.exact.dispatch import solve_contact  # noqa: E402
 
@@ -358,7 +358,7 @@ _PLAIN = {"planar": ([[2.0, 0.5], [0.5, 1.0]], [-1.0, 0.2], 0.5, 0.8),
 
 _PLAIN_RUN = """
 import json, sys
-from convimpact.impact.errors import SolverError
+from convimpact.errors import SolverError
 from convimpact.impact.exact.dispatch import solve_contact
 from convimpact.impact.laws import stronge_dop853, stronge_slip
 cases = json.loads(sys.argv[1])

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.errors import NotSupportedError, UnknownOptionError
+from convimpact.errors import NotSupportedError, UnknownOptionError
 from convimpact.impact.laws import law_module
 
 from .derivative_checks import scene

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.errors import NotSupportedError, UnknownOptionError
+from convimpact.errors import NotSupportedError, UnknownOptionError
 
 from .derivative_checks import assert_matches, finite_differences
 

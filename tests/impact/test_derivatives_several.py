@@ -25,7 +25,7 @@ Problems with a prescribed mode are constructed, not drawn and filtered
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import NotSupportedError, ParameterError
+from convimpact.errors import NotSupportedError, ParameterError
 from convimpact.impact.laws import law_module
 from convimpact.impact.problem.build import build_problem
 from convimpact.impact.resolve import solve_problem

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import ParameterError
+from convimpact.errors import ParameterError
 from convimpact.impact.laws.stronge import impulse_derivative
 from convimpact.impact.problem.build import build_problem
 from convimpact.impact.resolve import solve_problem

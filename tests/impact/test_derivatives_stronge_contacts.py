@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import NotSupportedError
+from convimpact.errors import NotSupportedError
 from convimpact.impact.laws.stronge import impulse_derivative, several_impulse_derivative
 from convimpact.impact.problem.build import build_problem
 from convimpact.impact.resolve import solve_problem

@@ -40,7 +40,7 @@ def test_every_method_has_its_row():
 
 def test_documented_defaults_are_the_methods_own():
     from convimpact.impact.conic.paths import ProgramOptions
-    from convimpact.impact.contacts.interior import InteriorOptions
+    from convimpact.impact.several.interior import InteriorOptions
     from convimpact.impact.exact import sweep
 
     table = " ".join(_table().split())

@@ -47,7 +47,7 @@ _SCRIPT = textwrap.dedent('''
     import numpy as np
     import convimpact.impact.laws.algebra as algebra
     from convimpact.impact.exact.dispatch import solve_contact
-    import convimpact.impact.errors as errors
+    import convimpact.errors as errors
 
     cases, laws, sabotage, e, mu = json.loads(sys.stdin.read())
 

@@ -1,4 +1,4 @@
-"""The exact several-contact solver (``method="interior"``, convimpact.impact.contacts.interior):
+"""The exact several-contact solver (``method="interior"``, convimpact.impact.several.interior):
 laws ccp and dissipative (a convex cone program) and coulomb (Newton on its natural map).
 
 Oracles: a second method (Clarabel's and cvxpy's conic paths, KKT-polished), hand derivations

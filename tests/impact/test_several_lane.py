@@ -1,4 +1,4 @@
-"""The several-contact lane of ``resolve_impact`` (convimpact.impact.contacts.lane): laws ccp and
+"""The several-contact lane of ``resolve_impact`` (convimpact.impact.several.lane): laws ccp and
 dissipative at 2-8 open-loop contacts, method "auto"/"interior", no options.
 
 The lane's answers are checked against the full path (``solve_problem(build_problem(...))``,
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.contacts.interior import CertificateError
+from convimpact.impact.several.interior import CertificateError
 from convimpact.bench.several_problems import four_corner_box, random_several
 from convimpact.impact import resolve as resolve_module
-from convimpact.impact.contacts import lane as several_lane
+from convimpact.impact.several import lane as several_lane
 from convimpact.impact.problem.build import build_problem
 from convimpact.impact.resolve import solve_problem
 
@@ -320,7 +320,7 @@ def test_a_certificate_failure_falls_back_as_before():
     Jc = [np.array([[0.0, 1.0], [1.0, 0.0]]), np.array([[0.0, -1.0], [1.0, 0.0]])]
     args = dict(M=np.eye(2), Jc=Jc, dq=np.array([0.3, -1.0]), e=[0.5, 0.0], mu=0.3)
     assert _lane(args, "ccp") is None
-    from convimpact.impact.contacts.interior import CertificateError
+    from convimpact.impact.several.interior import CertificateError
 
     with pytest.raises(CertificateError, match="certificate"):
         ci.resolve_impact(**args, law="ccp", method="interior")
@@ -360,7 +360,7 @@ def test_an_uncertified_compiled_answer_goes_to_the_engine_and_agrees_with_clara
 def test_strided_and_read_only_arrays_take_the_lane_without_a_new_compilation():
     """A Fortran-ordered M, a strided dq and read-only arrays are copied into the compiled
     call's one signature (C-contiguous, writeable) rather than compiling another."""
-    from convimpact.impact.contacts import lane_kernel as several_lane_kernels
+    from convimpact.impact.several import lane_kernel as several_lane_kernels
 
     args = random_several(11, 3, 3)
     ref = ci.resolve_impact(**args, law="ccp")

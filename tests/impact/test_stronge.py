@@ -30,7 +30,7 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
 import convimpact as ci
-from convimpact.impact.errors import SingularSystemError
+from convimpact.errors import SingularSystemError
 from convimpact.impact.exact.dispatch import solve_contact
 from convimpact.impact.laws.stronge import contact_kernel
 

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.errors import SolverError
+from convimpact.errors import SolverError
 
 METHODS = ("clarabel", "cvxpy")
 

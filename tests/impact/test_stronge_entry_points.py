@@ -15,7 +15,7 @@ import pytest
 
 import convimpact as ci
 from convimpact.impact.diagnostics import energetic_residual
-from convimpact.impact.errors import NotSupportedError
+from convimpact.errors import NotSupportedError
 from convimpact.impact.exact.dispatch import solve_contact
 
 from .convex_systems import random_system

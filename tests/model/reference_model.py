@@ -12,7 +12,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from convimpact.impact.errors import ModelError, NonFiniteError, ShapeError, SingularSystemError
+from convimpact.errors import ModelError, NonFiniteError, ShapeError, SingularSystemError
 from convimpact.model.geometry import cross, cross3, cross_ww, orthonormal_complement, perp, rot2, rot3, skew
 
 

@@ -1,11 +1,11 @@
-"""Bad model input gets a typed error from convimpact.impact.errors with an actionable message."""
+"""Bad model input gets a typed error from convimpact.errors with an actionable message."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import ConvImpactError, ModelError, NonFiniteError, ShapeError
+from convimpact.errors import ConvImpactError, ModelError, NonFiniteError, ShapeError
 from convimpact.model import Joint, ModelBuilder, assemble, impact_arguments
 
 

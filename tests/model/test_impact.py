@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.errors import ModelError, ShapeError
+from convimpact.errors import ModelError, ShapeError
 from convimpact.mechanism import Mechanism
 from convimpact.model import (
     Joint,

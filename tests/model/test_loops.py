@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import AssemblyError
+from convimpact.errors import AssemblyError
 from convimpact.model import Joint, ModelBuilder, assemble, consistent_velocity
 from convimpact.model.random import random_model
 

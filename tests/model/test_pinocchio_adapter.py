@@ -15,7 +15,7 @@ import pytest
 pin = pytest.importorskip("pinocchio")
 
 import convimpact as ci  # noqa: E402
-from convimpact.impact.errors import ModelError, NotSupportedError  # noqa: E402
+from convimpact.errors import ModelError, NotSupportedError  # noqa: E402
 from convimpact.mechanism import Mechanism  # noqa: E402
 from convimpact.model import resolve_mechanism_impact  # noqa: E402
 from convimpact.model import impact_arguments as model_impact_arguments  # noqa: E402

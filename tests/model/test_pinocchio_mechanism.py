@@ -19,7 +19,7 @@ pin = pytest.importorskip("pinocchio")
 
 import convimpact as ci  # noqa: E402
 from convimpact.bench.model_problems import dropped_chain, random_mechanism  # noqa: E402
-from convimpact.impact.errors import (ModelError, NotSupportedError, ParameterError,  # noqa: E402
+from convimpact.errors import (ModelError, NotSupportedError, ParameterError,  # noqa: E402
                                       ShapeError)
 from convimpact.mechanism import Mechanism  # noqa: E402
 from convimpact.model import impact_arguments, resolve_mechanism_impact  # noqa: E402

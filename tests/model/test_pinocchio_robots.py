@@ -14,7 +14,7 @@ import pytest
 pytest.importorskip("pinocchio")
 
 import convimpact as ci  # noqa: E402
-from convimpact.impact.errors import ParameterError  # noqa: E402
+from convimpact.errors import ParameterError  # noqa: E402
 from convimpact.model import pinocchio_robots as robots  # noqa: E402
 from convimpact.scenes import list_scenes, load_scene  # noqa: E402
 

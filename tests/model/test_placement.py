@@ -8,7 +8,7 @@ import pytest
 from scipy.optimize import minimize
 
 import convimpact as ci
-from convimpact.impact.errors import (
+from convimpact.errors import (
     AssemblyError,
     ConvImpactError,
     ModelError,

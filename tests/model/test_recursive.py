@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import NonFiniteError, ShapeError, SingularSystemError
+from convimpact.errors import NonFiniteError, ShapeError, SingularSystemError
 from convimpact.model import (Joint, ModelBuilder, forward_kinematics, point_jacobian,
                               point_jacobian_dot)
 from convimpact.model import recursive as rc

@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 
 from convimpact import cli
-from convimpact.impact.errors import NotSupportedError, ParameterError, ShapeError
+from convimpact.errors import NotSupportedError, ParameterError, ShapeError
 from convimpact.model import Joint, ModelBuilder
 from convimpact.scenes import Scene, load_scene
 from convimpact.simulation import simulate

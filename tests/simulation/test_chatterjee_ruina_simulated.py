@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 import convimpact
-from convimpact.impact.errors import (
+from convimpact.errors import (
     ConvImpactError,
     NotSupportedError,
     ParameterError,

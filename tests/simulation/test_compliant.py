@@ -22,7 +22,7 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import gamma
 
-from convimpact.impact.errors import ParameterError, UnknownOptionError
+from convimpact.errors import ParameterError, UnknownOptionError
 from convimpact.scenes import load_scene
 from convimpact.simulation import simulate_with
 from convimpact.simulation.compliant import (

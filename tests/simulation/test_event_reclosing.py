@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import SimulationError
+from convimpact.errors import SimulationError
 from convimpact.simulation import simulate
 from convimpact.simulation.events import gap_event, reclosing
 from convimpact.simulation.testing import PointMass

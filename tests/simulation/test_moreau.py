@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import LoopConstraintError, ParameterError, UnknownOptionError
+from convimpact.errors import LoopConstraintError, ParameterError, UnknownOptionError
 from convimpact.scenes import load_scene
 from convimpact.simulation import simulate, simulate_with
 from convimpact.simulation.moreau import MoreauResult, simulate_moreau

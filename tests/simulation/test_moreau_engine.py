@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 from convimpact.bench.moreau_scenes import box_row
-from convimpact.impact.contacts import cones, engine
-from convimpact.impact.contacts.contact_problem import UncertifiedSolutionError
-from convimpact.impact.errors import ParameterError, UnknownOptionError
+from convimpact.contacts import cones, engine
+from convimpact.contacts.contact_problem import UncertifiedSolutionError
+from convimpact.errors import ParameterError, UnknownOptionError
 from convimpact.model import Joint, ModelBuilder
 from convimpact.scenes import load_scene
 from convimpact.simulation.moreau import simulate_moreau

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from convimpact.bench.moreau_scenes import BOX_MASS, GRAVITY, HALF, MU, box_row
-from convimpact.impact.errors import NotSupportedError
+from convimpact.errors import NotSupportedError
 from convimpact.model import Joint, ModelBuilder
 from convimpact.simulation import moreau_engine as me
 from convimpact.simulation.moreau import simulate_moreau

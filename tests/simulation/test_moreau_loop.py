@@ -139,7 +139,7 @@ def test_the_two_predictors_agree(case):
 
 @pytest.mark.parametrize("protocol", [False, True])
 def test_an_overflowing_state_raises_a_typed_error(protocol):
-    from convimpact.impact.errors import SimulationError
+    from convimpact.errors import SimulationError
 
     mech, q, v = box_row(1, False)
     v = v.copy()

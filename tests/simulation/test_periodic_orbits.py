@@ -6,7 +6,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import fsolve
 
-from convimpact.impact.errors import (NonFiniteError, ParameterError, ShapeError,
+from convimpact.errors import (NonFiniteError, ParameterError, ShapeError,
                                       UnknownOptionError)
 from convimpact.scenes import load_scene
 from convimpact.simulation import (PeriodicOrbitError, find_periodic_orbit, simulate,

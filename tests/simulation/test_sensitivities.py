@@ -13,7 +13,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import NotSupportedError, ParameterError
+from convimpact.errors import NotSupportedError, ParameterError
 from convimpact.problems import (bouncing_ball, bouncing_rod, pendulum_planar, rocking_block,
                                  slider_crank, sliding_box)
 from convimpact.simulation import simulate, simulate_with

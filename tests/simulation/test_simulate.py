@@ -16,7 +16,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import convimpact as ci
-from convimpact.impact.errors import (
+from convimpact.errors import (
     AssemblyError,
     InputError,
     LoopConstraintError,

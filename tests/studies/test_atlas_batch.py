@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import convimpact.impact.batch.impacts as batch
-from convimpact.impact.errors import NotSupportedError
+from convimpact.errors import NotSupportedError
 from convimpact.problems._double_pendulum import build
 from convimpact.studies.atlas import (IMPACT_MODES, PENDULUM_RATES, classify_error,
                                       classify_impact, pendulum_angle_map,

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import ParameterError, UnknownOptionError
+from convimpact.errors import ParameterError, UnknownOptionError
 from convimpact.studies import landscape as landscape_module
 from convimpact.studies.landscape import contact_landscape, law_landscape
 

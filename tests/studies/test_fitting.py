@@ -10,7 +10,7 @@ the sliding box decelerates at mu g.
 import numpy as np
 import pytest
 
-from convimpact.impact.errors import (NonFiniteError, ParameterError, ShapeError,
+from convimpact.errors import (NonFiniteError, ParameterError, ShapeError,
                                       UnknownOptionError)
 from convimpact.problems._box import corner_normal_forces
 from convimpact.scenes import load_scene

@@ -335,7 +335,7 @@ def test_a_missing_studies_extra_is_a_clear_error(monkeypatch, tmp_path):
     """Without xarray/zarr the study refuses before any work, naming the extra."""
     import sys
 
-    from convimpact.impact.errors import NotSupportedError
+    from convimpact.errors import NotSupportedError
     from convimpact.studies.study import run_study
 
     monkeypatch.setitem(sys.modules, "zarr", None)

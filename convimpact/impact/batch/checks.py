@@ -16,7 +16,7 @@ from typing import Mapping
 import numpy as np
 
 from ..laws import LAW_CODES as _LAW_CODES
-from ..errors import (
+from ...errors import (
     ConvImpactError,
     DegenerateContactError,
     InputError,

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..derivatives.attach import check_derivatives
 from ..derivatives.chain import impact_jacobians
-from ..errors import NotSupportedError, UnknownOptionError
+from ...errors import NotSupportedError, UnknownOptionError
 from ..laws import TANGENTIAL_LAWS, law_module
 from ..problem.build import build_problem
 from .checks import OK, REGIMES

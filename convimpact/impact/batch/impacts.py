@@ -45,7 +45,7 @@ from types import MappingProxyType, SimpleNamespace
 
 import numpy as np
 
-from ..errors import ConvImpactError, InputError, NotSupportedError, ParameterError, ShapeError
+from ...errors import ConvImpactError, InputError, NotSupportedError, ParameterError, ShapeError
 from ..resolve import check_law_parameters
 from .checks import (  # noqa: F401  (the batch API's names)
     FAILED,

@@ -10,7 +10,7 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from .checks import OK, REGIMES, STATUS_NAMES, _kernel_error
-from ..errors import ConvImpactError
+from ...errors import ConvImpactError
 
 
 class _BatchStatus:

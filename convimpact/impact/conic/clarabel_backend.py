@@ -20,14 +20,14 @@ data), ``tol_ktratio = 1e-3 sqrt(tol)``; ``max_iter`` its iteration limit. Clara
 (1e-8) give impulses to about 1e-5 on sliding contacts; 1e-10 gives about 1e-9 or better.
 ``Solved`` is accepted; ``AlmostSolved`` only when the KKT polish of
 :func:`convimpact.impact.conic.qp.solve_cone_qp` certifies the answer; any other status raises
-:class:`~convimpact.impact.errors.SolverError` with the status in its message.
+:class:`~convimpact.errors.SolverError` with the status in its message.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..errors import SolverError
+from ...errors import SolverError
 from .qp import ConeQP, QPSolution, status_message
 
 

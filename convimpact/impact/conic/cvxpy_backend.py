@@ -6,7 +6,7 @@ import warnings
 
 import numpy as np
 
-from ..errors import SolverError
+from ...errors import SolverError
 from .qp import ConeQP, QPSolution, status_message
 
 

@@ -20,7 +20,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import ParameterError, UnknownOptionError
+from ...errors import ParameterError, UnknownOptionError
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .qp import DEFAULT_MAX_ITER, DEFAULT_TOL, TINY, Backend, ConeQP, QPSolution

@@ -32,7 +32,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ..errors import SolverError
+from ...errors import SolverError
 from .polish import VELOCITY_RESIDUAL_MAX, kkt_residual, polish_cone_qp, roundoff_floor
 from .program import ConeQP
 

@@ -11,7 +11,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import NotSupportedError, SingularSystemError, UnknownOptionError
+from ...errors import NotSupportedError, SingularSystemError, UnknownOptionError
 from ..laws import TANGENTIAL_LAWS, law_module
 from ..problem.build import ImpactProblem, _new
 from ..results import ImpactDerivatives, ImpactResult

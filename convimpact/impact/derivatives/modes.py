@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import NotSupportedError, ParameterError
+from ...errors import NotSupportedError, ParameterError
 from .contact import ContactDerivative
 
 #: condition number of the mode's Jacobian above which the impulse is taken as not unique

@@ -27,7 +27,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import ConvImpactError, NotSupportedError, SingularSystemError
+from ...errors import ConvImpactError, NotSupportedError, SingularSystemError
 from .contact import ContactDerivative
 from .modes import (contact_derivative, frictionless, newton_shift, stick, zero)
 

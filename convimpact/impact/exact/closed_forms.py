@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import (
+from ...errors import (
     NonPositiveEffectiveMassError,
     NotSupportedError,
     SingularSystemError,

@@ -39,8 +39,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ..diagnostics import assemble_result
-from ..errors import (
-    check_single_contact,
+from ...errors import (
     NonFiniteError,
     SolverError,
     NonPositiveEffectiveMassError,
@@ -48,6 +47,7 @@ from ..errors import (
     SingularSystemError,
     UnknownOptionError,
 )
+from ..options import check_single_contact
 from ..problem.build import SAFE_SCALE, TINY_NORMAL, ImpactProblem, real_number
 from ..laws import LAW_MODULES, law_module
 from ..results import ImpactResult

@@ -56,7 +56,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ..diagnostics import assemble_result
-from ..errors import ConvImpactError, as_real_array
+from ...errors import ConvImpactError, as_real_array
 from ..laws import LAW_CODES as _LAW_CODES
 from ..problem.build import _new, build_problem
 from ..results import ImpactDiagnostics, ImpactResult

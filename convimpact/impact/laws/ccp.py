@@ -54,7 +54,7 @@ from ..conic.paths import (ProgramOptions, approaching, cone_qp, newton_shift,
                            regimes_from_slip, solver_report)
 from ..conic.qp import Backend, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
-from ..errors import SolverError
+from ...errors import SolverError
 from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult

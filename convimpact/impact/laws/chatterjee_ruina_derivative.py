@@ -24,7 +24,7 @@ import numpy as np
 
 from ..derivatives.modes import seeds
 from ..derivatives.single import law_entry
-from ..errors import NotSupportedError, ParameterError
+from ...errors import NotSupportedError, ParameterError
 from ..exact.dispatch import coupled
 from ..problem.build import ImpactProblem
 

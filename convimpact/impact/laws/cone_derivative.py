@@ -60,7 +60,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..conic.paths import APPROACH_RTOL, approaching, impulse_scale
-from ..errors import ParameterError
+from ...errors import ParameterError
 from ..problem.build import ImpactProblem
 from ..derivatives.modes import VELOCITY_ONLY, ModeSystem, check_redundant, cone_slide
 from ..derivatives.single import law_entry, mu_zero_column, newton_mode, newton_stick

@@ -49,7 +49,7 @@ from .codes import (CONE_RTOL, FAILED, JAM, NO_SOLUTION, OK, OUT_SIZE,
 from ..conic.paths import ProgramOptions, newton_shift, regimes_from_slip
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
-from ..errors import SolverError
+from ...errors import SolverError
 from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult

@@ -32,7 +32,7 @@ from .algebra import (
     _solve3,
 )
 from .codes import NO_SOLUTION, OK, _in_cone, _jit, _pmax2, _unit_or
-from ..errors import SingularSystemError, SolverError, real_number
+from ...errors import SingularSystemError, SolverError, real_number
 from ..problem.dense import as_lists
 
 # directions probed by the certificate of maximal dissipation (constants as tuples)

@@ -53,7 +53,7 @@ import numpy as np
 from ..conic.paths import ProgramOptions, approaching, regimes_from_slip, solver_report
 from ..conic.qp import TINY, Backend, ConeQP, solve_cone_qp
 from ..diagnostics import assemble_result
-from ..errors import ConvImpactError, NotSupportedError, SolverError
+from ...errors import ConvImpactError, NotSupportedError, SolverError
 from ..exact.dispatch import solve_contact
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult

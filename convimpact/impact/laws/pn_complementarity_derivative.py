@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..conic.paths import impulse_scale
-from ..errors import NotSupportedError, ParameterError, SolverError
+from ...errors import NotSupportedError, ParameterError, SolverError
 from ..problem.build import ImpactProblem
 from ..derivatives.chain import zero_derivative
 from ..derivatives.modes import VELOCITY_ONLY, ModeSystem, check_redundant

@@ -137,7 +137,7 @@ from operator import mul
 from .codes import FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _jit
 from ..conic.paths import ProgramOptions
 from ..conic.qp import Backend
-from ..errors import NonPositiveEffectiveMassError, SingularSystemError
+from ...errors import NonPositiveEffectiveMassError, SingularSystemError
 from ..exact.dispatch import compiled_kernel, coupled, independent_contacts_result
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult

@@ -62,7 +62,7 @@ import numpy as np
 from ..conic.paths import ProgramOptions, regimes_from_slip
 from ..conic.qp import Backend
 from ..diagnostics import assemble_result
-from ..errors import SolverError
+from ...errors import SolverError
 from ..exact.dispatch import independent_contacts_result
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult

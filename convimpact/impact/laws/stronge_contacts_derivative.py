@@ -33,7 +33,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..derivatives.contact import ContactDerivative
-from ..errors import NotSupportedError
+from ...errors import NotSupportedError
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .stronge_path import symmetric_tensor

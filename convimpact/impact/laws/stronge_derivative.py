@@ -60,7 +60,7 @@ import math
 import numpy as np
 
 from ..derivatives.contact import ContactDerivative
-from ..errors import NotSupportedError, ParameterError
+from ...errors import NotSupportedError, ParameterError
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .stronge_path import BOUNDARY_RTOL, ZERO_SLIP, _Path, symmetric_tensor

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ..errors import ParameterError
+from ...errors import ParameterError
 from .stronge_sensitivity import SlipSystem, integrate_slip, turn_offset
 from .stronge_slip import JAM_RTOL, STICK_RTOL, STOP_RTOL, _onset
 

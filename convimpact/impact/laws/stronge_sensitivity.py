@@ -30,7 +30,7 @@ import math
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..errors import SolverError
+from ...errors import SolverError
 from .stronge_dop853 import _A, _B, _E3, _E5, _NE, _NS, _error_norm, _event, _event_length
 from .stronge_slip import MAX_STEPS, _onset  # the law's bound on a curved slip's steps
 

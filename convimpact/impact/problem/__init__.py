@@ -10,7 +10,7 @@
 * :mod:`.dense`: the small dense algebra it needs, with no LAPACK call that hands a tiny matrix
   to BLAS threads;
 * :mod:`.compiled_reduction`: the same reduction and map back in numba, for the compiled lanes
-  (:mod:`convimpact.impact.exact.lane`, :mod:`convimpact.impact.contacts.lane`).
+  (:mod:`convimpact.impact.exact.lane`, :mod:`convimpact.impact.several.lane`).
 """
 
 from .build import ImpactProblem, build_problem

@@ -13,7 +13,7 @@ once, everything every impact law needs:
 Every impact law then works on ``(W, v_minus, e, mu)`` only, and
 :meth:`ImpactProblem.velocity_jump` turns its impulse into ``theta_dot_plus``.
 
-Validation is typed (:func:`~convimpact.impact.errors.as_real_array`): a string, a boolean,
+Validation is typed (:func:`~convimpact.errors.as_real_array`): a string, a boolean,
 a complex number or None is a ShapeError (for ``e``, ``mu`` a ParameterError) naming the
 entry. Every tolerance is relative to the data's own scales, so M times ``a`` and dq times
 ``b`` change no decision. The common case (float arrays, one contact, no loops) costs a handful
@@ -21,7 +21,7 @@ of numpy calls: the small checks run on Python floats, and the factorization and
 solves are :mod:`~convimpact.impact.problem.dense`'s (Python floats up to ``SMALL_MAX`` rows,
 LAPACK/BLAS on one thread above: no BLAS thread is woken for a tiny matrix). For several
 contacts the checks on W and v- (exact symmetry, finiteness, degenerate normals, immobile
-tangents) run in one compiled call (:func:`~convimpact.impact.contacts.interior_point.contact_checks`),
+tangents) run in one compiled call (:func:`~convimpact.contacts.interior_point.contact_checks`),
 which hands every case but the plain one to the Python checks; W's nested lists are then
 formed on first use.
 """
@@ -36,7 +36,7 @@ from typing import Any, Sequence, Union
 
 import numpy as np
 
-from ..errors import (
+from ...errors import (
     DegenerateContactError,
     MassMatrixError,
     NonFiniteError,

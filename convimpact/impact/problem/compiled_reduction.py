@@ -3,7 +3,7 @@ back (eqs. 29, 58), on validated float64 arrays, in numba.
 
 Both lanes of :func:`~convimpact.impact.resolve.resolve_impact` -- one contact
 (:mod:`convimpact.impact.exact.lane_kernel`) and several
-(:mod:`convimpact.impact.contacts.lane_kernel`) -- call these from their compiled code:
+(:mod:`convimpact.impact.several.lane_kernel`) -- call these from their compiled code:
 
 * :func:`reduce_rows`: M exactly symmetric and finite, ``M = L L^T`` with every pivot above
   :data:`PIVOT_RTOL` times its diagonal entry, ``X = L^-1 R^T``, ``W = X^T X`` (symmetric by

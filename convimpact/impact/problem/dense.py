@@ -28,7 +28,7 @@ from operator import mul as _mul
 import numpy as np
 import scipy.linalg as sla
 
-from ..errors import MassMatrixError, ShapeError, SingularSystemError, as_real_array
+from ...errors import MassMatrixError, ShapeError, SingularSystemError, as_real_array
 
 #: largest matrix factored and solved on Python floats by :func:`cholesky_lower` and
 #: :func:`tri_solve` (no LAPACK/BLAS call); above it LAPACK's dpotrf and BLAS's dtrsm (see the

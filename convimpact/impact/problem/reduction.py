@@ -16,7 +16,7 @@ import sys
 
 import numpy as np
 
-from ..errors import LoopConstraintError, NonFiniteError, ShapeError, as_real_array
+from ...errors import LoopConstraintError, NonFiniteError, ShapeError, as_real_array
 from .dense import cholesky_lower, empty_matrix, tri_solve
 
 #: relative singular-value threshold below which C is declared rank deficient (C M^-1 C^T
@@ -125,13 +125,13 @@ _CONTACT_CHECKS = None
 
 def _plain_contacts(W: np.ndarray, v: np.ndarray, d: int) -> bool:
     """Whether several contacts are the plain case, by the compiled
-    :func:`~convimpact.impact.contacts.interior_point.contact_checks` (which also symmetrizes W in
+    :func:`~convimpact.contacts.interior_point.contact_checks` (which also symmetrizes W in
     place); False hands the decision to the Python checks (also when numba is missing)."""
     global _CONTACT_CHECKS
     checks = _CONTACT_CHECKS
     if checks is None:
         try:
-            from ..contacts.interior_point import contact_checks as checks
+            from ...contacts.interior_point import contact_checks as checks
         except ImportError:  # pragma: no cover - numba missing
             checks = False
         _CONTACT_CHECKS = checks

@@ -15,9 +15,9 @@ of the law is the program's KKT point,
     K ∋ pi  ⊥  z = W pi + b ∈ K*,
 
 which is what this path computes and certifies, by the contact engine
-(:mod:`convimpact.impact.contacts.engine`): up to
-:data:`~convimpact.impact.contacts.engine.COMPILED_MAX_ROWS` contact rows in one compiled call
-(:mod:`convimpact.impact.contacts.interior_point`, :mod:`convimpact.impact.contacts.newton`);
+(:mod:`convimpact.contacts.engine`): up to
+:data:`~convimpact.contacts.engine.COMPILED_MAX_ROWS` contact rows in one compiled call
+(:mod:`convimpact.contacts.interior_point`, :mod:`convimpact.contacts.newton`);
 above, or where that answer fails the certificate of step 3, by the engine's vectorized
 backend (the same interior point on LAPACK or sparse factorizations, its own Newton finish),
 judged by the same certificate:
@@ -29,14 +29,14 @@ judged by the same certificate:
 2. a semismooth Newton finish on the natural map ``pi - Proj_K(pi - z) = 0`` from there
    (quadratic convergence: two or three steps to round-off; a singular W -- a box on four
    corners -- is handled by basic solutions of the Newton systems);
-3. the law's KKT certificate on the original data (:func:`~.newton.ccp_certificate`:
+3. the law's KKT certificate on the original data (:func:`~convimpact.contacts.certificates.ccp_certificate`:
    cone and dual-cone violations and per-contact complementarity, relative to the impulse
    and velocity scales, as the conic paths' :func:`~convimpact.impact.conic.polish.kkt_residual`
    measures them). The answer is returned only when the certificate is at most ``tol``
    (default 1e-10) or, for an ill-conditioned W, 1e3 times the round-off floor
    ``eps max|W| max|pi| / max|z|`` capped at
    :data:`~convimpact.impact.conic.polish.VELOCITY_RESIDUAL_MAX` (the conic paths' rule);
-   otherwise :class:`CertificateError`, a :class:`~convimpact.impact.errors.SolverError`
+   otherwise :class:`CertificateError`, a :class:`~convimpact.errors.SolverError`
    (under ``method="auto"``, Clarabel takes over and the result's notes say so).
 
 ``coulomb`` (Coulomb's law with Newton's restitution, ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*``,
@@ -45,7 +45,7 @@ same semismooth Newton on its own natural map, started from the CCP answer (the 
 conic path's fixed point) -- the engine's backend adds Pinocchio's ADMM where that Newton
 misses -- and accepted on Coulomb's conditions
 (:func:`~convimpact.impact.laws.coulomb.coulomb_residual`, compiled as
-:func:`~.newton.coulomb_certificate`) to ``tol``. It is tried first under ``method="auto"``
+:func:`~convimpact.contacts.certificates.coulomb_certificate`) to ``tol``. It is tried first under ``method="auto"``
 (:data:`convimpact.impact.resolve.INTERIOR_FIRST`): at several contacts the law may have
 several solutions (a box on four corners has a family of them), and the answer is the one the
 engine reaches, possibly another than the conic path's fixed point.
@@ -56,7 +56,7 @@ tolerance, default 1e-10), ``max_iter`` (interior-point iterations, default 100)
 
 On the public path (``resolve_impact``, :func:`ccp_result` and its siblings) the law's data,
 the kernel, the certificate and the answer's velocities and regimes come from one compiled
-call (:func:`~.newton.solve_law`), the same kernels and certificate as
+call (:func:`~.law_programs.solve_law`), the same kernels and certificate as
 :func:`solve_cone_complementarity` with no dispatch between them.
 
 The kernels compile on their first call (numba, ``cache=True``; :func:`compile_kernels`
@@ -75,12 +75,12 @@ import numpy as np
 
 from ..conic.polish import VELOCITY_RESIDUAL_MAX
 from ..diagnostics import assemble_result
-from ..errors import ParameterError, SolverError, UnknownOptionError
+from ...errors import ParameterError, SolverError, UnknownOptionError
 from ..laws.dissipative import poisson_warnings
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
-from .engine import COMPILED_MAX_ROWS, HANDOVER_TOL, kernels  # noqa: F401  (kernels: public here)
-from .engine import solve as engine_solve
+from ...contacts.engine import COMPILED_MAX_ROWS, HANDOVER_TOL
+from ...contacts.engine import solve as engine_solve
 
 METHOD = "interior"
 #: laws this path solves
@@ -94,7 +94,7 @@ _STATUS = {0: "converged", 1: "iteration limit", 2: "stalled", 3: "trivial"}
 
 class CertificateError(SolverError):
     """The interior path's answer failed its certificate (a
-    :class:`~convimpact.impact.errors.SolverError`). Under ``method="auto"`` the impact is
+    :class:`~convimpact.errors.SolverError`). Under ``method="auto"`` the impact is
     handed to the conic path, which the result's notes say: where the certificate fails the
     Delassus matrix is nearly singular or the program has no solution, which the conic path
     treats or reports itself."""
@@ -133,6 +133,24 @@ class CertifiedImpulse:
 DEFAULT_OPTIONS = InteriorOptions()
 
 
+_KERNELS = None
+
+
+def kernels():
+    """The compiled law programs (:mod:`.law_programs`, with the engine's kernels and
+    certificates they run), imported on first use (compiled then, or loaded from numba's
+    on-disk cache, with a message when that takes long)."""
+    global _KERNELS
+    if _KERNELS is None:
+        from . import law_programs
+        from ...compiled import announce
+
+        announce("several-contact interior kernels", 25, law_programs.solve_law,
+                 law_programs.ccp_kernel, law_programs.coulomb_kernel)
+        _KERNELS = law_programs
+    return _KERNELS
+
+
 def compile_kernels() -> dict[str, float]:
     """Build (or load from numba's on-disk cache) the kernels now; seconds per step.
 
@@ -151,7 +169,7 @@ def compile_kernels() -> dict[str, float]:
                                 (K.coulomb_kernel, K.coulomb_certificate)):
         pi, *_ = kernel(W, b, mu, 3, HANDOVER_TOL, 100, 20)
         certificate(W, b, mu, 3, pi)
-    for mode in range(3):  # the public path's single call (newton.solve_law)
+    for mode in range(3):  # the public path's single call (law_programs.solve_law)
         K.solve_law(W, b, mu, mu, 3, mode, HANDOVER_TOL, 100, 20, CERTIFIED_ACCURACY)
     out["first_call"] = time.perf_counter() - t
     return out
@@ -248,11 +266,11 @@ def _accepted(residual: float, floor: float, opts: InteriorOptions, status: int,
     return accepted
 
 
-#: regime names of the kernels' codes (:func:`~.newton.result_data`)
+#: regime names of the kernels' codes (:func:`~.law_programs.result_data`)
 REGIMES = ("separating", "frictionless", "stick", "slide")
-#: the laws' modes of :func:`~.newton.solve_law`
+#: the laws' modes of :func:`~.law_programs.solve_law`
 _MODES = {"ccp": 0, "dissipative": 1, "coulomb": 2}
-#: regime names of the codes as :func:`~.newton.solve_law` returns them (floats)
+#: regime names of the codes as :func:`~.law_programs.solve_law` returns them (floats)
 _REGIME_OF = {float(code): name for code, name in enumerate(REGIMES)}
 
 
@@ -307,8 +325,8 @@ def _acceptance(floor: float, opts: InteriorOptions) -> float:
 
 
 def _engine_law(K, W, v, P: ImpactProblem, d: int, law: str, opts: InteriorOptions) -> tuple:
-    """:func:`~.newton.solve_law`'s answer by the contact engine's vectorized backend: the
-    law's data (:func:`~.newton.law_data`), the engine, the law's certificate and the
+    """:func:`~.law_programs.solve_law`'s answer by the contact engine's vectorized backend: the
+    law's data (:func:`~.law_programs.law_data`), the engine, the law's certificate and the
     result's per-contact data, as the compiled call forms them."""
     mode = _MODES[law]
     e, friction = P.restitution, P.friction

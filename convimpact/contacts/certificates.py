@@ -6,8 +6,8 @@ problem ``K ∋ pi ⊥ W pi + b ∈ K*`` (the ``ccp`` law and the dissipative la
 phase), :func:`coulomb_certificate` the relative residual of Coulomb's law
 ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*``, ``u = W pi + b``. Each also returns the round-off floor
 below which its residual cannot be asked to fall. They are called by the drivers of
-:mod:`convimpact.impact.contacts.newton` (which hands them on) and by
-:mod:`convimpact.impact.contacts.interior`.
+:mod:`convimpact.contacts.newton` (which hands them on) and by
+:mod:`convimpact.impact.several.interior`.
 """
 
 from __future__ import annotations

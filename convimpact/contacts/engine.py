@@ -71,10 +71,9 @@ def kernels():
     global _KERNELS
     if _KERNELS is None:
         from . import newton
-        from ...compiled import announce
+        from ..compiled import announce
 
-        announce("several-contact interior kernels", 25, newton.solve_law, newton.ccp_kernel,
-                 newton.coulomb_kernel)
+        announce("contact engine kernels", 25, newton.ccp_kernel, newton.coulomb_kernel)
         _KERNELS = newton
     return _KERNELS
 

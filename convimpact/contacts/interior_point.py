@@ -27,14 +27,14 @@ no obstacle: ``T^-2`` is positive definite. The iterates stay strictly inside th
 the answer is primal and dual feasible by construction; it stops when the residual and the
 complementarity gap reach the hand-over tolerance (or stop decreasing), and a Newton finish
 takes the answer to round-off. Whether the answer is the law's is decided by the
-certificates of :mod:`convimpact.impact.contacts.newton` on the original data, never by the
+certificates of :mod:`convimpact.contacts.newton` on the original data, never by the
 iteration's own measures.
 
 The Newton finish and the drivers on contact data are in
-:mod:`convimpact.impact.contacts.newton`, the certificates in
-:mod:`convimpact.impact.contacts.certificates`. Everything is compiled on first use and cached
+:mod:`convimpact.contacts.newton`, the certificates in
+:mod:`convimpact.contacts.certificates`. Everything is compiled on first use and cached
 per user (:mod:`convimpact.compiled`: an edit of any compiled source retires the cache);
-:mod:`convimpact.impact.contacts.interior` imports these modules lazily.
+:mod:`convimpact.impact.several.interior` imports these modules lazily.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from ...compiled import jit as _jit
+from ..compiled import jit as _jit
 
 #: kernel status codes
 CONVERGED = 0

@@ -5,7 +5,7 @@ problem (compiled), which finishes the several-contact solver.
 (plus, for Coulomb's law, the shift ``|w_t| e`` per contact): Hayashi, Yamashita & Fukushima,
 SIAM J. Optim. 15, 2005. The generalized Jacobian is ``I - D (I - dy/dx)`` with D the
 Jacobian of the projection (:func:`_project`); a singular system (redundant contacts) is solved
-for a basic solution (:func:`_basic_solve`). :mod:`convimpact.impact.contacts.newton` poses
+for a basic solution (:func:`_basic_solve`). :mod:`convimpact.contacts.newton` poses
 the programs and calls :func:`natural_map_newton`.
 """
 

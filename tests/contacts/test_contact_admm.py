@@ -1,4 +1,4 @@
-"""The compiled ADMM of the contact engine (convimpact.impact.contacts.admm_kernel) and the
+"""The compiled ADMM of the contact engine (convimpact.contacts.admm_kernel) and the
 engine's Coulomb path through it.
 
 Oracles, none of them the code under test: closed forms derived by hand in the comments (one
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.impact.contacts import admm_kernel, engine
+from convimpact.contacts import admm_kernel, engine
 
 
 def project_cone(x, mu):

@@ -1,6 +1,12 @@
-"""Step 3b: the contact engine, for several contacts: the cone complementarity problem
-``K ∋ r ⊥ W r + b ∈ K*`` (the laws ``ccp`` and ``dissipative``) and Coulomb's law in De
-Saxce's form, certified on the original data.
+"""The contact engine: contact problems ``u = W r + b`` with friction cones, any number of
+contacts, certified on the original data.
+
+The cone complementarity problem ``K ∋ r ⊥ W r + b ∈ K*`` (the laws ``ccp`` and
+``dissipative``) and Coulomb's law in De Saxce's form. Its users: an impact's several contacts
+(:mod:`convimpact.impact.several`), Moreau–Jean's steps and the event-driven simulator's
+sustained-contact forces (:mod:`convimpact.simulation`), and the public
+:func:`~.contact_problem.solve_contact_problem`. It depends on nothing of the package but
+:mod:`convimpact.errors` and :mod:`convimpact.compiled`.
 
 * :mod:`.engine`: the entry (:func:`~.engine.solve`); the compiled dense kernels first on
   small problems, the compiled ADMM's bounded try on mid-size ones, else
@@ -14,10 +20,6 @@ Saxce's form, certified on the original data.
 * :mod:`.contact_problem`: :func:`~.contact_problem.solve_contact_problem`, the public API on
   ``(W, b, mu)``;
 * the compiled dense kernels: :mod:`.interior_point` (Mehrotra, Nesterov-Todd),
-  :mod:`.newton` (programs and drivers), :mod:`.natural_map` (their Newton finish),
-  :mod:`.certificates`;
-* :mod:`.interior`: ``method="interior"`` on an impact; :mod:`.lane` and :mod:`.lane_kernel`:
-  the public call's compiled lane for several open-loop contacts.
-
-The conic cross-check of every law at several contacts is :mod:`convimpact.impact.conic`.
+  :mod:`.newton` (the scaled programs and their drivers), :mod:`.natural_map` (their Newton
+  finish), :mod:`.certificates`.
 """

@@ -1,5 +1,5 @@
 """Several open-loop contacts from (M, Jc, dq), in one compiled call: the lane of
-``resolve_impact`` for the laws ``ccp`` and ``dissipative`` (:mod:`convimpact.impact.contacts.lane`).
+``resolve_impact`` for the laws ``ccp`` and ``dissipative`` (:mod:`convimpact.impact.several.lane`).
 
 :func:`lane_solve` does, into one flat workspace (:func:`layout`):
 
@@ -8,11 +8,11 @@
    construction) and ``v- = Jc dq`` (:func:`convimpact.impact.problem.compiled_reduction.reduce_rows`, shared
    with the one-contact lane);
 2. the plain-case contact checks of :func:`convimpact.impact.problem.build.build_problem`
-   (:func:`~convimpact.impact.contacts.interior_point.contact_checks`), some contact approaching, and
+   (:func:`~convimpact.contacts.interior_point.contact_checks`), some contact approaching, and
    the velocities within 1e-100 .. 1e100;
-3. the law by :func:`~convimpact.impact.contacts.newton.solve_law` (the public interior path's
-   single call; its program family chosen at compile time, :func:`~.newton.law_program`) and its certificate accepted by the rule of
-   :func:`convimpact.impact.contacts.interior._solve`;
+3. the law by :func:`~convimpact.impact.several.law_programs.solve_law` (the public interior path's
+   single call; its program family chosen at compile time, :func:`~.law_programs.law_program`) and its certificate accepted by the rule of
+   :func:`convimpact.impact.several.interior._solve`;
 4. for the dissipative law Poisson's scaling ``pi = plastic (1 + e_i)`` and the plastic and
    predicted energy losses; then ``dq+ = dq + L^-T X pi``, ``v+ = v- + W pi`` and
    ``T+ - T- = pi.v- + 1/2 pi.W.pi``, all finite.
@@ -30,9 +30,9 @@ import numpy as np
 from ..conic.polish import VELOCITY_RESIDUAL_MAX
 from ..problem.compiled_reduction import NOT_FINITE, PLAIN, map_back, reduce_rows, velocity_jump
 from ..problem.reduction import IMMOBILE_RTOL, TINY_NORMAL
-from .interior_point import TRIVIAL, _jit, contact_checks
+from ...contacts.interior_point import TRIVIAL, _jit, contact_checks
 from ...compiled import literally
-from .newton import law_program
+from .law_programs import law_program
 
 #: figures computed in plain arithmetic (outside, the full path normalizes them)
 PLAIN_LO, PLAIN_HI = PLAIN

@@ -5,12 +5,12 @@ compiled call.
 ``resolve_impact(M, [J1, ..., Jn], dq, e, mu, law=...)`` with ``law`` "ccp" or "dissipative"
 and ``method="auto"`` or ``"interior"`` (or ``law="coulomb"`` and ``method="interior"``:
 under auto Coulomb's law keeps the conic path), no loop constraints and no options goes to
-``method="interior"`` (:mod:`convimpact.impact.contacts.interior`), whose kernel is one
+``method="interior"`` (:mod:`convimpact.impact.several.interior`), whose kernel is one
 compiled call; around it the full path spent as long again building the problem (LAPACK
 Cholesky, the contact space, the checks) and the result. This lane does all of it in one
-compiled call (:func:`convimpact.impact.contacts.lane_kernel.lane_solve`): M checked and
+compiled call (:func:`convimpact.impact.several.lane_kernel.lane_solve`): M checked and
 factored, ``X = L^-1 Jc^T``, ``W = X^T X``, ``v- = Jc dq``, the plain-case contact checks, the
-law's program by :func:`~convimpact.impact.contacts.newton.solve_law` (the interior path's own
+law's program by :func:`~convimpact.impact.several.law_programs.solve_law` (the interior path's own
 call) accepted on its certificate by the interior path's rule, Poisson's scaling for the
 dissipative law, and ``dq+``, ``v+`` and ``T+ - T-``.
 

@@ -286,19 +286,6 @@ def contact_inputs(W, v, e, mu=None) -> tuple:
     return (W, v, e) if mu is None else (W, v, e, real_number("mu", mu))
 
 
-def check_single_contact(problem, options, method: str, takes: str, several: str) -> None:
-    """Refuse a single-contact method's unknown ``options`` (message ``method 'm' takes
-    <takes> got a, b``) and a problem of several contacts (:class:`NotSupportedError` saying
-    ``several``, which may name the count as ``{n}``)."""
-    if options:
-        from .resolve import options_help
-
-        raise UnknownOptionError(f"method {method!r} takes {takes} got "
-                                 f"{', '.join(sorted(options))}; {options_help()}")
-    if problem.n_contacts != 1:
-        raise NotSupportedError(several.format(n=problem.n_contacts))
-
-
 __all__ = [
     "ConvImpactError",
     "InputError",

@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from ... import compiled
-from ...compiled import jit as _jit
+from .. import compiled
+from ..compiled import jit as _jit
 
 #: the triangular solves' options: the project's, and the float reassociation that lets the
 #: compiler vectorize their dot products (3-8x faster at 200-300 rows in our measurements;
