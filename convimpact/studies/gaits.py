@@ -303,8 +303,9 @@ def plot_gait_bifurcation(result: GaitBifurcation, path=None):
     bottom.set_ylim(1e-2, 30.0)
     fig.tight_layout()
     if path is not None:
-        from ..bench.charts import save_chart
         from pathlib import Path
 
-        save_chart(fig, Path(path).parent, Path(path).name, dpi=110)
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=110)
+        plt.close(fig)  # written: off pyplot's list of open figures (the object stays usable)
     return fig
