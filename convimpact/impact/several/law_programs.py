@@ -176,28 +176,14 @@ def _register_compiled() -> None:
             return None
         if coulomb.literal_value:
             def impl(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter,
-                     accuracy):  # solve_coulomb's body, inlined (one call level less)
-                b, mu = law_data(v, e, friction, d, True, True)
-                pi, status, it, steps, r1, r2 = coulomb_kernel(W, b, mu, d, tol, max_iter,
-                                                               newton_iter)
-                residual = 0.0
-                floor = 0.0
-                if status != TRIVIAL:
-                    residual, floor = coulomb_certificate(W, b, mu, d, pi)
-                return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps,
-                                   residual, floor)
+                     accuracy):
+                return solve_coulomb(W, v, e, friction, d, mode, tol, max_iter, newton_iter,
+                                     accuracy)
         else:
             def impl(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter,
-                     accuracy):  # solve_dissipation's body, inlined (one call level less)
-                b, mu = law_data(v, e, friction, d, mode != 1, False)
-                pi, status, it, steps, r1, r2 = ccp_kernel(W, b, mu, d, tol, max_iter,
-                                                           newton_iter)
-                residual = 0.0
-                floor = 0.0
-                if status != TRIVIAL:
-                    residual, floor = ccp_certificate(W, b, mu, d, pi)
-                return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps,
-                                   residual, floor)
+                     accuracy):
+                return solve_dissipation(W, v, e, friction, d, mode, tol, max_iter,
+                                         newton_iter, accuracy)
         return impl
 
 
