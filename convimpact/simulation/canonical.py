@@ -65,12 +65,17 @@ class HeldMode:
     ``direction`` is, for "slip", the unit slip direction in the contact's tangent basis at
     the start of the segment (planar: ``(+1,)`` or ``(-1,)``); spatial slips follow the slip
     velocity's direction during the segment and use ``direction`` only while it is ~0 (an
-    onset). ``mu`` is the contact's friction coefficient.
+    onset). ``mu`` is the contact's friction coefficient. ``frozen`` (spatial "slip"): the
+    friction keeps ``direction`` during the whole segment instead of following the slip
+    velocity; the run holds it so only while the slip velocity keeps that direction (to
+    :data:`~.event_watch.SLIP_TURN_TOL` rad, an event otherwise: see
+    :mod:`~convimpact.simulation.event_watch`), where the two are the same force.
     """
 
     kind: str = "frictionless"
     direction: tuple[float, ...] = ()
     mu: float = 0.0
+    frozen: bool = False
 
 
 FRICTIONLESS = HeldMode()
@@ -370,7 +375,7 @@ class CanonicalEquations(HeldForces, CompiledHeldPath):
         velocity's in space (the stored one while it is ~0), the stored sign in the plane."""
         mode = self.modes[c]
         stored = np.asarray(mode.direction, float)
-        if len(jac) == 2:
+        if len(jac) == 2 or mode.frozen:
             return stored
         vt = jac[1:] @ dtheta
         norm = math.sqrt(float(vt @ vt))

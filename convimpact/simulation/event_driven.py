@@ -77,6 +77,9 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         self.painleve_error: PainleveError | None = None
         #: why contacts closing at an impact stay closed: {contact: (reason, t_inf or None)}
         self.closing_info: dict[str, tuple[str, float | None]] = {}
+        #: per sliding contact, how often its slip turned away from its frozen direction
+        #: (event ``turn:<c>``) since it last stuck or opened (:meth:`freeze_directions`)
+        self.turns: dict[str, int] = {}
         self.t = options.t0
         self.y = y0
         self.eq = CanonicalEquations(mechanism)
@@ -202,6 +205,9 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
             raise SimulationError(self.no_progress_message(te, ye, group))
         first = min(group)
         self.trigger = (first[1], first[2])
+        for f in group:
+            if f[2].startswith("turn:"):
+                self.turns[f[2][5:]] = self.turns.get(f[2][5:], 0) + 1
         stop_msg = self.handle_instant(te, ye, [f[2] for f in group if f[1] == "impact"],
                                        [f[2] for f in group if f[1] == "touch"])
         self.t = te

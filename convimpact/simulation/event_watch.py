@@ -21,9 +21,29 @@ from .sustained import MARGIN_SLACK, held_forces, painleve_indicator
 if TYPE_CHECKING:
     from .event_driven import EventDrivenRun
 
+#: how far a sliding contact's slip velocity v_t may leave its frozen friction direction s
+#: before the event ``turn:<c>`` ends the segment: its component across s stays below
+#: SLIP_TURN_TOL (|v_t| + |theta_dot|_inf) (an angle of SLIP_TURN_TOL rad once the slip is
+#: under way; at an onset, a speed within the integration's own tolerance of the motion's
+#: velocities, where the direction of v_t is round-off). The friction force differs from
+#: Coulomb's by that angle at most; it is 0 where the slip keeps its direction (the box
+#: stack's, the sliding tables', by symmetry)
+SLIP_TURN_TOL = 1e-8
 #: an event found in a step: (time, "impact" / "touch" / "mode", contact name)
 Event = tuple[float, str, str]
 Held = tuple[str, ...]
+
+
+def slip_alignment(vt: np.ndarray, s: np.ndarray, speed: float, floor: float) -> float:
+    """The event function of a frozen slip direction s (unit): ``SLIP_TURN_TOL (|v_t| +
+    speed + floor) - |v_t - (v_t . s) s|``, positive while the slip velocity v_t keeps along
+    s (see :data:`SLIP_TURN_TOL`; ``speed`` the motion's velocity scale, |theta_dot|_inf;
+    ``floor`` the slip floor, rest_velocity: positive at an onset from rest, where v_t and
+    the speed are 0, so that a slip turning in the first step is caught)."""
+    along = float(vt @ s)
+    across = vt - along * s
+    return (SLIP_TURN_TOL * (float(np.sqrt(vt @ vt)) + speed + floor)
+            - float(np.sqrt(across @ across)))
 
 
 class StepSamples:
@@ -131,14 +151,20 @@ class EventWatch:
         if same:
             out["margin"] = memo[4]
         elif want("margin"):
-            forces, margin = held_forces(self.eq, t, y, self.margin_hint)
+            forces, margin = held_forces(self.eq, t, y, self.margin_hint,
+                                         margin_only=keys is not None)
             out["margin"] = margin + MARGIN_SLACK
         if anchors:
             th, dth, _ = self.state(y)
             J = self._jacobians(th)
+            speed = float(np.max(np.abs(dth))) if dth.size else 0.0
             for c, a in anchors.items():
+                vt = J(c)[1:] @ dth
                 if want("slip:" + c):
-                    out["slip:" + c] = float((J(c)[1:] @ dth) @ a)
+                    out["slip:" + c] = float(vt @ a)
+                if self.eq.modes[c].frozen and want("turn:" + c):
+                    out["turn:" + c] = slip_alignment(vt, a, speed,
+                                                        self.opts.rest_velocity)
             if same:
                 out["painleve"] = memo[5]
             elif want("painleve"):
@@ -171,7 +197,9 @@ class EventWatch:
 
     def held_in_step(self, interp, t_old: float, t_new: float, w_prev: Mapping[str, float],
                      w_new: Mapping[str, float], anchors) -> list[Event]:
-        """Held contacts whose mode stops being valid in the step."""
+        """Held contacts whose mode stops being valid in the step (a margin, a slip velocity
+        along its anchor or the Painleve indicator through zero; a slip turning away from its
+        frozen direction)."""
         found: list[Event] = []
         for key, prev in w_prev.items():
             new = w_new[key]

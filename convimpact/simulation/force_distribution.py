@@ -36,10 +36,17 @@ FACE_RTOL = 1e-8
 DEGENERATE = 1e-5
 #: tolerance (relative) of the optimality conditions a cone program's solution must meet
 CERTIFY_RTOL = 1e-8
+#: Newton steps without a smaller residual after which the polish stops (its best kept)
+NEWTON_STALL = 3
+#: margin (relative to the force scale) by which stage 1's largest smallest margin must lie
+#: below ``below`` for max_margin_distribution to skip stage 2 (polished, it is exact to
+#: ~1e-12; unpolished, the solver's optimum is within its duality-gap tolerance, 1e-11)
+BELOW_GUARD = 1e-9
 
 
 def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
-                            fscale: float) -> tuple[np.ndarray, float]:
+                            fscale: float, below: float | None = None,
+                            warm: dict | None = None) -> tuple[np.ndarray, float]:
     """The force distribution chosen among the indeterminate ones ``lam0 + Z xi``: the
     largest smallest margin, then, among the distributions reaching it, the least Euclidean
     norm. Unique for any data.
@@ -91,6 +98,18 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     :class:`~convimpact.impact.errors.SolverError` is raised, never an unconverged
     distribution returned.
 
+    ``below`` (force units, optional): where the largest smallest margin is below it (by
+    :data:`BELOW_GUARD` of the force scale when finite; ``inf``: always) the caller needs
+    the margin only: stage 2 is skipped and the maximizer of stage 1 returned with its
+    margin (one of the maximizers: not the unique choice). The mode selection rejects a
+    combination so (its margin clearly negative), the event functions locate the margin's
+    zero so (a margin is all they ask for).
+
+    ``warm`` (a dict the caller keeps between programs of one set of contacts and modes,
+    e.g. over a segment): the last program's active set and maximizer are kept there, and
+    a margin-only call (``below=inf``) first tries Newton's method on the optimality
+    conditions at that active set (:func:`_warm_max_min`), the solver only where it fails.
+
     Returns (lambda, margin): the distribution (n d,) and its smallest margin (force units;
     ``inf`` without stick or slip contacts).
     """
@@ -113,12 +132,28 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     b = np.concatenate([blk[2] for blk in blocks])
     w = np.concatenate([blk[3] for blk in blocks])
     cones = [(blk[0], len(blk[2])) for blk in blocks]
+    if warm is not None and below is not None and not np.isfinite(below) and below > 0.0:
+        got = _warm_max_min(blocks, warm, lam0, Q, scale)
+        if got is not None:  # the margin alone, at the last program's active set
+            y_star, t_star = got
+            lam = lam0 + Q @ (y_star * scale)
+            warm["lam"], warm["tau"] = lam, t_star
+            return lam, _smallest_margin(mu, d, combo, lam)
     # stage 1: max tau s.t. b - A y - tau w in the cones; unknowns (y, tau)
-    x1, z1 = _solve_certified(np.zeros((r + 1, r + 1)), np.r_[np.zeros(r), -1.0],
+    q1 = np.zeros(r + 1)
+    q1[r] = -1.0
+    x1, z1 = _solve_certified(np.zeros((r + 1, r + 1)), q1,
                               np.hstack([A, w[:, None]]), b, cones, "largest smallest margin")
     # its optimality conditions solved to round-off on the active cones (Newton)
-    y_star, t_star, kinds = _polish_max_min(blocks, x1, z1)
+    y_star, t_star, kinds, active = _polish_max_min(blocks, x1, z1)
+    if warm is not None:
+        warm["active"] = active
+        warm["lam"], warm["tau"] = lam0 + Q @ (y_star * scale), t_star
     t_star = min(t_star, _smallest_margin(mu, d, combo, l0 + Q @ y_star))
+    if below is not None and (t_star * scale < below - BELOW_GUARD * scale
+                              if np.isfinite(below) else below > 0.0):
+        lam = lam0 + Q @ (y_star * scale)
+        return lam, _smallest_margin(mu, d, combo, lam)
     # the affine hull of the optimal face: every maximizer keeps each active cone's slack
     # s = b - t* w - A y where it is (zero, or on the ray)
     rows_E, rows_e = [], []
@@ -188,26 +223,63 @@ def _polish_max_min(blocks, x1: np.ndarray, z1: np.ndarray):
         sb = bb - Ab @ x1[:r] - x1[r] * wb
         k += len(bb)
         slacks.append((sb, zb))
-        sn, zn = float(np.linalg.norm(sb[1:])), float(np.linalg.norm(zb[1:]))
+        sn, zn = _norm(sb[1:]), _norm(zb[1:])
         if max(zb[0] + zn, sb[0] - sn) < DEGENERATE:
             ambiguous.append(j)
     first = _active_cones(blocks, slacks, ())
     tried = [first] + ([_active_cones(blocks, slacks, ambiguous)] if ambiguous else [])
+    polished = False
     for kinds, unknowns in tried:
         v = _newton_max_min(blocks, kinds, unknowns, x1)
         if v is not None:
+            polished = True
             break
     else:
         kinds, unknowns = first
         v = np.concatenate([x1] + unknowns)
-    out_kinds, k = [], r + 1
+    out_kinds, parts, k = [], [], r + 1
     for how, p in zip(kinds, unknowns):
         if how is None or isinstance(how, str):
             out_kinds.append(how)
         else:
             out_kinds.append(np.array([math.cos(v[k + 2]), math.sin(v[k + 2])]))
+        parts.append(v[k:k + p.size].copy())
         k += p.size
-    return v[:r], float(v[r]), out_kinds
+    # (the active set and its unknowns: a later program near this one starts from them)
+    return v[:r], float(v[r]), out_kinds, ((kinds, parts) if polished else None)
+
+
+def _warm_max_min(blocks, warm: dict, lam0: np.ndarray, Q: np.ndarray, scale: float):
+    """(y, t*) of the max-min program by Newton's method on its optimality conditions at
+    the active set of the last program (``warm``: a nearby state's, the same contacts and
+    modes), from its maximizer moved into the current distributions; None where that
+    active set is not this program's (Newton's method fails, or a cone's slack or
+    multiplier leaves its cone: :func:`_newton_max_min` checks them). Where it succeeds
+    the point meets every optimality condition of the (convex) program: t* is its
+    largest smallest margin, as the solver's would give after the polish."""
+    active = warm.get("active")
+    lam_prev = warm.get("lam")
+    if active is None or lam_prev is None or lam_prev.shape != lam0.shape:
+        return None
+    kinds, parts = active
+    if len(kinds) != len(blocks) or any(
+            how is not None and not isinstance(how, str) and len(blk[2]) != how[1]
+            or (isinstance(how, str) and p.size != len(blk[2]))
+            for how, p, blk in zip(kinds, parts, blocks)):
+        return None
+    r = Q.shape[1]
+    x0 = np.empty(r + 1)
+    x0[:r] = Q.T @ ((lam_prev - lam0) / scale)
+    x0[r] = warm["tau"]
+    v = _newton_max_min(blocks, kinds, [p.copy() for p in parts], x0)
+    if v is None:
+        return None
+    k, fresh = r + 1, []
+    for p in parts:
+        fresh.append(v[k:k + p.size].copy())
+        k += p.size
+    warm["active"] = (kinds, fresh)
+    return v[:r], float(v[r])
 
 
 def _active_cones(blocks, slacks, flip):
@@ -216,7 +288,7 @@ def _active_cones(blocks, slacks, flip):
     the optimum, the larger member tells which (the cones in flip: the other way)."""
     kinds, unknowns = [], []
     for j, ((kind, Ab, bb, wb), (sb, zb)) in enumerate(zip(blocks, slacks)):
-        sn, zn = float(np.linalg.norm(sb[1:])), float(np.linalg.norm(zb[1:]))
+        sn, zn = _norm(sb[1:]), _norm(zb[1:])
         inactive = (zb[0] + zn <= sb[0] - sn) != (j in flip)
         if inactive:  # z = 0
             kinds.append(None)
@@ -227,8 +299,8 @@ def _active_cones(blocks, slacks, flip):
         else:  # s and z on opposite rays of the boundary
             u = sb[1:] / sn if sn > zn else -zb[1:] / max(zn, 1e-300)
             kinds.append(("ray", len(zb)))
-            unknowns.append(np.r_[0.5 * (sb[0] + sn), 0.5 * (zb[0] + zn),
-                                  math.atan2(u[1], u[0])])
+            unknowns.append(np.array([0.5 * (sb[0] + sn), 0.5 * (zb[0] + zn),
+                                      math.atan2(u[1], u[0])]))
     return kinds, unknowns
 
 
@@ -283,6 +355,7 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
 
     v = np.concatenate([x1] + unknowns)
     best, best_norm = v, float(np.max(np.abs(residual(v)[0])))
+    stalled = 0
     for _ in range(30):
         F, J = residual(v)
         # least-squares steps, small singular values cut: along a face of maximizers the
@@ -290,9 +363,14 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
         step = np.linalg.lstsq(J, F, rcond=1e-10)[0]
         v = v - step
         norm = float(np.max(np.abs(residual(v)[0])))
+        # (no gain over NEWTON_STALL steps running: Newton's method is at its round-off
+        # floor or stuck where the cut singular directions hold the residual; the box
+        # stack's onsets ran all 30 steps on an unchanged residual, 8 of its 55 polishes)
+        stalled = 0 if norm < best_norm else stalled + 1
         if norm < best_norm:
             best, best_norm = v, norm
-        if norm <= 1e-15 or float(np.max(np.abs(step))) <= 1e-16:
+        if (norm <= 1e-15 or float(np.max(np.abs(step))) <= 1e-16
+                or stalled >= NEWTON_STALL):
             break
     if not best_norm <= 1e-12:
         return None
@@ -348,21 +426,30 @@ def _margin_blocks(mu, d: int, combo, l0: np.ndarray, Q: np.ndarray) -> list:
         elif mode == STICK:
             A = -Q[n0:n0 + d].copy()
             A[0] *= mu[i]
-            out.append(("soc", A, np.r_[mu[i] * l0[n0], l0[n0 + 1:n0 + d]],
-                        np.r_[1.0, np.zeros(d - 1)]))
+            b = l0[n0:n0 + d].copy()
+            b[0] *= mu[i]
+            w = np.zeros(d)
+            w[0] = 1.0
+            out.append(("soc", A, b, w))
     return out
 
 
 def _smallest_margin(mu, d: int, combo, lam: np.ndarray) -> float:
     """The smallest of the stick (mu lambda_n - |lambda_t|) and slip (lambda_n) margins."""
-    out = np.inf
-    for i, mode in enumerate(combo):
-        n0 = i * d
-        if mode == SLIP:
-            out = min(out, float(lam[n0]))
-        elif mode == STICK:
-            out = min(out, mu[i] * float(lam[n0]) - float(np.linalg.norm(lam[n0 + 1:n0 + d])))
+    F = np.asarray(lam, float).reshape(-1, d)
+    slip = np.fromiter((mode == SLIP for mode in combo), bool, len(combo))
+    stick = np.fromiter((mode == STICK for mode in combo), bool, len(combo))
+    out = float(np.min(F[slip, 0])) if slip.any() else np.inf
+    if stick.any():
+        T = F[stick, 1:]
+        out = min(out, float(np.min(np.asarray(mu, float)[stick] * F[stick, 0]
+                                    - np.sqrt(np.einsum("ij,ij->i", T, T)))))
     return out
+
+
+def _norm(v: np.ndarray) -> float:
+    """The Euclidean norm of a short vector."""
+    return math.sqrt(float(v @ v))
 
 
 def _cone_violation(v: np.ndarray, cones) -> float:
