@@ -99,7 +99,11 @@ class CompiledHeldPath:
             stored = np.array([md.direction for md in modes], float)
             mu = np.array([md.mu for md in modes])
             # below its floor a contact keeps its stored direction: a frozen one always
-            floors = np.array([np.inf if md.frozen else self.slip_floor for md in modes])
+            # (the flags are the segment's: the run replaces only the directions)
+            floors = getattr(self, "_floors", None)
+            if floors is None:
+                floors = self._floors = np.array([np.inf if md.frozen else self.slip_floor
+                                                  for md in modes])
         else:
             stored, mu, floors = np.zeros((0, 1)), np.zeros(0), np.zeros(0)
         w = self.unknown_weights() if self.redundant else np.zeros(0)

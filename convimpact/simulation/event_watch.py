@@ -34,18 +34,6 @@ Event = tuple[float, str, str]
 Held = tuple[str, ...]
 
 
-def slip_alignment(vt: np.ndarray, s: np.ndarray, speed: float, floor: float) -> float:
-    """The event function of a frozen slip direction s (unit): ``SLIP_TURN_TOL (|v_t| +
-    speed + floor) - |v_t - (v_t . s) s|``, positive while the slip velocity v_t keeps along
-    s (see :data:`SLIP_TURN_TOL`; ``speed`` the motion's velocity scale, |theta_dot|_inf;
-    ``floor`` the slip floor, rest_velocity: positive at an onset from rest, where v_t and
-    the speed are 0, so that a slip turning in the first step is caught)."""
-    along = float(vt @ s)
-    across = vt - along * s
-    return (SLIP_TURN_TOL * (float(np.sqrt(vt @ vt)) + speed + floor)
-            - float(np.sqrt(across @ across)))
-
-
 class StepSamples:
     """The free contacts' gaps and normal speeds on one step's interpolant.
 
@@ -156,15 +144,19 @@ class EventWatch:
             out["margin"] = margin + MARGIN_SLACK
         if anchors:
             th, dth, _ = self.state(y)
-            J = self._jacobians(th)
-            speed = float(np.max(np.abs(dth))) if dth.size else 0.0
-            for c, a in anchors.items():
-                vt = J(c)[1:] @ dth
-                if want("slip:" + c):
-                    out["slip:" + c] = float(vt @ a)
-                if self.eq.modes[c].frozen and want("turn:" + c):
-                    out["turn:" + c] = slip_alignment(vt, a, speed,
-                                                        self.opts.rest_velocity)
+            names = (list(anchors) if keys is None else list(dict.fromkeys(
+                key[5:] for key in keys if key[:5] in ("slip:", "turn:")
+                and key[5:] in anchors)))
+            if names:
+                V = self._slip_velocities(th, dth, names)  # (n, d - 1)
+                S = np.array([anchors[c] for c in names], float).reshape(V.shape)
+                along = np.einsum("ij,ij->i", V, S)
+                turn = self._turn_functions(V, S, along, dth)
+                for i, c in enumerate(names):
+                    if want("slip:" + c):
+                        out["slip:" + c] = float(along[i])
+                    if self.eq.modes[c].frozen and want("turn:" + c):
+                        out["turn:" + c] = float(turn[i])
             if same:
                 out["painleve"] = memo[5]
             elif want("painleve"):
@@ -173,6 +165,31 @@ class EventWatch:
             exact = forces if self.margin_hint.get("exact", True) else None
             self._watched = (self.eq, t, key, exact, out["margin"], out.get("painleve"))
         return out
+
+    def _slip_velocities(self, th: np.ndarray, dth: np.ndarray,
+                         contacts: Sequence[str]) -> np.ndarray:
+        """The slip velocities v_t (n, d - 1) of ``contacts`` at (theta, theta_dot): from
+        one compiled pass on a model, else :meth:`contact_row`."""
+        if self.eq._model:
+            d = self.mech.rhs_positions(np.ascontiguousarray(th, dtype=float))
+            if all(d.contact_ok):
+                idx = [self.contact_at[c] for c in contacts]
+                return d.contact_jacobian[idx, 1:self.d] @ dth
+        return np.array([self.contact_row(c, th)[1:] @ dth for c in contacts])
+
+    def _turn_functions(self, V: np.ndarray, S: np.ndarray, along: np.ndarray,
+                        dth: np.ndarray) -> np.ndarray:
+        """The event functions of frozen slip directions: per row of V (slip velocities
+        v_t) and S (their frozen unit directions s; ``along`` = v_t . s),
+        ``SLIP_TURN_TOL (|v_t| + |theta_dot|_inf + rest_velocity) - |v_t - (v_t . s) s|``,
+        positive while v_t keeps along s (:data:`SLIP_TURN_TOL`; the rest velocity, the
+        slip floor, keeps it positive at an onset from rest, where v_t and theta_dot are 0,
+        so that a slip turning in the first step is caught)."""
+        across = V - along[:, None] * S
+        speed = float(np.max(np.abs(dth))) if dth.size else 0.0
+        return (SLIP_TURN_TOL * (np.sqrt(np.einsum("ij,ij->i", V, V)) + speed
+                                 + self.opts.rest_velocity)
+                - np.sqrt(np.einsum("ij,ij->i", across, across)))
 
     def _jacobians(self, th: np.ndarray):
         """contact name -> its Jacobian at theta (rows n, t...): from one compiled pass on a
