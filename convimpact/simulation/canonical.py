@@ -14,8 +14,9 @@ Contacts that the simulator holds closed enter like loop constraints, by their m
 * ``"stick"`` (resting, rolling): all rows of the contact Jacobian (n and t, or n, t1, t2)
   join ``C``; their multipliers are the normal and friction forces;
 * ``"slip"`` (sliding with Coulomb friction): the normal row joins ``C`` and the friction force
-  ``-mu lambda_n c_t^T s`` (s the unit slip direction) is a generalized force driven by the
-  normal multiplier, so ``p_dot = f + M_dot theta_dot - C_dot^T sigma + D nu`` with ``D`` the
+  ``-mu lambda_n c_t^T s`` (s the unit slip direction: the slip velocity's, or in space one
+  frozen for the segment while the slip keeps it, :mod:`~.event_watch`) is a generalized
+  force driven by the normal multiplier, so ``p_dot = f + M_dot theta_dot - C_dot^T sigma + D nu`` with ``D`` the
   friction columns; the multipliers solve ``C M^-1 (C^T + D) nu = -(C M^-1 f + C_dot theta_dot)``,
   a non-symmetric system whose singularity is Painleve's;
 * ``"frictionless"``: the normal row only (a bilateral frictionless constraint).

@@ -42,6 +42,9 @@ NEWTON_STALL = 3
 #: below ``below`` for max_margin_distribution to skip stage 2 (polished, it is exact to
 #: ~1e-12; unpolished, the solver's optimum is within its duality-gap tolerance, 1e-11)
 BELOW_GUARD = 1e-9
+#: the same for the solver's own largest smallest margin, unpolished, where its status is
+#: "Solved" (its tolerances 1e-11)
+SOLVED_GUARD = 1e-8
 
 
 def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
@@ -142,8 +145,15 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     # stage 1: max tau s.t. b - A y - tau w in the cones; unknowns (y, tau)
     q1 = np.zeros(r + 1)
     q1[r] = -1.0
-    x1, z1 = _solve_certified(np.zeros((r + 1, r + 1)), q1,
-                              np.hstack([A, w[:, None]]), b, cones, "largest smallest margin")
+    x1, z1, status = _solve_certified(np.zeros((r + 1, r + 1)), q1,
+                                      np.hstack([A, w[:, None]]), b, cones,
+                                      "largest smallest margin")
+    if (below is not None and np.isfinite(below) and status == "Solved"
+            and x1[r] * scale < below - SOLVED_GUARD * scale):
+        # clearly below: the margin is all the caller needs (Clarabel's "Solved" holds
+        # its duality gap and residuals to 1e-11, far inside the guard), no polish
+        lam = lam0 + Q @ (x1[:r] * scale)
+        return lam, min(x1[r] * scale, _smallest_margin(mu, d, combo, lam))
     # its optimality conditions solved to round-off on the active cones (Newton)
     y_star, t_star, kinds, active = _polish_max_min(blocks, x1, z1)
     if warm is not None:
@@ -185,7 +195,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
         g = N.T @ (Q.T @ l0)
         if free:
             sel = np.concatenate([np.arange(k0, k0 + size) for k0, _, size in free])
-            u, _ = _solve_certified(np.eye(N.shape[1]), g, AN[sel], b2[sel],
+            u, _, _ = _solve_certified(np.eye(N.shape[1]), g, AN[sel], b2[sel],
                                     [(kind, size) for _, kind, size in free],
                                     "least-norm distribution")
         else:
@@ -481,8 +491,8 @@ def _csc(M: np.ndarray):
 
 
 def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray, cones,
-                     what: str) -> np.ndarray:
-    """(x, z): argmin x'Px/2 + q'x s.t. b - A x in the cones, and the multipliers, by
+                     what: str) -> tuple[np.ndarray, np.ndarray, str]:
+    """(x, z, status): argmin x'Px/2 + q'x s.t. b - A x in the cones, and the multipliers, by
     Clarabel. Returned only when the
     status is Solved or AlmostSolved and the optimality conditions hold to CERTIFY_RTOL
     (evaluated here, not taken from the solver): s = b - A x and the multipliers z in their
@@ -520,4 +530,4 @@ def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray,
     if bad:
         raise SolverError(f"the force distribution of redundant contacts ({what}): Clarabel "
                           f"{status}, but its optimality conditions fail: {bad}")
-    return x, z
+    return x, z, status
