@@ -68,7 +68,9 @@ class ContactEvents:
                 key = f"{note} ({', '.join(names)})"
                 t0, count = self.force_notes.get(key, (t, 0))
                 self.force_notes[key] = (t0, count + 1)
-            modes = self.freeze_directions(held_modes(cs, sol.modes, sol.direction), cs.dims)
+            onsets = {c for i, c in enumerate(candidates) if not np.any(cs.problem.slip[i])}
+            modes = self.freeze_directions(held_modes(cs, sol.modes, sol.direction), cs.dims,
+                                           onsets)
             held = tuple(c for c in candidates if c in modes)
             loops = (np.asarray(self.mech.loop_jacobian(th), float).reshape(-1, self.k)
                      if self.m else None)
@@ -98,33 +100,39 @@ class ContactEvents:
         self.modes.update(t, {c: modes[c].kind if c in modes else "open" for c in self.contacts})
         return self.pack(th, dth, sig_loops)
 
-    def freeze_directions(self, modes: dict[str, HeldMode],
-                          dims: Mapping[str, int]) -> dict[str, HeldMode]:
+    def freeze_directions(self, modes: dict[str, HeldMode], dims: Mapping[str, int],
+                          onsets: Collection[str]) -> dict[str, HeldMode]:
         """The spatial sliding contacts' friction directions frozen for the segment
-        (:class:`~.canonical.HeldMode`'s ``frozen``), except in a run with sensitivities
-        (their variational equations differentiate the direction's dependence on the slip
-        velocity) and for a contact whose slip has turned away from its frozen direction
-        :data:`FREEZES` times since it last stuck or opened (:attr:`turns`): its friction
-        then follows the slip velocity.
+        (:class:`~.canonical.HeldMode`'s ``frozen``) where a slow slip would make a followed
+        direction stiff: a slip starting here (``onsets``: no slip velocity yet, the force
+        problem's direction), a slip frozen in the segment just ended (still along it), and
+        once more a slip that turned away from its frozen direction (the event ``turn:<c>``
+        of :meth:`~.event_watch.EventWatch.watch`; :attr:`turns` counts them), refrozen along
+        its velocity: an onset's direction is read off an acceleration that vanishes at the
+        instant (to ~1e-8 rad where symmetry does not fix it). Any other slip (sliding since
+        the run's start, or turned :data:`FREEZES` times) follows its velocity, as in a run
+        with sensitivities (their variational equations differentiate the direction).
 
-        While the slip keeps its direction the frozen force is Coulomb's (the event
-        ``turn:<c>`` of :meth:`~.event_watch.EventWatch.watch` ends the segment as soon as
-        the slip velocity leaves the direction: :data:`~.event_watch.SLIP_TURN_TOL`); what
-        it saves is the stiffness of a followed direction at a slip onset: a perturbation
-        across the slip relaxes at a rate ~ mu g / |v_t|, which an explicit integrator
-        resolves with steps ~ |v_t| / (mu g) (the box stack's top box: 185 of the run's 211
-        steps in the 27 ms after its onset). An onset's direction is the force problem's,
-        read off an acceleration that vanishes at the instant (to ~1e-8 rad where symmetry
-        does not fix it): the first turn freezes the slip velocity's own direction, the
-        second releases it.
+        While the slip keeps its direction the frozen force is Coulomb's (to
+        :data:`~.event_watch.SLIP_TURN_TOL`); what it saves is the stiffness of a followed
+        direction at a slip onset: a perturbation across the slip relaxes at a rate
+        ~ mu g / |v_t|, which an explicit integrator resolves with steps ~ |v_t| / (mu g)
+        (the box stack's top box: 185 of the run's 211 steps in the 27 ms after its onset).
         """
         self.turns = {c: n for c, n in self.turns.items()
                       if c in modes and modes[c].kind == "slip"}
         if self.opts.sensitivities:
             return modes
-        return {c: replace(md, frozen=True) if (md.kind == "slip" and md.mu > 0.0
-                                                 and dims.get(c, 0) > 2
-                                                 and self.turns.get(c, 0) < FREEZES) else md
+        was = self.eq.modes
+
+        def freeze(c: str, md: HeldMode) -> bool:
+            if md.kind != "slip" or md.mu <= 0.0 or dims.get(c, 0) <= 2:
+                return False
+            turns = self.turns.get(c, 0)
+            if turns >= FREEZES:
+                return False
+            return c in onsets or turns > 0 or (c in was and was[c].frozen)
+        return {c: replace(md, frozen=True) if freeze(c, md) else md
                 for c, md in modes.items()}
 
     # ---- impacts ---------------------------------------------------------------------------
