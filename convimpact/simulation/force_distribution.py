@@ -328,51 +328,60 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
             k += n
         return out
 
+    # the active cones' constant parts, once: their rows of the equations' Jacobian (the
+    # slacks' -A and -w), the stationarity's -Aw^T columns, and where each sits
+    active, k, row = [], r + 1, r + 1
+    for (kind, Ab, bb, wb), how, n in zip(blocks, kinds, sizes):
+        if how is not None:
+            Aw = np.hstack([Ab, wb[:, None]])  # the stationarity's -d/dz
+            active.append((how, Ab, bb, wb, Aw.T.copy(), k, row, len(bb)))
+            row += len(bb)
+        k += n
+    size = r + 1 + sum(sizes)
+    J0 = np.zeros((row, size))
+    for how, Ab, bb, wb, AwT, k, row0, m in active:
+        J0[row0:row0 + m, :r] = -Ab
+        J0[row0:row0 + m, r] = -wb
+        if how == "zero":
+            J0[:r + 1, k:k + m] = -AwT
+
     def residual(v):
         y, tau = v[:r], v[r]
+        F = np.empty(row)
+        J = J0.copy()
         stat = np.zeros(r + 1)
         stat[r] = 1.0
-        J_stat = np.zeros((r + 1, v.size))
-        eqs, J_eqs, k = [], [], r + 1
-        for (kind, Ab, bb, wb), how, p in zip(blocks, kinds, parts(v)):
-            n = p.size
-            if how is None:
-                continue
+        for how, Ab, bb, wb, AwT, k, row0, m in active:
             s = bb - Ab @ y - tau * wb
-            Js = np.zeros((len(bb), v.size))
-            Js[:, :r] = -Ab
-            Js[:, r] = -wb
-            Aw = np.hstack([Ab, wb[:, None]])  # the stationarity's -d/dz
             if how == "zero":
-                zb = p
-                J_stat[:, k:k + n] = -Aw.T
-                eqs.append(s)
+                zb = v[k:k + m]
+                F[row0:row0 + m] = s
             else:
-                alpha, beta, phi = p
+                alpha, beta, phi = v[k], v[k + 1], v[k + 2]
                 c, sn = math.cos(phi), math.sin(phi)
                 ray, dray = np.array([1.0, c, sn]), np.array([0.0, -sn, c])
                 zdir, dzdir = np.array([1.0, -c, -sn]), np.array([0.0, sn, -c])
                 zb = beta * zdir
-                J_stat[:, k + 1] = -Aw.T @ zdir
-                J_stat[:, k + 2] = -Aw.T @ (beta * dzdir)
-                eqs.append(s - alpha * ray)
-                Js[:, k] = -ray
-                Js[:, k + 2] = -alpha * dray
-            stat = stat - Aw.T @ zb
-            J_eqs.append(Js)
-            k += n
-        return np.concatenate([stat] + eqs), np.vstack([J_stat] + J_eqs)
+                J[:r + 1, k + 1] = -AwT @ zdir
+                J[:r + 1, k + 2] = -AwT @ (beta * dzdir)
+                F[row0:row0 + m] = s - alpha * ray
+                J[row0:row0 + m, k] = -ray
+                J[row0:row0 + m, k + 2] = -alpha * dray
+            stat -= AwT @ zb
+        F[:r + 1] = stat
+        return F, J
 
     v = np.concatenate([x1] + unknowns)
-    best, best_norm = v, float(np.max(np.abs(residual(v)[0])))
+    F, J = residual(v)
+    best, best_norm = v, float(np.max(np.abs(F)))
     stalled = 0
     for _ in range(30):
-        F, J = residual(v)
         # least-squares steps, small singular values cut: along a face of maximizers the
         # conditions are singular, and the step stays near the solver's point
         step = np.linalg.lstsq(J, F, rcond=1e-10)[0]
         v = v - step
-        norm = float(np.max(np.abs(residual(v)[0])))
+        F, J = residual(v)  # (the next step's too)
+        norm = float(np.max(np.abs(F)))
         # (no gain over NEWTON_STALL steps running: Newton's method is at its round-off
         # floor or stuck where the cut singular directions hold the residual; the box
         # stack's onsets ran all 30 steps on an unchanged residual, 8 of its 55 polishes)
