@@ -21,6 +21,7 @@ import numpy as np
 from ..impact.errors import NonFiniteError
 
 _KERNELS = None
+_EMPTY = np.zeros(0)  # (read only by the kernels)
 
 
 def _kernels():
@@ -105,7 +106,7 @@ class CompiledHeldPath:
                 floors = self._floors = np.array([np.inf if md.frozen else self.slip_floor
                                                   for md in modes])
         else:
-            stored, mu, floors = np.zeros((0, 1)), np.zeros(0), np.zeros(0)
+            stored, mu, floors = np.zeros((0, 1)), _EMPTY, _EMPTY
         w = self.unknown_weights() if self.redundant else np.zeros(0)
         x0 = (self.offset if self.offset is not None and self.redundant
               else np.zeros(len(w)))

@@ -68,7 +68,8 @@ class ContactEvents:
                 key = f"{note} ({', '.join(names)})"
                 t0, count = self.force_notes.get(key, (t, 0))
                 self.force_notes[key] = (t0, count + 1)
-            onsets = {c for i, c in enumerate(candidates) if not np.any(cs.problem.slip[i])}
+            moving = np.any(cs.problem.slip != 0.0, axis=1)
+            onsets = {c for c, m in zip(candidates, moving) if not m}
             modes = self.freeze_directions(held_modes(cs, sol.modes, sol.direction), cs.dims,
                                            onsets)
             held = tuple(c for c in candidates if c in modes)

@@ -171,11 +171,13 @@ class EventWatch:
                 V = self._slip_velocities(th, dth, names)  # (n, d - 1)
                 S = np.array([anchors[c] for c in names], float).reshape(V.shape)
                 along = np.einsum("ij,ij->i", V, S)
-                turn = self._turn_functions(V, S, along, dth)
+                modes = self.eq.modes
+                turn = (self._turn_functions(V, S, along, dth)
+                        if any(modes[c].frozen for c in names) else None)
                 for i, c in enumerate(names):
                     if want("slip:" + c):
                         out["slip:" + c] = float(along[i])
-                    if self.eq.modes[c].frozen and want("turn:" + c):
+                    if turn is not None and modes[c].frozen and want("turn:" + c):
                         out["turn:" + c] = float(turn[i])
             if same:
                 out["painleve"] = memo[5]
@@ -192,7 +194,7 @@ class EventWatch:
         one compiled pass on a model, else :meth:`contact_row`."""
         if self.eq._model:
             d = self.mech.rhs_positions(np.ascontiguousarray(th, dtype=float))
-            if all(d.contact_ok):
+            if d.contact_ok.all():
                 idx = [self.contact_at[c] for c in contacts]
                 return d.contact_jacobian[idx, 1:self.d] @ dth
         return np.array([self.contact_row(c, th)[1:] @ dth for c in contacts])
