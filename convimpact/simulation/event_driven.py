@@ -101,6 +101,9 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         #: the last full :meth:`watch`: (eq, t, y's bytes, the exact forces or None,
         #: margin, Painleve indicator)
         self._watched: tuple | None = None
+        #: the last exact forces :meth:`exact_forces` computed: (eq, t, y's bytes, forces,
+        #: margin)
+        self._recorded: tuple | None = None
         self.modes = ModeLog(self.contacts, self.t)
         self.detector = AccumulationDetector(options.zeno_time_tol, options.rest_velocity)
         self.status: int | None = None
@@ -165,7 +168,10 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         if (memo is not None and memo[0] is self.eq and memo[1] == t
                 and memo[3] is not None and memo[2] == y.tobytes()):
             return memo[3]
-        return held_forces(self.eq, t, y)[0]
+        forces, margin = held_forces(self.eq, t, y)
+        # (a segment's first watch, at the state recorded after its event, takes them)
+        self._recorded = (self.eq, t, y.tobytes(), forces, margin)
+        return forces
 
     def project_state(self, y: np.ndarray) -> np.ndarray:
         """Project theta onto Psi = 0 (loops, held gaps) and theta_dot onto the velocity
