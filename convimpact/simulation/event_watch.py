@@ -13,9 +13,11 @@ an explicit integrator's steps shrink to ~ |v_t| / (mu g) at a slip onset (|v_t|
 to slide at 0.633 s: 185 of the run's 211 steps (3,900 of 4,177 right-hand sides) fell in the
 27 ms after the onset, the run 202x MuJoCo per simulated second; an implicit integrator
 (Radau, finite-difference Jacobians) took 3,163 steps. Rather than a slip-speed floor (a
-change of the physics) or an implicit step, the run freezes each spatial sliding contact's
-direction for the segment (:class:`~.canonical.HeldMode`'s ``frozen``: the force problem's
-onset direction, or the slip velocity's) and watches here that the slip keeps it: the event
+change of the physics) or an implicit step, the run freezes the direction of each spatial
+slip that starts at an event (:class:`~.canonical.HeldMode`'s ``frozen``: the force
+problem's onset direction; kept frozen over later segments while the slip keeps it; slips
+under way since the run's start follow their velocity, as before) and watches here that
+the slip keeps it: the event
 ``turn:<c>`` ends the segment where the slip velocity's component across the direction
 exceeds :data:`SLIP_TURN_TOL` (|v_t| + |theta_dot|_inf + rest_velocity). Until then the
 friction is Coulomb's to that angle; where the slip keeps its direction (the stack, the
@@ -43,11 +45,11 @@ if TYPE_CHECKING:
 
 #: how far a sliding contact's slip velocity v_t may leave its frozen friction direction s
 #: before the event ``turn:<c>`` ends the segment: its component across s stays below
-#: SLIP_TURN_TOL (|v_t| + |theta_dot|_inf) (an angle of SLIP_TURN_TOL rad once the slip is
-#: under way; at an onset, a speed within the integration's own tolerance of the motion's
-#: velocities, where the direction of v_t is round-off). The friction force differs from
-#: Coulomb's by that angle at most; it is 0 where the slip keeps its direction (the box
-#: stack's, the sliding tables', by symmetry)
+#: SLIP_TURN_TOL (|v_t| + |theta_dot|_inf + rest_velocity) (an angle of SLIP_TURN_TOL rad
+#: once the slip is under way; at an onset, a speed within the integration's own tolerance
+#: of the motion's velocities, where the direction of v_t is round-off). The friction force
+#: differs from Coulomb's by that angle at most; it is 0 where the slip keeps its direction
+#: (the box stack's top box, a box pushed from rest: by symmetry)
 SLIP_TURN_TOL = 1e-8
 #: an event found in a step: (time, "impact" / "touch" / "mode", contact name)
 Event = tuple[float, str, str]
