@@ -70,8 +70,8 @@ class ContactEvents:
                 self.force_notes[key] = (t0, count + 1)
             moving = np.any(cs.problem.slip != 0.0, axis=1)
             onsets = {c for c, m in zip(candidates, moving) if not m}
-            modes = self.freeze_directions(held_modes(cs, sol.modes, sol.direction), cs.dims,
-                                           onsets)
+            modes = self.freeze_directions(held_modes(cs, sol.modes, sol.direction), cs,
+                                           onsets, dth)
             held = tuple(c for c in candidates if c in modes)
             loops = (np.asarray(self.mech.loop_jacobian(th), float).reshape(-1, self.k)
                      if self.m else None)
@@ -101,8 +101,8 @@ class ContactEvents:
         self.modes.update(t, {c: modes[c].kind if c in modes else "open" for c in self.contacts})
         return self.pack(th, dth, sig_loops)
 
-    def freeze_directions(self, modes: dict[str, HeldMode], dims: Mapping[str, int],
-                          onsets: Collection[str]) -> dict[str, HeldMode]:
+    def freeze_directions(self, modes: dict[str, HeldMode], cs, onsets: Collection[str],
+                          dth: np.ndarray) -> dict[str, HeldMode]:
         """The spatial sliding contacts' friction directions frozen for the segment
         (:class:`~.canonical.HeldMode`'s ``frozen``) where a slow slip would make a followed
         direction stiff: a slip starting here (``onsets``: no slip velocity yet, the force
@@ -112,7 +112,11 @@ class ContactEvents:
         its velocity: an onset's direction is read off an acceleration that vanishes at the
         instant (to ~1e-8 rad where symmetry does not fix it). Any other slip (sliding since
         the run's start, or turned :data:`FREEZES` times) follows its velocity, as in a run
-        with sensitivities (their variational equations differentiate the direction).
+        with sensitivities (their variational equations differentiate the direction), and so
+        does a slip whose velocity already leaves the direction here (its event function
+        :meth:`~.event_watch.EventWatch._turn_functions` not positive at theta_dot ``dth``:
+        it would never cross zero in the segment). ``cs`` the instant's
+        :class:`~.sustained.ContactState`.
 
         While the slip keeps its direction the frozen force is Coulomb's (to
         :data:`~.event_watch.SLIP_TURN_TOL`); what it saves is the stiffness of a followed
@@ -126,15 +130,21 @@ class ContactEvents:
             return modes
         was = self.eq.modes
 
-        def freeze(c: str, md: HeldMode) -> bool:
-            if md.kind != "slip" or md.mu <= 0.0 or dims.get(c, 0) <= 2:
-                return False
+        def freeze(c: str, md: HeldMode) -> HeldMode:
+            if md.kind != "slip" or md.mu <= 0.0 or cs.dims.get(c, 0) <= 2:
+                return md
             turns = self.turns.get(c, 0)
-            if turns >= FREEZES:
-                return False
-            return c in onsets or turns > 0 or (c in was and was[c].frozen)
-        return {c: replace(md, frozen=True) if freeze(c, md) else md
-                for c, md in modes.items()}
+            if turns >= FREEZES or not (c in onsets or turns > 0
+                                        or (c in was and was[c].frozen)):
+                return md
+            vt = cs.jacobians[c][1:] @ dth
+            speed = float(np.sqrt(vt @ vt))
+            if turns > 0 and speed > 0.0:  # refrozen along the slip velocity itself
+                md = replace(md, direction=tuple(float(x) for x in vt / speed))
+            S = np.asarray(md.direction, float)[None, :]
+            turn = self._turn_functions(vt[None, :], S, S @ vt, dth)[0]
+            return replace(md, frozen=True) if turn > 0.0 else md
+        return {c: freeze(c, md) for c, md in modes.items()}
 
     # ---- impacts ---------------------------------------------------------------------------
     def solve_impact(self, t: float, th: np.ndarray, dth: np.ndarray, M: np.ndarray,

@@ -24,8 +24,14 @@ friction is Coulomb's to that angle; where the slip keeps its direction (the sta
 sliding tables, a box pushed along its slip: by symmetry) the segment has no stiff mode and
 the stack's run takes 24 steps and 556 right-hand sides. A slip that turns (a side force)
 is refrozen once along its velocity, then followed (:data:`~.contact_events.FREEZES`), as
-before. Runs with sensitivities follow the direction throughout (their variational equations
-differentiate it).
+before; so is a slip whose velocity already leaves the direction where a segment starts.
+Like the other event functions, this one is evaluated at the steps' ends: within a step the
+angle can exceed its bound and come back unseen (after a refreeze along a slow slip, up to
+~1e-7 rad on a box pushed from rest). An onset's direction, read off an acceleration that
+vanishes at the instant, is exact where symmetry fixes it (the stack); elsewhere (a box
+pushed obliquely) it is off by ~1e-7 rad, the slip soon turns away from it and the run
+follows the slip as before. Runs with sensitivities follow the direction throughout (their
+variational equations differentiate it).
 """
 
 from __future__ import annotations
