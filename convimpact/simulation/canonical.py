@@ -14,8 +14,9 @@ Contacts that the simulator holds closed enter like loop constraints, by their m
 * ``"stick"`` (resting, rolling): all rows of the contact Jacobian (n and t, or n, t1, t2)
   join ``C``; their multipliers are the normal and friction forces;
 * ``"slip"`` (sliding with Coulomb friction): the normal row joins ``C`` and the friction force
-  ``-mu lambda_n c_t^T s`` (s the unit slip direction) is a generalized force driven by the
-  normal multiplier, so ``p_dot = f + M_dot theta_dot - C_dot^T sigma + D nu`` with ``D`` the
+  ``-mu lambda_n c_t^T s`` (s the unit slip direction: the slip velocity's, or in space one
+  frozen for the segment while the slip keeps it, :mod:`~.event_watch`) is a generalized
+  force driven by the normal multiplier, so ``p_dot = f + M_dot theta_dot - C_dot^T sigma + D nu`` with ``D`` the
   friction columns; the multipliers solve ``C M^-1 (C^T + D) nu = -(C M^-1 f + C_dot theta_dot)``,
   a non-symmetric system whose singularity is Painleve's;
 * ``"frictionless"``: the normal row only (a bilateral frictionless constraint).
@@ -49,7 +50,7 @@ from ..errors import NonFiniteError, SimulationError
 from ..mechanism import Mechanism
 from ..model import recursive as _rc
 from .canonical_compiled import CompiledHeldPath
-from .canonical_forces import HeldForces, _cho_solve, _cholesky  # noqa: F401 (used here and by sustained)
+from .canonical_forces import Factors, HeldForces, _cho_solve, _cholesky  # noqa: F401 (used here and by sustained)
 
 #: a held contact's rows: (contact name, row of its Jacobian: 0 normal, 1.. tangents)
 Row = tuple[str, int]
@@ -65,42 +66,20 @@ class HeldMode:
     ``direction`` is, for "slip", the unit slip direction in the contact's tangent basis at
     the start of the segment (planar: ``(+1,)`` or ``(-1,)``); spatial slips follow the slip
     velocity's direction during the segment and use ``direction`` only while it is ~0 (an
-    onset). ``mu`` is the contact's friction coefficient.
+    onset). ``mu`` is the contact's friction coefficient. ``frozen`` (spatial "slip"): the
+    friction keeps ``direction`` during the whole segment instead of following the slip
+    velocity; the run holds it so only while the slip velocity keeps that direction (to
+    :data:`~.event_watch.SLIP_TURN_TOL` rad, an event otherwise: see
+    :mod:`~convimpact.simulation.event_watch`), where the two are the same force.
     """
 
     kind: str = "frictionless"
     direction: tuple[float, ...] = ()
     mu: float = 0.0
+    frozen: bool = False
 
 
 FRICTIONLESS = HeldMode()
-
-
-class Factors:
-    """The factorizations of one configuration, shared by everything evaluated there.
-
-    Attributes
-    ----------
-    M : (k, k) mass matrix; ``L`` its lower Cholesky factor.
-    C : (n_constraints, k) loops' C and the held rows.
-    A : (k, n_constraints) ``M^-1 C^T``; ``S`` = ``C M^-1 C^T`` and ``SL`` its lower
-        Cholesky factor (None without constraints or until asked for).
-    jac : the held contacts' full Jacobians (rows n, t...).
-    """
-
-    __slots__ = ("M", "L", "C", "A", "SL", "jac", "S")
-
-    def __init__(self, M, L, C, A, SL, jac):
-        self.M, self.L, self.C, self.A, self.SL, self.jac = M, L, C, A, SL, jac
-        self.S = None  # C M^-1 C^T, with A
-
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        """``M^-1 b`` for a vector or a (k, m) matrix."""
-        return _cho_solve(self.L, b)
-
-    def solve_constraints(self, b: np.ndarray) -> np.ndarray:
-        """``(C M^-1 C^T)^-1 b``."""
-        return _cho_solve(self.SL, b)
 
 
 def _is_model(mechanism) -> bool:
@@ -370,7 +349,7 @@ class CanonicalEquations(HeldForces, CompiledHeldPath):
         velocity's in space (the stored one while it is ~0), the stored sign in the plane."""
         mode = self.modes[c]
         stored = np.asarray(mode.direction, float)
-        if len(jac) == 2:
+        if len(jac) == 2 or mode.frozen:
             return stored
         vt = jac[1:] @ dtheta
         norm = math.sqrt(float(vt @ vt))

@@ -21,6 +21,7 @@ import numpy as np
 from ..errors import NonFiniteError
 
 _KERNELS = None
+_EMPTY = np.zeros(0)  # (read only by the kernels)
 
 
 def _kernels():
@@ -98,8 +99,14 @@ class CompiledHeldPath:
                 return None  # no stored direction (a hand-built mode): the general path
             stored = np.array([md.direction for md in modes], float)
             mu = np.array([md.mu for md in modes])
+            # below its floor a contact keeps its stored direction: a frozen one always
+            # (the flags are the segment's: the run replaces only the directions)
+            floors = getattr(self, "_floors", None)
+            if floors is None:
+                floors = self._floors = np.array([np.inf if md.frozen else self.slip_floor
+                                                  for md in modes])
         else:
-            stored, mu = np.zeros((0, 1)), np.zeros(0)
+            stored, mu, floors = np.zeros((0, 1)), _EMPTY, _EMPTY
         w = self.unknown_weights() if self.redundant else np.zeros(0)
         x0 = (self.offset if self.offset is not None and self.redundant
               else np.zeros(len(w)))
@@ -111,7 +118,7 @@ class CompiledHeldPath:
         if ck.held_rates(L, C, A, S, SL, dv.contact_jacobian, dv.contact_jacobian_dot,
                          self._row_contact, self._row_row, self._slip_index, self._slip_cols,
                          stored, mu, self._extra_contact, self._extra_row, w, x0,
-                         self.slip_floor, f, pdot, dtheta, sigma, out,
+                         floors, f, pdot, dtheta, sigma, out,
                          aux, want_nu) != ck.OK:
             return None
         return out

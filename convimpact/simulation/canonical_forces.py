@@ -14,15 +14,39 @@ the event that formed the set, so round-off cannot switch the formula within a s
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Mapping
+from typing import Mapping
 
 import numpy as np
 
 from ..errors import SimulationError
 from ..model import recursive as _rc
 
-if TYPE_CHECKING:
-    from .canonical import Factors
+
+class Factors:
+    """The factorizations of one configuration, shared by everything evaluated there.
+
+    Attributes
+    ----------
+    M : (k, k) mass matrix; ``L`` its lower Cholesky factor.
+    C : (n_constraints, k) loops' C and the held rows.
+    A : (k, n_constraints) ``M^-1 C^T``; ``S`` = ``C M^-1 C^T`` and ``SL`` its lower
+        Cholesky factor (None without constraints or until asked for).
+    jac : the held contacts' full Jacobians (rows n, t...).
+    """
+
+    __slots__ = ("M", "L", "C", "A", "SL", "jac", "S")
+
+    def __init__(self, M, L, C, A, SL, jac):
+        self.M, self.L, self.C, self.A, self.SL, self.jac = M, L, C, A, SL, jac
+        self.S = None  # C M^-1 C^T, with A
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """``M^-1 b`` for a vector or a (k, m) matrix."""
+        return _cho_solve(self.L, b)
+
+    def solve_constraints(self, b: np.ndarray) -> np.ndarray:
+        """``(C M^-1 C^T)^-1 b``."""
+        return _cho_solve(self.SL, b)
 
 
 def _cho_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -95,13 +95,13 @@ def _constraint_rhs(L, C, CJD, rc, rr, f, dtheta):
 
 @jit
 def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, xc, xr, w, x0,
-               floor, f, pdot, dtheta, sigma, out, aux, want_nu):
+               floors, f, pdot, dtheta, sigma, out, aux, want_nu):
     """y_dot = [theta_dot, p_dot - C_dot^T sigma + D nu] into ``out`` (2k,).
 
     ``CJD`` the Jacobians' rates (C_dot's rows as C's), ``si`` the sliding contacts'
     indices into CJ, ``cols`` their normal rows among C's, ``stored`` (n_s, d - 1) their
-    stored slip directions, ``mu`` their friction coefficients, ``floor`` the slip speed
-    below which the stored direction is kept. In a sliding group the dropped (redundant)
+    stored slip directions, ``mu`` their friction coefficients, ``floors`` (n_s,) the slip
+    speeds below which their stored directions are kept (inf: a frozen direction). In a sliding group the dropped (redundant)
     rows ``CJ[xc[j], xr[j]]`` (r,) are unknowns past the multipliers (a sliding one's
     normal row: among the sliding contacts, last, ``cols`` >= m), and ``w`` (m + r,) the
     unknowns' weights (``1 + mu^2`` for a sliding normal force, else 1): nu is the
@@ -150,7 +150,7 @@ def held_rates(L, C, A, S, SL, CJ, CJD, rc, rr, si, cols, stored, mu, xc, xr, w,
                     nn += vt[j] * vt[j]
                     dot += vt[j] * stored[c, j]
                 norm = math.sqrt(nn)
-                if norm > floor and norm > 0.0:
+                if norm > floors[c] and norm > 0.0:
                     sg = norm if dot >= 0.0 else -norm
                     for j in range(dt):
                         sdir[j] = vt[j] / sg

@@ -232,7 +232,10 @@ def _candidate(P: ContactForceProblem, combo, dirs, onset, rtol: float):
     slack = _slacks(P, combo, dirs, lam, onset)
     margin = float(np.min(slack, initial=np.inf))
     if margin < -rtol * fscale and Z.shape[1] and any(m != OPEN for m in combo):
-        lam, margin = max_margin_distribution(P.mu, P.d, combo, lam, Z, fscale)
+        # (a combination whose largest margin is clearly negative is rejected after the
+        # program's first stage: no distribution of it holds)
+        lam, margin = max_margin_distribution(P.mu, P.d, combo, lam, Z, fscale,
+                                              below=-rtol * fscale)
         slack = _slacks(P, combo, dirs, lam, onset)
         margin = min(margin, float(np.min(slack, initial=np.inf)))
     if margin < -rtol * fscale:

@@ -77,6 +77,9 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         self.painleve_error: PainleveError | None = None
         #: why contacts closing at an impact stay closed: {contact: (reason, t_inf or None)}
         self.closing_info: dict[str, tuple[str, float | None]] = {}
+        #: per sliding contact, how often its slip turned away from its frozen direction
+        #: (event ``turn:<c>``) since it last stuck or opened (:meth:`freeze_directions`)
+        self.turns: dict[str, int] = {}
         self.t = options.t0
         self.y = y0
         self.eq = CanonicalEquations(mechanism)
@@ -98,6 +101,9 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         #: the last full :meth:`watch`: (eq, t, y's bytes, the exact forces or None,
         #: margin, Painleve indicator)
         self._watched: tuple | None = None
+        #: the last exact forces :meth:`exact_forces` computed: (eq, t, y's bytes, forces,
+        #: margin)
+        self._recorded: tuple | None = None
         self.modes = ModeLog(self.contacts, self.t)
         self.detector = AccumulationDetector(options.zeno_time_tol, options.rest_velocity)
         self.status: int | None = None
@@ -162,7 +168,10 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         if (memo is not None and memo[0] is self.eq and memo[1] == t
                 and memo[3] is not None and memo[2] == y.tobytes()):
             return memo[3]
-        return held_forces(self.eq, t, y)[0]
+        forces, margin = held_forces(self.eq, t, y)
+        # (a segment's first watch, at the state recorded after its event, takes them)
+        self._recorded = (self.eq, t, y.tobytes(), forces, margin)
+        return forces
 
     def project_state(self, y: np.ndarray) -> np.ndarray:
         """Project theta onto Psi = 0 (loops, held gaps) and theta_dot onto the velocity
@@ -202,6 +211,9 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
             raise SimulationError(self.no_progress_message(te, ye, group))
         first = min(group)
         self.trigger = (first[1], first[2])
+        for f in group:
+            if f[2].startswith("turn:"):
+                self.turns[f[2][5:]] = self.turns.get(f[2][5:], 0) + 1
         stop_msg = self.handle_instant(te, ye, [f[2] for f in group if f[1] == "impact"],
                                        [f[2] for f in group if f[1] == "touch"])
         self.t = te

@@ -16,11 +16,11 @@ force problem, which calls this one) hands them on.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..errors import SolverError
+from .force_distribution_polish import (_cone_violation, _off_ray, _polish_max_min,
+                                         _warm_max_min)
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
 #: default relative tolerance of the inequalities
@@ -31,15 +31,20 @@ RTOL = 1e-9
 MARGIN_RTOL = 1e-10
 #: rank tolerance (relative to the largest singular value) of the face's equations
 FACE_RTOL = 1e-8
-#: a cone of the max-min program whose slack and multiplier are both below this is
-#: degenerate (active or not: both are tried)
-DEGENERATE = 1e-5
 #: tolerance (relative) of the optimality conditions a cone program's solution must meet
 CERTIFY_RTOL = 1e-8
+#: margin (relative to the force scale) by which stage 1's largest smallest margin must lie
+#: below ``below`` for max_margin_distribution to skip stage 2 (polished, it is exact to
+#: ~1e-12; unpolished, the solver's optimum is within its duality-gap tolerance, 1e-11)
+BELOW_GUARD = 1e-9
+#: the same for the solver's own largest smallest margin, unpolished, where its status is
+#: "Solved" (its tolerances 1e-11)
+SOLVED_GUARD = 1e-8
 
 
 def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
-                            fscale: float) -> tuple[np.ndarray, float]:
+                            fscale: float, below: float | None = None,
+                            warm: dict | None = None) -> tuple[np.ndarray, float]:
     """The force distribution chosen among the indeterminate ones ``lam0 + Z xi``: the
     largest smallest margin, then, among the distributions reaching it, the least Euclidean
     norm. Unique for any data.
@@ -91,6 +96,18 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     :class:`~convimpact.errors.SolverError` is raised, never an unconverged
     distribution returned.
 
+    ``below`` (force units, optional): where the largest smallest margin is below it (by
+    :data:`BELOW_GUARD` of the force scale when finite; ``inf``: always) the caller needs
+    the margin only: stage 2 is skipped and the maximizer of stage 1 returned with its
+    margin (one of the maximizers: not the unique choice). The mode selection rejects a
+    combination so (its margin clearly negative), the event functions locate the margin's
+    zero so (a margin is all they ask for).
+
+    ``warm`` (a dict the caller keeps between programs of one set of contacts and modes,
+    e.g. over a segment): the last program's active set and maximizer are kept there, and
+    a margin-only call (``below=inf``) first tries Newton's method on the optimality
+    conditions at that active set (:func:`_warm_max_min`), the solver only where it fails.
+
     Returns (lambda, margin): the distribution (n d,) and its smallest margin (force units;
     ``inf`` without stick or slip contacts).
     """
@@ -113,12 +130,35 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     b = np.concatenate([blk[2] for blk in blocks])
     w = np.concatenate([blk[3] for blk in blocks])
     cones = [(blk[0], len(blk[2])) for blk in blocks]
+    if warm is not None and below is not None and not np.isfinite(below) and below > 0.0:
+        got = _warm_max_min(blocks, warm, lam0, Q, scale)
+        if got is not None:  # the margin alone, at the last program's active set
+            y_star, t_star = got
+            lam = lam0 + Q @ (y_star * scale)
+            warm["lam"], warm["tau"] = lam, t_star
+            return lam, _smallest_margin(mu, d, combo, lam)
     # stage 1: max tau s.t. b - A y - tau w in the cones; unknowns (y, tau)
-    x1, z1 = _solve_certified(np.zeros((r + 1, r + 1)), np.r_[np.zeros(r), -1.0],
-                              np.hstack([A, w[:, None]]), b, cones, "largest smallest margin")
+    q1 = np.zeros(r + 1)
+    q1[r] = -1.0
+    x1, z1, status = _solve_certified(np.zeros((r + 1, r + 1)), q1,
+                                      np.hstack([A, w[:, None]]), b, cones,
+                                      "largest smallest margin")
+    if (below is not None and np.isfinite(below) and status == "Solved"
+            and x1[r] * scale < below - SOLVED_GUARD * scale):
+        # clearly below: the margin is all the caller needs (Clarabel's "Solved" holds
+        # its duality gap and residuals to 1e-11, far inside the guard), no polish
+        lam = lam0 + Q @ (x1[:r] * scale)
+        return lam, min(x1[r] * scale, _smallest_margin(mu, d, combo, lam))
     # its optimality conditions solved to round-off on the active cones (Newton)
-    y_star, t_star, kinds = _polish_max_min(blocks, x1, z1)
+    y_star, t_star, kinds, active = _polish_max_min(blocks, x1, z1)
+    if warm is not None:
+        warm["active"] = active
+        warm["lam"], warm["tau"] = lam0 + Q @ (y_star * scale), t_star
     t_star = min(t_star, _smallest_margin(mu, d, combo, l0 + Q @ y_star))
+    if below is not None and (t_star * scale < below - BELOW_GUARD * scale
+                              if np.isfinite(below) else below > 0.0):
+        lam = lam0 + Q @ (y_star * scale)
+        return lam, _smallest_margin(mu, d, combo, lam)
     # the affine hull of the optimal face: every maximizer keeps each active cone's slack
     # s = b - t* w - A y where it is (zero, or on the ray)
     rows_E, rows_e = [], []
@@ -150,7 +190,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
         g = N.T @ (Q.T @ l0)
         if free:
             sel = np.concatenate([np.arange(k0, k0 + size) for k0, _, size in free])
-            u, _ = _solve_certified(np.eye(N.shape[1]), g, AN[sel], b2[sel],
+            u, _, _ = _solve_certified(np.eye(N.shape[1]), g, AN[sel], b2[sel],
                                     [(kind, size) for _, kind, size in free],
                                     "least-norm distribution")
         else:
@@ -167,153 +207,6 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
         raise SolverError(f"the force distribution of redundant contacts: margin {margin:.6e} "
                           f"below the largest one {t_star * scale:.6e}")
     return lam, margin
-
-
-def _polish_max_min(blocks, x1: np.ndarray, z1: np.ndarray):
-    """(y, t*, kinds): the max-min program's solution refined by Newton's method on its
-    optimality conditions, given which cones are active (from the solver's solution).
-
-    Per cone (slack s = b - A y - tau w, multiplier z): inactive (z = 0, kind None);
-    active scalar or apex (s = 0, kind "zero"); on the boundary (s = alpha (1, u),
-    z = beta (1, -u), |u| = 1, kind u). The conditions -sum A'z = 0, 1 - sum w'z = 0 and
-    the cones' equations are square in (y, tau, z or alpha, beta, angle); an interior-point
-    solution meets them to ~sqrt of its tolerance only (a smooth maximum, a ray's
-    direction), Newton's method to round-off. A cone whose s and z are both ~0 (degenerate)
-    is tried both ways; if Newton's method does not converge in the cones the solver's
-    solution is kept."""
-    r = x1.size - 1
-    slacks, ambiguous, k = [], [], 0
-    for j, (kind, Ab, bb, wb) in enumerate(blocks):
-        zb = z1[k:k + len(bb)]
-        sb = bb - Ab @ x1[:r] - x1[r] * wb
-        k += len(bb)
-        slacks.append((sb, zb))
-        sn, zn = float(np.linalg.norm(sb[1:])), float(np.linalg.norm(zb[1:]))
-        if max(zb[0] + zn, sb[0] - sn) < DEGENERATE:
-            ambiguous.append(j)
-    first = _active_cones(blocks, slacks, ())
-    tried = [first] + ([_active_cones(blocks, slacks, ambiguous)] if ambiguous else [])
-    for kinds, unknowns in tried:
-        v = _newton_max_min(blocks, kinds, unknowns, x1)
-        if v is not None:
-            break
-    else:
-        kinds, unknowns = first
-        v = np.concatenate([x1] + unknowns)
-    out_kinds, k = [], r + 1
-    for how, p in zip(kinds, unknowns):
-        if how is None or isinstance(how, str):
-            out_kinds.append(how)
-        else:
-            out_kinds.append(np.array([math.cos(v[k + 2]), math.sin(v[k + 2])]))
-        k += p.size
-    return v[:r], float(v[r]), out_kinds
-
-
-def _active_cones(blocks, slacks, flip):
-    """Each cone's kind (None, "zero" or a ray) and its initial unknowns: of each of the
-    cone's complementary pairs of eigenvalues (s0 -+ |s1|, z0 +- |z1|) one member is ~0 at
-    the optimum, the larger member tells which (the cones in flip: the other way)."""
-    kinds, unknowns = [], []
-    for j, ((kind, Ab, bb, wb), (sb, zb)) in enumerate(zip(blocks, slacks)):
-        sn, zn = float(np.linalg.norm(sb[1:])), float(np.linalg.norm(zb[1:]))
-        inactive = (zb[0] + zn <= sb[0] - sn) != (j in flip)
-        if inactive:  # z = 0
-            kinds.append(None)
-            unknowns.append(np.zeros(0))
-        elif kind == "nn" or zb[0] - zn > sb[0] + sn:  # s = 0 (for a cone: its apex)
-            kinds.append("zero")
-            unknowns.append(np.maximum(zb, 0.0) if kind == "nn" else zb.copy())
-        else:  # s and z on opposite rays of the boundary
-            u = sb[1:] / sn if sn > zn else -zb[1:] / max(zn, 1e-300)
-            kinds.append(("ray", len(zb)))
-            unknowns.append(np.r_[0.5 * (sb[0] + sn), 0.5 * (zb[0] + zn),
-                                  math.atan2(u[1], u[0])])
-    return kinds, unknowns
-
-
-def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
-    """Newton's method (least-squares steps) on the max-min optimality conditions with the
-    cones' kinds fixed; the solution vector (y, tau, unknowns), or None when it does not
-    converge to 1e-12 or leaves a cone."""
-    r = x1.size - 1
-    sizes = [p.size for p in unknowns]
-
-    def parts(v):
-        out, k = [], r + 1
-        for n in sizes:
-            out.append(v[k:k + n])
-            k += n
-        return out
-
-    def residual(v):
-        y, tau = v[:r], v[r]
-        stat = np.zeros(r + 1)
-        stat[r] = 1.0
-        J_stat = np.zeros((r + 1, v.size))
-        eqs, J_eqs, k = [], [], r + 1
-        for (kind, Ab, bb, wb), how, p in zip(blocks, kinds, parts(v)):
-            n = p.size
-            if how is None:
-                continue
-            s = bb - Ab @ y - tau * wb
-            Js = np.zeros((len(bb), v.size))
-            Js[:, :r] = -Ab
-            Js[:, r] = -wb
-            Aw = np.hstack([Ab, wb[:, None]])  # the stationarity's -d/dz
-            if how == "zero":
-                zb = p
-                J_stat[:, k:k + n] = -Aw.T
-                eqs.append(s)
-            else:
-                alpha, beta, phi = p
-                c, sn = math.cos(phi), math.sin(phi)
-                ray, dray = np.array([1.0, c, sn]), np.array([0.0, -sn, c])
-                zdir, dzdir = np.array([1.0, -c, -sn]), np.array([0.0, sn, -c])
-                zb = beta * zdir
-                J_stat[:, k + 1] = -Aw.T @ zdir
-                J_stat[:, k + 2] = -Aw.T @ (beta * dzdir)
-                eqs.append(s - alpha * ray)
-                Js[:, k] = -ray
-                Js[:, k + 2] = -alpha * dray
-            stat = stat - Aw.T @ zb
-            J_eqs.append(Js)
-            k += n
-        return np.concatenate([stat] + eqs), np.vstack([J_stat] + J_eqs)
-
-    v = np.concatenate([x1] + unknowns)
-    best, best_norm = v, float(np.max(np.abs(residual(v)[0])))
-    for _ in range(30):
-        F, J = residual(v)
-        # least-squares steps, small singular values cut: along a face of maximizers the
-        # conditions are singular, and the step stays near the solver's point
-        step = np.linalg.lstsq(J, F, rcond=1e-10)[0]
-        v = v - step
-        norm = float(np.max(np.abs(residual(v)[0])))
-        if norm < best_norm:
-            best, best_norm = v, norm
-        if norm <= 1e-15 or float(np.max(np.abs(step))) <= 1e-16:
-            break
-    if not best_norm <= 1e-12:
-        return None
-    y, tau = best[:r], best[r]
-    for (kind, Ab, bb, wb), how, p in zip(blocks, kinds, parts(best)):
-        s = bb - Ab @ y - tau * wb
-        if how is None:
-            viol = _cone_violation(s, [(kind, len(bb))])
-        elif how == "zero":
-            viol = _cone_violation(p, [(kind, len(bb))])
-        else:
-            viol = max(-p[0], -p[1])
-        if viol > 1e-12:
-            return None
-    return best
-
-
-def _off_ray(u: np.ndarray) -> np.ndarray:
-    """Rows L with L s = 0 exactly when s (in R^3) lies on the ray through (1, u): the
-    component of s's tangential part across u, and s0 - u . s1."""
-    return np.array([[0.0, -u[1], u[0]], [1.0, -u[0], -u[1]]])
 
 
 def _range_basis(Z: np.ndarray) -> np.ndarray:
@@ -348,36 +241,25 @@ def _margin_blocks(mu, d: int, combo, l0: np.ndarray, Q: np.ndarray) -> list:
         elif mode == STICK:
             A = -Q[n0:n0 + d].copy()
             A[0] *= mu[i]
-            out.append(("soc", A, np.r_[mu[i] * l0[n0], l0[n0 + 1:n0 + d]],
-                        np.r_[1.0, np.zeros(d - 1)]))
+            b = l0[n0:n0 + d].copy()
+            b[0] *= mu[i]
+            w = np.zeros(d)
+            w[0] = 1.0
+            out.append(("soc", A, b, w))
     return out
 
 
 def _smallest_margin(mu, d: int, combo, lam: np.ndarray) -> float:
     """The smallest of the stick (mu lambda_n - |lambda_t|) and slip (lambda_n) margins."""
-    out = np.inf
-    for i, mode in enumerate(combo):
-        n0 = i * d
-        if mode == SLIP:
-            out = min(out, float(lam[n0]))
-        elif mode == STICK:
-            out = min(out, mu[i] * float(lam[n0]) - float(np.linalg.norm(lam[n0 + 1:n0 + d])))
+    F = np.asarray(lam, float).reshape(-1, d)
+    slip = np.fromiter((mode == SLIP for mode in combo), bool, len(combo))
+    stick = np.fromiter((mode == STICK for mode in combo), bool, len(combo))
+    out = float(np.min(F[slip, 0])) if slip.any() else np.inf
+    if stick.any():
+        T = F[stick, 1:]
+        out = min(out, float(np.min(np.asarray(mu, float)[stick] * F[stick, 0]
+                                    - np.sqrt(np.einsum("ij,ij->i", T, T)))))
     return out
-
-
-def _cone_violation(v: np.ndarray, cones) -> float:
-    """How far v lies outside the product of cones (0 inside)."""
-    worst, k = 0.0, 0
-    for kind, size in cones:
-        part = v[k:k + size]
-        k += size
-        if kind == "nn":
-            if size:
-                worst = max(worst, -float(part.min()))
-        else:
-            tail = part[1:]
-            worst = max(worst, math.sqrt(float(tail @ tail)) - float(part[0]))
-    return worst
 
 
 def _csc(M: np.ndarray):
@@ -394,8 +276,8 @@ def _csc(M: np.ndarray):
 
 
 def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray, cones,
-                     what: str) -> np.ndarray:
-    """(x, z): argmin x'Px/2 + q'x s.t. b - A x in the cones, and the multipliers, by
+                     what: str) -> tuple[np.ndarray, np.ndarray, str]:
+    """(x, z, status): argmin x'Px/2 + q'x s.t. b - A x in the cones, and the multipliers, by
     Clarabel. Returned only when the
     status is Solved or AlmostSolved and the optimality conditions hold to CERTIFY_RTOL
     (evaluated here, not taken from the solver): s = b - A x and the multipliers z in their
@@ -433,4 +315,4 @@ def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray,
     if bad:
         raise SolverError(f"the force distribution of redundant contacts ({what}): Clarabel "
                           f"{status}, but its optimality conditions fail: {bad}")
-    return x, z
+    return x, z, status

@@ -131,9 +131,14 @@ def _island(P: ContactForceProblem, rtol: float) -> ContactForceSolution:
         sols = planar_contact_force(P.delassus, P.free_acceleration, float(P.mu[0]),
                                     float(P.slip[0, 0]), rtol)
         return _unique(P, sols, (0,))
-    sol = None
+    sol, answers = None, []
     for r, u in _answers(P):  # the modes read off the engine's answer, then Newton's
+        answers.append((r, u))
         sol = _read_modes(P, r, u, rtol)
+        if sol is not None:
+            break
+    for r, u in answers if sol is None else ():  # onsets of vanishing a_t: any direction
+        sol = _read_modes(P, r, u, rtol, vanishing=True)
         if sol is not None:
             break
     A = P.effective_normal_mass()
@@ -215,7 +220,8 @@ def _answers(P: ContactForceProblem):
             yield r, (WT @ r.ravel() + b).reshape(n, d)
 
 
-def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: float):
+def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: float,
+                vanishing: bool = False):
     """The exact solution in the modes the engine's answer shows (edges tried both ways),
     or None."""
     n, d = P.n, P.d
@@ -253,7 +259,7 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
             edges.append((i, options))
     edges = sorted(edges, key=lambda e: -len(e[1]))[:EDGE_MAX]
     failures: list[SolverError] = []
-    best = _attempt(P, first, rtol, failures)
+    best = _attempt(P, first, rtol, failures, vanishing)
     if (best is not None and best.margin >= 0.0) or not edges:
         return _kept(best, failures)
     for k, picks in enumerate(itertools.product(*[opts for _, opts in edges])):
@@ -262,17 +268,17 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
         choice = list(first)
         for (i, _), pick in zip(edges, picks):
             choice[i] = pick
-        cand = _attempt(P, choice, rtol, failures)
+        cand = _attempt(P, choice, rtol, failures, vanishing)
         if cand is not None and (best is None or _rank(cand) < _rank(best)):
             best = cand
     return _kept(best, failures)
 
 
-def _attempt(P, choice, rtol: float, failures: list):
+def _attempt(P, choice, rtol: float, failures: list, vanishing: bool = False):
     """:func:`_exact`, a solver failure of its distribution kept aside (another combination
     may be the solution)."""
     try:
-        return _exact(P, choice, rtol)
+        return _exact(P, choice, rtol, vanishing)
     except SolverError as exc:
         failures.append(exc)
         return None
@@ -293,7 +299,7 @@ def _rank(s: ContactForceSolution) -> tuple[bool, int, int]:
     return (s.margin < 0.0, sum(m == OPEN for m in s.modes), sum(m == SLIP for m in s.modes))
 
 
-def _exact(P: ContactForceProblem, choice, rtol: float):
+def _exact(P: ContactForceProblem, choice, rtol: float, vanishing: bool = False):
     """The enumerator's solution of one combination; a spatial onset's direction refined to
     the one along its own tangential acceleration (a fixed point), or None."""
     n, d = P.n, P.d
@@ -305,13 +311,13 @@ def _exact(P: ContactForceProblem, choice, rtol: float):
     cand = _candidate(P, combo, dirs, onset, rtol)
     if d == 3 and any(onset):
         for _ in range(8):  # the directions as a fixed point, from the engine's
-            if cand is None or _along(P, cand, onset, ascale):
+            if cand is None or _along(P, cand, onset, ascale, vanishing):
                 break
             dirs = [_unit(cand.acceleration[i, 1:]) if onset[i] else dirs[i] for i in range(n)]
             if not all(np.any(dirs[i]) for i in range(n) if onset[i]):
                 return None
             cand = _candidate(P, combo, dirs, onset, rtol)
-        if cand is not None and not _along(P, cand, onset, ascale):
+        if cand is not None and not _along(P, cand, onset, ascale, vanishing):
             # the enumerator's root finding on the onsets' angles, for this combination
             unknown = [i for i in range(n) if onset[i]]
             cands = []
@@ -320,7 +326,7 @@ def _exact(P: ContactForceProblem, choice, rtol: float):
                 for i, ph in zip(unknown, phis):
                     dd[i] = np.array([np.cos(ph), np.sin(ph)])
                 c = _candidate(P, combo, dd, onset, rtol)
-                if c is not None and _along(P, c, onset, ascale):
+                if c is not None and _along(P, c, onset, ascale, vanishing):
                     cands.append(c)
             cand = cands[0] if len(cands) == 1 else None
     if cand is None:
@@ -335,11 +341,23 @@ def _exact(P: ContactForceProblem, choice, rtol: float):
     return cand
 
 
-def _along(P: ContactForceProblem, cand: ContactForceSolution, onset, ascale: float) -> bool:
-    """Whether each onset's tangential acceleration lies along its direction."""
+def _along(P: ContactForceProblem, cand: ContactForceSolution, onset, ascale: float,
+           vanishing: bool = False) -> bool:
+    """Whether each onset's tangential acceleration lies along its direction. With
+    ``vanishing`` (the second reading of the modes, where the first found no solution) an
+    onset whose tangential acceleration counts as zero (below MODE_RTOL, as when the modes
+    are read) passes in the direction tried: it has none of its own, as a group of
+    redundant contacts at the instant its largest margin reaches zero (a box on four
+    corners pushed obliquely: |a_t| ~ 1e-8 of the scale, its direction round-off; every
+    combination was refused and the enumerator's several solutions reported as Painleve's
+    paradox for a third of the push's directions). The run freezes that direction and
+    refreezes it along the slip velocity if the slip turns away
+    (:meth:`~.contact_events.ContactEvents.freeze_directions`)."""
     for i in range(P.n):
         if onset[i]:
             at, s = cand.acceleration[i, 1:], cand.direction[i]
+            if vanishing and float(np.linalg.norm(at)) <= MODE_RTOL * ascale:
+                continue
             if float(np.linalg.norm(at - (at @ s) * s)) > 1e-9 * ascale:
                 return False
     return True

@@ -128,7 +128,7 @@ def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[R
 
 
 def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | None = None,
-                ) -> tuple[dict[str, np.ndarray], float]:
+                margin_only: bool = False) -> tuple[dict[str, np.ndarray], float]:
     """The held contacts' forces and their smallest margin, relative to the force scale.
 
     The margin is ``mu lambda_n - |lambda_t|`` for sticking contacts and ``lambda_n`` for
@@ -145,6 +145,11 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     exact program while its margin exceeds :data:`HINT_MARGIN`: it proves the largest margin
     positive, which is all an event function needs of it away from zero; near zero the exact
     program runs (and refreshes the hint). The forces returned are then that stand-in's.
+
+    ``margin_only`` (the event functions locating a margin's zero): the exact program stops
+    at the largest smallest margin (:func:`~.contact_forces.max_margin_distribution`'s
+    ``below``), its maximizer standing in for the distribution chosen among them; with a
+    ``hint``, from the last program's active set (its ``warm``).
     """
     forces = eq.contact_forces(t, y)
     if hint is not None:  # whether the forces returned are the exact ones (no stand-in)
@@ -186,9 +191,13 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
                         smallest(lam) <= HINT_MARGIN * fscale):
                     if Z is None:
                         Z = _indeterminate(eq, y, d)
-                    lam, _ = max_margin_distribution(mu, d, combo, lam0, Z, fscale)
+                    lam, _ = max_margin_distribution(
+                        mu, d, combo, lam0, Z, fscale, below=np.inf if margin_only else None,
+                        warm=None if hint is None else hint.setdefault("warm", {}))
                     if hint is not None:
                         hint["lam"] = lam
+                        if margin_only:
+                            hint["exact"] = False
                 elif hint is not None:
                     hint["exact"] = False
             forces = {c: lam[i * d:i * d + len(forces[c])] for i, c in enumerate(eq.held)}
