@@ -361,13 +361,35 @@ class LawEntries:
         entry = self.entries.get(key)
         if entry is not None:
             return entry(*args)
+        if key:
+            # compile (or load) the constants' specialization directly: called with plain
+            # integers, numba would first run its front end on them, meet ``literally`` and
+            # start again (a quarter of a second for the batch driver)
+            try:
+                from numba import typeof, types
+                from numba.core.typing.typeof import Purpose
+
+                self.dispatcher.compile(tuple(types.literal(k) for k in key) + tuple(
+                    typeof(a, Purpose.argument) for a in args[self.literals:]))
+            except Exception:  # noqa: BLE001 - numba's own dispatch below decides
+                pass
+            entry = self._entry(key)
+            if entry is not None:
+                return entry(*args)
         result = self.dispatcher(*args)  # compiles, or loads from the cache
+        self._entry(key)
+        return result
+
+    def _entry(self, key):
+        """The machine code's entry of the one specialization for constants ``key`` (kept),
+        or None."""
         found = [cres.entry_point for sig, cres in getattr(self.dispatcher, "overloads",
                                                              {}).items()
                  if all(getattr(t, "literal_value", None) == k for t, k in zip(sig, key))]
         if len(found) == 1:  # one specialization for these constants: its entry serves all
             self.entries[key] = found[0]
-        return result
+            return found[0]
+        return None
 
 
 def _plain(fn):
