@@ -247,8 +247,6 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
     """
     N = q.shape[0]
     nc = starts.shape[0]
-    # run-time flags: one compiled _apply_t for T and T^-1 (a constant compiles one each)
-    fwd, inv = bool(False), bool(True)
     x = np.zeros(N)
     z = np.zeros(N)
     for c in range(nc):
@@ -316,7 +314,7 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
         # NT scaling and lambda = T z
         for c in range(nc):
             _nt_scaling(x, z, starts[c], sizes[c], wbar, beta)
-            _apply_t(wbar, beta, starts[c], sizes[c], z, lam, fwd)
+            _apply_t(wbar, beta, starts[c], sizes[c], z, lam, False)
         # K = P + T^-2 (block diagonal)
         for i in range(N):
             for j in range(N):
@@ -327,8 +325,8 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
                 for i in range(N):
                     e_j[i] = 0.0
                 e_j[o + jj] = 1.0
-                _apply_t(wbar, beta, o, m, e_j, tmp, inv)
-                _apply_t(wbar, beta, o, m, tmp, col, inv)
+                _apply_t(wbar, beta, o, m, e_j, tmp, True)
+                _apply_t(wbar, beta, o, m, tmp, col, True)
                 for ii in range(m):
                     K[o + ii, o + jj] += col[o + ii]
         if not _cholesky(K, L):
@@ -338,7 +336,7 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
         for i in range(N):
             dc[i] = -lam[i]
         for c in range(nc):
-            _apply_t(wbar, beta, starts[c], sizes[c], dc, tmp, inv)
+            _apply_t(wbar, beta, starts[c], sizes[c], dc, tmp, True)
         _direction(L, P, r, tmp, rhs, dxa, dza)
         amax = _max_step(x, dxa, z, dza, starts, sizes, 1.0)
         gap_aff = 0.0
@@ -349,8 +347,8 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
         # corrector: r_c = -lambda o lambda - (T^-1 dx_a) o (T dz_a) + sigma mu e
         for c in range(nc):
             o, m = starts[c], sizes[c]
-            _apply_t(wbar, beta, o, m, dxa, tmp, inv)
-            _apply_t(wbar, beta, o, m, dza, u, fwd)
+            _apply_t(wbar, beta, o, m, dxa, tmp, True)
+            _apply_t(wbar, beta, o, m, dza, u, False)
             s_ll = 0.0
             s_du = 0.0
             for j in range(o, o + m):
@@ -360,7 +358,7 @@ def cone_lcp(P, q, starts, sizes, tol, max_iter):
             for j in range(o + 1, o + m):
                 rc[j] = -2.0 * lam[o] * lam[j] - (tmp[o] * u[j] + u[o] * tmp[j])
             _jordan_solve(lam, rc, o, m, dc)
-            _apply_t(wbar, beta, o, m, dc, tmp, inv)
+            _apply_t(wbar, beta, o, m, dc, tmp, True)
         _direction(L, P, r, tmp, rhs, dx, dz)
         amax = _max_step(x, dx, z, dz, starts, sizes, np.inf)
         alpha = min(1.0, 0.99 * amax)
