@@ -6,7 +6,20 @@ Every compiled function of convimpact is decorated with :data:`jit`
 first read -- by a kernel module, itself imported on first use -- so ``import convimpact`` and
 ``import convimpact.compiled`` stay without numba. :data:`jit_internal` adds
 ``no_cpython_wrapper`` and ``no_cfunc_wrapper`` for functions called from compiled code only
-(they cannot be called from Python, except under ``NUMBA_DISABLE_JIT=1``).
+(they cannot be called from Python, except under ``NUMBA_DISABLE_JIT=1``). :data:`jit_inline`
+adds numba's ``inline="always"``: a compiled caller takes the function's body into its own
+(numba's IR, before typing), which it then compiles once. It is meant for the drivers between
+an entry point and its large kernels: numba compiles every function into its own module, and
+each caller's module links, optimizes and emits again everything below it, so a chain of
+drivers above the interior point compiled the interior point four times over; inlined, the
+entry point links the kernels once. (Small leaf functions stay separate: inlining them made
+numba's typing of their caller slower than compiling them apart.) Such a function is still an
+ordinary compiled function when called from Python.
+
+A constant argument (``f(x, True)``) in compiled code makes numba compile the callee for that
+value (a literal type): a flag passed as ``True`` at one call site and ``False`` at another
+compiles the callee twice, and every function below it that receives the flag too. Kernels
+pass such flags as run-time booleans (``bool(True)``) unless the specialization is wanted.
 
 numba keeps the machine code of a ``cache=True`` function on disk, by default in
 ``__pycache__`` beside its source, and checks it against that one source file. Both defaults
@@ -56,6 +69,8 @@ JIT_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 #: cfunc wrapper to generate (a few per cent of the several-contact lane's cold compile when
 #: its internal functions were decorated so, within the noise of a shared machine)
 JIT_INTERNAL_OPTIONS = {**JIT_OPTIONS, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+#: ... and of a function whose body compiled callers take into their own (:data:`jit_inline`)
+JIT_INLINE_OPTIONS = {**JIT_OPTIONS, "inline": "always"}
 #: folders of other source keys unused for this many days are removed ...
 PRUNE_DAYS = 7
 #: ... except the most recently used few
@@ -70,7 +85,7 @@ _RELATIVE_IMPORT = re.compile(rb"from[ \t]+(\.+)([\w.]*)[ \t]+import[ \t]+\(?([\
 _KEY_DIR = re.compile(r"^.+-[0-9a-f]{12}-numba.+$")
 
 _DIR = None  # the usable cache folder of this process (str), False: unusable, None: not yet
-_JIT = _JIT_INTERNAL = None
+_JIT = _JIT_INTERNAL = _JIT_INLINE = None
 _ANNOUNCED: set[str] = set()
 #: seconds the source key took in this process (hashing at the first kernel import)
 KEY_SECONDS: list[float] = []
@@ -346,13 +361,35 @@ class LawEntries:
         entry = self.entries.get(key)
         if entry is not None:
             return entry(*args)
+        if key:
+            # compile (or load) the constants' specialization directly: called with plain
+            # integers, numba would first run its front end on them, meet ``literally`` and
+            # start again (a quarter of a second for the batch driver)
+            try:
+                from numba import typeof, types
+                from numba.core.typing.typeof import Purpose
+
+                self.dispatcher.compile(tuple(types.literal(k) for k in key) + tuple(
+                    typeof(a, Purpose.argument) for a in args[self.literals:]))
+            except Exception:  # noqa: BLE001 - numba's own dispatch below decides
+                pass
+            entry = self._entry(key)
+            if entry is not None:
+                return entry(*args)
         result = self.dispatcher(*args)  # compiles, or loads from the cache
+        self._entry(key)
+        return result
+
+    def _entry(self, key):
+        """The machine code's entry of the one specialization for constants ``key`` (kept),
+        or None."""
         found = [cres.entry_point for sig, cres in getattr(self.dispatcher, "overloads",
                                                              {}).items()
                  if all(getattr(t, "literal_value", None) == k for t, k in zip(sig, key))]
         if len(found) == 1:  # one specialization for these constants: its entry serves all
             self.entries[key] = found[0]
-        return result
+            return found[0]
+        return None
 
 
 def _plain(fn):
@@ -361,10 +398,10 @@ def _plain(fn):
 
 
 def __getattr__(name):
-    # numba is imported here, on the first read of ``jit`` or ``jit_internal`` (by a kernel
-    # module)
-    global _JIT, _JIT_INTERNAL
-    if name in ("jit", "jit_internal"):
+    # numba is imported here, on the first read of ``jit``, ``jit_internal`` or ``jit_inline``
+    # (by a kernel module)
+    global _JIT, _JIT_INTERNAL, _JIT_INLINE
+    if name in ("jit", "jit_internal", "jit_inline"):
         if _JIT is None:
             try:
                 from numba import njit
@@ -374,12 +411,13 @@ def __getattr__(name):
                     "Python -- the same code and answers, some 100 times slower; install "
                     "numba (a dependency of convimpact) for compiled speed", RuntimeWarning,
                     stacklevel=2)
-                _JIT = _JIT_INTERNAL = _plain
+                _JIT = _JIT_INTERNAL = _JIT_INLINE = _plain
             else:
                 _register()
                 _JIT = njit(**JIT_OPTIONS)
                 _JIT_INTERNAL = njit(**JIT_INTERNAL_OPTIONS)
-        return _JIT if name == "jit" else _JIT_INTERNAL
+                _JIT_INLINE = njit(**JIT_INLINE_OPTIONS)
+        return {"jit": _JIT, "jit_internal": _JIT_INTERNAL, "jit_inline": _JIT_INLINE}[name]
     if name == "literally":  # compile for a value as a constant; the value itself in Python
         try:
             from numba import literally
@@ -391,8 +429,9 @@ def __getattr__(name):
 
 def __dir__():
     # dir() and tab completion list the decorators read on first use too
-    return sorted(set(globals()) | {"jit", "jit_internal", "literally"})
+    return sorted(set(globals()) | {"jit", "jit_internal", "jit_inline", "literally"})
 
 
-__all__ = ["jit", "jit_internal", "literally", "JIT_OPTIONS", "JIT_INTERNAL_OPTIONS", "ENV", "cache_root",
+__all__ = ["jit", "jit_internal", "jit_inline", "literally", "JIT_OPTIONS", "JIT_INTERNAL_OPTIONS",
+           "JIT_INLINE_OPTIONS", "ENV", "cache_root",
            "cache_dir", "compiled_sources", "source_key", "cached", "announce"]

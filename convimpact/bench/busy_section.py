@@ -13,6 +13,14 @@ closed loops with ``C=``, a k = 30 robot) -- planar and spatial, in four phases:
   the process (a Clarabel build may leave threads of its own: one-contact calls of 24-46 ms
   were reported after one; the process's thread counts before and after are recorded).
 
+Each pair of phases (quiet and busy, then the same after Clarabel) is measured in
+:data:`ROUNDS` alternating windows -- quiet, busy, quiet, busy, ... -- each with its share of
+the calls and of the time budget, and a phase's median is over the calls of all its windows
+(each window's median is kept too). On a shared machine the other users' load drifts; timed
+in one window per phase, a passing disturbance decided a whole phase (the wave-3 run's
+spatial closed form: 2.06x busy in one window, 1.01x in the next busy window of the same run,
+no BLAS thread woken in either).
+
 The phases run in a fresh Python process (:func:`measure`), so that "before Clarabel" is true
 whichever sections ran before, and BLAS has the threads a user gets: the environment's
 ``OPENBLAS_NUM_THREADS`` if set, else OpenBLAS's default (one per core) -- not the one thread
@@ -58,8 +66,10 @@ CALLS = (3000, 150)
 BUDGET = (1.5, 0.08)
 #: random problems per case, called in turn
 N_PROBLEMS = 8
-#: seconds the hogs run before a busy phase is timed
+#: seconds the hogs run before a busy window is timed
 WARMUP = (0.3, 0.1)
+#: alternating windows per pair of phases (full, quick)
+ROUNDS = (3, 1)
 
 
 def _problems(case: tuple, seed: int) -> list[dict[str, Any]]:
@@ -108,8 +118,8 @@ def _thread_ticks() -> dict[int, int] | None:
 
 
 def _time_case(problems: list[dict[str, Any]], calls: int, budget: float) -> dict[str, Any]:
-    """Per-call latencies of resolve_impact over ``problems`` in turn, and the CPU share the
-    process's other threads took meanwhile."""
+    """Per-call latencies of resolve_impact over ``problems`` in turn (one window), and the CPU
+    seconds the process's other threads took meanwhile."""
     from convimpact import resolve_impact
 
     for kw in problems:  # warm-up
@@ -127,15 +137,25 @@ def _time_case(problems: list[dict[str, Any]], calls: int, budget: float) -> dic
         times.append(clock() - t)
     wall = clock() - start
     after = _thread_ticks()
-    share = None
+    others = None
     if before is not None and after is not None:
         hz = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
-        others = sum(v - before.get(t, 0) for t, v in after.items() if t != me)
-        share = others / hz / wall
-    a = np.sort(np.asarray(times))
+        others = sum(v - before.get(t, 0) for t, v in after.items() if t != me) / hz
+    return {"times": times, "wall": wall, "others_cpu": others}
+
+
+def _pooled(windows: list[dict[str, Any]]) -> dict[str, Any]:
+    """One phase's figures from its windows: statistics of every call, each window's median,
+    and the other threads' CPU seconds per wall second over all of them."""
+    a = np.sort(np.concatenate([np.asarray(w["times"]) for w in windows]))
+    wall = sum(w["wall"] for w in windows)
+    others = [w["others_cpu"] for w in windows]
+    share = None if None in others or wall <= 0 else sum(others) / wall
     return {"median_s": float(np.median(a)), "mean_s": float(a.mean()),
             "p90_s": float(a[int(0.9 * (len(a) - 1))]), "max_s": float(a[-1]),
-            "n_calls": len(a), "other_threads_cpu_share": share}
+            "n_calls": len(a), "window_medians_s": [float(np.median(w["times"]))
+                                                     for w in windows],
+            "other_threads_cpu_share": share}
 
 
 def _start_hogs(n: int, deadline: float) -> list[subprocess.Popen]:
@@ -202,29 +222,40 @@ def measure(params: dict[str, Any]) -> dict[str, Any]:
                              "threads_before_clarabel": _n_threads(),
                              "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS"),
                              "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS")}
-    # a hog outlives no phase by much even if this process dies: its deadline covers one phase
+    rounds = ROUNDS[quick]
+    calls, budget = max(calls // rounds, N_PROBLEMS), budget / rounds
+    # a hog outlives no window by much even if this process dies: its deadline covers one
     deadline = warmup + len(cases) * (budget * 3 + 1.0) + 30.0
-    rows: list[dict[str, Any]] = []
-    for phase in PHASES:
-        if phase == "clarabel quiet":
+    windows: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    loads: dict[str, list] = {}
+    for pair in (PHASES[:2], PHASES[2:]):
+        if pair[0] == "clarabel quiet":
             first = problems[cases[0][0]][0]
             t = time.perf_counter()
             ci.resolve_impact(**{**first, "method": "clarabel"})
             facts["clarabel_solve_seconds"] = time.perf_counter() - t
             facts["threads_after_clarabel"] = _n_threads()
-        hogs: list[subprocess.Popen] = []
-        try:
-            if phase.endswith("busy"):
-                hogs = _start_hogs(N_HOGS, deadline)
-                time.sleep(warmup)
-            load = _loadavg()
-            for name, d, k, m, method, mu in cases:
-                res = _time_case(problems[name], calls, budget)
-                rows.append({"case": name, "d": d, "k": k, "loop_rows": m, "method": method,
-                             "path": "lane" if method == "auto" and not m else "full",
-                             "phase": phase, "hogs": len(hogs), "load_average": load, **res})
-        finally:
-            _stop_hogs(hogs)
+        for _ in range(rounds):
+            for phase in pair:
+                hogs: list[subprocess.Popen] = []
+                try:
+                    if phase.endswith("busy"):
+                        hogs = _start_hogs(N_HOGS, deadline)
+                        time.sleep(warmup)
+                    loads.setdefault(phase, []).append(_loadavg())
+                    for case in cases:
+                        windows.setdefault((case[0], phase), []).append(
+                            _time_case(problems[case[0]], calls, budget))
+                finally:
+                    _stop_hogs(hogs)
+    rows: list[dict[str, Any]] = []
+    for phase in PHASES:
+        for name, d, k, m, method, mu in cases:
+            rows.append({"case": name, "d": d, "k": k, "loop_rows": m, "method": method,
+                         "path": "lane" if method == "auto" and not m else "full",
+                         "phase": phase, "hogs": N_HOGS if phase.endswith("busy") else 0,
+                         "load_average": loads[phase][0], "load_averages": loads[phase],
+                         "windows": rounds, **_pooled(windows[(name, phase)])})
     facts["blas_after"] = _blas_threads()
     return {"records": rows, "facts": facts}
 
@@ -297,10 +328,12 @@ def busy_section(config: BenchConfig, progress: Progress) -> SectionResult:
                  f"busy x{r['clarabel busy']:.2f}")
     fig = _chart(records, rat, Path(config.out))
     meta = {"definition": "median_s: median wall time of single resolve_impact calls (each "
-                          "timed alone), over the case's random problems in turn; "
+                          "timed alone), over the case's random problems in turn, pooled over "
+                          "the phase's windows (quiet and busy alternate, ROUNDS windows each; "
+                          "window_medians_s: each window's median); "
                           "other_threads_cpu_share: CPU seconds of the process's other threads "
                           "(BLAS workers) per wall second while timing",
-            "phases": list(PHASES), "cases": [list(c) for c in CASES], "hogs": N_HOGS,
+            "rounds": ROUNDS[bool(config.quick)], "phases": list(PHASES), "cases": [list(c) for c in CASES], "hogs": N_HOGS,
             "target_ratio": TARGET_RATIO, "ratios": rat, "process": res["facts"]}
     return SectionResult("busy", records, [fig], _summary(records, rat), meta)
 

@@ -169,7 +169,10 @@ def natural_map_newton(P, q, x, starts, sizes, max_iter, coulomb):
     rhs = np.empty(N)
     dx = np.empty(N)
     perm = np.empty(N, dtype=np.int64)
-    fmax = _natural_map(P, q, x, starts, sizes, F, D, G, True, coulomb, u, proj)
+    # the flags as run-time booleans: one compiled _natural_map serves the four calls (a
+    # constant argument compiles a specialization per value)
+    jac, nojac, coulomb = bool(True), bool(False), bool(coulomb)
+    fmax = _natural_map(P, q, x, starts, sizes, F, D, G, jac, coulomb, u, proj)
     steps = 0
     for steps in range(max_iter):
         if fmax <= 4.0 * EPS:
@@ -187,18 +190,18 @@ def natural_map_newton(P, q, x, starts, sizes, max_iter, coulomb):
         for _ in range(12):
             for i in range(N):
                 xn[i] = x[i] + t * dx[i]
-            fn = _natural_map(P, q, xn, starts, sizes, Fn, D, G, False, coulomb, u, proj)
+            fn = _natural_map(P, q, xn, starts, sizes, Fn, D, G, nojac, coulomb, u, proj)
             if fn < fmax:
                 accepted = True
                 break
             t *= 0.5
         if not accepted:
             # proj holds the last trial's projection: take it again at x
-            fmax = _natural_map(P, q, x, starts, sizes, F, D, G, False, coulomb, u, proj)
+            fmax = _natural_map(P, q, x, starts, sizes, F, D, G, nojac, coulomb, u, proj)
             break
         for i in range(N):
             x[i] = xn[i]
-        fmax = _natural_map(P, q, x, starts, sizes, F, D, G, True, coulomb, u, proj)
+        fmax = _natural_map(P, q, x, starts, sizes, F, D, G, jac, coulomb, u, proj)
     for i in range(N):
         x[i] = proj[i]
     return x, fmax, steps

@@ -28,6 +28,7 @@ import numpy as np
 from .certificates import ccp_certificate, coulomb_certificate
 from .natural_map import natural_map_newton
 from .interior_point import STALLED, TINY, TRIVIAL, _jit, cone_lcp
+from ..compiled import jit_inline
 
 
 #: a friction coefficient at or below this is no friction for the program: mu pi_n is then
@@ -114,7 +115,24 @@ def _trivial_status(b):
     return TRIVIAL
 
 
-@_jit
+@jit_inline
+def cone_kernel(W, b, mu, d, tol, max_iter, newton_iter, coulomb):
+    """:func:`ccp_kernel` (``coulomb`` False) or :func:`coulomb_kernel` (True), the law a
+    run-time flag: a caller that takes either compiles the steps once."""
+    N = mu.shape[0] * d
+    P, q, idx, scale, starts, sizes, f, trivial = scaled_program(W, b, mu, d)
+    if trivial:
+        return np.zeros(N), _trivial_status(b), 0, 0, 0.0, 0.0
+    x, z, status, it, gap, res = cone_lcp(P, q, starts, sizes, tol, max_iter)
+    # bool(): a run-time flag, one compiled natural_map_newton for both laws
+    x, res, steps = natural_map_newton(P, q, x, starts, sizes, newton_iter, bool(False))
+    if not coulomb:
+        return _unscale(x, idx, scale, f, N), status, it, steps, gap, res
+    x, res2, steps2 = natural_map_newton(P, q, x, starts, sizes, newton_iter, bool(True))
+    return _unscale(x, idx, scale, f, N), status, it, steps + steps2, res, res2
+
+
+@jit_inline
 def ccp_kernel(W, b, mu, d, tol, max_iter, newton_iter):
     """The CCP program ``min 1/2 pi^T W pi + b^T pi`` over ``pi_i in K_mu_i``, on contact data.
 
@@ -123,16 +141,10 @@ def ccp_kernel(W, b, mu, d, tol, max_iter, newton_iter):
     natural map. Returns the impulse (N,), the interior point's status, its iterations, the
     Newton steps, its final gap and the natural map's final |F|_inf (scaled problem).
     """
-    N = mu.shape[0] * d
-    P, q, idx, scale, starts, sizes, f, trivial = scaled_program(W, b, mu, d)
-    if trivial:
-        return np.zeros(N), _trivial_status(b), 0, 0, 0.0, 0.0
-    x, z, status, it, gap, res = cone_lcp(P, q, starts, sizes, tol, max_iter)
-    x, res, steps = natural_map_newton(P, q, x, starts, sizes, newton_iter, False)
-    return _unscale(x, idx, scale, f, N), status, it, steps, gap, res
+    return cone_kernel(W, b, mu, d, tol, max_iter, newton_iter, bool(False))
 
 
-@_jit
+@jit_inline
 def coulomb_kernel(W, b, mu, d, tol, max_iter, newton_iter):
     """Coulomb's law ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*`` (u = W pi + b) on contact data: the CCP
     answer (interior point and Newton), then Newton on Coulomb's natural map from it.
@@ -140,12 +152,4 @@ def coulomb_kernel(W, b, mu, d, tol, max_iter, newton_iter):
     Returns the impulse (N,), the interior point's status, its iterations, the Newton steps
     (both phases), and the final |F|_inf of the CCP and of Coulomb's natural maps.
     """
-    N = mu.shape[0] * d
-    P, q, idx, scale, starts, sizes, f, trivial = scaled_program(W, b, mu, d)
-    if trivial:
-        return np.zeros(N), _trivial_status(b), 0, 0, 0.0, 0.0
-    x, z, status, it, gap, res = cone_lcp(P, q, starts, sizes, tol, max_iter)
-    x, res, steps = natural_map_newton(P, q, x, starts, sizes, newton_iter, False)
-    x, res2, steps2 = natural_map_newton(P, q, x, starts, sizes, newton_iter, True)
-    steps += steps2
-    return _unscale(x, idx, scale, f, N), status, it, steps, res, res2
+    return cone_kernel(W, b, mu, d, tol, max_iter, newton_iter, bool(True))

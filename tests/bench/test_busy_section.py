@@ -41,6 +41,9 @@ def test_every_case_in_every_phase(run):
         assert r["p90_s"] <= r["max_s"] and r["n_calls"] >= busy.N_PROBLEMS
         assert r["hogs"] == (busy.N_HOGS if r["phase"].endswith("busy") else 0)
         assert r["path"] == ("lane" if r["case"].endswith("lane") else "full")
+        # the phase's median pools its windows' calls: it lies between their medians
+        assert len(r["window_medians_s"]) == r["windows"] == res.meta["rounds"]
+        assert min(r["window_medians_s"]) <= r["median_s"] <= max(r["window_medians_s"])
         share = r["other_threads_cpu_share"]
         assert share is None or (math.isfinite(share) and share >= 0)
     for r in res.meta["ratios"]:

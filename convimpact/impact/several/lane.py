@@ -92,19 +92,18 @@ def _build():
         _SOLVE = False
         return _SOLVE
     from ...compiled import announce
-    announce("several-contact lane (interior point, Newton finish, certificates)", 20,
+    announce("several-contact lane (interior point, Newton finish, certificates)", 12,
              K.lane_solve)
     J = np.zeros((2, 2, 3))
     J[0, 0, 2] = J[1, 0, 2] = 1.0
     J[0, 1, 0] = J[1, 1, 1] = 1.0
     M, dq = np.eye(3), np.array([0.1, 0.2, -1.0])
-    # ccp and dissipative share one specialization (coulomb = 0); Coulomb's law compiles its
-    # own on its first call (method="interior")
+    # the three laws share one specialization (the law's mode read at run time)
     from ...compiled import LawEntries
-    solve = LawEntries(K.lane_solve)
-    for mode in (0, 1):
+    solve = LawEntries(K.lane_solve, 0)
+    for mode in (0, 1, 2):
         ws = np.empty(K.layout(2, 2, 3)[-1])
-        solve(0, mode, M, J, dq, np.full(2, 0.5), np.full(2, 0.3), ws)
+        solve(mode, M, J, dq, np.full(2, 0.5), np.full(2, 0.3), ws)
     _SOLVE = solve
     _LAYOUT = K.layout
     COMPILE_SECONDS["several_lane"] = time.perf_counter() - t
@@ -241,7 +240,7 @@ def resolve_several(M, Jc, dq, e, mu, law: str) -> ImpactResult | None:
     J = np.array(Jc)
     ov, odq, ovp, _, _, opl, oout, osc, _, _, _, size = _LAYOUT(n, d, k)
     ws = np.empty(size)
-    if solve(1 if mode == 2 else 0, mode, M, J, dq, ev, mv, ws) != 0:
+    if solve(mode, M, J, dq, ev, mv, ws) != 0:
         return None
     per = ws[oout:osc + 8].tolist()
     sc = per[4 * n:]

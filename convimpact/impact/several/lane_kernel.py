@@ -10,8 +10,9 @@
 2. the plain-case contact checks of :func:`convimpact.impact.problem.build.build_problem`
    (:func:`~convimpact.contacts.interior_point.contact_checks`), some contact approaching, and
    the velocities within 1e-100 .. 1e100;
-3. the law by :func:`~convimpact.impact.several.law_programs.solve_law` (the public interior path's
-   single call; its program family chosen at compile time, :func:`~.law_programs.law_program`) and its certificate accepted by the rule of
+3. the law by :func:`~convimpact.impact.several.law_programs.solve_law` (the public interior
+   path's single call, its steps taken into this function's body: one compiled function for
+   the three laws) and its certificate accepted by the rule of
    :func:`convimpact.impact.several.interior._solve`;
 4. for the dissipative law Poisson's scaling ``pi = plastic (1 + e_i)`` and the plastic and
    predicted energy losses; then ``dq+ = dq + L^-T X pi``, ``v+ = v- + W pi`` and
@@ -31,8 +32,7 @@ from ..conic.polish import VELOCITY_RESIDUAL_MAX
 from ..problem.compiled_reduction import NOT_FINITE, PLAIN, map_back, reduce_rows, velocity_jump
 from ..problem.reduction import IMMOBILE_RTOL, TINY_NORMAL
 from ...contacts.interior_point import TRIVIAL, _jit, contact_checks
-from ...compiled import literally
-from .law_programs import law_program
+from .law_programs import solve_law
 
 #: figures computed in plain arithmetic (outside, the full path normalizes them)
 PLAIN_LO, PLAIN_HI = PLAIN
@@ -74,12 +74,12 @@ def layout(n, d, k):
 
 
 @_jit
-def lane_solve(coulomb, mode, M, J, dq, e, friction, ws):
+def lane_solve(mode, M, J, dq, e, friction, ws):
     """Reduce, solve (``mode`` 0: ccp, 1: dissipative, 2: coulomb), certify and map back
     several contacts into ``ws`` (:func:`layout`). ``J`` is (n, d, k), ``e`` and ``friction``
-    (n,). ``coulomb`` (1 for mode 2, else 0) is compiled as a constant: the lane of the
-    maximal-dissipation programs does not compile Coulomb's kernel and certificate."""
-    literally(coulomb)
+    (n,). One compiled specialization serves the three laws (``mode`` is read at run time):
+    compiling it once costs less than two law-specific ones, each of which would optimize
+    and emit the interior point and the Newton finish again."""
     n = J.shape[0]
     d = J.shape[1]
     k = J.shape[2]
@@ -90,16 +90,18 @@ def lane_solve(coulomb, mode, M, J, dq, e, friction, ws):
         for j in range(k):
             ws[ocM + i * k + j] = M[i, j]
         ws[ocq + i] = dq[i]
+    Jr = np.empty((N, k))
     for a in range(n):
         for b in range(d):
             for i in range(k):
+                Jr[a * d + b, i] = J[a, b, i]
                 ws[ocJ + (a * d + b) * k + i] = J[a, b, i]
     # M checked and factored, X = L^-1 Jc^T, W = X^T X, v = Jc dq (problem.compiled_reduction)
     L = np.empty((k, k))
     X = np.empty((k, N))
     W = np.empty((N, N))
     v = np.empty(N)
-    code = reduce_rows(M, J.reshape((N, k)), dq, L, X, W, v)
+    code = reduce_rows(M, Jr, dq, L, X, W, v)
     if code == NOT_FINITE:
         return NOT_PLAIN_CONTACTS  # a contact row, W or v- not finite
     if code != 0:
@@ -118,8 +120,8 @@ def lane_solve(coulomb, mode, M, J, dq, e, friction, ws):
         return SEPARATING
     if not (PLAIN_LO <= vs <= PLAIN_HI):
         return SCALE
-    status, it, steps, residual, floor, out = law_program(
-        coulomb, W, v, e, friction, d, mode, HANDOVER_TOL, MAX_ITER, NEWTON_ITER, CERTIFIED_ACCURACY)
+    status, it, steps, residual, floor, out = solve_law(
+        W, v, e, friction, d, mode, HANDOVER_TOL, MAX_ITER, NEWTON_ITER, CERTIFIED_ACCURACY)
     if status != TRIVIAL:
         if not residual <= max(DEFAULT_TOL, min(1e3 * floor, VELOCITY_RESIDUAL_MAX)):
             return CERTIFICATE

@@ -5,7 +5,9 @@ the engine's program ``u = W r + b``: :func:`law_data` forms b and the friction 
 :func:`solve_law` runs the law's kernel (:func:`convimpact.contacts.newton.ccp_kernel`, or
 :func:`~convimpact.contacts.newton.coulomb_kernel`) and its certificate on the original data, and
 :func:`result_data` reads the post-impact velocities, slip speeds and regimes off the impulse.
-:func:`law_program` is the same with the program's family fixed at compile time (the lane's).
+:func:`solve_law` and the engine's kernels are taken into their compiled callers' bodies
+(:data:`convimpact.compiled.jit_inline`): the lane compiles them as one function, not as a
+chain of functions each of which would optimize and emit everything below it again.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ import numpy as np
 
 from ...contacts.certificates import ccp_certificate, coulomb_certificate
 from ...contacts.interior_point import TINY, TRIVIAL, _jit
-from ...contacts.newton import ccp_kernel, coulomb_kernel
+from ...contacts.newton import ccp_kernel, cone_kernel, coulomb_kernel  # noqa: F401 (kernels() hands on all three)
+from ...compiled import jit_inline
 
 
 #: a contact approaching slower than this fraction of max |v-| counts as touching
@@ -101,7 +104,8 @@ def _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps, residual,
     n = friction.shape[0]
     N = n * d
     out = np.empty(N + 4 * n)
-    out[:N] = pi
+    for c in range(N):  # (a slice assignment would compile numba's shape-error message)
+        out[c] = pi[c]
     for i in range(n):
         vn = v[i * d]
         out[N + i] = codes[i]
@@ -111,32 +115,7 @@ def _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps, residual,
     return status, it, steps, residual, floor, out
 
 
-@_jit
-def solve_dissipation(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
-    """:func:`solve_law` for the maximal-dissipation programs only (``mode`` 0: ccp, 1: the
-    dissipative law's plastic phase): Coulomb's kernel and certificate are not compiled in."""
-    b, mu = law_data(v, e, friction, d, mode != 1, False)
-    pi, status, it, steps, r1, r2 = ccp_kernel(W, b, mu, d, tol, max_iter, newton_iter)
-    residual = 0.0
-    floor = 0.0
-    if status != TRIVIAL:
-        residual, floor = ccp_certificate(W, b, mu, d, pi)
-    return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps, residual, floor)
-
-
-@_jit
-def solve_coulomb(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
-    """:func:`solve_law` for Coulomb's law only (``mode`` 2, not read)."""
-    b, mu = law_data(v, e, friction, d, True, True)
-    pi, status, it, steps, r1, r2 = coulomb_kernel(W, b, mu, d, tol, max_iter, newton_iter)
-    residual = 0.0
-    floor = 0.0
-    if status != TRIVIAL:
-        residual, floor = coulomb_certificate(W, b, mu, d, pi)
-    return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps, residual, floor)
-
-
-@_jit
+@jit_inline
 def solve_law(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
     """One law on contact data in one compiled call (the public path's: no dispatch between
     the steps): :func:`law_data`, the law's kernel, its certificate and :func:`result_data`.
@@ -148,43 +127,15 @@ def solve_law(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
     impulse at ``accuracy``, the lift ``v_n+ - (-e min(v_n-, 0))``, ``mu |v_t+|`` and
     ``v_n+`` (elementwise, as numpy forms them).
     """
-    if mode == 2:
-        return solve_coulomb(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy)
-    return solve_dissipation(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy)
-
-
-def law_program(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
-    """:func:`solve_law` with the program's family a compile-time constant in compiled code
-    (``coulomb`` a literal 0 or 1, made one by the caller's ``numba.literally``): a caller
-    compiled for the maximal-dissipation programs (modes 0 and 1) does not compile Coulomb's
-    kernel and certificate, and the other way round. As plain Python, :func:`solve_law`."""
-    return solve_law(W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy)
-
-
-def _register_compiled() -> None:
-    """The compiled form of :func:`law_program`: the family's solver chosen when the caller is
-    typed (numba does not prune ``if coulomb`` on a literal argument by itself)."""
-    try:
-        from numba import types
-        from numba.extending import overload
-    except ImportError:  # no numba: the plain function above
-        return
-
-    @overload(law_program, inline="always", jit_options={"nogil": True, "error_model": "numpy"})
-    def _program(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter, accuracy):
-        if not isinstance(coulomb, types.IntegerLiteral):
-            return None
-        if coulomb.literal_value:
-            def impl(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter,
-                     accuracy):
-                return solve_coulomb(W, v, e, friction, d, mode, tol, max_iter, newton_iter,
-                                     accuracy)
+    coulomb = mode == 2
+    b, mu = law_data(v, e, friction, d, mode != 1, coulomb)
+    pi, status, it, steps, r1, r2 = cone_kernel(W, b, mu, d, tol, max_iter, newton_iter,
+                                                 coulomb)
+    residual = 0.0
+    floor = 0.0
+    if status != TRIVIAL:
+        if coulomb:
+            residual, floor = coulomb_certificate(W, b, mu, d, pi)
         else:
-            def impl(coulomb, W, v, e, friction, d, mode, tol, max_iter, newton_iter,
-                     accuracy):
-                return solve_dissipation(W, v, e, friction, d, mode, tol, max_iter,
-                                         newton_iter, accuracy)
-        return impl
-
-
-_register_compiled()
+            residual, floor = ccp_certificate(W, b, mu, d, pi)
+    return _law_answer(W, v, e, friction, d, accuracy, pi, status, it, steps, residual, floor)
