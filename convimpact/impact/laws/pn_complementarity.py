@@ -44,6 +44,7 @@ been more dissipative than the answer, in a warning.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from typing import Any
@@ -51,7 +52,8 @@ from typing import Any
 import numpy as np
 
 from ..conic.paths import ProgramOptions, approaching, regimes_from_slip, solver_report
-from ..conic.qp import TINY, Backend, ConeQP, solve_cone_qp
+from ..conic.polish import kkt_residual
+from ..conic.qp import TINY, Backend, ConeQP, equilibrated, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..errors import ConvImpactError, NotSupportedError, SolverError
 from ..exact.dispatch import solve_contact
@@ -68,6 +70,11 @@ CONE_RTOL = 1e-9
 #: largest relative round-off allowance on velocities (cond(W) eps, capped)
 VELOCITY_SLACK_MAX = 1e-4
 EPS = float(np.finfo(float).eps)
+#: several-contact calls of a process after which the compiled kernels run (compiled_kernels)
+HOT_CALLS = 20
+_CALLS = 0
+#: ``extras["solver_status"]`` of a slide program certified without the interior-point method
+CERTIFIED = "certified active-set Newton"
 
 
 def newton_velocity_shift(P: ImpactProblem) -> np.ndarray:
@@ -110,12 +117,16 @@ def stick_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray) -> np.ndarray 
 
 
 def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backend,
-             opts: ProgramOptions) -> tuple[np.ndarray, dict[str, Any]] | None:
+             opts: ProgramOptions, certify: bool = False
+             ) -> tuple[np.ndarray, dict[str, Any]] | None:
     """The sliding impulse of active set A, or None where A cannot slide.
 
     One contact: the single-contact law (eq. 55 / eq. 60, the exact kernel), which needs it
     approaching. Several: P_N(A), minimize T+ = T- + pi.v- + 1/2 pi.W.pi subject to
-    ``u_n = 0`` on A and pi in the cones (None when infeasible).
+    ``u_n = 0`` on A and pi in the cones (None when infeasible): with ``certify``, first
+    from guessed active sets of the cones, certified by the KKT conditions
+    (:func:`~.pn_complementarity_kernels.slide_set`); else, or when no guess is consistent,
+    by the interior-point method and its polish.
     """
     n, d = P.n_contacts, P.dim
     pi = np.zeros((n, d))
@@ -128,6 +139,18 @@ def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backe
         pi[i] = sol.impulse
         return pi, {"effective_mass": sol.effective_mass, "accuracy": 1e-10,
                     "warnings": tuple(sol.warnings), "slide_rule": "single-contact law"}
+    status = 0
+    if certify:
+        from .pn_complementarity_kernels import slide_set
+
+        W_, b_, v_, mu_ = _kernel_data(P, b)
+        status, flat = slide_set(W_, v_, b_, mu_, d, np.array(A, dtype=np.int64))
+    if status in (1, -1):  # certified by the KKT conditions, or trivial (pi = 0)
+        return flat.reshape(n, d), {
+            "effective_mass": None, "accuracy": opts.accuracy(True), "warnings": (),
+            "slide_rule": "P_N over the active set", "solver_status":
+            CERTIFIED if status == 1 else "trivial", "iterations": 0, "tolerance": opts.tol,
+            "polished": True, "kkt_residual": None if status == 1 else 0.0}
     idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in A])
     W = P.delassus[np.ix_(idx, idx)]
     E = W[::d]
@@ -143,6 +166,20 @@ def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backe
     return pi, {"effective_mass": None, "accuracy": opts.accuracy(sol.polished),
                 "warnings": (), "slide_rule": "P_N over the active set",
                 **solver_report(sol, opts)}
+
+
+def _kkt_residual(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, b: np.ndarray) -> float:
+    """The relative KKT residual of P_N(A) at ``pi`` (on the equilibrated program, as the
+    interior-point path reports it)."""
+    d = P.dim
+    idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in A])
+    W = P.delassus[np.ix_(idx, idx)]
+    qp = ConeQP(W, P.v_minus[list(A)].ravel(), P.friction[list(A)], d, W[::d], -b[list(A), 0])
+    eq = equilibrated(qp)
+    if eq is None:
+        return 0.0
+    scaled, s = eq
+    return kkt_residual(scaled, pi[list(A)].ravel() / s)
 
 
 def relaxed_bound(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray) -> float:
@@ -215,15 +252,12 @@ def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
     found.sort(key=lambda c: c[0])
     vs = max(float(np.max(np.abs(P.v_minus))), TINY)
     energy_scale = max(0.5 * vs ** 2 / float(np.max(np.abs(np.diag(P.delassus)))), TINY)
-    vel = (P.delassus @ found[0][2].ravel())
-
-    def same_velocity(c) -> bool:
-        return bool(np.max(np.abs(P.delassus @ c[2].ravel() - vel)) <= 1e-8 * vs)
-
-    ties = [c for c in found if c[0] <= found[0][0] + 1e-9 * energy_scale
-            and same_velocity(c)]
+    # every candidate's velocity change W pi at once (one product)
+    jumps = np.stack([c[2].ravel() for c in found]) @ P.delassus
+    same = (np.max(np.abs(jumps - jumps[0]), axis=1) <= 1e-8 * vs).tolist()
+    ties = [c for c, sv in zip(found, same) if sv and c[0] <= found[0][0] + 1e-9 * energy_scale]
     best = min(ties, key=lambda c: (-len(c[1]), float(np.linalg.norm(c[2]))))
-    others = [c for c in found if not same_velocity(c)]
+    others = [c for c, sv in zip(found, same) if not sv]
     notes = []
     if others:
         sets = ", ".join(str(list(c[1])) for c in [best, *others])
@@ -233,10 +267,67 @@ def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
     return best, notes
 
 
-def several_contacts_result(P: ImpactProblem, backend: Backend, method: str,
-                            opts: ProgramOptions) -> ImpactResult:
-    """The law at several contacts (module docstring): stick on the most dissipative
-    admissible active set, else slide on the most dissipative admissible one."""
+def compiled_kernels() -> bool:
+    """Whether this call runs the compiled stick tier and certified slide solves
+    (:mod:`.pn_complementarity_kernels`): from the :data:`HOT_CALLS`-th several-contact call
+    of the process on (a time-stepping loop, not a handful of impacts), or at once when
+    numba's disk cache holds them, so that a first call never waits for their compilation.
+    Both paths solve the same systems and apply the same tests (the slide programs'
+    minimizers agree to round-off; where redundant contacts leave a family of minimizers,
+    the two paths may return different members, with the same velocities and energy)."""
+    global _CALLS
+    _CALLS += 1
+    if _CALLS >= HOT_CALLS:
+        return True
+    if _CALLS > 1:
+        return False
+    from ..exact.lane import _cached
+    from . import pn_complementarity_kernels as kernels
+
+    if _cached(kernels.stick_tier) and _cached(kernels.slide_set):
+        _CALLS = HOT_CALLS
+        return True
+    return False
+
+
+@functools.lru_cache(maxsize=512)
+def candidate_sets(n: int, closing: tuple[bool, ...]) -> tuple[list[tuple[int, ...]], np.ndarray]:
+    """The active sets the law visits, largest first (each holding an approaching contact),
+    and their (n_sets, n) membership masks."""
+    subsets = [A for k in range(n, 0, -1) for A in itertools.combinations(range(n), k)
+               if any(closing[i] for i in A)]
+    masks = np.zeros((len(subsets), n), dtype=bool)
+    for s, A in enumerate(subsets):
+        masks[s, list(A)] = True
+    masks.flags.writeable = False
+    return subsets, masks
+
+
+def _kernel_data(P: ImpactProblem, b: np.ndarray) -> tuple[np.ndarray, ...]:
+    """W, b, v- (flattened) and mu as the kernels take them (C-contiguous float64)."""
+    return (np.ascontiguousarray(P.delassus, dtype=float),
+            np.ascontiguousarray(b.ravel(), dtype=float),
+            np.ascontiguousarray(P.v_minus.ravel(), dtype=float),
+            np.ascontiguousarray(P.friction, dtype=float))
+
+
+def stick_candidates(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
+                     masks: np.ndarray) -> list[tuple]:
+    """The stick tier: every active set whose sticking impulse (:func:`stick_on`) is
+    admissible, as (T+ - T-, A, pi, info), in the order of ``subsets``; one compiled call
+    (:func:`~.pn_complementarity_kernels.stick_tier`, the same solves and tests)."""
+    from .pn_complementarity_kernels import stick_tier
+
+    n, d = P.n_contacts, P.dim
+    ok, energy, pis = stick_tier(*_kernel_data(P, b), d, masks, STICK_COND_MAX, CONE_RTOL,
+                                 VELOCITY_SLACK_MAX, 1e-10)
+    return [(float(energy[s]), A, pis[s].reshape(n, d), {"accuracy": 1e-10})
+            for s, A in enumerate(subsets) if ok[s]]
+
+
+def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
+            ) -> tuple[str, list[tuple], list[str], np.ndarray]:
+    """The tiers (module docstring): (tier, admissible candidates, failed active sets, b)."""
     n = P.n_contacts
     if n > MAX_CONTACTS:
         raise NotSupportedError(
@@ -249,13 +340,16 @@ def several_contacts_result(P: ImpactProblem, backend: Backend, method: str,
     closing = approaching(P)
     if not closing.any():  # every approach is round-off: touching contacts, no impact
         closing = P.v_minus[:, 0] < 0.0
-    subsets = [A for k in range(n, 0, -1) for A in itertools.combinations(range(n), k)
-               if closing[list(A)].any()]
-    stick = []
-    for A in subsets:
-        pi = stick_on(P, A, b)
-        if pi is not None and _admissible(P, A, pi, b, 1e-10):
-            stick.append((_energy_change(P, pi), A, pi, {"accuracy": 1e-10}))
+    subsets, masks = candidate_sets(n, tuple(bool(c) for c in closing))
+    fast = compiled_kernels()
+    if fast:
+        stick = stick_candidates(P, b, subsets, masks)
+    else:
+        stick = []
+        for A in subsets:
+            pi = stick_on(P, A, b)
+            if pi is not None and _admissible(P, A, pi, b, 1e-10):
+                stick.append((_energy_change(P, pi), A, pi, {"accuracy": 1e-10}))
     tier = "stick"
     found = stick
     failures: list[str] = []
@@ -265,13 +359,19 @@ def several_contacts_result(P: ImpactProblem, backend: Backend, method: str,
         tier = "slide"
         energy_scale = max(0.5 * float(np.max(np.abs(P.v_minus))) ** 2 /
                            float(np.max(np.abs(np.diag(P.delassus)))), TINY)
-        for bound, A in sorted((relaxed_bound(P, A, b), A) for A in subsets):
+        if fast:
+            from .pn_complementarity_kernels import relaxed_bounds
+
+            bounds = relaxed_bounds(*_kernel_data(P, b), P.dim, masks).tolist()
+        else:
+            bounds = [relaxed_bound(P, A, b) for A in subsets]
+        for bound, A in sorted(zip(bounds, subsets)):
             if math.isinf(bound):
                 continue
             if found and bound > min(c[0] for c in found) + 1e-9 * energy_scale:
                 break
             try:
-                got = slide_on(P, A, b, backend, opts)
+                got = slide_on(P, A, b, backend, opts, fast)
             except ConvImpactError as exc:  # a jam or an unconverged program of this A
                 failures.append(f"{list(A)}: {exc}")
                 continue
@@ -284,7 +384,32 @@ def several_contacts_result(P: ImpactProblem, backend: Backend, method: str,
             "P_N has no admissible active set: no choice of touching contacts satisfies "
             "Newton's law (v_n+ + e v_n- >= 0, pi_n >= 0, complementary) with impulses in the "
             f"friction cones ({detail}); use law='coulomb', 'ccp' or 'dissipative'")
+    return tier, found, failures, b
+
+
+def several_contacts_impulse(P: ImpactProblem, backend: Backend,
+                             opts: ProgramOptions) -> np.ndarray | None:
+    """The impulse (n_contacts, d) of :func:`several_contacts_result`, without its result
+    (regimes, diagnostics, notes), for a time stepper that needs only the impulse; None
+    where that call would raise or report active sets it could not solve (the caller then
+    makes the full call, which raises or reports)."""
+    try:
+        _, found, failures, _ = _search(P, backend, opts)
+    except ConvImpactError:
+        return None
+    if failures:
+        return None
+    return _pick(P, found)[0][2]
+
+
+def several_contacts_result(P: ImpactProblem, backend: Backend, method: str,
+                            opts: ProgramOptions) -> ImpactResult:
+    """The law at several contacts (module docstring): stick on the most dissipative
+    admissible active set, else slide on the most dissipative admissible one."""
+    tier, found, failures, b = _search(P, backend, opts)
     (dT, A, pi, info), notes = _pick(P, found)
+    if info.get("kkt_residual", 0.0) is None:  # certified: its residual, as the polish's
+        info = {**info, "kkt_residual": _kkt_residual(P, A, pi, b)}
     acc = float(info["accuracy"])
     extras: dict[str, Any] = {
         "active_set": list(A), "stick_test": tier == "stick", "tier": tier,
