@@ -362,7 +362,8 @@ def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
         if fast:
             from .pn_complementarity_kernels import relaxed_bounds
 
-            bounds = relaxed_bounds(*_kernel_data(P, b), P.dim, masks).tolist()
+            data = _kernel_data(P, b)
+            bounds = relaxed_bounds(*data, P.dim, masks).tolist()
         else:
             bounds = [relaxed_bound(P, A, b) for A in subsets]
         for bound, A in sorted(zip(bounds, subsets)):
@@ -375,7 +376,17 @@ def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
             except ConvImpactError as exc:  # a jam or an unconverged program of this A
                 failures.append(f"{list(A)}: {exc}")
                 continue
-            if got is not None and _admissible(P, A, got[0], b, got[1]["accuracy"]):
+            if got is None:
+                continue
+            if fast:  # the same test, compiled
+                from .pn_complementarity_kernels import admissible
+
+                ok = admissible(data[0], np.abs(data[0]), masks[subsets.index(A)],
+                                got[0].ravel(), data[1], data[3], P.dim, CONE_RTOL,
+                                VELOCITY_SLACK_MAX, float(got[1]["accuracy"]))
+            else:
+                ok = _admissible(P, A, got[0], b, got[1]["accuracy"])
+            if ok:
                 found.append((_energy_change(P, got[0]), A, got[0], got[1]))
     if not found:
         detail = ("; ".join(failures[:3]) + ("; ..." if len(failures) > 3 else "")

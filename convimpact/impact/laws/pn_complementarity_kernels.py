@@ -99,7 +99,7 @@ def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
         pi = np.zeros(N)
         for a in range(m):
             pi[rows[a]] = x[a]
-        if _admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol):
+        if admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol):
             ok[s] = True
             Wpi = W @ pi
             energy[s] = pi @ vminus + 0.5 * (pi @ Wpi)
@@ -108,7 +108,7 @@ def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
 
 
 @_jit
-def _admissible(W, absW, A, pi, b, mu, d, cone_rtol, slack_max, tol):
+def admissible(W, absW, A, pi, b, mu, d, cone_rtol, slack_max, tol):
     """The law's ``_admissible`` (pn_complementarity): cones and pi_n >= 0 on A, u_n >= 0
     off A, each to its own round-off allowance."""
     n = mu.size
@@ -258,6 +258,72 @@ def _residual(u, W, q, E, f, kind, tang, mu, d, start, eq_rows, n_prim, scales):
 
 
 @_jit
+def _minimum_norm_step(J, F):
+    """``-J^+ F`` from the eigenvectors of ``J^T J``, its eigenvalues below 1e-15 of the
+    largest (singular values of J below 3e-8 of its largest: the redundant directions, which
+    round-off leaves at 1e-16) taken as zero. A Newton step only: the answer is accepted on
+    its residual and sign conditions, never on how it was reached."""
+    lam, V = np.linalg.eigh(J.T @ J)
+    g = V.T @ (J.T @ F)
+    top = np.max(lam)
+    for a in range(lam.size):
+        g[a] = -g[a] / lam[a] if lam[a] > 1e-15 * top else 0.0
+    return V @ g
+
+
+@_jit
+def _newton_step(J, F):
+    """The minimum-norm solution of ``J s = -F`` (the polish's ``lstsq`` with rcond 1e-13).
+
+    J is square here (one equation per unknown of the active set's parametrization): Gaussian
+    elimination with complete pivoting answers when every pivot exceeds 1e-10 of the largest
+    (J safely nonsingular: its solution is the minimum-norm one to round-off); a smaller
+    pivot (redundant contacts, a singular J) takes :func:`_minimum_norm_step`.
+    """
+    n = F.size
+    if J.shape[0] != n or J.shape[1] != n:
+        return np.linalg.lstsq(J, -F, 1e-13)[0]
+    A = J.copy()
+    r = -F
+    perm = np.arange(n)
+    first = 0.0
+    for k in range(n):
+        p, c, big = k, k, 0.0
+        for i in range(k, n):
+            for j in range(k, n):
+                if abs(A[i, j]) > big:
+                    big, p, c = abs(A[i, j]), i, j
+        if k == 0:
+            first = big
+        if not big > 1e-10 * first or big == 0.0:
+            return _minimum_norm_step(J, F)
+        if p != k:
+            for j in range(n):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+            r[k], r[p] = r[p], r[k]
+        if c != k:
+            for i in range(n):
+                A[i, k], A[i, c] = A[i, c], A[i, k]
+            perm[k], perm[c] = perm[c], perm[k]
+        for i in range(k + 1, n):
+            fct = A[i, k] / A[k, k]
+            if fct != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= fct * A[k, j]
+                r[i] -= fct * r[k]
+    y = np.empty(n)
+    for k in range(n - 1, -1, -1):
+        acc = r[k]
+        for j in range(k + 1, n):
+            acc -= A[k, j] * y[j]
+        y[k] = acc / A[k, k]
+    x = np.empty(n)
+    for k in range(n):
+        x[perm[k]] = y[k]
+    return x
+
+
+@_jit
 def kkt_newton(W, q, E, f, mu, d, kind, tang, x0, max_iter, damped):
     """The polish's Newton on the KKT equations of one active set of the cones
     (:func:`convimpact.impact.conic.polish._newton_on_active_set` with ``near=False``, for the
@@ -309,6 +375,7 @@ def kkt_newton(W, q, E, f, mu, d, kind, tang, x0, max_iter, damped):
     best_f = np.inf
     best_u = u.copy()
     f0 = -1.0
+    prev = np.inf
     for it in range(max_iter):
         F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, eq_rows, n_prim,
                                scales)
@@ -320,9 +387,12 @@ def kkt_newton(W, q, E, f, mu, d, kind, tang, x0, max_iter, damped):
             best_u = u.copy()
         if fn <= 4.0 * EPS or (it >= 4 and best_f > 1e-6 * f0 and not damped):
             break
+        if it > 0 and fn <= POLISH_ACCEPT and fn > 0.25 * prev:
+            break  # at round-off and no longer falling (a singular J: redundant contacts)
+        prev = fn
         if F.size == 0 or U == 0:
             break
-        step = np.linalg.lstsq(J, -F, 1e-13)[0]
+        step = _newton_step(J, F)
         if not np.all(np.isfinite(step)):
             break
         if damped:
@@ -523,16 +593,21 @@ def slide_set(Wf, vf, bf, muf, d, A):
         # 2. the classification of the impulse without the cones
         kind, tang = _relaxed_kinds(relaxed, mu, d)
         x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, relaxed, POLISH_MAX_NEWTON, False)
+    n_pulled = 0
     if not ok:
-        # 3. as 1, with the contacts the cone-free impulse pulls at zero
+        # 3. as 1, with the contacts the cone-free impulse pulls at zero (damped)
         for a in range(na):
             zero_mask[a] = relaxed[a * d] <= 0.0
-        kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
-        x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, x0, POLISH_MAX_NEWTON, False)
+            n_pulled += zero_mask[a]
+        if 0 < n_pulled < na:
+            kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
+            x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, x0, DAMPED_MAX_NEWTON, True)
     if not ok and na > 2:
-        # 4. as 1, with one contact at zero (damped)
-        # the contact the cone-free impulse presses least first
+        # 4. as 1, with one contact at zero (damped), the one the cone-free impulse presses
+        # least first (3. tried it when it was the only one pulled)
         for z in np.argsort(relaxed[::d]):
+            if n_pulled == 1 and relaxed[z * d] <= 0.0:
+                continue
             for a in range(na):
                 zero_mask[a] = a == z
             kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
