@@ -107,6 +107,7 @@ class ImpactSolver:
         self.largest_island = 0  # contacts
         self.direct = law == DIRECT_LAW and method in DIRECT_METHODS
         self._direct_options = None
+        self._last_islands = (None, b"", None)  # (groups, moves' bytes, islands)
 
     def idle(self) -> None:
         pass
@@ -131,6 +132,18 @@ class ImpactSolver:
         inside[cols] = True
         nz = C != 0.0
         return np.flatnonzero(nz.any(axis=1) & ~(nz & ~inside).any(axis=1))
+
+    def _islands(self, moves: np.ndarray, groups) -> list:
+        """:func:`.islands.contact_islands` of the step, reused while the coordinate groups
+        (the same cached object) and the active contacts' column pattern stay (a resting or
+        sliding scene keeps both for many steps)."""
+        key = np.array(moves.shape, dtype=np.int64).tobytes() + np.packbits(moves).tobytes()
+        last_groups, last_key, last = self._last_islands
+        if groups is last_groups and key == last_key:
+            return last
+        islands = contact_islands(moves, groups, split=self.split)
+        self._last_islands = (groups, key, islands)
+        return islands
 
     def _direct_impulse(self, M, Jcs, v, e, mu) -> tuple[np.ndarray, np.ndarray] | None:
         """``(v_{k+1}, impulse)`` of one loop-free island of several contacts by the law's
@@ -163,7 +176,7 @@ class ImpactSolver:
         es, ets, vnk, vnf = self._coefficients(st, active)
         C = st.C if self.m else None
         moves = np.any(Ja != 0.0, axis=1)
-        islands = contact_islands(moves, st.inv.groups, split=self.split)
+        islands = self._islands(moves, st.inv.groups)
         v_new = v_free.copy()
         impulse = np.zeros((na, d))
         dsig = np.zeros(self.m)

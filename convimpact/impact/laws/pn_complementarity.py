@@ -117,16 +117,14 @@ def stick_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray) -> np.ndarray 
 
 
 def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backend,
-             opts: ProgramOptions, certify: bool = False
-             ) -> tuple[np.ndarray, dict[str, Any]] | None:
+             opts: ProgramOptions) -> tuple[np.ndarray, dict[str, Any]] | None:
     """The sliding impulse of active set A, or None where A cannot slide.
 
     One contact: the single-contact law (eq. 55 / eq. 60, the exact kernel), which needs it
     approaching. Several: P_N(A), minimize T+ = T- + pi.v- + 1/2 pi.W.pi subject to
-    ``u_n = 0`` on A and pi in the cones (None when infeasible): with ``certify``, first
-    from guessed active sets of the cones, certified by the KKT conditions
-    (:func:`~.pn_complementarity_kernels.slide_set`); else, or when no guess is consistent,
-    by the interior-point method and its polish.
+    ``u_n = 0`` on A and pi in the cones (None when infeasible), by the interior-point
+    method and its polish (the compiled path first tries
+    :func:`~.pn_complementarity_kernels.slide_set`, see :func:`_slide_tier`).
     """
     n, d = P.n_contacts, P.dim
     pi = np.zeros((n, d))
@@ -139,18 +137,6 @@ def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backe
         pi[i] = sol.impulse
         return pi, {"effective_mass": sol.effective_mass, "accuracy": 1e-10,
                     "warnings": tuple(sol.warnings), "slide_rule": "single-contact law"}
-    status = 0
-    if certify:
-        from .pn_complementarity_kernels import slide_set
-
-        W_, b_, v_, mu_ = _kernel_data(P, b)
-        status, flat = slide_set(W_, v_, b_, mu_, d, np.array(A, dtype=np.int64))
-    if status in (1, -1):  # certified by the KKT conditions, or trivial (pi = 0)
-        return flat.reshape(n, d), {
-            "effective_mass": None, "accuracy": opts.accuracy(True), "warnings": (),
-            "slide_rule": "P_N over the active set", "solver_status":
-            CERTIFIED if status == 1 else "trivial", "iterations": 0, "tolerance": opts.tol,
-            "polished": True, "kkt_residual": None if status == 1 else 0.0}
     idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in A])
     W = P.delassus[np.ix_(idx, idx)]
     E = W[::d]
@@ -252,11 +238,14 @@ def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
     found.sort(key=lambda c: c[0])
     vs = max(float(np.max(np.abs(P.v_minus))), TINY)
     energy_scale = max(0.5 * vs ** 2 / float(np.max(np.abs(np.diag(P.delassus)))), TINY)
-    # every candidate's velocity change W pi at once (one product)
-    jumps = np.stack([c[2].ravel() for c in found]) @ P.delassus
+    # every candidate's velocity change W pi and impulse norm at once
+    stacked = np.stack([c[2].ravel() for c in found])
+    jumps = stacked @ P.delassus
     same = (np.max(np.abs(jumps - jumps[0]), axis=1) <= 1e-8 * vs).tolist()
-    ties = [c for c, sv in zip(found, same) if sv and c[0] <= found[0][0] + 1e-9 * energy_scale]
-    best = min(ties, key=lambda c: (-len(c[1]), float(np.linalg.norm(c[2]))))
+    norms = np.sqrt(np.sum(stacked * stacked, axis=1)).tolist()
+    ties = [(-len(c[1]), norm, k) for k, (c, sv, norm) in enumerate(zip(found, same, norms))
+            if sv and c[0] <= found[0][0] + 1e-9 * energy_scale]
+    best = found[min(ties)[2]]
     others = [c for c, sv in zip(found, same) if not sv]
     notes = []
     if others:
@@ -325,6 +314,72 @@ def stick_candidates(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, .
             for s, A in enumerate(subsets) if ok[s]]
 
 
+def _certified_info(status: int, opts: ProgramOptions) -> dict[str, Any]:
+    """The info of a slide program solved by :func:`~.pn_complementarity_kernels.slide_set`
+    (status 1: certified by the KKT conditions, -1: trivial, pi = 0)."""
+    return {"effective_mass": None, "accuracy": opts.accuracy(True), "warnings": (),
+            "slide_rule": "P_N over the active set",
+            "solver_status": CERTIFIED if status == 1 else "trivial", "iterations": 0,
+            "tolerance": opts.tol, "polished": True,
+            "kkt_residual": None if status == 1 else 0.0}
+
+
+def _slide_tier(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
+                masks: np.ndarray, backend: Backend, opts: ProgramOptions, fast: bool
+                ) -> tuple[list[tuple], list[str]]:
+    """The slide tier: (admissible candidates, failed active sets).
+
+    Most dissipative first: an active set whose relaxed bound (no cones) cannot beat the
+    best admissible slide found so far is not solved. With ``fast``, every several-contact
+    program is first solved in one compiled call
+    (:func:`~.pn_complementarity_kernels.slide_many`: certified by its KKT conditions, with
+    the admissibility test and T+ - T-), the programs it leaves to the interior-point path
+    and the one-contact slides then as on the Python path.
+    """
+    n, d = P.n_contacts, P.dim
+    found: list[tuple] = []
+    failures: list[str] = []
+    energy_scale = max(0.5 * float(np.max(np.abs(P.v_minus))) ** 2 /
+                       float(np.max(np.abs(np.diag(P.delassus)))), TINY)
+    if fast:
+        from .pn_complementarity_kernels import admissible, relaxed_bounds, slide_many
+
+        data = _kernel_data(P, b)
+        bounds = relaxed_bounds(*data, d, masks).tolist()
+        status, pis, ok_many, energy = slide_many(*data, d, masks, CONE_RTOL,
+                                                  VELOCITY_SLACK_MAX, opts.accuracy(True))
+        index = {A: i for i, A in enumerate(subsets)}
+    else:
+        bounds = [relaxed_bound(P, A, b) for A in subsets]
+    for bound, A in sorted(zip(bounds, subsets)):
+        if math.isinf(bound):
+            continue
+        if found and bound > min(c[0] for c in found) + 1e-9 * energy_scale:
+            break
+        if fast and status[index[A]] in (1, -1):
+            i = index[A]
+            if ok_many[i]:
+                found.append((float(energy[i]), A, pis[i].reshape(n, d),
+                              _certified_info(int(status[i]), opts)))
+            continue
+        try:
+            got = slide_on(P, A, b, backend, opts)
+        except ConvImpactError as exc:  # a jam or an unconverged program of this A
+            failures.append(f"{list(A)}: {exc}")
+            continue
+        if got is None:
+            continue
+        if fast:  # the same test, compiled
+            ok = admissible(data[0], np.abs(data[0]), masks[index[A]], got[0].ravel(),
+                            data[1], data[3], d, CONE_RTOL, VELOCITY_SLACK_MAX,
+                            float(got[1]["accuracy"]))
+        else:
+            ok = _admissible(P, A, got[0], b, got[1]["accuracy"])
+        if ok:
+            found.append((_energy_change(P, got[0]), A, got[0], got[1]))
+    return found, failures
+
+
 def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
             ) -> tuple[str, list[tuple], list[str], np.ndarray]:
     """The tiers (module docstring): (tier, admissible candidates, failed active sets, b)."""
@@ -354,40 +409,8 @@ def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
     found = stick
     failures: list[str] = []
     if not found:
-        # most dissipative first: an active set whose relaxed bound (no cones) cannot beat
-        # the best admissible slide found so far is not solved
         tier = "slide"
-        energy_scale = max(0.5 * float(np.max(np.abs(P.v_minus))) ** 2 /
-                           float(np.max(np.abs(np.diag(P.delassus)))), TINY)
-        if fast:
-            from .pn_complementarity_kernels import relaxed_bounds
-
-            data = _kernel_data(P, b)
-            bounds = relaxed_bounds(*data, P.dim, masks).tolist()
-        else:
-            bounds = [relaxed_bound(P, A, b) for A in subsets]
-        for bound, A in sorted(zip(bounds, subsets)):
-            if math.isinf(bound):
-                continue
-            if found and bound > min(c[0] for c in found) + 1e-9 * energy_scale:
-                break
-            try:
-                got = slide_on(P, A, b, backend, opts, fast)
-            except ConvImpactError as exc:  # a jam or an unconverged program of this A
-                failures.append(f"{list(A)}: {exc}")
-                continue
-            if got is None:
-                continue
-            if fast:  # the same test, compiled
-                from .pn_complementarity_kernels import admissible
-
-                ok = admissible(data[0], np.abs(data[0]), masks[subsets.index(A)],
-                                got[0].ravel(), data[1], data[3], P.dim, CONE_RTOL,
-                                VELOCITY_SLACK_MAX, float(got[1]["accuracy"]))
-            else:
-                ok = _admissible(P, A, got[0], b, got[1]["accuracy"])
-            if ok:
-                found.append((_energy_change(P, got[0]), A, got[0], got[1]))
+        found, failures = _slide_tier(P, b, subsets, masks, backend, opts, fast)
     if not found:
         detail = ("; ".join(failures[:3]) + ("; ..." if len(failures) > 3 else "")
                   if failures else "every active set is infeasible or lets a contact penetrate")

@@ -675,3 +675,35 @@ def relaxed_bounds(W, b, vminus, mu, d, sets):
             pi[rows[a]] = sol[a]
         out[s] = pi @ vminus + 0.5 * (pi @ (W @ pi))
     return out
+
+
+@_jit
+def slide_many(W, b, vminus, mu, d, sets, cone_rtol, slack_max, tol):
+    """:func:`slide_set` on every active set of ``sets`` with several contacts, then the law's
+    admissibility test (tolerance ``tol``) and ``T+ - T-`` of each certified or trivial one.
+
+    Returns
+    -------
+    status : (n_sets,) slide_set's status (one-contact sets: -3, not solved).
+    pis : (n_sets, N) the impulses of status 1 and -1.
+    ok : (n_sets,) bool, admissible.
+    energy : (n_sets,) their ``T+ - T-``.
+    """
+    ns = sets.shape[0]
+    N = W.shape[0]
+    status = np.full(ns, -3, dtype=np.int64)
+    pis = np.zeros((ns, N))
+    ok = np.zeros(ns, dtype=np.bool_)
+    energy = np.zeros(ns)
+    absW = np.abs(W)
+    for s in range(ns):
+        A = np.flatnonzero(sets[s])
+        if A.size < 2:
+            continue
+        st, pi = slide_set(W, vminus, b, mu, d, A)
+        status[s] = st
+        if st == 1 or st == -1:
+            pis[s] = pi
+            ok[s] = admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol)
+            energy[s] = pi @ vminus + 0.5 * (pi @ (W @ pi))
+    return status, pis, ok, energy
