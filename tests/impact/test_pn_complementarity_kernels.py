@@ -1,7 +1,8 @@
 """The compiled stick tier and the certified slide solves of law pereira-nikravesh at several
-contacts (:mod:`convimpact.impact.laws.pn_complementarity_kernels`): closed forms of a box
-landing flat (sticking, sliding) and on an edge, and the interior-point path (Clarabel and
-its polish, the law's Python path) as the second method on random impacts."""
+contacts (:mod:`convimpact.impact.laws.pn_complementarity_kernels`, ``_slide``, ``_newton``):
+closed forms of a box landing flat (sticking, sliding) and on an edge, and the
+interior-point path (Clarabel and its polish, the law's Python path) as the second method
+on random impacts."""
 
 import itertools
 
@@ -14,7 +15,7 @@ from convimpact.impact.conic.clarabel_backend import ClarabelBackend
 from convimpact.impact.conic.program import ConeQP
 from convimpact.impact.conic.qp import solve_cone_qp
 from convimpact.impact.laws import pn_complementarity as pc
-from convimpact.impact.laws.pn_complementarity_kernels import slide_set
+from convimpact.impact.laws.pn_complementarity_slide import slide_set
 from convimpact.impact.problem.build import build_problem
 
 LAW = "pereira-nikravesh"

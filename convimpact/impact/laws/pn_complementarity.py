@@ -40,6 +40,14 @@ minimum without the cones, :func:`relaxed_bound`) and stops when no remaining se
 more dissipative than the best admissible one. An active set whose program fails (not
 converged, a jam) is listed in ``extras["failed_active_sets"]`` and, when it might have
 been more dissipative than the answer, in a warning.
+
+Compiled path (:func:`compiled_kernels`: from the :data:`HOT_CALLS`-th call of a process, or
+at once from a warm cache): the stick tier and the relaxed bounds in one compiled call each
+(:mod:`.pn_complementarity_kernels`), every slide program of several contacts solved exactly
+from guessed active sets of its cones and certified by its KKT conditions
+(:mod:`.pn_complementarity_slide`), the interior-point method only for the programs no
+guess certifies. The same sets, tests, tie-break and warnings; measured on a box's four
+corners 11x (stick) and 29x (slide) faster than the Python path.
 """
 
 from __future__ import annotations
@@ -124,7 +132,7 @@ def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backe
     approaching. Several: P_N(A), minimize T+ = T- + pi.v- + 1/2 pi.W.pi subject to
     ``u_n = 0`` on A and pi in the cones (None when infeasible), by the interior-point
     method and its polish (the compiled path first tries
-    :func:`~.pn_complementarity_kernels.slide_set`, see :func:`_slide_tier`).
+    :func:`~.pn_complementarity_slide.slide_set`, see :func:`_slide_tier`).
     """
     n, d = P.n_contacts, P.dim
     pi = np.zeros((n, d))
@@ -258,7 +266,8 @@ def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
 
 def compiled_kernels() -> bool:
     """Whether this call runs the compiled stick tier and certified slide solves
-    (:mod:`.pn_complementarity_kernels`): from the :data:`HOT_CALLS`-th several-contact call
+    (:mod:`.pn_complementarity_kernels`, :mod:`.pn_complementarity_slide`): from the
+    :data:`HOT_CALLS`-th several-contact call
     of the process on (a time-stepping loop, not a handful of impacts), or at once when
     numba's disk cache holds them, so that a first call never waits for their compilation.
     Both paths solve the same systems and apply the same tests (the slide programs'
@@ -272,8 +281,9 @@ def compiled_kernels() -> bool:
         return False
     from ..exact.lane import _cached
     from . import pn_complementarity_kernels as kernels
+    from . import pn_complementarity_slide as slide
 
-    if _cached(kernels.stick_tier) and _cached(kernels.slide_set):
+    if _cached(kernels.stick_tier) and _cached(slide.slide_many):
         _CALLS = HOT_CALLS
         return True
     return False
@@ -315,7 +325,7 @@ def stick_candidates(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, .
 
 
 def _certified_info(status: int, opts: ProgramOptions) -> dict[str, Any]:
-    """The info of a slide program solved by :func:`~.pn_complementarity_kernels.slide_set`
+    """The info of a slide program solved by :func:`~.pn_complementarity_slide.slide_set`
     (status 1: certified by the KKT conditions, -1: trivial, pi = 0)."""
     return {"effective_mass": None, "accuracy": opts.accuracy(True), "warnings": (),
             "slide_rule": "P_N over the active set",
@@ -332,7 +342,7 @@ def _slide_tier(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
     Most dissipative first: an active set whose relaxed bound (no cones) cannot beat the
     best admissible slide found so far is not solved. With ``fast``, every several-contact
     program is first solved in one compiled call
-    (:func:`~.pn_complementarity_kernels.slide_many`: certified by its KKT conditions, with
+    (:func:`~.pn_complementarity_slide.slide_many`: certified by its KKT conditions, with
     the admissibility test and T+ - T-), the programs it leaves to the interior-point path
     and the one-contact slides then as on the Python path.
     """
@@ -342,7 +352,8 @@ def _slide_tier(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
     energy_scale = max(0.5 * float(np.max(np.abs(P.v_minus))) ** 2 /
                        float(np.max(np.abs(np.diag(P.delassus)))), TINY)
     if fast:
-        from .pn_complementarity_kernels import admissible, relaxed_bounds, slide_many
+        from .pn_complementarity_kernels import admissible, relaxed_bounds
+        from .pn_complementarity_slide import slide_many
 
         data = _kernel_data(P, b)
         bounds = relaxed_bounds(*data, d, masks).tolist()
