@@ -142,3 +142,16 @@ def test_certified_slides_are_clarabels_minimizers(d):
             assert np.max(np.abs(x - ref)) <= 1e-7 * np.max(np.abs(ref))
             certified += 1
     assert certified >= 12  # the others fall back to the interior-point path
+
+
+def test_compile_kernels_switches_to_the_compiled_path(monkeypatch):
+    """Before HOT_CALLS calls (cold cache) the Python path runs; compile_kernels() makes the
+    next call compiled (its answer checked against the closed form of the flat landing)."""
+    monkeypatch.setattr(pc, "_CALLS", 2)
+    monkeypatch.setattr(pc, "HOT_CALLS", 10**6)
+    assert pc.compiled_kernels() is False
+    assert pc.compile_kernels() >= 0.0
+    assert pc.compiled_kernels() is True
+    r = ci.resolve_impact(**four_corner_box(mu=1.0, e=0.0, velocity=(0, 0, -2.0),
+                                            angular_velocity=(0, 0, 0)), law=LAW)
+    assert np.allclose(r.impulse, [[0.5, 0, 0]] * 4, rtol=0, atol=1e-12)

@@ -41,8 +41,8 @@ more dissipative than the best admissible one. An active set whose program fails
 converged, a jam) is listed in ``extras["failed_active_sets"]`` and, when it might have
 been more dissipative than the answer, in a warning.
 
-Compiled path (:func:`compiled_kernels`: from the :data:`HOT_CALLS`-th call of a process, or
-at once from a warm cache): the stick tier and the relaxed bounds in one compiled call each
+Compiled path (:func:`compiled_kernels`: at once from a warm cache, else from the
+:data:`HOT_CALLS`-th call of a process or after :func:`compile_kernels`): the stick tier and the relaxed bounds in one compiled call each
 (:mod:`.pn_complementarity_kernels`), every slide program of several contacts solved exactly
 from guessed active sets of its cones and certified by its KKT conditions
 (:mod:`.pn_complementarity_slide`), the interior-point method only for the programs no
@@ -55,6 +55,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -79,7 +80,7 @@ CONE_RTOL = 1e-9
 VELOCITY_SLACK_MAX = 1e-4
 EPS = float(np.finfo(float).eps)
 #: several-contact calls of a process after which the compiled kernels run (compiled_kernels)
-HOT_CALLS = 20
+HOT_CALLS = 200
 _CALLS = 0
 #: ``extras["solver_status"]`` of a slide program certified without the interior-point method
 CERTIFIED = "certified active-set Newton"
@@ -266,27 +267,50 @@ def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
 
 def compiled_kernels() -> bool:
     """Whether this call runs the compiled stick tier and certified slide solves
-    (:mod:`.pn_complementarity_kernels`, :mod:`.pn_complementarity_slide`): from the
-    :data:`HOT_CALLS`-th several-contact call
-    of the process on (a time-stepping loop, not a handful of impacts), or at once when
-    numba's disk cache holds them, so that a first call never waits for their compilation.
+    (:mod:`.pn_complementarity_kernels`, :mod:`.pn_complementarity_slide`): at once when
+    numba's disk cache holds them, else from the :data:`HOT_CALLS`-th several-contact call of
+    the process on (a time-stepping loop, not a handful of impacts; their first compilation
+    takes about a minute on 2 cores, announced on stderr), or after :func:`compile_kernels`.
     Both paths solve the same systems and apply the same tests (the slide programs'
     minimizers agree to round-off; where redundant contacts leave a family of minimizers,
     the two paths may return different members, with the same velocities and energy)."""
     global _CALLS
     _CALLS += 1
-    if _CALLS >= HOT_CALLS:
+    if _CALLS > HOT_CALLS:
         return True
-    if _CALLS > 1:
-        return False
-    from ..exact.lane import _cached
+    from ...compiled import announce, cached
     from . import pn_complementarity_kernels as kernels
     from . import pn_complementarity_slide as slide
 
-    if _cached(kernels.stick_tier) and _cached(slide.slide_many):
-        _CALLS = HOT_CALLS
+    entries = (kernels.stick_tier, kernels.relaxed_bounds, slide.slide_many)
+    if _CALLS == 1 and all(cached(k) for k in entries):
+        _CALLS = HOT_CALLS + 1
+        return True
+    if _CALLS == HOT_CALLS:
+        announce("pereira-nikravesh several-contact kernels", 60, *entries)
         return True
     return False
+
+
+def compile_kernels() -> float:
+    """Compile (or load from the cache) the law's compiled path now and take it from the
+    next several-contact call on; the seconds it took."""
+    global _CALLS
+    from ..conic.paths import backend, parse_options
+    from ..problem.build import build_problem
+
+    t = time.perf_counter()
+    saved, _CALLS = _CALLS, HOT_CALLS - 1  # this call compiles (announced)
+    try:
+        # a block on two corners sliding (the slide tier), then landing flat (the stick tier)
+        M = np.diag([1.0, 1.0, 0.02])
+        J = [np.array([[0.0, 1.0, x], [1.0, 0.0, 0.1]]) for x in (-0.2, 0.2)]
+        for dq in ([2.0, -1.0, 0.0], [0.0, -1.0, 0.0]):
+            several_contacts_impulse(build_problem(M, J, np.array(dq), 0.0, 0.3),
+                                     backend("clarabel"), parse_options("clarabel", {}))
+    finally:
+        _CALLS = max(saved, HOT_CALLS) + 1
+    return time.perf_counter() - t
 
 
 @functools.lru_cache(maxsize=512)
