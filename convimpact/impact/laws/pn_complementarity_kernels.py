@@ -31,6 +31,20 @@ TINY = 1e-300
 
 
 @_jit
+def _consistent(A, x, r, rtol):
+    """|A x - r| <= rtol max(|r|, TINY) (2-norms): a least-squares answer solves its system."""
+    res = 0.0
+    rn = 0.0
+    for a in range(r.size):
+        acc = -r[a]
+        for c in range(x.size):
+            acc += A[a, c] * x[c]
+        res += acc * acc
+        rn += r[a] * r[a]
+    return np.sqrt(res) <= rtol * max(np.sqrt(rn), TINY)
+
+
+@_jit
 def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
     """Stick every active set of ``sets``; (admissible, energy change, impulses).
 
@@ -89,15 +103,7 @@ def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
             for a in range(m):
                 y[a] = y[a] / lam[a] if ev[a] > EPS * m * smax else 0.0
             x = V @ y
-            res = 0.0
-            rn = 0.0
-            for a in range(m):
-                acc = -r[a]
-                for c in range(m):
-                    acc += Wss[a, c] * x[c]
-                res += acc * acc
-                rn += r[a] * r[a]
-            if np.sqrt(res) > 1e-9 * max(np.sqrt(rn), TINY):
+            if not _consistent(Wss, x, r, 1e-9):
                 continue
         pi = np.zeros(N)
         for a in range(m):
@@ -178,15 +184,7 @@ def relaxed_bounds(W, b, vminus, mu, d, sets):
                 K[m + a, c] = W[normals[a], rows[c]]
                 K[c, m + a] = W[normals[a], rows[c]]
         sol = np.linalg.lstsq(K, rhs, EPS * size)[0]
-        res = 0.0
-        rn = 0.0
-        for a in range(size):
-            acc = -rhs[a]
-            for c in range(size):
-                acc += K[a, c] * sol[c]
-            res += acc * acc
-            rn += rhs[a] * rhs[a]
-        if np.sqrt(res) > 1e-8 * max(np.sqrt(rn), TINY):
+        if not _consistent(K, sol, rhs, 1e-8):
             out[s] = np.inf
             continue
         pi = np.zeros(N)
