@@ -60,7 +60,8 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
     axes[0].set_ylabel("wall time per simulated second (s)")
     fig.suptitle(f"Moreau–Jean vs MuJoCo, same step h = {step:g} s: ccp, coulomb and "
                  "dissipative on the contact engine (certified at 1e-8),\npereira-nikravesh and "
-                 "stronge through resolve_impact island by island (medians)", fontsize=10)
+                 "stronge island by island (the law's impulse, resolve_impact at impacts; "
+                 "medians)", fontsize=10)
     fig.tight_layout()
     return save_chart(fig, out, "moreau_scale_growth.png")
 

@@ -7,7 +7,8 @@ the boxes never touch: 1 to 32 islands), sliding at 2 m/s and at rest, and the s
 simulate_moreau` (theta = 1/2, laws ``ccp``, ``coulomb`` and ``dissipative`` (ccp's plastic
 problem, scaled by 1 + e) on the engine, every step's
 islands certified at the natural-map residual 1e-8, warm starts and islands on; the laws of
-:data:`OTHER_LAWS` through ``resolve_impact``, one call per island and step,
+:data:`OTHER_LAWS` island by island through ``resolve_impact``, one call per island and step
+(pereira-nikravesh: the law's impulse directly on steps without an impact),
 :mod:`convimpact.simulation.moreau_impact`); MuJoCo: its default solver and soft contact,
 elliptic cones, Euler, the same h (2 ms, MuJoCo's default). ``chatterjee-ruina`` is tried on
 the smallest row and its refusal reported (the law is defined per contact and refuses a box's
@@ -15,7 +16,8 @@ four dynamically coupled corners).
 
 Measured per run (ours: the median wall time of :data:`REPEATS` runs over :data:`SPAN`; the
 other laws, which cost milliseconds per island and step, over :data:`OTHER_SPAN`, of
-:data:`OTHER_REPEATS` runs; MuJoCo: of 5):
+:data:`OTHER_REPEATS` runs, or their entries in :data:`OTHER_SPANS` and
+:data:`OTHER_REPEATS_BY_LAW`; MuJoCo: of 5):
 
 * ``wall_per_simulated_second``: wall time / simulated span (ours: ``result.wall_time``,
   which includes recording the series; MuJoCo: ``mj_step`` alone);
@@ -48,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from ..impact.laws.pn_complementarity import compile_kernels as compile_pn_kernels
 from ..scenes import load_scene
 from ..simulation.moreau import simulate_moreau
 from .contact_scale_charts import power_law_fit
@@ -87,6 +90,11 @@ OTHER_LAWS = ("pereira-nikravesh", "stronge")
 OTHER_SPAN = 0.04
 QUICK_OTHER_SPAN = 0.02
 OTHER_REPEATS = 1
+#: ... except where a law is cheap enough for a longer span and a median (quick runs: 1 run)
+OTHER_SPANS = {"pereira-nikravesh": 0.1}
+OTHER_REPEATS_BY_LAW = {"pereira-nikravesh": 3}
+#: steps of the untimed warm-up run of each of those laws
+WARM_STEPS = 25
 #: the pile's law and certificate tolerance (see the summary)
 PILE_LAW = "coulomb"
 
@@ -244,20 +252,25 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
     boxes = QUICK_BOXES if quick else BOXES
     span = QUICK_SPAN if quick else SPAN
     other_span = QUICK_OTHER_SPAN if quick else OTHER_SPAN
+    spans = {law: other_span if quick else OTHER_SPANS.get(law, other_span)
+             for law in OTHER_LAWS}
+    repeats = {law: 1 if quick else OTHER_REPEATS_BY_LAW.get(law, OTHER_REPEATS)
+               for law in OTHER_LAWS}
     records: list[dict[str, Any]] = []
-    # the other laws are timed once each: load their compiled kernels first (untimed)
+    # the other laws are timed in few runs: load their compiled kernels first (untimed)
+    compile_pn_kernels()
     for law in OTHER_LAWS:
         for sliding in (True, False):
             mech, q, v = box_row(1, sliding)
-            simulate_moreau(mech, (0.0, 2 * STEP), (q, v), h=STEP, law=law)
+            simulate_moreau(mech, (0.0, WARM_STEPS * STEP), (q, v), h=STEP, law=law)
     for sliding in (True, False):
         for n in boxes:
             records.append(_mujoco_box_record(n, sliding, span))
             for law in LAWS:
                 records.append(_box_record(n, sliding, law, span, progress))
             for law in OTHER_LAWS:
-                records.append(_box_record(n, sliding, law, other_span, progress,
-                                           repeats=OTHER_REPEATS))
+                records.append(_box_record(n, sliding, law, spans[law], progress,
+                                           repeats=repeats[law]))
     refused = _chatterjee_ruina(boxes[0], other_span)
     # what warm starts and islands buy: the largest row without each
     n_big = boxes[-1]
@@ -276,7 +289,8 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
                pile_chart(series, pile_records, config.out)]
     summary = []
     for laws, what in ((LAWS, "on the engine (islands, warm starts)"),
-                       (OTHER_LAWS, "through resolve_impact, one call per island and step")):
+                       (OTHER_LAWS, "island by island through resolve_impact (pereira-nikravesh: "
+                                    "the law's impulse directly on steps without an impact)")):
         ratios = [t["ratio"] for t in table if t["ratio"] and t["law"] in laws]
         summary.append(
             f"moreau-scale: Moreau–Jean {what}, laws {', '.join(laws)}, against MuJoCo at "
@@ -287,8 +301,9 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
                 if k.split("/")[0] in laws) + " (target <= 1.3)")
     summary.append("  MuJoCo's exponents " + ", ".join(
         f"{k.split('/')[1]} {v['exponent']:.2f}" for k, v in exps.items()
-        if k.startswith("mujoco/")) + f"; the laws {', '.join(OTHER_LAWS)} timed over "
-        f"{other_span:g} s ({OTHER_REPEATS} run), {', '.join(LAWS)} over {span:g} s (median "
+        if k.startswith("mujoco/")) + "; " + ", ".join(
+            f"{law} timed over {spans[law]:g} s (median of {repeats[law]})"
+            for law in OTHER_LAWS) + f", {', '.join(LAWS)} over {span:g} s (median "
         f"of {REPEATS})")
     if refused:
         summary.append(f"  chatterjee-ruina on {4 * boxes[0]} contacts at rest refuses: {refused}")
@@ -332,7 +347,8 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
                    "(2 cores, shared: medians)")
     meta = {"step": STEP, "span": span, "other_span": other_span, "load_average": load,
             "boxes": list(boxes), "laws": list(LAWS), "other_laws": list(OTHER_LAWS),
-            "other_repeats": OTHER_REPEATS, "chatterjee_ruina_refused": refused,
+            "other_repeats": OTHER_REPEATS, "other_spans": spans, "other_repeats_by_law": repeats,
+            "chatterjee_ruina_refused": refused,
             "repeats": REPEATS, "mujoco_repeats": MUJOCO_REPEATS, "mujoco": mujoco_version(),
             "exponents": exps, "table": table}
     return SectionResult("moreau-scale", records, figures, summary, meta)

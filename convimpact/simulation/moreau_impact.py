@@ -44,6 +44,14 @@ the islands, and the impulse of one island changes no velocity of another:
   :data:`~convimpact.impact.laws.pn_complementarity.MAX_CONTACTS` contacts from the step to
   the island.
 
+**Direct impulses** (law ``pereira-nikravesh``, methods ``auto`` and ``clarabel``): on a
+step where no active contact approaches at the step's start (no impact to record), an island
+of several contacts without loop rows takes the law's impulse directly
+(:func:`~convimpact.impact.laws.pn_complementarity.several_contacts_impulse` on the problem
+``resolve_impact`` builds, with the same backend and options): the same impulse as the full
+call, without the result record (regimes, diagnostics) nobody reads on such a step; where
+that call would raise or report unsolved active sets the full call is made.
+
 An :class:`~.result.ImpactEvent` is recorded on the steps where an approaching contact
 receives a normal impulse: the step's active contacts' impulses, regimes (in the order of
 the active contacts) and the sum of the islands' energy losses; its ``result`` is the
@@ -59,12 +67,20 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..impact import resolve_impact
+from ..impact.conic.paths import backend as conic_backend
+from ..impact.conic.paths import parse_options
 from ..errors import ConvImpactError
+from ..impact.laws.pn_complementarity import MAX_CONTACTS, several_contacts_impulse
+from ..impact.problem.build import build_problem
 from .islands import contact_islands
 from .result import ImpactEvent
 
 #: laws whose answer at contacts that all separate under v_free may still be an impulse
 CONE_COMPLEMENTARITY_LAWS = frozenset({"ccp", "dissipative"})
+#: the law whose several-contact islands take the law's impulse directly on steps without
+#: an impact (see ImpactSolver), and the methods whose path that impulse is
+DIRECT_LAW = "pereira-nikravesh"
+DIRECT_METHODS = ("auto", "clarabel")
 
 
 class ImpactSolver:
@@ -87,8 +103,11 @@ class ImpactSolver:
         self.impacts: list[ImpactEvent] = []
         #: the last step's contact-frame impulses of the active contacts, (n_active, d)
         self.impulse = np.zeros((0, 0))
-        self.calls = 0           # resolve_impact calls
+        self.calls = 0           # resolve_impact calls and direct law calls
         self.largest_island = 0  # contacts
+        self.direct = law == DIRECT_LAW and method in DIRECT_METHODS
+        self._direct_options = None
+        self._last_islands = (None, b"", None)  # (groups, moves' bytes, islands)
 
     def idle(self) -> None:
         pass
@@ -114,6 +133,39 @@ class ImpactSolver:
         nz = C != 0.0
         return np.flatnonzero(nz.any(axis=1) & ~(nz & ~inside).any(axis=1))
 
+    def _islands(self, moves: np.ndarray, groups) -> list:
+        """:func:`.islands.contact_islands` of the step, reused while the coordinate groups
+        (the same cached object) and the active contacts' column pattern stay (a resting or
+        sliding scene keeps both for many steps)."""
+        key = np.array(moves.shape, dtype=np.int64).tobytes() + np.packbits(moves).tobytes()
+        last_groups, last_key, last = self._last_islands
+        if groups is last_groups and key == last_key:
+            return last
+        islands = contact_islands(moves, groups, split=self.split)
+        self._last_islands = (groups, key, islands)
+        return islands
+
+    def _direct_impulse(self, M, Jcs, v, e, mu) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(v_{k+1}, impulse)`` of one loop-free island of several contacts by the law's
+        impulse alone (:func:`~convimpact.impact.laws.pn_complementarity.
+        several_contacts_impulse` on the problem ``resolve_impact`` builds, with the backend
+        and options its ``method`` uses): the same impulse, without the result record;
+        None where the full call is needed (it raises or reports)."""
+        try:
+            P = build_problem(M, Jcs, v, e, mu)
+            if P.n_contacts > MAX_CONTACTS:
+                return None
+            if not any(P.approaching):  # resolve_impact's separating answer
+                return P.dq_minus.copy(), np.zeros((P.n_contacts, P.dim))
+            if self._direct_options is None:
+                self._direct_options = parse_options("clarabel", self.options)
+            pi = several_contacts_impulse(P, conic_backend("clarabel"), self._direct_options)
+        except ConvImpactError:
+            return None
+        if pi is None:
+            return None
+        return P.dq_minus + P.velocity_jump(pi)[0], pi
+
     def solve(self, st) -> tuple[np.ndarray, np.ndarray]:
         """``(v_{k+1}, sigma)`` of the step ``st`` (:class:`.moreau_loop.Step`)."""
         active = np.asarray(st.active, dtype=np.int64)
@@ -124,19 +176,29 @@ class ImpactSolver:
         es, ets, vnk, vnf = self._coefficients(st, active)
         C = st.C if self.m else None
         moves = np.any(Ja != 0.0, axis=1)
-        islands = contact_islands(moves, st.inv.groups, split=self.split)
+        islands = self._islands(moves, st.inv.groups)
         v_new = v_free.copy()
         impulse = np.zeros((na, d))
         dsig = np.zeros(self.m)
         regime = ["separating"] * na
         results, energy_loss = [], 0.0
         cone = self.law in CONE_COMPLEMENTARITY_LAWS
+        # no contact approaching at the step's start: no ImpactEvent, only impulses needed
+        direct = self.direct and not np.any(vnk < -self.rest_velocity)
         for cs, cols in islands:
             if not cone and np.all(vnf[cs] >= 0.0):
                 continue
             one = cs.size == 1
             Jcs = [Ja[i][:, cols] for i in cs]
             lrows = self._loop_rows(C, cols) if C is not None else np.zeros(0, dtype=int)
+            if direct and not one and not lrows.size:
+                got = self._direct_impulse(M[np.ix_(cols, cols)], Jcs, v_free[cols], es[cs],
+                                           self.mu[active[cs]])
+                if got is not None:
+                    v_new[cols], impulse[cs] = got
+                    self.calls += 1
+                    self.largest_island = max(self.largest_island, int(cs.size))
+                    continue
             Ci = C[np.ix_(lrows, cols)] if lrows.size else None
             law_params = {} if ets is None else {"e_t": ets[cs[0]] if one else ets[cs]}
             self.calls += 1

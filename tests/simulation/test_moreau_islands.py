@@ -55,6 +55,25 @@ def test_pereira_nikravesh_row_past_eight_contacts_slides_to_rest_by_coulomb():
                         islands=False)
 
 
+@pytest.mark.parametrize("sliding", [True, False])
+def test_direct_impulses_are_the_full_calls_on_the_interior_point_path(monkeypatch, sliding):
+    """pereira-nikravesh islands on steps without an impact take the law's impulse directly
+    (compiled stick tier, certified slides); the reference runs every island through
+    resolve_impact on the Python path (Clarabel and its polish): the same trajectory."""
+    from convimpact.impact.laws import pn_complementarity as pc
+    from convimpact.simulation import moreau_impact as mi
+
+    mech, q, v = box_row(2, sliding)
+    span = (0.0, 10 * H)
+    fast = simulate_moreau(mech, span, (q, v), h=H, law="pereira-nikravesh")
+    monkeypatch.setattr(mi, "DIRECT_LAW", "none")
+    monkeypatch.setattr(pc, "compiled_kernels", lambda: False)
+    slow = simulate_moreau(mech, span, (q, v), h=H, law="pereira-nikravesh")
+    assert fast.contact_solver == slow.contact_solver
+    np.testing.assert_allclose(fast.dtheta, slow.dtheta, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fast.theta, slow.theta, rtol=0, atol=1e-14)
+
+
 def _step(mech, q, v, C=None):
     """One step's data as the loop hands it to the solver (theta = 1/2 at q, no drift)."""
     ev = me.Evaluator(mech, mech.contact_names)

@@ -1,0 +1,245 @@
+"""P-N's slide program over one active set solved exactly in compiled code from guessed active
+sets of its cones, certified by its KKT conditions, before any interior-point solve.
+
+The slide tier of :mod:`~convimpact.impact.laws.pn_complementarity` solves, for each
+candidate active set A with several contacts,
+
+    P_N(A):  minimize 1/2 pi.W.pi + v-.pi   subject to   u_n = 0 on A,   pi_i in K_mu_i,
+
+a convex cone QP. :func:`slide_set` equilibrates it as
+:func:`~convimpact.impact.conic.qp.solve_cone_qp` does and solves the KKT equations of
+guessed active sets (:func:`~.pn_complementarity_newton.kkt_newton`), from the impulse of the
+same program without the cones:
+
+1. every frictional contact on its cone boundary against its slip before impact (inside its
+   cone without slip), every frictionless one pressing;
+2. the polish's classification of the cone-free impulse;
+3. as 1, the contacts the cone-free impulse pulls at zero (damped Newton);
+4. as 1, one contact at zero, the least pressed first (damped; three contacts or more).
+
+The first consistent one is the minimizer: the polished answer of the interior-point path
+to round-off where P_N(A) has one minimizer; where redundant contacts leave a family of
+minimizers (a box's four corners) one of them, with the same velocities and energy (measured
+1e-8 apart on the sliding box). When no guess is consistent the caller solves by the
+interior-point method. :func:`slide_many` does it for every active set of the tier at once,
+with the law's admissibility test and ``T+ - T-``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...compiled import jit as _jit
+from .pn_complementarity_kernels import admissible
+from .pn_complementarity_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_NEWTON,
+                                        ZERO, kkt_newton)
+
+EPS = float(np.finfo(float).eps)
+TINY = 1e-300
+
+
+@_jit
+def _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor):
+    """Kinds and start: frictional contacts on the cone boundary against their slip before
+    impact (inside the cone without slip), frictionless ones pressing; ``zero_mask``
+    contacts at zero."""
+    n = mu.size
+    kind = np.zeros(n, dtype=np.int64)
+    tang = np.zeros((n, 2))
+    x0 = np.zeros(n * d)
+    for i in range(n):
+        o = i * d
+        if zero_mask[i]:
+            kind[i] = ZERO
+            continue
+        r = max(relaxed[o], r_floor)
+        s2 = 0.0
+        for a in range(1, d):
+            s2 += q[o + a] ** 2
+        sn = np.sqrt(s2)
+        x0[o] = r
+        if mu[i] == 0.0:
+            kind[i] = ACT
+        elif sn > 0.0:
+            kind[i] = BND
+            for a in range(1, d):
+                tang[i, a - 1] = -q[o + a] / sn
+                x0[o + a] = r * mu[i] * tang[i, a - 1]
+        else:
+            kind[i] = INT
+            for a in range(1, d):
+                x0[o + a] = relaxed[o + a]
+    return kind, tang, x0
+
+
+@_jit
+def _relaxed_kinds(x, mu, d):
+    """The polish's primary classification of ``x`` (``_contact_kinds``)."""
+    n = mu.size
+    kind = np.zeros(n, dtype=np.int64)
+    tang = np.zeros((n, 2))
+    X = max(np.max(np.abs(x)), TINY)
+    for i in range(n):
+        o = i * d
+        xt2 = 0.0
+        for a in range(1, d):
+            xt2 += x[o + a] ** 2
+        xt = np.sqrt(xt2)
+        nx = np.sqrt(x[o] ** 2 + xt2)
+        if nx <= 1e-4 * X or x[o] <= 0.0:
+            kind[i] = ZERO
+        elif mu[i] == 0.0:
+            kind[i] = ACT
+        elif (mu[i] * x[o] - xt) / max(nx, TINY) <= 1e-4:
+            kind[i] = BND
+            if xt > 0.0:
+                for a in range(1, d):
+                    tang[i, a - 1] = x[o + a] / xt
+            else:
+                tang[i, 0] = 1.0
+        else:
+            kind[i] = INT
+    return kind, tang
+
+
+@_jit
+def slide_set(Wf, vf, bf, muf, d, A):
+    """P_N over the active set ``A`` (contact indices) from guessed active sets of the cones,
+    certified by the KKT conditions (:mod:`.pn_complementarity_slide`).
+
+    Returns (status, pi): status 1 certified (pi the minimizer, (n_all d,)), 0 no guess
+    consistent (the caller solves by the interior-point method), -1 the program is trivial
+    (pi = 0), -2 W is zero (the caller raises through the interior-point path).
+    """
+    na = A.size
+    N = na * d
+    idx = np.empty(N, dtype=np.int64)
+    for a in range(na):
+        for k in range(d):
+            idx[a * d + k] = A[a] * d + k
+    W = np.empty((N, N))
+    q = np.empty(N)
+    mu = np.empty(na)
+    for a in range(N):
+        q[a] = vf[idx[a]]
+        for c in range(N):
+            W[a, c] = Wf[idx[a], idx[c]]
+    f = np.empty(na)
+    for a in range(na):
+        mu[a] = muf[A[a]]
+        f[a] = -bf[A[a] * d]
+    pi = np.zeros(Wf.shape[0])
+    # equilibration (conic.qp.equilibrated)
+    D = np.empty(N)
+    for a in range(na):
+        dg = 0.0
+        for k in range(d):
+            dg = max(dg, W[a * d + k, a * d + k])
+        c = 1.0 / np.sqrt(dg) if dg > 0.0 else 1.0
+        for k in range(d):
+            D[a * d + k] = c
+    for a in range(N):
+        q[a] *= D[a]
+        for c in range(N):
+            W[a, c] *= D[a] * D[c]
+    E = np.empty((na, N))
+    for a in range(na):
+        for c in range(N):
+            E[a, c] = W[a * d, c] / D[a * d]  # rows of the unscaled W, columns scaled
+    sW = np.max(np.abs(W))
+    sq = max(np.max(np.abs(q)), np.max(np.abs(f)))
+    if not sW > 0.0:
+        return -2, pi
+    if sq == 0.0:
+        return -1, pi
+    sE = max(np.max(np.abs(E)), TINY)
+    W = W / sW
+    q = q / sq
+    E = E / sE
+    f = f * (sW / (sq * sE))
+    scale = D * (sq / sW)
+    # the program without the cones, for the starts
+    K = np.zeros((N + na, N + na))
+    rhs = np.zeros(N + na)
+    for a in range(N):
+        rhs[a] = -q[a]
+        for c in range(N):
+            K[a, c] = W[a, c]
+        for c in range(na):
+            K[a, N + c] = E[c, a]
+            K[N + c, a] = E[c, a]
+    for c in range(na):
+        rhs[N + c] = f[c]
+    relaxed = np.linalg.lstsq(K, rhs, EPS * (N + na))[0][:N]
+    if not np.all(np.isfinite(relaxed)):
+        return 0, pi
+    r_floor = 0.0
+    for a in range(na):
+        r_floor = max(r_floor, relaxed[a * d])
+    r_floor = max(r_floor, 1.0) * 1e-2
+    zero_mask = np.zeros(na, dtype=np.bool_)
+    # 1. everything sliding against its slip
+    kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
+    x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, x0, POLISH_MAX_NEWTON, False)
+    if not ok:
+        # 2. the classification of the impulse without the cones
+        kind, tang = _relaxed_kinds(relaxed, mu, d)
+        x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, relaxed, POLISH_MAX_NEWTON, False)
+    n_pulled = 0
+    if not ok:
+        # 3. as 1, with the contacts the cone-free impulse pulls at zero (damped)
+        for a in range(na):
+            zero_mask[a] = relaxed[a * d] <= 0.0
+            n_pulled += zero_mask[a]
+        if 0 < n_pulled < na:
+            kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
+            x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, x0, DAMPED_MAX_NEWTON, True)
+    if not ok and na > 2:
+        # 4. as 1, with one contact at zero (damped), the one the cone-free impulse presses
+        # least first (3. tried it when it was the only one pulled)
+        for z in np.argsort(relaxed[::d]):
+            if n_pulled == 1 and relaxed[z * d] <= 0.0:
+                continue
+            for a in range(na):
+                zero_mask[a] = a == z
+            kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
+            x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, x0, DAMPED_MAX_NEWTON, True)
+            if ok:
+                break
+    if not ok:
+        return 0, pi
+    for a in range(N):
+        pi[idx[a]] = x[a] * scale[a]
+    return 1, pi
+
+
+@_jit
+def slide_many(W, b, vminus, mu, d, sets, cone_rtol, slack_max, tol):
+    """:func:`slide_set` on every active set of ``sets`` with several contacts, then the law's
+    admissibility test (tolerance ``tol``) and ``T+ - T-`` of each certified or trivial one.
+
+    Returns
+    -------
+    status : (n_sets,) slide_set's status (one-contact sets: -3, not solved).
+    pis : (n_sets, N) the impulses of status 1 and -1.
+    ok : (n_sets,) bool, admissible.
+    energy : (n_sets,) their ``T+ - T-``.
+    """
+    ns = sets.shape[0]
+    N = W.shape[0]
+    status = np.full(ns, -3, dtype=np.int64)
+    pis = np.zeros((ns, N))
+    ok = np.zeros(ns, dtype=np.bool_)
+    energy = np.zeros(ns)
+    absW = np.abs(W)
+    for s in range(ns):
+        A = np.flatnonzero(sets[s])
+        if A.size < 2:
+            continue
+        st, pi = slide_set(W, vminus, b, mu, d, A)
+        status[s] = st
+        if st == 1 or st == -1:
+            pis[s] = pi
+            ok[s] = admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol)
+            energy[s] = pi @ vminus + 0.5 * (pi @ (W @ pi))
+    return status, pis, ok, energy
