@@ -294,9 +294,10 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         eq = self.eq
         free = [c for c in self.contacts if c not in eq.held]
         opts: dict[str, Any] = {"rtol": o.rtol, "atol": o.atol, "max_step": o.max_step}
+        bound = o.next_bound(self.t)  # a breakpoint ends the segment there (no event)
         if self.h_next is not None and self.h_next > 0:
-            opts["first_step"] = min(float(self.h_next), o.t1 - self.t)
-        solver = o.solver_cls(eq, self.t, self.y, o.t1, **opts)
+            opts["first_step"] = min(float(self.h_next), bound - self.t)
+        solver = o.solver_cls(eq, self.t, self.y, bound, **opts)
         self.n_restarts += 1
         g_prev = self.gaps(free, self.y[:k])
         anchors = self.slip_anchors(self.y)
@@ -330,7 +331,7 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
                         self.record(self.t, self.y)
                         self.h_next = solver.step_size
                         if solver.status == "finished":
-                            self.status, self.message = 0, END_OF_SPAN
+                            self.end_of_bound(bound)
                         return
                     # one-step method: continue from the projected state, same step size
                     solver.y = self.y.copy()
@@ -342,8 +343,17 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
                 w_new = self.watch(self.t, self.y, anchors)
             g_prev, w_prev = g_new, w_new
             if solver.status == "finished":
-                self.status, self.message = 0, END_OF_SPAN
+                self.end_of_bound(bound)
                 return
+
+    def end_of_bound(self, bound: float) -> None:
+        """The integrator reached the segment's bound: the span's end, or a breakpoint,
+        where the next segment restarts the integrator with a step of its own choosing (a
+        kink of the applied forces there is not stepped across)."""
+        if bound >= self.opts.t1:
+            self.status, self.message = 0, END_OF_SPAN
+        else:
+            self.h_next = None
 
     # ---- result ----------------------------------------------------------------------------
     def equations_at(self, t: float) -> CanonicalEquations:
