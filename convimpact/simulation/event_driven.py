@@ -27,7 +27,8 @@ from .options import EventDrivenOptions
 from .projection import project_positions
 from .result import (SERIES, ContactEvent, ImpactEvent, PainleveEvent, PiecewiseSolution,
                      SimulationResult, append_sample, series_from_rows)
-from .run_record import ModeLog, contact_rows, law_flags, project_onto
+from .run_record import (ModeLog, PendingForces, contact_rows, force_series, law_flags,
+                         project_onto)
 from .sensitivity import SensitivityTracking
 from .sustained import held_forces
 from .zeno import AccumulationDetector
@@ -101,9 +102,8 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         #: the last full :meth:`watch`: (eq, t, y's bytes, the exact forces or None,
         #: margin, Painleve indicator)
         self._watched: tuple | None = None
-        #: the last exact forces :meth:`exact_forces` computed: (eq, t, y's bytes, forces,
-        #: margin)
-        self._recorded: tuple | None = None
+        #: the last sample whose forces :meth:`sample_forces` left to compute
+        self._recorded: PendingForces | None = None
         self.modes = ModeLog(self.contacts, self.t)
         self.detector = AccumulationDetector(options.zeno_time_tol, options.rest_velocity)
         self.status: int | None = None
@@ -153,25 +153,26 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
 
     # ---- samples ---------------------------------------------------------------------------
     def record(self, t: float, y: np.ndarray) -> None:
-        """Store the sample at (t, y): state, energies, contact modes and forces."""
+        """Store the sample at (t, y): state, energies, contact modes and forces (those still
+        to compute as :class:`~.run_record.PendingForces`: :meth:`sample_forces`)."""
         th, dth, sig = self.state(y)
         append_sample(self.rows, self.mech, t, th, dth, y[self.k:], sig)
         self.rows["friction"].append(self.dissipated)
-        forces = self.exact_forces(t, y) if self.held else {}
+        forces = self.sample_forces(t, y) if self.held else {}
         contact_rows(self.rows, self.contacts, self.eq, forces, self.d)
 
-    def exact_forces(self, t: float, y: np.ndarray) -> dict[str, np.ndarray]:
-        """The held contacts' forces at (t, y) (:func:`~.sustained.held_forces` without a
-        hint): those the last :meth:`watch` found at the same state when it computed them
-        exactly (no stand-in), else computed."""
+    def sample_forces(self, t: float, y: np.ndarray) -> dict[str, np.ndarray] | PendingForces:
+        """The held contacts' exact forces at (t, y) (:func:`~.sustained.held_forces`
+        without a hint): those the last :meth:`watch` found at the same state when it
+        computed them exactly (no stand-in); else the sample's :class:`PendingForces`,
+        computed when a segment's first watch starts from it or when the result's
+        ``contact_force`` is read."""
         memo = self._watched
         if (memo is not None and memo[0] is self.eq and memo[1] == t
                 and memo[3] is not None and memo[2] == y.tobytes()):
             return memo[3]
-        forces, margin = held_forces(self.eq, t, y)
-        # (a segment's first watch, at the state recorded after its event, takes them)
-        self._recorded = (self.eq, t, y.tobytes(), forces, margin)
-        return forces
+        self._recorded = PendingForces(self.eq, t, y)
+        return self._recorded
 
     def project_state(self, y: np.ndarray) -> np.ndarray:
         """Project theta onto Psi = 0 (loops, held gaps) and theta_dot onto the velocity
@@ -293,9 +294,10 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         eq = self.eq
         free = [c for c in self.contacts if c not in eq.held]
         opts: dict[str, Any] = {"rtol": o.rtol, "atol": o.atol, "max_step": o.max_step}
+        bound = o.next_bound(self.t)  # a breakpoint ends the segment there (no event)
         if self.h_next is not None and self.h_next > 0:
-            opts["first_step"] = min(float(self.h_next), o.t1 - self.t)
-        solver = o.solver_cls(eq, self.t, self.y, o.t1, **opts)
+            opts["first_step"] = min(float(self.h_next), bound - self.t)
+        solver = o.solver_cls(eq, self.t, self.y, bound, **opts)
         self.n_restarts += 1
         g_prev = self.gaps(free, self.y[:k])
         anchors = self.slip_anchors(self.y)
@@ -329,7 +331,7 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
                         self.record(self.t, self.y)
                         self.h_next = solver.step_size
                         if solver.status == "finished":
-                            self.status, self.message = 0, END_OF_SPAN
+                            self.end_of_bound(bound)
                         return
                     # one-step method: continue from the projected state, same step size
                     solver.y = self.y.copy()
@@ -341,8 +343,17 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
                 w_new = self.watch(self.t, self.y, anchors)
             g_prev, w_prev = g_new, w_new
             if solver.status == "finished":
-                self.status, self.message = 0, END_OF_SPAN
+                self.end_of_bound(bound)
                 return
+
+    def end_of_bound(self, bound: float) -> None:
+        """The integrator reached the segment's bound: the span's end, or a breakpoint,
+        where the next segment restarts the integrator with a step of its own choosing (a
+        kink of the applied forces there is not stepped across)."""
+        if bound >= self.opts.t1:
+            self.status, self.message = 0, END_OF_SPAN
+        else:
+            self.h_next = None
 
     # ---- result ----------------------------------------------------------------------------
     def equations_at(self, t: float) -> CanonicalEquations:
@@ -371,6 +382,14 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
             self.eq = keep
         return rows
 
+    def force_series(self, samples: list):
+        """The samples' contact forces (n, n_contacts, d), or where some are still to
+        compute, the callable that computes them (the result's lazy ``contact_force``)."""
+        contacts, d = self.contacts, self.d
+        if any(isinstance(s, PendingForces) for s in samples):
+            return lambda: force_series(samples, contacts, d)
+        return force_series(samples, contacts, d)
+
     def result(self) -> SimulationResult:
         """The :class:`SimulationResult` of the run."""
         o = self.opts
@@ -393,7 +412,7 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
             "distribution, not the force problem's): "
             "carried to each segment's next event" for held, (t0, count, worst)
             in self.inadmissible.items())
-        n, d = len(rows["t"]), self.d
+        n = len(rows["t"])
         sensitivities = self.final_sensitivities()
         warnings += self.sensitivity_warnings
         res = SimulationResult(
@@ -405,7 +424,7 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
             wall_time=float(wall), impact_time=float(self.impact_time),
             settings=o.settings(), warnings=warnings, contact_names=self.contacts,
             contact_mode=np.array(rows["mode"], dtype=int).reshape(n, len(self.contacts)),
-            contact_force=np.array(rows["force"], float).reshape(n, len(self.contacts), d),
+            contact_force=self.force_series(rows["force"]),
             mode_intervals=self.modes.intervals(self.t), painleve=tuple(self.painleve),
             friction_dissipation=np.array(rows["friction"], float), law_flags=flag_counts,
             **sensitivities)

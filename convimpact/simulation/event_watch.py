@@ -166,9 +166,10 @@ class EventWatch:
         recorded = self._recorded
         if same:
             out["margin"] = memo[4]
-        elif (keys is None and recorded is not None and recorded[0] is self.eq
-              and recorded[1] == t and recorded[2] == key):  # the exact ones, just recorded
-            forces, margin = recorded[3], recorded[4]
+        elif (keys is None and recorded is not None
+              and recorded.matches(self.eq, t, key)):  # the exact ones of the sample just
+            forces = recorded.resolve()              # recorded (computed once)
+            margin = recorded.margin
             self.margin_hint["exact"] = True
             if forces:
                 d = max(len(v) for v in forces.values())

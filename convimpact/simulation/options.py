@@ -20,7 +20,8 @@ class EventDrivenOptions:
     ``tangential_restitution`` is the law's e_t per contact (law ``"chatterjee-ruina"``,
     from ``impact_options["e_t"]``; None: the law's default). ``sensitivities``: integrate the
     variational equations and the events' saltation matrices
-    (:mod:`~convimpact.simulation.sensitivity`).
+    (:mod:`~convimpact.simulation.sensitivity`). ``breakpoints``: sorted times within
+    (t0, t1) where the integration restarts (:meth:`next_bound`).
     """
 
     t0: float
@@ -48,6 +49,15 @@ class EventDrivenOptions:
     impacts: str = "simultaneous"
     tangential_restitution: Mapping[str, float] | None = None
     sensitivities: bool = False
+    breakpoints: tuple[float, ...] = ()
+
+    def next_bound(self, t: float) -> float:
+        """Where a segment starting at t ends at the latest: the first breakpoint after t,
+        else the span's end."""
+        for b in self.breakpoints:
+            if b > t:
+                return b
+        return self.t1
 
     def settings(self) -> dict[str, Any]:
         """The options as reported in :attr:`SimulationResult.settings`."""
@@ -62,6 +72,7 @@ class EventDrivenOptions:
             "impacts": self.impacts,
             "t_span": [self.t0, self.t1],
             **({"sensitivities": True} if self.sensitivities else {}),
+            **({"breakpoints": list(self.breakpoints)} if self.breakpoints else {}),
             **({} if self.tangential_restitution is None
                else {"e_t": dict(self.tangential_restitution)}),
         }

@@ -156,6 +156,36 @@ class PainleveEvent:
         return {k: _jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
 
 
+class LazySeries:
+    """A result field whose value may be given as a zero-argument callable: it is called on
+    the first read of the field and its value kept (a series costly to compute that few
+    readers want, such as an event-driven run's exact contact forces).
+
+    A field of this kind has the default ``empty`` (a hashable placeholder: dataclasses
+    refuse array defaults), stored as ``np.zeros(shape)``.
+    """
+
+    def __init__(self, shape: tuple[int, ...]):
+        self.shape = shape
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name, self.slot = name, "_lazy_" + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return None  # the dataclass's default: the empty series
+        value = obj.__dict__[self.slot]
+        if callable(value):
+            value = np.asarray(value())
+            obj.__dict__[self.slot] = value
+        return value
+
+    def __set__(self, obj, value) -> None:
+        if self.slot in obj.__dict__:
+            raise AttributeError(f"cannot assign to field {self.name!r}")  # frozen
+        obj.__dict__[self.slot] = np.zeros(self.shape) if value is None else value
+
+
 @dataclass(frozen=True, eq=False)
 class SimulationResult:
     """Outcome of :func:`convimpact.simulation.simulate` (modelled on scipy's OdeResult).
@@ -192,7 +222,10 @@ class SimulationResult:
     contact_mode : (n, n_contacts) mode codes per sample, indices into :data:`MODE_NAMES`
         (0 open, 1 stick, 2 slip).
     contact_force : (n, n_contacts, d) contact forces in the contact frame (normal first, then
-        t or t1, t2), zero while open.
+        t or t1, t2), zero while open. The event-driven scheme computes the exact forces
+        of its samples on the first read of this series (the run itself needs few of
+        them; where the contacts are redundant each is a force-distribution program), with
+        each sample's modes: the same numbers as computed during the run.
     mode_intervals : the per-contact mode timeline, :class:`ModeInterval` in time order.
     painleve : the :class:`PainleveEvent` met (a run stops at the first), empty when none.
     friction_dissipation : (n,) energy dissipated by sliding friction since the start
@@ -242,7 +275,7 @@ class SimulationResult:
     warnings: tuple[str, ...] = ()
     contact_names: tuple[str, ...] = ()
     contact_mode: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=int))
-    contact_force: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
+    contact_force: np.ndarray = LazySeries((0, 0, 0))  # type: ignore[assignment]
     mode_intervals: tuple[ModeInterval, ...] = ()
     painleve: tuple[PainleveEvent, ...] = ()
     friction_dissipation: np.ndarray = field(default_factory=lambda: np.zeros(0))

@@ -10,6 +10,7 @@ import scipy.linalg as sla
 
 from .canonical import CanonicalEquations
 from .result import MODE_NAMES, ModeInterval, PainleveEvent
+from .sustained import held_forces
 
 
 class ModeLog:
@@ -35,23 +36,81 @@ class ModeLog:
         return tuple(sorted(self.closed + last, key=lambda iv: (iv.t_start, iv.contact)))
 
 
+class PendingForces:
+    """A recorded sample's held forces, computed on first demand (:meth:`resolve`).
+
+    Recording the exact forces of every sample costs a force-distribution program per
+    sample wherever the contacts are redundant; the run needs them only at a segment's
+    start (its first margin) and the result only when its ``contact_force`` series is read.
+    The sample keeps what :func:`~.sustained.held_forces` reads of its equations (the held
+    modes, whose stored slip directions the run updates at every step, and the segment's
+    offset), so that the forces computed later are those computed at the sample's time.
+    """
+
+    __slots__ = ("eq", "modes", "offset", "t", "y", "key", "forces", "margin")
+
+    def __init__(self, eq: CanonicalEquations, t: float, y: np.ndarray):
+        self.eq, self.t = eq, float(t)
+        self.modes, self.offset = dict(eq.modes), eq.offset
+        self.y = np.array(y, float)
+        self.key = self.y.tobytes()
+        self.forces: dict[str, np.ndarray] | None = None
+        self.margin = np.inf
+
+    def matches(self, eq: CanonicalEquations, t: float, key: bytes) -> bool:
+        """Whether this is the sample of ``eq`` at (t, y), y's bytes ``key``."""
+        return self.eq is eq and self.t == t and self.key == key
+
+    def resolve(self) -> dict[str, np.ndarray]:
+        """The held contacts' forces at the sample (computed once), as
+        :func:`~.sustained.held_forces` without a hint; its margin in :attr:`margin`."""
+        if self.forces is None:
+            eq = self.eq
+            modes, offset = eq.modes, eq.offset
+            eq.modes, eq.offset = self.modes, self.offset
+            try:
+                self.forces, self.margin = held_forces(eq, self.t, self.y)
+            finally:
+                eq.modes, eq.offset = modes, offset
+        return self.forces
+
+
 def contact_rows(rows: Mapping[str, list], contacts: Sequence[str], eq: CanonicalEquations,
-                 forces: Mapping[str, np.ndarray], d: int) -> None:
-    """Append one sample's number of held contacts, mode codes and contact-frame forces."""
+                 forces: Mapping[str, np.ndarray] | PendingForces, d: int) -> None:
+    """Append one sample's number of held contacts, mode codes and contact-frame forces
+    (or, for forces still to compute, their :class:`PendingForces`: see
+    :func:`force_series`)."""
     rows["held"].append(len(eq.held))
-    codes, values = [], []
+    codes = []
     for c in contacts:
         if c in eq.held:
             kind = eq.modes[c].kind
             codes.append(MODE_NAMES.index("stick" if kind == "stick" else "slip"))
-            f = np.zeros(d)
-            f[:len(forces[c])] = forces[c]
-            values.append(f)
         else:
             codes.append(0)
-            values.append(np.zeros(d))
     rows["mode"].append(codes)
-    rows["force"].append(values)
+    rows["force"].append(forces if isinstance(forces, PendingForces)
+                         else _force_values(contacts, eq.held, forces, d))
+
+
+def _force_values(contacts: Sequence[str], held: Sequence[str],
+                  forces: Mapping[str, np.ndarray], d: int) -> list[np.ndarray]:
+    """One sample's (n_contacts,) forces padded to d entries, zero for the open contacts."""
+    values = []
+    for c in contacts:
+        f = np.zeros(d)
+        if c in held:
+            f[:len(forces[c])] = forces[c]
+        values.append(f)
+    return values
+
+
+def force_series(samples: Sequence, contacts: Sequence[str], d: int) -> np.ndarray:
+    """The (n, n_contacts, d) contact forces of recorded samples (:func:`contact_rows`'
+    rows), the pending ones computed now."""
+    rows = [_force_values(contacts, s.eq.held, s.resolve(), d)
+            if isinstance(s, PendingForces) else s for s in samples]
+    return np.array(rows, float).reshape(len(rows), len(contacts), d)
 
 
 def painleve_event(t: float, contacts: Sequence[str], effective_mass: np.ndarray,

@@ -94,6 +94,7 @@ def simulate(
     impacts: str = "simultaneous",
     impact_options: Mapping[str, Any] | None = None,
     sensitivities: bool = False,
+    breakpoints: Sequence[float] = (),
 ) -> SimulationResult:
     """Integrate the canonical equations of a mechanism through its impacts.
 
@@ -183,6 +184,13 @@ def simulate(
         derivatives=True)``), the smooth model functions (M, Jc, the right-hand side) are
         differenced to ~1e-9 relative. Derivatives are one-sided where the trajectory
         grazes a contact or an event coincides with another.
+    breakpoints : sequence of float, optional
+        Sorted times within ``t_span`` where the applied forces have a kink or a jump (a
+        push switched on, a ramp's corner): the integration stops there and restarts with
+        a step of its own choosing, instead of shrinking its steps onto the kink (the box
+        stack's push from ``t_push`` on: 24 steps and 556 right-hand sides without its
+        breakpoint, 13 and 249 with it). No event, no change of state; the span's ends are
+        ignored.
 
     Returns
     -------
@@ -266,6 +274,8 @@ def simulate(
     first_step = controls["first_step"]
     if t_eval is not None:
         t_eval = sorted_times("t_eval", t_eval, t0, t1)
+    breaks = tuple(float(b) for b in sorted_times("breakpoints", breakpoints, t0, t1)
+                   if t0 < b < t1)
     zeno_tol = 1e6 * event_tol if zeno_time_tol is None else zeno_time_tol
     # one-step methods continue from a projected state; multistep ones must restart, so
     # they are projected only beyond a looser threshold
@@ -278,7 +288,7 @@ def simulate(
         drift_threshold=projection_tol if in_place else max(projection_tol, 1e3 * atol),
         zeno=zeno, zeno_time_tol=zeno_tol, rest_velocity=rest_velocity, max_impacts=max_impacts,
         painleve=painleve, impacts=impacts, tangential_restitution=e_t,
-        sensitivities=sensitivities)
+        sensitivities=sensitivities, breakpoints=breaks)
 
     # ---- initial state ---------------------------------------------------------------------
     if y0 is None:
