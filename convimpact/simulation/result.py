@@ -287,6 +287,28 @@ class SimulationResult:
     sensitivity_series: Mapping[str, np.ndarray] = field(
         default_factory=lambda: MappingProxyType({}))
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Picklable state (multiprocessing, joblib, a file): a lazy series is computed now,
+        read-only mappings travel as dicts (``_proxies`` names them) and come back
+        read-only."""
+        state: dict[str, Any] = {}
+        proxies = []
+        for key, value in self.__dict__.items():
+            if key.startswith("_lazy_") and callable(value):
+                value = np.asarray(value())
+            if isinstance(value, MappingProxyType):
+                value = dict(value)
+                proxies.append(key)
+            state[key] = value
+        state["_proxies"] = tuple(proxies)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        state = dict(state)
+        for key in state.pop("_proxies", ()):
+            state[key] = MappingProxyType(state[key])
+        self.__dict__.update(state)  # the frozen dataclass's fields, as pickled
+
     def modes_of(self, contact: str) -> tuple[ModeInterval, ...]:
         """The mode timeline of one contact."""
         return tuple(iv for iv in self.mode_intervals if iv.contact == contact)

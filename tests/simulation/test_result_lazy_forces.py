@@ -67,3 +67,26 @@ def test_box_stack_forces_read_after_the_run_satisfy_statics():
         # Coulomb: every corner inside its cone
         tangential = np.linalg.norm(corners[:, :, 1:], axis=2)
         assert np.all(tangential <= p["mu"] * corners[:, :, 0] + 1e-9)
+
+
+def test_a_result_pickles_with_its_lazy_forces_and_read_only_mappings():
+    """A run's result crosses a process boundary (pickle): the pending forces are computed on
+    the way, equal to the ones read in place, and the mappings stay read-only."""
+    import pickle
+    from types import MappingProxyType
+
+    scene = load_scene("table")
+    y0 = np.r_[scene.theta0, scene.dtheta0]
+    res = simulate(scene.mechanism, (0.0, 0.05), y0)
+    twin = simulate(scene.mechanism, (0.0, 0.05), y0)
+    back = pickle.loads(pickle.dumps(res))
+    assert np.array_equal(back.contact_force, twin.contact_force)  # forces read in place
+    assert back.contact_force.shape[0] == back.t.size > 0
+    assert np.array_equal(back.y, twin.y)
+    assert type(back.settings) is type(res.settings) and back.settings == res.settings
+    assert isinstance(res.parameter_sensitivity, MappingProxyType)  # the default: read-only
+    assert isinstance(back.parameter_sensitivity, MappingProxyType)
+    with pytest.raises(TypeError):
+        back.parameter_sensitivity["e"] = 1  # type: ignore[index]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        back.t = np.zeros(1)  # type: ignore[misc]
