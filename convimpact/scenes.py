@@ -45,7 +45,9 @@ class Scene:
     simulation : None, or how the scene is meant to be simulated when the caller does not
         say: ``{"scheme": "moreau-jean", "h": ..., "law": ...}`` (the scheme of
         :func:`convimpact.simulation.simulate_with` and its options); None is the event-driven
-        default. ``convimpact simulate`` follows it.
+        default. ``convimpact simulate`` follows it. ``"breakpoints"``: times where the
+        applied forces have a kink (event-driven runs end a segment there, see
+        :func:`convimpact.simulation.simulate`).
     """
 
     name: str

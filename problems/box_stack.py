@@ -121,4 +121,7 @@ def make_scene(n_boxes: int = 3, width: float = 0.2, height: float = 0.25, depth
     outline = box_outline(width, height, depth)
     return Scene(name="box_stack", description=description, mechanism=mech, theta0=theta0,
                  dtheta0=np.zeros(6 * n), t_end=t_end, parameters=MappingProxyType(params),
-                 outlines={_box_name(i): outline for i in range(n)})
+                 outlines={_box_name(i): outline for i in range(n)},
+                 # the push's onset is a kink of the applied force: a segment ends there
+                 simulation=MappingProxyType({"scheme": "event-driven",
+                                              "breakpoints": (t_push,)}))

@@ -282,10 +282,12 @@ def run(args: argparse.Namespace) -> int:
         res = simulate_moreau(scene, (0.0, t_end), h=float(h), law=args.law,
                               method=args.method, impact_options=options)
     else:
+        # the scene's declared kinks of its applied forces, inside this run's span
+        breakpoints = [b for b in declared.get("breakpoints", ()) if 0.0 < b < t_end]
         res = simulate(scene, (0.0, t_end), law=args.law, method=args.method,
                        integrator=args.integrator, rtol=args.rtol, atol=args.atol,
                        zeno=args.zeno, max_impacts=args.max_impacts, dense_output=True,
-                       impact_options=impact_options)
+                       impact_options=impact_options, breakpoints=breakpoints)
     report = scene_report(scene, res)
     written: list[Path] = []
     out = Path(args.out) if args.out is not None else Path(f"simulate-{scene.name}")

@@ -239,3 +239,27 @@ def _centre_of_mass(mech, theta) -> np.ndarray:
     model = mech.model
     data = model.createData()
     return np.array(pin.centerOfMass(model, data, np.asarray(theta, float)))
+
+
+def test_the_cli_runs_the_box_stack_with_its_push_onset_as_a_breakpoint():
+    """`convimpact simulate box_stack` ends a segment at the push's onset, the kink of the
+    applied force the scene declares, and still tips at the closed-form time (as above)."""
+    import contextlib
+    import io
+    import json
+
+    from convimpact.cli import main
+
+    sc = load_scene("box_stack")
+    p = sc.parameters
+    n, w, h, ramp = p["n_boxes"], p["width"], p["height"], p["ramp"]
+    tip = p["t_push"] + n * w / ((2 * n - 1) * h * ramp)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = main(["simulate", "box_stack", "--t-end", f"{tip + 0.05}", "--json"])
+    assert code == 0
+    report = json.loads(out.getvalue())
+    assert report["settings"]["breakpoints"] == [p["t_push"]]
+    opened = [iv for iv in report["mode_intervals"]
+              if iv["contact"] == "box0_c0" and iv["mode"] == "open"]
+    assert opened and opened[0]["t_start"] == pytest.approx(tip, abs=1e-8)
