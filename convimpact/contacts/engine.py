@@ -24,6 +24,7 @@ from . import cones
 from .ccp_interior import EngineResult, solve_ccp, use_sparse  # noqa: F401 (public here)
 from .admm import coulomb_admm
 from .admm_kernel import dense_admm, natural_residual
+from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .threads import one_blas_thread
@@ -45,8 +46,12 @@ ADMM_FIRST_MIN_ROWS = 40
 ADMM_FIRST_ITER = 5000
 #: ...ending at this many times the iterations to 1e-5 where Newton failed from there (the
 #: stacks' ADMM crawls from 1e-5 on: 520 iterations to 1e-5, 6,700 to 1e-8 on two humanoids
-#: and two quadrupeds)
+#: and two quadrupeds; a 100-box stack certified at 2.8 times)...
 ADMM_FIRST_PATIENCE = 3.0
+#: ...and at once up to :data:`COMPILED_MAX_ROWS` rows, where the compiled kernels that
+#: follow are cheap (at 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24
+#: contacts of two humanoids and two quadrupeds)
+ADMM_FIRST_PATIENCE_SMALL = 1.0
 #: ...and for the CCP, from :data:`COMPILED_MAX_ROWS` rows (whose interior point is sure and
 #: fast: the ADMM gets a short try)
 ADMM_FIRST_ITER_CCP = 300
@@ -63,6 +68,12 @@ DIRECT_NEWTON_STEPS = 4
 SPARING_NEWTON_MAX_ROWS = 900
 #: Newton steps of a try from an ADMM iterate (within 1e-5 it converges in 1-4 where it does)
 POLISH_STEPS = 4
+#: Coulomb's law: the interior point on the law itself (:mod:`.coulomb_interior`) runs at most
+#: this many steps where Newton from the CCP answer missed (it converged in about 20 on
+#: stacks, stalled early elsewhere), and Newton is tried from its answer within
+#: :data:`POLISH_FROM`
+COULOMB_IP_ITER = 60
+POLISH_FROM = 1e-4
 
 
 def kernels():
@@ -206,7 +217,9 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
                               max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
-                              polish=polish, coulomb=coulomb, patience=ADMM_FIRST_PATIENCE)
+                              polish=polish, coulomb=coulomb,
+                              patience=(ADMM_FIRST_PATIENCE if n * d > COMPILED_MAX_ROWS
+                                        else ADMM_FIRST_PATIENCE_SMALL))
         res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=coulomb)
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
@@ -258,7 +271,20 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                                             else 10), sparse=sparse)
     iterations += k
     best = [res, r, "converged"]
-    if res > tol:
+    if res > tol:  # the interior point on Coulomb's law itself, stopped where it stalls
+        rc, resc, kc = coulomb_interior(W, b, mu, d, tol=tol, max_iter=COULOMB_IP_ITER,
+                                        sparse=sparse)
+        iterations += kc
+        if tol < resc < POLISH_FROM:
+            rn, resn, kn = newton_finish(W, b, mu, rc, coulomb=True, tol=tol,
+                                         max_iter=min(newton_iter, POLISH_STEPS),
+                                         sparse=sparse)
+            iterations += kn
+            if resn < resc:
+                rc, resc = rn, resn
+        if resc < best[0]:
+            best[:2] = resc, rc
+    if best[0] > tol:
         tried = [np.inf]
 
         def check(r):
