@@ -74,6 +74,12 @@ POLISH_STEPS = 4
 #: :data:`POLISH_FROM`
 COULOMB_IP_ITER = 60
 POLISH_FROM = 1e-4
+#: Coulomb's law: where the ADMM's way ends within :data:`LONG_NEWTON_FROM`, Newton runs up to
+#: this many steps from its best answer before the fixed point (on a pile of 624 spheres the
+#: regularized Newton went from 8e-7 to 7e-9 in 30 steps, slowly, where the short tries of 4
+#: and 10 had stopped)
+LONG_NEWTON_FROM = 1e-5
+LONG_NEWTON_STEPS = 40
 
 
 def kernels():
@@ -271,6 +277,21 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                                             else 10), sparse=sparse)
     iterations += k
     best = [res, r, "converged"]
+    long_tried = [np.inf]
+
+    def long_newton(r, res):
+        """Newton up to LONG_NEWTON_STEPS from an answer within LONG_NEWTON_FROM (once per
+        drop of the residual by 100), its answer kept in ``best`` when better."""
+        nonlocal iterations
+        if not tol < res <= min(LONG_NEWTON_FROM, 1e-2 * long_tried[0]):
+            return
+        long_tried[0] = res
+        rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
+                                    max_iter=LONG_NEWTON_STEPS, sparse=sparse)
+        iterations += k
+        if resn < best[0]:
+            best[:2] = resn, rn
+
     if res > tol:  # the interior point on Coulomb's law itself, stopped where it stalls
         rc, resc, kc = coulomb_interior(W, b, mu, d, tol=tol, max_iter=COULOMB_IP_ITER,
                                         sparse=sparse)
@@ -284,6 +305,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 rc, resc = rn, resn
         if resc < best[0]:
             best[:2] = resc, rc
+        long_newton(rc, resc)
     if best[0] > tol:
         tried = [np.inf]
 
@@ -307,6 +329,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
+                long_newton(rn, resn)
             tried.append(res)
             return best[0] <= tol
 
@@ -338,6 +361,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         iterations += done
         iterations += k
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
+        long_newton(best[1], best[0])  # from the ADMM's best answer
         if best[0] > tol:  # the fixed point on the De Saxce shift, CCP by CCP
             for r in shift_fixed_point(W, b, mu, d, best[1], tol, max_iter, sparse, solve_ccp):
                 iterations += 1
