@@ -1,5 +1,5 @@
-"""An interior point on Coulomb's law itself (De Saxce's form), the engine's first try past
-the direct Newton from the CCP answer.
+"""An interior point on Coulomb's law itself (De Saxce's form), one of the engine's ways where
+Newton from the CCP answer misses (before its sparse ADMM, after its compiled dense one).
 
 In the standard cones of :mod:`.ccp_interior` (``r = S x``, the velocity ``v = A x + q = S u``),
 De Saxce's shifted velocity is ``y = v + |v_1| e_0`` per friction cone (``|v_1| = mu |u_t|``

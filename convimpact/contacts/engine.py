@@ -1,8 +1,9 @@
 """The contact engine: a primal-dual interior point on the cone complementarity problem
 ``K ∋ r ⊥ u = W r + b ∈ K*`` (the convex relaxation of Coulomb's law, ``ccp``), finished by
 Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP's answer, or
-where that misses, by an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W)
-and Newton again. :func:`solve` is the entry; small problems go first to the compiled dense
+where that misses, by an interior point on the law itself (:mod:`.coulomb_interior`, stopped
+where it stalls) and an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W),
+Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEPS`). :func:`solve` is the entry; small problems go first to the compiled dense
 kernels of the same method, and up to :data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from
 zero gets a bounded try first (before the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows).
 
@@ -110,9 +111,12 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
     finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
     certified). Coulomb's law: Newton on its natural map from the CCP's answer
-    (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the ADMM from there
+    (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior point on
+    the law itself (:mod:`.coulomb_interior`, at most :data:`COULOMB_IP_ITER` steps, before
+    the sparse ADMM, after the compiled dense one) and the ADMM from the CCP's answer
     (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
-    sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`), then
+    sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
+    long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`, then
     the fixed point on De Saxce's shift (:mod:`.fixed_point`).
 
     ``start`` (n, d), optional, is a warm start (a time-stepping scheme's impulses of the
@@ -292,7 +296,10 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         if resn < best[0]:
             best[:2] = resn, rn
 
-    if res > tol:  # the interior point on Coulomb's law itself, stopped where it stalls
+    def interior():
+        """The interior point on Coulomb's law itself, stopped where it stalls, and Newton
+        from its answer within POLISH_FROM."""
+        nonlocal iterations
         rc, resc, kc = coulomb_interior(W, b, mu, d, tol=tol, max_iter=COULOMB_IP_ITER,
                                         sparse=sparse)
         iterations += kc
@@ -306,6 +313,11 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         if resc < best[0]:
             best[:2] = resc, rc
         long_newton(rc, resc)
+
+    # before the sparse ADMM (slow where it serves: 10 s on a 400-contact stack), after the
+    # compiled dense one (faster than it on the piles and robots of 120-160 contacts)
+    if res > tol and not dense_admm_here:
+        interior()
     if best[0] > tol:
         tried = [np.inf]
 
@@ -352,6 +364,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
             if res < best[0]:
                 best[:2] = res, r
+            if best[0] > tol:
+                interior()
         else:
             run = coulomb_admm(W, b, mu, R.impulse, sparse)
             while done < admm_iter:
