@@ -113,7 +113,7 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     certified). Coulomb's law: Newton on its natural map from the CCP's answer
     (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior point on
     the law itself (:mod:`.coulomb_interior`, at most :data:`COULOMB_IP_ITER` steps, before
-    the sparse ADMM, after the compiled dense one) and the ADMM from the CCP's answer
+    the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows, after it below) and the ADMM from the CCP's answer
     (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
     sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
     long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`, then
@@ -314,9 +314,11 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             best[:2] = resc, rc
         long_newton(rc, resc)
 
-    # before the sparse ADMM (slow where it serves: 10 s on a 400-contact stack), after the
-    # compiled dense one (faster than it on the piles and robots of 120-160 contacts)
-    if res > tol and not dense_admm_here:
+    # before the ADMM past SPARING_NEWTON_MAX_ROWS (the sparse ADMM was slow where it served:
+    # 10 s on a 400-contact stack), after it below (the ADMM's way was 1.5-3.5x faster than
+    # the interior point's stall on piles, walls and robots of 120-260 contacts)
+    ip_first = not sparing
+    if res > tol and ip_first:
         interior()
     if best[0] > tol:
         tried = [np.inf]
@@ -364,7 +366,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
             if res < best[0]:
                 best[:2] = res, r
-            if best[0] > tol:
+            if best[0] > tol and not ip_first:
                 interior()
         else:
             run = coulomb_admm(W, b, mu, R.impulse, sparse)
@@ -372,6 +374,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 done += 10
                 if check(next(run)):
                     break
+            if best[0] > tol and not ip_first:
+                interior()
         iterations += done
         iterations += k
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
