@@ -1,8 +1,9 @@
 """The contact engine: a primal-dual interior point on the cone complementarity problem
 ``K ∋ r ⊥ u = W r + b ∈ K*`` (the convex relaxation of Coulomb's law, ``ccp``), finished by
 Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP's answer, or
-where that misses, by an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W)
-and Newton again. :func:`solve` is the entry; small problems go first to the compiled dense
+where that misses, by an interior point on the law itself (:mod:`.coulomb_interior`, stopped
+where it stalls) and an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W),
+Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEPS`). :func:`solve` is the entry; small problems go first to the compiled dense
 kernels of the same method, and up to :data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from
 zero gets a bounded try first (before the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows).
 
@@ -24,6 +25,7 @@ from . import cones
 from .ccp_interior import EngineResult, solve_ccp, use_sparse  # noqa: F401 (public here)
 from .admm import coulomb_admm
 from .admm_kernel import dense_admm, natural_residual
+from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .threads import one_blas_thread
@@ -45,8 +47,12 @@ ADMM_FIRST_MIN_ROWS = 40
 ADMM_FIRST_ITER = 5000
 #: ...ending at this many times the iterations to 1e-5 where Newton failed from there (the
 #: stacks' ADMM crawls from 1e-5 on: 520 iterations to 1e-5, 6,700 to 1e-8 on two humanoids
-#: and two quadrupeds)
+#: and two quadrupeds; a 100-box stack certified at 2.8 times)...
 ADMM_FIRST_PATIENCE = 3.0
+#: ...and at once up to :data:`COMPILED_MAX_ROWS` rows, where the compiled kernels that
+#: follow are cheap (at 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24
+#: contacts of two humanoids and two quadrupeds)
+ADMM_FIRST_PATIENCE_SMALL = 1.0
 #: ...and for the CCP, from :data:`COMPILED_MAX_ROWS` rows (whose interior point is sure and
 #: fast: the ADMM gets a short try)
 ADMM_FIRST_ITER_CCP = 300
@@ -63,6 +69,18 @@ DIRECT_NEWTON_STEPS = 4
 SPARING_NEWTON_MAX_ROWS = 900
 #: Newton steps of a try from an ADMM iterate (within 1e-5 it converges in 1-4 where it does)
 POLISH_STEPS = 4
+#: Coulomb's law: the interior point on the law itself (:mod:`.coulomb_interior`) runs at most
+#: this many steps where Newton from the CCP answer missed (it converged in about 20 on
+#: stacks, stalled early elsewhere), and Newton is tried from its answer within
+#: :data:`POLISH_FROM`
+COULOMB_IP_ITER = 60
+POLISH_FROM = 1e-4
+#: Coulomb's law: where the ADMM's way ends within :data:`LONG_NEWTON_FROM`, Newton runs up to
+#: this many steps from its best answer before the fixed point (on a pile of 624 spheres the
+#: regularized Newton went from 8e-7 to 7e-9 in 30 steps, slowly, where the short tries of 4
+#: and 10 had stopped)
+LONG_NEWTON_FROM = 1e-5
+LONG_NEWTON_STEPS = 40
 
 
 def kernels():
@@ -93,9 +111,12 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
     finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
     certified). Coulomb's law: Newton on its natural map from the CCP's answer
-    (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the ADMM from there
+    (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior point on
+    the law itself (:mod:`.coulomb_interior`, at most :data:`COULOMB_IP_ITER` steps, before
+    the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows, after it below) and the ADMM from the CCP's answer
     (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
-    sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`), then
+    sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
+    long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`, then
     the fixed point on De Saxce's shift (:mod:`.fixed_point`).
 
     ``start`` (n, d), optional, is a warm start (a time-stepping scheme's impulses of the
@@ -206,7 +227,9 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
                               max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
-                              polish=polish, coulomb=coulomb, patience=ADMM_FIRST_PATIENCE)
+                              polish=polish, coulomb=coulomb,
+                              patience=(ADMM_FIRST_PATIENCE if n * d > COMPILED_MAX_ROWS
+                                        else ADMM_FIRST_PATIENCE_SMALL))
         res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=coulomb)
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
@@ -258,7 +281,46 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                                             else 10), sparse=sparse)
     iterations += k
     best = [res, r, "converged"]
-    if res > tol:
+    long_tried = [np.inf]
+
+    def long_newton(r, res):
+        """Newton up to LONG_NEWTON_STEPS from an answer within LONG_NEWTON_FROM (once per
+        drop of the residual by 100), its answer kept in ``best`` when better."""
+        nonlocal iterations
+        if not tol < res <= min(LONG_NEWTON_FROM, 1e-2 * long_tried[0]):
+            return
+        long_tried[0] = res
+        rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
+                                    max_iter=LONG_NEWTON_STEPS, sparse=sparse)
+        iterations += k
+        if resn < best[0]:
+            best[:2] = resn, rn
+
+    def interior():
+        """The interior point on Coulomb's law itself, stopped where it stalls, and Newton
+        from its answer within POLISH_FROM."""
+        nonlocal iterations
+        rc, resc, kc = coulomb_interior(W, b, mu, d, tol=tol, max_iter=COULOMB_IP_ITER,
+                                        sparse=sparse)
+        iterations += kc
+        if tol < resc < POLISH_FROM:
+            rn, resn, kn = newton_finish(W, b, mu, rc, coulomb=True, tol=tol,
+                                         max_iter=min(newton_iter, POLISH_STEPS),
+                                         sparse=sparse)
+            iterations += kn
+            if resn < resc:
+                rc, resc = rn, resn
+        if resc < best[0]:
+            best[:2] = resc, rc
+        long_newton(rc, resc)
+
+    # before the ADMM past SPARING_NEWTON_MAX_ROWS (the sparse ADMM was slow where it served:
+    # 10 s on a 400-contact stack), after it below (the ADMM's way was 1.5-3.5x faster than
+    # the interior point's stall on piles, walls and robots of 120-260 contacts)
+    ip_first = not sparing
+    if res > tol and ip_first:
+        interior()
+    if best[0] > tol:
         tried = [np.inf]
 
         def check(r):
@@ -281,6 +343,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
+                long_newton(rn, resn)
             tried.append(res)
             return best[0] <= tol
 
@@ -303,15 +366,20 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
             if res < best[0]:
                 best[:2] = res, r
+            if best[0] > tol and not ip_first:
+                interior()
         else:
             run = coulomb_admm(W, b, mu, R.impulse, sparse)
             while done < admm_iter:
                 done += 10
                 if check(next(run)):
                     break
+            if best[0] > tol and not ip_first:
+                interior()
         iterations += done
         iterations += k
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
+        long_newton(best[1], best[0])  # from the ADMM's best answer
         if best[0] > tol:  # the fixed point on the De Saxce shift, CCP by CCP
             for r in shift_fixed_point(W, b, mu, d, best[1], tol, max_iter, sparse, solve_ccp):
                 iterations += 1
