@@ -269,14 +269,7 @@ def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
         alpha = _step(blocks, x, z, dxa, dza)
         mu_aff = float((x + alpha * dxa) @ (z + alpha * dza)) / nu
         sigma = min(1.0, max(0.0, mu_aff / max(mu_c, 1e-300))) ** 3
-        target = []
-        for (G, Gi, lam), dxi, dzi in zip(scal, blocks.cone_rows(dxa), blocks.cone_rows(dza)):
-            e = np.zeros_like(lam)
-            e[:, 0] = 1.0
-            sx = np.einsum("nij,nj->ni", Gi, dxi)
-            sz = np.einsum("nij,nj->ni", G, dzi)
-            target.append(sigma * mu_c * e - cones.jprod(lam, lam) - cones.jprod(sx, sz))
-        dx, dz = direction(target)
+        dx, dz = direction(corrector_targets(scal, blocks, dxa, dza, sigma * mu_c))
         alpha = min(1.0, STEP_FRACTION * _step(blocks, x, z, dx, dz))
         if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dz))) or alpha < 1e-8:
             message = "stalled (the step to the cones' boundary vanished)"
@@ -297,6 +290,21 @@ def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
     r = blocks.to_impulse(x * qs)
     res, u = cones.natural_map_residual(W, bb, mu, r, coulomb=False)
     return EngineResult(r, u, res, it, res <= tol, message if res > tol else "converged")
+
+
+def corrector_targets(scal, blocks: _Blocks, dxa, dza, centering: float) -> list:
+    """Mehrotra's corrector right-hand sides per cone block, in the Nesterov-Todd scaled
+    variables: ``centering e - lam o lam - (G^-1 dx_aff) o (G dz_aff)`` (``o`` the Jordan
+    product, ``centering = sigma mu``) from the scalings ``(G, G^-1, lam)`` and the affine
+    step ``(dxa, dza)``."""
+    target = []
+    for (G, Gi, lam), dxi, dzi in zip(scal, blocks.cone_rows(dxa), blocks.cone_rows(dza)):
+        e = np.zeros_like(lam)
+        e[:, 0] = 1.0
+        sx = np.einsum("nij,nj->ni", Gi, dxi)
+        sz = np.einsum("nij,nj->ni", G, dzi)
+        target.append(centering * e - cones.jprod(lam, lam) - cones.jprod(sx, sz))
+    return target
 
 
 def _step(blocks: _Blocks, x, z, dx, dz) -> float:

@@ -24,7 +24,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import cones
-from .ccp_interior import _shift_into, _step, standard_form
+from .ccp_interior import _shift_into, _step, corrector_targets, standard_form
 
 #: the fraction of the step to the cones' boundary taken
 STEP_FRACTION = 0.99
@@ -139,14 +139,7 @@ def coulomb_interior(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1
         alpha = _step(blocks, x, y, dxa, dya)
         gap_aff = float((x + alpha * dxa) @ (y + alpha * dya)) / nu
         sigma = min(1.0, max(0.0, gap_aff / max(gap, 1e-300))) ** 3
-        target = []
-        for (G, Gi, lam), dxi, dyi in zip(scal, blocks.cone_rows(dxa), blocks.cone_rows(dya)):
-            e = np.zeros_like(lam)
-            e[:, 0] = 1.0
-            sx = np.einsum("nij,nj->ni", Gi, dxi)
-            sy = np.einsum("nij,nj->ni", G, dyi)
-            target.append(sigma * gap * e - cones.jprod(lam, lam) - cones.jprod(sx, sy))
-        dx, dy = direction(target)
+        dx, dy = direction(corrector_targets(scal, blocks, dxa, dya, sigma * gap))
         if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dy))):
             break
         alpha = min(1.0, STEP_FRACTION * _step(blocks, x, y, dx, dy))

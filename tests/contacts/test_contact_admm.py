@@ -6,7 +6,6 @@ planar contact sliding, two decoupled contacts, one sticking and one separating)
 natural-map residual recomputed here with this file's own projection onto the friction cone.
 """
 
-import math
 
 import numpy as np
 import pytest
@@ -14,22 +13,7 @@ import pytest
 import convimpact as ci
 from convimpact.contacts import admm_kernel, engine
 
-
-def project_cone(x, mu):
-    """Projection of each row of x (n, d), normal first, onto {|x_t| <= mu x_n}: onto the
-    boundary ray e = (1, mu x_t / |x_t|) / sqrt(1 + mu^2) as (x . e) e when x is in neither
-    the cone nor its polar."""
-    out = np.zeros_like(x)
-    for i, (row, m) in enumerate(zip(x, mu)):
-        t = float(np.linalg.norm(row[1:]))
-        if t <= m * row[0]:
-            out[i] = row
-        elif m * t <= -row[0]:
-            out[i] = 0.0
-        else:
-            e = np.concatenate([[1.0], m * row[1:] / t]) / math.sqrt(1.0 + m * m)
-            out[i] = (row @ e) * e
-    return out
+from .cone_checks import project_cone
 
 
 def coulomb_residual(W, b, mu, r):

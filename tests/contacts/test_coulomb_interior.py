@@ -7,31 +7,15 @@ Saxce's form checked contact by contact from the returned impulse, and the natur
 residual recomputed here with this file's own projection onto the friction cone.
 """
 
-import math
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
 import convimpact as ci
-from convimpact.contacts import engine
 from convimpact.contacts.coulomb_interior import coulomb_interior
 
-
-def project_cone(x, mu):
-    """Projection of each row of x (n, d) onto {|x_t| <= mu x_n}: inside, x; in the polar
-    cone, 0; else onto the boundary ray e = (1, mu x_t/|x_t|) / sqrt(1 + mu^2) as (x . e) e."""
-    out = np.zeros_like(x)
-    for i, (row, m) in enumerate(zip(x, mu)):
-        t = float(np.linalg.norm(row[1:]))
-        if t <= m * row[0]:
-            out[i] = row
-        elif m * t <= -row[0]:
-            out[i] = 0.0
-        else:
-            e = np.concatenate([[1.0], m * row[1:] / t]) / math.sqrt(1.0 + m * m)
-            out[i] = (row @ e) * e
-    return out
+from .cone_checks import project_cone
 
 
 def velocity(W, b, r):
