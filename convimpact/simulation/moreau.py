@@ -29,7 +29,9 @@ of size h from (q_k, v_k) at t_k:
    it restitutes the slip of the free velocity, which is the slip at t_k when no smooth
    force acts along the contact's tangent during the step (a ball on a level floor);
    the other laws resolve each independent island of contacts by its own call of
-   :func:`convimpact.resolve_impact` (:mod:`.moreau_impact`).
+   :func:`convimpact.resolve_impact` (:mod:`.moreau_impact`; law "pereira-nikravesh"
+   answers resting islands by a certificate of the law's own answer, its diagnostic of
+   several admissible active sets kept as one warning of the run, see there).
    **Laws "ccp", "coulomb" and "dissipative" under method "auto" or "interior"** take the
    contact engine instead (:mod:`.moreau_engine`; "dissipative" as ccp's plastic problem,
    the impulse scaled by ``1 + e_eff``): the step's problem ``u = J v_{k+1} = W r + b``,
@@ -234,6 +236,13 @@ def simulate_moreau(
     -------
     MoreauResult
         Series at every step (t_k), the impact steps, counters, ``max_penetration``.
+        ``warnings`` (laws outside the engine): one entry when the law found several
+        admissible active sets with different velocities on some island steps (law
+        ``"pereira-nikravesh"``: Newton's law with friction is not unique at several
+        contacts), with their count and first times. With that law, an island resting on
+        every contact is searched on the first step of its resting mode and answered by a
+        certificate of the same answer on the following ones (not searched again), see
+        :mod:`.moreau_impact`; ``contact_solver`` counts both.
 
     Raises
     ------
@@ -308,5 +317,9 @@ def simulate_moreau(
         n_contact_steps=st["contact_steps"], max_penetration=max(0.0, st["max_pen"]),
         contact_solver=(solver.counters.as_dict() if engine_path else
                         {"resolve_impact_calls": solver.calls,
-                         "largest_island": solver.largest_island}),
-        max_active_contacts=st["max_active"])
+                         "largest_island": solver.largest_island,
+                         "certified": solver.certified,
+                         "searched": solver.checks,
+                         "ambiguous": len(solver.ambiguous)}),
+        max_active_contacts=st["max_active"],
+        warnings=() if engine_path else solver.run_warnings())

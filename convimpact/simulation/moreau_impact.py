@@ -52,6 +52,31 @@ of several contacts without loop rows takes the law's impulse directly
 call, without the result record (regimes, diagnostics) nobody reads on such a step; where
 that call would raise or report unsolved active sets the full call is made.
 
+**Resting islands without the search** (same law and methods, once the law's compiled path
+is taken): the law returns the most dissipative admissible active set and, to warn when
+several admissible sets have different velocities, solves all 2^n - 1 of them on every
+call. On such a step every island is first tried by one compiled call
+(:func:`.moreau_pn_kernels.certify_islands`): where sticking on every contact is admissible
+and is the least ``T+`` over *every* impulse (all contacts frictional, no restitution acting,
+``W pi + v- = 0`` to round-off), no other set can be more dissipative with other velocities,
+so the law's selection rule picks that set (the largest) -- the same impulse, to round-off
+(:mod:`.moreau_pn_kernels` gives the argument and its margins). The law's search is then
+skipped, but the **ambiguity diagnostic is not dropped**: an island so certified is searched
+in full (its answer and its warning taken from the law) on the first step of that mode --
+the first step the island, with the same active contacts, is certified -- and answered by
+the certificate alone on the following steps of the mode; a change of the island's contacts,
+a step the certificate does not hold (sliding, restitution, an impact step through
+``resolve_impact``) or a step in between ends the mode. Every search's warning on several
+admissible active sets with different velocities (direct steps and ``resolve_impact`` calls
+alike) is counted, and the run carries one warning with the count, the number of island
+steps searched and the first step times (``MoreauResult.warnings``; the counts are in
+``contact_solver``: ``certified`` island steps answered by the certificate alone,
+``searched`` island steps of several contacts the law searched, ``ambiguous`` those that
+found several admissible sets). What is not checked: steps inside a certified resting mode
+(the same contacts sticking on every contact, step after step), whose admissible sets are
+not enumerated again. Sliding islands are searched on every step (the law's answer needs
+the search there: no bound prunes its slide programs), so their warnings are complete.
+
 An :class:`~.result.ImpactEvent` is recorded on the steps where an approaching contact
 receives a normal impulse: the step's active contacts' impulses, regimes (in the order of
 the active contacts) and the sum of the islands' energy losses; its ``result`` is the
@@ -70,9 +95,11 @@ from ..impact import resolve_impact
 from ..impact.conic.paths import backend as conic_backend
 from ..impact.conic.paths import parse_options
 from ..errors import ConvImpactError
+from ..impact.laws import pn_complementarity as pn
 from ..impact.laws.pn_complementarity import MAX_CONTACTS, several_contacts_impulse
-from ..impact.problem.build import build_problem
+from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL, build_problem
 from .islands import contact_islands
+from .moreau_pn_kernels import STICK, certify_islands
 from .result import ImpactEvent
 
 #: laws whose answer at contacts that all separate under v_free may still be an impulse
@@ -81,6 +108,10 @@ CONE_COMPLEMENTARITY_LAWS = frozenset({"ccp", "dissipative"})
 #: an impact (see ImpactSolver), and the methods whose path that impulse is
 DIRECT_LAW = "pereira-nikravesh"
 DIRECT_METHODS = ("auto", "clarabel")
+#: the text of the law's warning on several admissible active sets (counted over a run)
+AMBIGUITY_NOTE = "admissible active sets here"
+#: step times quoted in the run's ambiguity warning
+QUOTED_TIMES = 5
 
 
 class ImpactSolver:
@@ -107,7 +138,12 @@ class ImpactSolver:
         self.largest_island = 0  # contacts
         self.direct = law == DIRECT_LAW and method in DIRECT_METHODS
         self._direct_options = None
-        self._last_islands = (None, b"", None)  # (groups, moves' bytes, islands)
+        self._last_islands = (None, b"", None, None)  # (groups, moves' bytes, islands, plan)
+        #: islands (their contacts' bytes) certified sticking on every contact last step
+        self._modes_last: set = set()
+        self.certified = 0  # island steps answered by the certificate alone
+        self.checks = 0           # island steps the law searched (its diagnostic included)
+        self.ambiguous: list = []  # (t_m, step, note) of the searches that found ambiguity
 
     def idle(self) -> None:
         pass
@@ -133,24 +169,92 @@ class ImpactSolver:
         nz = C != 0.0
         return np.flatnonzero(nz.any(axis=1) & ~(nz & ~inside).any(axis=1))
 
-    def _islands(self, moves: np.ndarray, groups) -> list:
-        """:func:`.islands.contact_islands` of the step, reused while the coordinate groups
-        (the same cached object) and the active contacts' column pattern stay (a resting or
-        sliding scene keeps both for many steps)."""
-        key = np.array(moves.shape, dtype=np.int64).tobytes() + np.packbits(moves).tobytes()
-        last_groups, last_key, last = self._last_islands
+    def _islands(self, moves: np.ndarray, groups, C, active) -> tuple[list, tuple]:
+        """:func:`.islands.contact_islands` of the step and the flat layout of its islands of
+        several contacts without loop rows (the certificate's, :meth:`_certify`: their
+        indices among the islands, their keys (the contacts' bytes), contacts and
+        coordinates), reused while the coordinate groups (the same cached object), the
+        active contacts and their column pattern stay (a resting or sliding scene keeps
+        them for many steps)."""
+        key = (np.array(moves.shape, dtype=np.int64).tobytes() + np.packbits(moves).tobytes()
+               + active.tobytes())
+        last_groups, last_key, last, plan = self._last_islands
         if groups is last_groups and key == last_key:
-            return last
+            return last, plan
         islands = contact_islands(moves, groups, split=self.split)
-        self._last_islands = (groups, key, islands)
-        return islands
+        chosen = [j for j, (cs, cols) in enumerate(islands)
+                  if 1 < cs.size <= MAX_CONTACTS
+                  and not (C is not None and self._loop_rows(C, cols).size)]
 
-    def _direct_impulse(self, M, Jcs, v, e, mu) -> tuple[np.ndarray, np.ndarray] | None:
+        def flat(parts):
+            off = np.concatenate([[0], np.cumsum([x.size for x in parts])]).astype(np.int64)
+            return (np.concatenate(parts).astype(np.int64) if parts
+                    else np.zeros(0, np.int64)), off
+
+        icon, icoff = flat([islands[j][0] for j in chosen])
+        icol, icoloff = flat([islands[j][1] for j in chosen])
+        keys = [active[islands[j][0]].tobytes() for j in chosen]
+        plan = (np.array(chosen, dtype=np.int64), keys, icon, icoff, icol, icoloff)
+        self._last_islands = (groups, key, islands, plan)
+        return islands, plan
+
+    def _certify(self, st, plan, Ja, v_free, es, active):
+        """The certificate of :mod:`.moreau_pn_kernels` on the step's islands of ``plan``:
+        ``(islands answered, impulses (na, d), v_{k+1}, islands certified)``: answered are
+        the certified islands that were certified on the step before with the same contacts
+        (the others are searched, :meth:`solve`); None when there is no island to try or the
+        law's compiled path is not yet taken (a handful of steps: the law's Python path,
+        whose answers are the compiled one's to round-off)."""
+        chosen, keys, icon, icoff, icol, icoloff = plan
+        if not chosen.size or not pn.compiled_path_active():
+            return None
+        d = Ja.shape[1]
+        status = np.zeros(chosen.size, dtype=np.int64)
+        r = np.zeros((Ja.shape[0], d))
+        v_new = v_free.copy()
+        certify_islands(Ja, v_free, es, np.ascontiguousarray(self.mu[active]),
+                        np.ascontiguousarray(st.inv.G), icon, icoff, icol, icoloff, d,
+                        pn.STICK_COND_MAX, pn.CONE_RTOL, pn.VELOCITY_SLACK_MAX, IMMOBILE_RTOL,
+                        TINY_NORMAL, r, v_new, status)
+        ok = np.flatnonzero(status == STICK)
+        last = self._modes_last
+        # an island's mode: its contacts and the tier certified
+        modes = [keys[n] + bytes([int(status[n])]) for n in ok]
+        answered = {int(chosen[n]) for n, mode in zip(ok, modes) if mode in last}
+        certified = set(modes)
+        return answered, r, v_new, certified
+
+    def _note(self, st, notes) -> None:
+        """Record the law's ambiguity warning among ``notes`` (the step's time and index)."""
+        for note in notes:
+            if AMBIGUITY_NOTE in note:
+                self.ambiguous.append((float(st.tm), int(st.index), note))
+                return
+
+    def run_warnings(self) -> tuple[str, ...]:
+        """The run's warnings: one for the island steps on which the law found several
+        admissible active sets with different velocities (counts, the first step times and
+        the first such warning)."""
+        if not self.ambiguous:
+            return ()
+        times = ", ".join(f"{t:.6g}" for t, _, _ in self.ambiguous[:QUOTED_TIMES])
+        more = ", ..." if len(self.ambiguous) > QUOTED_TIMES else ""
+        steps = len({s for _, s, _ in self.ambiguous})
+        return (f"law {self.law!r}: several admissible active sets with different velocities "
+                f"on {len(self.ambiguous)} of the {self.checks} island steps searched "
+                f"({steps} steps, at t = {times}{more}); each time the law's answer (the most "
+                f"dissipative) was taken. First: {self.ambiguous[0][2]}. Islands sticking on "
+                "every contact with the same contacts as the step before are not searched "
+                "again (simulate_moreau's docs)",)
+
+    def _direct_impulse(self, M, Jcs, v, e, mu, notes: list | None = None
+                        ) -> tuple[np.ndarray, np.ndarray] | None:
         """``(v_{k+1}, impulse)`` of one loop-free island of several contacts by the law's
         impulse alone (:func:`~convimpact.impact.laws.pn_complementarity.
         several_contacts_impulse` on the problem ``resolve_impact`` builds, with the backend
         and options its ``method`` uses): the same impulse, without the result record;
-        None where the full call is needed (it raises or reports)."""
+        None where the full call is needed (it raises or reports). ``notes``: the law's
+        ambiguity warning is appended there."""
         try:
             P = build_problem(M, Jcs, v, e, mu)
             if P.n_contacts > MAX_CONTACTS:
@@ -159,7 +263,8 @@ class ImpactSolver:
                 return P.dq_minus.copy(), np.zeros((P.n_contacts, P.dim))
             if self._direct_options is None:
                 self._direct_options = parse_options("clarabel", self.options)
-            pi = several_contacts_impulse(P, conic_backend("clarabel"), self._direct_options)
+            pi = several_contacts_impulse(P, conic_backend("clarabel"), self._direct_options,
+                                          notes)
         except ConvImpactError:
             return None
         if pi is None:
@@ -176,25 +281,43 @@ class ImpactSolver:
         es, ets, vnk, vnf = self._coefficients(st, active)
         C = st.C if self.m else None
         moves = np.any(Ja != 0.0, axis=1)
-        islands = self._islands(moves, st.inv.groups)
-        v_new = v_free.copy()
-        impulse = np.zeros((na, d))
-        dsig = np.zeros(self.m)
+        islands, plan = self._islands(moves, st.inv.groups, C, active)
         regime = ["separating"] * na
         results, energy_loss = [], 0.0
         cone = self.law in CONE_COMPLEMENTARITY_LAWS
+        dsig = np.zeros(self.m)
         # no contact approaching at the step's start: no ImpactEvent, only impulses needed
         direct = self.direct and not np.any(vnk < -self.rest_velocity)
-        for cs, cols in islands:
+        certified = self._certify(st, plan, Ja, v_free, es, active) if direct else None
+        if certified is None:
+            answered: set = set()
+            v_new = v_free.copy()
+            impulse = np.zeros((na, d))
+            self._modes_last = set()
+        else:
+            # the answered islands' impulses and velocities (v_free and no impulse
+            # elsewhere, until the islands below write theirs); the islands certified now
+            # are searched this step if they were not the step before (the diagnostic of a
+            # new mode) and answered by the certificate alone on the next
+            answered, impulse, v_new, self._modes_last = certified
+            self.calls += len(answered)
+            self.certified += len(answered)
+        for j, (cs, cols) in enumerate(islands):
+            if j in answered:
+                self.largest_island = max(self.largest_island, int(cs.size))
+                continue
             if not cone and np.all(vnf[cs] >= 0.0):
                 continue
             one = cs.size == 1
             Jcs = [Ja[i][:, cols] for i in cs]
             lrows = self._loop_rows(C, cols) if C is not None else np.zeros(0, dtype=int)
             if direct and not one and not lrows.size:
+                notes: list = []
                 got = self._direct_impulse(M[np.ix_(cols, cols)], Jcs, v_free[cols], es[cs],
-                                           self.mu[active[cs]])
+                                           self.mu[active[cs]], notes)
                 if got is not None:
+                    self.checks += 1
+                    self._note(st, notes)
                     v_new[cols], impulse[cs] = got
                     self.calls += 1
                     self.largest_island = max(self.largest_island, int(cs.size))
@@ -222,6 +345,9 @@ class ImpactSolver:
                 regime[i] = g
             energy_loss += float(r.energy_loss)
             results.append((cs, r))
+            if not one:
+                self.checks += 1
+                self._note(st, r.diagnostics.notes)
         sigma = st.sigma + dsig if self.m else st.sigma
         self.impulse = impulse
         hit = [i for i in range(na) if vnk[i] < -self.rest_velocity and impulse[i, 0] > 0.0]

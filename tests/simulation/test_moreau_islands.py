@@ -69,7 +69,8 @@ def test_direct_impulses_are_the_full_calls_on_the_interior_point_path(monkeypat
     monkeypatch.setattr(mi, "DIRECT_LAW", "none")
     monkeypatch.setattr(pc, "compiled_kernels", lambda: False)
     slow = simulate_moreau(mech, span, (q, v), h=H, law="pereira-nikravesh")
-    assert fast.contact_solver == slow.contact_solver
+    calls = ("resolve_impact_calls", "largest_island")
+    assert [fast.contact_solver[k] for k in calls] == [slow.contact_solver[k] for k in calls]
     np.testing.assert_allclose(fast.dtheta, slow.dtheta, rtol=0, atol=1e-12)
     np.testing.assert_allclose(fast.theta, slow.theta, rtol=0, atol=1e-14)
 

@@ -456,19 +456,30 @@ def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
     return tier, found, failures, b
 
 
-def several_contacts_impulse(P: ImpactProblem, backend: Backend,
-                             opts: ProgramOptions) -> np.ndarray | None:
+def several_contacts_impulse(P: ImpactProblem, backend: Backend, opts: ProgramOptions,
+                             notes: list[str] | None = None) -> np.ndarray | None:
     """The impulse (n_contacts, d) of :func:`several_contacts_result`, without its result
-    (regimes, diagnostics, notes), for a time stepper that needs only the impulse; None
-    where that call would raise or report active sets it could not solve (the caller then
-    makes the full call, which raises or reports)."""
+    (regimes, diagnostics), for a time stepper that needs only the impulse; None where that
+    call would raise or report active sets it could not solve (the caller then makes the
+    full call, which raises or reports). ``notes``, optional: a list the result's warning on
+    several admissible active sets with different velocities is appended to (the time
+    stepper aggregates them, :mod:`convimpact.simulation.moreau_impact`)."""
     try:
         _, found, failures, _ = _search(P, backend, opts)
     except ConvImpactError:
         return None
     if failures:
         return None
-    return _pick(P, found)[0][2]
+    best, picked_notes = _pick(P, found)
+    if notes is not None:
+        notes.extend(picked_notes)
+    return best[2]
+
+
+def compiled_path_active() -> bool:
+    """Whether the compiled path (:func:`compiled_kernels`) is already taken in this process,
+    without counting a call."""
+    return _CALLS > HOT_CALLS
 
 
 def several_contacts_result(P: ImpactProblem, backend: Backend, method: str,

@@ -73,38 +73,9 @@ def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
     absW = np.abs(W)
     rows = np.empty(N, dtype=np.int64)
     for s in range(ns):
-        m = 0
-        for i in range(n):
-            if sets[s, i]:
-                rows[m] = i * d
-                m += 1
-                if mu[i] > 0.0:
-                    for k in range(1, d):
-                        rows[m] = i * d + k
-                        m += 1
-        Wss = np.empty((m, m))
-        r = np.empty(m)
-        for a in range(m):
-            r[a] = -b[rows[a]]
-            for c in range(m):
-                Wss[a, c] = W[rows[a], rows[c]]
-        # W_SS is symmetric: its singular values are its eigenvalues' magnitudes, and its
-        # minimum-norm least-squares solution is V diag(1/lambda) V^T r over the eigenvalues
-        # above the cut-off eps m max|lambda| (gelsd's rule with numpy's default rcond)
-        lam, V = np.linalg.eigh(Wss)
-        ev = np.abs(lam)
-        smin = np.min(ev)
-        smax = np.max(ev)
-        cond = smax / smin if smin > 0.0 else np.inf
-        if cond < cond_max:
-            x = np.linalg.solve(Wss, r)
-        else:
-            y = V.T @ r
-            for a in range(m):
-                y[a] = y[a] / lam[a] if ev[a] > EPS * m * smax else 0.0
-            x = V @ y
-            if not _consistent(Wss, x, r, 1e-9):
-                continue
+        solved, m, x, lam = stick_solve(W, b, mu, d, sets[s], cond_max, rows)
+        if not solved:
+            continue
         pi = np.zeros(N)
         for a in range(m):
             pi[rows[a]] = x[a]
@@ -114,6 +85,50 @@ def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
             energy[s] = pi @ vminus + 0.5 * (pi @ Wpi)
             pis[s] = pi
     return ok, energy, pis
+
+
+@_jit
+def stick_solve(W, b, mu, d, member, cond_max, rows):
+    """The sticking system of one active set (``member`` (n,) bool): ``W_SS x = -b_S`` with
+    S (written into ``rows[:m]``) every row of a frictional contact of A and the normal row
+    of a frictionless one, by LU when ``cond_2(W_SS) < cond_max``, else the minimum-norm
+    least-squares solution kept only when consistent (see :func:`stick_tier`).
+
+    Returns ``(solved, m, x (m,), lam (m,))``, lam the eigenvalues of W_SS (ascending)."""
+    n = mu.size
+    m = 0
+    for i in range(n):
+        if member[i]:
+            rows[m] = i * d
+            m += 1
+            if mu[i] > 0.0:
+                for k in range(1, d):
+                    rows[m] = i * d + k
+                    m += 1
+    Wss = np.empty((m, m))
+    r = np.empty(m)
+    for a in range(m):
+        r[a] = -b[rows[a]]
+        for c in range(m):
+            Wss[a, c] = W[rows[a], rows[c]]
+    # W_SS is symmetric: its singular values are its eigenvalues' magnitudes, and its
+    # minimum-norm least-squares solution is V diag(1/lambda) V^T r over the eigenvalues
+    # above the cut-off eps m max|lambda| (gelsd's rule with numpy's default rcond)
+    lam, V = np.linalg.eigh(Wss)
+    ev = np.abs(lam)
+    smin = np.min(ev)
+    smax = np.max(ev)
+    cond = smax / smin if smin > 0.0 else np.inf
+    if cond < cond_max:
+        x = np.linalg.solve(Wss, r)
+    else:
+        y = V.T @ r
+        for a in range(m):
+            y[a] = y[a] / lam[a] if ev[a] > EPS * m * smax else 0.0
+        x = V @ y
+        if not _consistent(Wss, x, r, 1e-9):
+            return False, m, x, lam
+    return True, m, x, lam
 
 
 @_jit

@@ -1,0 +1,148 @@
+"""A certificate that shortens law ``pereira-nikravesh`` on Moreau–Jean's resting islands, in
+one compiled call per step (:func:`stick_all_certified`, used by :mod:`.moreau_impact`).
+
+The law (:mod:`convimpact.impact.laws.pn_complementarity`) returns, in its stick tier, the
+most dissipative admissible active set: ``T+ - T- = f(pi) = pi.v- + 1/2 pi.W.pi`` smallest,
+then, among the candidates as dissipative as that one (to ``1e-9`` of the energy scale) and
+with its velocities (``W pi`` to ``1e-8 max |v-|``), the largest set, then the impulse of
+least norm. It is not "the first admissible set in a preference order": the answer needs the
+least ``f`` over every admissible set, so the law solves all of them (2^n - 1).
+
+Where the island's contacts are all frictional and no restitution acts (``b = v-``: a contact
+at rest, ``e_eff = 0``), sticking on *every* contact gives ``u = W pi + v- = 0`` on every row,
+and ``u = grad f``: the sticking impulse is then a minimizer of ``f`` over every impulse, not
+only over the admissible ones. Every other candidate B has ``f(B) >= min f``, and (W positive
+semi-definite) ``f(B) - min f = 1/2 u_B.W^+.u_B``: with ``u_G = W pi_G + v-`` the full set's
+computed velocities, any B at most as dissipative as it has velocities within
+``|u_G| (1 + sqrt(cond+ W))`` of its (cond+: the ratio of W's extreme nonzero eigenvalues).
+When that is below ``1e-9 max |v-|`` (ten times inside the law's "same velocities" test) and
+``1/2 |u_G|^2 / lambda_min+`` below ``1e-10`` of the energy scale (ten times inside its tie
+test), every candidate the law could rank first has the full set's velocities and ties with
+it, and the full set, the unique largest candidate, is the law's answer: the same impulse as
+the law's (the same compiled solve, :func:`~convimpact.impact.laws.pn_complementarity_kernels.
+stick_tier` on the one set) without solving the other sets. The law's own answer differs only
+where its ranking is decided by the round-off of the energies (candidates within ~1e-15 of the
+energy scale of each other with velocities 1e-8 apart), where either answer is as good.
+
+The island's W is formed as on the engine path (``J G J^T``, :func:`.moreau_kernels.
+island_delassus`, G the step's block inverse of M) and symmetrized and checked as
+:func:`convimpact.impact.problem.build.build_problem` does (:func:`~convimpact.contacts.
+interior_point.contact_checks`), not through ``build_problem``'s Cholesky factor: the same
+numbers to round-off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..compiled import jit as _jit
+from ..contacts.interior_point import contact_checks
+from ..impact.laws.pn_complementarity_kernels import admissible, stick_solve
+from .moreau_kernels import island_delassus
+
+EPS = float(np.finfo(float).eps)
+TINY = 1e-300
+#: island statuses of :func:`certify_islands`
+STICK, SEARCH, SEPARATING, NOT_PLAIN = 1, 0, 2, -1
+#: the certificate's margins: velocities (relative to max |v-|) and energies (relative to the
+#: law's energy scale), ten times inside the law's tie tests (1e-8 and 1e-9)
+VELOCITY_MARGIN = 1e-9
+ENERGY_MARGIN = 1e-10
+
+
+@_jit
+def _stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows):
+    """The impulse sticking every contact and whether it is the law's answer (the
+    certificate of the module docstring; needs every contact frictional and b = v-)."""
+    N = W.shape[0]
+    nc = mu.size
+    member = np.ones(nc, dtype=np.bool_)
+    solved, m, x, lam = stick_solve(W, vm, mu, d, member, cond_max, rows)
+    # every contact frictional: S is every row in order, W_SS = W, x the impulse
+    if not (solved and admissible(W, np.abs(W), member, x, vm, mu, d, cone_rtol, slack_max,
+                                  1e-10)):
+        return x, False
+    u = W @ x + vm
+    unorm = np.sqrt(u @ u)
+    vs = max(np.max(np.abs(vm)), TINY)
+    big = 0.0
+    for a in range(N):
+        big = max(big, abs(W[a, a]))
+    escale = max(0.5 * vs * vs / big, TINY)
+    lmax = np.max(np.abs(lam))
+    lmin = np.inf
+    for a in range(N):
+        if lam[a] > EPS * N * lmax:
+            lmin = min(lmin, lam[a])
+    if not (lmin < np.inf and lmax > 0.0):
+        return x, False
+    return x, (unorm * (1.0 + np.sqrt(lmax / lmin)) <= VELOCITY_MARGIN * vs
+               and 0.5 * unorm * unorm / lmin <= ENERGY_MARGIN * escale)
+
+
+@_jit
+def certify_islands(Ja, v_free, es, mu_act, G, icon, icoff, icol, icoloff, d, cond_max,
+                    cone_rtol, slack_max, immobile_rtol, tiny_normal, r, v_new, status):
+    """For every island i (contacts ``icon[icoff[i]:icoff[i + 1]]``, rows of ``Ja`` (na, d,
+    k), coordinates ``icol[icoloff[i]:icoloff[i + 1]]``): the law's answer where a
+    certificate of the module docstring holds.
+
+    Writes ``status[i]``: STICK (certified: the impulse into ``r`` (na, d) and
+    ``v_free + G J^T pi`` into ``v_new`` on the island's coordinates), SEPARATING (no contact
+    approaches, ``v_n- >= 0`` everywhere: no impulse, ``v_new`` left), SEARCH (the law must
+    search) or NOT_PLAIN (degenerate contacts: the law's full call decides). ``v_new`` holds
+    ``v_free`` on entry."""
+    n_isl = icoff.shape[0] - 1
+    for i in range(n_isl):
+        c0, c1 = icoff[i], icoff[i + 1]
+        k0, k1 = icoloff[i], icoloff[i + 1]
+        nc = c1 - c0
+        nk = k1 - k0
+        N = nc * d
+        cons = icon[c0:c1]
+        cols = icol[k0:k1]
+        W = np.empty((N, N))
+        rows = np.empty(N, dtype=np.int64)
+        island_delassus(Ja, G, cons, cols, d, W)
+        vm = np.zeros(N)
+        for c in range(nc):
+            for a in range(d):
+                acc = 0.0
+                for e in range(nk):
+                    acc += Ja[cons[c], a, cols[e]] * v_free[cols[e]]
+                vm[c * d + a] = acc
+        approaching = False
+        for c in range(nc):
+            if vm[c * d] < 0.0:
+                approaching = True
+        if not approaching:
+            status[i] = SEPARATING
+            continue
+        if contact_checks(W, vm, d, immobile_rtol, tiny_normal) != 0:
+            status[i] = NOT_PLAIN
+            continue
+        status[i] = SEARCH
+        mu = np.empty(nc)
+        plain = True
+        for c in range(nc):
+            mu[c] = mu_act[cons[c]]
+            # every contact frictional (every row sticks), no restitution (b = v-)
+            if not (mu[c] > 0.0) or es[cons[c]] * min(vm[c * d], 0.0) != 0.0:
+                plain = False
+        if not plain:
+            continue
+        pi, certified = _stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
+        if not certified:
+            continue
+        status[i] = STICK
+        for c in range(nc):
+            for a in range(d):
+                r[cons[c], a] = pi[c * d + a]
+        # v_new = v_free + G_II J_I^T pi on the island's coordinates
+        for e in range(nk):
+            g = 0.0
+            for c in range(nc):
+                for a in range(d):
+                    g += Ja[cons[c], a, cols[e]] * pi[c * d + a]
+            for f in range(nk):
+                v_new[cols[f]] += G[cols[f], cols[e]] * g
