@@ -8,7 +8,8 @@ simulate_moreau` (theta = 1/2, laws ``ccp``, ``coulomb`` and ``dissipative`` (cc
 problem, scaled by 1 + e) on the engine, every step's
 islands certified at the natural-map residual 1e-8, warm starts and islands on; the laws of
 :data:`OTHER_LAWS` island by island through ``resolve_impact``, one call per island and step
-(pereira-nikravesh: the law's impulse directly on steps without an impact),
+(pereira-nikravesh: the law's impulse directly on steps without an impact, resting islands
+answered by the certificate of the law's answer after the first step of their resting mode),
 :mod:`convimpact.simulation.moreau_impact`); MuJoCo: its default solver and soft contact,
 elliptic cones, Euler, the same h (2 ms, MuJoCo's default). ``chatterjee-ruina`` is tried on
 the smallest row and its refusal reported (the law is defined per contact and refuses a box's
@@ -92,6 +93,9 @@ QUICK_OTHER_SPAN = 0.02
 OTHER_REPEATS = 1
 #: ... except where a law is cheap enough for a longer span and a median (quick runs: 1 run)
 OTHER_SPANS = {"pereira-nikravesh": 0.1}
+#: ... and at rest, where pereira-nikravesh's resting islands take the certificate (the
+#: engine laws' span: the first step's search of each island counted over as many steps)
+OTHER_REST_SPANS = {"pereira-nikravesh": SPAN}
 OTHER_REPEATS_BY_LAW = {"pereira-nikravesh": 3}
 #: steps of the untimed warm-up run of each of those laws
 WARM_STEPS = 25
@@ -252,8 +256,10 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
     boxes = QUICK_BOXES if quick else BOXES
     span = QUICK_SPAN if quick else SPAN
     other_span = QUICK_OTHER_SPAN if quick else OTHER_SPAN
-    spans = {law: other_span if quick else OTHER_SPANS.get(law, other_span)
-             for law in OTHER_LAWS}
+    spans = {(law, sliding): other_span if quick else (
+        OTHER_SPANS.get(law, other_span) if sliding else
+        OTHER_REST_SPANS.get(law, OTHER_SPANS.get(law, other_span)))
+        for law in OTHER_LAWS for sliding in (True, False)}
     repeats = {law: 1 if quick else OTHER_REPEATS_BY_LAW.get(law, OTHER_REPEATS)
                for law in OTHER_LAWS}
     records: list[dict[str, Any]] = []
@@ -269,7 +275,7 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
             for law in LAWS:
                 records.append(_box_record(n, sliding, law, span, progress))
             for law in OTHER_LAWS:
-                records.append(_box_record(n, sliding, law, spans[law], progress,
+                records.append(_box_record(n, sliding, law, spans[law, sliding], progress,
                                            repeats=repeats[law]))
     refused = _chatterjee_ruina(boxes[0], other_span)
     # what warm starts and islands buy: the largest row without each
@@ -290,7 +296,8 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
     summary = []
     for laws, what in ((LAWS, "on the engine (islands, warm starts)"),
                        (OTHER_LAWS, "island by island through resolve_impact (pereira-nikravesh: "
-                                    "the law's impulse directly on steps without an impact)")):
+                                    "the law's impulse directly on steps without an impact, "
+                                    "resting islands by the certificate of its answer)")):
         ratios = [t["ratio"] for t in table if t["ratio"] and t["law"] in laws]
         summary.append(
             f"moreau-scale: Moreau–Jean {what}, laws {', '.join(laws)}, against MuJoCo at "
@@ -302,8 +309,8 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
     summary.append("  MuJoCo's exponents " + ", ".join(
         f"{k.split('/')[1]} {v['exponent']:.2f}" for k, v in exps.items()
         if k.startswith("mujoco/")) + "; " + ", ".join(
-            f"{law} timed over {spans[law]:g} s (median of {repeats[law]})"
-            for law in OTHER_LAWS) + f", {', '.join(LAWS)} over {span:g} s (median "
+            f"{law} timed over {spans[law, True]:g} s sliding, {spans[law, False]:g} s at "
+            f"rest (median of {repeats[law]})" for law in OTHER_LAWS) + f", {', '.join(LAWS)} over {span:g} s (median "
         f"of {REPEATS})")
     if refused:
         summary.append(f"  chatterjee-ruina on {4 * boxes[0]} contacts at rest refuses: {refused}")
@@ -347,7 +354,8 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
                    "(2 cores, shared: medians)")
     meta = {"step": STEP, "span": span, "other_span": other_span, "load_average": load,
             "boxes": list(boxes), "laws": list(LAWS), "other_laws": list(OTHER_LAWS),
-            "other_repeats": OTHER_REPEATS, "other_spans": spans, "other_repeats_by_law": repeats,
+            "other_repeats": OTHER_REPEATS, "other_spans": {
+                f"{law}/{'sliding' if sl else 'rest'}": v for (law, sl), v in spans.items()}, "other_repeats_by_law": repeats,
             "chatterjee_ruina_refused": refused,
             "repeats": REPEATS, "mujoco_repeats": MUJOCO_REPEATS, "mujoco": mujoco_version(),
             "exponents": exps, "table": table}

@@ -91,6 +91,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..compiled import announce
 from ..impact import resolve_impact
 from ..impact.conic.paths import backend as conic_backend
 from ..impact.conic.paths import parse_options
@@ -112,6 +113,8 @@ DIRECT_METHODS = ("auto", "clarabel")
 AMBIGUITY_NOTE = "admissible active sets here"
 #: step times quoted in the run's ambiguity warning
 QUOTED_TIMES = 5
+#: first compilation of the certificate's kernel on 2 cores (s), announced on stderr
+CERTIFICATE_COMPILE_SECONDS = 20
 
 
 class ImpactSolver:
@@ -141,6 +144,7 @@ class ImpactSolver:
         self._last_islands = (None, b"", None, None)  # (groups, moves' bytes, islands, plan)
         #: islands (their contacts' bytes) certified sticking on every contact last step
         self._modes_last: set = set()
+        self._announced = False
         self.certified = 0  # island steps answered by the certificate alone
         self.checks = 0           # island steps the law searched (its diagnostic included)
         self.ambiguous: list = []  # (t_m, step, note) of the searches that found ambiguity
@@ -154,6 +158,9 @@ class ImpactSolver:
         vnk = Ja[:, 0, :] @ st.v
         vnf = Ja[:, 0, :] @ st.v_free
         approaching = (vnk < -self.rest_velocity) & (vnf < 0.0)
+        if not approaching.any():  # a step without an impact: every coefficient 0
+            zeros = np.zeros(vnk.size)
+            return zeros, (None if self.e_t is None else zeros.copy()), vnk, vnf
         safe = np.where(approaching, vnf, -1.0)
         es = np.where(approaching, np.minimum(self.e[active] * vnk / safe, 1.0), 0.0)
         ets = None
@@ -194,7 +201,7 @@ class ImpactSolver:
         icon, icoff = flat([islands[j][0] for j in chosen])
         icol, icoloff = flat([islands[j][1] for j in chosen])
         keys = [active[islands[j][0]].tobytes() for j in chosen]
-        plan = (np.array(chosen, dtype=np.int64), keys, icon, icoff, icol, icoloff)
+        plan = (chosen, keys, icon, icoff, icol, icoloff)
         self._last_islands = (groups, key, islands, plan)
         return islands, plan
 
@@ -206,22 +213,24 @@ class ImpactSolver:
         law's compiled path is not yet taken (a handful of steps: the law's Python path,
         whose answers are the compiled one's to round-off)."""
         chosen, keys, icon, icoff, icol, icoloff = plan
-        if not chosen.size or not pn.compiled_path_active():
+        if not chosen or not pn.compiled_path_active():
             return None
+        if not self._announced:
+            self._announced = True
+            announce("Moreau–Jean certificate of pereira-nikravesh's resting islands",
+                     CERTIFICATE_COMPILE_SECONDS, certify_islands)
         d = Ja.shape[1]
-        status = np.zeros(chosen.size, dtype=np.int64)
+        status = np.zeros(len(chosen), dtype=np.int64)
         r = np.zeros((Ja.shape[0], d))
         v_new = v_free.copy()
-        certify_islands(Ja, v_free, es, np.ascontiguousarray(self.mu[active]),
-                        np.ascontiguousarray(st.inv.G), icon, icoff, icol, icoloff, d,
+        certify_islands(Ja, v_free, es, self.mu[active], np.ascontiguousarray(st.inv.G),
+                        icon, icoff, icol, icoloff, d,
                         pn.STICK_COND_MAX, pn.CONE_RTOL, pn.VELOCITY_SLACK_MAX, IMMOBILE_RTOL,
                         TINY_NORMAL, r, v_new, status)
-        ok = np.flatnonzero(status == STICK)
         last = self._modes_last
-        # an island's mode: its contacts and the tier certified
-        modes = [keys[n] + bytes([int(status[n])]) for n in ok]
-        answered = {int(chosen[n]) for n, mode in zip(ok, modes) if mode in last}
-        certified = set(modes)
+        # an island's mode: its contacts, sticking on every one
+        certified = {keys[n] for n in np.flatnonzero(status == STICK).tolist()}
+        answered = {chosen[n] for n, key in enumerate(keys) if key in certified and key in last}
         return answered, r, v_new, certified
 
     def _note(self, st, notes) -> None:
@@ -302,10 +311,11 @@ class ImpactSolver:
             answered, impulse, v_new, self._modes_last = certified
             self.calls += len(answered)
             self.certified += len(answered)
-        for j, (cs, cols) in enumerate(islands):
-            if j in answered:
-                self.largest_island = max(self.largest_island, int(cs.size))
-                continue
+        if answered:
+            self.largest_island = max(self.largest_island,
+                                      max(islands[j][0].size for j in answered))
+            islands = [isl for j, isl in enumerate(islands) if j not in answered]
+        for cs, cols in islands:
             if not cone and np.all(vnf[cs] >= 0.0):
                 continue
             one = cs.size == 1
@@ -350,7 +360,8 @@ class ImpactSolver:
                 self._note(st, r.diagnostics.notes)
         sigma = st.sigma + dsig if self.m else st.sigma
         self.impulse = impulse
-        hit = [i for i in range(na) if vnk[i] < -self.rest_velocity and impulse[i, 0] > 0.0]
+        hit = [] if direct else [i for i in range(na)
+                                 if vnk[i] < -self.rest_velocity and impulse[i, 0] > 0.0]
         if hit:
             hit_results = [r for cs, r in results if np.isin(cs, hit).any()]
             self.impacts.append(ImpactEvent(
