@@ -61,7 +61,8 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
     fig.suptitle(f"Moreau–Jean vs MuJoCo, same step h = {step:g} s: ccp, coulomb and "
                  "dissipative on the contact engine (certified at 1e-8),\npereira-nikravesh and "
                  "stronge island by island (the law's impulse, resolve_impact at impacts; "
-                 "medians)", fontsize=10)
+                 "pereira-nikravesh's resting\nislands by the certificate of its answer after "
+                 "the first step; medians)", fontsize=10)
     fig.tight_layout()
     return save_chart(fig, out, "moreau_scale_growth.png")
 

@@ -33,7 +33,9 @@ other laws, which cost milliseconds per island and step, over :data:`OTHER_SPAN`
   max(v0 - mu g t, 0) (relative to v0);
 * ``max_lift`` (m): the highest any box's centre rose above its resting height (a sliding
   box lifts off under the cone complementarity laws ccp and dissipative: ``u_n = mu |u_t|``);
-* ours: ``contact_solver`` (islands solved, warm starts certified, engine calls).
+* ours: ``contact_solver`` (islands solved, warm starts certified, engine calls; for
+  pereira-nikravesh the island steps answered by the certificate, searched, and found with
+  several admissible active sets) and the run's ``warnings``.
 
 Fitted exponents: least squares of log(wall per simulated second) against log(contacts) over
 4..128 contacts, per law and motion, ours and MuJoCo's. ``ablation``: the 32-box rows over
@@ -123,7 +125,8 @@ def _box_record(n: int, sliding: bool, law: str, span: float, progress: Progress
            "walls": walls, "max_penetration": res.max_penetration,
            "energy_rise": _energy_rise(E, scale), "contact_solver": res.contact_solver,
            "max_lift": float(np.max(np.asarray(res.theta)[:, 2::6]) - HALF[2]),
-           "max_active_contacts": res.max_active_contacts, **options}
+           "max_active_contacts": res.max_active_contacts, "warnings": list(res.warnings),
+           **options}
     if sliding:
         exact = max(SLIDE_SPEED - MU * GRAVITY * span, 0.0)
         rec["speed_error"] = float(np.max(np.abs(res.dtheta[-1][0::6] - exact)) / SLIDE_SPEED)

@@ -135,3 +135,37 @@ def test_a_box_that_stops_is_searched_while_it_slides_and_once_at_rest():
     assert cs["certified"] + cs["searched"] == res.n_steps
     assert np.max(np.abs(res.dtheta[-1])) < 1e-12
     assert len(res.warnings) == 1
+
+
+def _certify_one_box(sliding=False, mu=MU, e_eff=0.0):
+    """certify_islands on one box's four corners: (status, impulses (4, 3))."""
+    from convimpact.impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL
+    from convimpact.simulation.moreau_pn_kernels import certify_islands
+
+    mech, q, v = box_row(1, sliding)
+    st = _step(mech, q, v)
+    Ja = np.ascontiguousarray(st.Ja)
+    r, v_new, status = np.zeros((4, 3)), st.v_free.copy(), np.zeros(1, dtype=np.int64)
+    mus = np.full(4, MU)
+    mus[0] = mu
+    certify_islands(Ja, st.v_free, np.full(4, e_eff), mus, st.inv.G, np.arange(4),
+                    np.array([0, 4]), np.arange(6), np.array([0, 6]), 3, pc.STICK_COND_MAX,
+                    pc.CONE_RTOL, pc.VELOCITY_SLACK_MAX, IMMOBILE_RTOL, TINY_NORMAL, r, v_new,
+                    status)
+    return int(status[0]), r, v_new
+
+
+def test_the_certificate_holds_only_where_its_argument_does():
+    """Resting box: certified, m g h / 4 per corner and v = 0 (closed form). It declines
+    (the law searches) where sticking on every contact is not the least T+ over every
+    impulse: the box sliding (no sticking set is admissible), a frictionless corner (its
+    tangent rows are not stuck), restitution acting (b != v-: u_n = -e v_n- is not 0)."""
+    from convimpact.simulation.moreau_pn_kernels import SEARCH, STICK
+
+    status, r, v_new = _certify_one_box()
+    assert status == STICK
+    np.testing.assert_allclose(r[:, 0], BOX_MASS * GRAVITY * H / 4, rtol=1e-12)
+    assert np.max(np.abs(r[:, 1:])) < 1e-15 and np.max(np.abs(v_new)) < 1e-12
+    assert _certify_one_box(sliding=True)[0] == SEARCH
+    assert _certify_one_box(mu=0.0)[0] == SEARCH
+    assert _certify_one_box(e_eff=0.5)[0] == SEARCH

@@ -88,6 +88,27 @@ def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
 
 
 @_jit
+def set_rows(member, mu, d, rows, normals):
+    """The flat rows of active set ``member`` (n,) bool: every row of a frictional contact,
+    the normal row of a frictionless one, into ``rows[:m]``; with ``normals`` of size n also
+    the normal rows into ``normals[:k]``. Returns (m, k)."""
+    m = 0
+    k = 0
+    for i in range(mu.size):
+        if member[i]:
+            if normals.size:
+                normals[k] = i * d
+                k += 1
+            rows[m] = i * d
+            m += 1
+            if mu[i] > 0.0:
+                for a in range(1, d):
+                    rows[m] = i * d + a
+                    m += 1
+    return m, k
+
+
+@_jit
 def stick_solve(W, b, mu, d, member, cond_max, rows):
     """The sticking system of one active set (``member`` (n,) bool): ``W_SS x = -b_S`` with
     S (written into ``rows[:m]``) every row of a frictional contact of A and the normal row
@@ -95,16 +116,7 @@ def stick_solve(W, b, mu, d, member, cond_max, rows):
     least-squares solution kept only when consistent (see :func:`stick_tier`).
 
     Returns ``(solved, m, x (m,), lam (m,))``, lam the eigenvalues of W_SS (ascending)."""
-    n = mu.size
-    m = 0
-    for i in range(n):
-        if member[i]:
-            rows[m] = i * d
-            m += 1
-            if mu[i] > 0.0:
-                for k in range(1, d):
-                    rows[m] = i * d + k
-                    m += 1
+    m, _ = set_rows(member, mu, d, rows, rows[:0])
     Wss = np.empty((m, m))
     r = np.empty(m)
     for a in range(m):
@@ -174,18 +186,7 @@ def relaxed_bounds(W, b, vminus, mu, d, sets):
     rows = np.empty(N, dtype=np.int64)
     normals = np.empty(n, dtype=np.int64)
     for s in range(ns):
-        m = 0
-        k = 0
-        for i in range(n):
-            if sets[s, i]:
-                normals[k] = i * d
-                k += 1
-                rows[m] = i * d
-                m += 1
-                if mu[i] > 0.0:
-                    for a in range(1, d):
-                        rows[m] = i * d + a
-                        m += 1
+        m, k = set_rows(sets[s], mu, d, rows, normals)
         size = m + k
         K = np.zeros((size, size))
         rhs = np.empty(size)
