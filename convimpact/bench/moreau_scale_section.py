@@ -313,7 +313,8 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
         f"{k.split('/')[1]} {v['exponent']:.2f}" for k, v in exps.items()
         if k.startswith("mujoco/")) + "; " + ", ".join(
             f"{law} timed over {spans[law, True]:g} s sliding, {spans[law, False]:g} s at "
-            f"rest (median of {repeats[law]})" for law in OTHER_LAWS) + f", {', '.join(LAWS)} over {span:g} s (median "
+            f"rest (median of {repeats[law]})" for law in OTHER_LAWS)
+        + f", {', '.join(LAWS)} over {span:g} s (median "
         f"of {REPEATS})")
     if refused:
         summary.append(f"  chatterjee-ruina on {4 * boxes[0]} contacts at rest refuses: {refused}")
@@ -358,7 +359,8 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
     meta = {"step": STEP, "span": span, "other_span": other_span, "load_average": load,
             "boxes": list(boxes), "laws": list(LAWS), "other_laws": list(OTHER_LAWS),
             "other_repeats": OTHER_REPEATS, "other_spans": {
-                f"{law}/{'sliding' if sl else 'rest'}": v for (law, sl), v in spans.items()}, "other_repeats_by_law": repeats,
+                f"{law}/{'sliding' if sl else 'rest'}": v for (law, sl), v in spans.items()},
+            "other_repeats_by_law": repeats,
             "chatterjee_ruina_refused": refused,
             "repeats": REPEATS, "mujoco_repeats": MUJOCO_REPEATS, "mujoco": mujoco_version(),
             "exponents": exps, "table": table}

@@ -54,28 +54,29 @@ that call would raise or report unsolved active sets the full call is made.
 
 **Resting islands without the search** (same law and methods, once the law's compiled path
 is taken): the law returns the most dissipative admissible active set and, to warn when
-several admissible sets have different velocities, solves all 2^n - 1 of them on every
-call. On such a step every island is first tried by one compiled call
+several admissible sets have different velocities, solves all 2^n - 1 of them on every call.
+On such a step every island is first tried by one compiled call
 (:func:`.moreau_pn_kernels.certify_islands`): where sticking on every contact is admissible
-and is the least ``T+`` over *every* impulse (all contacts frictional, no restitution acting,
-``W pi + v- = 0`` to round-off), no other set can be more dissipative with other velocities,
-so the law's selection rule picks that set (the largest) -- the same impulse, to round-off
-(:mod:`.moreau_pn_kernels` gives the argument and its margins). The law's search is then
-skipped, but the **ambiguity diagnostic is not dropped**: an island so certified is searched
-in full (its answer and its warning taken from the law) on the first step of that mode --
-the first step the island, with the same active contacts, is certified -- and answered by
-the certificate alone on the following steps of the mode; a change of the island's contacts,
-a step the certificate does not hold (sliding, restitution, an impact step through
-``resolve_impact``) or a step in between ends the mode. Every search's warning on several
-admissible active sets with different velocities (direct steps and ``resolve_impact`` calls
-alike) is counted, and the run carries one warning with the count, the number of island
-steps searched and the first step times (``MoreauResult.warnings``; the counts are in
-``contact_solver``: ``certified`` island steps answered by the certificate alone,
-``searched`` island steps of several contacts the law searched, ``ambiguous`` those that
-found several admissible sets). What is not checked: steps inside a certified resting mode
-(the same contacts sticking on every contact, step after step), whose admissible sets are
-not enumerated again. Sliding islands are searched on every step (the law's answer needs
-the search there: no bound prunes its slide programs), so their warnings are complete.
+and is the least ``T+`` over *every* impulse (all contacts frictional, no restitution
+acting, ``W pi + v- = 0`` to round-off), no other set can be more dissipative with other
+velocities, so the law's selection rule picks that set (the largest) -- the same impulse, to
+round-off (:mod:`.moreau_pn_kernels` gives the argument and its margins). The law's search
+is then skipped, but the **ambiguity diagnostic is not dropped**: an island so certified is
+searched in full (its answer and its warning taken from the law) on the first step of that
+mode -- the first step the island, with the same active contacts, is certified -- and
+answered by the certificate alone on the following steps of the mode; a change of the
+island's contacts, a step the certificate does not hold (sliding, restitution, an impact
+step through ``resolve_impact``) or a step without active contacts ends the mode. Every
+search's warning on several admissible active sets with different velocities (direct steps
+and ``resolve_impact`` calls alike) is counted, and the run carries one warning with the
+count, the number of island steps searched and the first step times
+(``MoreauResult.warnings``; the counts are in ``contact_solver``: ``certified`` island steps
+answered by the certificate alone, ``searched`` island steps of several contacts the law
+searched, ``ambiguous`` those that found several admissible sets). What is not checked:
+steps inside a certified resting mode (the same contacts sticking on every contact, step
+after step), whose admissible sets are not enumerated again. Sliding islands are searched on
+every step (the law's answer needs the search there: no bound prunes its slide programs), so
+their warnings are complete.
 
 An :class:`~.result.ImpactEvent` is recorded on the steps where an approaching contact
 receives a normal impulse: the step's active contacts' impulses, regimes (in the order of
@@ -150,7 +151,7 @@ class ImpactSolver:
         self.ambiguous: list = []  # (t_m, step, note) of the searches that found ambiguity
 
     def idle(self) -> None:
-        pass
+        self._modes_last = set()  # a step without contacts ends every resting mode
 
     def _coefficients(self, st, active: np.ndarray):
         """Per active contact: e_eff, e_t (or None), v_n,k and v_n,free."""
