@@ -81,6 +81,14 @@ class ContactEvents:
         self.eq = CanonicalEquations(self.mech, held, modes, dropped, dims,
                                      slip_floor=o.rest_velocity)
         self.eq_log.append((t, self.eq))
+        self.margin_hint = {"eq": self.eq}
+        if held and dropped:  # the force problem's distribution stands in for the first
+            d = max(dims[c] for c in held)  # margins (:func:`~.sustained.held_forces`)
+            lam = np.zeros(len(held) * d)
+            for i, c in enumerate(held):
+                f = sol.force[candidates.index(c)]
+                lam[i * d:i * d + dims[c]] = f[:dims[c]]
+            self.margin_hint["lam"] = lam
         self.track_projection(self.eq.jacobian, th, dth)
         dth = project_onto(M, self.eq.jacobian(th), dth)
         if self.eq.redundant:  # a sliding redundant group starts from sol's forces

@@ -235,7 +235,7 @@ def _candidate(P: ContactForceProblem, combo, dirs, onset, rtol: float):
         # (a combination whose largest margin is clearly negative is rejected after the
         # program's first stage: no distribution of it holds)
         lam, margin = max_margin_distribution(P.mu, P.d, combo, lam, Z, fscale,
-                                              below=-rtol * fscale)
+                                              below=-rtol * fscale, orthonormal=True)
         slack = _slacks(P, combo, dirs, lam, onset)
         margin = min(margin, float(np.min(slack, initial=np.inf)))
     if margin < -rtol * fscale:

@@ -166,9 +166,9 @@ class EventWatch:
         recorded = self._recorded
         if same:
             out["margin"] = memo[4]
-        elif (keys is None and recorded is not None
+        elif (keys is None and recorded is not None and recorded.forces is not None
               and recorded.matches(self.eq, t, key)):  # the exact ones of the sample just
-            forces = recorded.resolve()              # recorded (computed once)
+            forces = recorded.forces                 # recorded, already computed
             margin = recorded.margin
             self.margin_hint["exact"] = True
             if forces:
@@ -179,8 +179,7 @@ class EventWatch:
                 self.margin_hint["lam"] = lam
             out["margin"] = margin + MARGIN_SLACK
         elif want("margin"):
-            forces, margin = held_forces(self.eq, t, y, self.margin_hint,
-                                         margin_only=keys is not None)
+            forces, margin = held_forces(self.eq, t, y, self.margin_hint, margin_only=True)
             out["margin"] = margin + MARGIN_SLACK
         if anchors:
             th, dth, _ = self.state(y)

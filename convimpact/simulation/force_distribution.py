@@ -40,11 +40,14 @@ BELOW_GUARD = 1e-9
 #: the same for the solver's own largest smallest margin, unpolished, where its status is
 #: "Solved" (its tolerances 1e-11)
 SOLVED_GUARD = 1e-8
+#: active sets a margin-only call's warm start tries (the last program's, then earlier ones)
+WARM_SETS = 4
 
 
 def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
                             fscale: float, below: float | None = None,
-                            warm: dict | None = None) -> tuple[np.ndarray, float]:
+                            warm: dict | None = None,
+                            orthonormal: bool = False) -> tuple[np.ndarray, float]:
     """The force distribution chosen among the indeterminate ones ``lam0 + Z xi``: the
     largest smallest margin, then, among the distributions reaching it, the least Euclidean
     norm. Unique for any data.
@@ -108,6 +111,10 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     a margin-only call (``below=inf``) first tries Newton's method on the optimality
     conditions at that active set (:func:`_warm_max_min`), the solver only where it fails.
 
+    ``orthonormal``: the columns of ``Z`` are orthonormal already (a basis from an SVD or
+    a QR of full rank), used as they are (their round-off entries zeroed, as
+    :func:`_range_basis` does) instead of an SVD of them.
+
     Returns (lambda, margin): the distribution (n d,) and its smallest margin (force units;
     ``inf`` without stick or slip contacts).
     """
@@ -117,7 +124,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     scale = float(fscale)
     if not (np.isfinite(scale) and scale > 0.0):
         scale = max(float(np.max(np.abs(lam0), initial=0.0)), 1e-300)
-    Q = _range_basis(Z)
+    Q = _zero_round_off(Z) if orthonormal else _range_basis(Z)
     r = Q.shape[1]
     l0 = lam0 / scale  # unknowns in units of the force scale: order one
     blocks = _margin_blocks(mu, d, combo, l0, Q)
@@ -131,8 +138,8 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     w = np.concatenate([blk[3] for blk in blocks])
     cones = [(blk[0], len(blk[2])) for blk in blocks]
     if warm is not None and below is not None and not np.isfinite(below) and below > 0.0:
-        got = _warm_max_min(blocks, warm, lam0, Q, scale)
-        if got is not None:  # the margin alone, at the last program's active set
+        got = _warm_tries(blocks, warm, lam0, Q, scale)
+        if got is not None:  # the margin alone, at a recent program's active set
             y_star, t_star = got
             lam = lam0 + Q @ (y_star * scale)
             warm["lam"], warm["tau"] = lam, t_star
@@ -152,6 +159,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     # its optimality conditions solved to round-off on the active cones (Newton)
     y_star, t_star, kinds, active = _polish_max_min(blocks, x1, z1)
     if warm is not None:
+        _keep_earlier(warm)
         warm["active"] = active
         warm["lam"], warm["tau"] = lam0 + Q @ (y_star * scale), t_star
     t_star = min(t_star, _smallest_margin(mu, d, combo, l0 + Q @ y_star))
@@ -209,6 +217,38 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     return lam, margin
 
 
+def _warm_tries(blocks, warm: dict, lam0: np.ndarray, Q: np.ndarray, scale: float):
+    """:func:`_warm_max_min` at the last program's active set, then at the earlier ones
+    kept (:data:`WARM_SETS` in all, the latest first; the one that holds becomes the
+    last): locating a margin's zero, the evaluations alternate between the two sides of
+    the root and between regions of the step where different cones bind, so the active set
+    of the evaluation before is often not this one's while an earlier one is. (Each is a
+    certified optimum, whichever active set it came from: :func:`_warm_max_min`.)"""
+    got = _warm_max_min(blocks, warm, lam0, Q, scale)
+    if got is not None:
+        return got
+    earlier = warm.get("earlier", [])
+    for j, (active, lam, tau) in enumerate(earlier):
+        trial = {"active": active, "lam": lam, "tau": tau}
+        got = _warm_max_min(blocks, trial, lam0, Q, scale)
+        if got is not None:
+            del earlier[j]
+            _keep_earlier(warm)
+            warm["active"] = trial["active"]
+            return got
+    return None
+
+
+def _keep_earlier(warm: dict) -> None:
+    """Move the warm start's last active set (with its maximizer) to the front of its
+    earlier ones (:data:`WARM_SETS` - 1 kept)."""
+    if warm.get("active") is None or warm.get("lam") is None:
+        return
+    earlier = warm.setdefault("earlier", [])
+    earlier.insert(0, (warm["active"], warm["lam"], warm["tau"]))
+    del earlier[WARM_SETS - 1:]
+
+
 def _range_basis(Z: np.ndarray) -> np.ndarray:
     """An orthonormal basis of the span of Z's columns (rank relative 1e-10; entries below
     1e-13 set to zero)."""
@@ -216,9 +256,13 @@ def _range_basis(Z: np.ndarray) -> np.ndarray:
         return np.zeros((Z.shape[0], 0))
     U, sv, _ = np.linalg.svd(Z, full_matrices=False)
     rank = int(np.sum(sv > 1e-10 * sv[0])) if sv[0] > 0.0 else 0
-    Q = U[:, :rank]
-    # entries at round-off are zeros (a contact outside the redundancy): left in, they make
-    # rows of size 1e-16 that the solver's equilibration blows up
+    return _zero_round_off(U[:, :rank])
+
+
+def _zero_round_off(Q: np.ndarray) -> np.ndarray:
+    """An orthonormal basis with its entries at round-off (below 1e-13) set to zero: they
+    are zeros (a contact outside the redundancy); left in, they make rows of size 1e-16
+    that the solver's equilibration blows up."""
     return np.where(np.abs(Q) > 1e-13, Q, 0.0)
 
 

@@ -64,6 +64,9 @@ MODE_RTOL = 1e-7
 EDGE_RTOL = 1e-4
 #: edge contacts tried both ways at most (2^EDGE_MAX combinations)
 EDGE_MAX = 6
+#: relative residual below which an onset's tangential rows count as combinations of the
+#: rows its combination holds at zero (:func:`_refused_as_stuck`)
+STUCK_RTOL = 1e-10
 
 
 def islands(W: np.ndarray, n: int, d: int) -> list[np.ndarray]:
@@ -262,16 +265,68 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
     best = _attempt(P, first, rtol, failures, vanishing)
     if (best is not None and best.margin >= 0.0) or not edges:
         return _kept(best, failures)
-    for k, picks in enumerate(itertools.product(*[opts for _, opts in edges])):
+    # the option indices of the combinations refused outright (no solver failure)
+    refused = set() if best is not None or failures else {(0,) * len(edges)}
+    for k, picks in enumerate(itertools.product(*[range(len(opts)) for _, opts in edges])):
         if k == 0:
             continue  # the first combination, tried above
         choice = list(first)
-        for (i, _), pick in zip(edges, picks):
-            choice[i] = pick
+        for (i, opts), j in zip(edges, picks):
+            choice[i] = opts[j]
+        if _refused_as_stuck(P, choice, edges, picks, refused):
+            refused.add(picks)
+            continue
+        n_failed = len(failures)
         cand = _attempt(P, choice, rtol, failures, vanishing)
+        if cand is None and len(failures) == n_failed:
+            refused.add(picks)
         if cand is not None and (best is None or _rank(cand) < _rank(best)):
             best = cand
     return _kept(best, failures)
+
+
+def _refused_as_stuck(P: ContactForceProblem, choice, edges, picks, refused) -> bool:
+    """Whether a combination is refused because the same combination with its slip onsets
+    sticking instead was: where every onset's tangential acceleration is held at zero by
+    the combination's own equations.
+
+    A combination C fixes ``a_n = 0`` at its closed contacts and ``a_t = 0`` at its
+    sticking ones (rows K of ``a = W lambda + b``). Where an onset's tangential rows T are
+    combinations of them, ``W_T = G W_K`` and ``b_T = G b_K`` (to round-off, tested here),
+    ``a_T = G a_K = 0`` for every lambda of C: a slip that cannot start (a box with two of
+    its corners sticking: its other corners are held too, the relative motion being
+    rigid). A solution of C is then one of C' (the onsets sticking, no other change): its
+    equations hold, and its margins are C's (the onsets' forces lie on their cones'
+    boundaries, margin 0, their lambda_n kept >= the margin). So where C' was refused
+    (its largest margin below the tolerance, by the guards of
+    :func:`~.force_distribution.max_margin_distribution`), C is too, and is not solved
+    (the box stack's top box at its slip onset: 10 of 16 combinations). ``picks``: C's
+    option index per edge contact; ``refused``: the picks refused so far."""
+    d = P.d
+    onsets = [i for i, c in enumerate(choice)
+              if c[0] == SLIP and c[2] and P.mu[i] > 0.0 and not P.sliding(i)]
+    if not onsets:
+        return False
+    edge_of = {i: e for e, (i, _) in enumerate(edges)}
+    stuck = list(picks)
+    for i in onsets:
+        e = edge_of.get(i)
+        j = None if e is None else next(
+            (j for j, o in enumerate(edges[e][1]) if o[0] == STICK), None)
+        if j is None:
+            return False
+        stuck[e] = j
+    if tuple(stuck) not in refused:
+        return False
+    K = [i * d + j for i, c in enumerate(choice) if c[0] != OPEN
+         for j in (range(d) if c[0] == STICK else (0,))]
+    T = [i * d + j for i in onsets for j in range(1, d)]
+    W, b = P.delassus, P.free_acceleration
+    G = np.linalg.lstsq(W[K].T, W[T].T, rcond=None)[0].T  # W_T ~ G W_K
+    ascale = _scales(P)[0]
+    wscale = max(float(np.max(np.abs(W))), 1e-300)
+    return bool(np.max(np.abs(W[T] - G @ W[K])) <= STUCK_RTOL * wscale
+                and np.max(np.abs(b[T] - G @ b[K])) <= STUCK_RTOL * ascale)
 
 
 def _attempt(P, choice, rtol: float, failures: list, vanishing: bool = False):

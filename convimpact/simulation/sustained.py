@@ -170,14 +170,16 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
         # (_determinate_part), else P = I - Q Q^T with Q an orthonormal basis of Z.
         # lam0 - (I - P) lam0 = P lam0 is the least-norm distribution.
         cheap = _determinate_part(eq, y, d)
-        Z = None
+        Z, basis = None, None
         if cheap is not None:
-            project, null = cheap
+            project, null, basis = cheap
         else:
             Z = _indeterminate(eq, y, d)
             null = Z.shape[1] > 0
             if null:
                 Q = np.linalg.qr(Z)[0]
+                if not eq.n_loops:  # Z of full rank: Q is an orthonormal basis of it
+                    basis = (lambda: Q)
 
                 def project(v):
                     return v - Q @ (Q.T @ v)
@@ -189,11 +191,18 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
                     lam = prev - project(prev - lam0)
                 if prev is None or prev.shape != lam0.shape or (
                         smallest(lam) <= HINT_MARGIN * fscale):
-                    if Z is None:
+                    # (margin only: an orthonormal basis of Z's span where one is at hand;
+                    # the distribution chosen keeps the basis of _indeterminate: among
+                    # many maximizers its last digits can depend on the basis)
+                    orthonormal = margin_only and basis is not None
+                    if orthonormal:
+                        Z = basis()
+                    elif Z is None:
                         Z = _indeterminate(eq, y, d)
                     lam, _ = max_margin_distribution(
                         mu, d, combo, lam0, Z, fscale, below=np.inf if margin_only else None,
-                        warm=None if hint is None else hint.setdefault("warm", {}))
+                        warm=None if hint is None else hint.setdefault("warm", {}),
+                        orthonormal=orthonormal)
                     if hint is not None:
                         hint["lam"] = lam
                         if margin_only:
@@ -231,8 +240,10 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
     forces: the complement is spanned by the thin SVD's rows R of B, P = R^T R) or all
     sliding with one mu (each unknown, a normal force, enters its contact's block along
     (1, -mu s), of one norm for all: with T those unit columns, P = I - T (I - R^T R) T^T).
-    Returns (v -> P v, whether there are indeterminate directions), or None (then
-    :func:`_indeterminate` and a QR)."""
+    Returns (v -> P v, whether there are indeterminate directions, a function returning an
+    orthonormal basis of them or None), or None (then :func:`_indeterminate` and a QR).
+    All sticking, the basis is the SVD's other right singular vectors (the null space of
+    B, :func:`_indeterminate`'s Z up to a rotation), computed on demand."""
     if eq.n_loops:
         return None
     kinds = {eq.modes[c].kind for c in eq.held}
@@ -267,13 +278,15 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
     R = Vt[:rank]
     null = rank < B.shape[1]  # indeterminate directions exist
     if T is None:
-        return (lambda v: R.T @ (R @ v)), null
+        def basis():
+            return np.linalg.svd(B)[2][rank:].T
+        return (lambda v: R.T @ (R @ v)), null, basis
 
     def project(v):
         u = np.einsum("ij,ij->i", T, v.reshape(n, d))  # T^T v
         w = u - R.T @ (R @ u)  # its indeterminate part
         return v - (T * w[:, None]).ravel()
-    return project, null
+    return project, null, None
 
 
 def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
