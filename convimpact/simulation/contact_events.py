@@ -50,8 +50,14 @@ class ContactEvents:
             self.track_projection(normals.jacobian, th, dth)
             dth = project_onto(M, normals.jacobian(th), dth)
             cs = contact_state(self.mech, t, th, dth, candidates, o.rest_velocity)
+            hint = self.margin_hint  # the ended segment's margin program, if any
+            warm = hint.get("warm") if hint.get("eq") is self.eq else None
+            if warm is not None and warm.get("active") is not None:
+                warm = {**warm, "earlier": list(warm.get("earlier", ()))}
+            else:
+                warm = None
             try:
-                sol = solve_contact_forces(cs.problem)
+                sol = solve_contact_forces(cs.problem, warm=warm)
             except PainleveError as exc:
                 involved = [candidates[i] for i in getattr(exc, "contacts", ())]
                 text = str(exc) + (f" (contacts involved: {', '.join(involved)})"

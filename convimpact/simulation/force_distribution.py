@@ -109,7 +109,10 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     ``warm`` (a dict the caller keeps between programs of one set of contacts and modes,
     e.g. over a segment): the last program's active set and maximizer are kept there, and
     a margin-only call (``below=inf``) first tries Newton's method on the optimality
-    conditions at that active set (:func:`_warm_max_min`), the solver only where it fails.
+    conditions at that active set (:func:`_warm_max_min`), the solver only where it fails;
+    with a finite ``below`` (a refusal), a largest margin certified so below ``below`` (by
+    :data:`BELOW_GUARD`) is returned without the solver (the mode selection at the event a
+    held group's margin crossing located, from the located margin's active set).
 
     ``orthonormal``: the columns of ``Z`` are orthonormal already (a basis from an SVD or
     a QR of full rank), used as they are (their round-off entries zeroed, as
@@ -143,6 +146,13 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
             y_star, t_star = got
             lam = lam0 + Q @ (y_star * scale)
             warm["lam"], warm["tau"] = lam, t_star
+            return lam, _smallest_margin(mu, d, combo, lam)
+    elif warm is not None and below is not None and np.isfinite(below):
+        got = _warm_tries(blocks, warm, lam0, Q, scale)
+        if got is not None and got[1] * scale < below - BELOW_GUARD * scale:
+            # certified below (the optimality conditions at a nearby program's active
+            # set: the polished solver's t*, without the solver)
+            lam = lam0 + Q @ (got[0] * scale)
             return lam, _smallest_margin(mu, d, combo, lam)
     # stage 1: max tau s.t. b - A y - tau w in the cones; unknowns (y, tau)
     q1 = np.zeros(r + 1)

@@ -139,8 +139,10 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
     active, k, row = [], r + 1, r + 1
     for (kind, Ab, bb, wb), how, n in zip(blocks, kinds, sizes):
         if how is not None:
-            Aw = np.hstack([Ab, wb[:, None]])  # the stationarity's -d/dz
-            active.append((how, Ab, bb, wb, Aw.T.copy(), k, row, len(bb)))
+            AwT = np.empty((r + 1, len(bb)))  # the stationarity's -d/dz
+            AwT[:r] = Ab.T
+            AwT[r] = wb
+            active.append((how, Ab, bb, wb, AwT, k, row, len(bb)))
             row += len(bb)
         k += n
     size = r + 1 + sum(sizes)
@@ -200,14 +202,19 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
     if not best_norm <= 1e-12:
         return None
     y, tau = best[:r], best[r]
+    # every cone's slack at once (the inactive ones must lie in their cones), as floats
+    slack = (np.concatenate([blk[2] for blk in blocks]) - np.vstack([blk[1] for blk in blocks]) @ y
+             - tau * np.concatenate([blk[3] for blk in blocks])).tolist()
+    k = 0
     for (kind, Ab, bb, wb), how, p in zip(blocks, kinds, parts(best)):
-        s = bb - Ab @ y - tau * wb
+        m = len(bb)
         if how is None:
-            viol = _cone_violation(s, [(kind, len(bb))])
+            viol = _list_violation(kind, slack[k:k + m])
         elif how == "zero":
-            viol = _cone_violation(p, [(kind, len(bb))])
+            viol = _cone_violation(p, [(kind, m)])
         else:
             viol = max(-p[0], -p[1])
+        k += m
         if viol > 1e-12:
             return None
     return best
@@ -222,6 +229,13 @@ def _off_ray(u: np.ndarray) -> np.ndarray:
 def _norm(v: np.ndarray) -> float:
     """The Euclidean norm of a short vector."""
     return math.sqrt(float(v @ v))
+
+
+def _list_violation(kind: str, part: list) -> float:
+    """How far one cone's entries (a list of floats) lie outside it (0 inside)."""
+    if kind == "nn":
+        return max(0.0, -min(part)) if part else 0.0
+    return max(0.0, math.sqrt(sum(x * x for x in part[1:])) - part[0])
 
 
 def _cone_violation(v: np.ndarray, cones) -> float:

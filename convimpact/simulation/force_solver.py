@@ -96,7 +96,8 @@ def _sub(P: ContactForceProblem, idx: np.ndarray) -> ContactForceProblem:
                                P.mu[idx], P.slip[idx])
 
 
-def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL) -> ContactForceSolution:
+def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL,
+                         warm: dict | None = None) -> ContactForceSolution:
     """The solution of the force problem, island by island (one planar contact: the closed
     form).
 
@@ -111,7 +112,7 @@ def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL) -> ContactF
     n, d = P.n, P.d
     parts = islands(P.delassus, n, d)
     if len(parts) == 1:
-        return _island(P, rtol)
+        return _island(P, rtol, warm)
     force, acc = np.zeros((n, d)), np.zeros((n, d))
     modes, direction = [OPEN] * n, np.zeros((n, d - 1))
     margin, notes = np.inf, []
@@ -129,7 +130,8 @@ def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL) -> ContactF
     return ContactForceSolution(force, acc, tuple(modes), direction, margin, tuple(notes))
 
 
-def _island(P: ContactForceProblem, rtol: float) -> ContactForceSolution:
+def _island(P: ContactForceProblem, rtol: float,
+            warm: dict | None = None) -> ContactForceSolution:
     if P.n == 1 and P.d == 2:
         sols = planar_contact_force(P.delassus, P.free_acceleration, float(P.mu[0]),
                                     float(P.slip[0, 0]), rtol)
@@ -137,7 +139,7 @@ def _island(P: ContactForceProblem, rtol: float) -> ContactForceSolution:
     sol, answers = None, []
     for r, u in _answers(P):  # the modes read off the engine's answer, then Newton's
         answers.append((r, u))
-        sol = _read_modes(P, r, u, rtol)
+        sol = _read_modes(P, r, u, rtol, warm=warm)
         if sol is not None:
             break
     for r, u in answers if sol is None else ():  # onsets of vanishing a_t: any direction
@@ -224,7 +226,7 @@ def _answers(P: ContactForceProblem):
 
 
 def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: float,
-                vanishing: bool = False):
+                vanishing: bool = False, warm: dict | None = None):
     """The exact solution in the modes the engine's answer shows (edges tried both ways),
     or None."""
     n, d = P.n, P.d
@@ -262,7 +264,7 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
             edges.append((i, options))
     edges = sorted(edges, key=lambda e: -len(e[1]))[:EDGE_MAX]
     failures: list[SolverError] = []
-    best = _attempt(P, first, rtol, failures, vanishing)
+    best = _attempt(P, first, rtol, failures, vanishing, warm)
     if (best is not None and best.margin >= 0.0) or not edges:
         return _kept(best, failures)
     # the option indices of the combinations refused outright (no solver failure)
@@ -329,11 +331,12 @@ def _refused_as_stuck(P: ContactForceProblem, choice, edges, picks, refused) -> 
                 and np.max(np.abs(b[T] - G @ b[K])) <= STUCK_RTOL * ascale)
 
 
-def _attempt(P, choice, rtol: float, failures: list, vanishing: bool = False):
+def _attempt(P, choice, rtol: float, failures: list, vanishing: bool = False,
+             warm: dict | None = None):
     """:func:`_exact`, a solver failure of its distribution kept aside (another combination
     may be the solution)."""
     try:
-        return _exact(P, choice, rtol, vanishing)
+        return _exact(P, choice, rtol, vanishing, warm)
     except SolverError as exc:
         failures.append(exc)
         return None
@@ -354,7 +357,8 @@ def _rank(s: ContactForceSolution) -> tuple[bool, int, int]:
     return (s.margin < 0.0, sum(m == OPEN for m in s.modes), sum(m == SLIP for m in s.modes))
 
 
-def _exact(P: ContactForceProblem, choice, rtol: float, vanishing: bool = False):
+def _exact(P: ContactForceProblem, choice, rtol: float, vanishing: bool = False,
+           warm: dict | None = None):
     """The enumerator's solution of one combination; a spatial onset's direction refined to
     the one along its own tangential acceleration (a fixed point), or None."""
     n, d = P.n, P.d
@@ -363,7 +367,7 @@ def _exact(P: ContactForceProblem, choice, rtol: float, vanishing: bool = False)
     onset = [c[2] and c[0] == SLIP and P.mu[i] > 0.0 and not P.sliding(i)
              for i, c in enumerate(choice)]
     ascale = _scales(P)[0]
-    cand = _candidate(P, combo, dirs, onset, rtol)
+    cand = _candidate(P, combo, dirs, onset, rtol, warm)
     if d == 3 and any(onset):
         for _ in range(8):  # the directions as a fixed point, from the engine's
             if cand is None or _along(P, cand, onset, ascale, vanishing):

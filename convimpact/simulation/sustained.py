@@ -105,23 +105,27 @@ def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[R
     if L is None:
         sla.cho_factor(M, lower=True)  # raises scipy's error, as before
         raise np.linalg.LinAlgError("the mass matrix is not positive definite")
-    kept = [] if loop_rows is None else [r for r in np.atleast_2d(loop_rows)]
+    loops = [] if loop_rows is None else [r for r in np.atleast_2d(loop_rows)]
     position: dict = {}
     for i, r in enumerate(rows):
         position.setdefault(r, i)
     order = sorted(rows, key=lambda r: (r[1] > 0, position[r]))
     dropped = []
     scale = max(float(np.max(np.abs(_cho_solve(L, np.eye(len(M)))))), 1e-300)
-    for c, j in order:
+    # every candidate row's products X M^-1 X^T once; a trial's C M^-1 C^T is a submatrix
+    X = np.array(loops + [jac[c][j] for c, j in order], float).reshape(-1, len(M))
+    G = X @ _cho_solve(L, X.T)
+    kept = list(range(len(loops)))
+    for u, (c, j) in enumerate(order, start=len(loops)):
         if len(kept) >= len(M):  # as many independent rows as coordinates: the rest depend
             dropped.append((c, j))
             continue
-        trial = np.array(kept + [jac[c][j]])
-        S = trial @ _cho_solve(L, trial.T)
+        trial = kept + [u]
+        S = G[np.ix_(trial, trial)]
         smin = float(np.linalg.eigvalsh(0.5 * (S + S.T))[0])
-        norm = float(np.sum(jac[c][j] ** 2)) * scale
+        norm = float(X[u] @ X[u]) * scale
         if smin > RANK_RTOL * max(norm, 1e-300):
-            kept.append(jac[c][j])
+            kept.append(u)
         else:
             dropped.append((c, j))
     return frozenset(dropped)
@@ -243,7 +247,7 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
     Returns (v -> P v, whether there are indeterminate directions, a function returning an
     orthonormal basis of them or None), or None (then :func:`_indeterminate` and a QR).
     All sticking, the basis is the SVD's other right singular vectors (the null space of
-    B, :func:`_indeterminate`'s Z up to a rotation), computed on demand."""
+    B, :func:`_indeterminate`'s Z up to a rotation)."""
     if eq.n_loops:
         return None
     kinds = {eq.modes[c].kind for c in eq.held}
@@ -273,14 +277,13 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
         if np.max(norms) - np.min(norms) > 1e-12 * np.max(norms):
             return None  # unit slip directions of unequal length: the general path
         T = cols / norms[:, None]
-    _, sv, Vt = np.linalg.svd(B, full_matrices=False)
+    # (all sticking: the full SVD, at the thin one's cost here, gives the basis too)
+    _, sv, Vt = np.linalg.svd(B, full_matrices=T is None)
     rank = int(np.sum(sv > 1e-8 * sv[0])) if sv.size else 0
     R = Vt[:rank]
     null = rank < B.shape[1]  # indeterminate directions exist
     if T is None:
-        def basis():
-            return np.linalg.svd(B)[2][rank:].T
-        return (lambda v: R.T @ (R @ v)), null, basis
+        return (lambda v: R.T @ (R @ v)), null, (lambda: Vt[rank:].T)
 
     def project(v):
         u = np.einsum("ij,ij->i", T, v.reshape(n, d))  # T^T v
