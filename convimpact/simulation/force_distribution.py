@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
-from .force_distribution_polish import (_cone_violation, _off_ray, _polish_max_min,
-                                         _warm_max_min)
+from .force_distribution_polish import (_cone_violation, _newton_max_min, _off_ray,
+                                         _polish_max_min, _warm_max_min)
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
 #: default relative tolerance of the inequalities
@@ -136,10 +136,6 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
         return lam, _smallest_margin(mu, d, combo, lam)
     # tau <= 1 (the force scale) keeps the max-min bounded: a margin of its own
     blocks.append(("nn", np.zeros((1, r)), np.ones(1), np.ones(1)))
-    A = np.vstack([blk[1] for blk in blocks])
-    b = np.concatenate([blk[2] for blk in blocks])
-    w = np.concatenate([blk[3] for blk in blocks])
-    cones = [(blk[0], len(blk[2])) for blk in blocks]
     if warm is not None and below is not None and not np.isfinite(below) and below > 0.0:
         got = _warm_tries(blocks, warm, lam0, Q, scale)
         if got is not None:  # the margin alone, at a recent program's active set
@@ -154,6 +150,10 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
             # set: the polished solver's t*, without the solver)
             lam = lam0 + Q @ (got[0] * scale)
             return lam, _smallest_margin(mu, d, combo, lam)
+    A = np.vstack([blk[1] for blk in blocks])
+    b = np.concatenate([blk[2] for blk in blocks])
+    w = np.concatenate([blk[3] for blk in blocks])
+    cones = [(blk[0], len(blk[2])) for blk in blocks]
     # stage 1: max tau s.t. b - A y - tau w in the cones; unknowns (y, tau)
     q1 = np.zeros(r + 1)
     q1[r] = -1.0
@@ -227,6 +227,37 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     return lam, margin
 
 
+def margin_extension(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
+                     fscale: float, state: tuple, orthonormal: bool = False) -> float | None:
+    """The smooth extension of the largest smallest margin from one program's active set:
+    the optimality conditions of :func:`max_margin_distribution`'s stage 1 with the cones'
+    kinds of ``state`` (active set, maximizer, margin: a warm start's, at a nearby state)
+    solved by Newton's method, without checking the cones. Where that active set is the
+    program's it is the largest smallest margin (relative to ``fscale``); elsewhere a
+    smooth continuation of it, not a margin of any distribution. None where Newton's
+    method does not converge. (The event location's predictor of a margin's zero:
+    :meth:`~.event_watch.EventWatch.locate_margin`.)"""
+    active, lam_prev, tau = state
+    lam0 = np.asarray(lam0, float).ravel()
+    Q = _zero_round_off(Z) if orthonormal else _range_basis(Z)
+    r = Q.shape[1]
+    blocks = _margin_blocks(np.asarray(mu, float).ravel(), d, combo, lam0 / fscale, Q)
+    if r == 0 or not blocks or active is None:
+        return None
+    blocks.append(("nn", np.zeros((1, r)), np.ones(1), np.ones(1)))
+    kinds, parts = active
+    if len(kinds) != len(blocks) or lam_prev is None or lam_prev.shape != lam0.shape:
+        return None
+    x0 = np.empty(r + 1)
+    x0[:r] = Q.T @ ((lam_prev - lam0) / fscale)
+    x0[r] = tau
+    try:
+        v = _newton_max_min(blocks, kinds, [p.copy() for p in parts], x0, check=False)
+    except (ValueError, np.linalg.LinAlgError):  # a block's size differs: not this program
+        return None
+    return None if v is None else float(v[r])
+
+
 def _warm_tries(blocks, warm: dict, lam0: np.ndarray, Q: np.ndarray, scale: float):
     """:func:`_warm_max_min` at the last program's active set, then at the earlier ones
     kept (:data:`WARM_SETS` in all, the latest first; the one that holds becomes the
@@ -283,6 +314,18 @@ def _margin_blocks(mu, d: int, combo, l0: np.ndarray, Q: np.ndarray) -> list:
     Slip: ``lambda_n``. Planar stick: ``mu lambda_n - lambda_t`` and ``mu lambda_n +
     lambda_t``, two half-planes (the two-dimensional cone, kept polyhedral for the solver).
     Spatial stick: ``(mu lambda_n, lambda_t)`` in the second-order cone."""
+    n = len(combo)
+    if d == 3 and n and all(mode in (STICK, SLIP) for mode in combo):
+        # (spatial, no open contact: every block a slice of the scaled forces, at once)
+        mu_n = np.where(np.array([mode == STICK for mode in combo]), mu[:n], 1.0)
+        A_all = -Q[:n * d].reshape(n, d, -1)
+        A_all[:, 0] *= mu_n[:, None]
+        b_all = l0[:n * d].reshape(n, d).copy()
+        b_all[:, 0] *= mu_n
+        soc_w = np.array([1.0, 0.0, 0.0])
+        one = np.ones(1)
+        return [("nn", A_all[i, :1], b_all[i, :1], one) if mode == SLIP
+                else ("soc", A_all[i], b_all[i], soc_w) for i, mode in enumerate(combo)]
     out = []
     for i, mode in enumerate(combo):
         n0 = i * d

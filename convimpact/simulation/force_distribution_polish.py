@@ -120,10 +120,12 @@ def _active_cones(blocks, slacks, flip):
     return kinds, unknowns
 
 
-def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
+def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True):
     """Newton's method (least-squares steps) on the max-min optimality conditions with the
     cones' kinds fixed; the solution vector (y, tau, unknowns), or None when it does not
-    converge to 1e-12 or leaves a cone."""
+    converge to 1e-12 or leaves a cone (``check`` False: the cones are not checked, the
+    solution of the conditions is returned wherever they hold: the smooth extension of
+    the active set's program)."""
     r = x1.size - 1
     sizes = [p.size for p in unknowns]
 
@@ -201,6 +203,8 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
             break
     if not best_norm <= 1e-12:
         return None
+    if not check:
+        return best
     y, tau = best[:r], best[r]
     # every cone's slack at once (the inactive ones must lie in their cones), as floats
     slack = (np.concatenate([blk[2] for blk in blocks]) - np.vstack([blk[1] for blk in blocks]) @ y

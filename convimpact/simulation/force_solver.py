@@ -45,6 +45,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import scipy.linalg as sla
 
 from ..contacts.engine import solve as engine_solve
 from ..contacts.finish import newton_finish
@@ -324,7 +325,8 @@ def _refused_as_stuck(P: ContactForceProblem, choice, edges, picks, refused) -> 
          for j in (range(d) if c[0] == STICK else (0,))]
     T = [i * d + j for i in onsets for j in range(1, d)]
     W, b = P.delassus, P.free_acceleration
-    G = np.linalg.lstsq(W[K].T, W[T].T, rcond=None)[0].T  # W_T ~ G W_K
+    # W_T ~ G W_K (least squares by a pivoted QR: W_K's rows may depend on one another)
+    G = sla.lstsq(W[K].T, W[T].T, lapack_driver="gelsy", check_finite=False)[0].T
     ascale = _scales(P)[0]
     wscale = max(float(np.max(np.abs(W))), 1e-300)
     return bool(np.max(np.abs(W[T] - G @ W[K])) <= STUCK_RTOL * wscale

@@ -20,6 +20,7 @@ import scipy.linalg as sla
 
 from .canonical import CanonicalEquations, HeldMode, Row, _cho_solve, _cholesky
 from .contact_forces import (OPEN, SLIP, STICK, ContactForceProblem, max_margin_distribution)
+from .force_distribution import margin_extension
 
 
 #: relative slack below which a margin counts as violated (a mode on the cone's boundary, e.g.
@@ -160,13 +161,7 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
         hint["exact"] = True
     if not eq.held:
         return forces, np.inf
-    d = max(len(v) for v in forces.values())
-    mu = np.array([eq.modes[c].mu for c in eq.held])
-    combo = [STICK if eq.modes[c].kind == "stick" else SLIP for c in eq.held]
-    lam0 = np.zeros(len(eq.held) * d)
-    for i, c in enumerate(eq.held):
-        lam0[i * d:i * d + len(forces[c])] = forces[c]
-    fscale = max(float(np.max(np.abs(lam0))), 1e-300)
+    d, mu, combo, lam0, fscale = _held_data(eq, forces)
     smallest = _margins(mu, d, combo)
     if eq.dropped:
         # P: the projection onto the forces' determinate part (the complement of the
@@ -218,17 +213,55 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     return forces, smallest(lam0) / fscale
 
 
+def _held_data(eq: CanonicalEquations, forces: Mapping[str, np.ndarray]):
+    """(d, mu, modes, lam0 (n d,), force scale) of the held contacts' forces ``forces``."""
+    d = max(len(v) for v in forces.values())
+    mu = np.array([eq.modes[c].mu for c in eq.held])
+    combo = [STICK if eq.modes[c].kind == "stick" else SLIP for c in eq.held]
+    lam0 = np.zeros(len(eq.held) * d)
+    for i, c in enumerate(eq.held):
+        lam0[i * d:i * d + len(forces[c])] = forces[c]
+    return d, mu, combo, lam0, max(float(np.max(np.abs(lam0))), 1e-300)
+
+
+def held_margin_extension(eq: CanonicalEquations, t: float, y: np.ndarray,
+                          state: tuple) -> float | None:
+    """The smooth extension of the held contacts' largest smallest margin (relative to the
+    force scale, as :func:`held_forces`') from the active set of a nearby exact program
+    (``state``: its active set, maximizer and margin), by
+    :func:`~.force_distribution.margin_extension`; None where it does not apply (no
+    redundancy, no convergence). Not a margin: a predictor of where the margin crosses
+    zero while the active set stays the program's."""
+    if not eq.held or not eq.dropped:
+        return None
+    d, mu, combo, lam0, fscale = _held_data(eq, eq.contact_forces(t, y))
+    cheap = _determinate_part(eq, y, d)
+    if cheap is not None and cheap[2] is not None:
+        Z, orthonormal = cheap[2](), True
+    else:
+        Z, orthonormal = _indeterminate(eq, y, d), False
+    if Z.shape[1] == 0:
+        return None
+    got = margin_extension(mu, d, combo, lam0, Z, fscale, state, orthonormal)
+    return got
+
+
 def _margins(mu: np.ndarray, d: int, combo):
     """lam (n d,) -> its smallest margin: lambda_n of every contact, mu lambda_n - |lambda_t|
     of the sticking ones with friction (:func:`~.force_distribution._smallest_margin`,
     vectorized)."""
     cone = np.array([kind == STICK for kind in combo]) & (mu > 0.0)
     any_cone = bool(cone.any())
+    every = bool(cone.all())
     mu_c = mu[cone]
 
     def smallest(lam: np.ndarray) -> float:
         F = lam.reshape(-1, d)
-        margin = float(np.min(F[:, 0]))
+        margin = F[:, 0].min()
+        if every and d == 3:  # (every contact a cone: no selection)
+            cones = mu_c * F[:, 0] - np.hypot(F[:, 1], F[:, 2])
+            return float(min(margin, cones.min()))
+        margin = float(margin)
         if any_cone:
             T = F[cone, 1:]
             tangential = np.sqrt(np.einsum("ij,ij->i", T, T))
