@@ -280,12 +280,51 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
             refused.add(picks)
             continue
         n_failed = len(failures)
-        cand = _attempt(P, choice, rtol, failures, vanishing)
+        cand = _attempt(P, choice, rtol, failures, vanishing,
+                        _mapped_warm(P.d, first, choice, warm))
         if cand is None and len(failures) == n_failed:
             refused.add(picks)
         if cand is not None and (best is None or _rank(cand) < _rank(best)):
             best = cand
     return _kept(best, failures)
+
+
+def _mapped_warm(d: int, source, choice, warm: dict | None) -> dict | None:
+    """A warm start for the margin program of the combination ``choice`` from that of
+    ``source`` (``warm``: its active set, maximizer and margin, as
+    :func:`~.force_distribution.max_margin_distribution` keeps them): each contact's cones
+    keep their kinds where its mode is the same, are guessed inactive where it changed, and
+    left out where it opened. A guess only: the program's refusal is taken from it where
+    Newton's method certifies the optimality conditions there, and from the solver
+    otherwise (two edge contacts of the box stack's tip, each combination with one of them
+    open, were refused by the solver near a zero margin: a cone program and its polish)."""
+    if warm is None or warm.get("active") is None or warm.get("lam") is None:
+        return None
+    kinds, parts = warm["active"]
+
+    def layout(modes):
+        return [(i, m) for i, m in enumerate(modes) if m != OPEN
+                for _ in range(2 if m == STICK and d == 2 else 1)]
+    src = layout([c[0] for c in source])
+    if len(kinds) != len(src) + 1:  # (the last cone: the margin's bound)
+        return None
+    where: dict = {}
+    for j, key in enumerate(src):
+        where.setdefault(key, []).append(j)
+    new_kinds, new_parts, taken = [], [], {}
+    for key in layout([c[0] for c in choice]):
+        js = where.get(key, ())
+        n = taken.get(key, 0)
+        taken[key] = n + 1
+        if n < len(js):
+            new_kinds.append(kinds[js[n]])
+            new_parts.append(parts[js[n]])
+        else:
+            new_kinds.append(None)
+            new_parts.append(np.zeros(0))
+    new_kinds.append(kinds[-1])
+    new_parts.append(parts[-1])
+    return {"active": (new_kinds, new_parts), "lam": warm["lam"], "tau": warm["tau"]}
 
 
 def _refused_as_stuck(P: ContactForceProblem, choice, edges, picks, refused) -> bool:
