@@ -95,6 +95,15 @@ class ContactEvents:
                 f = sol.force[candidates.index(c)]
                 lam[i * d:i * d + dims[c]] = f[:dims[c]]
             self.margin_hint["lam"] = lam
+            chosen = None if warm is None else warm.get("chosen")
+            if (chosen is not None and chosen.get("active") is not None
+                    and chosen["lam"].size == len(candidates) * d):
+                # its program's active set starts the margins' warm starts (the same
+                # cones, the held contacts' in order; its maximizer without the open ones)
+                at = [candidates.index(c) for c in held]
+                self.margin_hint["warm"] = {
+                    "active": chosen["active"], "tau": chosen["tau"],
+                    "lam": chosen["lam"].reshape(len(candidates), d)[at].ravel()}
         self.track_projection(self.eq.jacobian, th, dth)
         dth = project_onto(M, self.eq.jacobian(th), dth)
         if self.eq.redundant:  # a sliding redundant group starts from sol's forces

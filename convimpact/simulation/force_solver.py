@@ -102,6 +102,13 @@ def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL,
     """The solution of the force problem, island by island (one planar contact: the closed
     form).
 
+    ``warm`` (optional, one island): the active set of a nearby largest-smallest-margin
+    program of the same contacts and modes (a run's held group at the event that ended its
+    segment, :func:`~.force_distribution.max_margin_distribution`'s ``warm``), tried for the
+    combinations' refusals before the solver; on return ``warm["chosen"]`` holds the
+    chosen combination's program (its active set where one ran, for the next segment's
+    margins) or None.
+
     Raises
     ------
     PainleveError
@@ -266,6 +273,8 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
     edges = sorted(edges, key=lambda e: -len(e[1]))[:EDGE_MAX]
     failures: list[SolverError] = []
     best = _attempt(P, first, rtol, failures, vanishing, warm)
+    if warm is not None:
+        warm["chosen"] = None if best is None else dict(warm)
     if (best is not None and best.margin >= 0.0) or not edges:
         return _kept(best, failures)
     # the option indices of the combinations refused outright (no solver failure)
@@ -280,12 +289,14 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
             refused.add(picks)
             continue
         n_failed = len(failures)
-        cand = _attempt(P, choice, rtol, failures, vanishing,
-                        _mapped_warm(P.d, first, choice, warm))
+        mapped = _mapped_warm(P.d, first, choice, warm)
+        cand = _attempt(P, choice, rtol, failures, vanishing, mapped)
         if cand is None and len(failures) == n_failed:
             refused.add(picks)
         if cand is not None and (best is None or _rank(cand) < _rank(best)):
             best = cand
+            if warm is not None:  # the chosen combination's program, for the caller
+                warm["chosen"] = mapped
     return _kept(best, failures)
 
 
