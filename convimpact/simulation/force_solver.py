@@ -24,7 +24,13 @@ contact: exact, but 3^n to 4^n linear systems. Here the modes are *found*, not e
    :func:`~convimpact.simulation.force_distribution.max_margin_distribution`), every
    inequality checked. A contact on the edge between two modes (``lambda_n`` and ``a_n``
    both ~0, or ``a_t`` ~0 on the cone's boundary) is tried both ways; a contact that may
-   close or open is kept closed (a grazing contact with no force stays closed).
+   close or open is kept closed (a grazing contact with no force stays closed). Every
+   combination is decided, none skipped on a guess: one whose slip onsets are held at zero
+   tangential acceleration by its own sticking rows is refused with the same combination
+   sticking there (an implication, :func:`_refused_as_stuck`), and the margin programs of
+   the combinations start from a nearby program's active set (the located event's, then
+   the first combination's), the solver running only where Newton's method does not
+   certify the optimum there.
 
 **Uniqueness and Painleve's paradox.** Redundant contacts (a table on four or more legs, a
 box on its face) leave the forces statically indeterminate; with friction the distribution
