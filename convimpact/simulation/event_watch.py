@@ -303,7 +303,7 @@ class EventWatch:
                 got = held_margin_extension(eq, s, np.asarray(interp(s), float), state)
                 return None if got is None else got + MARGIN_SLACK
 
-            tp = _illinois_root(extension, t_old, t_new, fb, PREDICTED_BRACKET)
+            tp = _illinois_root(extension, t_old, t_new, fa, fb, PREDICTED_BRACKET)
             if tp is not None:
                 bracket = _bracket_near(fun, tp, t_old, t_new, fa, fb, known,
                                         max(PREDICTED_BRACKET, tol))
@@ -312,13 +312,13 @@ class EventWatch:
         return locate_crossing(fun, t_old, t_new, fa, fb, tol, known)
 
 
-def _illinois_root(f, ta: float, tb: float, fb: float, xtol: float,
+def _illinois_root(f, ta: float, tb: float, fa: float, fb: float, xtol: float,
                    max_iter: int = 30) -> float | None:
     """A zero of ``f`` in (ta, tb) by the Illinois method (regula falsi, the retained end's
-    value halved), ``f(tb) = fb <= 0`` given, ``f(ta)`` computed (> 0 needed): to ``xtol``
-    in time or a value below 1e-12; None where ``f`` gives None or no sign change."""
-    fa = f(ta)
-    if fa is None or not fa > 0.0 or not fb <= 0.0:
+    value halved) from the ends' values ``fa > 0 >= fb`` (the margin's own at ta: ``f``
+    there is not computed; a predictor needs no more), to ``xtol`` in time or a value below
+    1e-10; None where ``f`` gives None or the ends do not change sign."""
+    if not (fa > 0.0 >= fb):
         return None
     a, b = ta, tb
     side = 0
@@ -329,7 +329,7 @@ def _illinois_root(f, ta: float, tb: float, fb: float, xtol: float,
         fx = f(x)
         if fx is None:
             return None
-        if abs(fx) <= 1e-12 or b - a <= xtol:
+        if abs(fx) <= 1e-10 or b - a <= xtol:
             return x
         if fx > 0.0:
             a, fa = x, fx
