@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.linalg import lstsq as _lstsq
 
 #: a cone of the max-min program whose slack and multiplier are both below this is
 #: degenerate (active or not: both are tried)
@@ -188,7 +189,7 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True)
     for _ in range(30):
         # least-squares steps, small singular values cut: along a face of maximizers the
         # conditions are singular, and the step stays near the solver's point
-        step = np.linalg.lstsq(J, F, rcond=1e-10)[0]
+        step = _lstsq(J, F, cond=1e-10, lapack_driver="gelsy", check_finite=False)[0]
         v = v - step
         F, J = residual(v)  # (the next step's too)
         norm = float(np.max(np.abs(F)))
