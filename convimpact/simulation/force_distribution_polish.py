@@ -199,9 +199,9 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True)
         stalled = 0 if norm < best_norm else stalled + 1
         if norm < best_norm:
             best, best_norm = v, norm
-        if (norm <= 1e-15 or float(np.max(np.abs(step))) <= 1e-16
+        if (norm <= (1e-15 if check else 1e-12) or float(np.max(np.abs(step))) <= 1e-16
                 or stalled >= NEWTON_STALL):
-            break
+            break  # (an unchecked extension, a predictor, needs no digits past 1e-12)
     if not best_norm <= 1e-12:
         return None
     if not check:
