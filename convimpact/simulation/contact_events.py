@@ -50,8 +50,14 @@ class ContactEvents:
             self.track_projection(normals.jacobian, th, dth)
             dth = project_onto(M, normals.jacobian(th), dth)
             cs = contact_state(self.mech, t, th, dth, candidates, o.rest_velocity)
+            hint = self.margin_hint  # the ended segment's margin program, if any
+            warm = hint.get("warm") if hint.get("eq") is self.eq else None
+            if warm is not None and warm.get("active") is not None:
+                warm = {**warm, "earlier": list(warm.get("earlier", ()))}
+            else:
+                warm = None
             try:
-                sol = solve_contact_forces(cs.problem)
+                sol = solve_contact_forces(cs.problem, warm=warm)
             except PainleveError as exc:
                 involved = [candidates[i] for i in getattr(exc, "contacts", ())]
                 text = str(exc) + (f" (contacts involved: {', '.join(involved)})"
@@ -81,6 +87,23 @@ class ContactEvents:
         self.eq = CanonicalEquations(self.mech, held, modes, dropped, dims,
                                      slip_floor=o.rest_velocity)
         self.eq_log.append((t, self.eq))
+        self.margin_hint = {"eq": self.eq}
+        if held and dropped:  # the force problem's distribution stands in for the first
+            d = max(dims[c] for c in held)  # margins (:func:`~.sustained.held_forces`)
+            lam = np.zeros(len(held) * d)
+            for i, c in enumerate(held):
+                f = sol.force[candidates.index(c)]
+                lam[i * d:i * d + dims[c]] = f[:dims[c]]
+            self.margin_hint["lam"] = lam
+            chosen = None if warm is None else warm.get("chosen")
+            if (chosen is not None and chosen.get("active") is not None
+                    and chosen["lam"].size == len(candidates) * d):
+                # its program's active set starts the margins' warm starts (the same
+                # cones, the held contacts' in order; its maximizer without the open ones)
+                at = [candidates.index(c) for c in held]
+                self.margin_hint["warm"] = {
+                    "active": chosen["active"], "tau": chosen["tau"],
+                    "lam": chosen["lam"].reshape(len(candidates), d)[at].ravel()}
         self.track_projection(self.eq.jacobian, th, dth)
         dth = project_onto(M, self.eq.jacobian(th), dth)
         if self.eq.redundant:  # a sliding redundant group starts from sol's forces

@@ -221,8 +221,11 @@ def _slacks(P: ContactForceProblem, combo, dirs, lam: np.ndarray, onset) -> np.n
     return np.array(out)
 
 
-def _candidate(P: ContactForceProblem, combo, dirs, onset, rtol: float):
-    """The solution of one combination with given directions, or None."""
+def _candidate(P: ContactForceProblem, combo, dirs, onset, rtol: float,
+               warm: dict | None = None):
+    """The solution of one combination with given directions, or None. ``warm``: an
+    active set of a nearby margin program to try for the refusal first
+    (:func:`~.force_distribution.max_margin_distribution`)."""
     ascale, fscale = _scales(P)
     E, r = _system(P, combo, dirs)
     solved = _solve(E, r, 1e-9 * max(ascale, float(np.max(np.abs(E))) * fscale))
@@ -235,7 +238,8 @@ def _candidate(P: ContactForceProblem, combo, dirs, onset, rtol: float):
         # (a combination whose largest margin is clearly negative is rejected after the
         # program's first stage: no distribution of it holds)
         lam, margin = max_margin_distribution(P.mu, P.d, combo, lam, Z, fscale,
-                                              below=-rtol * fscale)
+                                              below=-rtol * fscale, orthonormal=True,
+                                              warm=warm)
         slack = _slacks(P, combo, dirs, lam, onset)
         margin = min(margin, float(np.min(slack, initial=np.inf)))
     if margin < -rtol * fscale:

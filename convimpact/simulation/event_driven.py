@@ -42,6 +42,39 @@ CONTACT_SERIES = ("held", "mode", "force", "friction")
 #: 4-point Gauss-Legendre nodes and weights on [-1, 1] (the friction work of a step)
 GAUSS4 = np.polynomial.legendre.leggauss(4)
 
+class StepDense:
+    """One accepted step's dense output, built on first use.
+
+    A Runge-Kutta step's interpolant costs right-hand sides of its own (DOP853's: three)
+    and array work; the run needs it only where an event may lie in the step (a free
+    contact's gap, a crossing of a held contact's function), where sliding friction works
+    over it, or where the result keeps it (``dense_output``, ``t_eval``, sensitivities).
+    The run calls :meth:`expire` before the integrator leaves the step (the next step, or a
+    projected state): built later it would be another step's.
+    """
+
+    __slots__ = ("_solver", "_f", "_live")
+
+    def __init__(self, solver):
+        self._solver, self._f, self._live = solver, None, True
+
+    def expire(self) -> None:
+        """The integrator leaves the step: no dense output can be built from it now."""
+        self._live = False
+
+    def built(self):
+        """The step's interpolant (:func:`~.events.fast_interpolant`), built once."""
+        if self._f is None:
+            if not self._live:
+                raise SimulationError("internal error: the dense output of a step the "
+                                      "integrator has left was asked for")
+            self._f = fast_interpolant(self._solver.dense_output())
+        return self._f
+
+    def __call__(self, t):
+        return self.built()(t)
+
+
 class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
     """The state of one event-driven run and the steps that advance it.
 
@@ -304,7 +337,11 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         w_prev = self.watch(self.t, self.y, anchors) if eq.held else {}
         if w_prev and w_prev["margin"] < -INADMISSIBLE_MARGIN:
             self.note_inadmissible(w_prev["margin"])
+        keep = o.dense_output or o.t_eval is not None or o.sensitivities
+        interp = None
         while True:
+            if interp is not None:
+                interp.expire()
             msg = solver.step()
             if solver.status == "failed":
                 self.status, self.message = -1, f"integrator failed at t = {solver.t:.9g}: {msg}"
@@ -313,7 +350,9 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
             t_old, t_new, y_new = solver.t_old, solver.t, solver.y.copy()
             if not np.all(np.isfinite(y_new)):
                 raise SimulationError(f"the state became non-finite at t = {t_new:.9g}")
-            interp = fast_interpolant(solver.dense_output())
+            interp = StepDense(solver)
+            if keep:  # the result keeps every step's interpolant
+                interp.built()
             found, g_new = self.closing_in_step(free, interp, t_old, t_new, y_new, g_prev)
             w_new = self.watch(t_new, y_new, anchors) if eq.held else {}
             found += self.held_in_step(interp, t_old, t_new, w_prev, w_new, anchors)
@@ -326,6 +365,7 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
             if eq.n_constraints and len(eq.residual(self.y[:k])):
                 drift = float(np.max(np.abs(eq.residual(self.y[:k]))))
                 if drift > o.drift_threshold:
+                    interp.expire()  # (the integrator's state is replaced below)
                     self.y = self.project_state(self.y)
                     if not o.in_place:  # multistep: the history is void, restart
                         self.record(self.t, self.y)

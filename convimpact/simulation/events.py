@@ -17,7 +17,7 @@ from ..errors import PenetrationError  # noqa: F401  (re-exported for convimpact
 
 
 def locate_crossing(fun: Callable[[float], float], ta: float, tb: float, fa: float, fb: float,
-                    xtol: float) -> float:
+                    xtol: float, known: dict | None = None) -> float:
     """Earliest time in (ta, tb] where ``fun`` goes from > 0 to <= 0, given fa > 0 >= fb.
 
     Brent's method with absolute tolerance ``xtol``; the bracket's right end is returned, so
@@ -25,11 +25,13 @@ def locate_crossing(fun: Callable[[float], float], ta: float, tb: float, fa: flo
     located after the contact has opened again). ``fa`` and ``fb`` stand for ``fun`` at the
     bracket's ends and no point is evaluated twice (each evaluation of a held group's
     margin can be a cone program: the box stack's two located events evaluated 6 of 25
-    twice).
+    twice; ``known``, optional: values of ``fun`` already computed, time -> value, shared
+    and added to).
     """
     if fb == 0.0:
         return tb
-    known = {ta: fa, tb: fb}
+    known = {} if known is None else known
+    known.update({ta: fa, tb: fb})
 
     def once(x: float) -> float:
         v = known.get(x)

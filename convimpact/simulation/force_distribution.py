@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
-from .force_distribution_polish import (_cone_violation, _off_ray, _polish_max_min,
-                                         _warm_max_min)
+from .force_distribution_polish import (_cone_violation, _newton_max_min, _off_ray,
+                                         _polish_max_min, _warm_max_min)
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
 #: default relative tolerance of the inequalities
@@ -40,11 +40,14 @@ BELOW_GUARD = 1e-9
 #: the same for the solver's own largest smallest margin, unpolished, where its status is
 #: "Solved" (its tolerances 1e-11)
 SOLVED_GUARD = 1e-8
+#: active sets a margin-only call's warm start tries (the last program's, then earlier ones)
+WARM_SETS = 4
 
 
 def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
                             fscale: float, below: float | None = None,
-                            warm: dict | None = None) -> tuple[np.ndarray, float]:
+                            warm: dict | None = None,
+                            orthonormal: bool = False) -> tuple[np.ndarray, float]:
     """The force distribution chosen among the indeterminate ones ``lam0 + Z xi``: the
     largest smallest margin, then, among the distributions reaching it, the least Euclidean
     norm. Unique for any data.
@@ -106,7 +109,14 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     ``warm`` (a dict the caller keeps between programs of one set of contacts and modes,
     e.g. over a segment): the last program's active set and maximizer are kept there, and
     a margin-only call (``below=inf``) first tries Newton's method on the optimality
-    conditions at that active set (:func:`_warm_max_min`), the solver only where it fails.
+    conditions at that active set (:func:`_warm_max_min`), the solver only where it fails;
+    with a finite ``below`` (a refusal), a largest margin certified so below ``below`` (by
+    :data:`BELOW_GUARD`) is returned without the solver (the mode selection at the event a
+    held group's margin crossing located, from the located margin's active set).
+
+    ``orthonormal``: the columns of ``Z`` are orthonormal already (a basis from an SVD or
+    a QR of full rank), used as they are (their round-off entries zeroed, as
+    :func:`_range_basis` does) instead of an SVD of them.
 
     Returns (lambda, margin): the distribution (n d,) and its smallest margin (force units;
     ``inf`` without stick or slip contacts).
@@ -117,7 +127,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     scale = float(fscale)
     if not (np.isfinite(scale) and scale > 0.0):
         scale = max(float(np.max(np.abs(lam0), initial=0.0)), 1e-300)
-    Q = _range_basis(Z)
+    Q = _zero_round_off(Z) if orthonormal else _range_basis(Z)
     r = Q.shape[1]
     l0 = lam0 / scale  # unknowns in units of the force scale: order one
     blocks = _margin_blocks(mu, d, combo, l0, Q)
@@ -126,17 +136,24 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
         return lam, _smallest_margin(mu, d, combo, lam)
     # tau <= 1 (the force scale) keeps the max-min bounded: a margin of its own
     blocks.append(("nn", np.zeros((1, r)), np.ones(1), np.ones(1)))
-    A = np.vstack([blk[1] for blk in blocks])
-    b = np.concatenate([blk[2] for blk in blocks])
-    w = np.concatenate([blk[3] for blk in blocks])
-    cones = [(blk[0], len(blk[2])) for blk in blocks]
     if warm is not None and below is not None and not np.isfinite(below) and below > 0.0:
-        got = _warm_max_min(blocks, warm, lam0, Q, scale)
-        if got is not None:  # the margin alone, at the last program's active set
+        got = _warm_tries(blocks, warm, lam0, Q, scale)
+        if got is not None:  # the margin alone, at a recent program's active set
             y_star, t_star = got
             lam = lam0 + Q @ (y_star * scale)
             warm["lam"], warm["tau"] = lam, t_star
             return lam, _smallest_margin(mu, d, combo, lam)
+    elif warm is not None and below is not None and np.isfinite(below):
+        got = _warm_tries(blocks, warm, lam0, Q, scale)
+        if got is not None and got[1] * scale < below - BELOW_GUARD * scale:
+            # certified below (the optimality conditions at a nearby program's active
+            # set: the polished solver's t*, without the solver)
+            lam = lam0 + Q @ (got[0] * scale)
+            return lam, _smallest_margin(mu, d, combo, lam)
+    A = np.vstack([blk[1] for blk in blocks])
+    b = np.concatenate([blk[2] for blk in blocks])
+    w = np.concatenate([blk[3] for blk in blocks])
+    cones = [(blk[0], len(blk[2])) for blk in blocks]
     # stage 1: max tau s.t. b - A y - tau w in the cones; unknowns (y, tau)
     q1 = np.zeros(r + 1)
     q1[r] = -1.0
@@ -152,6 +169,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     # its optimality conditions solved to round-off on the active cones (Newton)
     y_star, t_star, kinds, active = _polish_max_min(blocks, x1, z1)
     if warm is not None:
+        _keep_earlier(warm)
         warm["active"] = active
         warm["lam"], warm["tau"] = lam0 + Q @ (y_star * scale), t_star
     t_star = min(t_star, _smallest_margin(mu, d, combo, l0 + Q @ y_star))
@@ -209,6 +227,69 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     return lam, margin
 
 
+def margin_extension(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
+                     fscale: float, state: tuple, orthonormal: bool = False) -> float | None:
+    """The smooth extension of the largest smallest margin from one program's active set:
+    the optimality conditions of :func:`max_margin_distribution`'s stage 1 with the cones'
+    kinds of ``state`` (active set, maximizer, margin: a warm start's, at a nearby state)
+    solved by Newton's method, without checking the cones. Where that active set is the
+    program's it is the largest smallest margin (relative to ``fscale``); elsewhere a
+    smooth continuation of it, not a margin of any distribution. None where Newton's
+    method does not converge. (The event location's predictor of a margin's zero:
+    :meth:`~.event_watch.EventWatch.locate_margin`.)"""
+    active, lam_prev, tau = state
+    lam0 = np.asarray(lam0, float).ravel()
+    Q = _zero_round_off(Z) if orthonormal else _range_basis(Z)
+    r = Q.shape[1]
+    blocks = _margin_blocks(np.asarray(mu, float).ravel(), d, combo, lam0 / fscale, Q)
+    if r == 0 or not blocks or active is None:
+        return None
+    blocks.append(("nn", np.zeros((1, r)), np.ones(1), np.ones(1)))
+    kinds, parts = active
+    if len(kinds) != len(blocks) or lam_prev is None or lam_prev.shape != lam0.shape:
+        return None
+    x0 = np.empty(r + 1)
+    x0[:r] = Q.T @ ((lam_prev - lam0) / fscale)
+    x0[r] = tau
+    try:
+        v = _newton_max_min(blocks, kinds, [p.copy() for p in parts], x0, check=False)
+    except (ValueError, np.linalg.LinAlgError):  # a block's size differs: not this program
+        return None
+    return None if v is None else float(v[r])
+
+
+def _warm_tries(blocks, warm: dict, lam0: np.ndarray, Q: np.ndarray, scale: float):
+    """:func:`_warm_max_min` at the last program's active set, then at the earlier ones
+    kept (:data:`WARM_SETS` in all, the latest first; the one that holds becomes the
+    last): locating a margin's zero, the evaluations alternate between the two sides of
+    the root and between regions of the step where different cones bind, so the active set
+    of the evaluation before is often not this one's while an earlier one is. (Each is a
+    certified optimum, whichever active set it came from: :func:`_warm_max_min`.)"""
+    got = _warm_max_min(blocks, warm, lam0, Q, scale)
+    if got is not None:
+        return got
+    earlier = warm.get("earlier", [])
+    for j, (active, lam, tau) in enumerate(earlier):
+        trial = {"active": active, "lam": lam, "tau": tau}
+        got = _warm_max_min(blocks, trial, lam0, Q, scale)
+        if got is not None:
+            del earlier[j]
+            _keep_earlier(warm)
+            warm["active"] = trial["active"]
+            return got
+    return None
+
+
+def _keep_earlier(warm: dict) -> None:
+    """Move the warm start's last active set (with its maximizer) to the front of its
+    earlier ones (:data:`WARM_SETS` - 1 kept)."""
+    if warm.get("active") is None or warm.get("lam") is None:
+        return
+    earlier = warm.setdefault("earlier", [])
+    earlier.insert(0, (warm["active"], warm["lam"], warm["tau"]))
+    del earlier[WARM_SETS - 1:]
+
+
 def _range_basis(Z: np.ndarray) -> np.ndarray:
     """An orthonormal basis of the span of Z's columns (rank relative 1e-10; entries below
     1e-13 set to zero)."""
@@ -216,9 +297,13 @@ def _range_basis(Z: np.ndarray) -> np.ndarray:
         return np.zeros((Z.shape[0], 0))
     U, sv, _ = np.linalg.svd(Z, full_matrices=False)
     rank = int(np.sum(sv > 1e-10 * sv[0])) if sv[0] > 0.0 else 0
-    Q = U[:, :rank]
-    # entries at round-off are zeros (a contact outside the redundancy): left in, they make
-    # rows of size 1e-16 that the solver's equilibration blows up
+    return _zero_round_off(U[:, :rank])
+
+
+def _zero_round_off(Q: np.ndarray) -> np.ndarray:
+    """An orthonormal basis with its entries at round-off (below 1e-13) set to zero: they
+    are zeros (a contact outside the redundancy); left in, they make rows of size 1e-16
+    that the solver's equilibration blows up."""
     return np.where(np.abs(Q) > 1e-13, Q, 0.0)
 
 
@@ -229,6 +314,18 @@ def _margin_blocks(mu, d: int, combo, l0: np.ndarray, Q: np.ndarray) -> list:
     Slip: ``lambda_n``. Planar stick: ``mu lambda_n - lambda_t`` and ``mu lambda_n +
     lambda_t``, two half-planes (the two-dimensional cone, kept polyhedral for the solver).
     Spatial stick: ``(mu lambda_n, lambda_t)`` in the second-order cone."""
+    n = len(combo)
+    if d == 3 and n and all(mode in (STICK, SLIP) for mode in combo):
+        # (spatial, no open contact: every block a slice of the scaled forces, at once)
+        mu_n = np.where(np.array([mode == STICK for mode in combo]), mu[:n], 1.0)
+        A_all = -Q[:n * d].reshape(n, d, -1)
+        A_all[:, 0] *= mu_n[:, None]
+        b_all = l0[:n * d].reshape(n, d).copy()
+        b_all[:, 0] *= mu_n
+        soc_w = np.array([1.0, 0.0, 0.0])
+        one = np.ones(1)
+        return [("nn", A_all[i, :1], b_all[i, :1], one) if mode == SLIP
+                else ("soc", A_all[i], b_all[i], soc_w) for i, mode in enumerate(combo)]
     out = []
     for i, mode in enumerate(combo):
         n0 = i * d

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.linalg import lstsq as _lstsq
 
 #: a cone of the max-min program whose slack and multiplier are both below this is
 #: degenerate (active or not: both are tried)
@@ -120,10 +121,12 @@ def _active_cones(blocks, slacks, flip):
     return kinds, unknowns
 
 
-def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
+def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True):
     """Newton's method (least-squares steps) on the max-min optimality conditions with the
     cones' kinds fixed; the solution vector (y, tau, unknowns), or None when it does not
-    converge to 1e-12 or leaves a cone."""
+    converge to 1e-12 or leaves a cone (``check`` False: the cones are not checked, the
+    solution of the conditions is returned wherever they hold: the smooth extension of
+    the active set's program)."""
     r = x1.size - 1
     sizes = [p.size for p in unknowns]
 
@@ -139,8 +142,10 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
     active, k, row = [], r + 1, r + 1
     for (kind, Ab, bb, wb), how, n in zip(blocks, kinds, sizes):
         if how is not None:
-            Aw = np.hstack([Ab, wb[:, None]])  # the stationarity's -d/dz
-            active.append((how, Ab, bb, wb, Aw.T.copy(), k, row, len(bb)))
+            AwT = np.empty((r + 1, len(bb)))  # the stationarity's -d/dz
+            AwT[:r] = Ab.T
+            AwT[r] = wb
+            active.append((how, Ab, bb, wb, AwT, k, row, len(bb)))
             row += len(bb)
         k += n
     size = r + 1 + sum(sizes)
@@ -184,7 +189,7 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
     for _ in range(30):
         # least-squares steps, small singular values cut: along a face of maximizers the
         # conditions are singular, and the step stays near the solver's point
-        step = np.linalg.lstsq(J, F, rcond=1e-10)[0]
+        step = _lstsq(J, F, cond=1e-10, lapack_driver="gelsy", check_finite=False)[0]
         v = v - step
         F, J = residual(v)  # (the next step's too)
         norm = float(np.max(np.abs(F)))
@@ -194,20 +199,27 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray):
         stalled = 0 if norm < best_norm else stalled + 1
         if norm < best_norm:
             best, best_norm = v, norm
-        if (norm <= 1e-15 or float(np.max(np.abs(step))) <= 1e-16
+        if (norm <= (1e-15 if check else 1e-12) or float(np.max(np.abs(step))) <= 1e-16
                 or stalled >= NEWTON_STALL):
-            break
+            break  # (an unchecked extension, a predictor, needs no digits past 1e-12)
     if not best_norm <= 1e-12:
         return None
+    if not check:
+        return best
     y, tau = best[:r], best[r]
+    # every cone's slack at once (the inactive ones must lie in their cones), as floats
+    slack = (np.concatenate([blk[2] for blk in blocks]) - np.vstack([blk[1] for blk in blocks]) @ y
+             - tau * np.concatenate([blk[3] for blk in blocks])).tolist()
+    k = 0
     for (kind, Ab, bb, wb), how, p in zip(blocks, kinds, parts(best)):
-        s = bb - Ab @ y - tau * wb
+        m = len(bb)
         if how is None:
-            viol = _cone_violation(s, [(kind, len(bb))])
+            viol = _list_violation(kind, slack[k:k + m])
         elif how == "zero":
-            viol = _cone_violation(p, [(kind, len(bb))])
+            viol = _cone_violation(p, [(kind, m)])
         else:
             viol = max(-p[0], -p[1])
+        k += m
         if viol > 1e-12:
             return None
     return best
@@ -222,6 +234,13 @@ def _off_ray(u: np.ndarray) -> np.ndarray:
 def _norm(v: np.ndarray) -> float:
     """The Euclidean norm of a short vector."""
     return math.sqrt(float(v @ v))
+
+
+def _list_violation(kind: str, part: list) -> float:
+    """How far one cone's entries (a list of floats) lie outside it (0 inside)."""
+    if kind == "nn":
+        return max(0.0, -min(part)) if part else 0.0
+    return max(0.0, math.sqrt(sum(x * x for x in part[1:])) - part[0])
 
 
 def _cone_violation(v: np.ndarray, cones) -> float:

@@ -24,7 +24,13 @@ contact: exact, but 3^n to 4^n linear systems. Here the modes are *found*, not e
    :func:`~convimpact.simulation.force_distribution.max_margin_distribution`), every
    inequality checked. A contact on the edge between two modes (``lambda_n`` and ``a_n``
    both ~0, or ``a_t`` ~0 on the cone's boundary) is tried both ways; a contact that may
-   close or open is kept closed (a grazing contact with no force stays closed).
+   close or open is kept closed (a grazing contact with no force stays closed). Every
+   combination is decided, none skipped on a guess: one whose slip onsets are held at zero
+   tangential acceleration by its own sticking rows is refused with the same combination
+   sticking there (an implication, :func:`_refused_as_stuck`), and the margin programs of
+   the combinations start from a nearby program's active set (the located event's, then
+   the first combination's), the solver running only where Newton's method does not
+   certify the optimum there.
 
 **Uniqueness and Painleve's paradox.** Redundant contacts (a table on four or more legs, a
 box on its face) leave the forces statically indeterminate; with friction the distribution
@@ -45,6 +51,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import scipy.linalg as sla
 
 from ..contacts.engine import solve as engine_solve
 from ..contacts.finish import newton_finish
@@ -64,6 +71,9 @@ MODE_RTOL = 1e-7
 EDGE_RTOL = 1e-4
 #: edge contacts tried both ways at most (2^EDGE_MAX combinations)
 EDGE_MAX = 6
+#: relative residual below which an onset's tangential rows count as combinations of the
+#: rows its combination holds at zero (:func:`_refused_as_stuck`)
+STUCK_RTOL = 1e-10
 
 
 def islands(W: np.ndarray, n: int, d: int) -> list[np.ndarray]:
@@ -93,9 +103,17 @@ def _sub(P: ContactForceProblem, idx: np.ndarray) -> ContactForceProblem:
                                P.mu[idx], P.slip[idx])
 
 
-def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL) -> ContactForceSolution:
+def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL,
+                         warm: dict | None = None) -> ContactForceSolution:
     """The solution of the force problem, island by island (one planar contact: the closed
     form).
+
+    ``warm`` (optional, one island): the active set of a nearby largest-smallest-margin
+    program of the same contacts and modes (a run's held group at the event that ended its
+    segment, :func:`~.force_distribution.max_margin_distribution`'s ``warm``), tried for the
+    combinations' refusals before the solver; on return ``warm["chosen"]`` holds the
+    chosen combination's program (its active set where one ran, for the next segment's
+    margins) or None.
 
     Raises
     ------
@@ -108,7 +126,7 @@ def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL) -> ContactF
     n, d = P.n, P.d
     parts = islands(P.delassus, n, d)
     if len(parts) == 1:
-        return _island(P, rtol)
+        return _island(P, rtol, warm)
     force, acc = np.zeros((n, d)), np.zeros((n, d))
     modes, direction = [OPEN] * n, np.zeros((n, d - 1))
     margin, notes = np.inf, []
@@ -126,7 +144,8 @@ def solve_contact_forces(P: ContactForceProblem, rtol: float = RTOL) -> ContactF
     return ContactForceSolution(force, acc, tuple(modes), direction, margin, tuple(notes))
 
 
-def _island(P: ContactForceProblem, rtol: float) -> ContactForceSolution:
+def _island(P: ContactForceProblem, rtol: float,
+            warm: dict | None = None) -> ContactForceSolution:
     if P.n == 1 and P.d == 2:
         sols = planar_contact_force(P.delassus, P.free_acceleration, float(P.mu[0]),
                                     float(P.slip[0, 0]), rtol)
@@ -134,7 +153,7 @@ def _island(P: ContactForceProblem, rtol: float) -> ContactForceSolution:
     sol, answers = None, []
     for r, u in _answers(P):  # the modes read off the engine's answer, then Newton's
         answers.append((r, u))
-        sol = _read_modes(P, r, u, rtol)
+        sol = _read_modes(P, r, u, rtol, warm=warm)
         if sol is not None:
             break
     for r, u in answers if sol is None else ():  # onsets of vanishing a_t: any direction
@@ -221,7 +240,7 @@ def _answers(P: ContactForceProblem):
 
 
 def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: float,
-                vanishing: bool = False):
+                vanishing: bool = False, warm: dict | None = None):
     """The exact solution in the modes the engine's answer shows (edges tried both ways),
     or None."""
     n, d = P.n, P.d
@@ -259,26 +278,123 @@ def _read_modes(P: ContactForceProblem, r: np.ndarray, u: np.ndarray, rtol: floa
             edges.append((i, options))
     edges = sorted(edges, key=lambda e: -len(e[1]))[:EDGE_MAX]
     failures: list[SolverError] = []
-    best = _attempt(P, first, rtol, failures, vanishing)
+    best = _attempt(P, first, rtol, failures, vanishing, warm)
+    if warm is not None:
+        warm["chosen"] = None if best is None else dict(warm)
     if (best is not None and best.margin >= 0.0) or not edges:
         return _kept(best, failures)
-    for k, picks in enumerate(itertools.product(*[opts for _, opts in edges])):
+    # the option indices of the combinations refused outright (no solver failure)
+    refused = set() if best is not None or failures else {(0,) * len(edges)}
+    for k, picks in enumerate(itertools.product(*[range(len(opts)) for _, opts in edges])):
         if k == 0:
             continue  # the first combination, tried above
         choice = list(first)
-        for (i, _), pick in zip(edges, picks):
-            choice[i] = pick
-        cand = _attempt(P, choice, rtol, failures, vanishing)
+        for (i, opts), j in zip(edges, picks):
+            choice[i] = opts[j]
+        if _refused_as_stuck(P, choice, edges, picks, refused):
+            refused.add(picks)
+            continue
+        n_failed = len(failures)
+        mapped = _mapped_warm(P.d, first, choice, warm)
+        cand = _attempt(P, choice, rtol, failures, vanishing, mapped)
+        if cand is None and len(failures) == n_failed:
+            refused.add(picks)
         if cand is not None and (best is None or _rank(cand) < _rank(best)):
             best = cand
+            if warm is not None:  # the chosen combination's program, for the caller
+                warm["chosen"] = mapped
     return _kept(best, failures)
 
 
-def _attempt(P, choice, rtol: float, failures: list, vanishing: bool = False):
+def _mapped_warm(d: int, source, choice, warm: dict | None) -> dict | None:
+    """A warm start for the margin program of the combination ``choice`` from that of
+    ``source`` (``warm``: its active set, maximizer and margin, as
+    :func:`~.force_distribution.max_margin_distribution` keeps them): each contact's cones
+    keep their kinds where its mode is the same, are guessed inactive where it changed, and
+    left out where it opened. A guess only: the program's refusal is taken from it where
+    Newton's method certifies the optimality conditions there, and from the solver
+    otherwise (two edge contacts of the box stack's tip, each combination with one of them
+    open, were refused by the solver near a zero margin: a cone program and its polish)."""
+    if warm is None or warm.get("active") is None or warm.get("lam") is None:
+        return None
+    kinds, parts = warm["active"]
+
+    def layout(modes):
+        return [(i, m) for i, m in enumerate(modes) if m != OPEN
+                for _ in range(2 if m == STICK and d == 2 else 1)]
+    src = layout([c[0] for c in source])
+    if len(kinds) != len(src) + 1:  # (the last cone: the margin's bound)
+        return None
+    where: dict = {}
+    for j, key in enumerate(src):
+        where.setdefault(key, []).append(j)
+    new_kinds, new_parts, taken = [], [], {}
+    for key in layout([c[0] for c in choice]):
+        js = where.get(key, ())
+        n = taken.get(key, 0)
+        taken[key] = n + 1
+        if n < len(js):
+            new_kinds.append(kinds[js[n]])
+            new_parts.append(parts[js[n]])
+        else:
+            new_kinds.append(None)
+            new_parts.append(np.zeros(0))
+    new_kinds.append(kinds[-1])
+    new_parts.append(parts[-1])
+    return {"active": (new_kinds, new_parts), "lam": warm["lam"], "tau": warm["tau"]}
+
+
+def _refused_as_stuck(P: ContactForceProblem, choice, edges, picks, refused) -> bool:
+    """Whether a combination is refused because the same combination with its slip onsets
+    sticking instead was: where every onset's tangential acceleration is held at zero by
+    the combination's own equations.
+
+    A combination C fixes ``a_n = 0`` at its closed contacts and ``a_t = 0`` at its
+    sticking ones (rows K of ``a = W lambda + b``). Where an onset's tangential rows T are
+    combinations of them, ``W_T = G W_K`` and ``b_T = G b_K`` (to round-off, tested here),
+    ``a_T = G a_K = 0`` for every lambda of C: a slip that cannot start (a box with two of
+    its corners sticking: its other corners are held too, the relative motion being
+    rigid). A solution of C is then one of C' (the onsets sticking, no other change): its
+    equations hold, and its margins are C's (the onsets' forces lie on their cones'
+    boundaries, margin 0, their lambda_n kept >= the margin). So where C' was refused
+    (its largest margin below the tolerance, by the guards of
+    :func:`~.force_distribution.max_margin_distribution`), C is too, and is not solved
+    (the box stack's top box at its slip onset: 10 of 16 combinations). ``picks``: C's
+    option index per edge contact; ``refused``: the picks refused so far."""
+    d = P.d
+    onsets = [i for i, c in enumerate(choice)
+              if c[0] == SLIP and c[2] and P.mu[i] > 0.0 and not P.sliding(i)]
+    if not onsets:
+        return False
+    edge_of = {i: e for e, (i, _) in enumerate(edges)}
+    stuck = list(picks)
+    for i in onsets:
+        e = edge_of.get(i)
+        j = None if e is None else next(
+            (j for j, o in enumerate(edges[e][1]) if o[0] == STICK), None)
+        if j is None:
+            return False
+        stuck[e] = j
+    if tuple(stuck) not in refused:
+        return False
+    K = [i * d + j for i, c in enumerate(choice) if c[0] != OPEN
+         for j in (range(d) if c[0] == STICK else (0,))]
+    T = [i * d + j for i in onsets for j in range(1, d)]
+    W, b = P.delassus, P.free_acceleration
+    # W_T ~ G W_K (least squares by a pivoted QR: W_K's rows may depend on one another)
+    G = sla.lstsq(W[K].T, W[T].T, lapack_driver="gelsy", check_finite=False)[0].T
+    ascale = _scales(P)[0]
+    wscale = max(float(np.max(np.abs(W))), 1e-300)
+    return bool(np.max(np.abs(W[T] - G @ W[K])) <= STUCK_RTOL * wscale
+                and np.max(np.abs(b[T] - G @ b[K])) <= STUCK_RTOL * ascale)
+
+
+def _attempt(P, choice, rtol: float, failures: list, vanishing: bool = False,
+             warm: dict | None = None):
     """:func:`_exact`, a solver failure of its distribution kept aside (another combination
     may be the solution)."""
     try:
-        return _exact(P, choice, rtol, vanishing)
+        return _exact(P, choice, rtol, vanishing, warm)
     except SolverError as exc:
         failures.append(exc)
         return None
@@ -299,7 +415,8 @@ def _rank(s: ContactForceSolution) -> tuple[bool, int, int]:
     return (s.margin < 0.0, sum(m == OPEN for m in s.modes), sum(m == SLIP for m in s.modes))
 
 
-def _exact(P: ContactForceProblem, choice, rtol: float, vanishing: bool = False):
+def _exact(P: ContactForceProblem, choice, rtol: float, vanishing: bool = False,
+           warm: dict | None = None):
     """The enumerator's solution of one combination; a spatial onset's direction refined to
     the one along its own tangential acceleration (a fixed point), or None."""
     n, d = P.n, P.d
@@ -308,7 +425,7 @@ def _exact(P: ContactForceProblem, choice, rtol: float, vanishing: bool = False)
     onset = [c[2] and c[0] == SLIP and P.mu[i] > 0.0 and not P.sliding(i)
              for i, c in enumerate(choice)]
     ascale = _scales(P)[0]
-    cand = _candidate(P, combo, dirs, onset, rtol)
+    cand = _candidate(P, combo, dirs, onset, rtol, warm)
     if d == 3 and any(onset):
         for _ in range(8):  # the directions as a fixed point, from the engine's
             if cand is None or _along(P, cand, onset, ascale, vanishing):

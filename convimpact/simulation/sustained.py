@@ -20,6 +20,7 @@ import scipy.linalg as sla
 
 from .canonical import CanonicalEquations, HeldMode, Row, _cho_solve, _cholesky
 from .contact_forces import (OPEN, SLIP, STICK, ContactForceProblem, max_margin_distribution)
+from .force_distribution import margin_extension
 
 
 #: relative slack below which a margin counts as violated (a mode on the cone's boundary, e.g.
@@ -105,23 +106,27 @@ def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[R
     if L is None:
         sla.cho_factor(M, lower=True)  # raises scipy's error, as before
         raise np.linalg.LinAlgError("the mass matrix is not positive definite")
-    kept = [] if loop_rows is None else [r for r in np.atleast_2d(loop_rows)]
+    loops = [] if loop_rows is None else [r for r in np.atleast_2d(loop_rows)]
     position: dict = {}
     for i, r in enumerate(rows):
         position.setdefault(r, i)
     order = sorted(rows, key=lambda r: (r[1] > 0, position[r]))
     dropped = []
     scale = max(float(np.max(np.abs(_cho_solve(L, np.eye(len(M)))))), 1e-300)
-    for c, j in order:
+    # every candidate row's products X M^-1 X^T once; a trial's C M^-1 C^T is a submatrix
+    X = np.array(loops + [jac[c][j] for c, j in order], float).reshape(-1, len(M))
+    G = X @ _cho_solve(L, X.T)
+    kept = list(range(len(loops)))
+    for u, (c, j) in enumerate(order, start=len(loops)):
         if len(kept) >= len(M):  # as many independent rows as coordinates: the rest depend
             dropped.append((c, j))
             continue
-        trial = np.array(kept + [jac[c][j]])
-        S = trial @ _cho_solve(L, trial.T)
+        trial = kept + [u]
+        S = G[np.ix_(trial, trial)]
         smin = float(np.linalg.eigvalsh(0.5 * (S + S.T))[0])
-        norm = float(np.sum(jac[c][j] ** 2)) * scale
+        norm = float(X[u] @ X[u]) * scale
         if smin > RANK_RTOL * max(norm, 1e-300):
-            kept.append(jac[c][j])
+            kept.append(u)
         else:
             dropped.append((c, j))
     return frozenset(dropped)
@@ -156,13 +161,7 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
         hint["exact"] = True
     if not eq.held:
         return forces, np.inf
-    d = max(len(v) for v in forces.values())
-    mu = np.array([eq.modes[c].mu for c in eq.held])
-    combo = [STICK if eq.modes[c].kind == "stick" else SLIP for c in eq.held]
-    lam0 = np.zeros(len(eq.held) * d)
-    for i, c in enumerate(eq.held):
-        lam0[i * d:i * d + len(forces[c])] = forces[c]
-    fscale = max(float(np.max(np.abs(lam0))), 1e-300)
+    d, mu, combo, lam0, fscale = _held_data(eq, forces)
     smallest = _margins(mu, d, combo)
     if eq.dropped:
         # P: the projection onto the forces' determinate part (the complement of the
@@ -170,14 +169,16 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
         # (_determinate_part), else P = I - Q Q^T with Q an orthonormal basis of Z.
         # lam0 - (I - P) lam0 = P lam0 is the least-norm distribution.
         cheap = _determinate_part(eq, y, d)
-        Z = None
+        Z, basis = None, None
         if cheap is not None:
-            project, null = cheap
+            project, null, basis = cheap
         else:
             Z = _indeterminate(eq, y, d)
             null = Z.shape[1] > 0
             if null:
                 Q = np.linalg.qr(Z)[0]
+                if not eq.n_loops:  # Z of full rank: Q is an orthonormal basis of it
+                    basis = (lambda: Q)
 
                 def project(v):
                     return v - Q @ (Q.T @ v)
@@ -189,11 +190,18 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
                     lam = prev - project(prev - lam0)
                 if prev is None or prev.shape != lam0.shape or (
                         smallest(lam) <= HINT_MARGIN * fscale):
-                    if Z is None:
+                    # (margin only: an orthonormal basis of Z's span where one is at hand;
+                    # the distribution chosen keeps the basis of _indeterminate: among
+                    # many maximizers its last digits can depend on the basis)
+                    orthonormal = margin_only and basis is not None
+                    if orthonormal:
+                        Z = basis()
+                    elif Z is None:
                         Z = _indeterminate(eq, y, d)
                     lam, _ = max_margin_distribution(
                         mu, d, combo, lam0, Z, fscale, below=np.inf if margin_only else None,
-                        warm=None if hint is None else hint.setdefault("warm", {}))
+                        warm=None if hint is None else hint.setdefault("warm", {}),
+                        orthonormal=orthonormal)
                     if hint is not None:
                         hint["lam"] = lam
                         if margin_only:
@@ -205,17 +213,55 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     return forces, smallest(lam0) / fscale
 
 
+def _held_data(eq: CanonicalEquations, forces: Mapping[str, np.ndarray]):
+    """(d, mu, modes, lam0 (n d,), force scale) of the held contacts' forces ``forces``."""
+    d = max(len(v) for v in forces.values())
+    mu = np.array([eq.modes[c].mu for c in eq.held])
+    combo = [STICK if eq.modes[c].kind == "stick" else SLIP for c in eq.held]
+    lam0 = np.zeros(len(eq.held) * d)
+    for i, c in enumerate(eq.held):
+        lam0[i * d:i * d + len(forces[c])] = forces[c]
+    return d, mu, combo, lam0, max(float(np.max(np.abs(lam0))), 1e-300)
+
+
+def held_margin_extension(eq: CanonicalEquations, t: float, y: np.ndarray,
+                          state: tuple) -> float | None:
+    """The smooth extension of the held contacts' largest smallest margin (relative to the
+    force scale, as :func:`held_forces`') from the active set of a nearby exact program
+    (``state``: its active set, maximizer and margin), by
+    :func:`~.force_distribution.margin_extension`; None where it does not apply (no
+    redundancy, no convergence). Not a margin: a predictor of where the margin crosses
+    zero while the active set stays the program's."""
+    if not eq.held or not eq.dropped:
+        return None
+    d, mu, combo, lam0, fscale = _held_data(eq, eq.contact_forces(t, y))
+    cheap = _determinate_part(eq, y, d)
+    if cheap is not None and cheap[2] is not None:
+        Z, orthonormal = cheap[2](), True
+    else:
+        Z, orthonormal = _indeterminate(eq, y, d), False
+    if Z.shape[1] == 0:
+        return None
+    got = margin_extension(mu, d, combo, lam0, Z, fscale, state, orthonormal)
+    return got
+
+
 def _margins(mu: np.ndarray, d: int, combo):
     """lam (n d,) -> its smallest margin: lambda_n of every contact, mu lambda_n - |lambda_t|
     of the sticking ones with friction (:func:`~.force_distribution._smallest_margin`,
     vectorized)."""
     cone = np.array([kind == STICK for kind in combo]) & (mu > 0.0)
     any_cone = bool(cone.any())
+    every = bool(cone.all())
     mu_c = mu[cone]
 
     def smallest(lam: np.ndarray) -> float:
         F = lam.reshape(-1, d)
-        margin = float(np.min(F[:, 0]))
+        margin = F[:, 0].min()
+        if every and d == 3:  # (every contact a cone: no selection)
+            cones = mu_c * F[:, 0] - np.hypot(F[:, 1], F[:, 2])
+            return float(min(margin, cones.min()))
+        margin = float(margin)
         if any_cone:
             T = F[cone, 1:]
             tangential = np.sqrt(np.einsum("ij,ij->i", T, T))
@@ -231,8 +277,10 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
     forces: the complement is spanned by the thin SVD's rows R of B, P = R^T R) or all
     sliding with one mu (each unknown, a normal force, enters its contact's block along
     (1, -mu s), of one norm for all: with T those unit columns, P = I - T (I - R^T R) T^T).
-    Returns (v -> P v, whether there are indeterminate directions), or None (then
-    :func:`_indeterminate` and a QR)."""
+    Returns (v -> P v, whether there are indeterminate directions, a function returning an
+    orthonormal basis of them or None), or None (then :func:`_indeterminate` and a QR).
+    All sticking, the basis is the SVD's other right singular vectors (the null space of
+    B, :func:`_indeterminate`'s Z up to a rotation)."""
     if eq.n_loops:
         return None
     kinds = {eq.modes[c].kind for c in eq.held}
@@ -262,18 +310,19 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
         if np.max(norms) - np.min(norms) > 1e-12 * np.max(norms):
             return None  # unit slip directions of unequal length: the general path
         T = cols / norms[:, None]
-    _, sv, Vt = np.linalg.svd(B, full_matrices=False)
+    # (all sticking: the full SVD, at the thin one's cost here, gives the basis too)
+    _, sv, Vt = np.linalg.svd(B, full_matrices=T is None)
     rank = int(np.sum(sv > 1e-8 * sv[0])) if sv.size else 0
     R = Vt[:rank]
     null = rank < B.shape[1]  # indeterminate directions exist
     if T is None:
-        return (lambda v: R.T @ (R @ v)), null
+        return (lambda v: R.T @ (R @ v)), null, (lambda: Vt[rank:].T)
 
     def project(v):
         u = np.einsum("ij,ij->i", T, v.reshape(n, d))  # T^T v
         w = u - R.T @ (R @ u)  # its indeterminate part
         return v - (T * w[:, None]).ravel()
-    return project, null
+    return project, null, None
 
 
 def _indeterminate(eq: CanonicalEquations, y: np.ndarray, d: int) -> np.ndarray:
