@@ -60,13 +60,16 @@ import math
 import numpy as np
 
 from ..conic.paths import ProgramOptions, regimes_from_slip
-from ..conic.qp import Backend
+from ..conic.polish import polish_cone_qp
+from ..conic.program import ConeQP
+from ..conic.qp import Backend, equilibrated
 from ..diagnostics import assemble_result
 from ...errors import SolverError
 from ..exact.dispatch import independent_contacts_result
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .coulomb import solve_coulomb
+from .coulomb_program import coulomb_residual
 
 LAW = "stronge"
 #: relative step (to the impulse scale) at which the expansion's Gauss--Seidel sweeps stop
@@ -199,11 +202,90 @@ def _kappa(dT_c: float, a: float, b: float) -> float:
     return max(min((-a + math.sqrt(max(disc, 0.0))) / b, 1.0), 0.0)
 
 
+#: Coulomb residual (on the equilibrated program) a warm-started compression must reach, the
+#: fixed point's own test of its active-set Newton
+WARM_RESIDUAL = 1e-11
+#: the last plastic compression per (contacts, dimension, friction): the next call's start
+_WARM: dict[tuple, np.ndarray] = {}
+
+
+def _redundancy(unit: ConeQP, y: np.ndarray) -> tuple[bool, bool]:
+    """(unique, same velocities) of the Coulomb solution ``y`` of the equilibrated program
+    ``unit``: the null space of the Jacobian of its active set's equations
+    (:func:`~convimpact.impact.conic.polish_newton.active_set_jacobian`) is the tangent of
+    its family of solutions. Empty: the solution is locally unique. Else the family's
+    velocities ``W dx`` must not move (relative 1e-8): redundant contacts whose impulses
+    change no velocity (a box at rest or sliding straight on four corners), not a family of
+    motions (a spinning box on four corners, whose friction moments depend on the split of
+    its normal impulses)."""
+    from ..conic.polish import _contact_kinds, _kind_arrays
+    from ..conic.polish_newton import active_set_jacobian
+
+    kinds, tangs = _kind_arrays(unit, [[k[0] for k in _contact_kinds(unit, y)]])
+    J, Jx = active_set_jacobian(unit.W, unit.q, unit.E, unit.f, unit.mu, unit.dim, kinds[0],
+                                tangs[0], y, True)
+    if J.shape[1] == 0:
+        return True, True
+    _, sv, Vt = np.linalg.svd(J)
+    top = float(sv[0]) if sv.size else 0.0
+    rank = int(np.sum(sv > 1e-9 * top)) if top > 0.0 else 0
+    if rank == J.shape[1]:
+        return True, True
+    null = Vt[rank:].T
+    dv = unit.W @ Jx
+    moved = float(np.max(np.abs(dv @ null)))
+    return False, moved <= 1e-8 * max(float(np.max(np.abs(dv))), 1e-300)
+
+
+def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):  # P: its own e (the gate)
+    """The plastic compression by the active-set Newton on Coulomb's conditions from the
+    previous compression of as many contacts (the polish's classification of it, its
+    closeness test included: the same solution branch, moved by less than 1e-2 of its size),
+    without a cone program. None unless it certifies (residual :data:`WARM_RESIDUAL`) a
+    solution that is the fixed point's answer too: locally unique, or one whose redundant
+    impulses change no velocity and feed no expansion (every e = 0)."""
+    n, d = P.n_contacts, P.dim
+    mu = P.friction
+    prev = _WARM.get((n, d, mu.tobytes()))
+    if prev is None or n < 2:
+        return None
+    W = P.delassus
+    b = P.v_minus.ravel()
+    eq = equilibrated(ConeQP(W, b, mu, d, np.zeros((0, n * d)), np.zeros(0)))
+    if eq is None:
+        return None
+    unit, scale = eq
+    y, ok = polish_cone_qp(unit, prev / scale, coulomb=True)
+    if not ok:
+        return None
+    resid = coulomb_residual(unit.W, unit.q, mu, d, y)
+    if not resid <= WARM_RESIDUAL:
+        return None
+    unique, same_velocities = _redundancy(unit, y)
+    if not (unique or (same_velocities and not np.any(P.restitution != 0.0))):
+        return None  # a family of motions, or redundant impulses an expansion would release
+    pi = (y * scale).reshape(n, d)
+    info = {"fixed_point_iterations": 0, "fixed_point_converged": True,
+            "fixed_point_residual": 0.0, "conic_iterations": 0,
+            "solver_status": "no cone program",
+            "finished_by": "active-set Newton on Coulomb's conditions from the previous "
+                           "compression",
+            "complementarity_residual": resid, "tolerance": opts.tol,
+            "accuracy": opts.accuracy(True)}
+    return pi, info
+
+
 def _plastic(P: ImpactProblem, backend: Backend, opts: ProgramOptions):
-    """Moreau's plastic impact (e = 0) with Coulomb friction: (impulse (n, d), solver info)."""
+    """Moreau's plastic impact (e = 0) with Coulomb friction: (impulse (n, d), solver info),
+    warm-started from the previous compression (:func:`_warm_plastic`) when that certifies,
+    else by the fixed point over cone programs (:func:`~.coulomb.solve_coulomb`)."""
     plastic = dataclasses.replace(P, restitution=np.zeros(P.n_contacts))
-    pi, info = solve_coulomb(plastic, backend, opts)
+    got = _warm_plastic(P, opts)
+    if got is None:
+        got = solve_coulomb(plastic, backend, opts)
+    pi, info = got
     pi[:, 0] = np.maximum(pi[:, 0], 0.0)
+    _WARM[(P.n_contacts, P.dim, P.friction.tobytes())] = pi.ravel().copy()
     return pi, info
 
 
