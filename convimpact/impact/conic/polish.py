@@ -16,6 +16,10 @@ set is consistent (then it is an exact KKT point: the optimum of the convex prog
   boundary with the tangent of the answer or opposite the slip): the velocities of a
   consistent active set are exact whatever the interior-point method reached.
 
+The Newton solves run compiled (:mod:`~convimpact.impact.conic.polish_newton`: the active
+sets of one phase in one call); the classification and the order of the active sets stay
+here.
+
 Every threshold is relative: impulses to ``X = max |x|``, velocities (``W x + q``) to
 ``V = max(|q|, |W x|)``, and the Newton residual to the round-off of forming ``W x + q``
 (``|W| X``; with an ill-conditioned W the impulse is ``|q| / lambda_min(W)`` and cond(W) eps

@@ -48,6 +48,23 @@ Assumptions and consequences, stated:
 * Frictionless contacts: the compression is the plastic linear complementarity problem and
   the answer is Poisson's multi-contact law (= Newton's for orthogonal contacts).
 
+**Warm start** (a time-stepping scheme calls the law on nearly the same impact step after
+step). The plastic compression of phases 1 and 3 is first tried by the compiled active-set
+Newton on Coulomb's conditions (:mod:`convimpact.impact.conic.polish_newton`) from the last
+compression of as many contacts with the same friction (the polish's classification of it
+and its closeness test: the same solution branch, moved by less than 1e-2 of its size), with
+no cone program. Its answer is kept only when it meets Coulomb's conditions at round-off
+(:data:`WARM_RESIDUAL`, the fixed point's own test) and is the answer of the fixed point
+too: a locally unique solution, or, on redundant contacts (a box on four corners), one whose
+family of solutions moves no velocity (the null space of the Newton's Jacobian mapped by W)
+with every e = 0, so that the split of the compression impulse feeds no expansion. Then the
+velocities are the fixed point's to round-off and only that split -- which the interior
+point itself fixes to about 1e-8 (measured: 7e-9 to 4e-8 between its tolerances 1e-8 and
+1e-11) -- may differ, by as much. A family of motions (a box sliding and spinning on four
+corners, where the split changes the friction moments), a contact changing its kind, or any
+failure to certify takes the fixed point over Clarabel programs. The memory is of the last
+:data:`WARM_KEEP` (contacts, dimension, friction) kinds of problem, per process.
+
 Its derivative (phase by phase: Coulomb's plastic compression, then the expansion's KKT
 conditions) is :mod:`convimpact.impact.laws.stronge_contacts_derivative`.
 """
@@ -205,6 +222,8 @@ def _kappa(dT_c: float, a: float, b: float) -> float:
 #: Coulomb residual (on the equilibrated program) a warm-started compression must reach, the
 #: fixed point's own test of its active-set Newton
 WARM_RESIDUAL = 1e-11
+#: kinds of problem (contacts, dimension, friction) whose last compression is remembered
+WARM_KEEP = 64
 #: the last plastic compression per (contacts, dimension, friction): the next call's start
 _WARM: dict[tuple, np.ndarray] = {}
 
@@ -285,7 +304,11 @@ def _plastic(P: ImpactProblem, backend: Backend, opts: ProgramOptions):
         got = solve_coulomb(plastic, backend, opts)
     pi, info = got
     pi[:, 0] = np.maximum(pi[:, 0], 0.0)
-    _WARM[(P.n_contacts, P.dim, P.friction.tobytes())] = pi.ravel().copy()
+    key = (P.n_contacts, P.dim, P.friction.tobytes())
+    _WARM.pop(key, None)
+    _WARM[key] = pi.ravel().copy()
+    while len(_WARM) > WARM_KEEP:  # the oldest first (dicts keep insertion order)
+        del _WARM[next(iter(_WARM))]
     return pi, info
 
 
