@@ -152,3 +152,26 @@ def _compression(M, Jc, dq, e):
 
     P = build_problem(M, Jc, dq, np.full(len(Jc), e), np.full(len(Jc), MU))
     return sc._plastic(P, backend("clarabel"), ProgramOptions())[0]
+
+
+def test_warm_kernel_residual_and_statuses_by_hand():
+    """The kernel's Coulomb residual of pi = 0 on an approaching contact pair is
+    max_i(-b_n,i / max(1, mu_i)) / |b| (the dual-cone violation, by hand); from a start on the
+    exact sticking answer -W^-1 b (inside the cones, W nonsingular) it returns that answer,
+    locally unique; from a start far from every solution it certifies nothing."""
+    from convimpact.impact.laws.stronge_contacts_warm import (FAILED, UNIQUE, _coulomb_residual,
+                                                              warm_compression)
+
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(6, 6))
+    W = A @ A.T + np.eye(6)
+    mu = np.array([0.9, 1.2])
+    stick = np.array([1.0, 0.1, -0.2, 0.5, 0.05, 0.1])
+    b = -W @ stick
+    r0 = _coulomb_residual(W, b, mu, 3, np.zeros(6))
+    assert r0 == pytest.approx(max(-b[0], -b[3] / 1.2, 0.0) / np.linalg.norm(b), rel=1e-14)
+    status, pi, resid = warm_compression(W, b, mu, 3, stick * (1 + 1e-7))
+    assert status == UNIQUE and resid < 1e-14
+    assert np.allclose(pi, stick, rtol=0, atol=1e-14)
+    status, _, resid = warm_compression(W, b, mu, 3, -stick)
+    assert status == FAILED and resid == np.inf

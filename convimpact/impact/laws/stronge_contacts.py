@@ -51,16 +51,18 @@ Assumptions and consequences, stated:
 **Warm start** (a time-stepping scheme calls the law on nearly the same impact step after
 step). The plastic compression of phases 1 and 3 is first tried by the compiled active-set
 Newton on Coulomb's conditions (:mod:`convimpact.impact.conic.polish_newton`) from the last
-compression of as many contacts with the same friction (the polish's classification of it
-and its closeness test: the same solution branch, moved by less than 1e-2 of its size), with
-no cone program. Its answer is kept only when it meets Coulomb's conditions at round-off
+compression of as many contacts with the same friction (on the polish's primary
+classification of it, with its closeness test: the same solution branch, moved by less than
+1e-2 of its size), with no cone program, in one compiled call
+(:mod:`convimpact.impact.laws.stronge_contacts_warm`). Its answer is kept only when it meets Coulomb's conditions at round-off
 (:data:`WARM_RESIDUAL`, the fixed point's own test) and is the answer of the fixed point
 too: a locally unique solution, or, on redundant contacts (a box on four corners), one whose
 family of solutions moves no velocity (the null space of the Newton's Jacobian mapped by W)
 with every e = 0, so that the split of the compression impulse feeds no expansion. Then the
-velocities are the fixed point's to round-off and only that split -- which the interior
-point itself fixes to about 1e-8 (measured: 7e-9 to 4e-8 between its tolerances 1e-8 and
-1e-11) -- may differ, by as much. A family of motions (a box sliding and spinning on four
+velocities are the fixed point's to round-off and only that split may differ, by about
+what the interior point itself fixes it to (measured on the bench's boxes: 4e-8 to 6e-8 of
+the impulse; the interior point's own answers differ by 7e-9 to 4e-8 between its
+tolerances 1e-8 and 1e-11). A family of motions (a box sliding and spinning on four
 corners, where the split changes the friction moments), a contact changing its kind, or any
 failure to certify takes the fixed point over Clarabel programs. The memory is of the last
 :data:`WARM_KEEP` (contacts, dimension, friction) kinds of problem, per process.
@@ -77,16 +79,13 @@ import math
 import numpy as np
 
 from ..conic.paths import ProgramOptions, regimes_from_slip
-from ..conic.polish import polish_cone_qp
-from ..conic.program import ConeQP
-from ..conic.qp import Backend, equilibrated
+from ..conic.qp import Backend
 from ..diagnostics import assemble_result
 from ...errors import SolverError
 from ..exact.dispatch import independent_contacts_result
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .coulomb import solve_coulomb
-from .coulomb_program import coulomb_residual
 
 LAW = "stronge"
 #: relative step (to the impulse scale) at which the expansion's Gauss--Seidel sweeps stop
@@ -162,6 +161,8 @@ def expansion_friction(W: np.ndarray, vc: np.ndarray, xn: np.ndarray, mu: np.nda
     x[:, 0] = xn
     radius = mu * xn
     free = [i for i in range(n) if radius[i] > 0.0]
+    if not free:  # no friction to distribute (every e = 0, or frictionless): no sweep
+        return x, 0
     tdx = [np.arange(i * d + 1, (i + 1) * d) for i in range(n)]
     flat = x.ravel()
     grad = W @ flat + vc.ravel()
@@ -228,80 +229,45 @@ WARM_KEEP = 64
 _WARM: dict[tuple, np.ndarray] = {}
 
 
-def _redundancy(unit: ConeQP, y: np.ndarray) -> tuple[bool, bool]:
-    """(unique, same velocities) of the Coulomb solution ``y`` of the equilibrated program
-    ``unit``: the null space of the Jacobian of its active set's equations
-    (:func:`~convimpact.impact.conic.polish_newton.active_set_jacobian`) is the tangent of
-    its family of solutions. Empty: the solution is locally unique. Else the family's
-    velocities ``W dx`` must not move (relative 1e-8): redundant contacts whose impulses
-    change no velocity (a box at rest or sliding straight on four corners), not a family of
-    motions (a spinning box on four corners, whose friction moments depend on the split of
-    its normal impulses)."""
-    from ..conic.polish import _contact_kinds, _kind_arrays
-    from ..conic.polish_newton import active_set_jacobian
-
-    kinds, tangs = _kind_arrays(unit, [[k[0] for k in _contact_kinds(unit, y)]])
-    J, Jx = active_set_jacobian(unit.W, unit.q, unit.E, unit.f, unit.mu, unit.dim, kinds[0],
-                                tangs[0], y, True)
-    if J.shape[1] == 0:
-        return True, True
-    _, sv, Vt = np.linalg.svd(J)
-    top = float(sv[0]) if sv.size else 0.0
-    rank = int(np.sum(sv > 1e-9 * top)) if top > 0.0 else 0
-    if rank == J.shape[1]:
-        return True, True
-    null = Vt[rank:].T
-    dv = unit.W @ Jx
-    moved = float(np.max(np.abs(dv @ null)))
-    return False, moved <= 1e-8 * max(float(np.max(np.abs(dv))), 1e-300)
-
-
-def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):  # P: its own e (the gate)
+def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):
     """The plastic compression by the active-set Newton on Coulomb's conditions from the
-    previous compression of as many contacts (the polish's classification of it, its
-    closeness test included: the same solution branch, moved by less than 1e-2 of its size),
-    without a cone program. None unless it certifies (residual :data:`WARM_RESIDUAL`) a
-    solution that is the fixed point's answer too: locally unique, or one whose redundant
-    impulses change no velocity and feed no expansion (every e = 0)."""
+    previous compression of as many contacts, without a cone program (compiled,
+    :func:`~.stronge_contacts_warm.warm_compression`). None unless it certifies (residual
+    :data:`WARM_RESIDUAL`) a solution that is the fixed point's answer too: locally unique,
+    or one whose redundant impulses change no velocity and feed no expansion (every e = 0).
+    ``P`` carries its own restitution (the gate); the compression itself has e = 0."""
     n, d = P.n_contacts, P.dim
-    mu = P.friction
+    mu = np.ascontiguousarray(P.friction, dtype=float)
     prev = _WARM.get((n, d, mu.tobytes()))
     if prev is None or n < 2:
         return None
-    W = P.delassus
-    b = P.v_minus.ravel()
-    eq = equilibrated(ConeQP(W, b, mu, d, np.zeros((0, n * d)), np.zeros(0)))
-    if eq is None:
-        return None
-    unit, scale = eq
-    y, ok = polish_cone_qp(unit, prev / scale, coulomb=True)
-    if not ok:
-        return None
-    resid = coulomb_residual(unit.W, unit.q, mu, d, y)
+    from .stronge_contacts_warm import REDUNDANT, UNIQUE, warm_compression
+
+    status, pi, resid = warm_compression(np.ascontiguousarray(P.delassus, dtype=float),
+                                         np.ascontiguousarray(P.v_minus, dtype=float).ravel(),
+                                         mu, d, prev)
     if not resid <= WARM_RESIDUAL:
         return None
-    unique, same_velocities = _redundancy(unit, y)
-    if not (unique or (same_velocities and not np.any(P.restitution != 0.0))):
+    if not (status == UNIQUE or (status == REDUNDANT and not np.any(P.restitution != 0.0))):
         return None  # a family of motions, or redundant impulses an expansion would release
-    pi = (y * scale).reshape(n, d)
     info = {"fixed_point_iterations": 0, "fixed_point_converged": True,
             "fixed_point_residual": 0.0, "conic_iterations": 0,
             "solver_status": "no cone program",
             "finished_by": "active-set Newton on Coulomb's conditions from the previous "
                            "compression",
-            "complementarity_residual": resid, "tolerance": opts.tol,
+            "complementarity_residual": float(resid), "tolerance": opts.tol,
             "accuracy": opts.accuracy(True)}
-    return pi, info
+    return pi.reshape(n, d), info
 
 
 def _plastic(P: ImpactProblem, backend: Backend, opts: ProgramOptions):
     """Moreau's plastic impact (e = 0) with Coulomb friction: (impulse (n, d), solver info),
     warm-started from the previous compression (:func:`_warm_plastic`) when that certifies,
     else by the fixed point over cone programs (:func:`~.coulomb.solve_coulomb`)."""
-    plastic = dataclasses.replace(P, restitution=np.zeros(P.n_contacts))
     got = _warm_plastic(P, opts)
     if got is None:
-        got = solve_coulomb(plastic, backend, opts)
+        got = solve_coulomb(dataclasses.replace(P, restitution=np.zeros(P.n_contacts)),
+                            backend, opts)
     pi, info = got
     pi[:, 0] = np.maximum(pi[:, 0], 0.0)
     key = (P.n_contacts, P.dim, P.friction.tobytes())
