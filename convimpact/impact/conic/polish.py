@@ -163,17 +163,21 @@ def _kind_arrays(qp: ConeQP, sets: list[list[Kind]]) -> tuple[np.ndarray, np.nda
 def _first_certified(qp: ConeQP, x0: np.ndarray, sets: list[list[Kind]], coulomb: bool,
                      near: bool) -> tuple[np.ndarray, bool]:
     """The first of ``sets`` whose Newton solve is accepted (compiled,
-    :func:`~convimpact.impact.conic.polish_newton.first_certified`): (x, True), else (x0,
+    :func:`~convimpact.impact.conic.polish_newton.active_set_newton`): (x, True), else (x0,
     False)."""
     if not sets:
         return x0, False
-    from .polish_newton import first_certified
+    from .polish_newton import active_set_newton
 
     kinds, tangs = _kind_arrays(qp, sets)
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    j, x = first_certified(f(qp.W), f(qp.q), f(qp.E), f(qp.f), f(qp.mu), int(qp.dim), kinds,
-                           tangs, f(x0), bool(coulomb), bool(near))
-    return (x, True) if j >= 0 else (x0, False)
+    args = (f(qp.W), f(qp.q), f(qp.E), f(qp.f), f(qp.mu), int(qp.dim))
+    start = f(x0)
+    for j in range(len(sets)):
+        x, ok = active_set_newton(*args, kinds[j], tangs[j], start, bool(coulomb), bool(near))
+        if ok:
+            return x, True
+    return x0, False
 
 
 def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False,

@@ -1,6 +1,6 @@
 """The polish's Newton on one active set, compiled: :func:`active_set_newton` (the KKT
-equations of the cone QP, or Coulomb's conditions) and :func:`first_certified` (the active
-sets of a list tried in order, the first consistent one kept).
+equations of the cone QP, or Coulomb's conditions) and :func:`active_set_jacobian` (their
+Jacobian at a solution: its null space is the solution's family).
 
 The equations, unknowns, steps and acceptance are those documented in
 :mod:`convimpact.impact.conic.polish` (which calls these kernels): each contact is at zero
@@ -8,13 +8,14 @@ The equations, unknowns, steps and acceptance are those documented in
 (``BND``), ``x_i = r (1, mu c)`` with ``z_i = kappa (mu, -c)`` for the cone QP (``kappa (0,
 -c)``, a slip without normal lift, for Coulomb's law), c the unit tangent ``(cos a, sin a)``
 in space and ``sg = +-1`` in the plane; the multipliers of ``E x = f`` follow. Steps are the
-minimum-norm least-squares solutions (LAPACK's ``gelsd``, singular values below 1e-13 of the
-largest dropped: redundant contacts make the Jacobian singular). An answer is accepted only
-when its scaled residual is at round-off (:data:`POLISH_ACCEPT`), its velocities are finite
-(:data:`VELOCITY_RESIDUAL_MAX`), its active set is consistent (r > 0, kappa >= 0, interior
-impulses inside, the duals of zero contacts in the dual cone) and, with ``near``, it lies
-within 1e-2 max |x0| of the start. Such an answer is an exact KKT point (Coulomb solution),
-however it was reached.
+minimum-norm least-squares solutions (from the singular value decomposition, singular values
+below 1e-13 of the largest dropped, as numpy's ``lstsq`` with that ``rcond``: redundant
+contacts make the Jacobian singular; numba's own ``lstsq`` took 5 s more to compile). An
+answer is accepted only when its scaled residual is at round-off (:data:`POLISH_ACCEPT`),
+its velocities are finite (:data:`VELOCITY_RESIDUAL_MAX`), its active set is consistent
+(r > 0, kappa >= 0, interior impulses inside, the duals of zero contacts in the dual cone)
+and, with ``near``, it lies within 1e-2 max |x0| of the start. Such an answer is an exact
+KKT point (Coulomb solution), however it was reached.
 """
 
 from __future__ import annotations
@@ -53,6 +54,54 @@ def _absmax(a):
     for v in a.ravel():
         if abs(v) > out or v != v:
             out = abs(v)
+    return out
+
+
+@_jit_internal
+def _matvec(A, x):
+    """A x by loops (numba's BLAS wrappers cost seconds of compilation per shape kind)."""
+    out = np.zeros(A.shape[0])
+    for r in range(A.shape[0]):
+        acc = 0.0
+        for c in range(A.shape[1]):
+            acc += A[r, c] * x[c]
+        out[r] = acc
+    return out
+
+
+@_jit_internal
+def _matmat(A, B):
+    """A B by loops."""
+    out = np.zeros((A.shape[0], B.shape[1]))
+    for r in range(A.shape[0]):
+        for k in range(A.shape[1]):
+            a = A[r, k]
+            if a != 0.0:
+                for c in range(B.shape[1]):
+                    out[r, c] += a * B[k, c]
+    return out
+
+
+@_jit_internal
+def _min_norm_solve(A, y, rcond):
+    """The minimum-norm least-squares solution of ``A s = y``, singular values of A at most
+    ``rcond`` times the largest taken as zero (numpy's ``lstsq`` with that ``rcond``, from
+    the singular value decomposition; the Jacobian is singular on redundant contacts)."""
+    U, sv, Vt = np.linalg.svd(A, full_matrices=False)
+    k = sv.size
+    top = sv[0] if k else 0.0
+    g = np.zeros(k)
+    for a in range(k):
+        if sv[a] > rcond * top:
+            acc = 0.0
+            for r in range(U.shape[0]):
+                acc += U[r, a] * y[r]
+            g[a] = acc / sv[a]
+    out = np.zeros(Vt.shape[1])
+    for a in range(k):
+        if g[a] != 0.0:
+            for c in range(Vt.shape[1]):
+                out[c] += Vt[a, c] * g[a]
     return out
 
 
@@ -124,8 +173,12 @@ def _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq, n
     X = max(_absmax(x), X0 if near else 0.0, TINY)
     sG = max(scales[0], scales[1] * X, TINY)
     sE = max(scales[2], scales[3] * X, TINY)
-    G = W @ x + q - z
-    dG = W @ Jx - Jz
+    G = _matvec(W, x)
+    dG = _matmat(W, Jx)
+    for a in range(N):
+        G[a] += q[a] - z[a]
+        for c in range(U):
+            dG[a, c] -= Jz[a, c]
     for c in range(m):
         lam = u[n_prim + c]
         for a in range(N):
@@ -141,8 +194,8 @@ def _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq, n
                 J[row, c] = dG[a, c] / sG
             row += 1
     if m:
-        Ex = E @ x
-        EJ = E @ Jx
+        Ex = _matvec(E, x)
+        EJ = _matmat(E, Jx)
         for c in range(m):
             F[row] = (Ex[c] - f[c]) / sE
             for k in range(U):
@@ -159,7 +212,7 @@ def _consistent(W, q, mu, d, kind, start, x, G, u, coulomb, qmax, wmax):
     round-off floor."""
     n = mu.size
     X = max(_absmax(x), TINY)
-    V = max(qmax, _absmax(W @ x), TINY)
+    V = max(qmax, _absmax(_matvec(W, x)), TINY)
     floor = EPS * wmax * X / V
     vtol = V * max(1e-10, min(1e2 * floor, VELOCITY_RESIDUAL_MAX))
     for i in range(n):
@@ -218,7 +271,9 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
     n_prim = start[n]
     U = n_prim + m
     X0 = max(_absmax(x0), TINY)
-    g0 = W @ x0 + q
+    g0 = _matvec(W, x0)
+    for a in range(N):
+        g0[a] += q[a]
     u = np.zeros(U)
     for i in range(n):
         s = start[i]
@@ -246,7 +301,7 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
             else:
                 u[s + 1] = kap
     if m:
-        lam0 = np.linalg.lstsq(np.ascontiguousarray(E.T), g0, EPS * max(N, m))[0]
+        lam0 = _min_norm_solve(np.ascontiguousarray(E.T), g0, EPS * max(N, m))
         for c in range(m):
             u[n_prim + c] = lam0[c]
     wmax = _absmax(W)
@@ -282,20 +337,21 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
             have_best = True
         if fn <= 4.0 * EPS or (it >= 4 and best_f > 1e-6 * f0):
             break  # converged, or not converging quadratically: wrong active set
-        step = np.linalg.lstsq(J, -F, 1e-13)[0]
+        step = _min_norm_solve(J, -F, 1e-13)
         finite = True
         for a in range(step.size):
             if not np.isfinite(step[a]):
                 finite = False
         if not finite:
             break
-        u = u + step
+        for a in range(U):
+            u[a] += step[a]
     u = best_u
     F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
                            n_prim, X0, near, scales)
     if not _absmax(F) <= POLISH_ACCEPT:
         return x0.copy(), False
-    V = max(qmax, _absmax(W @ x), TINY)
+    V = max(qmax, _absmax(_matvec(W, x)), TINY)
     for a in range(N):
         if eq_rows[a] and not abs(G[a]) <= VELOCITY_RESIDUAL_MAX * V:
             return x0.copy(), False
@@ -320,7 +376,9 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
     n_prim = start[n]
     U = n_prim + m
     X0 = max(_absmax(x0), TINY)
-    g0 = W @ x0 + q
+    g0 = _matvec(W, x0)
+    for a in range(N):
+        g0[a] += q[a]
     u = np.zeros(U)
     for i in range(n):
         s = start[i]
@@ -353,20 +411,9 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
                 n_eq += 1
     scales = np.array([_absmax(q), _absmax(W), _absmax(f), _absmax(E)])
     F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
-                           n_prim, X0, False, scales)
+                           n_prim, X0, bool(False), scales)  # a run-time flag: one compile
     Jx = _unpack(u, kind, tang, mu, d, start, coulomb, U)[2]
     return J, Jx
 
 
-@_jit
-def first_certified(W, q, E, f, mu, d, kinds, tangs, x0, coulomb, near):
-    """The active sets ``kinds[j]`` (tangents ``tangs[j]``) tried in order by
-    :func:`active_set_newton`: (index of the first accepted one or -1, its x or x0)."""
-    for j in range(kinds.shape[0]):
-        x, ok = active_set_newton(W, q, E, f, mu, d, kinds[j], tangs[j], x0, coulomb, near)
-        if ok:
-            return j, x
-    return -1, x0.copy()
-
-
-__all__ = ["active_set_newton", "active_set_jacobian", "first_certified", "ZERO", "ACT", "INT", "BND"]
+__all__ = ["active_set_newton", "active_set_jacobian", "ZERO", "ACT", "INT", "BND"]

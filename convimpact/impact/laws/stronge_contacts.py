@@ -49,13 +49,14 @@ Assumptions and consequences, stated:
   the answer is Poisson's multi-contact law (= Newton's for orthogonal contacts).
 
 **Warm start** (a time-stepping scheme calls the law on nearly the same impact step after
-step). The plastic compression of phases 1 and 3 is first tried by the compiled active-set
-Newton on Coulomb's conditions (:mod:`convimpact.impact.conic.polish_newton`) from the last
+step). The plastic compression of phase 1 is first tried by the compiled active-set Newton
+on Coulomb's conditions (:mod:`convimpact.impact.conic.polish_newton`) from the last
 compression of as many contacts with the same friction (on the polish's primary
 classification of it, with its closeness test: the same solution branch, moved by less than
 1e-2 of its size), with no cone program, in one compiled call
-(:mod:`convimpact.impact.laws.stronge_contacts_warm`). Its answer is kept only when it meets Coulomb's conditions at round-off
-(:data:`WARM_RESIDUAL`, the fixed point's own test) and is the answer of the fixed point
+(:mod:`convimpact.impact.laws.stronge_contacts_warm`). Its answer is kept only when it meets
+Coulomb's conditions at round-off (:data:`WARM_RESIDUAL`, the fixed point's own test) and
+is the answer of the fixed point
 too: a locally unique solution, or, on redundant contacts (a box on four corners), one whose
 family of solutions moves no velocity (the null space of the Newton's Jacobian mapped by W)
 with every e = 0, so that the split of the compression impulse feeds no expansion. Then the
@@ -229,6 +230,10 @@ WARM_KEEP = 64
 _WARM: dict[tuple, np.ndarray] = {}
 
 
+def _warm_key(P: ImpactProblem) -> tuple:
+    return P.n_contacts, P.dim, np.ascontiguousarray(P.friction, dtype=float).tobytes()
+
+
 def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):
     """The plastic compression by the active-set Newton on Coulomb's conditions from the
     previous compression of as many contacts, without a cone program (compiled,
@@ -238,7 +243,7 @@ def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):
     ``P`` carries its own restitution (the gate); the compression itself has e = 0."""
     n, d = P.n_contacts, P.dim
     mu = np.ascontiguousarray(P.friction, dtype=float)
-    prev = _WARM.get((n, d, mu.tobytes()))
+    prev = _WARM.get(_warm_key(P))
     if prev is None or n < 2:
         return None
     from .stronge_contacts_warm import REDUNDANT, UNIQUE, warm_compression
@@ -260,21 +265,25 @@ def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):
     return pi.reshape(n, d), info
 
 
-def _plastic(P: ImpactProblem, backend: Backend, opts: ProgramOptions):
-    """Moreau's plastic impact (e = 0) with Coulomb friction: (impulse (n, d), solver info),
-    warm-started from the previous compression (:func:`_warm_plastic`) when that certifies,
-    else by the fixed point over cone programs (:func:`~.coulomb.solve_coulomb`)."""
-    got = _warm_plastic(P, opts)
+def _plastic(P: ImpactProblem, backend: Backend, opts: ProgramOptions, warm: bool = True):
+    """Moreau's plastic impact (e = 0) with Coulomb friction: (impulse (n, d), solver info).
+
+    ``warm`` (the compression of phase 1): warm-started from the previous compression
+    (:func:`_warm_plastic`) when that certifies, and remembered for the next call; else, and
+    for the re-compression of phase 3, by the fixed point over cone programs
+    (:func:`~.coulomb.solve_coulomb`)."""
+    got = _warm_plastic(P, opts) if warm else None
     if got is None:
         got = solve_coulomb(dataclasses.replace(P, restitution=np.zeros(P.n_contacts)),
                             backend, opts)
     pi, info = got
     pi[:, 0] = np.maximum(pi[:, 0], 0.0)
-    key = (P.n_contacts, P.dim, P.friction.tobytes())
-    _WARM.pop(key, None)
-    _WARM[key] = pi.ravel().copy()
-    while len(_WARM) > WARM_KEEP:  # the oldest first (dicts keep insertion order)
-        del _WARM[next(iter(_WARM))]
+    if warm:
+        key = _warm_key(P)
+        _WARM.pop(key, None)
+        _WARM[key] = pi.ravel().copy()
+        while len(_WARM) > WARM_KEEP:  # the oldest first (dicts keep insertion order)
+            del _WARM[next(iter(_WARM))]
     return pi, info
 
 
@@ -313,7 +322,7 @@ def coupled_result(P: ImpactProblem, backend: Backend, method: str,
         # 3. a contact the expansion drives into approach: a second plastic compression
         d_dq, _ = P.velocity_jump(pi.ravel())
         again = dataclasses.replace(P, dq_minus=P.dq_minus + d_dq, v_minus=vp)
-        xr, _ = _plastic(again, backend, opts)
+        xr, _ = _plastic(again, backend, opts, warm=False)
         pi = pi + xr
         vp = vp + (W @ xr.ravel()).reshape(n, d)
         warnings.append("law 'stronge' (several contacts): the expansion drove a contact into "

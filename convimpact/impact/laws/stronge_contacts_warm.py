@@ -29,7 +29,8 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ..conic.polish import POLISH_BOUNDARY_RTOL, POLISH_ZERO_RTOL, TINY
-from ..conic.polish_newton import ACT, BND, INT, ZERO, active_set_jacobian, active_set_newton
+from ..conic.polish_newton import (ACT, BND, INT, ZERO, _matmat, _matvec, active_set_jacobian,
+                                   active_set_newton)
 
 UNIQUE, REDUNDANT, MOVING, FAILED = 0, 1, 2, -1
 #: singular values of the active set's Jacobian below this fraction of the largest: its null
@@ -44,7 +45,7 @@ def _coulomb_residual(W, b, mu, d, pi):
     """The relative residual of ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*`` (u = W pi + b), as
     :func:`~convimpact.impact.laws.coulomb_program.coulomb_residual` defines it."""
     n = mu.size
-    u = W @ pi + b
+    u = _matvec(W, pi) + b
     ps = max(np.sqrt(np.sum(pi * pi)), TINY)
     wmax = np.max(np.abs(W))
     vs = max(np.sqrt(np.sum(b * b)), wmax * ps, TINY)
@@ -129,13 +130,13 @@ def warm_compression(W, b, mu, d, prev):
     # 3. Coulomb's conditions on that active set
     E = np.zeros((0, N))
     f = np.zeros(0)
-    y, ok = active_set_newton(Wu, qu, E, f, mu, d, kind, tang, y0, True, True)
+    y, ok = active_set_newton(Wu, qu, E, f, mu, d, kind, tang, y0, bool(True), bool(True))
     if not ok:
         return fail
     # 4. the certificate
     resid = _coulomb_residual(Wu, qu, mu, d, y)
     # 5. the family of solutions through y
-    J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, True)
+    J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, bool(True))
     status = UNIQUE
     if J.shape[1] > 0:
         _, sv, Vt = np.linalg.svd(J)
@@ -145,8 +146,8 @@ def warm_compression(W, b, mu, d, prev):
             if s > NULL_RTOL * top:
                 rank += 1
         if rank < J.shape[1]:
-            dv = Wu @ Jx
-            moved = np.max(np.abs(dv @ np.ascontiguousarray(Vt[rank:].T)))
+            dv = _matmat(Wu, Jx)
+            moved = np.max(np.abs(_matmat(dv, np.ascontiguousarray(Vt[rank:].T))))
             status = REDUNDANT if moved <= STILL_RTOL * max(np.max(np.abs(dv)), TINY) \
                 else MOVING
     return status, y * scale, resid
