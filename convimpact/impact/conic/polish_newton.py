@@ -241,36 +241,15 @@ def _consistent(W, q, mu, d, kind, start, x, G, u, coulomb, qmax, wmax):
     return True
 
 
-@_jit
-def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
-    """Solve the KKT (``coulomb``: Coulomb's) equations of one active set from ``x0``.
-
-    Parameters
-    ----------
-    W, q, E, f, mu, d
-        The cone QP (``W`` (N, N), ``q`` (N,), ``E`` (m, N), ``f`` (m,), ``mu`` (n,), N = n d).
-    kind : int64 array (n,)
-        ZERO, ACT, INT or BND per contact.
-    tang : float array (n, 2)
-        The unit tangent of a BND contact (in the plane ``(+-1, 0)``).
-    x0 : float array (N,)
-        The start (an interior-point answer).
-    coulomb, near : bool
-        Coulomb's conditions instead of the KKT equations; require the answer within
-        1e-2 max |x0| of ``x0``.
-
-    Returns
-    -------
-    x, consistent
-        The solution (``x0`` when it is not accepted) and whether it was accepted.
-    """
+@_jit_internal
+def _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U):
+    """The unknowns of the active set at ``x0`` (the Newton's start; the multipliers of
+    ``E x = f`` by least squares) and the rows of ``W x + q - E^T lambda - z`` that are
+    equations: (u, eq_rows, n_eq)."""
     n = mu.size
     N = n * d
     m = E.shape[0]
-    start = _layout(kind, d)
     n_prim = start[n]
-    U = n_prim + m
-    X0 = max(_absmax(x0), TINY)
     g0 = _matvec(W, x0)
     for a in range(N):
         g0[a] += q[a]
@@ -304,20 +283,50 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
         lam0 = _min_norm_solve(np.ascontiguousarray(E.T), g0, EPS * max(N, m))
         for c in range(m):
             u[n_prim + c] = lam0[c]
+    eq_rows = np.zeros(N, dtype=np.bool_)
+    n_eq = 0
+    for i in range(n):
+        for a in range(d):
+            if kind[i] == INT or kind[i] == BND or (kind[i] == ACT and a == 0):
+                eq_rows[i * d + a] = True
+                n_eq += 1
+    return u, eq_rows, n_eq
+
+
+@_jit
+def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
+    """Solve the KKT (``coulomb``: Coulomb's) equations of one active set from ``x0``.
+
+    Parameters
+    ----------
+    W, q, E, f, mu, d
+        The cone QP (``W`` (N, N), ``q`` (N,), ``E`` (m, N), ``f`` (m,), ``mu`` (n,), N = n d).
+    kind : int64 array (n,)
+        ZERO, ACT, INT or BND per contact.
+    tang : float array (n, 2)
+        The unit tangent of a BND contact (in the plane ``(+-1, 0)``).
+    x0 : float array (N,)
+        The start (an interior-point answer).
+    coulomb, near : bool
+        Coulomb's conditions instead of the KKT equations; require the answer within
+        1e-2 max |x0| of ``x0``.
+
+    Returns
+    -------
+    x, consistent
+        The solution (``x0`` when it is not accepted) and whether it was accepted.
+    """
+    n = mu.size
+    N = n * d
+    m = E.shape[0]
+    start = _layout(kind, d)
+    n_prim = start[n]
+    U = n_prim + m
+    X0 = max(_absmax(x0), TINY)
+    u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
     wmax = _absmax(W)
     qmax = _absmax(q)
     scales = np.array([qmax, wmax, _absmax(f), _absmax(E)])
-    eq_rows = np.zeros(N, dtype=np.bool_)
-    for i in range(n):
-        if kind[i] == INT or kind[i] == BND:
-            for a in range(d):
-                eq_rows[i * d + a] = True
-        elif kind[i] == ACT:
-            eq_rows[i * d] = True
-    n_eq = 0
-    for a in range(N):
-        if eq_rows[a]:
-            n_eq += 1
     if U == 0:
         x = np.zeros(N)
         return x, _consistent(W, q, mu, d, kind, start, x, q.copy(), u, coulomb, qmax, wmax)
@@ -370,45 +379,12 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
     :func:`active_set_newton` starts) and ``dx/du``: (J, Jx). With x0 a solution, the
     null space of J holds the directions of its family of solutions (redundant contacts)."""
     n = mu.size
-    N = n * d
     m = E.shape[0]
     start = _layout(kind, d)
     n_prim = start[n]
     U = n_prim + m
     X0 = max(_absmax(x0), TINY)
-    g0 = _matvec(W, x0)
-    for a in range(N):
-        g0[a] += q[a]
-    u = np.zeros(U)
-    for i in range(n):
-        s = start[i]
-        o = i * d
-        if kind[i] == INT:
-            for a in range(d):
-                u[s + a] = x0[o + a]
-        elif kind[i] == ACT:
-            u[s] = max(x0[o], 0.0)
-        elif kind[i] == BND:
-            nx = 0.0
-            for a in range(d):
-                nx += x0[o + a] ** 2
-            u[s] = max(x0[o], np.sqrt(nx) / (1.0 + mu[i]), 0.0)
-            gt = 0.0
-            for a in range(d - 1):
-                gt += g0[o + 1 + a] * tang[i, a]
-            kap = max(-gt, 0.0) if coulomb else max(g0[o] / mu[i], 0.0)
-            if d == 3:
-                u[s + 1] = np.arctan2(tang[i, 1], tang[i, 0])
-                u[s + 2] = kap
-            else:
-                u[s + 1] = kap
-    eq_rows = np.zeros(N, dtype=np.bool_)
-    n_eq = 0
-    for i in range(n):
-        for a in range(d):
-            if kind[i] == INT or kind[i] == BND or (kind[i] == ACT and a == 0):
-                eq_rows[i * d + a] = True
-                n_eq += 1
+    u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
     scales = np.array([_absmax(q), _absmax(W), _absmax(f), _absmax(E)])
     F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
                            n_prim, X0, bool(False), scales)  # a run-time flag: one compile
