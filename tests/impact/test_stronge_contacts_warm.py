@@ -175,3 +175,17 @@ def test_warm_kernel_residual_and_statuses_by_hand():
     assert np.allclose(pi, stick, rtol=0, atol=1e-14)
     status, _, resid = warm_compression(W, b, mu, 3, -stick)
     assert status == FAILED and resid == np.inf
+
+
+def test_islands_of_one_kind_in_different_states_each_find_their_start(programs):
+    """A box at rest and a box sliding (the same four corners, mu): called in turn, as the
+    islands of one Moreau-Jean step, each is warm-started from its own last compression
+    once both have been solved, and keeps its closed form (v+ = 0; v_x+ = V - mu g h)."""
+    M, Jcs = box_on_four_corners()
+    for k in range(4):
+        rest = _resolve(M, Jcs, np.array([0, 0, -G * H, 0, 0, 0.0]), 0.0)
+        V = 2.0 - k * MU * G * H
+        slide = _resolve(M, Jcs, np.array([V, 0, -G * H, 0, 0, 0]), 0.0)
+        assert np.allclose(rest.dq_plus, 0.0, atol=1e-15)
+        assert np.allclose(slide.dq_plus, [V - MU * G * H, 0, 0, 0, 0, 0], atol=1e-13)
+    assert len(programs) == 2
