@@ -16,6 +16,10 @@ set is consistent (then it is an exact KKT point: the optimum of the convex prog
   boundary with the tangent of the answer or opposite the slip): the velocities of a
   consistent active set are exact whatever the interior-point method reached.
 
+The Newton solves run compiled (:mod:`~convimpact.impact.conic.polish_newton`: the active
+sets of one phase in one call); the classification and the order of the active sets stay
+here.
+
 Every threshold is relative: impulses to ``X = max |x|``, velocities (``W x + q``) to
 ``V = max(|q|, |W x|)``, and the Newton residual to the round-off of forming ``W x + q``
 (``|W| X``; with an ill-conditioned W the impulse is ``|q| / lambda_min(W)`` and cond(W) eps
@@ -139,6 +143,43 @@ def _active_sets(options: list[list[Kind]], limit: int):
                     return
 
 
+def _kind_arrays(qp: ConeQP, sets: list[list[Kind]]) -> tuple[np.ndarray, np.ndarray]:
+    """Active sets as the compiled Newton's arrays: kinds (n_sets, n) and tangents
+    (n_sets, n, 2)."""
+    from .polish_newton import ACT, BND, INT, ZERO
+
+    code = {"zero": ZERO, "act": ACT, "int": INT, "bnd": BND}
+    n = qp.n_contacts
+    kinds = np.zeros((len(sets), n), dtype=np.int64)
+    tangs = np.zeros((len(sets), n, 2))
+    for j, kset in enumerate(sets):
+        for i, (k, t) in enumerate(kset):
+            kinds[j, i] = code[k]
+            if t is not None:
+                tangs[j, i, :len(t)] = t
+    return kinds, tangs
+
+
+def _first_certified(qp: ConeQP, x0: np.ndarray, sets: list[list[Kind]], coulomb: bool,
+                     near: bool) -> tuple[np.ndarray, bool]:
+    """The first of ``sets`` whose Newton solve is accepted (compiled,
+    :func:`~convimpact.impact.conic.polish_newton.active_set_newton`): (x, True), else (x0,
+    False)."""
+    if not sets:
+        return x0, False
+    from .polish_newton import active_set_newton
+
+    kinds, tangs = _kind_arrays(qp, sets)
+    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    args = (f(qp.W), f(qp.q), f(qp.E), f(qp.f), f(qp.mu), int(qp.dim))
+    start = f(x0)
+    for j in range(len(sets)):
+        x, ok = active_set_newton(*args, kinds[j], tangs[j], start, bool(coulomb), bool(near))
+        if ok:
+            return x, True
+    return x0, False
+
+
 def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False,
                    exhaustive: bool | None = None) -> tuple[np.ndarray, bool]:
     """Newton refinement of an interior-point answer on its active set (KKT equations).
@@ -147,13 +188,16 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False,
     frictionless) active; the KKT system ``W x + q - E^T lambda - z = 0``, ``E x = f`` is then
     solved by Newton's method with ``x_i = r (1, mu c)``, ``z_i = kappa (mu, -c)`` on boundary
     contacts (c a unit tangent: the complementary pair of K_mu and its dual), ``z_i = 0`` on
-    interior ones and ``x_i = 0`` on zero ones. The answer is kept only when it is consistent
-    (r > 0, kappa >= 0, interior points inside, zero contacts' z in K*) and close to ``x0``.
-    Contacts near a classification threshold are tried with their alternative kinds (at most
-    :data:`POLISH_MAX_TRIES` active sets); if none is consistent and ``exhaustive`` (default:
-    for the cone QP, not for Coulomb's law, whose fixed point calls the polish on every
-    iterate), every active set (at most :data:`POLISH_EXHAUSTIVE_MAX`) is tried without the
-    closeness test; when none is consistent ``x0`` is returned unchanged.
+    interior ones and ``x_i = 0`` on zero ones (minimum-norm steps: the Jacobian is singular
+    when contacts are redundant). The answer is kept only when its residual is at round-off
+    and it is consistent (r > 0, kappa >= 0, interior points inside, zero contacts' z in K*)
+    and close to ``x0`` (within 1e-2 max |x0|). Contacts near a classification threshold are
+    tried with their alternative kinds (at most :data:`POLISH_MAX_TRIES` active sets); if none
+    is consistent and ``exhaustive`` (default: for the cone QP, not for Coulomb's law, whose
+    fixed point calls the polish on every iterate), every active set (at most
+    :data:`POLISH_EXHAUSTIVE_MAX`) is tried without the closeness test; when none is
+    consistent ``x0`` is returned unchanged. The Newton solves are compiled
+    (:mod:`~convimpact.impact.conic.polish_newton`).
 
     With ``coulomb=True`` the same active-set Newton solves Coulomb's law instead of the cone
     QP's KKT system (E must be empty): ``u = W x + q`` with ``u_i = 0`` (stick),
@@ -166,180 +210,16 @@ def polish_cone_qp(qp: ConeQP, x0: np.ndarray, coulomb: bool = False,
     if qp.dim * qp.n_contacts + qp.E.shape[0] == 0:
         return np.zeros(0), True
     near = _contact_kinds(qp, x0)
-    tried = set()
-    for kinds in _active_sets(near, POLISH_MAX_TRIES):
-        tried.add(tuple(kinds))
-        x, ok = _newton_on_active_set(qp, x0, kinds, coulomb, near=True)
-        if ok:
-            return x, True
+    first = list(_active_sets(near, POLISH_MAX_TRIES))
+    x, ok = _first_certified(qp, x0, first, coulomb, near=True)
+    if ok:
+        return x, True
     if not (not coulomb if exhaustive is None else exhaustive):
         return x0, False
-    for kinds in _active_sets(_all_kinds(qp, x0, near), POLISH_EXHAUSTIVE_MAX):
-        if tuple(kinds) in tried:
-            continue
-        x, ok = _newton_on_active_set(qp, x0, kinds, coulomb, near=False)
-        if ok:
-            return x, True
-    return x0, False
-
-
-def _newton_on_active_set(qp: ConeQP, x0: np.ndarray, kinds: list[Kind], coulomb: bool,
-                          near: bool) -> tuple[np.ndarray, bool]:
-    """Solve the KKT (or Coulomb) equations of one active set from ``x0``; (x, consistent).
-
-    ``near``: also require the answer within 1e-2 max|x0| of ``x0``.
-    """
-    d, n, m = qp.dim, qp.n_contacts, qp.E.shape[0]
-    N = n * d
-    X0 = max(float(np.max(np.abs(x0))), TINY)
-    # unknown layout
-    slots: list[tuple[int, int]] = []
-    u0: list[float] = []
-    g0 = qp.W @ x0 + qp.q
-    for i, (k, t) in enumerate(kinds):
-        xi = x0[i * d:(i + 1) * d]
-        start = len(u0)
-        if k == "int":
-            u0 += list(xi)
-        elif k == "act":
-            u0.append(max(xi[0], 0.0))
-        elif k == "bnd":
-            g = g0[i * d:(i + 1) * d]
-            r = max(xi[0], float(np.linalg.norm(xi)) / (1.0 + qp.mu[i]), 0.0)
-            if coulomb:  # kappa from the slip along -t, or from the normal row
-                kap = max(-float(g[1:] @ np.array(t)), 0.0)
-            else:
-                kap = max(float(g[0]) / qp.mu[i], 0.0)
-            u0 += [r, math.atan2(t[1], t[0]), kap] if d == 3 else [r, kap]
-        slots.append((start, len(u0)))
-    n_prim = len(u0)
-    if m:
-        lam0, *_ = np.linalg.lstsq(qp.E.T, g0, rcond=None)
-        u0 += list(lam0)
-    u = np.array(u0, dtype=float)
-    U = u.size
-    if U == 0:
-        x = np.zeros(N)
-        return x, _consistent(qp, x, qp.q.copy(), kinds, slots, u, coulomb)
-
-    def unpack(u):
-        x = np.zeros(N)
-        z = np.zeros(N)
-        Jx = np.zeros((N, U))
-        Jz = np.zeros((N, U))
-        for i, (k, t) in enumerate(kinds):
-            s, e_ = slots[i]
-            o = i * d
-            mu = qp.mu[i]
-            zn = 0.0 if coulomb else mu
-            if k == "int":
-                x[o:o + d] = u[s:e_]
-                Jx[o:o + d, s:e_] = np.eye(d)
-            elif k == "act":
-                x[o] = u[s]
-                Jx[o, s] = 1.0
-            elif k == "bnd":
-                if d == 3:
-                    r, a, kap = u[s:e_]
-                    c, sn = math.cos(a), math.sin(a)
-                    x[o:o + 3] = r * np.array([1.0, mu * c, mu * sn])
-                    Jx[o:o + 3, s] = [1.0, mu * c, mu * sn]
-                    Jx[o:o + 3, s + 1] = [0.0, -r * mu * sn, r * mu * c]
-                    z[o:o + 3] = kap * np.array([zn, -c, -sn])
-                    Jz[o:o + 3, s + 1] = [0.0, kap * sn, -kap * c]
-                    Jz[o:o + 3, s + 2] = [zn, -c, -sn]
-                else:
-                    r, kap = u[s:e_]
-                    sg = t[0]
-                    x[o:o + 2] = r * np.array([1.0, mu * sg])
-                    Jx[o:o + 2, s] = [1.0, mu * sg]
-                    z[o:o + 2] = kap * np.array([zn, -sg])
-                    Jz[o:o + 2, s + 1] = [zn, -sg]
-        return x, z, Jx, Jz
-
-    eq_rows = np.zeros(N, dtype=bool)
-    for i, (k, _) in enumerate(kinds):
-        if k in ("int", "bnd"):
-            eq_rows[i * d:(i + 1) * d] = True
-        elif k == "act":
-            eq_rows[i * d] = True
-    Jlam = np.zeros((m, U))
-    Jlam[:, n_prim:] = np.eye(m)
-    # round-off scales of the residual blocks (stationarity: velocities; equalities), from
-    # the larger of the start and the current iterate
-    wmax = float(np.max(np.abs(qp.W), initial=0.0))
-    emax = float(np.max(np.abs(qp.E), initial=0.0))
-    qmax = float(np.max(np.abs(qp.q), initial=0.0))
-    fmax = float(np.max(np.abs(qp.f), initial=0.0))
-
-    def residual(u):
-        x, z, Jx, Jz = unpack(u)
-        lam = u[n_prim:]
-        X = max(float(np.max(np.abs(x))), X0 if near else 0.0, TINY)
-        sG, sE = max(qmax, wmax * X, TINY), max(fmax, emax * X, TINY)
-        row_scale = np.concatenate([np.full(int(eq_rows.sum()), sG), np.full(m, sE)])
-        G = qp.W @ x + qp.q - qp.E.T @ lam - z
-        dG = qp.W @ Jx - qp.E.T @ Jlam - Jz
-        F = np.concatenate([G[eq_rows], qp.E @ x - qp.f]) / row_scale
-        J = np.vstack([dG[eq_rows], qp.E @ Jx]) / row_scale[:, None]
-        return F, J, x, G
-
-    best = None
-    f0 = None
-    for it in range(POLISH_MAX_NEWTON):
-        F, J, x, G = residual(u)
-        fn = float(np.max(np.abs(F), initial=0.0))
-        f0 = fn if f0 is None else f0
-        if best is None or fn < best[0]:
-            best = (fn, u.copy())
-        if fn <= 4.0 * EPS or (it >= 4 and best[0] > 1e-6 * f0):
-            break  # converged, or not converging quadratically: wrong active set
-        # minimum-norm Newton step: the KKT Jacobian is singular when contacts are redundant
-        step, *_ = np.linalg.lstsq(J, -F, rcond=1e-13)
-        if not np.all(np.isfinite(step)):
-            break
-        u = u + step
-    F, J, x, G = residual(best[1])
-    u = best[1]
-    if not float(np.max(np.abs(F), initial=0.0)) <= POLISH_ACCEPT:
-        return x0, False
-    V = max(qmax, float(np.max(np.abs(qp.W @ x))), TINY)
-    if float(np.max(np.abs(G[eq_rows]), initial=0.0)) > VELOCITY_RESIDUAL_MAX * V:
-        return x0, False
-    if not _consistent(qp, x, G, kinds, slots, u, coulomb):
-        return x0, False
-    if near and np.max(np.abs(x - x0)) > 1e-2 * X0:
-        return x0, False
-    return x, True
-
-
-def _consistent(qp: ConeQP, x: np.ndarray, G: np.ndarray, kinds: list[Kind], slots: list,
-                u: np.ndarray, coulomb: bool) -> bool:
-    """Sign conditions of an active set's solution: zero contacts' duals in K* (u_n >= 0 for
-    Coulomb and frictionless ones), pressing normals, interior points in the cone, boundary
-    rays with r > 0 and kappa >= 0; velocities to V times the round-off floor."""
-    d = qp.dim
-    X = max(float(np.max(np.abs(x), initial=0.0)), TINY)
-    V = max(float(np.max(np.abs(qp.q), initial=0.0)), float(np.max(np.abs(qp.W @ x))), TINY)
-    floor = EPS * float(np.max(np.abs(qp.W), initial=0.0)) * X / V
-    vtol = V * max(1e-10, min(1e2 * floor, VELOCITY_RESIDUAL_MAX))
-    for i, (k, _) in enumerate(kinds):
-        s, e_ = slots[i]
-        xi, gi, mu = x[i * d:(i + 1) * d], G[i * d:(i + 1) * d], qp.mu[i]
-        if k == "zero":
-            if mu == 0.0 or coulomb:
-                if gi[0] < -vtol:
-                    return False
-            elif mu * np.linalg.norm(gi[1:]) > gi[0] + vtol:
-                return False
-        elif k == "act" and xi[0] < -1e-12 * X:
-            return False
-        elif k == "int" and not (xi[0] >= 0.0
-                                 and np.linalg.norm(xi[1:]) <= mu * xi[0] + 1e-12 * X):
-            return False
-        elif k == "bnd" and not (u[s] > 0.0 and u[e_ - 1] >= -vtol):
-            return False
-    return True
+    tried = {tuple(k) for k in first}
+    rest = [k for k in _active_sets(_all_kinds(qp, x0, near), POLISH_EXHAUSTIVE_MAX)
+            if tuple(k) not in tried]
+    return _first_certified(qp, x0, rest, coulomb, near=False)
 
 
 def kkt_residual(qp: ConeQP, x: np.ndarray) -> float:

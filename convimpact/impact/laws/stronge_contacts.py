@@ -48,6 +48,28 @@ Assumptions and consequences, stated:
 * Frictionless contacts: the compression is the plastic linear complementarity problem and
   the answer is Poisson's multi-contact law (= Newton's for orthogonal contacts).
 
+**Warm start** (a time-stepping scheme calls the law on nearly the same impact step after
+step). The plastic compression of phase 1 is first tried by the compiled active-set Newton
+on Coulomb's conditions (:mod:`convimpact.impact.conic.polish_newton`) from the last
+compressions of as many contacts with the same friction (on the polish's primary
+classification of each, with its closeness test: the same solution branch, moved by less
+than 1e-2 of its size), with no cone program, in one compiled call per start
+(:mod:`convimpact.impact.laws.stronge_contacts_warm`). Its answer is kept only when it meets
+Coulomb's conditions at round-off (:data:`WARM_RESIDUAL`, the fixed point's own test) and
+is the answer of the fixed point too: a locally unique solution, or, on redundant contacts
+(a box on four corners), one whose family of solutions moves no velocity (the null space of
+the Newton's Jacobian mapped by W) with every e = 0, so that the split of the compression
+impulse feeds no expansion. Then the velocities are the fixed point's to round-off and only
+that split may differ, by about what the interior point itself fixes it to (measured on the
+bench's boxes: 4e-8 to 6e-8 of the impulse; the interior point's own answers differ by 7e-9
+to 4e-8 between its tolerances 1e-8 and 1e-11). A family of motions (a box sliding and
+spinning on four corners, where the split changes the friction moments), a contact changing
+its kind, or any failure to certify takes the fixed point over Clarabel programs. The
+memory holds, per process, the last :data:`WARM_STARTS` compressions of each of the last
+:data:`WARM_KEEP` (contacts, dimension, friction) kinds of problem, tried latest first:
+islands of one kind in different states (boxes at rest next to sliding ones) each find
+their own start.
+
 Its derivative (phase by phase: Coulomb's plastic compression, then the expansion's KKT
 conditions) is :mod:`convimpact.impact.laws.stronge_contacts_derivative`.
 """
@@ -142,6 +164,8 @@ def expansion_friction(W: np.ndarray, vc: np.ndarray, xn: np.ndarray, mu: np.nda
     x[:, 0] = xn
     radius = mu * xn
     free = [i for i in range(n) if radius[i] > 0.0]
+    if not free:  # no friction to distribute (every e = 0, or frictionless): no sweep
+        return x, 0
     tdx = [np.arange(i * d + 1, (i + 1) * d) for i in range(n)]
     flat = x.ravel()
     grad = W @ flat + vc.ravel()
@@ -199,11 +223,86 @@ def _kappa(dT_c: float, a: float, b: float) -> float:
     return max(min((-a + math.sqrt(max(disc, 0.0))) / b, 1.0), 0.0)
 
 
-def _plastic(P: ImpactProblem, backend: Backend, opts: ProgramOptions):
-    """Moreau's plastic impact (e = 0) with Coulomb friction: (impulse (n, d), solver info)."""
-    plastic = dataclasses.replace(P, restitution=np.zeros(P.n_contacts))
-    pi, info = solve_coulomb(plastic, backend, opts)
+#: Coulomb residual (on the equilibrated program) a warm-started compression must reach, the
+#: fixed point's own test of its active-set Newton
+WARM_RESIDUAL = 1e-11
+#: kinds of problem (contacts, dimension, friction) whose compressions are remembered
+WARM_KEEP = 64
+#: compressions remembered per kind, the latest first (islands of one kind in different
+#: states -- boxes at rest and sliding -- each find their own)
+WARM_STARTS = 8
+#: per (contacts, dimension, friction): the last compressions, the latest first
+_WARM: dict[tuple, list[np.ndarray]] = {}
+
+
+def _warm_key(P: ImpactProblem) -> tuple:
+    return P.n_contacts, P.dim, np.ascontiguousarray(P.friction, dtype=float).tobytes()
+
+
+def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):
+    """The plastic compression by the active-set Newton on Coulomb's conditions from a
+    remembered compression of as many contacts (the latest first), without a cone program
+    (compiled, :func:`~.stronge_contacts_warm.warm_compression`). None unless one certifies
+    (residual :data:`WARM_RESIDUAL`) a solution that is the fixed point's answer too: locally
+    unique, or one whose redundant impulses change no velocity and feed no expansion (every
+    e = 0). ``P`` carries its own restitution (the gate); the compression itself has e = 0.
+    Returns (impulse (n, d), info, index of the start used)."""
+    n, d = P.n_contacts, P.dim
+    starts = _WARM.get(_warm_key(P))
+    if not starts or n < 2:
+        return None
+    from .stronge_contacts_warm import REDUNDANT, UNIQUE, warm_compression
+
+    mu = np.ascontiguousarray(P.friction, dtype=float)
+    W = np.ascontiguousarray(P.delassus, dtype=float)
+    b = np.ascontiguousarray(P.v_minus, dtype=float).ravel()
+    plastic_only = not np.any(P.restitution != 0.0)
+    for j, prev in enumerate(starts):
+        status, pi, resid = warm_compression(W, b, mu, d, prev)
+        if not resid <= WARM_RESIDUAL:
+            continue
+        if not (status == UNIQUE or (status == REDUNDANT and plastic_only)):
+            return None  # a family of motions, or redundant impulses an expansion releases
+        info = {"fixed_point_iterations": 0, "fixed_point_converged": True,
+                "fixed_point_residual": 0.0, "conic_iterations": 0,
+                "solver_status": "no cone program",
+                "finished_by": "active-set Newton on Coulomb's conditions from a previous "
+                               "compression",
+                "complementarity_residual": float(resid), "tolerance": opts.tol,
+                "accuracy": opts.accuracy(True)}
+        return pi.reshape(n, d), info, j
+    return None
+
+
+def _remember(P: ImpactProblem, pi: np.ndarray, replaces: int | None) -> None:
+    """Keep the compression ``pi`` first among its kind's starts (in place of the start it
+    came from, if any), at most :data:`WARM_STARTS` per kind and :data:`WARM_KEEP` kinds."""
+    key = _warm_key(P)
+    starts = _WARM.pop(key, [])
+    if replaces is not None:
+        del starts[replaces]
+    _WARM[key] = [pi.ravel().copy()] + starts[:WARM_STARTS - 1]
+    while len(_WARM) > WARM_KEEP:  # the oldest kind first (dicts keep insertion order)
+        del _WARM[next(iter(_WARM))]
+
+
+def _plastic(P: ImpactProblem, backend: Backend, opts: ProgramOptions, warm: bool = True):
+    """Moreau's plastic impact (e = 0) with Coulomb friction: (impulse (n, d), solver info).
+
+    ``warm`` (the compression of phase 1): warm-started from a previous compression
+    (:func:`_warm_plastic`) when that certifies, and remembered for the next calls; else, and
+    for the re-compression of phase 3, by the fixed point over cone programs
+    (:func:`~.coulomb.solve_coulomb`)."""
+    got = _warm_plastic(P, opts) if warm else None
+    used = None
+    if got is None:
+        pi, info = solve_coulomb(dataclasses.replace(P, restitution=np.zeros(P.n_contacts)),
+                                 backend, opts)
+    else:
+        pi, info, used = got
     pi[:, 0] = np.maximum(pi[:, 0], 0.0)
+    if warm:
+        _remember(P, pi, used)
     return pi, info
 
 
@@ -242,7 +341,7 @@ def coupled_result(P: ImpactProblem, backend: Backend, method: str,
         # 3. a contact the expansion drives into approach: a second plastic compression
         d_dq, _ = P.velocity_jump(pi.ravel())
         again = dataclasses.replace(P, dq_minus=P.dq_minus + d_dq, v_minus=vp)
-        xr, _ = _plastic(again, backend, opts)
+        xr, _ = _plastic(again, backend, opts, warm=False)
         pi = pi + xr
         vp = vp + (W @ xr.ravel()).reshape(n, d)
         warnings.append("law 'stronge' (several contacts): the expansion drove a contact into "

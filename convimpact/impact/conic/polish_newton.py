@@ -1,0 +1,395 @@
+"""The polish's Newton on one active set, compiled: :func:`active_set_newton` (the KKT
+equations of the cone QP, or Coulomb's conditions) and :func:`active_set_jacobian` (their
+Jacobian at a solution: its null space is the solution's family).
+
+The equations, unknowns, steps and acceptance are those documented in
+:mod:`convimpact.impact.conic.polish` (which calls these kernels): each contact is at zero
+(``ZERO``), pressing without friction (``ACT``), inside its cone (``INT``) or on its boundary
+(``BND``), ``x_i = r (1, mu c)`` with ``z_i = kappa (mu, -c)`` for the cone QP (``kappa (0,
+-c)``, a slip without normal lift, for Coulomb's law), c the unit tangent ``(cos a, sin a)``
+in space and ``sg = +-1`` in the plane; the multipliers of ``E x = f`` follow. Steps are the
+minimum-norm least-squares solutions (from the singular value decomposition, singular values
+below 1e-13 of the largest dropped, as numpy's ``lstsq`` with that ``rcond``: redundant
+contacts make the Jacobian singular; numba's own ``lstsq`` took 5 s more to compile). An
+answer is accepted only when its scaled residual is at round-off (:data:`POLISH_ACCEPT`),
+its velocities are finite (:data:`VELOCITY_RESIDUAL_MAX`), its active set is consistent
+(r > 0, kappa >= 0, interior impulses inside, the duals of zero contacts in the dual cone)
+and, with ``near``, it lies within 1e-2 max |x0| of the start. Such an answer is an exact
+KKT point (Coulomb solution), however it was reached.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...compiled import jit as _jit
+from ...compiled import jit_internal as _jit_internal
+from .polish import EPS, POLISH_ACCEPT, POLISH_MAX_NEWTON, TINY, VELOCITY_RESIDUAL_MAX
+
+#: a contact's kind in an active set (the polish's "zero", "act", "int", "bnd")
+ZERO, ACT, INT, BND = 0, 1, 2, 3
+
+
+@_jit_internal
+def _layout(kind, d):
+    """Start of every contact's unknowns (and their count, last)."""
+    n = kind.size
+    start = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        k = kind[i]
+        w = 0
+        if k == INT:
+            w = d
+        elif k == ACT:
+            w = 1
+        elif k == BND:
+            w = 3 if d == 3 else 2
+        start[i + 1] = start[i] + w
+    return start
+
+
+@_jit_internal
+def _absmax(a):
+    out = 0.0
+    for v in a.ravel():
+        if abs(v) > out or v != v:
+            out = abs(v)
+    return out
+
+
+@_jit_internal
+def _matvec(A, x):
+    """A x by loops (numba's BLAS wrappers cost seconds of compilation per shape kind)."""
+    out = np.zeros(A.shape[0])
+    for r in range(A.shape[0]):
+        acc = 0.0
+        for c in range(A.shape[1]):
+            acc += A[r, c] * x[c]
+        out[r] = acc
+    return out
+
+
+@_jit_internal
+def _matmat(A, B):
+    """A B by loops."""
+    out = np.zeros((A.shape[0], B.shape[1]))
+    for r in range(A.shape[0]):
+        for k in range(A.shape[1]):
+            a = A[r, k]
+            if a != 0.0:
+                for c in range(B.shape[1]):
+                    out[r, c] += a * B[k, c]
+    return out
+
+
+@_jit_internal
+def _min_norm_solve(A, y, rcond):
+    """The minimum-norm least-squares solution of ``A s = y``, singular values of A at most
+    ``rcond`` times the largest taken as zero (numpy's ``lstsq`` with that ``rcond``, from
+    the singular value decomposition; the Jacobian is singular on redundant contacts)."""
+    U, sv, Vt = np.linalg.svd(A, full_matrices=False)
+    k = sv.size
+    top = sv[0] if k else 0.0
+    g = np.zeros(k)
+    for a in range(k):
+        if sv[a] > rcond * top:
+            acc = 0.0
+            for r in range(U.shape[0]):
+                acc += U[r, a] * y[r]
+            g[a] = acc / sv[a]
+    out = np.zeros(Vt.shape[1])
+    for a in range(k):
+        if g[a] != 0.0:
+            for c in range(Vt.shape[1]):
+                out[c] += Vt[a, c] * g[a]
+    return out
+
+
+@_jit_internal
+def _unpack(u, kind, tang, mu, d, start, coulomb, U):
+    """x, z and their Jacobians in the unknowns u."""
+    n = kind.size
+    N = n * d
+    x = np.zeros(N)
+    z = np.zeros(N)
+    Jx = np.zeros((N, U))
+    Jz = np.zeros((N, U))
+    for i in range(n):
+        s = start[i]
+        o = i * d
+        k = kind[i]
+        m_ = mu[i]
+        zn = 0.0 if coulomb else m_
+        if k == INT:
+            for a in range(d):
+                x[o + a] = u[s + a]
+                Jx[o + a, s + a] = 1.0
+        elif k == ACT:
+            x[o] = u[s]
+            Jx[o, s] = 1.0
+        elif k == BND:
+            if d == 3:
+                r, ang, kap = u[s], u[s + 1], u[s + 2]
+                c, sn = np.cos(ang), np.sin(ang)
+                x[o] = r
+                x[o + 1] = r * m_ * c
+                x[o + 2] = r * m_ * sn
+                Jx[o, s] = 1.0
+                Jx[o + 1, s] = m_ * c
+                Jx[o + 2, s] = m_ * sn
+                Jx[o + 1, s + 1] = -r * m_ * sn
+                Jx[o + 2, s + 1] = r * m_ * c
+                z[o] = kap * zn
+                z[o + 1] = -kap * c
+                z[o + 2] = -kap * sn
+                Jz[o + 1, s + 1] = kap * sn
+                Jz[o + 2, s + 1] = -kap * c
+                Jz[o, s + 2] = zn
+                Jz[o + 1, s + 2] = -c
+                Jz[o + 2, s + 2] = -sn
+            else:
+                r, kap = u[s], u[s + 1]
+                sg = tang[i, 0]
+                x[o] = r
+                x[o + 1] = r * m_ * sg
+                Jx[o, s] = 1.0
+                Jx[o + 1, s] = m_ * sg
+                z[o] = kap * zn
+                z[o + 1] = -kap * sg
+                Jz[o, s + 1] = zn
+                Jz[o + 1, s + 1] = -sg
+    return x, z, Jx, Jz
+
+
+@_jit_internal
+def _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq, n_prim, X0,
+              near, scales):
+    """The scaled residual F and Jacobian J of the active set's equations at u, x and the
+    unscaled stationarity G = W x + q - E^T lambda - z."""
+    N = W.shape[0]
+    m = E.shape[0]
+    U = u.size
+    x, z, Jx, Jz = _unpack(u, kind, tang, mu, d, start, coulomb, U)
+    X = max(_absmax(x), X0 if near else 0.0, TINY)
+    sG = max(scales[0], scales[1] * X, TINY)
+    sE = max(scales[2], scales[3] * X, TINY)
+    G = _matvec(W, x)
+    dG = _matmat(W, Jx)
+    for a in range(N):
+        G[a] += q[a] - z[a]
+        for c in range(U):
+            dG[a, c] -= Jz[a, c]
+    for c in range(m):
+        lam = u[n_prim + c]
+        for a in range(N):
+            G[a] -= E[c, a] * lam
+            dG[a, n_prim + c] -= E[c, a]
+    F = np.empty(n_eq + m)
+    J = np.empty((n_eq + m, U))
+    row = 0
+    for a in range(N):
+        if eq_rows[a]:
+            F[row] = G[a] / sG
+            for c in range(U):
+                J[row, c] = dG[a, c] / sG
+            row += 1
+    if m:
+        Ex = _matvec(E, x)
+        EJ = _matmat(E, Jx)
+        for c in range(m):
+            F[row] = (Ex[c] - f[c]) / sE
+            for k in range(U):
+                J[row, k] = EJ[c, k] / sE
+            row += 1
+    return F, J, x, G
+
+
+@_jit_internal
+def _consistent(W, q, mu, d, kind, start, x, G, u, coulomb, qmax, wmax):
+    """Sign conditions of an active set's solution (see the module docstring): zero contacts'
+    duals in K* (u_n >= 0 for Coulomb and frictionless ones), pressing normals, interior
+    points in the cone, boundary rays with r > 0 and kappa >= 0; velocities to V times the
+    round-off floor."""
+    n = mu.size
+    X = max(_absmax(x), TINY)
+    V = max(qmax, _absmax(_matvec(W, x)), TINY)
+    floor = EPS * wmax * X / V
+    vtol = V * max(1e-10, min(1e2 * floor, VELOCITY_RESIDUAL_MAX))
+    for i in range(n):
+        o = i * d
+        gt = 0.0
+        xt = 0.0
+        for a in range(1, d):
+            gt += G[o + a] ** 2
+            xt += x[o + a] ** 2
+        k = kind[i]
+        if k == ZERO:
+            if mu[i] == 0.0 or coulomb:
+                if G[o] < -vtol:
+                    return False
+            elif mu[i] * np.sqrt(gt) > G[o] + vtol:
+                return False
+        elif k == ACT:
+            if x[o] < -1e-12 * X:
+                return False
+        elif k == INT:
+            if not (x[o] >= 0.0 and np.sqrt(xt) <= mu[i] * x[o] + 1e-12 * X):
+                return False
+        elif k == BND:
+            if not (u[start[i]] > 0.0 and u[start[i + 1] - 1] >= -vtol):
+                return False
+    return True
+
+
+@_jit_internal
+def _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U):
+    """The unknowns of the active set at ``x0`` (the Newton's start; the multipliers of
+    ``E x = f`` by least squares) and the rows of ``W x + q - E^T lambda - z`` that are
+    equations: (u, eq_rows, n_eq)."""
+    n = mu.size
+    N = n * d
+    m = E.shape[0]
+    n_prim = start[n]
+    g0 = _matvec(W, x0)
+    for a in range(N):
+        g0[a] += q[a]
+    u = np.zeros(U)
+    for i in range(n):
+        s = start[i]
+        o = i * d
+        if kind[i] == INT:
+            for a in range(d):
+                u[s + a] = x0[o + a]
+        elif kind[i] == ACT:
+            u[s] = max(x0[o], 0.0)
+        elif kind[i] == BND:
+            nx = 0.0
+            for a in range(d):
+                nx += x0[o + a] ** 2
+            u[s] = max(x0[o], np.sqrt(nx) / (1.0 + mu[i]), 0.0)
+            if coulomb:  # kappa from the slip along -t, or from the normal row
+                gt = 0.0
+                for a in range(d - 1):
+                    gt += g0[o + 1 + a] * tang[i, a]
+                kap = max(-gt, 0.0)
+            else:
+                kap = max(g0[o] / mu[i], 0.0)
+            if d == 3:
+                u[s + 1] = np.arctan2(tang[i, 1], tang[i, 0])
+                u[s + 2] = kap
+            else:
+                u[s + 1] = kap
+    if m:
+        lam0 = _min_norm_solve(np.ascontiguousarray(E.T), g0, EPS * max(N, m))
+        for c in range(m):
+            u[n_prim + c] = lam0[c]
+    eq_rows = np.zeros(N, dtype=np.bool_)
+    n_eq = 0
+    for i in range(n):
+        for a in range(d):
+            if kind[i] == INT or kind[i] == BND or (kind[i] == ACT and a == 0):
+                eq_rows[i * d + a] = True
+                n_eq += 1
+    return u, eq_rows, n_eq
+
+
+@_jit
+def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
+    """Solve the KKT (``coulomb``: Coulomb's) equations of one active set from ``x0``.
+
+    Parameters
+    ----------
+    W, q, E, f, mu, d
+        The cone QP (``W`` (N, N), ``q`` (N,), ``E`` (m, N), ``f`` (m,), ``mu`` (n,), N = n d).
+    kind : int64 array (n,)
+        ZERO, ACT, INT or BND per contact.
+    tang : float array (n, 2)
+        The unit tangent of a BND contact (in the plane ``(+-1, 0)``).
+    x0 : float array (N,)
+        The start (an interior-point answer).
+    coulomb, near : bool
+        Coulomb's conditions instead of the KKT equations; require the answer within
+        1e-2 max |x0| of ``x0``.
+
+    Returns
+    -------
+    x, consistent
+        The solution (``x0`` when it is not accepted) and whether it was accepted.
+    """
+    n = mu.size
+    N = n * d
+    m = E.shape[0]
+    start = _layout(kind, d)
+    n_prim = start[n]
+    U = n_prim + m
+    X0 = max(_absmax(x0), TINY)
+    u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
+    wmax = _absmax(W)
+    qmax = _absmax(q)
+    scales = np.array([qmax, wmax, _absmax(f), _absmax(E)])
+    if U == 0:
+        x = np.zeros(N)
+        return x, _consistent(W, q, mu, d, kind, start, x, q.copy(), u, coulomb, qmax, wmax)
+    best_f = 0.0
+    have_best = False
+    best_u = u.copy()
+    f0 = 0.0
+    for it in range(POLISH_MAX_NEWTON):
+        F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows,
+                               n_eq, n_prim, X0, near, scales)
+        fn = _absmax(F)
+        if it == 0:
+            f0 = fn
+        if not have_best or fn < best_f:
+            best_f = fn
+            best_u = u.copy()
+            have_best = True
+        if fn <= 4.0 * EPS or (it >= 4 and best_f > 1e-6 * f0):
+            break  # converged, or not converging quadratically: wrong active set
+        step = _min_norm_solve(J, -F, 1e-13)
+        finite = True
+        for a in range(step.size):
+            if not np.isfinite(step[a]):
+                finite = False
+        if not finite:
+            break
+        for a in range(U):
+            u[a] += step[a]
+    u = best_u
+    F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
+                           n_prim, X0, near, scales)
+    if not _absmax(F) <= POLISH_ACCEPT:
+        return x0.copy(), False
+    V = max(qmax, _absmax(_matvec(W, x)), TINY)
+    for a in range(N):
+        if eq_rows[a] and not abs(G[a]) <= VELOCITY_RESIDUAL_MAX * V:
+            return x0.copy(), False
+    if not _consistent(W, q, mu, d, kind, start, x, G, u, coulomb, qmax, wmax):
+        return x0.copy(), False
+    if near:
+        for a in range(N):
+            if abs(x[a] - x0[a]) > 1e-2 * X0:
+                return x0.copy(), False
+    return x, True
+
+
+@_jit
+def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
+    """The scaled Jacobian J of the active set's equations at the unknowns of ``x0`` (as
+    :func:`active_set_newton` starts) and ``dx/du``: (J, Jx). With x0 a solution, the
+    null space of J holds the directions of its family of solutions (redundant contacts)."""
+    n = mu.size
+    m = E.shape[0]
+    start = _layout(kind, d)
+    n_prim = start[n]
+    U = n_prim + m
+    X0 = max(_absmax(x0), TINY)
+    u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
+    scales = np.array([_absmax(q), _absmax(W), _absmax(f), _absmax(E)])
+    F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
+                           n_prim, X0, bool(False), scales)  # a run-time flag: one compile
+    Jx = _unpack(u, kind, tang, mu, d, start, coulomb, U)[2]
+    return J, Jx
+
+
+__all__ = ["active_set_newton", "active_set_jacobian", "ZERO", "ACT", "INT", "BND"]

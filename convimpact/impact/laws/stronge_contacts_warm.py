@@ -1,0 +1,156 @@
+"""The warm-started plastic compression of law ``stronge`` at several contacts, compiled in one
+call: :func:`warm_compression` (see "Warm start" in
+:mod:`convimpact.impact.laws.stronge_contacts`, which calls it).
+
+From the previous compression ``prev`` of as many contacts, on the problem ``u = W pi + b``:
+
+1. the program is equilibrated as :func:`convimpact.impact.conic.qp.equilibrated` does (each
+   contact's impulse by ``1 / sqrt(max diag W_ii)``, then the whole to unit data);
+2. ``prev`` is classified as the polish's primary kind per contact
+   (:func:`convimpact.impact.conic.polish.classify_contacts`: zero, frictionless-active,
+   inside the cone, on its boundary with the tangent of ``prev``);
+3. Coulomb's conditions on that active set are solved by the polish's compiled Newton
+   (:func:`~convimpact.impact.conic.polish_newton.active_set_newton`, its closeness test
+   included);
+4. the answer's Coulomb residual is measured as
+   :func:`convimpact.impact.laws.coulomb_program.coulomb_residual` measures it;
+5. the null space of the active set's Jacobian at the answer (singular values below 1e-9
+   of the largest) is the tangent of its family of solutions; its image under W says
+   whether that family moves any velocity (relative 1e-8).
+
+Returns ``(status, pi, residual)``: status :data:`UNIQUE` (locally unique), :data:`REDUNDANT`
+(a family of impulses with the same velocities) or :data:`MOVING` (a family of motions),
+or :data:`FAILED` (not certified: pi is zero, the caller takes the fixed point).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...compiled import jit as _jit
+from ..conic.polish import POLISH_BOUNDARY_RTOL, POLISH_ZERO_RTOL, TINY
+from ..conic.polish_newton import (ACT, BND, INT, ZERO, _matmat, _matvec, active_set_jacobian,
+                                   active_set_newton)
+
+UNIQUE, REDUNDANT, MOVING, FAILED = 0, 1, 2, -1
+#: singular values of the active set's Jacobian below this fraction of the largest: its null
+#: space (the family of solutions)
+NULL_RTOL = 1e-9
+#: a family whose velocities move by less than this (relative to W dx/du) moves none
+STILL_RTOL = 1e-8
+
+
+@_jit
+def _coulomb_residual(W, b, mu, d, pi):
+    """The relative residual of ``K ∋ pi ⊥ u + mu |u_t| n ∈ K*`` (u = W pi + b), as
+    :func:`~convimpact.impact.laws.coulomb_program.coulomb_residual` defines it."""
+    n = mu.size
+    u = _matvec(W, pi) + b
+    ps = max(np.sqrt(np.sum(pi * pi)), TINY)
+    wmax = np.max(np.abs(W))
+    vs = max(np.sqrt(np.sum(b * b)), wmax * ps, TINY)
+    r = 0.0
+    for i in range(n):
+        o = i * d
+        xt = 0.0
+        ut = 0.0
+        for a in range(1, d):
+            xt += pi[o + a] ** 2
+            ut += u[o + a] ** 2
+        xt, ut = np.sqrt(xt), np.sqrt(ut)
+        yn = u[o] + mu[i] * ut
+        r = max(r, max(0.0, xt - mu[i] * pi[o], -pi[o]) / ps)
+        if mu[i] == 0.0:
+            r = max(r, max(0.0, -yn) / vs, xt / ps, abs(pi[o] * yn) / (ps * vs))
+        else:
+            vsi = vs * max(1.0, mu[i])
+            r = max(r, max(0.0, mu[i] * ut - yn) / vsi)
+            dot = pi[o] * yn
+            for a in range(1, d):
+                dot += pi[o + a] * u[o + a]
+            r = max(r, abs(dot) / (ps * vsi))
+    return r
+
+
+@_jit
+def warm_compression(W, b, mu, d, prev):
+    """The warm-started plastic compression (see the module docstring): (status, pi,
+    Coulomb residual on the equilibrated program)."""
+    n = mu.size
+    N = n * d
+    fail = (FAILED, np.zeros(N), np.inf)
+    # 1. equilibration (qp.equilibrated without equality rows)
+    D = np.ones(N)
+    for i in range(n):
+        top = 0.0
+        for a in range(d):
+            top = max(top, W[i * d + a, i * d + a])
+        if top > 0.0:
+            for a in range(d):
+                D[i * d + a] = 1.0 / np.sqrt(top)
+    Wd = np.empty((N, N))
+    for r in range(N):
+        for c in range(N):
+            Wd[r, c] = D[r] * W[r, c] * D[c]
+    qd = D * b
+    sW = np.max(np.abs(Wd))
+    sq = np.max(np.abs(qd))
+    if not sW > 0.0 or sq == 0.0:
+        return fail
+    Wu = Wd / sW
+    qu = qd / sq
+    scale = D * (sq / sW)
+    y0 = prev / scale
+    # 2. the polish's primary classification of the start
+    kind = np.zeros(n, dtype=np.int64)
+    tang = np.zeros((n, 2))
+    X = max(np.max(np.abs(y0)), TINY)
+    for i in range(n):
+        o = i * d
+        nx = 0.0
+        nt = 0.0
+        for a in range(d):
+            nx += y0[o + a] ** 2
+            if a:
+                nt += y0[o + a] ** 2
+        nx, nt = np.sqrt(nx), np.sqrt(nt)
+        if nx <= POLISH_ZERO_RTOL * X or y0[o] <= 0.0:
+            kind[i] = ZERO
+        elif mu[i] == 0.0:
+            kind[i] = ACT
+        elif (mu[i] * y0[o] - nt) / max(nx, TINY) <= POLISH_BOUNDARY_RTOL:
+            kind[i] = BND
+            if nt > 0.0 and np.isfinite(nt):
+                for a in range(d - 1):
+                    tang[i, a] = y0[o + 1 + a] / nt
+            else:
+                tang[i, 0] = 1.0
+        else:
+            kind[i] = INT
+    # 3. Coulomb's conditions on that active set
+    E = np.zeros((0, N))
+    f = np.zeros(0)
+    y, ok = active_set_newton(Wu, qu, E, f, mu, d, kind, tang, y0, bool(True), bool(True))
+    if not ok:
+        return fail
+    # 4. the certificate
+    resid = _coulomb_residual(Wu, qu, mu, d, y)
+    # 5. the family of solutions through y
+    J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, bool(True))
+    status = UNIQUE
+    if J.shape[1] > 0:
+        _, sv, Vt = np.linalg.svd(J)
+        top = sv[0] if sv.size else 0.0
+        rank = 0
+        for s in sv:
+            if s > NULL_RTOL * top:
+                rank += 1
+        if rank < J.shape[1]:
+            dv = _matmat(Wu, Jx)
+            moved = np.max(np.abs(_matmat(dv, np.ascontiguousarray(Vt[rank:].T))))
+            status = REDUNDANT if moved <= STILL_RTOL * max(np.max(np.abs(dv)), TINY) \
+                else MOVING
+    return status, y * scale, resid
+
+
+__all__ = ["warm_compression", "UNIQUE", "REDUNDANT", "MOVING", "FAILED"]
