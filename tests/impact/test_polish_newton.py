@@ -12,7 +12,8 @@ import pytest
 
 from convimpact.impact.conic.paths import backend
 from convimpact.impact.conic.polish import polish_cone_qp
-from convimpact.impact.conic.polish_newton import (BND, INT, ZERO, active_set_jacobian,
+from convimpact.impact.conic.polish_newton import (BND, DAMPED_MAX_NEWTON, INT,
+                                                   POLISH_MAX_NEWTON, ZERO, active_set_jacobian,
                                                    active_set_newton)
 from convimpact.impact.conic.program import ConeQP
 from convimpact.impact.conic.qp import equilibrated
@@ -42,16 +43,31 @@ def natural_map(W, q, mu, d, x):
     return worst / max(float(np.max(np.abs(x))), float(np.max(np.abs(q))), 1e-300)
 
 
+#: the three ways the kernel is run: the polish's (SVD steps), the slide programs' of law
+#: pereira-nikravesh (pivoted steps), and their damped Newton from far starts
+MODES = {"polish": (POLISH_MAX_NEWTON, False, False), "pivoted": (POLISH_MAX_NEWTON, False, True),
+         "damped": (DAMPED_MAX_NEWTON, True, True)}
+MODE = MODES["polish"]
+
+
+def _newton(*args, mode=None):
+    return active_set_newton(*args, *(MODE if mode is None else mode))
+
+
 def _args(W, q, mu, d):
     N = W.shape[0]
     return (np.asarray(W, float), np.asarray(q, float), np.zeros((0, N)), np.zeros(0),
             np.asarray(mu, float), d)
 
 
-def test_one_planar_contact_sliding_by_hand():
+@pytest.mark.parametrize("mode", sorted(MODES))
+def test_one_planar_contact_sliding_by_hand(mode):
     """W = diag(a, b), q = (qn, qt), qn < 0: the CCP's boundary minimizer
     x_n = (mu |qt| - qn) / (a + b mu^2), x_t = -mu s x_n (s = sign qt) when the unconstrained
     x_t = -qt / b leaves the cone; Coulomb's slide x_n = -qn / a (u_n = 0)."""
+    def run(*args):
+        return _newton(*args, mode=MODES[mode])
+
     a, b, mu = 2.0, 0.5, 0.3
     qn, qt = -1.0, 3.0
     W, q = np.diag([a, b]), np.array([qn, qt])
@@ -59,33 +75,37 @@ def test_one_planar_contact_sliding_by_hand():
     ccp = np.array([xn, -mu * xn])
     assert abs(-qt / b) > mu * xn  # the cone binds
     kind, tang = np.array([BND]), np.array([[-1.0, 0.0]])
-    x, ok = active_set_newton(*_args(W, q, [mu], 2), kind, tang, ccp * (1 + 1e-6), False, True)
+    x, ok = run(*_args(W, q, [mu], 2), kind, tang, ccp * (1 + 1e-6), False, True)
     assert ok and np.allclose(x, ccp, rtol=1e-14, atol=0.0)
     xn_c = -qn / a
     coul = np.array([xn_c, -mu * xn_c])
     assert (qt - b * mu * xn_c) > 0.0  # the slip keeps its sign: friction opposes it
-    x, ok = active_set_newton(*_args(W, q, [mu], 2), kind, tang, coul * (1 - 1e-6), True, True)
+    x, ok = run(*_args(W, q, [mu], 2), kind, tang, coul * (1 - 1e-6), True, True)
     assert ok and np.allclose(x, coul, rtol=1e-14, atol=0.0)
 
 
-def test_one_spatial_contact_sticking_and_separating_by_hand():
+@pytest.mark.parametrize("mode", sorted(MODES))
+def test_one_spatial_contact_sticking_and_separating_by_hand(mode):
     """Inside the cone the answer is -W^-1 q; a contact whose q_n > 0 stays at zero with
     its dual q in K* (mu |q_t| <= q_n)."""
+    def run(*args):
+        return _newton(*args, mode=MODES[mode])
+
     rng = np.random.default_rng(3)
     A = rng.normal(size=(3, 3))
     W = A @ A.T + np.eye(3)
     stick = np.array([1.0, 0.1, -0.05])
     q = -W @ stick
-    x, ok = active_set_newton(*_args(W, q, [0.5], 3), np.array([INT]), np.zeros((1, 2)),
-                              stick + 1e-7, False, True)
+    x, ok = run(*_args(W, q, [0.5], 3), np.array([INT]), np.zeros((1, 2)),
+                stick + 1e-7, False, True)
     assert ok and np.allclose(x, stick, rtol=0, atol=1e-15)
     q = np.array([1.0, 0.2, -0.1])  # mu |q_t| = 0.11 < q_n: zero is optimal
-    x, ok = active_set_newton(*_args(W, q, [0.5], 3), np.array([ZERO]), np.zeros((1, 2)),
-                              np.zeros(3), False, False)
+    x, ok = run(*_args(W, q, [0.5], 3), np.array([ZERO]), np.zeros((1, 2)),
+                np.zeros(3), False, False)
     assert ok and not x.any()
     # the same contact declared inside the cone: -W^-1 q leaves the cone, refused
-    x, ok = active_set_newton(*_args(W, q, [0.5], 3), np.array([INT]), np.zeros((1, 2)),
-                              np.zeros(3), False, False)
+    x, ok = run(*_args(W, q, [0.5], 3), np.array([INT]), np.zeros((1, 2)),
+                np.zeros(3), False, False)
     assert not ok
 
 

@@ -33,27 +33,21 @@ import math
 
 import numpy as np
 
+# the Newton's constants are the kernel's; POLISH_ACCEPT and VELOCITY_RESIDUAL_MAX are the
+# conic paths' acceptance rule, imported from here by the laws and the lanes
+from .polish_newton import (ACT, BND, EPS, INT, POLISH_ACCEPT, POLISH_MAX_NEWTON,  # noqa: F401
+                            TINY, VELOCITY_RESIDUAL_MAX, ZERO, active_set_newton)
 from .program import ConeQP
 
-TINY = 1e-300
-EPS = float(np.finfo(float).eps)
 #: relative thresholds that classify a conic solution's contacts for the polish
 POLISH_ZERO_RTOL = 1e-4
 POLISH_BOUNDARY_RTOL = 1e-4
 #: a classification within this factor of its threshold is ambiguous: the other kind is tried
 POLISH_AMBIGUITY = 1e2
-POLISH_MAX_NEWTON = 12
 #: at most this many active sets are tried near the interior-point answer
 POLISH_MAX_TRIES = 16
 #: at most this many active sets are tried when none near the answer is consistent
 POLISH_EXHAUSTIVE_MAX = 256
-#: accepted Newton residual, relative to the round-off scale of W x + q and E x - f
-POLISH_ACCEPT = 1e-11
-#: largest residual of the velocities W x + q, relative to V = max(|q|, |W x|), accepted
-#: whatever the conditioning: round-off leaves cond(W) eps (1e-6 at cond 1e10); a larger one
-#: means no solution (an unbounded program's huge iterate, where the round-off scale |W| X
-#: would excuse anything)
-VELOCITY_RESIDUAL_MAX = 1e-4
 
 #: one contact's kind in an active set: ("zero" | "act" | "int", None) or ("bnd", tangent)
 Kind = tuple
@@ -146,7 +140,6 @@ def _active_sets(options: list[list[Kind]], limit: int):
 def _kind_arrays(qp: ConeQP, sets: list[list[Kind]]) -> tuple[np.ndarray, np.ndarray]:
     """Active sets as the compiled Newton's arrays: kinds (n_sets, n) and tangents
     (n_sets, n, 2)."""
-    from .polish_newton import ACT, BND, INT, ZERO
 
     code = {"zero": ZERO, "act": ACT, "int": INT, "bnd": BND}
     n = qp.n_contacts
@@ -167,14 +160,14 @@ def _first_certified(qp: ConeQP, x0: np.ndarray, sets: list[list[Kind]], coulomb
     False)."""
     if not sets:
         return x0, False
-    from .polish_newton import active_set_newton
 
     kinds, tangs = _kind_arrays(qp, sets)
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     args = (f(qp.W), f(qp.q), f(qp.E), f(qp.f), f(qp.mu), int(qp.dim))
     start = f(x0)
     for j in range(len(sets)):
-        x, ok = active_set_newton(*args, kinds[j], tangs[j], start, bool(coulomb), bool(near))
+        x, ok = active_set_newton(*args, kinds[j], tangs[j], start, bool(coulomb), bool(near),
+                                  POLISH_MAX_NEWTON, False, False)
         if ok:
             return x, True
     return x0, False

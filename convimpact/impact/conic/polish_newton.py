@@ -24,10 +24,22 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ...compiled import jit_internal as _jit_internal
-from .polish import EPS, POLISH_ACCEPT, POLISH_MAX_NEWTON, TINY, VELOCITY_RESIDUAL_MAX
 
+TINY = 1e-300
+EPS = float(np.finfo(float).eps)
 #: a contact's kind in an active set (the polish's "zero", "act", "int", "bnd")
 ZERO, ACT, INT, BND = 0, 1, 2, 3
+#: Newton iterations from a start near the answer (an interior-point answer, a guess)
+POLISH_MAX_NEWTON = 12
+#: iterations of the damped Newton from starts farther from the answer
+DAMPED_MAX_NEWTON = 30
+#: accepted Newton residual, relative to the round-off scale of W x + q and E x - f
+POLISH_ACCEPT = 1e-11
+#: largest residual of the velocities W x + q, relative to V = max(|q|, |W x|), accepted
+#: whatever the conditioning: round-off leaves cond(W) eps (1e-6 at cond 1e10); a larger one
+#: means no solution (an unbounded program's huge iterate, where the round-off scale |W| X
+#: would excuse anything)
+VELOCITY_RESIDUAL_MAX = 1e-4
 
 
 @_jit_internal
@@ -103,6 +115,66 @@ def _min_norm_solve(A, y, rcond):
             for c in range(Vt.shape[1]):
                 out[c] += Vt[a, c] * g[a]
     return out
+
+
+@_jit_internal
+def _eigen_min_norm_step(J, F):
+    """``-J^+ F`` from the eigenvectors of ``J^T J``, its eigenvalues below 1e-15 of the
+    largest (singular values of J below 3e-8 of its largest: the redundant directions, which
+    round-off leaves at 1e-16) taken as zero."""
+    lam, V = np.linalg.eigh(_matmat(np.ascontiguousarray(J.T), J))
+    g = _matvec(np.ascontiguousarray(V.T), _matvec(np.ascontiguousarray(J.T), F))
+    top = np.max(lam)
+    for a in range(lam.size):
+        g[a] = -g[a] / lam[a] if lam[a] > 1e-15 * top else 0.0
+    return _matvec(V, g)
+
+
+@_jit_internal
+def _pivoted_step(J, F):
+    """The minimum-norm solution of ``J s = -F`` for the square J of an active set (one
+    equation per unknown): Gaussian elimination with complete pivoting where every pivot
+    exceeds 1e-10 of the largest (J safely nonsingular: the solution is the minimum-norm one
+    to round-off), :func:`_eigen_min_norm_step` at a smaller pivot (redundant contacts)."""
+    n = F.size
+    A = J.copy()
+    r = -F
+    perm = np.arange(n)
+    first = 0.0
+    for k in range(n):
+        p, c, big = k, k, 0.0
+        for i in range(k, n):
+            for j in range(k, n):
+                if abs(A[i, j]) > big:
+                    big, p, c = abs(A[i, j]), i, j
+        if k == 0:
+            first = big
+        if not big > 1e-10 * first or big == 0.0:
+            return _eigen_min_norm_step(J, F)
+        if p != k:
+            for j in range(n):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+            r[k], r[p] = r[p], r[k]
+        if c != k:
+            for i in range(n):
+                A[i, k], A[i, c] = A[i, c], A[i, k]
+            perm[k], perm[c] = perm[c], perm[k]
+        for i in range(k + 1, n):
+            fct = A[i, k] / A[k, k]
+            if fct != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= fct * A[k, j]
+                r[i] -= fct * r[k]
+    y = np.empty(n)
+    for k in range(n - 1, -1, -1):
+        acc = r[k]
+        for j in range(k + 1, n):
+            acc -= A[k, j] * y[j]
+        y[k] = acc / A[k, k]
+    x = np.empty(n)
+    for k in range(n):
+        x[perm[k]] = y[k]
+    return x
 
 
 @_jit_internal
@@ -294,7 +366,8 @@ def _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U):
 
 
 @_jit
-def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
+def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damped,
+                      pivoted):
     """Solve the KKT (``coulomb``: Coulomb's) equations of one active set from ``x0``.
 
     Parameters
@@ -306,10 +379,21 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
     tang : float array (n, 2)
         The unit tangent of a BND contact (in the plane ``(+-1, 0)``).
     x0 : float array (N,)
-        The start (an interior-point answer).
+        The start (an interior-point answer, a guess).
     coulomb, near : bool
         Coulomb's conditions instead of the KKT equations; require the answer within
         1e-2 max |x0| of ``x0``.
+    max_iter : int
+        Newton iterations at most (:data:`POLISH_MAX_NEWTON`, :data:`DAMPED_MAX_NEWTON`).
+    damped : bool
+        Halve each step until the residual falls, and no early stop on a slow fall (starts
+        far from the answer).
+    pivoted : bool
+        Steps by :func:`_pivoted_step` (Gaussian elimination; the slide programs of law
+        ``pereira-nikravesh``), stopping once the residual is accepted and stalls (a
+        singular J: redundant contacts); else by the singular value decomposition (the
+        polish's, numpy's ``lstsq`` with ``rcond`` 1e-13). Either way the answer is accepted
+        on its residual and sign conditions, never on how it was reached.
 
     Returns
     -------
@@ -334,7 +418,8 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
     have_best = False
     best_u = u.copy()
     f0 = 0.0
-    for it in range(POLISH_MAX_NEWTON):
+    prev = np.inf
+    for it in range(max_iter):
         F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows,
                                n_eq, n_prim, X0, near, scales)
         fn = _absmax(F)
@@ -344,17 +429,28 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near):
             best_f = fn
             best_u = u.copy()
             have_best = True
-        if fn <= 4.0 * EPS or (it >= 4 and best_f > 1e-6 * f0):
+        if fn <= 4.0 * EPS or (it >= 4 and best_f > 1e-6 * f0 and not damped):
             break  # converged, or not converging quadratically: wrong active set
-        step = _min_norm_solve(J, -F, 1e-13)
+        if pivoted and it > 0 and fn <= POLISH_ACCEPT and fn > 0.25 * prev:
+            break  # at round-off and no longer falling (a singular J: redundant contacts)
+        prev = fn
+        step = _pivoted_step(J, F) if pivoted else _min_norm_solve(J, -F, 1e-13)
         finite = True
         for a in range(step.size):
             if not np.isfinite(step[a]):
                 finite = False
         if not finite:
             break
+        t = 1.0
+        if damped:  # halve the step until the residual falls (a start far from the answer)
+            for _ in range(10):
+                Ft = _residual(u + t * step, W, q, E, f, kind, tang, mu, d, start, coulomb,
+                               eq_rows, n_eq, n_prim, X0, near, scales)[0]
+                if _absmax(Ft) < fn:
+                    break
+                t *= 0.5
         for a in range(U):
-            u[a] += step[a]
+            u[a] += t * step[a]
     u = best_u
     F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
                            n_prim, X0, near, scales)
@@ -392,4 +488,5 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
     return J, Jx
 
 
-__all__ = ["active_set_newton", "active_set_jacobian", "ZERO", "ACT", "INT", "BND"]
+__all__ = ["active_set_newton", "active_set_jacobian", "ZERO", "ACT", "INT", "BND",
+           "POLISH_MAX_NEWTON", "DAMPED_MAX_NEWTON", "POLISH_ACCEPT", "VELOCITY_RESIDUAL_MAX"]

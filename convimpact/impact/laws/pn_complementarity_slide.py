@@ -8,8 +8,9 @@ candidate active set A with several contacts,
 
 a convex cone QP. :func:`slide_set` equilibrates it as
 :func:`~convimpact.impact.conic.qp.solve_cone_qp` does and solves the KKT equations of
-guessed active sets (:func:`~.pn_complementarity_newton.kkt_newton`), from the impulse of the
-same program without the cones:
+guessed active sets (the polish's Newton, :func:`~convimpact.impact.conic.polish_newton.
+active_set_newton`, with pivoted steps), from the impulse of the same program without the
+cones:
 
 1. every frictional contact on its cone boundary against its slip before impact (inside its
    cone without slip), every frictionless one pressing;
@@ -31,11 +32,19 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from .pn_complementarity_kernels import admissible
-from .pn_complementarity_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_NEWTON,
-                                        ZERO, kkt_newton)
+from ..conic.polish_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_NEWTON, ZERO,
+                                   active_set_newton)
 
 EPS = float(np.finfo(float).eps)
 TINY = 1e-300
+
+
+@_jit
+def _kkt(W, q, E, f, mu, d, kind, tang, x0, max_iter, damped):
+    """The cone QP's KKT equations on one active set (not Coulomb's, no closeness test),
+    pivoted Newton steps: (x, accepted)."""
+    return active_set_newton(W, q, E, f, mu, d, kind, tang, x0, False, False, max_iter, damped,
+                             True)
 
 
 @_jit
@@ -180,11 +189,11 @@ def slide_set(Wf, vf, bf, muf, d, A):
     zero_mask = np.zeros(na, dtype=np.bool_)
     # 1. everything sliding against its slip
     kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
-    x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, x0, POLISH_MAX_NEWTON, False)
+    x, ok = _kkt(W, q, E, f, mu, d, kind, tang, x0, POLISH_MAX_NEWTON, False)
     if not ok:
         # 2. the classification of the impulse without the cones
         kind, tang = _relaxed_kinds(relaxed, mu, d)
-        x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, relaxed, POLISH_MAX_NEWTON, False)
+        x, ok = _kkt(W, q, E, f, mu, d, kind, tang, relaxed, POLISH_MAX_NEWTON, False)
     n_pulled = 0
     if not ok:
         # 3. as 1, with the contacts the cone-free impulse pulls at zero (damped)
@@ -193,7 +202,7 @@ def slide_set(Wf, vf, bf, muf, d, A):
             n_pulled += zero_mask[a]
         if 0 < n_pulled < na:
             kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
-            x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, x0, DAMPED_MAX_NEWTON, True)
+            x, ok = _kkt(W, q, E, f, mu, d, kind, tang, x0, DAMPED_MAX_NEWTON, True)
     if not ok and na > 2:
         # 4. as 1, with one contact at zero (damped), the one the cone-free impulse presses
         # least first (3. tried it when it was the only one pulled)
@@ -203,7 +212,7 @@ def slide_set(Wf, vf, bf, muf, d, A):
             for a in range(na):
                 zero_mask[a] = a == z
             kind, tang, x0 = _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor)
-            x, ok = kkt_newton(W, q, E, f, mu, d, kind, tang, x0, DAMPED_MAX_NEWTON, True)
+            x, ok = _kkt(W, q, E, f, mu, d, kind, tang, x0, DAMPED_MAX_NEWTON, True)
             if ok:
                 break
     if not ok:

@@ -29,8 +29,8 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ..conic.polish import POLISH_BOUNDARY_RTOL, POLISH_ZERO_RTOL, TINY
-from ..conic.polish_newton import (ACT, BND, INT, ZERO, _matmat, _matvec, active_set_jacobian,
-                                   active_set_newton)
+from ..conic.polish_newton import (ACT, BND, INT, POLISH_MAX_NEWTON, ZERO, _matmat, _matvec,
+                                   active_set_jacobian, active_set_newton)
 
 UNIQUE, REDUNDANT, MOVING, FAILED = 0, 1, 2, -1
 #: singular values of the active set's Jacobian below this fraction of the largest: its null
@@ -130,7 +130,8 @@ def warm_compression(W, b, mu, d, prev):
     # 3. Coulomb's conditions on that active set
     E = np.zeros((0, N))
     f = np.zeros(0)
-    y, ok = active_set_newton(Wu, qu, E, f, mu, d, kind, tang, y0, bool(True), bool(True))
+    y, ok = active_set_newton(Wu, qu, E, f, mu, d, kind, tang, y0, bool(True), bool(True),
+                              POLISH_MAX_NEWTON, False, False)
     if not ok:
         return fail
     # 4. the certificate
