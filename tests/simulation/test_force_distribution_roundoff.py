@@ -85,3 +85,44 @@ def test_the_distribution_at_the_box_stacks_tip_moves_by_round_off_only(stack, o
         F1 = _forces(stack, held, theta + dth, dtheta + ddth, t_tip)
         worst = max(worst, float(np.max(np.abs(F1 - F0))))
     assert worst <= 1e-8 * scale, f"moved by {worst:.3g} N"
+
+
+def test_a_tie_between_a_redundant_group_and_a_determinate_contact_is_continuous():
+    """A body on four sticking corners (+-a, 0, +-c), loaded by m g, a push T along x and a
+    moment Mz about z (so N_i = m g / 4 -+ Mz / (4 a)), and a fifth, determinate contact
+    whose margin is fixed at c5. The corners' margins mu N_i - |T_i| sum to at most
+    mu m g - T, so the group's largest smallest margin is (mu m g - T) / 4, reached only
+    with T_i = (mu N_i - t*, 0). With c5 equal to it both bind t*: the maximizers' face is
+    the single point whichever gives way under round-off, and the distribution chosen is
+    that point, moved by round-off only when the data move by 1e-13."""
+    from convimpact.simulation.force_distribution import STICK, max_margin_distribution
+
+    m, mu, a, c = 1.0, 0.5, 0.3, 0.2
+    T, Mz = 2.0, 0.3
+    t_star = (mu * m * G - T) / 4
+
+    def problem(T, Mz, c5):
+        B = np.zeros((6, 12))  # rows: force x, y, z, moment x, y, z
+        for i, (x, z) in enumerate([(-a, -c), (a, -c), (a, c), (-a, c)]):
+            n, t1, t2 = 3 * i, 3 * i + 1, 3 * i + 2
+            B[1, n] = B[0, t1] = B[2, t2] = 1.0
+            B[3, n], B[4, t1], B[4, t2], B[5, n] = -z, z, -x, x
+        rhs = np.array([T, m * G, 0.0, 0.0, 0.0, Mz])
+        _, sv, Vt = np.linalg.svd(B)
+        Z = Vt[int(np.sum(sv > 1e-12 * sv[0])):].T
+        lam0 = np.concatenate([np.linalg.lstsq(B, rhs, rcond=None)[0], [2.0, mu * 2.0 - c5, 0.0]])
+        return B, rhs, lam0, np.vstack([Z, np.zeros((3, Z.shape[1]))])
+
+    B, rhs, lam0, Z = problem(T, Mz, t_star)
+    lam, margin = max_margin_distribution(np.full(5, mu), 3, [STICK] * 5, lam0, Z, m * G)
+    N = m * G / 4 + np.array([-1, 1, 1, -1]) * Mz / (4 * a)
+    expected = np.column_stack([N, mu * N - t_star, np.zeros(4)])
+    np.testing.assert_allclose(lam[:12].reshape(4, 3), expected, atol=1e-10 * m * G)
+    np.testing.assert_allclose(B @ lam[:12], rhs, atol=1e-12 * m * G)
+    assert margin == pytest.approx(t_star, abs=1e-10 * m * G)
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        d = 1.0 + 1e-13 * rng.standard_normal(3)
+        _, _, lam0_p, Z_p = problem(T * d[0], Mz * d[1], t_star * d[2])
+        lam_p, _ = max_margin_distribution(np.full(5, mu), 3, [STICK] * 5, lam0_p, Z_p, m * G)
+        assert np.max(np.abs(lam_p - lam)) <= 1e-8 * m * G
