@@ -28,8 +28,9 @@ found with this module's :func:`_candidate`. Redundant contacts (several rows of
 dependent: a box on two corners sticking) leave the forces indeterminate; where the
 least-norm solution violates an inequality,
 :func:`~convimpact.simulation.force_distribution.max_margin_distribution` picks the
-distribution over the null space: the largest smallest margin, then, among the
-distributions reaching it, the least norm (unique). The modes' names (``OPEN``, ``STICK``,
+distribution over the null space: the largest smallest margin t*, then, among the
+distributions whose margins all reach t* - 1e-12 (of the force scale), the least norm
+(unique, and continuous in the data). The modes' names (``OPEN``, ``STICK``,
 ``SLIP``), ``RTOL`` and ``max_margin_distribution`` are importable from here too.
 
 For one planar contact :func:`planar_contact_force` gives every solution in closed form.

@@ -4,10 +4,13 @@ Redundant contacts (several rows of the contact Jacobian dependent: a box on two
 sticking, a table on four legs) leave the forces of the sustained-contact problem statically
 indeterminate, ``lam0 + Z xi``, while its accelerations are unique. Where the least-norm
 distribution violates an inequality of the contacts' modes, :func:`max_margin_distribution`
-picks one in two stages: the largest smallest margin (a cone program by Clarabel, its
+picks one in two stages: the largest smallest margin t* (a cone program by Clarabel, its
 solution refined by Newton's method on the optimality conditions, the active cones fixed),
-then, among the distributions reaching it, the least norm. Every program's solution is
-certified here (cone membership, stationarity, complementarity) before it is accepted.
+then the least norm among the distributions whose margins all reach :func:`shell_floor`
+(t*), just below t* (a strictly convex program, refined the same way): unique, and
+continuous in the data (a 1e-13 change of the state moves it by round-off). Every
+program's solution is certified here (cone membership, stationarity, complementarity)
+before it is accepted.
 
 The contacts' modes and the default tolerance of the inequalities are defined here, in the
 lower of the two modules that use them; :mod:`~convimpact.simulation.contact_forces` (the
@@ -20,15 +23,17 @@ import numpy as np
 
 from ..errors import SolverError
 from .force_distribution_polish import (_cone_violation, _newton_max_min, _off_ray,
-                                         _polish_max_min, _warm_max_min)
+                                         _polish_least_norm, _polish_max_min, _warm_max_min)
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
 #: default relative tolerance of the inequalities
 RTOL = 1e-9
 #: shortfall (relative to the force scale) below the largest smallest margin allowed to the
 #: margins in the least-norm choice among redundant contacts' distributions
-#: (max_margin_distribution: it keeps the program on the optimal face strictly feasible)
-MARGIN_RTOL = 1e-10
+#: (:func:`shell_floor`: it gives stage 2's program an interior; with 1e-10 the choice lay
+#: 1.4e-9 of the force scale from the least-norm maximizer of a planar table whose
+#: maximizer is one point, with 1e-12 1.4e-11)
+MARGIN_RTOL = 1e-12
 #: rank tolerance (relative to the largest singular value) of the face's equations
 FACE_RTOL = 1e-8
 #: tolerance (relative) of the optimality conditions a cone program's solution must meet
@@ -49,8 +54,9 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
                             warm: dict | None = None,
                             orthonormal: bool = False) -> tuple[np.ndarray, float]:
     """The force distribution chosen among the indeterminate ones ``lam0 + Z xi``: the
-    largest smallest margin, then, among the distributions reaching it, the least Euclidean
-    norm. Unique for any data.
+    largest smallest margin ``t*``, then, among the distributions whose every margin is at
+    least :func:`shell_floor` (t*) ``= t* - MARGIN_RTOL`` (1e-12 of the force scale below
+    ``t*``), the least Euclidean norm. Unique for any data, and continuous in them.
 
     Redundant contacts leave the forces statically indeterminate while the motion is not: a
     table on four legs has three equilibrium equations (vertical force, two moments) for four
@@ -60,42 +66,47 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
 
     1. ``t* = max_xi min(margins)`` (capped at ``fscale``): the largest smallest margin any
        distribution reaches. It decides whether a group holds: a sticking group slips only
-       when no distribution keeps every force in its cone. But maximizing a minimum is not
-       strictly convex: the maximizers form a convex set F (a whole face when a margin binds
-       without depending on every redundant direction, e.g. a determinate contact's), and
-       which point of F an interior-point method returns depends on its iterates, hence on
-       its version.
-    2. The distribution returned is the one of least ``|lambda|`` in F: the projection of
-       ``-lam0`` onto a closed convex set, so unique whatever the solver. Least norm (least
-       squares) is the classic choice for a statically indeterminate support: it is the limit
-       of equally stiff elastic supports (least complementary energy ``sum lambda_i^2 / 2 k``,
-       Menabrea's theorem); for a box resting on four corners with its centre of mass over
-       the middle it gives ``m g / 4`` per corner, and whenever the least-squares
-       distribution itself reaches ``t*`` it is the one returned. Where F is a single point
-       (the minimum has a kink there, e.g. a planar table at rest on three legs with its
-       centre of mass off the middle leg: the legs' margins balanced) that point is
-       returned: the margin comes first.
+       when no distribution keeps every force in its cone. Maximizing a minimum is not
+       strictly convex: the maximizers form a convex set F, which point of it an
+       interior-point method returns depends on its iterates, and F itself changes its
+       dimension under round-off where margins of different groups tie at ``t*`` (the box
+       stack past its tip instant: the middle box's back corners and the top box's four
+       corners all at 0.02 of the force scale; by the scene's numbers), so the least-norm
+       point of F can jump (by 0.06-0.23 N of 14.7 N there, from a 1e-13 change of the
+       state).
+    2. The distribution returned is the least-norm one in the shell S = {every margin >=
+       t* - MARGIN_RTOL}: the projection of ``-lam0`` onto a closed convex set with
+       interior (a maximizer keeps MARGIN_RTOL of slack), unique whatever the solver, and
+       moving by O(round-off) when the data do (the floor is continuous in ``t*``, which is
+       continuous in the data; where the margins are linear in the forces, as for planar
+       contacts, Hoffman's bound makes the move Lipschitz whatever the shell's width).
+       Least norm (least squares) is the classic choice for a statically
+       indeterminate support: the limit of equally stiff elastic supports (least
+       complementary energy ``sum lambda_i^2 / 2 k``, Menabrea's theorem); for a box resting
+       on four corners with its centre of mass over the middle it gives ``m g / 4`` per
+       corner, and whenever the least-squares distribution itself lies in S it is the one
+       returned. Its distance from the least-norm point of F is of the order of the shell's
+       width (1.4e-11 of the force scale for a planar table on three legs whose F is one
+       point, ``m g (5/18, 5/18, 4/9)``); the margin comes first.
 
-    F is found from the optimality conditions rather than as ``margins >= t* - tol``: such a
-    shell, of width ~tol around F (a single point where the minimum has a kink), is too
-    thin for an interior-point method (with tol = 1e-10, Clarabel 0.11.1 stopped short,
-    ``InsufficientProgress`` or ``AlmostSolved``, on 53 of 117 such programs from a box
-    sliding on four corners, and returned margins below the shell on others). Stage 1's
-    solution is refined by Newton's method on its optimality conditions, the active cones
-    fixed (:func:`_polish_max_min`: an interior-point solution meets them to about the square
-    root of its tolerance only). By complementarity every maximizer keeps each active cone's
-    slack where the refined one has it: zero, or on the same ray of the cone's boundary;
-    these are linear equations whose solutions (an SVD, rank relative ``FACE_RTOL``) form
-    the affine hull of F. If that is a point, it is the answer; otherwise stage 2 is the
-    least-norm program on the hull with every margin ``>= t* - MARGIN_RTOL fscale``, no
-    longer thin. The answer depends on the span of ``Z``
-    only (an orthonormal basis of it is used) and moves by round-off when the data do.
+    Stage 1's solution is refined by Newton's method on its optimality conditions, the
+    active cones fixed (:func:`_polish_max_min`: an interior-point solution meets them to
+    about the square root of its tolerance only). Stage 2 is solved by Clarabel on S, then
+    by Newton's method on its optimality conditions (:func:`_polish_least_norm`: a
+    primal-dual active set from Clarabel's solution, cones whose equations depend on the
+    others' left out, a multiplier of the wrong sign or a violated cone correcting the
+    set), certified there to round-off. Where that polish does not certify, the former
+    stage 2 is used (:func:`_least_norm_on_face`: the least-norm program on the affine hull
+    of F read off stage 1's active cones), exact where that active set is, but not
+    continuous where it is degenerate. The answer depends on the span of ``Z`` only (an
+    orthonormal basis of it is used).
 
-    Each program's solution is accepted only with Clarabel's status ``Solved`` or
-    ``AlmostSolved`` and its optimality conditions (primal and dual cone membership,
-    stationarity, complementarity) holding to ``CERTIFY_RTOL``, evaluated here; the returned
+    Each program's solution is accepted only with its optimality conditions (primal and
+    dual cone membership, stationarity, complementarity) holding, evaluated here: to
+    ``CERTIFY_RTOL`` for Clarabel's (with its status ``Solved`` or ``AlmostSolved``), to
+    1e-12 for stage 2's polished one; the returned
     margin must be within ``RTOL`` (relative to the force scale and the distribution's size;
-    ``CERTIFY_RTOL |t*|`` if larger) of ``t*``. Otherwise
+    ``CERTIFY_RTOL |t*|`` if larger) of the floor. Otherwise
     :class:`~convimpact.errors.SolverError` is raised, never an unconverged
     distribution returned.
 
@@ -177,6 +188,44 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
                               if np.isfinite(below) else below > 0.0):
         lam = lam0 + Q @ (y_star * scale)
         return lam, _smallest_margin(mu, d, combo, lam)
+    # stage 2: min |l0 + Q y|^2 / 2 (= |y|^2 / 2 + g'y + const, Q orthonormal) over the
+    # whole space with every margin >= shell_floor(t*): a strictly convex program on a set
+    # with interior (the maximizer keeps t* - floor of slack), its solution polished to
+    # round-off on its optimality conditions
+    floor = shell_floor(t_star)
+    shell = [(kind, Ab, bb - floor * wb, wb) for kind, Ab, bb, wb in blocks[:-1]]
+    g = Q.T @ l0
+    y = _least_norm_in_shell(shell, g)
+    if y is None:  # (not certified: the program on the optimal face's hull)
+        y = _least_norm_on_face(blocks, kinds, t_star, y_star, A, b, w, cones, g, r)
+    lam = lam0 + Q @ (y * scale)
+    margin = _smallest_margin(mu, d, combo, lam)
+    # the margin given up (MARGIN_RTOL in stage 2, round-off): at most RTOL near t* = 0,
+    # where its sign decides hold or slip, CERTIFY_RTOL relative to |t*| elsewhere
+    slack = max(RTOL, CERTIFY_RTOL * abs(t_star)) * (1.0 + float(np.max(np.abs(y))))
+    # (a negative largest margin: no distribution fits the modes, which the callers reject
+    # on the margin returned; its last digits do not matter)
+    if not margin >= (floor - slack) * scale and t_star >= -RTOL:
+        raise SolverError(f"the force distribution of redundant contacts: margin {margin:.6e} "
+                          f"below the largest one {t_star * scale:.6e}")
+    return lam, margin
+
+
+def shell_floor(t_star: float) -> float:
+    """The smallest margin (relative to the force scale) the distribution chosen among
+    redundant contacts' may have (:func:`max_margin_distribution`, stage 2), given the
+    largest smallest margin ``t*``: ``t* - MARGIN_RTOL`` (continuous in ``t*``, so the set
+    of admissible distributions moves continuously with the data)."""
+    return t_star - MARGIN_RTOL
+
+
+def _least_norm_on_face(blocks, kinds, t_star: float, y_star: np.ndarray, A, b, w, cones,
+                        g: np.ndarray, r: int) -> np.ndarray:
+    """The former stage 2 (the fallback of :func:`_least_norm_in_shell`): the least-norm
+    program on the affine hull of the optimal face read off stage 1's active cones (every
+    maximizer keeps each active cone's slack where the polished one has it), the margins
+    kept >= t* - MARGIN_RTOL. Exact where the active set is; where it is degenerate the
+    hull can change with round-off in the data."""
     # the affine hull of the optimal face: every maximizer keeps each active cone's slack
     # s = b - t* w - A y where it is (zero, or on the ray)
     rows_E, rows_e = [], []
@@ -205,26 +254,32 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
             if np.any(AN[k:k + size] != 0.0):
                 free.append((k, kind, size) if how is None else (k, "nn", 1))
             k += size
-        g = N.T @ (Q.T @ l0)
+        gN = N.T @ g
         if free:
             sel = np.concatenate([np.arange(k0, k0 + size) for k0, _, size in free])
-            u, _, _ = _solve_certified(np.eye(N.shape[1]), g, AN[sel], b2[sel],
+            u, _, _ = _solve_certified(np.eye(N.shape[1]), gN, AN[sel], b2[sel],
                                     [(kind, size) for _, kind, size in free],
                                     "least-norm distribution")
         else:
-            u = -g
+            u = -gN
         y = y_base + N @ u
-    lam = lam0 + Q @ (y * scale)
-    margin = _smallest_margin(mu, d, combo, lam)
-    # the margin given up (MARGIN_RTOL in stage 2, round-off): at most RTOL near t* = 0,
-    # where its sign decides hold or slip, CERTIFY_RTOL relative to |t*| elsewhere
-    slack = max(RTOL, CERTIFY_RTOL * abs(t_star)) * (1.0 + float(np.max(np.abs(y))))
-    # (a negative largest margin: no distribution fits the modes, which the callers reject
-    # on the margin returned; its last digits do not matter)
-    if not margin >= (t_star - slack) * scale and t_star >= -RTOL:
-        raise SolverError(f"the force distribution of redundant contacts: margin {margin:.6e} "
-                          f"below the largest one {t_star * scale:.6e}")
-    return lam, margin
+    return y
+
+
+def _least_norm_in_shell(shell, g: np.ndarray) -> np.ndarray | None:
+    """argmin |y|^2 / 2 + g'y s.t. ``b - A y`` in each block's cone
+    (:func:`max_margin_distribution`'s stage 2): Clarabel's solution (from which status
+    soever: a shell as thin as 1e-10 often ends "AlmostSolved") refined by
+    :func:`_polish_least_norm` and certified there to round-off; None where it does not
+    certify."""
+    A = np.vstack([blk[1] for blk in shell])
+    b = np.concatenate([blk[2] for blk in shell])
+    cones = [(blk[0], len(blk[2])) for blk in shell]
+    r = g.size
+    x, z, _ = _solve_raw(np.eye(r), g, A, b, cones)
+    if x is None:
+        return None
+    return _polish_least_norm(shell, g, x, z)
 
 
 def margin_extension(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
@@ -370,6 +425,24 @@ def _csc(M: np.ndarray):
     indptr = np.zeros(M.shape[1] + 1, dtype=np.int32)
     np.cumsum(np.bincount(cols, minlength=M.shape[1]), out=indptr[1:])
     return sp.csc_matrix((M[rows, cols], rows.astype(np.int32), indptr), shape=M.shape)
+
+
+def _solve_raw(P, q, A, b, cones):
+    """(x, z, status) of Clarabel on argmin x'Px/2 + q'x s.t. b - A x in the cones, whatever
+    its status (None's where not finite): a starting point for a polish that certifies."""
+    import clarabel
+
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-11
+    kinds = {"nn": clarabel.NonnegativeConeT, "soc": clarabel.SecondOrderConeT}
+    solver = clarabel.DefaultSolver(_csc(np.triu(P)), q, _csc(A), b,
+                                    [kinds[k](n) for k, n in cones], settings)
+    sol = solver.solve()
+    x, z = np.asarray(sol.x, float), np.asarray(sol.z, float)
+    if x.size != q.size or not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
+        return None, None, str(sol.status)
+    return x, z, str(sol.status)
 
 
 def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray, cones,

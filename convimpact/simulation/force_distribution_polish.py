@@ -256,3 +256,194 @@ def _cone_violation(v: np.ndarray, cones) -> float:
             tail = part[1:]
             worst = max(worst, math.sqrt(float(tail @ tail)) - float(part[0]))
     return worst
+
+
+def _polish_least_norm(blocks, g: np.ndarray, y1: np.ndarray, z1: np.ndarray,
+                       max_sets: int = 8) -> np.ndarray | None:
+    """The solution of ``min |y|^2 / 2 + g'y`` s.t. ``b - A y in K`` per block (kind, A, b,
+    w) to round-off, by Newton's method on its optimality conditions with the active cones
+    fixed, from an interior-point solution (y1, multipliers z1): a primal-dual active-set
+    method. None where it does not certify.
+
+    Per cone: inactive (z = 0); "zero" (s = 0, z free, then checked in K); on the boundary
+    of a second-order cone (s on a ray of it, z on the opposite one, :func:`_newton_least_norm`).
+    The objective is strictly convex, so the minimizer is unique and the active set only
+    decides how it is computed. Cones whose equations depend on the others' are left out
+    first (:func:`_independent`: in a thin shell more cones bind than can at once); where
+    the conditions at a set fail (a multiplier of the wrong sign, an inactive cone violated,
+    a slack on the backward ray) the set is corrected and Newton's method rerun from the
+    solver's point (at most ``max_sets`` sets). Accepted when stationarity and the active
+    equations hold to 1e-12 relative, every inactive slack lies in its cone (to 1e-13) and
+    every multiplier in its (to 1e-12)."""
+    A_all = np.vstack([blk[1] for blk in blocks])
+    b_all = np.concatenate([blk[2] for blk in blocks])
+    sizes = [len(blk[2]) for blk in blocks]
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    s1 = b_all - A_all @ y1
+    kinds = []
+    for j, (kind, Ab, bb, wb) in enumerate(blocks):
+        sb, zb = s1[starts[j]:starts[j + 1]], z1[starts[j]:starts[j + 1]]
+        sn, zn = _norm(sb[1:]), _norm(zb[1:])
+        if zb[0] + zn <= sb[0] - sn:
+            kinds.append(None)
+        elif kind == "nn" or zb[0] - zn > sb[0] + sn:
+            kinds.append("zero")
+        else:
+            kinds.append("bd")
+    weight = [float(z1[starts[j]]) for j in range(len(blocks))]  # the solver's z0
+    start = [z1[starts[j]:starts[j + 1]].copy() for j in range(len(blocks))]
+    scale = 1.0 + float(np.max(np.abs(g), initial=0.0)) + float(np.max(np.abs(y1)))
+    for _ in range(max_sets):
+        kinds = _independent(blocks, kinds, y1, weight, start)
+        # (each set from the solver's point and multipliers: near the solution)
+        got = _newton_least_norm(blocks, g, kinds, y1, scale, start)
+        if got is None:
+            return None
+        y, mult = got
+        s = b_all - A_all @ y
+        change = False
+        for j, (kind, Ab, bb, wb) in enumerate(blocks):
+            sb = s[starts[j]:starts[j + 1]]
+            how = kinds[j]
+            if how is None:
+                if _list_violation(kind, sb.tolist()) > 1e-13 * scale:
+                    kinds[j] = "zero" if kind == "nn" else "bd"
+                    weight[j] = np.inf  # (kept: left out, it is violated)
+                    change = True
+            elif how == "zero":
+                if _cone_violation(mult[j], [(kind, sizes[j])]) > 1e-12 * scale:
+                    kinds[j] = None if kind == "nn" or mult[j][0] < 0.0 else "bd"
+                    change = True
+            elif mult[j][0] < -1e-12 * scale:  # (beta, alpha): a negative multiplier
+                kinds[j] = None
+                change = True
+            elif mult[j][1] < -1e-12 * scale:  # the slack on the backward ray: outside
+                kinds[j] = "zero"
+                change = True
+        if not change:
+            return y
+    return None
+
+
+def _independent(blocks, kinds, y: np.ndarray, weight, start=None) -> list:
+    """The active cones with those whose equations depend on the others' left out, the
+    one of least ``weight`` (the solver's multiplier) of each dependent set first: in a
+    thin shell more cones bind than can at once (a group whose margins' sum is fixed),
+    and their equations are then inconsistent or redundant. The rows are the equations'
+    gradients at the solver's point y (a boundary cone's along its ray, from its slack,
+    or where that is ~0 from its multiplier ``start``); a dependency is a singular value
+    below 1e-6 of the largest (the solver's point is accurate to ~1e-7 only)."""
+    kinds = list(kinds)
+    while True:
+        rows, owner = [], []
+        for j, how in enumerate(kinds):
+            if how is None:
+                continue
+            kind, Ab, bb, wb = blocks[j]
+            if how == "bd":
+                s = bb - Ab @ y
+                sn = _norm(s[1:])
+                z = start[j] if start is not None else None
+                zn = _norm(z[1:]) if z is not None and len(z) == len(bb) else 0.0
+                if max(sn, zn) > 0.0:
+                    u = s[1:] / sn if sn >= zn else -z[1:] / zn
+                    rows.append(-(Ab[0] - u @ Ab[1:]))
+                    owner.append(j)
+            if how == "zero":
+                rows += list(-Ab)
+                owner += [j] * len(bb)
+        if not rows:
+            return kinds
+        G = np.array(rows)
+        U, sv, _ = np.linalg.svd(G)  # left singular vectors: dependencies of the rows
+        tol = 1e-6 * max(float(sv[0]), 1e-300)
+        dead = [i for i in range(G.shape[0]) if i >= sv.size or sv[i] <= tol]
+        if not dead:
+            return kinds
+        w = np.abs(U[:, dead[-1]])
+        involved = {owner[i] for i in range(len(owner)) if w[i] > 1e-6 * float(w.max())}
+        kinds[min(involved, key=lambda j: (weight[j], j))] = None
+
+
+def _newton_least_norm(blocks, g: np.ndarray, kinds, y0: np.ndarray, scale: float,
+                       start=None):
+    """Newton's method (least-squares steps) on the optimality conditions of
+    :func:`_polish_least_norm`'s program with the cones' kinds fixed: ``y + g + sum A'z =
+    0``; a "zero" cone's slack ``s = b - A y = 0`` (z free); a cone on its boundary with
+    ``s = alpha (1, cos phi, sin phi)`` and ``z = beta (1, -cos phi, -sin phi)`` (as
+    :func:`_newton_max_min`'s rays: no division by |s1|, which may be ~0). From y0 and the
+    multipliers ``start`` (per block, the solver's z). Returns (y, per block: z for "zero",
+    (beta, alpha) on the boundary, None inactive), or None where the conditions do not
+    hold to 1e-12 relative."""
+    r = y0.size
+    act, size = [], r
+    v0 = [y0.copy()]
+    for j, how in enumerate(kinds):
+        if how is None:
+            continue
+        kind, Ab, bb, wb = blocks[j]
+        m = len(bb)
+        z = None if start is None or start[j] is None else np.asarray(start[j], float)
+        if how == "zero":
+            v0.append(z.copy() if z is not None and z.size == m else np.zeros(m))
+            act.append((j, how, size, m))
+            size += m
+        else:
+            sb = bb - Ab @ y0
+            sn = _norm(sb[1:])
+            zn = 0.0 if z is None or z.size != m else _norm(z[1:])
+            u = (sb[1:] / sn if sn >= zn or zn == 0.0 else -z[1:] / zn) if max(sn, zn) > 0.0 \
+                else np.array([1.0, 0.0])
+            beta = 0.5 * (z[0] + zn) if z is not None and z.size == m else 0.0
+            v0.append(np.array([0.5 * (sb[0] + sn), max(beta, 0.0), math.atan2(u[1], u[0])]))
+            act.append((j, how, size, 3))
+            size += 3
+    v = np.concatenate(v0)
+
+    def residual(v):
+        y = v[:r]
+        F = np.zeros(size)
+        J = np.zeros((size, size))
+        J[:r, :r] = np.eye(r)
+        stat = y + g
+        for j, how, k, m in act:
+            kind, Ab, bb, wb = blocks[j]
+            s = bb - Ab @ y
+            J[k:k + m, :r] = -Ab
+            if how == "zero":
+                z = v[k:k + m]
+                stat = stat + Ab.T @ z
+                J[:r, k:k + m] = Ab.T
+                F[k:k + m] = s
+            else:
+                alpha, beta, phi = v[k], v[k + 1], v[k + 2]
+                c, sn = math.cos(phi), math.sin(phi)
+                ray, dray = np.array([1.0, c, sn]), np.array([0.0, -sn, c])
+                zdir, dzdir = np.array([1.0, -c, -sn]), np.array([0.0, sn, -c])
+                stat = stat + beta * (Ab.T @ zdir)
+                J[:r, k + 1] = Ab.T @ zdir
+                J[:r, k + 2] = beta * (Ab.T @ dzdir)
+                F[k:k + 3] = s - alpha * ray
+                J[k:k + 3, k] = -ray
+                J[k:k + 3, k + 2] = -alpha * dray
+        F[:r] = stat
+        return F, J
+
+    best, stalled = None, 0
+    for _ in range(40):
+        F, J = residual(v)
+        res = float(np.max(np.abs(F), initial=0.0))
+        if best is None or res < best[0]:
+            best, stalled = (res, v.copy()), 0
+        else:
+            stalled += 1
+        if res <= 1e-14 * scale or stalled >= NEWTON_STALL:
+            break
+        v = v - _lstsq(J, F, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0]
+    res, v = best
+    if not res <= 1e-12 * scale:
+        return None
+    out = [None] * len(blocks)
+    for j, how, k, m in act:
+        out[j] = v[k:k + m].copy() if how == "zero" else np.array([v[k + 1], v[k]])
+    return v[:r].copy(), out
