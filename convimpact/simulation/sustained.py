@@ -140,8 +140,10 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
     sliding (and frictionless) ones. Where rows were dropped as redundant the distribution
     among the contacts is indeterminate; as in the force problem
     (:func:`~.contact_forces._candidate`), the least-norm distribution is taken where it keeps
-    every margin positive, and otherwise the one with the largest smallest margin (then the
-    least norm: :func:`~.contact_forces.max_margin_distribution`), so a sticking group slips
+    every margin positive, and otherwise the one with the largest smallest margin t* (then
+    the least norm among those whose margins all reach t* - 1e-12 of the force scale, unique
+    and continuous in the data: :func:`~.contact_forces.max_margin_distribution`), so a
+    sticking group slips
     only when no distribution keeps every force in its cone. (The margin is then continuous
     where it crosses zero: there the least-norm distribution's margin is not positive.)
 
