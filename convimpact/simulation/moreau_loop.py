@@ -17,6 +17,10 @@ Then the predictor moves the positions, ``q_{k+1} = q_m + h theta v_{k+1}`` (loo
 back), and the :class:`Recorder` keeps the raw state; momenta, energies, loop drifts and the
 largest penetration are computed from the stored states once, at the end of the run.
 
+On a :class:`ModelPredictor` with an :class:`.moreau_engine.EngineSolver` (no loops), the
+steps that keep the previous step's island layout take the fast path of
+:mod:`.moreau_fast` (two compiled calls per step, the same answers bit for bit).
+
 Two predictors compute the same quantities: :class:`ModelPredictor`, one compiled call per
 step (:func:`.moreau_step_kernels.predict_model`) for the models of :mod:`convimpact.model`
 without loops or applied forces, and :class:`ProtocolPredictor` for any mechanism (the
