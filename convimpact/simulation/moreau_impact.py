@@ -184,8 +184,7 @@ class ImpactSolver:
         coordinates), reused while the coordinate groups (the same cached object), the
         active contacts and their column pattern stay (a resting or sliding scene keeps
         them for many steps)."""
-        key = (np.array(moves.shape, dtype=np.int64).tobytes() + np.packbits(moves).tobytes()
-               + active.tobytes())
+        key = (moves.shape, np.packbits(moves).tobytes(), active.tobytes())
         last_groups, last_key, last, plan = self._last_islands
         if groups is last_groups and key == last_key:
             return last, plan
@@ -290,14 +289,14 @@ class ImpactSolver:
         v, v_free, M = np.array(st.v), np.array(st.v_free), st.M
         es, ets, vnk, vnf = self._coefficients(st, active)
         C = st.C if self.m else None
-        moves = np.any(Ja != 0.0, axis=1)
+        moves = (Ja != 0.0).any(axis=1)
         islands, plan = self._islands(moves, st.inv.groups, C, active)
         regime = ["separating"] * na
         results, energy_loss = [], 0.0
         cone = self.law in CONE_COMPLEMENTARITY_LAWS
         dsig = np.zeros(self.m)
         # no contact approaching at the step's start: no ImpactEvent, only impulses needed
-        direct = self.direct and not np.any(vnk < -self.rest_velocity)
+        direct = self.direct and not (vnk < -self.rest_velocity).any()
         certified = self._certify(st, plan, Ja, v_free, es, active) if direct else None
         if certified is None:
             answered: set = set()

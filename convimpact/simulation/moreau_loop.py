@@ -17,6 +17,10 @@ Then the predictor moves the positions, ``q_{k+1} = q_m + h theta v_{k+1}`` (loo
 back), and the :class:`Recorder` keeps the raw state; momenta, energies, loop drifts and the
 largest penetration are computed from the stored states once, at the end of the run.
 
+On a :class:`ModelPredictor` with an :class:`.moreau_engine.EngineSolver` (no loops), the
+steps that keep the previous step's island layout take the fast path of
+:mod:`.moreau_fast` (two compiled calls per step, the same answers bit for bit).
+
 Two predictors compute the same quantities: :class:`ModelPredictor`, one compiled call per
 step (:func:`.moreau_step_kernels.predict_model`) for the models of :mod:`convimpact.model`
 without loops or applied forces, and :class:`ProtocolPredictor` for any mechanism (the
@@ -33,6 +37,7 @@ import numpy as np
 from ..contacts.threads import one_blas_thread
 from ..errors import SimulationError
 from .moreau_engine import Evaluator, GroupCache, InverseMass, inverse_mass, regroup
+from .moreau_fast import FINISHED, PREDICTED, REDO, FastStep
 from .moreau_step_kernels import (
     EVAL_SHIFT,
     GAP_ROUNDOFF,
@@ -142,11 +147,16 @@ class ModelPredictor:
             self.inv = InverseMass(c.Minv, c.groups)
         if status:
             self._fail(status)
+        return self.step_view(index, t, v, hk, na, sigma)
+
+    def step_view(self, index: int, t: float, v, hk: float, na: int, sigma) -> Step:
+        """The :class:`Step` of the prediction in the buffers (``na`` active contacts)."""
         st = self.st
-        st.index, st.tm, st.hk, st.qm, st.v = index, t + (1.0 - th) * hk, hk, self.qm, v
-        st.M, st.inv, st.C, st.v_free, st.sigma = Mv, self.inv, self.C, self.vfree, sigma
-        st.blocks = c
-        buf.fill(st, na)
+        st.index, st.tm, st.hk, st.qm, st.v = index, t + (1.0 - self.theta) * hk, hk, self.qm, v
+        st.M, st.inv, st.C, st.v_free = self.views[1], self.inv, self.C, self.vfree
+        st.sigma = sigma
+        st.blocks = self.cache
+        self.buf.fill(st, na)
         return st
 
     def _fail(self, status: int):
@@ -313,12 +323,24 @@ def _run(mech, q, v, solver, *, t0: float, t1: float, h: float, theta: float, n_
     stats = {"nfev": 0, "contact_steps": 0, "proj": 0, "max_active": 0, "impact_time": 0.0}
     t, count = t0, 1
     clock = _time.perf_counter
+    fast = FastStep(pred, solver) if FastStep.applies(pred, solver) else None
     try:
         for step in range(n_steps):
             hk = min(h, t1 - t)
             if hk <= 0:
                 break
-            st = pred.predict(step, t, q, v, hk, sigma)
+            done = REDO if fast is None else fast.step(step, t, q, v, hk, sigma, Q[count],
+                                                         Vel[count], stats)
+            if done == FINISHED:
+                t = t1 if step == n_steps - 1 else t + hk
+                q, v = Q[count], Vel[count]
+                T[count] = t
+                count += 1
+                continue
+            if done == PREDICTED:
+                st = pred.step_view(step, t, v, hk, fast.na, sigma)
+            else:
+                st = pred.predict(step, t, q, v, hk, sigma)
             na = st.active.shape[0]
             if na:
                 stats["contact_steps"] += 1
