@@ -7,7 +7,8 @@ local solver of Bertails-Descoubes et al. 2011, "A nonsmooth Newton solver for c
 exact Coulomb friction in fiber assemblies", and of Siconos' and So-bogus' local solvers):
 
 * **take-off**: ``r = 0``, valid when ``q_n >= 0`` (then ``u = q`` and ``u_n >= 0``);
-* **stick**: ``r = -A^-1 q``, valid when it lies in ``K_mu`` (then ``u = 0``);
+* **stick**: ``r = -A^-1 q``, valid when it lies in ``K_mu`` (then ``u = 0``; not tried where
+  ``A`` is singular);
 * **slide**: ``r = r_n (1, -mu t)`` with ``t`` the unit slip direction, ``u_n = 0`` and
   ``u_t = lambda t``, ``lambda > 0``. For a direction ``t(theta) = (cos theta, sin theta)``
   (``t = ±1`` in the plane) ``u_n = 0`` fixes ``r_n = -q_n / (A g)_n`` with
@@ -117,7 +118,20 @@ def solve_local(A, q, mu, r, hint):
         for i in range(1, d):
             r[i] = 0.0
         return 1
-    x = np.linalg.solve(A, -q)
+    # stick needs A invertible (a singular diagonal block of W: no stick answer is tried)
+    if d == 2:
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    else:
+        det = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+               - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
+               + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+    big = 0.0
+    for i in range(d):
+        big = max(big, abs(A[i, i]))
+    if abs(det) > 1e-13 * big ** d:
+        x = np.linalg.solve(A, -q)
+    else:
+        x = np.full(d, -1.0)
     t = 0.0
     for i in range(1, d):
         t += x[i] * x[i]

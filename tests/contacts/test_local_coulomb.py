@@ -188,3 +188,17 @@ def test_nsgs_certifies_rank_deficient_random_problems(seed):
     assert res == pytest.approx(coulomb_residual(W, b, mu, r), rel=1e-12)
     assert res <= 1e-10
     assert 0 < work <= 20000
+
+
+def test_singular_block_slides_instead_of_failing():
+    # A = diag(2, 1, 0): no stick answer (A not invertible); q = (-1, 0.6, 0.8), mu = 0.5:
+    # u_n = 2 r_n - 1 = 0, r_n = 1/2; the slide r_t = -0.25 t, u_t = (q_1 - 0.25 t_1, 0.8)
+    # along t: t = (0.6, 0.8) gives u_t = (0.45, 0.8), not along t; solve u_t || t:
+    # (0.6 - 0.25 c) s = 0.8 c with c^2 + s^2 = 1. The answer is checked against the
+    # natural map (it must be a solution), not against a closed form.
+    A = np.diag([2.0, 1.0, 0.0])
+    q = np.array([-1.0, 0.6, 0.8])
+    kind, r = solve(A, q, 0.5)
+    assert kind == 2
+    assert local_error(A, q, 0.5, r) <= 1e-12
+    assert r[0] == pytest.approx(0.5, abs=1e-13)
