@@ -3,7 +3,9 @@
 Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP's answer, or
 where that misses, by an interior point on the law itself (:mod:`.coulomb_interior`, stopped
 where it stalls) and an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W),
-Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEPS`). :func:`solve` is the entry; small problems go first to the compiled dense
+Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEPS`), and past
+:data:`SPARING_NEWTON_MAX_ROWS` rows, where these miss, the nonsmooth Gauss-Seidel with exact
+one-contact solves (:mod:`.gauss_seidel`, :mod:`.local_coulomb`). :func:`solve` is the entry; small problems go first to the compiled dense
 kernels of the same method, and up to :data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from
 zero gets a bounded try first (before the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows).
 
@@ -28,6 +30,7 @@ from .admm_kernel import dense_admm, natural_residual
 from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
+from .gauss_seidel import nsgs_newton
 from .threads import one_blas_thread
 
 #: contact rows up to which the compiled dense kernels (:mod:`.interior_point`,
@@ -81,6 +84,9 @@ POLISH_FROM = 1e-4
 #: and 10 had stopped)
 LONG_NEWTON_FROM = 1e-5
 LONG_NEWTON_STEPS = 40
+#: Newton steps of a try from an iterate of the nonsmooth Gauss-Seidel (:mod:`.gauss_seidel`;
+#: from 1e-5 on the sphere piles it converged in 4-16)
+NSGS_NEWTON_STEPS = 20
 
 
 def kernels():
@@ -116,7 +122,9 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows, after it below) and the ADMM from the CCP's answer
     (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
     sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
-    long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`, then
+    long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`; past
+    :data:`SPARING_NEWTON_MAX_ROWS` rows the nonsmooth Gauss-Seidel of
+    :func:`.gauss_seidel.nsgs_newton` from the CCP's answer (Newton tried on its way); then
     the fixed point on De Saxce's shift (:mod:`.fixed_point`).
 
     ``start`` (n, d), optional, is a warm start (a time-stepping scheme's impulses of the
@@ -380,6 +388,23 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         iterations += k
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
         long_newton(best[1], best[0])  # from the ADMM's best answer
+        if best[0] > tol and ip_first:
+            # past SPARING_NEWTON_MAX_ROWS: NSGS with exact one-contact solves from the CCP
+            # answer, Newton tried on its way (it certified the sphere piles of 726 and 897
+            # contacts in 3-12 s, where the interior point, the ADMM and the fixed point had
+            # stalled at 5e-4-1e-3); after the ADMM, whose way certifies the others
+            def nsgs_newton_step(r):
+                return newton_finish(W, b, mu, r, coulomb=True, tol=tol,
+                                     max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
+                                     sparse=sparse)
+
+            rg, resg, kg = nsgs_newton(
+                W, b, mu, d, R.impulse, tol=tol, newton=nsgs_newton_step,
+                residual=lambda r: cones.natural_map_residual(W, b, mu, r, coulomb=True)[0])
+            iterations += kg
+            if resg < best[0]:
+                best[:2] = resg, rg
+                best[2] = "converged" if resg <= tol else best[2]
         if best[0] > tol:  # the fixed point on the De Saxce shift, CCP by CCP
             for r in shift_fixed_point(W, b, mu, d, best[1], tol, max_iter, sparse, solve_ccp):
                 iterations += 1
