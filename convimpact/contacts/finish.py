@@ -15,6 +15,8 @@ set, singular J included), dense by LAPACK or sparse through the quasi-definite 
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import qdldl
 import scipy.linalg as sla
@@ -125,7 +127,12 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
             A = J.T @ J
             A[np.diag_indices_from(A)] += lam
             try:
-                dr = sla.solve(A, -J.T @ F.ravel(), assume_a="pos", check_finite=False)
+                # a step only: redundant contacts make J^T J nearly singular (lam keeps it
+                # definite), and the answer is accepted on its residual, never on the step,
+                # so scipy's ill-conditioning warning would say nothing to the user
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", sla.LinAlgWarning)
+                    dr = sla.solve(A, -J.T @ F.ravel(), assume_a="pos", check_finite=False)
             except (np.linalg.LinAlgError, ValueError):
                 break
         if not np.all(np.isfinite(dr)):
