@@ -44,8 +44,10 @@ def energy_loss(M, dq_minus, dq_plus) -> float:
     M, _ = check_mass_matrix(M)
     k = M.shape[0]
     a, b = _vector("dq_minus", dq_minus, k), _vector("dq_plus", dq_plus, k)
-    T_minus = _energy("T- = 1/2 dq_minus^T M dq_minus", 0.5 * float(a @ M @ a))
-    T_plus = _energy("T+ = 1/2 dq_plus^T M dq_plus", 0.5 * float(b @ M @ b))
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow raises just below
+        Ta, Tb = 0.5 * float(a @ M @ a), 0.5 * float(b @ M @ b)
+    T_minus = _energy("T- = 1/2 dq_minus^T M dq_minus", Ta)
+    T_plus = _energy("T+ = 1/2 dq_plus^T M dq_plus", Tb)
     return T_minus - T_plus
 
 
