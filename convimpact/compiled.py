@@ -56,6 +56,7 @@ import shutil
 import sys
 import tempfile
 import time
+import types
 import warnings
 
 #: the folder of the convimpact package: functions whose source lies in it are cached here
@@ -87,6 +88,7 @@ _KEY_DIR = re.compile(r"^.+-[0-9a-f]{12}-numba.+$")
 _DIR = None  # the usable cache folder of this process (str), False: unusable, None: not yet
 _JIT = _JIT_INTERNAL = _JIT_INLINE = None
 _ANNOUNCED: set[str] = set()
+_PLAIN: dict = {}  # py_func -> its plain twin (:func:`plain`)
 #: seconds the source key took in this process (hashing at the first kernel import)
 KEY_SECONDS: list[float] = []
 
@@ -397,6 +399,27 @@ def _plain(fn):
     return fn
 
 
+def plain(fn):
+    """The compiled function ``fn`` as plain Python: its own source, with every compiled
+    function it calls by name replaced by that function's plain version (recursively), as
+    ``NUMBA_DISABLE_JIT=1`` would run it, but for this call tree only. For a first call that
+    should not wait for a compilation (small problems, before the machine code is cached);
+    the answers are the compiled code's to round-off. ``fn`` itself when it is not compiled."""
+    py = getattr(fn, "py_func", None)
+    if py is None:
+        return fn
+    done = _PLAIN.get(py)
+    if done is not None:
+        return done
+    scope = dict(py.__globals__)
+    twin = types.FunctionType(py.__code__, scope, py.__name__, py.__defaults__, py.__closure__)
+    _PLAIN[py] = twin
+    for name in py.__code__.co_names:
+        if hasattr(scope.get(name), "py_func"):
+            scope[name] = plain(scope[name])
+    return twin
+
+
 def __getattr__(name):
     # numba is imported here, on the first read of ``jit``, ``jit_internal`` or ``jit_inline``
     # (by a kernel module)
@@ -432,6 +455,6 @@ def __dir__():
     return sorted(set(globals()) | {"jit", "jit_internal", "jit_inline", "literally"})
 
 
-__all__ = ["jit", "jit_internal", "jit_inline", "literally", "JIT_OPTIONS", "JIT_INTERNAL_OPTIONS",
-           "JIT_INLINE_OPTIONS", "ENV", "cache_root",
+__all__ = ["jit", "jit_internal", "jit_inline", "literally", "plain", "JIT_OPTIONS",
+           "JIT_INTERNAL_OPTIONS", "JIT_INLINE_OPTIONS", "ENV", "cache_root",
            "cache_dir", "compiled_sources", "source_key", "cached", "announce"]

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from convimpact.compiled import plain
 from convimpact.impact.conic.paths import backend
 from convimpact.impact.conic.polish import polish_cone_qp
 from convimpact.impact.conic.polish_newton import (BND, DAMPED_MAX_NEWTON, INT,
@@ -50,8 +51,9 @@ MODES = {"polish": (POLISH_MAX_NEWTON, False, False), "pivoted": (POLISH_MAX_NEW
 MODE = MODES["polish"]
 
 
-def _newton(*args, mode=None):
-    return active_set_newton(*args, *(MODE if mode is None else mode))
+def _newton(*args, mode=None, python=False):
+    fn = plain(active_set_newton) if python else active_set_newton
+    return fn(*args, *(MODE if mode is None else mode))
 
 
 def _args(W, q, mu, d):
@@ -60,13 +62,14 @@ def _args(W, q, mu, d):
             np.asarray(mu, float), d)
 
 
+@pytest.mark.parametrize("python", [False, True], ids=["compiled", "plain"])
 @pytest.mark.parametrize("mode", sorted(MODES))
-def test_one_planar_contact_sliding_by_hand(mode):
+def test_one_planar_contact_sliding_by_hand(mode, python):
     """W = diag(a, b), q = (qn, qt), qn < 0: the CCP's boundary minimizer
     x_n = (mu |qt| - qn) / (a + b mu^2), x_t = -mu s x_n (s = sign qt) when the unconstrained
     x_t = -qt / b leaves the cone; Coulomb's slide x_n = -qn / a (u_n = 0)."""
     def run(*args):
-        return _newton(*args, mode=MODES[mode])
+        return _newton(*args, mode=MODES[mode], python=python)
 
     a, b, mu = 2.0, 0.5, 0.3
     qn, qt = -1.0, 3.0
@@ -84,12 +87,13 @@ def test_one_planar_contact_sliding_by_hand(mode):
     assert ok and np.allclose(x, coul, rtol=1e-14, atol=0.0)
 
 
+@pytest.mark.parametrize("python", [False, True], ids=["compiled", "plain"])
 @pytest.mark.parametrize("mode", sorted(MODES))
-def test_one_spatial_contact_sticking_and_separating_by_hand(mode):
+def test_one_spatial_contact_sticking_and_separating_by_hand(mode, python):
     """Inside the cone the answer is -W^-1 q; a contact whose q_n > 0 stays at zero with
     its dual q in K* (mu |q_t| <= q_n)."""
     def run(*args):
-        return _newton(*args, mode=MODES[mode])
+        return _newton(*args, mode=MODES[mode], python=python)
 
     rng = np.random.default_rng(3)
     A = rng.normal(size=(3, 3))

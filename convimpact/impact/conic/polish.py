@@ -37,6 +37,7 @@ import numpy as np
 # conic paths' acceptance rule, imported from here by the laws and the lanes
 from .polish_newton import (ACT, BND, EPS, INT, POLISH_ACCEPT, POLISH_MAX_NEWTON,  # noqa: F401
                             TINY, VELOCITY_RESIDUAL_MAX, ZERO, active_set_newton)
+from ...compiled import announce, cached, plain
 from .program import ConeQP
 
 #: relative thresholds that classify a conic solution's contacts for the polish
@@ -153,6 +154,27 @@ def _kind_arrays(qp: ConeQP, sets: list[list[Kind]]) -> tuple[np.ndarray, np.nda
     return kinds, tangs
 
 
+#: the polish's Newton runs as plain Python (:func:`convimpact.compiled.plain`, the same
+#: source) on programs of at most this many rows while its machine code is not cached, for
+#: the first :data:`PLAIN_CALLS` polishes of a process: a first call does not wait ~7 s for
+#: the compilation (a 4-contact program takes ~10 ms in Python)
+PLAIN_MAX_ROWS = 24
+PLAIN_CALLS = 200
+_POLISHES = [0, None]  # polishes so far; whether the kernel is cached (None: not asked yet)
+
+
+def _newton(rows: int):
+    """The Newton to run on a program of ``rows`` rows: compiled, or its plain twin."""
+    _POLISHES[0] += 1
+    if rows <= PLAIN_MAX_ROWS and _POLISHES[0] <= PLAIN_CALLS:
+        if _POLISHES[1] is None:
+            _POLISHES[1] = cached(active_set_newton)
+        if not _POLISHES[1]:
+            return plain(active_set_newton)
+    announce("polish's active-set Newton", 7, active_set_newton)
+    return active_set_newton
+
+
 def _first_certified(qp: ConeQP, x0: np.ndarray, sets: list[list[Kind]], coulomb: bool,
                      near: bool) -> tuple[np.ndarray, bool]:
     """The first of ``sets`` whose Newton solve is accepted (compiled,
@@ -165,9 +187,10 @@ def _first_certified(qp: ConeQP, x0: np.ndarray, sets: list[list[Kind]], coulomb
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     args = (f(qp.W), f(qp.q), f(qp.E), f(qp.f), f(qp.mu), int(qp.dim))
     start = f(x0)
+    newton = _newton(start.size)
     for j in range(len(sets)):
-        x, ok = active_set_newton(*args, kinds[j], tangs[j], start, bool(coulomb), bool(near),
-                                  POLISH_MAX_NEWTON, False, False)
+        x, ok = newton(*args, kinds[j], tangs[j], start, bool(coulomb), bool(near),
+                       POLISH_MAX_NEWTON, False, False)
         if ok:
             return x, True
     return x0, False

@@ -40,6 +40,8 @@ POLISH_ACCEPT = 1e-11
 #: means no solution (an unbounded program's huge iterate, where the round-off scale |W| X
 #: would excuse anything)
 VELOCITY_RESIDUAL_MAX = 1e-4
+#: the pivoted steps' rank cut on a singular J (sqrt(1e-15): eigenvalues of J^T J below 1e-15)
+SINGULAR_RCOND = 3.1622776601683795e-08
 
 
 @_jit_internal
@@ -118,24 +120,13 @@ def _min_norm_solve(A, y, rcond):
 
 
 @_jit_internal
-def _eigen_min_norm_step(J, F):
-    """``-J^+ F`` from the eigenvectors of ``J^T J``, its eigenvalues below 1e-15 of the
-    largest (singular values of J below 3e-8 of its largest: the redundant directions, which
-    round-off leaves at 1e-16) taken as zero."""
-    lam, V = np.linalg.eigh(_matmat(np.ascontiguousarray(J.T), J))
-    g = _matvec(np.ascontiguousarray(V.T), _matvec(np.ascontiguousarray(J.T), F))
-    top = np.max(lam)
-    for a in range(lam.size):
-        g[a] = -g[a] / lam[a] if lam[a] > 1e-15 * top else 0.0
-    return _matvec(V, g)
-
-
-@_jit_internal
 def _pivoted_step(J, F):
     """The minimum-norm solution of ``J s = -F`` for the square J of an active set (one
     equation per unknown): Gaussian elimination with complete pivoting where every pivot
     exceeds 1e-10 of the largest (J safely nonsingular: the solution is the minimum-norm one
-    to round-off), :func:`_eigen_min_norm_step` at a smaller pivot (redundant contacts)."""
+    to round-off); at a smaller pivot (redundant contacts) the minimum-norm step with singular
+    values below 3.2e-8 of the largest taken as zero (the redundant directions, which
+    round-off leaves at 1e-16)."""
     n = F.size
     A = J.copy()
     r = -F
@@ -150,7 +141,7 @@ def _pivoted_step(J, F):
         if k == 0:
             first = big
         if not big > 1e-10 * first or big == 0.0:
-            return _eigen_min_norm_step(J, F)
+            return _min_norm_solve(J, -F, SINGULAR_RCOND)
         if p != k:
             for j in range(n):
                 A[k, j], A[p, j] = A[p, j], A[k, j]
