@@ -427,9 +427,9 @@ def _csc(M: np.ndarray):
     return sp.csc_matrix((M[rows, cols], rows.astype(np.int32), indptr), shape=M.shape)
 
 
-def _solve_raw(P, q, A, b, cones):
-    """(x, z, status) of Clarabel on argmin x'Px/2 + q'x s.t. b - A x in the cones, whatever
-    its status (None's where not finite): a starting point for a polish that certifies."""
+def _clarabel(P, q, A, b, cones):
+    """Clarabel's solution of argmin x'Px/2 + q'x s.t. b - A x in the cones (tolerances
+    1e-11), whatever its status."""
     import clarabel
 
     settings = clarabel.DefaultSettings()
@@ -438,7 +438,13 @@ def _solve_raw(P, q, A, b, cones):
     kinds = {"nn": clarabel.NonnegativeConeT, "soc": clarabel.SecondOrderConeT}
     solver = clarabel.DefaultSolver(_csc(np.triu(P)), q, _csc(A), b,
                                     [kinds[k](n) for k, n in cones], settings)
-    sol = solver.solve()
+    return solver.solve()
+
+
+def _solve_raw(P, q, A, b, cones):
+    """(x, z, status) of Clarabel on argmin x'Px/2 + q'x s.t. b - A x in the cones, whatever
+    its status (None's where not finite): a starting point for a polish that certifies."""
+    sol = _clarabel(P, q, A, b, cones)
     x, z = np.asarray(sol.x, float), np.asarray(sol.z, float)
     if x.size != q.size or not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
         return None, None, str(sol.status)
@@ -452,15 +458,7 @@ def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray,
     status is Solved or AlmostSolved and the optimality conditions hold to CERTIFY_RTOL
     (evaluated here, not taken from the solver): s = b - A x and the multipliers z in their
     (self-dual) cones, P x + q + A'z = 0 and s'z = 0."""
-    import clarabel
-
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-11
-    kinds = {"nn": clarabel.NonnegativeConeT, "soc": clarabel.SecondOrderConeT}
-    solver = clarabel.DefaultSolver(_csc(np.triu(P)), q, _csc(A), b,
-                                    [kinds[k](n) for k, n in cones], settings)
-    sol = solver.solve()
+    sol = _clarabel(P, q, A, b, cones)
     status = str(sol.status)
     if status not in ("Solved", "AlmostSolved"):
         raise SolverError(f"the force distribution of redundant contacts ({what}): Clarabel "
