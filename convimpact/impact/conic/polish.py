@@ -35,14 +35,12 @@ import numpy as np
 
 # the Newton's constants are the kernel's; POLISH_ACCEPT and VELOCITY_RESIDUAL_MAX are the
 # conic paths' acceptance rule, imported from here by the laws and the lanes
-from .polish_newton import (ACT, BND, EPS, INT, POLISH_ACCEPT, POLISH_MAX_NEWTON,  # noqa: F401
-                            TINY, VELOCITY_RESIDUAL_MAX, ZERO, active_set_newton)
+from .polish_newton import (ACT, BND, EPS, INT, POLISH_ACCEPT, POLISH_BOUNDARY_RTOL,  # noqa: F401
+                            POLISH_MAX_NEWTON, POLISH_ZERO_RTOL, TINY, VELOCITY_RESIDUAL_MAX,
+                            ZERO, active_set_newton)
 from ...compiled import announce, cached, plain
 from .program import ConeQP
 
-#: relative thresholds that classify a conic solution's contacts for the polish
-POLISH_ZERO_RTOL = 1e-4
-POLISH_BOUNDARY_RTOL = 1e-4
 #: a classification within this factor of its threshold is ambiguous: the other kind is tried
 POLISH_AMBIGUITY = 1e2
 #: at most this many active sets are tried near the interior-point answer

@@ -29,6 +29,9 @@ TINY = 1e-300
 EPS = float(np.finfo(float).eps)
 #: a contact's kind in an active set (the polish's "zero", "act", "int", "bnd")
 ZERO, ACT, INT, BND = 0, 1, 2, 3
+#: relative thresholds that classify a solution's contacts (:func:`primary_kinds`)
+POLISH_ZERO_RTOL = 1e-4
+POLISH_BOUNDARY_RTOL = 1e-4
 #: Newton iterations from a start near the answer (an interior-point answer, a guess)
 POLISH_MAX_NEWTON = 12
 #: iterations of the damped Newton from starts farther from the answer
@@ -356,6 +359,50 @@ def _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U):
     return u, eq_rows, n_eq
 
 
+@_jit_internal
+def primary_kinds(x, mu, d):
+    """The polish's primary classification of ``x`` (``polish._contact_kinds``' first
+    choice): per contact ZERO (``|x_i| <= 1e-4 X`` or ``x_n <= 0``), ACT (frictionless), BND
+    (within 1e-4 of its cone's boundary, with the unit tangent of ``x_t``) or INT."""
+    n = mu.size
+    kind = np.zeros(n, dtype=np.int64)
+    tang = np.zeros((n, 2))
+    X = max(_absmax(x), TINY)
+    for i in range(n):
+        o = i * d
+        xt2 = 0.0
+        for a in range(1, d):
+            xt2 += x[o + a] ** 2
+        xt = np.sqrt(xt2)
+        nx = np.sqrt(x[o] ** 2 + xt2)
+        if nx <= POLISH_ZERO_RTOL * X or x[o] <= 0.0:
+            kind[i] = ZERO
+        elif mu[i] == 0.0:
+            kind[i] = ACT
+        elif (mu[i] * x[o] - xt) / max(nx, TINY) <= POLISH_BOUNDARY_RTOL:
+            kind[i] = BND
+            if xt > 0.0 and np.isfinite(xt):
+                for a in range(1, d):
+                    tang[i, a - 1] = x[o + a] / xt
+            else:
+                tang[i, 0] = 1.0
+        else:
+            kind[i] = INT
+    return kind, tang
+
+
+@_jit_internal
+def _setup(W, q, E, mu, d, kind, tang, x0, coulomb):
+    """The active set's layout and the Newton's start at ``x0``: (start, n_prim, U, X0, u,
+    eq_rows, n_eq)."""
+    start = _layout(kind, d)
+    n_prim = start[mu.size]
+    U = n_prim + E.shape[0]
+    X0 = max(_absmax(x0), TINY)
+    u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
+    return start, n_prim, U, X0, u, eq_rows, n_eq
+
+
 @_jit
 def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damped,
                       pivoted):
@@ -393,12 +440,7 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
     """
     n = mu.size
     N = n * d
-    m = E.shape[0]
-    start = _layout(kind, d)
-    n_prim = start[n]
-    U = n_prim + m
-    X0 = max(_absmax(x0), TINY)
-    u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
+    start, n_prim, U, X0, u, eq_rows, n_eq = _setup(W, q, E, mu, d, kind, tang, x0, coulomb)
     wmax = _absmax(W)
     qmax = _absmax(q)
     scales = np.array([qmax, wmax, _absmax(f), _absmax(E)])
@@ -465,13 +507,7 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
     """The scaled Jacobian J of the active set's equations at the unknowns of ``x0`` (as
     :func:`active_set_newton` starts) and ``dx/du``: (J, Jx). With x0 a solution, the
     null space of J holds the directions of its family of solutions (redundant contacts)."""
-    n = mu.size
-    m = E.shape[0]
-    start = _layout(kind, d)
-    n_prim = start[n]
-    U = n_prim + m
-    X0 = max(_absmax(x0), TINY)
-    u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
+    start, n_prim, U, X0, u, eq_rows, n_eq = _setup(W, q, E, mu, d, kind, tang, x0, coulomb)
     scales = np.array([_absmax(q), _absmax(W), _absmax(f), _absmax(E)])
     F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
                            n_prim, X0, bool(False), scales)  # a run-time flag: one compile
@@ -479,5 +515,5 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
     return J, Jx
 
 
-__all__ = ["active_set_newton", "active_set_jacobian", "ZERO", "ACT", "INT", "BND",
+__all__ = ["active_set_newton", "active_set_jacobian", "primary_kinds", "ZERO", "ACT", "INT", "BND",
            "POLISH_MAX_NEWTON", "DAMPED_MAX_NEWTON", "POLISH_ACCEPT", "VELOCITY_RESIDUAL_MAX"]

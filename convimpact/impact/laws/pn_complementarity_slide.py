@@ -33,7 +33,7 @@ import numpy as np
 from ...compiled import jit as _jit
 from .pn_complementarity_kernels import admissible
 from ..conic.polish_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_NEWTON, ZERO,
-                                   active_set_newton)
+                                   active_set_newton, primary_kinds)
 
 EPS = float(np.finfo(float).eps)
 TINY = 1e-300
@@ -79,36 +79,6 @@ def _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor):
             for a in range(1, d):
                 x0[o + a] = relaxed[o + a]
     return kind, tang, x0
-
-
-@_jit
-def _relaxed_kinds(x, mu, d):
-    """The polish's primary classification of ``x`` (``_contact_kinds``)."""
-    n = mu.size
-    kind = np.zeros(n, dtype=np.int64)
-    tang = np.zeros((n, 2))
-    X = max(np.max(np.abs(x)), TINY)
-    for i in range(n):
-        o = i * d
-        xt2 = 0.0
-        for a in range(1, d):
-            xt2 += x[o + a] ** 2
-        xt = np.sqrt(xt2)
-        nx = np.sqrt(x[o] ** 2 + xt2)
-        if nx <= 1e-4 * X or x[o] <= 0.0:
-            kind[i] = ZERO
-        elif mu[i] == 0.0:
-            kind[i] = ACT
-        elif (mu[i] * x[o] - xt) / max(nx, TINY) <= 1e-4:
-            kind[i] = BND
-            if xt > 0.0:
-                for a in range(1, d):
-                    tang[i, a - 1] = x[o + a] / xt
-            else:
-                tang[i, 0] = 1.0
-        else:
-            kind[i] = INT
-    return kind, tang
 
 
 @_jit
@@ -192,7 +162,7 @@ def slide_set(Wf, vf, bf, muf, d, A):
     x, ok = _kkt(W, q, E, f, mu, d, kind, tang, x0, POLISH_MAX_NEWTON, False)
     if not ok:
         # 2. the classification of the impulse without the cones
-        kind, tang = _relaxed_kinds(relaxed, mu, d)
+        kind, tang = primary_kinds(relaxed, mu, d)
         x, ok = _kkt(W, q, E, f, mu, d, kind, tang, relaxed, POLISH_MAX_NEWTON, False)
     n_pulled = 0
     if not ok:

@@ -28,9 +28,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
-from ..conic.polish import POLISH_BOUNDARY_RTOL, POLISH_ZERO_RTOL, TINY
-from ..conic.polish_newton import (ACT, BND, INT, POLISH_MAX_NEWTON, ZERO, _matmat, _matvec,
-                                   active_set_jacobian, active_set_newton)
+from ..conic.polish_newton import (POLISH_MAX_NEWTON, TINY, _matmat, _matvec,
+                                   active_set_jacobian, active_set_newton, primary_kinds)
 
 UNIQUE, REDUNDANT, MOVING, FAILED = 0, 1, 2, -1
 #: singular values of the active set's Jacobian below this fraction of the largest: its null
@@ -102,31 +101,7 @@ def warm_compression(W, b, mu, d, prev):
     scale = D * (sq / sW)
     y0 = prev / scale
     # 2. the polish's primary classification of the start
-    kind = np.zeros(n, dtype=np.int64)
-    tang = np.zeros((n, 2))
-    X = max(np.max(np.abs(y0)), TINY)
-    for i in range(n):
-        o = i * d
-        nx = 0.0
-        nt = 0.0
-        for a in range(d):
-            nx += y0[o + a] ** 2
-            if a:
-                nt += y0[o + a] ** 2
-        nx, nt = np.sqrt(nx), np.sqrt(nt)
-        if nx <= POLISH_ZERO_RTOL * X or y0[o] <= 0.0:
-            kind[i] = ZERO
-        elif mu[i] == 0.0:
-            kind[i] = ACT
-        elif (mu[i] * y0[o] - nt) / max(nx, TINY) <= POLISH_BOUNDARY_RTOL:
-            kind[i] = BND
-            if nt > 0.0 and np.isfinite(nt):
-                for a in range(d - 1):
-                    tang[i, a] = y0[o + 1 + a] / nt
-            else:
-                tang[i, 0] = 1.0
-        else:
-            kind[i] = INT
+    kind, tang = primary_kinds(y0, mu, d)
     # 3. Coulomb's conditions on that active set
     E = np.zeros((0, N))
     f = np.zeros(0)
