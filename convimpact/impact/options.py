@@ -7,7 +7,11 @@ A leaf: the methods (:mod:`.exact`, :mod:`.laws`) and the solver table
 
 from __future__ import annotations
 
-from ..errors import NotSupportedError, UnknownOptionError
+import math
+
+import numpy as np
+
+from ..errors import NotSupportedError, ParameterError, UnknownOptionError
 
 #: the keyword options each method takes (``resolve_impact(..., **options)``; defaults and
 #: meanings in its docstring's table): the methods' own option checks accept exactly these
@@ -39,3 +43,28 @@ def check_single_contact(problem, options, method: str, takes: str, several: str
                                  f"{', '.join(sorted(options))}; {options_help()}")
     if problem.n_contacts != 1:
         raise NotSupportedError(several.format(n=problem.n_contacts))
+
+
+def parse_method_options(method: str, options: dict, fields: type, minimum: dict[str, int]):
+    """The options of an iterative method as the frozen dataclass ``fields`` (its defaults
+    where not given): an unknown name raises UnknownOptionError; a ``float`` field must be a
+    number in (0, 1), an ``int`` field an integer >= ``minimum[name]`` (ParameterError;
+    booleans are neither)."""
+    known = fields.__dataclass_fields__
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise UnknownOptionError(
+            f"method {method!r} does not know option(s) {', '.join(unknown)}; "
+            f"it accepts {', '.join(known)}")
+    out = fields(**options)
+    for name, f in known.items():
+        v = getattr(out, name)
+        if f.type == "float":
+            if isinstance(v, bool) or not (isinstance(v, (int, float, np.floating))
+                                           and math.isfinite(v) and 0.0 < v < 1.0):
+                raise ParameterError(f"option {name} must be a number in (0, 1), got {v!r}")
+        elif isinstance(v, bool) or not (isinstance(v, (int, np.integer)) and v >= minimum[name]):
+            raise ParameterError(f"option {name} must be a "
+                                 f"{'positive' if minimum[name] else 'non-negative'} integer, "
+                                 f"got {v!r}")
+    return out

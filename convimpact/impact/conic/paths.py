@@ -20,7 +20,7 @@ from typing import Callable
 
 import numpy as np
 
-from ...errors import ParameterError, UnknownOptionError
+from ..options import parse_method_options
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from .qp import DEFAULT_MAX_ITER, DEFAULT_TOL, TINY, Backend, ConeQP, QPSolution
@@ -53,22 +53,11 @@ class ProgramOptions:
 
 def parse_options(method: str, options: dict) -> ProgramOptions:
     """Validate the keyword options of a conic path; unknown names raise UnknownOptionError."""
-    known = ProgramOptions.__dataclass_fields__
-    unknown = sorted(set(options) - set(known))
-    if unknown:
-        raise UnknownOptionError(
-            f"method {method!r} does not know option(s) {', '.join(unknown)}; "
-            f"it accepts {', '.join(known)}")
-    out = ProgramOptions(**options)
-    for name in ("tol", "fixed_point_tol"):
-        v = getattr(out, name)
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and 0.0 < v < 1.0):
-            raise ParameterError(f"option {name} must be a number in (0, 1), got {v!r}")
-    for name in ("max_iter", "max_fixed_point_iter", "anderson_memory"):
-        v = getattr(out, name)
-        if not (isinstance(v, (int, np.integer)) and v >= (0 if name == "anderson_memory" else 1)):
-            raise ParameterError(f"option {name} must be a positive integer, got {v!r}")
-    return out
+    return parse_method_options(method, options, ProgramOptions, _MINIMUM)
+
+
+#: the least value of each count option
+_MINIMUM = {"max_iter": 1, "max_fixed_point_iter": 1, "anderson_memory": 0}
 
 
 #: a law's conic result: (problem, backend, method, options) -> ImpactResult

@@ -67,7 +67,6 @@ builds them ahead of time and says how long it took): measured 27 s once per mac
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
@@ -75,8 +74,9 @@ import numpy as np
 
 from ..conic.polish import VELOCITY_RESIDUAL_MAX
 from ..diagnostics import assemble_result
-from ...errors import ParameterError, SolverError, UnknownOptionError
+from ...errors import SolverError
 from ..laws.dissipative import poisson_warnings
+from ..options import parse_method_options
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from ...contacts.engine import COMPILED_MAX_ROWS, HANDOVER_TOL
@@ -179,25 +179,8 @@ def parse_options(options: dict) -> InteriorOptions:
     """Validate the keyword options of ``method="interior"``."""
     if not options:
         return DEFAULT_OPTIONS
-    known = InteriorOptions.__dataclass_fields__
-    unknown = sorted(set(options) - set(known))
-    if unknown:
-        raise UnknownOptionError(
-            f"method {METHOD!r} does not know option(s) {', '.join(unknown)}; "
-            f"it accepts {', '.join(known)}")
-    out = InteriorOptions(**options)
-    tol = out.tol
-    if isinstance(tol, bool) or not (isinstance(tol, (int, float, np.floating))
-                                     and math.isfinite(tol) and 0.0 < tol < 1.0):
-        raise ParameterError(f"option tol must be a number in (0, 1), got {tol!r}")
-    for name in ("max_iter", "newton_iter"):
-        v = getattr(out, name)
-        if isinstance(v, bool) or not (isinstance(v, (int, np.integer))
-                                       and v >= (1 if name == "max_iter" else 0)):
-            raise ParameterError(f"option {name} must be a "
-                                 f"{'positive' if name == 'max_iter' else 'non-negative'} "
-                                 f"integer, got {v!r}")
-    return out
+    return parse_method_options(METHOD, options, InteriorOptions,
+                                {"max_iter": 1, "newton_iter": 0})
 
 
 def solve_cone_complementarity(W: np.ndarray, b: np.ndarray, mu: np.ndarray, dim: int,
