@@ -84,38 +84,46 @@ contact_kernel = compiled_kernel(LAW, _dissipative_planar, _dissipative_spatial,
 def program_result(P: ImpactProblem, backend: Backend, method: str,
                    opts: ProgramOptions) -> ImpactResult:
     plastic, sol = solve_ccp(P, backend, opts, restitution=np.zeros(P.n_contacts))
-    pi = plastic * (1.0 + P.restitution)[:, None]  # Poisson's hypothesis
-    flat = plastic.ravel()
-    W = P.delassus
-    Ep = (plastic * P.restitution[:, None]).ravel()
-    predicted = 0.5 * float(flat @ W @ flat) - 0.5 * float(Ep @ W @ Ep)
-    vplus_plastic = P.v_minus + (W @ flat).reshape(P.n_contacts, P.dim)
+    pi, plastic_loss, predicted = poisson_scaled(P, plastic)
+    vplus_plastic = P.v_minus + (P.delassus @ plastic.ravel()).reshape(P.n_contacts, P.dim)
     extras = {
         "plastic_impulse": plastic.tolist(),
-        "plastic_energy_loss": 0.5 * float(flat @ W @ flat),
+        "plastic_energy_loss": plastic_loss,
         "predicted_energy_loss": predicted,  # 1/2 (1 - e^2) pi_p^T W pi_p for a common e
         "plastic_normal_velocity_lift": vplus_plastic[:, 0].tolist(),
         **solver_report(sol, opts),
     }
     acc = opts.accuracy(sol.polished)
-    warnings = poisson_warnings(P, W, predicted)
     regimes = regimes_from_slip(P, plastic, vplus_plastic, acc)
     return assemble_result(P, pi, regimes, LAW, method, tol=acc,
-                           extras=extras, warnings=tuple(warnings))
+                           extras=extras, warnings=poisson_warnings(P, predicted))
 
 
-def poisson_warnings(P, W: np.ndarray, predicted: float) -> list[str]:
+def poisson_scaled(P: ImpactProblem, plastic: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Poisson's hypothesis on the plastic impulse ``pi_p`` (n_contacts, d): the impulse
+    ``(1 + e_i) pi_p`` per contact, the plastic phase's energy loss ``1/2 |pi_p|_W^2`` and the
+    loss predicted after the scaling, ``1/2 |pi_p|_W^2 - 1/2 |E pi_p|_W^2``."""
+    flat = plastic.ravel()
+    W = P.delassus
+    Ep = (plastic * P.restitution[:, None]).ravel()
+    plastic_loss = 0.5 * float(flat @ W @ flat)
+    return (plastic * (1.0 + P.restitution)[:, None], plastic_loss,
+            plastic_loss - 0.5 * float(Ep @ W @ Ep))
+
+
+def poisson_warnings(P: ImpactProblem, predicted: float) -> tuple[str, ...]:
     """The statements of Poisson's scaling with different e per coupled contact: an energy gain
     (``predicted`` energy loss < 0), and a plastic impulse that is not unique (singular W)."""
+    if not np.ptp(P.restitution) > 0:
+        return ()
     warnings = []
-    if np.ptp(P.restitution) > 0 and predicted < 0:
+    if predicted < 0:
         warnings.append("different e per contact: Poisson scaling of coupled contacts gains "
                         "energy here (1/2 |pi_p|_W^2 < 1/2 |E pi_p|_W^2)")
-    if np.ptp(P.restitution) > 0:
-        lam = np.linalg.eigvalsh(W)
-        if not lam[0] > 1e-10 * lam[-1]:
-            warnings.append(
-                "different e per contact on a singular Delassus matrix: the plastic impulse is "
-                "not unique, so the Poisson-scaled answer (theta_dot+) depends on which plastic "
-                "impulse the solver found; use one e for coupled contacts")
-    return warnings
+    lam = np.linalg.eigvalsh(P.delassus)
+    if not lam[0] > 1e-10 * lam[-1]:
+        warnings.append(
+            "different e per contact on a singular Delassus matrix: the plastic impulse is "
+            "not unique, so the Poisson-scaled answer (theta_dot+) depends on which plastic "
+            "impulse the solver found; use one e for coupled contacts")
+    return tuple(warnings)

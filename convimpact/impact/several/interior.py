@@ -75,7 +75,7 @@ import numpy as np
 from ..conic.polish import VELOCITY_RESIDUAL_MAX
 from ..diagnostics import assemble_result
 from ...errors import SolverError
-from ..laws.dissipative import poisson_warnings
+from ..laws.dissipative import poisson_scaled, poisson_warnings
 from ..options import parse_method_options
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
@@ -355,28 +355,13 @@ def law_extras(law: str, report: dict, lift=None, mu_slip=None, plastic=None,
 def ccp_result(P: ImpactProblem, **options) -> ImpactResult:
     """Law ``ccp`` by the interior point with its KKT certificate (the same result as the
     conic path's :func:`convimpact.impact.laws.ccp.program_result`)."""
-    opts = parse_options(options) if options else DEFAULT_OPTIONS
-    pi, report, regimes, lift, mu_slip, _ = _solve(P, opts, "ccp")
-    extras = law_extras("ccp", report, lift=lift, mu_slip=mu_slip)
-    return assemble_result(P, pi, regimes, "ccp", METHOD, tol=CERTIFIED_ACCURACY, extras=extras)
+    return _result(P, "ccp", options)
 
 
 def dissipative_result(P: ImpactProblem, **options) -> ImpactResult:
     """Law ``dissipative`` by the interior point with its KKT certificate (the same result as
     the conic path's :func:`convimpact.impact.laws.dissipative.program_result`)."""
-    opts = parse_options(options) if options else DEFAULT_OPTIONS
-    plastic, report, regimes, _, _, vn_plus = _solve(P, opts, "dissipative")
-    pi = plastic * (1.0 + P.restitution)[:, None]  # Poisson's hypothesis
-    flat = plastic.ravel()
-    W = P.delassus
-    Ep = (plastic * P.restitution[:, None]).ravel()
-    predicted = 0.5 * float(flat @ W @ flat) - 0.5 * float(Ep @ W @ Ep)
-    extras = law_extras("dissipative", report, plastic=plastic.tolist(),
-                        plastic_energy_loss=0.5 * float(flat @ W @ flat),
-                        predicted=predicted, plastic_lift=vn_plus)
-    warnings = poisson_warnings(P, W, predicted)
-    return assemble_result(P, pi, regimes, "dissipative", METHOD, tol=CERTIFIED_ACCURACY,
-                           extras=extras, warnings=tuple(warnings))
+    return _result(P, "dissipative", options)
 
 
 def coulomb_result(P: ImpactProblem, **options) -> ImpactResult:
@@ -385,10 +370,20 @@ def coulomb_result(P: ImpactProblem, **options) -> ImpactResult:
     law has several solutions (several contacts, a singular W) the one Newton reaches from the
     CCP answer is returned -- possibly another than the conic path's fixed point's, which is
     why ``method="auto"`` keeps the conic path for this law."""
-    opts = parse_options(options) if options else DEFAULT_OPTIONS
-    pi, report, regimes, _, _, _ = _solve(P, opts, "coulomb")
-    extras = law_extras("coulomb", report)
-    return assemble_result(P, pi, regimes, "coulomb", METHOD, tol=CERTIFIED_ACCURACY,
-                           extras=extras)
+    return _result(P, "coulomb", options)
 
 
+def _result(P: ImpactProblem, law: str, options: dict) -> ImpactResult:
+    """The certified answer of ``law`` (the dissipative law's: Poisson-scaled) as a result."""
+    pi, report, regimes, lift, mu_slip, vn_plus = _solve(P, parse_options(options), law)
+    warnings = ()
+    if law == "dissipative":
+        plastic, (pi, plastic_loss, predicted) = pi, poisson_scaled(P, pi)
+        extras = law_extras(law, report, plastic=plastic.tolist(),
+                            plastic_energy_loss=plastic_loss, predicted=predicted,
+                            plastic_lift=vn_plus)
+        warnings = poisson_warnings(P, predicted)
+    else:
+        extras = law_extras(law, report, lift=lift, mu_slip=mu_slip)
+    return assemble_result(P, pi, regimes, law, METHOD, tol=CERTIFIED_ACCURACY, extras=extras,
+                           warnings=warnings)

@@ -172,7 +172,7 @@ class _Answer:
             P = build_problem(self.mass(), J, dq, self.e.tolist(), self.mu.tolist())
             warnings = ()
             if self.law == "dissipative":
-                warnings = tuple(poisson_warnings(P, P.delassus, self.predicted))
+                warnings = poisson_warnings(P, self.predicted)
             self._full = assemble_result(P, self.pi, self.regimes, self.law, "interior",
                                          tol=CERTIFIED_ACCURACY, extras=self.extras,
                                          warnings=warnings)
