@@ -106,32 +106,29 @@ def _check_finite(name: str, a: np.ndarray, per_item: bool) -> None:
                              "values")
 
 
-def _check_parameters(e: np.ndarray, mu: np.ndarray, e_shared: bool, mu_shared: bool,
-                      et: np.ndarray | None = None, et_shared: bool = True) -> None:
-    _check_finite("e", e, not e_shared)
-    _check_finite("mu", mu, not mu_shared)
-    if et is not None:
-        _check_finite("e_t", et, not et_shared)
-        bad = np.flatnonzero((et < -1.0) | (et > 1.0))
+#: the coefficients' ranges: name -> (out of range, the message's statement of the range)
+_RANGES = {
+    "e_t": (lambda a: (a < -1.0) | (a > 1.0),
+            "tangential restitution must lie in [-1, 1] (outside it the law creates energy)"),
+    "e": (lambda a: (a < 0.0) | (a > 1.0), "coefficient of restitution must lie in [0, 1]"),
+    "mu": (lambda a: a < 0.0, "coefficient of friction must be >= 0"),
+}
+
+
+def _check_parameters(e: np.ndarray, mu: np.ndarray, et: np.ndarray,
+                      shared: dict[str, bool]) -> None:
+    """e, mu and e_t finite, then in range (the message names the first offending impact)."""
+    arrays = {"e": e, "mu": mu, "e_t": et}
+    for name, a in arrays.items():
+        _check_finite(name, a, not shared[name])
+    for name, (outside, what) in _RANGES.items():
+        a = arrays[name]
+        bad = np.flatnonzero(outside(a))
         if bad.size:
             i = int(bad[0])
-            where = f"e_t[{i}] = {et[i]:g} (impact {i})" if not et_shared else f"e_t = {et[0]:g}"
-            raise ParameterError(
-                f"tangential restitution must lie in [-1, 1] (outside it the law creates "
-                f"energy), got {where}" + (f"; {bad.size} impacts out of range"
-                                           if bad.size > 1 else ""))
-    bad = np.flatnonzero((e < 0.0) | (e > 1.0))
-    if bad.size:
-        i = int(bad[0])
-        where = f"e[{i}] = {e[i]:g} (impact {i})" if not e_shared else f"e = {e[0]:g}"
-        raise ParameterError(f"coefficient of restitution must lie in [0, 1], got {where}"
-                             + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
-    bad = np.flatnonzero(mu < 0.0)
-    if bad.size:
-        i = int(bad[0])
-        where = f"mu[{i}] = {mu[i]:g} (impact {i})" if not mu_shared else f"mu = {mu[0]:g}"
-        raise ParameterError(f"coefficient of friction must be >= 0, got {where}"
-                             + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
+            where = f"{name} = {a[0]:g}" if shared[name] else f"{name}[{i}] = {a[i]:g} (impact {i})"
+            raise ParameterError(f"{what}, got {where}"
+                                 + (f"; {bad.size} impacts out of range" if bad.size > 1 else ""))
 
 
 def _check_options(law, on_error) -> int:

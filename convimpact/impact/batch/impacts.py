@@ -261,7 +261,7 @@ def resolve_impacts(M, Jc, dq, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *,
             f"n, t1, t2) to match M ({k} x {k}); got {J.shape[-2:]}")
     if qb.shape[1] != k:
         raise ShapeError(f"dq must be a vector of length {k} to match M, got {q.shape[-1:]}")
-    _check_parameters(eb, mb, shared["e"], shared["mu"], tb, shared["e_t"])
+    _check_parameters(eb, mb, tb, shared)
 
     dq_plus = np.empty((n, k))
     impulse = np.empty((n, d))
@@ -402,7 +402,7 @@ def contact_impulses(W, v, e=0.0, mu=0.0, law: str = "pereira-nikravesh", *, e_t
         raise ShapeError(
             f"a contact needs W of shape (d, d) and v of length d with d = 2 (n, t) or 3 "
             f"(n, t1, t2); got W {Wa.shape[-2:]} and v {va.shape[-1:]}")
-    _check_parameters(eb, mb, shared["e"], shared["mu"], tb, shared["e_t"])
+    _check_parameters(eb, mb, tb, shared)
     impulse = np.empty((n, d))
     regime = np.empty(n, np.int8)
     status = np.empty(n, np.int8)
