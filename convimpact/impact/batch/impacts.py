@@ -80,14 +80,12 @@ _DEFER = 9  # laws.codes.DEFER: outside the compiled range of scale, solved by s
 _NO_ITEMS = np.zeros(0, dtype=np.int64)
 _NO_IMPULSES = {2: np.zeros((0, 2)), 3: np.zeros((0, 3))}
 _K = None  # the compiled module, imported on first use
-_COMPILE_SECONDS: dict[str, float] = {}
 
 
 def _kernels():
     """The compiled drivers (:mod:`.drivers`), imported on first use."""
     global _K
     if _K is None:
-        t = time.perf_counter()
         from . import drivers as loop
         from ...compiled import LawEntries, announce
 
@@ -96,7 +94,6 @@ def _kernels():
         _K = SimpleNamespace(impact_batch=LawEntries(loop.impact_batch, 2),
                              contact_batch=LawEntries(loop.contact_batch, 2),
                              BAD_W_FINITE=loop.BAD_W_FINITE)
-        _COMPILE_SECONDS["import"] = time.perf_counter() - t
     return _K
 
 

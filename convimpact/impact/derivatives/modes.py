@@ -96,9 +96,6 @@ class Row:
         m, N, n = self.shape
         return self.a[m + N * N + N + n:]
 
-    def __add__(self, other: "Row") -> "Row":
-        return Row(*self.shape, self.a + other.a)
-
     def __sub__(self, other: "Row") -> "Row":
         return Row(*self.shape, self.a - other.a)
 

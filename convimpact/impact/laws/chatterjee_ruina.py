@@ -45,7 +45,7 @@ import math
 from .algebra import _inverse3, _linsolve3, _solve2
 from .codes import FAILED, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone, _jit
 from ...errors import NotSupportedError
-from ..exact.dispatch import compiled_kernel, coupled, independent_contacts_result
+from ..exact.dispatch import compiled_kernel, independent_contacts_result
 from .chatterjee_ruina_derivative import (impulse_derivative,  # noqa: F401
                                           several_impulse_derivative)
 

@@ -32,7 +32,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Sequence, Union
+from typing import Any
 
 import numpy as np
 
@@ -57,8 +57,6 @@ from .reduction import (  # noqa: F401  (re-exported: the tolerances are this mo
     _symmetrize,
 )
 from .dense import cholesky_lower, empty_matrix, tri_solve
-
-ArrayLike = Union[np.ndarray, Sequence[float], float]
 
 #: relative tolerance on the asymmetry of M
 SYMMETRY_RTOL = 1e-10
