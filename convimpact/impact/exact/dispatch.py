@@ -279,7 +279,7 @@ def _no_extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
 
 
 def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extras = _no_extras,
-                    no_solution: str = "", frictionless_inside: bool = False,
+                    no_solution: str | tuple[str, str] = "", frictionless_inside: bool = False,
                     errors: Callable | None = None, tangential: bool = False) -> Kernel:
     """The Python entry ``(w, v, d, e, mu, e_t) -> ContactSolution`` of a law's compiled
     kernels.
@@ -289,7 +289,7 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
     :mod:`convimpact.impact.laws.codes`) and write the law's extras into ``out``;
     this turns a status into the typed error (SINGULAR: SingularSystemError, JAM:
     NonPositiveEffectiveMassError, NO_SOLUTION: SolverError with the law's ``no_solution``
-    message) and ``out`` into the solution's extras and warnings by ``extras``. mu = 0 is
+    message, or its (planar, spatial) pair) and ``out`` into the solution's extras and warnings by ``extras``. mu = 0 is
     Newton's frictionless impulse unless the law's kernels treat it (``frictionless_inside``).
     A law with messages of its own passes ``errors(out, status, w, v, d, e, mu) -> Exception
     or None`` (None: the generic error of that status). A law with a tangential restitution
@@ -317,8 +317,10 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
             if st == JAM:
                 raise jam_error(mu, D, law)
             if st == NO_SOLUTION:
-                raise SolverError(no_solution or f"law {law!r} found no solution for this "
-                                  "contact; use method='clarabel'")
+                raise SolverError((no_solution if type(no_solution) is str
+                                   else no_solution[d - 2])
+                                  or f"law {law!r} found no solution for this contact; use "
+                                  "method='clarabel'")
             raise SolverError(f"law {law!r}: the compiled kernel returned status {st}")
         impulse = (p0, p1) if d == 2 else (p0, p1, p2)
         regime = _REGIME_NAMES[rg]

@@ -54,7 +54,6 @@ from ..conic.paths import (ProgramOptions, approaching, cone_qp, newton_shift,
                            regimes_from_slip, solver_report)
 from ..conic.qp import Backend, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
-from ...errors import SolverError
 from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
@@ -230,14 +229,10 @@ def _extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
             "direction": direction}, ()
 
 
-def _errors(out, status, w, v, d, e, mu) -> Exception | None:
-    """NO_SOLUTION's message, planar or spatial (the other statuses: the generic errors)."""
-    if status == NO_SOLUTION:
-        return SolverError(NO_DESCENT if d == 2 else NO_KKT_POINT)
-    return None
-
-
-contact_kernel = compiled_kernel(LAW, _ccp_planar, _ccp_spatial, _extras, errors=_errors)
+#: NO_SOLUTION's messages, planar and spatial
+NO_SOLUTION_MESSAGES = (NO_DESCENT, NO_KKT_POINT)
+contact_kernel = compiled_kernel(LAW, _ccp_planar, _ccp_spatial, _extras,
+                                 no_solution=NO_SOLUTION_MESSAGES)
 
 
 # --------------------------------------------------------------------------------------------

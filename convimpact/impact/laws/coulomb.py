@@ -335,14 +335,8 @@ NO_SPATIAL_SLIDE = ("no Coulomb sliding solution found for this spatial contact 
                     "stick impulse leaves the cone; use method='clarabel'")
 
 
-def _errors(out, status, w, v, d, e, mu) -> Exception | None:
-    """NO_SOLUTION's message, planar or spatial (the other statuses: the generic errors)."""
-    if status == NO_SOLUTION:
-        return SolverError(NO_PLANAR_SLIDE if d == 2 else NO_SPATIAL_SLIDE)
-    return None
-
-
-contact_kernel = compiled_kernel(LAW, _coulomb_planar, _coulomb_spatial, _extras, errors=_errors)
+contact_kernel = compiled_kernel(LAW, _coulomb_planar, _coulomb_spatial, _extras,
+                                 no_solution=(NO_PLANAR_SLIDE, NO_SPATIAL_SLIDE))
 
 
 def single_contact_solutions(W: np.ndarray, b: np.ndarray, mu: float) -> list[np.ndarray]:

@@ -28,7 +28,7 @@ from ..diagnostics import assemble_result
 from ..exact.dispatch import compiled_kernel
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
-from .ccp import _ccp_planar, _ccp_spatial, _errors, solve_ccp
+from .ccp import NO_SOLUTION_MESSAGES, _ccp_planar, _ccp_spatial, solve_ccp
 from .cone_derivative import dissipative_one as impulse_derivative  # noqa: F401
 from .cone_derivative import dissipative_several as several_impulse_derivative  # noqa: F401
 
@@ -78,7 +78,7 @@ def _extras(out, regime, impulse, w, v, d, e, mu) -> tuple:
 
 # mu = 0 inside: the frictionless plastic impulse times 1 + e, as the other paths compute it
 contact_kernel = compiled_kernel(LAW, _dissipative_planar, _dissipative_spatial, _extras,
-                                 frictionless_inside=True, errors=_errors)
+                                 frictionless_inside=True, no_solution=NO_SOLUTION_MESSAGES)
 
 
 def program_result(P: ImpactProblem, backend: Backend, method: str,
