@@ -29,21 +29,9 @@ def _frictionless(w00, v0, e):
 
 
 @_jit
-def _planar_checks(w00, w11, v0, v1):
-    """0 to solve, else the answer's status: separating (OK), W_nn <= 0, outside the range."""
-    if not v0 < 0.0:
-        return OK
-    if not w00 > 0.0:
-        return SINGULAR
-    vs = _pmax2(-v0, abs(v1))
-    tr = w00 + w11
-    if not (SAFE_LO <= tr <= SAFE_HI and SAFE_LO <= vs <= SAFE_HI):
-        return DEFER
-    return -1
-
-
-@_jit
-def _spatial_checks(w00, w11, w22, v0, v1, v2):
+def _checks(w00, w11, w22, v0, v1, v2):
+    """0 to solve, else the answer's status: separating (OK), W_nn <= 0, outside the range
+    (a planar contact: w22 = v2 = 0)."""
     if not v0 < 0.0:
         return OK
     if not w00 > 0.0:
@@ -64,7 +52,7 @@ def _refused(st):
 
 def planar_item(law, w00, w01, w11, v0, v1, e, mu, et, out):
     """One planar contact of law code ``law``: (status, regime, p0, p1, p2, effective mass)."""
-    st = _planar_checks(w00, w11, v0, v1)
+    st = _checks(w00, w11, 0.0, v0, v1, 0.0)
     if st >= 0:
         return _refused(st)
     k = KERNELS[law]
@@ -77,7 +65,7 @@ def planar_item(law, w00, w01, w11, v0, v1, e, mu, et, out):
 
 def spatial_item(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
     """One spatial contact of law code ``law`` (as :func:`planar_item`)."""
-    st = _spatial_checks(w00, w11, w22, v0, v1, v2)
+    st = _checks(w00, w11, w22, v0, v1, v2)
     if st >= 0:
         return _refused(st)
     k = KERNELS[law]
@@ -118,23 +106,18 @@ def _register_compiled() -> None:
         k = _law(law)
         if k is None:
             return None
-        kernel, inside = k.planar, k.frictionless_inside
-        if k.tangential:
-            def impl(law, w00, w01, w11, v0, v1, e, mu, et, out):
-                st = _planar_checks(w00, w11, v0, v1)
-                if st >= 0:
-                    return _refused(st)
-                if mu == 0.0 and not inside:
-                    return _frictionless(w00, v0, e)
+        # the closure's constants: numba prunes the branch of the other arity at compile time
+        kernel, inside, tangential = k.planar, k.frictionless_inside, k.tangential
+
+        def impl(law, w00, w01, w11, v0, v1, e, mu, et, out):
+            st = _checks(w00, w11, 0.0, v0, v1, 0.0)
+            if st >= 0:
+                return _refused(st)
+            if mu == 0.0 and not inside:
+                return _frictionless(w00, v0, e)
+            if tangential:
                 return kernel(w00, w01, w11, v0, v1, e, mu, et, out)
-        else:
-            def impl(law, w00, w01, w11, v0, v1, e, mu, et, out):
-                st = _planar_checks(w00, w11, v0, v1)
-                if st >= 0:
-                    return _refused(st)
-                if mu == 0.0 and not inside:
-                    return _frictionless(w00, v0, e)
-                return kernel(w00, w01, w11, v0, v1, e, mu, out)
+            return kernel(w00, w01, w11, v0, v1, e, mu, out)
         return impl
 
     @overload(spatial_item, jit_options={"nogil": True, "error_model": "numpy"})
@@ -142,23 +125,17 @@ def _register_compiled() -> None:
         k = _law(law)
         if k is None:
             return None
-        kernel, inside = k.spatial, k.frictionless_inside
-        if k.tangential:
-            def impl(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
-                st = _spatial_checks(w00, w11, w22, v0, v1, v2)
-                if st >= 0:
-                    return _refused(st)
-                if mu == 0.0 and not inside:
-                    return _frictionless(w00, v0, e)
+        kernel, inside, tangential = k.spatial, k.frictionless_inside, k.tangential
+
+        def impl(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
+            st = _checks(w00, w11, w22, v0, v1, v2)
+            if st >= 0:
+                return _refused(st)
+            if mu == 0.0 and not inside:
+                return _frictionless(w00, v0, e)
+            if tangential:
                 return kernel(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out)
-        else:
-            def impl(law, w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, et, out):
-                st = _spatial_checks(w00, w11, w22, v0, v1, v2)
-                if st >= 0:
-                    return _refused(st)
-                if mu == 0.0 and not inside:
-                    return _frictionless(w00, v0, e)
-                return kernel(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
+            return kernel(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out)
         return impl
 
     @overload(contact_item, jit_options={"nogil": True, "error_model": "numpy"})
