@@ -27,33 +27,14 @@ to the derivatives of dq_plus and of the impulse with respect to dq, M, Jc, e an
 from __future__ import annotations
 
 from .. import errors
-from .energy import (
-    StictionInterval,
-    central_energy_loss,
-    energy_loss,
-    oblique_coefficients,
-    oblique_energy_loss,
-    stiction_interval,
-)
-from .exact.closed_forms import (
-    frictionless_impulse,
-    pereira_nikravesh,
-    sliding_impulse,
-    stick_admissible,
-    sticking_impulse,
-)
+from .energy import (StictionInterval, central_energy_loss, energy_loss, oblique_coefficients,
+                     oblique_energy_loss, stiction_interval)
+from .exact.closed_forms import (frictionless_impulse, pereira_nikravesh, sliding_impulse,
+                                 stick_admissible, sticking_impulse)
 from .batch.impacts import ContactBatch, ImpactBatch, contact_impulses, resolve_impacts
 from .problem.build import ImpactProblem, build_problem
-from .resolve import (
-    LAWS,
-    METHODS,
-    available_methods,
-    check_law_method,
-    choose_method,
-    register_solver,
-    resolve_impact,
-    solve_problem,
-)
+from .resolve import (LAWS, METHODS, available_methods, check_law_method, choose_method,
+                      register_solver, resolve_impact, solve_problem)
 from .results import ImpactDiagnostics, ImpactResult
 
 __all__ = [

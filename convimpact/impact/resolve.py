@@ -16,13 +16,8 @@ from typing import Callable
 import numpy as np
 
 from .diagnostics import assemble_result
-from ..errors import (
-    NonPositiveEffectiveMassError,
-    NotSupportedError,
-    SingularSystemError,
-    SolverError,
-    UnknownOptionError,
-)
+from ..errors import (NonPositiveEffectiveMassError, NotSupportedError, SingularSystemError,
+                      SolverError, UnknownOptionError)
 from .exact.lane import resolve_one
 from .options import METHOD_OPTIONS, options_help  # noqa: F401 (public here)
 from .laws import LAW_MODULES, TANGENTIAL_LAWS, law_module

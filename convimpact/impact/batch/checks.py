@@ -16,20 +16,10 @@ from typing import Mapping
 import numpy as np
 
 from ..laws import LAW_CODES as _LAW_CODES
-from ...errors import (
-    ConvImpactError,
-    DegenerateContactError,
-    InputError,
-    MassMatrixError,
-    NonFiniteError,
-    NonPositiveEffectiveMassError,
-    ParameterError,
-    ShapeError,
-    SingularSystemError,
-    SolverError,
-    UnknownOptionError,
-    as_real_array,
-)
+from ...errors import (ConvImpactError, DegenerateContactError, InputError, MassMatrixError,
+                       NonFiniteError, NonPositiveEffectiveMassError, ParameterError,
+                       ShapeError, SingularSystemError, SolverError, UnknownOptionError,
+                       as_real_array)
 
 #: laws of the batch (every law has an exact single-contact kernel), with their codes
 LAW_CODES: Mapping[str, int] = MappingProxyType(_LAW_CODES)

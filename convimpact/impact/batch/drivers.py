@@ -18,24 +18,9 @@ import numpy as np
 
 from ...compiled import literally
 from ..laws.table import contact_item as _contact_item
-from ..laws.codes import (
-    BAD_DQ_FINITE,
-    BAD_J_FINITE,
-    BAD_M_DEFINITE,
-    BAD_M_FINITE,
-    BAD_M_SYMMETRY,
-    BAD_OVERFLOW,
-    BAD_W_FINITE,
-    DEFER,
-    FAILED,
-    OK,
-    OUT_SIZE,
-    SLIDE,
-    SYMMETRY_RTOL,
-    _NAN,
-    _jit,
-    _pmax2,
-)
+from ..laws.codes import (BAD_DQ_FINITE, BAD_J_FINITE, BAD_M_DEFINITE, BAD_M_FINITE,
+                          BAD_M_SYMMETRY, BAD_OVERFLOW, BAD_W_FINITE, DEFER, FAILED, OK,
+                          OUT_SIZE, SLIDE, SYMMETRY_RTOL, _NAN, _jit, _pmax2)
 
 
 # --------------------------------------------------------------------------------------------

@@ -22,14 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import (
-    NonPositiveEffectiveMassError,
-    NotSupportedError,
-    SingularSystemError,
-    as_real_array,
-    contact_inputs,
-    real_number,
-)
+from ...errors import (NonPositiveEffectiveMassError, NotSupportedError, SingularSystemError,
+                       as_real_array, contact_inputs, real_number)
 
 #: condition number above which W is treated as singular by the sticking solve
 DELASSUS_COND_MAX = 1e12

@@ -39,14 +39,8 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ..diagnostics import assemble_result
-from ...errors import (
-    NonFiniteError,
-    SolverError,
-    NonPositiveEffectiveMassError,
-    ParameterError,
-    SingularSystemError,
-    UnknownOptionError,
-)
+from ...errors import (NonFiniteError, SolverError, NonPositiveEffectiveMassError,
+                       ParameterError, SingularSystemError, UnknownOptionError)
 from ..options import check_single_contact
 from ..problem.build import SAFE_SCALE, TINY_NORMAL, ImpactProblem, real_number
 from ..laws import LAW_MODULES, law_module

@@ -29,13 +29,8 @@ from scipy.optimize import brentq, minimize_scalar
 
 from ..laws.pereira_nikravesh import frictionless_impulse, stick_admissible, sticking_impulse
 from ..diagnostics import assemble_result
-from ...errors import (
-    contact_inputs,
-    NonPositiveEffectiveMassError,
-    ParameterError,
-    ShapeError,
-    SingularSystemError,
-)
+from ...errors import (contact_inputs, NonPositiveEffectiveMassError, ParameterError,
+                       ShapeError, SingularSystemError)
 from ..options import check_single_contact
 from ..laws.max_dissipation import max_dissipation_direction  # the exact answer, re-exported
 from ..problem.build import ImpactProblem

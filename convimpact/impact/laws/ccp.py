@@ -27,29 +27,10 @@ import math
 
 import numpy as np
 
-from .algebra import (
-    _candidates,
-    _det_wq,
-    _inverse3,
-    _linsolve3,
-    _newton_root,
-    _refine,
-    _rotate,
-    _solve2,
-)
-from .codes import (
-    FAILED,
-    NO_SOLUTION,
-    OK,
-    SEPARATING,
-    SINGULAR,
-    SLIDE,
-    STICK,
-    _NAN,
-    _in_cone,
-    _jit,
-    _unit_or,
-)
+from .algebra import (_candidates, _det_wq, _inverse3, _linsolve3, _newton_root, _refine,
+                      _rotate, _solve2)
+from .codes import (FAILED, NO_SOLUTION, OK, SEPARATING, SINGULAR, SLIDE, STICK, _NAN, _in_cone,
+                    _jit, _unit_or)
 from ..conic.paths import (ProgramOptions, approaching, cone_qp, newton_shift,
                            regimes_from_slip, solver_report)
 from ..conic.qp import Backend, QPSolution, solve_cone_qp

@@ -22,15 +22,7 @@ import math
 
 import numpy as np
 
-from .algebra import (
-    _candidates,
-    _det_wq,
-    _inverse3,
-    _newton_root,
-    _refine,
-    _rotate,
-    _solve3,
-)
+from .algebra import (_candidates, _det_wq, _inverse3, _newton_root, _refine, _rotate, _solve3)
 from .codes import NO_SOLUTION, OK, _in_cone, _jit, _pmax2, _unit_or
 from ...errors import SingularSystemError, SolverError, real_number
 from ..problem.dense import as_lists

@@ -53,11 +53,7 @@ from ..exact.closed_forms import (  # the paper's closed forms, re-exported
     stick_admissible,
     sticking_impulse,
 )
-from ...errors import (
-    NonPositiveEffectiveMassError,
-    SingularSystemError,
-    SolverError,
-)
+from ...errors import (NonPositiveEffectiveMassError, SingularSystemError, SolverError)
 from ..options import check_single_contact
 from .algebra import _inverse3, _linsolve3, _solve2
 from .codes import (FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone,

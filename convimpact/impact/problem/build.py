@@ -36,15 +36,8 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import (
-    DegenerateContactError,
-    MassMatrixError,
-    NonFiniteError,
-    ParameterError,
-    ShapeError,
-    as_real_array,
-    real_number,
-)
+from ...errors import (DegenerateContactError, MassMatrixError, NonFiniteError, ParameterError,
+                       ShapeError, as_real_array, real_number)
 from .reduction import (  # noqa: F401  (re-exported: the tolerances are this module's API)
     _LOOP_MAX,
     IMMOBILE_RTOL,

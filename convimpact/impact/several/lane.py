@@ -51,17 +51,8 @@ from ..diagnostics import assemble_result
 from ..laws.dissipative import poisson_warnings
 from ..problem.build import _new, build_problem
 from ..results import ImpactDiagnostics, ImpactResult
-from .interior import (
-    COMPILED_MAX_ROWS,
-    _MODES,
-    _REGIME_OF,
-    _STATUS,
-    CERTIFIED_ACCURACY,
-    DEFAULT_OPTIONS,
-    HANDOVER_TOL,
-    law_extras,
-    solver_report,
-)
+from .interior import (COMPILED_MAX_ROWS, _MODES, _REGIME_OF, _STATUS, CERTIFIED_ACCURACY,
+                       DEFAULT_OPTIONS, HANDOVER_TOL, law_extras, solver_report)
 
 _F64 = np.dtype(np.float64)
 _EMPTY = np.zeros(0)
