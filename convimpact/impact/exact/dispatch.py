@@ -49,10 +49,6 @@ from ..problem.dense import as_lists, singular_error
 
 #: laws treated by :func:`solve_contact` (every law has an exact single-contact kernel)
 FAST_LAWS = tuple(LAW_MODULES)
-#: relative tolerance of the cone / sign tests (round-off allowance)
-CONE_RTOL = 1e-12
-#: relative tolerance on a boundary root's residual for it to count as a solution
-ROOT_RTOL = 1e-8
 #: accuracy stated for the fast path (passed to assemble_result)
 FAST_TOL = 1e-10
 
@@ -89,11 +85,6 @@ def solution(impulse: Sequence[float], regime: str, effective_mass: float | None
     """A :class:`ContactSolution` from plain floats (read-only extras)."""
     return ContactSolution(np.array(impulse), regime, effective_mass,
                            MappingProxyType(extras) if extras else _NO_EXTRAS, warnings)
-
-
-def in_cone(pn: float, ptn: float, mu: float) -> bool:
-    """|pi_t| <= mu pi_n (eq. 53), with the closed form's round-off allowance."""
-    return pn >= 0.0 and ptn <= mu * pn * (1.0 + CONE_RTOL)
 
 
 def jam_error(mu: float, D: float, law: str) -> NonPositiveEffectiveMassError:
