@@ -364,7 +364,9 @@ def resolve_impact(M, Jc, dq, e=0.0, mu=0.0, C=None, law: str = "pereira-nikrave
             or (method == "interior" and law in INTERIOR_LANE)):
         # several open-loop contacts on the interior path: the compiled lane
         # (convimpact.impact.several.lane), which hands every case but the plain one back
-        result = _several_lane()(M, Jc, dq, e, mu, law)
+        from .several.lane import resolve_several  # (imported on first use)
+
+        result = resolve_several(M, Jc, dq, e, mu, law)
         if result is not None:
             return result
     problem = build_problem(M, Jc, dq, e, mu, C, e_t)
@@ -381,21 +383,6 @@ def check_law_parameters(law: str, e_t):
             f"e_t is the tangential restitution of law {', '.join(map(repr, TANGENTIAL_LAWS))}; "
             f"law {law!r} has none")
     return None
-
-
-def _several_lane():
-    """The several-contact lane's entry (:func:`convimpact.impact.several.lane.resolve_several`),
-    imported on first use."""
-    global _SEVERAL_LANE
-    lane = _SEVERAL_LANE
-    if lane is None:
-        from .several.lane import resolve_several as lane
-
-        _SEVERAL_LANE = lane
-    return lane
-
-
-_SEVERAL_LANE = None
 
 
 def _fast_kernel(law: str):
