@@ -242,59 +242,38 @@ def program_result(P: ImpactProblem, backend: Backend, method: str,
     if n > 1:
         # several contacts: Newton's law in complementarity form over the active sets
         return several_contacts_result(P, backend, method, opts)
-    # one spatial contact: the stick test (eq. 52), else P_N and its boundary direction
-    active = P.v_minus[:, 0] < 0.0
-    W0, v0 = P.contact_block(0)
-    if P.friction[0] == 0.0:
-        return assemble_result(P, frictionless_impulse(W0, v0, float(P.restitution[0]))[None],
-                               ["frictionless"], law, method, tol=1e-10,
-                               extras={"stick_test": True})
+    # one spatial contact, approaching (resolve answers a separating one before any path):
+    # the stick test (eq. 52), else P_N and its boundary direction
+    W, v = P.contact_block(0)
+    e, mu = float(P.restitution[0]), float(P.friction[0])
+    if mu == 0.0:
+        return assemble_result(P, frictionless_impulse(W, v, e)[None], ["frictionless"], law,
+                               method, tol=1e-10, extras={"stick_test": True})
     stick = stick_on(P, (0,), newton_velocity_shift(P))  # least squares where W is singular
-    if stick is not None and stick_admissible(stick[0], float(P.friction[0])):
+    if stick is not None and stick_admissible(stick[0], mu):
         return assemble_result(P, stick, ["stick"], law, method, tol=1e-10,
                                extras={"stick_test": True})
     pi, sol = solve_pn_program(P, backend, opts)
-    acc = opts.accuracy(sol.polished)
-    warnings: list[str] = []
-    interior = []
-    regimes = []
-    denom = None
-    for i in range(n):
-        if not active[i]:
-            interior.append(False)
-            regimes.append("separating")
-            continue
-        if P.friction[i] == 0:
-            interior.append(False)
-            regimes.append("frictionless")
-            continue
-        pt = np.linalg.norm(pi[i, 1:])
-        interior.append(bool(pt < P.friction[i] * pi[i, 0] * (1.0 - BOUNDARY_RTOL)))
-        regimes.append("slide")
+    interior = bool(np.linalg.norm(pi[0, 1:]) < mu * pi[0, 0] * (1.0 - BOUNDARY_RTOL))
     extras: dict[str, Any] = {"stick_test": False, **solver_report(sol, opts),
-                              "pn_interior": interior, "pn_disagreement": any(interior)}
-    if P.friction[0] > 0:
-        W, v = P.contact_block(0)
-        e, mu = float(P.restitution[0]), float(P.friction[0])
-        if interior[0]:
-            direction = np.asarray(max_dissipation_direction(W, v, e, mu, tol=opts.tol),
-                                   dtype=float)
-            warnings.append("P_N's optimum is interior but the stick test failed: the sliding "
-                            "direction comes from the boundary search (maximal T_L on the cone)")
-            extras["slide_rule"] = "boundary search (sweep)"
-        elif sol.polished:
-            # the KKT polish solved P_N's boundary optimum exactly: its tangent is eq. (60)'s
-            direction = pi[0, 1:] / np.linalg.norm(pi[0, 1:])
-            extras["slide_rule"] = "P_N (boundary optimum, KKT-polished)"
-        else:
-            direction = _polish_direction(W, v, e, mu, pi[0, 1:] / np.linalg.norm(pi[0, 1:]))
-            extras["slide_rule"] = "P_N (boundary optimum, angle refined by a 1-D search)"
-        impulse, denom = sliding_impulse(W, v, e, mu, direction)
-        extras["slide_angle"] = math.atan2(direction[1], direction[0])
-        pi = impulse[None]
-        acc = 1e-9
-    return assemble_result(P, pi, regimes, law, method, effective_mass=denom, tol=acc,
-                           extras=extras, warnings=tuple(warnings))
+                              "pn_interior": [interior], "pn_disagreement": interior}
+    warnings = ()
+    if interior:
+        direction = np.asarray(max_dissipation_direction(W, v, e, mu, tol=opts.tol), dtype=float)
+        warnings = ("P_N's optimum is interior but the stick test failed: the sliding "
+                    "direction comes from the boundary search (maximal T_L on the cone)",)
+        extras["slide_rule"] = "boundary search (sweep)"
+    elif sol.polished:
+        # the KKT polish solved P_N's boundary optimum exactly: its tangent is eq. (60)'s
+        direction = pi[0, 1:] / np.linalg.norm(pi[0, 1:])
+        extras["slide_rule"] = "P_N (boundary optimum, KKT-polished)"
+    else:
+        direction = _polish_direction(W, v, e, mu, pi[0, 1:] / np.linalg.norm(pi[0, 1:]))
+        extras["slide_rule"] = "P_N (boundary optimum, angle refined by a 1-D search)"
+    impulse, denom = sliding_impulse(W, v, e, mu, direction)
+    extras["slide_angle"] = math.atan2(direction[1], direction[0])
+    return assemble_result(P, impulse[None], ["slide"], law, method, effective_mass=denom,
+                           tol=1e-9, extras=extras, warnings=warnings)
 
 
 def closed_form(problem: ImpactProblem, **options) -> ImpactResult:
