@@ -320,6 +320,7 @@ def simulate_moreau(
                          "largest_island": solver.largest_island,
                          "certified": solver.certified,
                          "searched": solver.checks,
+                         "pruned": solver.pruned,
                          "ambiguous": len(solver.ambiguous)}),
         max_active_contacts=st["max_active"],
         warnings=() if engine_path else solver.run_warnings())
