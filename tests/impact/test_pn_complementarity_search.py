@@ -1,8 +1,9 @@
 """Law pereira-nikravesh's search in one compiled call
 (:mod:`convimpact.impact.laws.pn_complementarity_search`): the law's own search (its
 ``_search`` and ``_pick`` over the same kernels) as the second method on random impacts and
-on a sliding box, warm starts across steps, and the dominated sets of a box's corners by
-hand (its pruned search)."""
+on a sliding box, warm starts across steps; its pruned search
+(:mod:`convimpact.impact.laws.pn_complementarity_prune`): the dominated slide sets and the
+excluded stick sets of a box's corners by hand."""
 
 import re
 
@@ -12,6 +13,7 @@ import pytest
 from convimpact.bench.several_problems import four_corner_box, random_several
 from convimpact.impact.conic.paths import backend, parse_options
 from convimpact.impact.laws import pn_complementarity as pc
+from convimpact.impact.laws import pn_complementarity_prune as pp
 from convimpact.impact.laws import pn_complementarity_search as ps
 from convimpact.impact.problem.build import build_problem
 
@@ -113,13 +115,14 @@ def test_dominated_sets_of_a_box_by_hand():
     for A, dom in expect.items():
         member = np.zeros(4, dtype=bool)
         member[list(A)] = True
-        assert ps.dominated(R, member) == dom, A
+        assert pp.dominated(R, member) == dom, A
 
 
 def test_the_pruned_search_picks_the_laws_answer():
     """A step of a sliding mode: the search without the dominated sets returns the law's
     velocities, sliding on every contact (so the mode goes on), and leaves the warning
-    alone; a box that sticks is not pruned (the stick tier decides)."""
+    alone; a box that sticks is handed to the law's own search (its stick tier decides:
+    m g h / 4 on each corner), which ends the mode."""
     warm = ps.SlideWarmStart()
     for step in range(4):
         P = _sliding_box(step)
@@ -130,6 +133,33 @@ def test_the_pruned_search_picks_the_laws_answer():
         assert warm.full_slide and warm.pruned and notes == []
     still = _problem(four_corner_box(mu=0.3, e=0.0, velocity=(0.0, 0.0, -0.0196),
                                      angular_velocity=(0.0, 0.0, 0.0)))
-    got = ps.compiled_impulse(still, BACKEND, OPTS, [], warm, prune=True)
-    np.testing.assert_allclose(got[:, 0], 0.0196 * 1.0 / 4, rtol=1e-12)
-    assert not warm.full_slide
+    assert ps.compiled_impulse(still, BACKEND, OPTS, [], warm, prune=True) is None
+    got = pc.several_contacts_impulse(still, BACKEND, OPTS, [], warm, prune=True)
+    np.testing.assert_allclose(got[:, 0], 0.0196 * 1.0 / 4, rtol=1e-12)  # m g h / 4
+    assert not warm.full_slide and not warm.pruned
+
+
+def test_stick_sets_excluded_on_a_sliding_box_by_hand():
+    """A box sliding on four corners: W has rank 6 (a rigid body's six motions), three or
+    four corners fix all six (excluded while the full set slips), two corners leave the
+    rotation about their line and one corner three rotations (kept for the stick tier). At
+    rest (no slip) nothing is excluded."""
+    P = _sliding_box(0)
+    b = pc.newton_velocity_shift(P).ravel()
+    W, v = P.delassus, P.v_minus.ravel()
+    assert pp.rank_clear(W) == (6, True)
+    subsets, masks = pc.candidate_sets(4, (True,) * 4)
+    warm = ps.SlideWarmStart()
+    pi_full = ps.compiled_impulse(P, BACKEND, OPTS, [], warm).ravel()
+    escale = 0.5 * np.max(np.abs(v)) ** 2 / np.max(np.diag(W))
+    keep = pp._kept_stick_sets(W, b, v, P.friction, 3, masks, pi_full, escale)
+    assert [A for A, k in zip(subsets, keep) if not k] == [(0, 1, 2, 3), (0, 1, 2), (0, 1, 3),
+                                                            (0, 2, 3), (1, 2, 3)]
+    still = _problem(four_corner_box(mu=0.3, e=0.0, velocity=(0.0, 0.0, -0.0196),
+                                     angular_velocity=(0.0, 0.0, 0.0)))
+    bs = pc.newton_velocity_shift(still).ravel()
+    Ws = still.delassus
+    at_rest = np.linalg.lstsq(Ws, -bs, rcond=None)[0]  # sticking on all four: u = 0
+    keep = pp._kept_stick_sets(Ws, bs, still.v_minus.ravel(), still.friction, 3, masks,
+                               at_rest, escale)
+    assert keep.all()

@@ -30,25 +30,8 @@ of the convex program, hence a minimizer, with the velocities and energy of the 
 (where redundant contacts leave a family of minimizers, possibly another member).
 
 **The pruned search** (``prune``, for a time stepper whose island slid on every contact on
-the step before): the stick tier as above; then the slide program of the full set first
-(certified and admissible, else the law's own search), and of the other sets only those
-not *dominated*. A set B is dominated when ``u_n = 0`` on B and ``u_n >= 0`` off B force
-``u_n = 0`` everywhere (:func:`dominated`: the normal rows of ``[W | b]`` off B lie in the
-span of B's, or exactly two lie outside with opposite parts, ``u_j + c u_k = 0``, c > 0).
-Then every admissible answer of B (``pi`` in the cones on B, zero off B, ``u_n = 0`` on B,
-``u_n >= 0`` off B) has ``u_n = 0`` everywhere and is feasible for the full set's program
-P_N(full), whose minimizer ``pi*`` the full set's candidate is: ``T+(B) >= T+(pi*)``, and
-(T+ - T- being convex and its minimizers over a convex set sharing their velocities) an
-admissible B as dissipative as ``pi*`` has its velocities. So B can neither be more
-dissipative than the full set nor tie with other velocities, and a tie with the same
-velocities goes to the full set (the largest). The sets not dominated (on a box: the edges'
-pairs, tipping about the edge; the lone corners) are solved as the law solves them, all of
-them (no bound, no early stop: the visit order only decides which sets the law's warning
-lists), and the law's pick is applied. The answer is the law's except where its ranking is
-decided by round-off (a dominated set whose energy falls below the full set's by round-off,
-with velocities more than ``1e-8`` apart), where either is as good. What the pruned search
-does not give is the law's warning, which needs every visited set: the caller takes it from
-the full search of the mode's first step (:mod:`convimpact.simulation.moreau_impact`).
+the step before): :func:`~.pn_complementarity_prune.pruned_search`, without the stick sets
+and slide programs that provably cannot be the law's answer (the argument there).
 
 Where the law's Python path would do anything else -- an interior-point program (a slide
 program no guess certifies), a one-contact kernel outside its safe scale or without
@@ -67,10 +50,9 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ..problem.build import SAFE_SCALE
-from .codes import OK as KERNEL_OK
-from .pereira_nikravesh import _pn_planar, _pn_spatial
 from .pn_complementarity_kernels import admissible, relaxed_bounds, stick_tier
-from .pn_complementarity_slide import slide_many_warm, slide_set_warm
+from .pn_complementarity_prune import SINGLE_ACCURACY, energy_change, pruned_search, single
+from .pn_complementarity_slide import slide_many_warm
 
 TINY = 1e-300
 #: statuses of :func:`search`
@@ -80,12 +62,6 @@ STICK_TIER, SLIDE_TIER = 0, 1
 #: the law's tolerances of its tie tests (pn_complementarity._pick and _slide_tier)
 ENERGY_TIE = 1e-9
 VELOCITY_TIE = 1e-8
-#: the admissibility tolerance of the stick tier and of one-contact slides
-SINGLE_ACCURACY = 1e-10
-#: the out buffer of the single-contact kernels (laws.codes.OUT_SIZE)
-OUT_SIZE = 32
-
-
 @functools.lru_cache(maxsize=512)
 def tuple_ranks(subsets: tuple[tuple[int, ...], ...]) -> np.ndarray:
     """Each set's position among ``subsets`` sorted as Python sorts tuples."""
@@ -94,164 +70,6 @@ def tuple_ranks(subsets: tuple[tuple[int, ...], ...]) -> np.ndarray:
     rank[order] = np.arange(len(subsets))
     rank.flags.writeable = False
     return rank
-
-
-@_jit
-def _energy(W, vminus, pi):
-    return pi @ vminus + 0.5 * (pi @ (W @ pi))
-
-
-@_jit
-def _single(W, vminus, e, mu, d, i, lo, hi):
-    """The single-contact law on contact i alone, as ``solve_contact`` dispatches it: (status,
-    impulse (d,)); status 1 no impulse (not approaching), 2 the Python path must decide."""
-    p = np.zeros(d)
-    o = i * d
-    v0 = vminus[o]
-    if not v0 < 0.0:
-        return 1, p
-    w00 = W[o, o]
-    if not (w00 > 0.0 and mu[i] > 0.0):
-        return 2, p  # raises, or the frictionless impulse: the law's own path
-    tr = w00 + W[o + 1, o + 1] + (W[o + 2, o + 2] if d == 3 else 0.0)
-    vs = max(-v0, max(abs(vminus[o + 1]), abs(vminus[o + d - 1])))
-    if not (lo <= tr <= hi and lo <= vs <= hi):
-        return 2, p
-    out = np.zeros(OUT_SIZE)
-    if d == 2:
-        st, rg, p0, p1, p2, D = _pn_planar(w00, W[o, o + 1], W[o + 1, o + 1], v0,
-                                           vminus[o + 1], e[i], mu[i], out)
-    else:
-        st, rg, p0, p1, p2, D = _pn_spatial(w00, W[o, o + 1], W[o, o + 2], W[o + 1, o + 1],
-                                            W[o + 1, o + 2], W[o + 2, o + 2], v0,
-                                            vminus[o + 1], vminus[o + 2], e[i], mu[i], out)
-    if st != KERNEL_OK:
-        return 2, p
-    p[0] = p0
-    p[1] = p1
-    if d == 3:
-        p[2] = p2
-    return 0, p
-
-
-@_jit
-def _residual(R, Q, k, j):
-    """Row j of R minus its projection on the orthonormal rows ``Q[:k]`` (twice, for
-    round-off)."""
-    r = R[j].copy()
-    for _ in range(2):
-        for t in range(k):
-            r -= (Q[t] @ r) * Q[t]
-    return r
-
-
-@_jit
-def dominated(R, member):
-    """Whether the normal velocities ``u_n = R [pi; 1]`` (R: the normal rows of ``[W | b]``,
-    its last column rescaled to W's size) vanishing on the contacts of ``member`` and
-    non-negative elsewhere vanish everywhere: every other row in the span of the member rows
-    (to round-off, ``1e-11`` of R's largest row), or exactly two outside it whose parts
-    outside are opposite (``u_j + c u_k = 0``, c > 0; to ``1e-9`` in direction)."""
-    n, L = R.shape
-    scale = 0.0
-    for i in range(n):
-        scale = max(scale, np.sqrt(R[i] @ R[i]))
-    cut = 1e-11 * max(scale, TINY)
-    Q = np.empty((n, L))
-    k = 0
-    for i in range(n):
-        if member[i]:
-            r = _residual(R, Q, k, i)
-            nr = np.sqrt(r @ r)
-            if nr > cut:
-                Q[k] = r / nr
-                k += 1
-    outside = np.empty((2, L))
-    count = 0
-    for j in range(n):
-        if not member[j]:
-            r = _residual(R, Q, k, j)
-            nr = np.sqrt(r @ r)
-            if nr > cut:
-                if count == 2:
-                    return False
-                outside[count] = r / nr
-                count += 1
-    if count == 0:
-        return True
-    if count == 1:
-        return False
-    gap = outside[0] + outside[1]
-    return np.sqrt(gap @ gap) <= 1e-9
-
-
-@_jit
-def _pruned_slide(W, b, vminus, mu, e, d, masks, tol, cone_rtol, slack_max, lo, hi, wkind,
-                  wtang, wpi, wvalid, fe, fs, fpi, needs):
-    """The slide tier without the dominated sets (:func:`search` with ``prune``): the
-    candidates into ``fe``, ``fs``, ``fpi`` and the sets the Python path must solve (an
-    interior-point program, a one-contact kernel outside the compiled one's reach) into
-    ``needs``; (their numbers), or (-1, 0) where the law's own search must decide (the full
-    set not certified or not admissible)."""
-    n = mu.size
-    N = W.shape[0]
-    if not np.all(masks[0]):
-        return -1, 0
-    absW = np.abs(W)
-    wscale = max(np.max(absW), TINY)
-    bscale = 0.0
-    for i in range(n):
-        bscale = max(bscale, abs(b[i * d]))
-    R = np.empty((n, N + 1))
-    for i in range(n):
-        R[i, :N] = W[i * d]
-        R[i, N] = b[i * d] * (wscale / bscale) if bscale > 0.0 else 0.0
-    nf = 0
-    nn = 0
-    for s in range(masks.shape[0]):
-        if s > 0 and dominated(R, masks[s]):
-            continue
-        members = np.flatnonzero(masks[s])
-        if members.size >= 2:
-            st, pi, kind, tang = slide_set_warm(W, vminus, b, mu, d, members, wkind[s],
-                                                wtang[s], wpi[s], wvalid[s])
-            wvalid[s] = st == 1
-            if st == 1:
-                wkind[s, :members.size] = kind
-                wtang[s, :members.size] = tang
-                wpi[s] = pi
-            if s == 0 and st != 1:
-                return -1, 0
-            if not (st == 1 or st == -1):
-                needs[nn] = s
-                nn += 1
-                continue
-            if admissible(W, absW, masks[s], pi, b, mu, d, cone_rtol, slack_max, tol):
-                fe[nf] = _energy(W, vminus, pi)
-                fs[nf] = s
-                fpi[nf] = pi
-                nf += 1
-            elif s == 0:
-                return -1, 0
-            continue
-        i = members[0]
-        got, p = _single(W, vminus, e, mu, d, i, lo, hi)
-        if got == 1:
-            continue
-        if got == 2:
-            needs[nn] = s
-            nn += 1
-            continue
-        pi = np.zeros(N)
-        for k in range(d):
-            pi[i * d + k] = p[k]
-        if admissible(W, absW, masks[s], pi, b, mu, d, cone_rtol, slack_max,
-                      SINGLE_ACCURACY):
-            fe[nf] = _energy(W, vminus, pi)
-            fs[nf] = s
-            fpi[nf] = pi
-            nf += 1
-    return nf, nn
 
 
 @_jit
@@ -266,8 +84,8 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
     their :func:`tuple_ranks`; tol : the slide programs' accuracy; cond_max, cone_rtol,
     slack_max : the law's constants; lo, hi : the single-contact kernels' safe scale;
     wkind, wtang, wpi, wvalid : the slide programs' warm starts
-    (:func:`~.pn_complementarity_slide.slide_many_warm`, updated in place); prune: the slide
-    tier without the dominated sets (module docstring).
+    (:func:`~.pn_complementarity_slide.slide_many_warm`, updated in place); prune:
+    :func:`~.pn_complementarity_prune.pruned_search` instead of the tiers.
 
     Returns
     -------
@@ -288,14 +106,15 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
     none_i = np.zeros(0, dtype=np.int64)
     none_b = np.zeros(0, dtype=np.bool_)
     none_pi = np.zeros((0, N))
-    ok, energy, pis = stick_tier(W, b, vminus, mu, d, masks, cond_max, cone_rtol, slack_max,
-                                 SINGLE_ACCURACY)
-    for s in range(ns):
-        if ok[s]:
-            fe[nf] = energy[s]
-            fs[nf] = s
-            fpi[nf] = pis[s]
-            nf += 1
+    if not prune:  # (the pruned search runs the stick sets it cannot exclude)
+        ok, energy, pis = stick_tier(W, b, vminus, mu, d, masks, cond_max, cone_rtol,
+                                     slack_max, SINGLE_ACCURACY)
+        for s in range(ns):
+            if ok[s]:
+                fe[nf] = energy[s]
+                fs[nf] = s
+                fpi[nf] = pis[s]
+                nf += 1
     vs = 0.0
     for a in range(N):
         vs = max(vs, abs(vminus[a]))
@@ -303,11 +122,12 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
     for a in range(N):
         big = max(big, abs(W[a, a]))
     escale = max(0.5 * vs * vs / big, TINY)
-    if nf == 0 and prune:
+    if prune:
         tier = SLIDE_TIER
         needs = np.empty(ns, dtype=np.int64)
-        nf, nn = _pruned_slide(W, b, vminus, mu, e, d, masks, tol, cone_rtol, slack_max, lo,
-                               hi, wkind, wtang, wpi, wvalid, fe, fs, fpi, needs)
+        nf, nn = pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol,
+                               slack_max, lo, hi, escale, wkind, wtang, wpi, wvalid, fe, fs,
+                               fpi, needs)
         if nf < 0:
             return FALLBACK, tier, fpi[0] * 0.0, none_i, none_b, 0, none_pi, none_i
         if nn > 0:
@@ -345,7 +165,7 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
             if members.size != 1:
                 return FALLBACK, tier, fpi[0] * 0.0, none_i, none_b, 0, none_pi, none_i
             i = members[0]
-            got, p = _single(W, vminus, e, mu, d, i, lo, hi)
+            got, p = single(W, vminus, e, mu, d, i, lo, hi)
             if got == 1:
                 continue
             if got == 2:
@@ -355,7 +175,7 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
                 pi[i * d + k] = p[k]
             if admissible(W, absW, masks[s], pi, b, mu, d, cone_rtol, slack_max,
                           SINGLE_ACCURACY):
-                fe[nf] = _energy(W, vminus, pi)
+                fe[nf] = energy_change(W, vminus, pi)
                 fs[nf] = s
                 fpi[nf] = pi
                 best_e = min(best_e, fe[nf])
