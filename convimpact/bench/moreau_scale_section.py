@@ -36,8 +36,9 @@ other laws, which cost milliseconds per island and step, over :data:`OTHER_SPAN`
 * ``max_lift`` (m): the highest any box's centre rose above its resting height (a sliding
   box lifts off under the cone complementarity laws ccp and dissipative: ``u_n = mu |u_t|``);
 * ours: ``contact_solver`` (islands solved, warm starts certified, engine calls; for
-  pereira-nikravesh the island steps answered by the certificate, searched, and found with
-  several admissible active sets) and the run's ``warnings``.
+  pereira-nikravesh the island steps answered by the certificate, searched, searched
+  without the dominated active sets (pruned), and found with several admissible active
+  sets) and the run's ``warnings``.
 
 Fitted exponents: least squares of log(wall per simulated second) against log(contacts) over
 4..128 contacts, per law and motion, ours and MuJoCo's. ``ablation``: the 32-box rows over

@@ -241,8 +241,12 @@ def simulate_moreau(
         ``"pereira-nikravesh"``: Newton's law with friction is not unique at several
         contacts), with their count and first times. With that law, an island resting on
         every contact is searched on the first step of its resting mode and answered by a
-        certificate of the same answer on the following ones (not searched again), see
-        :mod:`.moreau_impact`; ``contact_solver`` counts both.
+        certificate of the same answer on the following ones (not searched again), and an
+        island sliding on every contact is searched in full on the first step of its
+        sliding mode and without the active sets that cannot be the law's answer on the
+        following ones (its warning not re-checked), see :mod:`.moreau_impact`;
+        ``contact_solver`` counts them (``certified``, ``searched``, ``pruned``,
+        ``ambiguous``).
 
     Raises
     ------
