@@ -245,7 +245,7 @@ class ImpactSolver:
                         TINY_NORMAL, r, v_new, status)
         last = self._modes_last
         # an island's mode: its contacts, sticking on every one
-        certified = {keys[n] for n in np.flatnonzero(status == STICK).tolist()}
+        certified = {key for key, sn in zip(keys, status.tolist()) if sn == STICK}
         answered = {chosen[n] for n, key in enumerate(keys) if key in certified and key in last}
         return answered, r, v_new, certified
 
@@ -304,9 +304,10 @@ class ImpactSolver:
         """``(v_{k+1}, sigma)`` of the step ``st`` (:class:`.moreau_loop.Step`)."""
         active = np.asarray(st.active, dtype=np.int64)
         na = active.size
-        Ja = np.array(st.Ja)
+        # (read only below: no copies of the loop's arrays but v, kept by an ImpactEvent)
+        Ja = np.ascontiguousarray(st.Ja, dtype=float)
         d = Ja.shape[1]
-        v, v_free, M = np.array(st.v), np.array(st.v_free), st.M
+        v, v_free, M = np.array(st.v), np.ascontiguousarray(st.v_free, dtype=float), st.M
         es, ets, vnk, vnf = self._coefficients(st, active)
         C = st.C if self.m else None
         moves = (Ja != 0.0).any(axis=1)
