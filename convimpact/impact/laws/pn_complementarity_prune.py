@@ -105,6 +105,21 @@ def single(W, vminus, e, mu, d, i, lo, hi):
 
 
 @_jit
+def single_candidate(W, absW, vminus, b, e, mu, d, i, member, cone_rtol, slack_max, lo, hi):
+    """Contact i sliding alone by the single-contact law, as the law's candidate: (got, pi
+    (N,), admissible at :data:`SINGLE_ACCURACY`, T+ - T-), ``got`` as :func:`single`'s."""
+    pi = np.zeros(W.shape[0])
+    got, p = single(W, vminus, e, mu, d, i, lo, hi)
+    if got != 0:
+        return got, pi, False, 0.0
+    for k in range(d):
+        pi[i * d + k] = p[k]
+    if admissible(W, absW, member, pi, b, mu, d, cone_rtol, slack_max, SINGLE_ACCURACY):
+        return got, pi, True, energy_change(W, vminus, pi)
+    return got, pi, False, 0.0
+
+
+@_jit
 def _dot(a, b):
     """a.b in a loop (BLAS's call costs more than these short vectors)."""
     acc = 0.0
@@ -305,20 +320,13 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
                 fpi[nf] = pi
                 nf += 1
             continue
-        i = members[0]
-        got, p = single(W, vminus, e, mu, d, i, lo, hi)
-        if got == 1:
-            continue
+        got, pi, ok, energy = single_candidate(W, absW, vminus, b, e, mu, d, members[0],
+                                               masks[s], cone_rtol, slack_max, lo, hi)
         if got == 2:
             needs[nn] = s
             nn += 1
-            continue
-        pi = np.zeros(N)
-        for k in range(d):
-            pi[i * d + k] = p[k]
-        if admissible(W, absW, masks[s], pi, b, mu, d, cone_rtol, slack_max,
-                      SINGLE_ACCURACY):
-            fe[nf] = energy_change(W, vminus, pi)
+        elif ok:
+            fe[nf] = energy
             fs[nf] = s
             fpi[nf] = pi
             nf += 1

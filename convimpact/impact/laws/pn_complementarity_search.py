@@ -50,8 +50,8 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ..problem.build import SAFE_SCALE
-from .pn_complementarity_kernels import admissible, relaxed_bounds, stick_tier
-from .pn_complementarity_prune import SINGLE_ACCURACY, energy_change, pruned_search, single
+from .pn_complementarity_kernels import relaxed_bounds, stick_tier
+from .pn_complementarity_prune import SINGLE_ACCURACY, pruned_search, single_candidate
 from .pn_complementarity_slide import slide_many_warm
 
 TINY = 1e-300
@@ -164,18 +164,13 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
             members = np.flatnonzero(masks[s])
             if members.size != 1:
                 return FALLBACK, tier, fpi[0] * 0.0, none_i, none_b, 0, none_pi, none_i
-            i = members[0]
-            got, p = single(W, vminus, e, mu, d, i, lo, hi)
-            if got == 1:
-                continue
+            got, pi, ok_one, energy_one = single_candidate(
+                W, absW, vminus, b, e, mu, d, members[0], masks[s], cone_rtol, slack_max, lo,
+                hi)
             if got == 2:
                 return FALLBACK, tier, fpi[0] * 0.0, none_i, none_b, 0, none_pi, none_i
-            pi = np.zeros(N)
-            for k in range(d):
-                pi[i * d + k] = p[k]
-            if admissible(W, absW, masks[s], pi, b, mu, d, cone_rtol, slack_max,
-                          SINGLE_ACCURACY):
-                fe[nf] = energy_change(W, vminus, pi)
+            if ok_one:
+                fe[nf] = energy_one
                 fs[nf] = s
                 fpi[nf] = pi
                 best_e = min(best_e, fe[nf])
