@@ -61,7 +61,8 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
     fig.suptitle(f"Moreau–Jean vs MuJoCo, same step h = {step:g} s: ccp, coulomb and "
                  "dissipative on the contact engine (certified at 1e-8),\npereira-nikravesh and "
                  "stronge island by island (the law's impulse, resolve_impact at impacts; "
-                 "pereira-nikravesh's resting\nislands by the certificate of its answer after "
+                 "pereira-nikravesh's resting\nislands by the certificate of its answer, its "
+                 "sliding ones by its compiled search without the dominated active sets, after "
                  "the first step; medians)", fontsize=10)
     fig.tight_layout()
     return save_chart(fig, out, "moreau_scale_growth.png")

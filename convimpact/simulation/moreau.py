@@ -241,8 +241,12 @@ def simulate_moreau(
         ``"pereira-nikravesh"``: Newton's law with friction is not unique at several
         contacts), with their count and first times. With that law, an island resting on
         every contact is searched on the first step of its resting mode and answered by a
-        certificate of the same answer on the following ones (not searched again), see
-        :mod:`.moreau_impact`; ``contact_solver`` counts both.
+        certificate of the same answer on the following ones (not searched again), and an
+        island sliding on every contact is searched in full on the first step of its
+        sliding mode and without the active sets that cannot be the law's answer on the
+        following ones (its warning not re-checked), see :mod:`.moreau_impact`;
+        ``contact_solver`` counts them (``certified``, ``searched``, ``pruned``,
+        ``ambiguous``).
 
     Raises
     ------
@@ -320,6 +324,7 @@ def simulate_moreau(
                          "largest_island": solver.largest_island,
                          "certified": solver.certified,
                          "searched": solver.checks,
+                         "pruned": solver.pruned,
                          "ambiguous": len(solver.ambiguous)}),
         max_active_contacts=st["max_active"],
         warnings=() if engine_path else solver.run_warnings())

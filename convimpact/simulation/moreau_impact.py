@@ -74,9 +74,20 @@ count, the number of island steps searched and the first step times
 answered by the certificate alone, ``searched`` island steps of several contacts the law
 searched, ``ambiguous`` those that found several admissible sets). What is not checked:
 steps inside a certified resting mode (the same contacts sticking on every contact, step
-after step), whose admissible sets are not enumerated again. Sliding islands are searched on
-every step (the law's answer needs the search there: no bound prunes its slide programs), so
-their warnings are complete.
+after step), whose admissible sets are not enumerated again.
+
+**Sliding islands** (the same direct steps): the law's search runs in one compiled call
+(:mod:`~convimpact.impact.laws.pn_complementarity_search`), its slide programs warm-started
+from the island's previous step. Where the law's answer slid on every contact of the island
+(a *sliding mode*: a box sliding on its four corners), the next step with the same contacts
+first runs the search without the *dominated* active sets -- those whose admissible answers
+keep every contact at ``u_n = 0`` (any three corners of a box, a diagonal pair), so they
+are feasible for the full set's program and can be no more dissipative than its minimizer,
+and can only tie with it, which the full set wins as the largest (the argument and its
+round-off caveat: that module's docstring). The answer is the law's (the test compares the
+trajectories with the law's own search on every step); the ambiguity warning is taken on
+the mode's first step (searched in full) and not re-checked inside the mode, as for resting
+modes. The counts: ``pruned`` island steps answered so.
 
 An :class:`~.result.ImpactEvent` is recorded on the steps where an approaching contact
 receives a normal impulse: the step's active contacts' impulses, regimes (in the order of
@@ -99,6 +110,7 @@ from ..impact.conic.paths import parse_options
 from ..errors import ConvImpactError
 from ..impact.laws import pn_complementarity as pn
 from ..impact.laws.pn_complementarity import MAX_CONTACTS, several_contacts_impulse
+from ..impact.laws.pn_complementarity_search import SlideWarmStart
 from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL, build_problem
 from .islands import contact_islands
 from .moreau_pn_kernels import STICK, certify_islands
@@ -149,9 +161,13 @@ class ImpactSolver:
         self.certified = 0  # island steps answered by the certificate alone
         self.checks = 0           # island steps the law searched (its diagnostic included)
         self.ambiguous: list = []  # (t_m, step, note) of the searches that found ambiguity
+        self.pruned = 0  # island steps of a sliding mode searched without dominated sets
+        #: the direct steps' slide-program warm starts, per island (its contacts' bytes)
+        self._warm: dict = {}
 
     def idle(self) -> None:
         self._modes_last = set()  # a step without contacts ends every resting mode
+        self._warm = {}  # ... and every sliding mode
 
     def _coefficients(self, st, active: np.ndarray):
         """Per active contact: e_eff, e_t (or None), v_n,k and v_n,free."""
@@ -229,7 +245,7 @@ class ImpactSolver:
                         TINY_NORMAL, r, v_new, status)
         last = self._modes_last
         # an island's mode: its contacts, sticking on every one
-        certified = {keys[n] for n in np.flatnonzero(status == STICK).tolist()}
+        certified = {key for key, sn in zip(keys, status.tolist()) if sn == STICK}
         answered = {chosen[n] for n, key in enumerate(keys) if key in certified and key in last}
         return answered, r, v_new, certified
 
@@ -254,16 +270,20 @@ class ImpactSolver:
                 f"({steps} steps, at t = {times}{more}); each time the law's answer (the most "
                 f"dissipative) was taken. First: {self.ambiguous[0][2]}. Islands sticking on "
                 "every contact with the same contacts as the step before are not searched "
-                "again (simulate_moreau's docs)",)
+                "again, and islands that slid on every contact the step before are searched "
+                "without the dominated active sets (simulate_moreau's docs)",)
 
-    def _direct_impulse(self, M, Jcs, v, e, mu, notes: list | None = None
-                        ) -> tuple[np.ndarray, np.ndarray] | None:
+    def _direct_impulse(self, M, Jcs, v, e, mu, notes: list | None = None, warm=None,
+                        prune: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
         """``(v_{k+1}, impulse)`` of one loop-free island of several contacts by the law's
         impulse alone (:func:`~convimpact.impact.laws.pn_complementarity.
         several_contacts_impulse` on the problem ``resolve_impact`` builds, with the backend
         and options its ``method`` uses): the same impulse, without the result record;
         None where the full call is needed (it raises or reports). ``notes``: the law's
-        ambiguity warning is appended there."""
+        ambiguity warning is appended there; ``warm``: the island's slide-program warm
+        starts (:class:`~convimpact.impact.laws.pn_complementarity_search.SlideWarmStart`);
+        ``prune``: the search without dominated sets first (a sliding mode, module
+        docstring)."""
         try:
             P = build_problem(M, Jcs, v, e, mu)
             if P.n_contacts > MAX_CONTACTS:
@@ -273,7 +293,7 @@ class ImpactSolver:
             if self._direct_options is None:
                 self._direct_options = parse_options("clarabel", self.options)
             pi = several_contacts_impulse(P, conic_backend("clarabel"), self._direct_options,
-                                          notes)
+                                          notes, warm, prune)
         except ConvImpactError:
             return None
         if pi is None:
@@ -284,9 +304,10 @@ class ImpactSolver:
         """``(v_{k+1}, sigma)`` of the step ``st`` (:class:`.moreau_loop.Step`)."""
         active = np.asarray(st.active, dtype=np.int64)
         na = active.size
-        Ja = np.array(st.Ja)
+        # (read only below: no copies of the loop's arrays but v, kept by an ImpactEvent)
+        Ja = np.ascontiguousarray(st.Ja, dtype=float)
         d = Ja.shape[1]
-        v, v_free, M = np.array(st.v), np.array(st.v_free), st.M
+        v, v_free, M = np.array(st.v), np.ascontiguousarray(st.v_free, dtype=float), st.M
         es, ets, vnk, vnf = self._coefficients(st, active)
         C = st.C if self.m else None
         moves = (Ja != 0.0).any(axis=1)
@@ -315,6 +336,7 @@ class ImpactSolver:
             self.largest_island = max(self.largest_island,
                                       max(islands[j][0].size for j in answered))
             islands = [isl for j, isl in enumerate(islands) if j not in answered]
+        warm_last, self._warm = self._warm, {}
         for cs, cols in islands:
             if not cone and np.all(vnf[cs] >= 0.0):
                 continue
@@ -323,11 +345,18 @@ class ImpactSolver:
             lrows = self._loop_rows(C, cols) if C is not None else np.zeros(0, dtype=int)
             if direct and not one and not lrows.size:
                 notes: list = []
+                key = active[cs].tobytes()
+                warm = self._warm[key] = warm_last.get(key) or SlideWarmStart()
+                # a sliding mode: the island slid on every contact on the step before
+                prune, warm.full_slide, warm.pruned = warm.full_slide, False, False
                 got = self._direct_impulse(M[np.ix_(cols, cols)], Jcs, v_free[cols], es[cs],
-                                           self.mu[active[cs]], notes)
+                                           self.mu[active[cs]], notes, warm, prune)
                 if got is not None:
-                    self.checks += 1
-                    self._note(st, notes)
+                    if warm.pruned:
+                        self.pruned += 1
+                    else:
+                        self.checks += 1
+                        self._note(st, notes)
                     v_new[cols], impulse[cs] = got
                     self.calls += 1
                     self.largest_island = max(self.largest_island, int(cs.size))

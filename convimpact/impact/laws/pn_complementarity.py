@@ -280,9 +280,10 @@ def compiled_kernels() -> bool:
         return True
     from ...compiled import announce, cached
     from . import pn_complementarity_kernels as kernels
+    from . import pn_complementarity_search as search
     from . import pn_complementarity_slide as slide
 
-    entries = (kernels.stick_tier, kernels.relaxed_bounds, slide.slide_many)
+    entries = (kernels.stick_tier, kernels.relaxed_bounds, slide.slide_many, search.search)
     if _CALLS == 1 and all(cached(k) for k in entries):
         _CALLS = HOT_CALLS + 1
         return True
@@ -305,7 +306,8 @@ def compile_kernels() -> float:
         # a block on two corners sliding (the slide tier), then landing flat (the stick tier)
         M = np.diag([1.0, 1.0, 0.02])
         J = [np.array([[0.0, 1.0, x], [1.0, 0.0, 0.1]]) for x in (-0.2, 0.2)]
-        for dq in ([2.0, -1.0, 0.0], [0.0, -1.0, 0.0]):
+        # twice: the second round takes the one-call search (pn_complementarity_search)
+        for dq in ([2.0, -1.0, 0.0], [0.0, -1.0, 0.0]) * 2:
             several_contacts_impulse(build_problem(M, J, np.array(dq), 0.0, 0.3),
                                      backend("clarabel"), parse_options("clarabel", {}))
     finally:
@@ -457,20 +459,39 @@ def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
 
 
 def several_contacts_impulse(P: ImpactProblem, backend: Backend, opts: ProgramOptions,
-                             notes: list[str] | None = None) -> np.ndarray | None:
+                             notes: list[str] | None = None, warm=None, prune: bool = False
+                             ) -> np.ndarray | None:
     """The impulse (n_contacts, d) of :func:`several_contacts_result`, without its result
     (regimes, diagnostics), for a time stepper that needs only the impulse; None where that
     call would raise or report active sets it could not solve (the caller then makes the
     full call, which raises or reports). ``notes``, optional: a list the result's warning on
     several admissible active sets with different velocities is appended to (the time
-    stepper aggregates them, :mod:`convimpact.simulation.moreau_impact`)."""
+    stepper aggregates them, :mod:`convimpact.simulation.moreau_impact`). On the compiled
+    path the search and pick run in one compiled call
+    (:func:`~.pn_complementarity_search.compiled_impulse`, the same kernels, tests and
+    warning), the law's own search where that call leaves the decision to it; ``warm``, a
+    :class:`~.pn_complementarity_search.SlideWarmStart` of these contacts, starts its slide
+    programs from their answers of the previous call (the same minimizers, see
+    :func:`~.pn_complementarity_slide.slide_set_warm`); ``prune`` (with ``warm``): first the
+    search without the slide programs that cannot beat the full set's
+    (:mod:`.pn_complementarity_search`), whose warning is not the whole search's (``notes``
+    untouched; ``warm.full_slide`` tells whether the answer slid on every contact)."""
+    if P.n_contacts <= MAX_CONTACTS and compiled_path_active():
+        from .pn_complementarity_search import compiled_impulse
+
+        for pruned in ((True, False) if prune else (False,)):
+            pi = compiled_impulse(P, backend, opts, notes, warm, pruned)
+            if pi is not None:
+                return pi
     try:
-        _, found, failures, _ = _search(P, backend, opts)
+        tier, found, failures, _ = _search(P, backend, opts)
     except ConvImpactError:
         return None
     if failures:
         return None
     best, picked_notes = _pick(P, found)
+    if warm is not None:  # the law's own search: its answer slid on every contact?
+        warm.full_slide = tier == "slide" and len(best[1]) == P.n_contacts
     if notes is not None:
         notes.extend(picked_notes)
     return best[2]

@@ -90,6 +90,20 @@ def slide_set(Wf, vf, bf, muf, d, A):
     consistent (the caller solves by the interior-point method), -1 the program is trivial
     (pi = 0), -2 W is zero (the caller raises through the interior-point path).
     """
+    n = muf.size
+    st, pi, _, _ = slide_set_warm(Wf, vf, bf, muf, d, A, np.zeros(n, dtype=np.int64),
+                                  np.zeros((n, 2)), np.zeros(Wf.shape[0]), False)
+    return st, pi
+
+
+@_jit
+def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
+    """:func:`slide_set`, first trying (with ``warm``) the active set of the cones ``wkind``,
+    ``wtang`` (per contact of A) from the impulse ``wpi`` (n_all d,) -- a previous time step's
+    answer to the same set: an accepted Newton answer is a KKT point of the convex program,
+    so a minimizer whatever its start (where redundant contacts leave a family of
+    minimizers, possibly another member, with the same velocities and energy). Returns
+    (status, pi, kind, tang): the active set of the certified answer, for the next step."""
     na = A.size
     N = na * d
     idx = np.empty(N, dtype=np.int64)
@@ -127,16 +141,29 @@ def slide_set(Wf, vf, bf, muf, d, A):
             E[a, c] = W[a * d, c] / D[a * d]  # rows of the unscaled W, columns scaled
     sW = np.max(np.abs(W))
     sq = max(np.max(np.abs(q)), np.max(np.abs(f)))
+    no_kind = np.zeros(na, dtype=np.int64)
+    no_tang = np.zeros((na, 2))
     if not sW > 0.0:
-        return -2, pi
+        return -2, pi, no_kind, no_tang
     if sq == 0.0:
-        return -1, pi
+        return -1, pi, no_kind, no_tang
     sE = max(np.max(np.abs(E)), TINY)
     W = W / sW
     q = q / sq
     E = E / sE
     f = f * (sW / (sq * sE))
     scale = D * (sq / sW)
+    if warm:
+        kind = wkind[:na].copy()
+        tang = wtang[:na].copy()
+        x0 = np.empty(N)
+        for a in range(N):
+            x0[a] = wpi[idx[a]] / scale[a]
+        x, ok = _kkt(W, q, E, f, mu, d, kind, tang, x0, POLISH_MAX_NEWTON, False)
+        if ok:
+            for a in range(N):
+                pi[idx[a]] = x[a] * scale[a]
+            return 1, pi, kind, tang
     # the program without the cones, for the starts
     K = np.zeros((N + na, N + na))
     rhs = np.zeros(N + na)
@@ -151,7 +178,7 @@ def slide_set(Wf, vf, bf, muf, d, A):
         rhs[N + c] = f[c]
     relaxed = np.linalg.lstsq(K, rhs, EPS * (N + na))[0][:N]
     if not np.all(np.isfinite(relaxed)):
-        return 0, pi
+        return 0, pi, no_kind, no_tang
     r_floor = 0.0
     for a in range(na):
         r_floor = max(r_floor, relaxed[a * d])
@@ -186,10 +213,10 @@ def slide_set(Wf, vf, bf, muf, d, A):
             if ok:
                 break
     if not ok:
-        return 0, pi
+        return 0, pi, no_kind, no_tang
     for a in range(N):
         pi[idx[a]] = x[a] * scale[a]
-    return 1, pi
+    return 1, pi, kind, tang
 
 
 @_jit
@@ -205,6 +232,19 @@ def slide_many(W, b, vminus, mu, d, sets, cone_rtol, slack_max, tol):
     energy : (n_sets,) their ``T+ - T-``.
     """
     ns = sets.shape[0]
+    n = mu.size
+    return slide_many_warm(W, b, vminus, mu, d, sets, cone_rtol, slack_max, tol,
+                           np.zeros((ns, n), dtype=np.int64), np.zeros((ns, n, 2)),
+                           np.zeros((ns, W.shape[0])), np.zeros(ns, dtype=np.bool_))
+
+
+@_jit
+def slide_many_warm(W, b, vminus, mu, d, sets, cone_rtol, slack_max, tol, wkind, wtang, wpi,
+                    wvalid):
+    """:func:`slide_many` with warm starts (:func:`slide_set_warm`): set s is first tried
+    from ``wkind[s]``, ``wtang[s]``, ``wpi[s]`` where ``wvalid[s]``; the arrays are then
+    updated with this call's certified answers (``wvalid[s]`` False where none)."""
+    ns = sets.shape[0]
     N = W.shape[0]
     status = np.full(ns, -3, dtype=np.int64)
     pis = np.zeros((ns, N))
@@ -215,8 +255,14 @@ def slide_many(W, b, vminus, mu, d, sets, cone_rtol, slack_max, tol):
         A = np.flatnonzero(sets[s])
         if A.size < 2:
             continue
-        st, pi = slide_set(W, vminus, b, mu, d, A)
+        st, pi, kind, tang = slide_set_warm(W, vminus, b, mu, d, A, wkind[s], wtang[s],
+                                            wpi[s], wvalid[s])
         status[s] = st
+        wvalid[s] = st == 1
+        if st == 1:
+            wkind[s, :A.size] = kind
+            wtang[s, :A.size] = tang
+            wpi[s] = pi
         if st == 1 or st == -1:
             pis[s] = pi
             ok[s] = admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol)

@@ -1,0 +1,333 @@
+"""Law pereira-nikravesh's search pruned of what provably cannot be its answer, for a time
+stepper whose island slid on every contact on the step before (a *sliding mode*):
+:func:`pruned_search`, called by :func:`~.pn_complementarity_search.search` with ``prune``.
+
+The law (:mod:`~convimpact.impact.laws.pn_complementarity`) sticks on the most dissipative
+admissible active set if any is admissible, else slides on the most dissipative admissible
+one (ties with the same velocities going to the largest set). With ``f(pi) = T+ - T- =
+pi.v- + 1/2 pi.W.pi``, ``u = W pi + b`` the Newton velocities and ``pi*`` the minimizer of
+the full set's slide program P_N(full) (``u_n = 0`` on every contact, ``pi`` in the cones),
+certified by its KKT conditions and admissible (else the law's own search decides):
+
+**Dominated slide sets.** A set B is dominated when ``u_n = 0`` on B and ``u_n >= 0`` off B
+force ``u_n = 0`` everywhere (:func:`dominated`: the normal rows of ``[W | b]`` off B in the
+span of B's, or exactly two outside it with opposite parts, ``u_j + c u_k = 0``, c > 0; on a
+box on its four corners: any three corners, a diagonal pair). Every admissible answer of B
+(``pi`` in the cones on B, zero off B, ``u_n = 0`` on B, ``u_n >= 0`` off B) then has
+``u_n = 0`` everywhere and is feasible for P_N(full): ``f(B) >= f(pi*)``, and one as
+dissipative as ``pi*`` is a minimizer of P_N(full) too, with its velocities (the minimizers
+of a convex quadratic over a convex set share ``W pi``). So B can neither be more
+dissipative than the full set nor tie with it at other velocities, and a tie at the same
+velocities goes to the full set. The sets not dominated (on a box: an edge's pair, tipping
+about the edge; a lone corner) are solved as the law solves them, all of them (no bound, no
+early stop: the visit order only decides which sets the law's warning lists), and the
+law's pick is applied.
+
+**Stick sets excluded.** Where no restitution acts (``b = v-``) and every contact is
+frictional: a stick set A with ``rank W_AA = rank W`` (A's contacts fix every motion the
+island's contacts see: ``null J_A = null J``; on a box: three corners or four) sticks with
+``J_A v+ = 0``, hence ``u = J v+ = 0`` at every contact. Such a sticking impulse minimizes
+``f`` over every impulse (``f(pi) - min f = 1/2 u.W^+.u``), and if admissible it is feasible
+for P_N(full), so ``min f >= f(pi*) >= min f + 1/2 u*.W^+.u*``: impossible while the full
+set's answer still slips, ``1/2 |u*|^2 / tr W > 1e-6`` of the law's energy scale (a margin
+far above the programs' round-off). The stick sets left (rank W_AA judged by Gram-Schmidt
+with a clear gap, else not excluded) run the law's stick tier; any admissible one hands the
+decision to the law's own search.
+
+The answer is the law's, except where its ranking is decided by round-off (a dominated set
+whose energy falls below the full set's by round-off with velocities more than ``1e-8``
+apart), where either is as good. What the pruned search does not give is the law's warning
+on several admissible active sets, which needs every visited set: the time stepper takes it
+from the full search of the mode's first step (:mod:`convimpact.simulation.moreau_impact`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...compiled import jit as _jit
+from .codes import OK as KERNEL_OK
+from .pereira_nikravesh import _pn_planar, _pn_spatial
+from .pn_complementarity_kernels import admissible, stick_tier
+from .pn_complementarity_slide import slide_set_warm
+
+TINY = 1e-300
+#: the admissibility tolerance of the stick tier and of one-contact slides
+SINGLE_ACCURACY = 1e-10
+#: the out buffer of the single-contact kernels (laws.codes.OUT_SIZE)
+OUT_SIZE = 32
+#: the slip the full set's answer must keep for the stick sets' exclusion: 1/2 |u*|^2 / tr W
+#: over the law's energy scale
+STICK_EXCLUSION_MARGIN = 1e-6
+#: Gram-Schmidt residuals (relative to the largest column) read as independent / dependent;
+#: between them the rank is not judged
+RANK_INDEPENDENT = 1e-6
+RANK_DEPENDENT = 1e-12
+
+
+@_jit
+def energy_change(W, vminus, pi):
+    """``T+ - T- = pi.v- + 1/2 pi.W.pi``."""
+    return pi @ vminus + 0.5 * (pi @ (W @ pi))
+
+
+@_jit
+def single(W, vminus, e, mu, d, i, lo, hi):
+    """The single-contact law on contact i alone, as ``solve_contact`` dispatches it: (status,
+    impulse (d,)); status 1 no impulse (not approaching), 2 the Python path must decide."""
+    p = np.zeros(d)
+    o = i * d
+    v0 = vminus[o]
+    if not v0 < 0.0:
+        return 1, p
+    w00 = W[o, o]
+    if not (w00 > 0.0 and mu[i] > 0.0):
+        return 2, p  # raises, or the frictionless impulse: the law's own path
+    tr = w00 + W[o + 1, o + 1] + (W[o + 2, o + 2] if d == 3 else 0.0)
+    vs = max(-v0, max(abs(vminus[o + 1]), abs(vminus[o + d - 1])))
+    if not (lo <= tr <= hi and lo <= vs <= hi):
+        return 2, p
+    out = np.zeros(OUT_SIZE)
+    if d == 2:
+        st, rg, p0, p1, p2, D = _pn_planar(w00, W[o, o + 1], W[o + 1, o + 1], v0,
+                                           vminus[o + 1], e[i], mu[i], out)
+    else:
+        st, rg, p0, p1, p2, D = _pn_spatial(w00, W[o, o + 1], W[o, o + 2], W[o + 1, o + 1],
+                                            W[o + 1, o + 2], W[o + 2, o + 2], v0,
+                                            vminus[o + 1], vminus[o + 2], e[i], mu[i], out)
+    if st != KERNEL_OK:
+        return 2, p
+    p[0] = p0
+    p[1] = p1
+    if d == 3:
+        p[2] = p2
+    return 0, p
+
+
+@_jit
+def single_candidate(W, absW, vminus, b, e, mu, d, i, member, cone_rtol, slack_max, lo, hi):
+    """Contact i sliding alone by the single-contact law, as the law's candidate: (got, pi
+    (N,), admissible at :data:`SINGLE_ACCURACY`, T+ - T-), ``got`` as :func:`single`'s."""
+    pi = np.zeros(W.shape[0])
+    got, p = single(W, vminus, e, mu, d, i, lo, hi)
+    if got != 0:
+        return got, pi, False, 0.0
+    for k in range(d):
+        pi[i * d + k] = p[k]
+    if admissible(W, absW, member, pi, b, mu, d, cone_rtol, slack_max, SINGLE_ACCURACY):
+        return got, pi, True, energy_change(W, vminus, pi)
+    return got, pi, False, 0.0
+
+
+@_jit
+def _dot(a, b):
+    """a.b in a loop (BLAS's call costs more than these short vectors)."""
+    acc = 0.0
+    for x in range(a.size):
+        acc += a[x] * b[x]
+    return acc
+
+
+@_jit
+def _project_out(r, Q, k):
+    """r minus its projection on the orthonormal rows ``Q[:k]``, twice (for round-off), in
+    place."""
+    L = r.size
+    for _ in range(2):
+        for t in range(k):
+            c = 0.0
+            for x in range(L):
+                c += Q[t, x] * r[x]
+            for x in range(L):
+                r[x] -= c * Q[t, x]
+
+
+@_jit
+def _residual(R, Q, k, j):
+    """Row j of R minus its projection on the orthonormal rows ``Q[:k]``."""
+    r = R[j].copy()
+    _project_out(r, Q, k)
+    return r
+
+
+@_jit
+def dominated(R, member):
+    """Whether the normal velocities ``u_n = R [pi; 1]`` (R: the normal rows of ``[W | b]``,
+    its last column rescaled to W's size) vanishing on the contacts of ``member`` and
+    non-negative elsewhere vanish everywhere: every other row in the span of the member rows
+    (to round-off, ``1e-11`` of R's largest row), or exactly two outside it whose parts
+    outside are opposite (``u_j + c u_k = 0``, c > 0; to ``1e-9`` in direction)."""
+    n, L = R.shape
+    scale = 0.0
+    for i in range(n):
+        scale = max(scale, np.sqrt(_dot(R[i], R[i])))
+    cut = 1e-11 * max(scale, TINY)
+    Q = np.empty((n, L))
+    k = 0
+    for i in range(n):
+        if member[i]:
+            r = _residual(R, Q, k, i)
+            nr = np.sqrt(_dot(r, r))
+            if nr > cut:
+                Q[k] = r / nr
+                k += 1
+    outside = np.empty((2, L))
+    count = 0
+    for j in range(n):
+        if not member[j]:
+            r = _residual(R, Q, k, j)
+            nr = np.sqrt(_dot(r, r))
+            if nr > cut:
+                if count == 2:
+                    return False
+                outside[count] = r / nr
+                count += 1
+    if count == 0:
+        return True
+    if count == 1:
+        return False
+    gap = outside[0] + outside[1]
+    return np.sqrt(_dot(gap, gap)) <= 1e-9
+
+
+@_jit
+def rank_clear(A):
+    """Rank of the symmetric matrix A by Gram-Schmidt on its rows (its columns), and whether
+    every row's residual lay clearly on one side (above :data:`RANK_INDEPENDENT` or below
+    :data:`RANK_DEPENDENT` of the largest row)."""
+    m = A.shape[0]
+    scale = 0.0
+    for c in range(m):
+        scale = max(scale, np.sqrt(_dot(A[c], A[c])))
+    if not scale > 0.0:
+        return 0, True
+    Q = np.empty((m, m))
+    k = 0
+    for c in range(m):
+        r = A[c].copy()
+        _project_out(r, Q, k)
+        nr = np.sqrt(_dot(r, r))
+        if nr > RANK_INDEPENDENT * scale:
+            Q[k] = r / nr
+            k += 1
+        elif nr > RANK_DEPENDENT * scale:
+            return k, False
+    return k, True
+
+
+@_jit
+def _kept_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale):
+    """The stick sets the exclusion (module docstring) leaves, as a mask over ``masks``."""
+    ns = masks.shape[0]
+    n = mu.size
+    N = W.shape[0]
+    keep = np.ones(ns, dtype=np.bool_)
+    for i in range(n):
+        if not mu[i] > 0.0:
+            return keep
+    for a in range(N):
+        if b[a] != vminus[a]:
+            return keep
+    u = W @ pi_full + b
+    tr = 0.0
+    for a in range(N):
+        tr += W[a, a]
+    if not (tr > 0.0 and 0.5 * (u @ u) / tr > STICK_EXCLUSION_MARGIN * escale):
+        return keep
+    full_rank, clear = rank_clear(W)
+    if not clear:
+        return keep
+    for s in range(ns):
+        members = np.flatnonzero(masks[s])
+        m = members.size * d
+        rows = np.empty(m, dtype=np.int64)
+        for c in range(members.size):
+            for k in range(d):
+                rows[c * d + k] = members[c] * d + k
+        Wss = np.empty((m, m))
+        for x in range(m):
+            for y in range(m):
+                Wss[x, y] = W[rows[x], rows[y]]
+        r, clear = rank_clear(Wss)
+        keep[s] = not (clear and r == full_rank)
+    return keep
+
+
+@_jit
+def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack_max, lo, hi,
+                  escale, wkind, wtang, wpi, wvalid, fe, fs, fpi, needs):
+    """The law's search without what cannot be its answer (module docstring): the slide
+    candidates into ``fe``, ``fs``, ``fpi`` (the full set's first) and the sets the Python
+    path must solve (an interior-point program, a one-contact kernel outside the compiled
+    one's reach) into ``needs``; returns (their numbers), or (-1, 0) where the law's own
+    search must decide (the full set not certified or not admissible, a stick set
+    admissible). ``escale``: the law's energy scale; the warm starts as
+    :func:`~.pn_complementarity_slide.slide_many_warm`'s."""
+    n = mu.size
+    N = W.shape[0]
+    if not np.all(masks[0]):
+        return -1, 0
+    absW = np.abs(W)
+    full = np.flatnonzero(masks[0])
+    st, pi_full, kind, tang = slide_set_warm(W, vminus, b, mu, d, full, wkind[0], wtang[0],
+                                             wpi[0], wvalid[0])
+    wvalid[0] = st == 1
+    if st != 1:
+        return -1, 0
+    wkind[0, :n] = kind
+    wtang[0, :n] = tang
+    wpi[0] = pi_full
+    if not admissible(W, absW, masks[0], pi_full, b, mu, d, cone_rtol, slack_max, tol):
+        return -1, 0
+    keep = _kept_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale)
+    sticks = np.flatnonzero(keep)
+    if sticks.size:
+        ok = stick_tier(W, b, vminus, mu, d, masks[sticks], cond_max, cone_rtol, slack_max,
+                        SINGLE_ACCURACY)[0]
+        if np.any(ok):
+            return -1, 0
+    wscale = max(np.max(absW), TINY)
+    bscale = 0.0
+    for i in range(n):
+        bscale = max(bscale, abs(b[i * d]))
+    R = np.empty((n, N + 1))
+    for i in range(n):
+        R[i, :N] = W[i * d]
+        R[i, N] = b[i * d] * (wscale / bscale) if bscale > 0.0 else 0.0
+    fe[0] = energy_change(W, vminus, pi_full)
+    fs[0] = 0
+    fpi[0] = pi_full
+    nf = 1
+    nn = 0
+    for s in range(1, masks.shape[0]):
+        if dominated(R, masks[s]):
+            continue
+        members = np.flatnonzero(masks[s])
+        if members.size >= 2:
+            st, pi, kind, tang = slide_set_warm(W, vminus, b, mu, d, members, wkind[s],
+                                                wtang[s], wpi[s], wvalid[s])
+            wvalid[s] = st == 1
+            if st == 1:
+                wkind[s, :members.size] = kind
+                wtang[s, :members.size] = tang
+                wpi[s] = pi
+            if not (st == 1 or st == -1):
+                needs[nn] = s
+                nn += 1
+            elif admissible(W, absW, masks[s], pi, b, mu, d, cone_rtol, slack_max, tol):
+                fe[nf] = energy_change(W, vminus, pi)
+                fs[nf] = s
+                fpi[nf] = pi
+                nf += 1
+            continue
+        got, pi, ok, energy = single_candidate(W, absW, vminus, b, e, mu, d, members[0],
+                                               masks[s], cone_rtol, slack_max, lo, hi)
+        if got == 2:
+            needs[nn] = s
+            nn += 1
+        elif ok:
+            fe[nf] = energy
+            fs[nf] = s
+            fpi[nf] = pi
+            nf += 1
+    return nf, nn
