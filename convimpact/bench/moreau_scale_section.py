@@ -56,7 +56,7 @@ from typing import Any
 
 import numpy as np
 
-from ..impact.laws.pn_complementarity import compile_kernels as compile_pn_kernels
+from ..impact.laws.pn_complementarity_impulse import compile_kernels as compile_pn_kernels
 from ..scenes import load_scene
 from ..simulation.moreau import simulate_moreau
 from .contact_scale_charts import power_law_fit

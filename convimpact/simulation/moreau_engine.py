@@ -393,6 +393,9 @@ class EngineSolver:
     ``v_{k+1} = v_free + G J^T r`` (:func:`.moreau_step_kernels.apply_impulses`) and an
     :class:`~.result.ImpactEvent` on the steps where an approaching contact is hit."""
 
+    #: without loops (``m == 0``), its steps may be taken by :class:`.moreau_fast.FastStep`
+    FAST = True
+
     def __init__(self, mech, *, law: str, tol: float, max_iter: int = 100, newton_iter: int = 20,
                  warm_start: bool, islands: bool, rest_velocity: float):
         self.contacts = tuple(mech.contact_names)

@@ -97,11 +97,10 @@ class FastStep:
 
     @staticmethod
     def applies(pred, solver) -> bool:
-        from .moreau_engine import EngineSolver
-        from .moreau_loop import ModelPredictor
-
-        return (type(pred) is ModelPredictor and type(solver) is EngineSolver
-                and solver.m == 0)
+        # (the predictor and the solver say so themselves, :attr:`.moreau_loop.ModelPredictor.
+        # FAST` and :attr:`.moreau_engine.EngineSolver.FAST`: this module imports neither)
+        return (bool(getattr(type(pred), "FAST", False))
+                and bool(getattr(type(solver), "FAST", False)) and solver.m == 0)
 
     def __init__(self, pred, solver):
         self.pred, self.solver = pred, solver

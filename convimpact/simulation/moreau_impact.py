@@ -47,9 +47,9 @@ the islands, and the impulse of one island changes no velocity of another:
 **Direct impulses** (law ``pereira-nikravesh``, methods ``auto`` and ``clarabel``): on a
 step where no active contact approaches at the step's start (no impact to record), an island
 of several contacts without loop rows takes the law's impulse directly
-(:func:`~convimpact.impact.laws.pn_complementarity.several_contacts_impulse` on the problem
-``resolve_impact`` builds, with the same backend and options): the same impulse as the full
-call, without the result record (regimes, diagnostics) nobody reads on such a step; where
+(:func:`~convimpact.impact.laws.pn_complementarity_impulse.several_contacts_impulse` on the
+problem ``resolve_impact`` builds, with the same backend and options): the same impulse as the
+full call, without the result record (regimes, diagnostics) nobody reads on such a step; where
 that call would raise or report unsolved active sets the full call is made.
 
 **Resting islands without the search** (same law and methods, once the law's compiled path
@@ -109,7 +109,8 @@ from ..impact.conic.paths import backend as conic_backend
 from ..impact.conic.paths import parse_options
 from ..errors import ConvImpactError
 from ..impact.laws import pn_complementarity as pn
-from ..impact.laws.pn_complementarity import MAX_CONTACTS, several_contacts_impulse
+from ..impact.laws.pn_complementarity import MAX_CONTACTS
+from ..impact.laws.pn_complementarity_impulse import several_contacts_impulse
 from ..impact.laws.pn_complementarity_search import SlideWarmStart
 from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL, build_problem
 from .islands import contact_islands
@@ -276,7 +277,7 @@ class ImpactSolver:
     def _direct_impulse(self, M, Jcs, v, e, mu, notes: list | None = None, warm=None,
                         prune: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
         """``(v_{k+1}, impulse)`` of one loop-free island of several contacts by the law's
-        impulse alone (:func:`~convimpact.impact.laws.pn_complementarity.
+        impulse alone (:func:`~convimpact.impact.laws.pn_complementarity_impulse.
         several_contacts_impulse` on the problem ``resolve_impact`` builds, with the backend
         and options its ``method`` uses): the same impulse, without the result record;
         None where the full call is needed (it raises or reports). ``notes``: the law's

@@ -108,6 +108,9 @@ class ModelPredictor:
     """The predictor on a model without loops or applied forces: one compiled call per step
     (:func:`.moreau_step_kernels.predict_model`) on the model's work buffer."""
 
+    #: its steps may be taken by :class:`.moreau_fast.FastStep` (with an EngineSolver's)
+    FAST = True
+
     @staticmethod
     def applies(mech) -> bool:
         from ..model.mechanism import ModelMechanism

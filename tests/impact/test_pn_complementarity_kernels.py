@@ -15,6 +15,7 @@ from convimpact.impact.conic.clarabel_backend import ClarabelBackend
 from convimpact.impact.conic.program import ConeQP
 from convimpact.impact.conic.qp import solve_cone_qp
 from convimpact.impact.laws import pn_complementarity as pc
+from convimpact.impact.laws import pn_complementarity_impulse as pimp
 from convimpact.impact.laws.pn_complementarity_slide import slide_set
 from convimpact.impact.problem.build import build_problem
 
@@ -150,7 +151,7 @@ def test_compile_kernels_switches_to_the_compiled_path(monkeypatch):
     monkeypatch.setattr(pc, "_CALLS", 2)
     monkeypatch.setattr(pc, "HOT_CALLS", 10**6)
     assert pc.compiled_kernels() is False
-    assert pc.compile_kernels() >= 0.0
+    assert pimp.compile_kernels() >= 0.0
     assert pc.compiled_kernels() is True
     r = ci.resolve_impact(**four_corner_box(mu=1.0, e=0.0, velocity=(0, 0, -2.0),
                                             angular_velocity=(0, 0, 0)), law=LAW)

@@ -13,6 +13,7 @@ import pytest
 from convimpact.bench.several_problems import four_corner_box, random_several
 from convimpact.impact.conic.paths import backend, parse_options
 from convimpact.impact.laws import pn_complementarity as pc
+from convimpact.impact.laws import pn_complementarity_impulse as pimp
 from convimpact.impact.laws import pn_complementarity_prune as pp
 from convimpact.impact.laws import pn_complementarity_search as ps
 from convimpact.impact.problem.build import build_problem
@@ -23,7 +24,7 @@ BACKEND = backend("clarabel")
 
 @pytest.fixture(scope="module", autouse=True)
 def compiled_path():
-    pc.compile_kernels()
+    pimp.compile_kernels()
 
 
 def _problem(args):
@@ -62,7 +63,7 @@ def test_one_call_is_the_laws_search_on_random_impacts():
         args["dq"] = np.asarray(args["dq"], float) * (1.0 + 4.0 * (seed % 2))
         P = _problem(args)
         notes: list = []
-        got = ps.compiled_impulse(P, BACKEND, OPTS, notes)
+        got = pimp.compiled_impulse(P, BACKEND, OPTS, notes)
         if got is None:
             continue
         answered += 1
@@ -91,11 +92,11 @@ def test_warm_started_steps_keep_the_laws_answer():
         P = _sliding_box(step)
         want, listed = _law(P)
         notes: list = []
-        got = ps.compiled_impulse(P, BACKEND, OPTS, notes, warm)
+        got = pimp.compiled_impulse(P, BACKEND, OPTS, notes, warm)
         assert got is not None and _same_velocities(P, got, want)
         assert _listed(notes) == listed and listed  # all four sliding, and three of them
         assert warm.full_slide and not warm.pruned
-        cold = ps.compiled_impulse(P, BACKEND, OPTS, [])
+        cold = pimp.compiled_impulse(P, BACKEND, OPTS, [])
         np.testing.assert_allclose(cold, want, rtol=0, atol=1e-13)
 
 
@@ -127,14 +128,14 @@ def test_the_pruned_search_picks_the_laws_answer():
     for step in range(4):
         P = _sliding_box(step)
         notes: list = []
-        got = ps.compiled_impulse(P, BACKEND, OPTS, notes, warm, prune=True)
+        got = pimp.compiled_impulse(P, BACKEND, OPTS, notes, warm, prune=True)
         want, _ = _law(P)
         assert got is not None and _same_velocities(P, got, want)
         assert warm.full_slide and warm.pruned and notes == []
     still = _problem(four_corner_box(mu=0.3, e=0.0, velocity=(0.0, 0.0, -0.0196),
                                      angular_velocity=(0.0, 0.0, 0.0)))
-    assert ps.compiled_impulse(still, BACKEND, OPTS, [], warm, prune=True) is None
-    got = pc.several_contacts_impulse(still, BACKEND, OPTS, [], warm, prune=True)
+    assert pimp.compiled_impulse(still, BACKEND, OPTS, [], warm, prune=True) is None
+    got = pimp.several_contacts_impulse(still, BACKEND, OPTS, [], warm, prune=True)
     np.testing.assert_allclose(got[:, 0], 0.0196 * 1.0 / 4, rtol=1e-12)  # m g h / 4
     assert not warm.full_slide and not warm.pruned
 
@@ -150,7 +151,7 @@ def test_stick_sets_excluded_on_a_sliding_box_by_hand():
     assert pp.rank_clear(W) == (6, True)
     subsets, masks = pc.candidate_sets(4, (True,) * 4)
     warm = ps.SlideWarmStart()
-    pi_full = ps.compiled_impulse(P, BACKEND, OPTS, [], warm).ravel()
+    pi_full = pimp.compiled_impulse(P, BACKEND, OPTS, [], warm).ravel()
     escale = 0.5 * np.max(np.abs(v)) ** 2 / np.max(np.diag(W))
     keep = pp._kept_stick_sets(W, b, v, P.friction, 3, masks, pi_full, escale)
     assert [A for A, k in zip(subsets, keep) if not k] == [(0, 1, 2, 3), (0, 1, 2), (0, 1, 3),

@@ -11,6 +11,7 @@ import pytest
 
 from convimpact.bench.moreau_scenes import BOX_MASS, GRAVITY, HALF, MU, box_row
 from convimpact.impact.laws import pn_complementarity as pc
+from convimpact.impact.laws import pn_complementarity_impulse as pimp
 from convimpact.simulation import moreau_engine as me
 from convimpact.simulation import moreau_impact as mi
 from convimpact.simulation.moreau import simulate_moreau
@@ -23,7 +24,7 @@ LAW = "pereira-nikravesh"
 @pytest.fixture(scope="module", autouse=True)
 def compiled_path():
     """The certificate runs once the law's compiled path is taken (a warm cache, or here)."""
-    pc.compile_kernels()
+    pimp.compile_kernels()
 
 
 def _run(mech, q, v, span, certificate=True, prune=True):

@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from convimpact.bench.moreau_scenes import GRAVITY, MU, box_row
-from convimpact.impact.laws import pn_complementarity as pc
-from convimpact.impact.laws import pn_complementarity_search as ps
+from convimpact.impact.laws import pn_complementarity_impulse as pimp
 from convimpact.simulation.moreau import simulate_moreau
 
 H = 2e-3
@@ -17,18 +16,18 @@ LAW = "pereira-nikravesh"
 
 @pytest.fixture(scope="module", autouse=True)
 def compiled_path():
-    pc.compile_kernels()
+    pimp.compile_kernels()
 
 
 def _run(mech, q, v, span, own_search=False):
     """``own_search``: the law's own search (``_search`` and ``_pick``) on every step."""
-    saved = ps.compiled_impulse
+    saved = pimp.compiled_impulse
     if own_search:
-        ps.compiled_impulse = lambda *args: None
+        pimp.compiled_impulse = lambda *args: None
     try:
         return simulate_moreau(mech, (0.0, span), (q, v), h=H, law=LAW)
     finally:
-        ps.compiled_impulse = saved
+        pimp.compiled_impulse = saved
 
 
 def test_sliding_boxes_follow_the_laws_own_search():

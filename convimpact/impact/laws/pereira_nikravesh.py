@@ -8,8 +8,8 @@ space along the direction of maximal dissipation (eq. 60).
   Schur complement of the bordered matrices of eqs. (51)/(52), so the same kernels serve open
   and closed loops) and its pre-impact contact velocity ``v = (v_n, v_t...)`` in the contact
   frame. Impulses come back in the contact frame, normal first. ``v_n < 0`` means approaching.
-* :func:`_pn_planar` and :func:`_pn_spatial` are the exact single-contact kernel
-  (``method="fast"``, the batch, the compiled lane), compiled: in space the sliding direction
+* :func:`~.pereira_nikravesh_kernel._pn_planar` and ``_pn_spatial`` are the exact
+  single-contact kernel (``method="fast"``, the batch, the compiled lane), compiled: in space the sliding direction
   is :func:`convimpact.impact.laws.max_dissipation.max_dissipation_slide`; :func:`contact_kernel`
   is their entry on plain floats.
 * :func:`program_result` is the conic path (``method="clarabel"``/``"cvxpy"``). One planar
@@ -55,14 +55,13 @@ from ..exact.closed_forms import (  # the paper's closed forms, re-exported
 )
 from ...errors import (NonPositiveEffectiveMassError, SingularSystemError, SolverError)
 from ..options import check_single_contact
-from .algebra import _inverse3, _linsolve3, _solve2
-from .codes import (FAILED, JAM, OK, SINGULAR, SLIDE, STICK, _NAN, _in_cone,
-                                    _jit, _pmax2)
 from ..exact.dispatch import compiled_kernel
-from .max_dissipation import max_dissipation_direction, max_dissipation_slide
+from .max_dissipation import max_dissipation_direction
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from ..problem.dense import angle_from_slip
+from .pereira_nikravesh_kernel import (_OUT_INTERIOR, _OUT_T1, _OUT_T2, _OUT_TL, _pn_planar,
+                                       _pn_spatial)
 from .pn_complementarity import newton_velocity_shift, several_contacts_result, stick_on
 from .pn_complementarity_derivative import several_impulse_derivative  # noqa: F401
 
@@ -73,56 +72,7 @@ BOUNDARY_RTOL = 1e-5
 
 # --------------------------------------------------------------------------------------------
 # the exact single-contact kernel (method="fast"), compiled: every path runs this code
-
-
-@_jit
-def _pn_planar(w00, w01, w11, v0, v1, e, mu, out):
-    """One planar contact, mu > 0: the stick test (eq. 42, admissible by eq. 53), else the slide
-    against the slip (eq. 55) with pi_n from eq. (38)."""
-    c = -(1.0 + e) * v0
-    pn, pt, ok = _solve2(w00, w01, w11, c, -v1)  # eq. (42)
-    if not ok:
-        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
-    if _in_cone(pn, abs(pt), mu):
-        return OK, STICK, pn, pt, 0.0, _NAN
-    if v1 != 0.0:
-        s = -math.copysign(1.0, v1)
-    else:  # no pre-impact slip: friction saturates the way the stick impulse needed
-        s = math.copysign(1.0, pt) if pt != 0.0 else 1.0
-    D = w00 + mu * s * w01  # eq. (55) direction, eq. (38) denominator
-    wm = _pmax2(_pmax2(abs(w00), abs(w01)), abs(w11))
-    if not D > 1e-12 * wm:
-        return JAM, FAILED, _NAN, _NAN, _NAN, D
-    p = c / D
-    return OK, SLIDE, p, mu * s * p, 0.0, D
-
-
-#: ``out`` of the spatial kernel: [P_N's optimum interior?, T_L max, t1, t2]
-_OUT_INTERIOR, _OUT_TL, _OUT_T1, _OUT_T2 = 0, 1, 2, 3
-
-
-@_jit
-def _pn_spatial(w00, w01, w02, w11, w12, w22, v0, v1, v2, e, mu, out):
-    """One spatial contact, mu > 0: the stick test (eq. 52/53), else the slide of maximal
-    dissipation (eq. 60, :func:`~convimpact.impact.laws.max_dissipation.max_dissipation_slide`)."""
-    c = -(1.0 + e) * v0
-    i00, i01, i02, i11, i12, i22, det, ok = _inverse3(w00, w01, w02, w11, w12, w22)
-    if not ok:
-        return SINGULAR, FAILED, _NAN, _NAN, _NAN, _NAN
-    pn, p1, p2 = _linsolve3(w00, w01, w02, w11, w12, w22, i00, i01, i02, i11, i12, i22, det,
-                            c, -v1, -v2)  # eq. (42) in space
-    if _in_cone(pn, math.hypot(p1, p2), mu):
-        return OK, STICK, pn, p1, p2, _NAN
-    st, t1, t2, tl, p, D, interior = max_dissipation_slide(
-        w00, w01, w02, w11, w12, w22, v0, v1, v2, c, mu, True, i00, i01, i02, i11, i12, i22,
-        p1, p2)
-    if st != OK:
-        return st, FAILED, _NAN, _NAN, _NAN, _NAN
-    out[_OUT_INTERIOR] = 1.0 if interior else 0.0
-    out[_OUT_TL] = tl
-    out[_OUT_T1] = t1
-    out[_OUT_T2] = t2
-    return OK, SLIDE, p, mu * p * t1, mu * p * t2, D
+# (:mod:`.pereira_nikravesh_kernel`: the law's several-contact search calls it too)
 
 
 def _extras(out, regime, impulse, w, v, d, e, mu) -> tuple:

@@ -42,7 +42,7 @@ converged, a jam) is listed in ``extras["failed_active_sets"]`` and, when it mig
 been more dissipative than the answer, in a warning.
 
 Compiled path (:func:`compiled_kernels`: at once from a warm cache, else from the
-:data:`HOT_CALLS`-th call of a process or after :func:`compile_kernels`): the stick tier and the relaxed bounds in one compiled call each
+:data:`HOT_CALLS`-th call of a process or after :func:`~.pn_complementarity_impulse.compile_kernels`): the stick tier and the relaxed bounds in one compiled call each
 (:mod:`.pn_complementarity_kernels`), every slide program of several contacts solved exactly
 from guessed active sets of its cones and certified by its KKT conditions
 (:mod:`.pn_complementarity_slide`), the interior-point method only for the programs no
@@ -55,7 +55,6 @@ from __future__ import annotations
 import functools
 import itertools
 import math
-import time
 from typing import Any
 
 import numpy as np
@@ -270,7 +269,7 @@ def compiled_kernels() -> bool:
     (:mod:`.pn_complementarity_kernels`, :mod:`.pn_complementarity_slide`): at once when
     numba's disk cache holds them, else from the :data:`HOT_CALLS`-th several-contact call of
     the process on (a time-stepping loop, not a handful of impacts; their first compilation
-    takes about a minute on 2 cores, announced on stderr), or after :func:`compile_kernels`.
+    takes about a minute on 2 cores, announced on stderr), or after :func:`~.pn_complementarity_impulse.compile_kernels`.
     Both paths solve the same systems and apply the same tests (the slide programs'
     minimizers agree to round-off; where redundant contacts leave a family of minimizers,
     the two paths may return different members, with the same velocities and energy)."""
@@ -291,28 +290,6 @@ def compiled_kernels() -> bool:
         announce("pereira-nikravesh several-contact kernels", 60, *entries)
         return True
     return False
-
-
-def compile_kernels() -> float:
-    """Compile (or load from the cache) the law's compiled path now and take it from the
-    next several-contact call on; the seconds it took."""
-    global _CALLS
-    from ..conic.paths import backend, parse_options
-    from ..problem.build import build_problem
-
-    t = time.perf_counter()
-    saved, _CALLS = _CALLS, HOT_CALLS - 1  # this call compiles (announced)
-    try:
-        # a block on two corners sliding (the slide tier), then landing flat (the stick tier)
-        M = np.diag([1.0, 1.0, 0.02])
-        J = [np.array([[0.0, 1.0, x], [1.0, 0.0, 0.1]]) for x in (-0.2, 0.2)]
-        # twice: the second round takes the one-call search (pn_complementarity_search)
-        for dq in ([2.0, -1.0, 0.0], [0.0, -1.0, 0.0]) * 2:
-            several_contacts_impulse(build_problem(M, J, np.array(dq), 0.0, 0.3),
-                                     backend("clarabel"), parse_options("clarabel", {}))
-    finally:
-        _CALLS = max(saved, HOT_CALLS) + 1
-    return time.perf_counter() - t
 
 
 @functools.lru_cache(maxsize=512)
@@ -456,45 +433,6 @@ def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
             "Newton's law (v_n+ + e v_n- >= 0, pi_n >= 0, complementary) with impulses in the "
             f"friction cones ({detail}); use law='coulomb', 'ccp' or 'dissipative'")
     return tier, found, failures, b
-
-
-def several_contacts_impulse(P: ImpactProblem, backend: Backend, opts: ProgramOptions,
-                             notes: list[str] | None = None, warm=None, prune: bool = False
-                             ) -> np.ndarray | None:
-    """The impulse (n_contacts, d) of :func:`several_contacts_result`, without its result
-    (regimes, diagnostics), for a time stepper that needs only the impulse; None where that
-    call would raise or report active sets it could not solve (the caller then makes the
-    full call, which raises or reports). ``notes``, optional: a list the result's warning on
-    several admissible active sets with different velocities is appended to (the time
-    stepper aggregates them, :mod:`convimpact.simulation.moreau_impact`). On the compiled
-    path the search and pick run in one compiled call
-    (:func:`~.pn_complementarity_search.compiled_impulse`, the same kernels, tests and
-    warning), the law's own search where that call leaves the decision to it; ``warm``, a
-    :class:`~.pn_complementarity_search.SlideWarmStart` of these contacts, starts its slide
-    programs from their answers of the previous call (the same minimizers, see
-    :func:`~.pn_complementarity_slide.slide_set_warm`); ``prune`` (with ``warm``): first the
-    search without the slide programs that cannot beat the full set's
-    (:mod:`.pn_complementarity_search`), whose warning is not the whole search's (``notes``
-    untouched; ``warm.full_slide`` tells whether the answer slid on every contact)."""
-    if P.n_contacts <= MAX_CONTACTS and compiled_path_active():
-        from .pn_complementarity_search import compiled_impulse
-
-        for pruned in ((True, False) if prune else (False,)):
-            pi = compiled_impulse(P, backend, opts, notes, warm, pruned)
-            if pi is not None:
-                return pi
-    try:
-        tier, found, failures, _ = _search(P, backend, opts)
-    except ConvImpactError:
-        return None
-    if failures:
-        return None
-    best, picked_notes = _pick(P, found)
-    if warm is not None:  # the law's own search: its answer slid on every contact?
-        warm.full_slide = tier == "slide" and len(best[1]) == P.n_contacts
-    if notes is not None:
-        notes.extend(picked_notes)
-    return best[2]
 
 
 def compiled_path_active() -> bool:

@@ -47,7 +47,7 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from .codes import OK as KERNEL_OK
-from .pereira_nikravesh import _pn_planar, _pn_spatial
+from .pereira_nikravesh_kernel import _pn_planar, _pn_spatial
 from .pn_complementarity_kernels import admissible, stick_tier
 from .pn_complementarity_slide import slide_set_warm
 

@@ -14,7 +14,7 @@ does alike, step for step:
    tuples, as Python's ``sorted`` of ``(bound, A)``), +inf skipped, stopping at the first
    bound above the best admissible energy so far plus ``1e-9`` of the energy scale; a
    certified or trivial program is a candidate when admissible; a one-contact set slides by
-   the single-contact law (:func:`~convimpact.impact.laws.pereira_nikravesh._pn_planar` or
+   the single-contact law (:func:`~convimpact.impact.laws.pereira_nikravesh_kernel._pn_planar` or
    ``_pn_spatial``, the compiled kernel ``solve_contact`` dispatches to, with the same
    inputs), only when that contact approaches, and is a candidate when admissible at the
    tolerance 1e-10;
@@ -49,7 +49,6 @@ import functools
 import numpy as np
 
 from ...compiled import jit as _jit
-from ..problem.build import SAFE_SCALE
 from .pn_complementarity_kernels import relaxed_bounds, stick_tier
 from .pn_complementarity_prune import SINGLE_ACCURACY, pruned_search, single_candidate
 from .pn_complementarity_slide import slide_many_warm
@@ -62,6 +61,8 @@ STICK_TIER, SLIDE_TIER = 0, 1
 #: the law's tolerances of its tie tests (pn_complementarity._pick and _slide_tier)
 ENERGY_TIE = 1e-9
 VELOCITY_TIE = 1e-8
+
+
 @functools.lru_cache(maxsize=512)
 def tuple_ranks(subsets: tuple[tuple[int, ...], ...]) -> np.ndarray:
     """Each set's position among ``subsets`` sorted as Python sorts tuples."""
@@ -204,13 +205,6 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
             none_i)
 
 
-@functools.lru_cache(maxsize=512)
-def _ranks(n: int, closing: tuple[bool, ...]) -> np.ndarray:
-    from .pn_complementarity import candidate_sets
-
-    return tuple_ranks(tuple(candidate_sets(n, closing)[0]))
-
-
 class SlideWarmStart:
     """The slide programs' answers of one group of contacts (an island of a time stepper)
     kept from one call to the next, as warm starts of
@@ -231,64 +225,3 @@ class SlideWarmStart:
             self.arrays = (np.zeros((n_sets, n), dtype=np.int64), np.zeros((n_sets, n, 2)),
                            np.zeros((n_sets, n * d)), np.zeros(n_sets, dtype=np.bool_))
         return self.arrays
-
-
-def compiled_impulse(P, backend, opts, notes: list[str] | None = None,
-                     warm: SlideWarmStart | None = None, prune: bool = False
-                     ) -> np.ndarray | None:
-    """The law's impulse (n_contacts, d) on its compiled path by one call of :func:`search`,
-    with its warning on several admissible active sets appended to ``notes``; None where the
-    law's own search must decide (:data:`FALLBACK`). ``backend``, ``opts``: the law's
-    interior-point backend and options; ``warm``: the slide programs' warm starts of these
-    contacts (:class:`SlideWarmStart`), updated; None: every program from the law's own
-    guesses. ``prune``: the slide tier without the dominated sets (module docstring; its
-    warning is then not that of the law's whole search: ``notes`` is left alone); the
-    programs it leaves to the interior-point method are solved here as the law solves them
-    (``slide_on``, its admissibility test) and the law's own pick (``_pick``) is applied."""
-    from ..conic.paths import approaching
-    from ...errors import ConvImpactError
-    from . import pn_complementarity as law
-
-    n, d = P.n_contacts, P.dim
-    b = law.newton_velocity_shift(P)
-    closing = approaching(P)
-    if not closing.any():
-        closing = P.v_minus[:, 0] < 0.0
-    key = tuple(bool(c) for c in closing)
-    subsets, masks = law.candidate_sets(n, key)
-    if not subsets:
-        return None
-    W, bf, vf, mu = law._kernel_data(P, b)
-    warm = warm if warm is not None else SlideWarmStart()
-    starts = warm.get((n, d, key), len(subsets), n, d)
-    warm.full_slide = warm.pruned = False
-    status, tier, pi, sets, same, best, cand_pi, needs = search(
-        W, bf, vf, mu, np.ascontiguousarray(P.restitution, dtype=float), d, masks,
-        _ranks(n, key), float(opts.accuracy(True)), law.STICK_COND_MAX, law.CONE_RTOL,
-        law.VELOCITY_SLACK_MAX, SAFE_SCALE[0], SAFE_SCALE[1], *starts, bool(prune))
-    if status == NEEDS:  # (pruned only) the programs the law solves by the interior point
-        found = [(law._energy_change(P, x.reshape(n, d)), subsets[s], x.reshape(n, d), {})
-                 for s, x in zip(sets.tolist(), cand_pi)]
-        for s in needs.tolist():
-            A = subsets[s]
-            try:
-                got = law.slide_on(P, A, b, backend, opts)
-            except ConvImpactError:
-                return None
-            if got is not None and law._admissible(P, A, got[0], b, got[1]["accuracy"]):
-                found.append((law._energy_change(P, got[0]), A, got[0], got[1]))
-        (_, A, x, _), _ = law._pick(P, found)
-        warm.full_slide = len(A) == n
-        warm.pruned = True
-        return x
-    if status != DONE:
-        return None
-    warm.full_slide = bool(tier == SLIDE_TIER and sets[best] == 0 and len(subsets[0]) == n)
-    warm.pruned = bool(prune)
-    if notes is not None and not prune and not same.all():
-        others = [int(s) for s, sv in zip(sets, same) if not sv]
-        listed = ", ".join(str(list(subsets[s])) for s in [int(sets[best]), *others])
-        notes.append(f"Newton's law in complementarity form has {len(others) + 1} admissible "
-                     f"active sets here ({listed}) with different velocities; the most "
-                     "dissipative is returned")
-    return pi.reshape(n, d)
