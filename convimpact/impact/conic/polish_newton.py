@@ -24,6 +24,7 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ...compiled import jit_internal as _jit_internal
+from .polish_cod import cod_min_norm_solve
 
 TINY = 1e-300
 EPS = float(np.finfo(float).eps)
@@ -405,7 +406,7 @@ def _setup(W, q, E, mu, d, kind, tang, x0, coulomb):
 
 @_jit
 def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damped,
-                      pivoted):
+                      pivoted, cod=False):
     """Solve the KKT (``coulomb``: Coulomb's) equations of one active set from ``x0``.
 
     Parameters
@@ -432,6 +433,12 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
         singular J: redundant contacts); else by the singular value decomposition (the
         polish's, numpy's ``lstsq`` with ``rcond`` 1e-13). Either way the answer is accepted
         on its residual and sign conditions, never on how it was reached.
+    cod : bool
+        Unpivoted steps by the complete orthogonal decomposition instead of the singular
+        value decomposition (:func:`~.polish_cod.cod_min_norm_solve`, the same cut 1e-13 on
+        its pivots: the same minimum-norm steps wherever the rank is clear, at a fraction of
+        the cost), stopping as the pivoted steps do once the residual is accepted and stalls
+        (else a singular J's round-off, above 4 eps, runs every iteration).
 
     Returns
     -------
@@ -464,10 +471,15 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
             have_best = True
         if fn <= 4.0 * EPS or (it >= 4 and best_f > 1e-6 * f0 and not damped):
             break  # converged, or not converging quadratically: wrong active set
-        if pivoted and it > 0 and fn <= POLISH_ACCEPT and fn > 0.25 * prev:
+        if (pivoted or cod) and it > 0 and fn <= POLISH_ACCEPT and fn > 0.25 * prev:
             break  # at round-off and no longer falling (a singular J: redundant contacts)
         prev = fn
-        step = _pivoted_step(J, F) if pivoted else _min_norm_solve(J, -F, 1e-13)
+        if pivoted:
+            step = _pivoted_step(J, F)
+        elif cod:
+            step = cod_min_norm_solve(J, -F, 1e-13)
+        else:
+            step = _min_norm_solve(J, -F, 1e-13)
         finite = True
         for a in range(step.size):
             if not np.isfinite(step[a]):
