@@ -70,7 +70,7 @@ TOLERANCES = (IMMOBILE_RTOL, TINY_NORMAL, DECOUPLED_RTOL, APPROACH_RTOL, WARM_RE
 
 
 @_jit
-def stronge_islands(Ja, v, v_free, G, active, icon, icoff, icol, icoloff, mu_all, last,
+def stronge_islands(Ja, vn_k, v_free, G, active, icon, icoff, icol, icoloff, mu_all, last,
                     tols, r, v_new, status):
     """For every island i (contacts ``icon[icoff[i]:icoff[i + 1]]``, rows of ``Ja`` (na, d,
     k), among the ``active`` contacts; coordinates ``icol[icoloff[i]:icoloff[i + 1]]``): the
@@ -79,7 +79,7 @@ def stronge_islands(Ja, v, v_free, G, active, icon, icoff, icol, icoloff, mu_all
     rest_velocity and the thresholds of :data:`TOLERANCES`, in that order.
 
     Returns ``(-1, 0, 0)``, doing nothing, on a step with an impact (some
-    ``J_n v < -rest_velocity``, v the step's start velocity). Else writes ``status[i]``:
+    ``vn_k < -rest_velocity``, ``vn_k`` (na,) the normal velocities at the step's start). Else writes ``status[i]``:
     ANSWERED (the impulse into ``r`` (na, d), ``v_free + G J^T pi`` into ``v_new`` on the
     island's coordinates), SEPARATING (no contact with v_n- < 0: no impulse, ``v_new`` left)
     or FULL (the law's full call decides; an island of one contact that may take an
@@ -87,13 +87,10 @@ def stronge_islands(Ja, v, v_free, G, active, icon, icoff, icol, icoloff, mu_all
     those). ``v_new`` holds ``v_free`` on entry."""
     rest_velocity, immobile_rtol, tiny_normal = tols[0], tols[1], tols[2]
     decoupled_rtol, approach_rtol, warm_residual, kkt_rtol = tols[3], tols[4], tols[5], tols[6]
-    na, d, k = Ja.shape[0], Ja.shape[1], Ja.shape[2]
+    d = Ja.shape[1]
     full, done, largest = 0, 0, 0
-    for c in range(na):
-        acc = 0.0
-        for e in range(k):
-            acc += Ja[c, 0, e] * v[e]
-        if acc < -rest_velocity:
+    for c in range(vn_k.shape[0]):
+        if vn_k[c] < -rest_velocity:
             return -1, 0, 0
     n_isl = icoff.shape[0] - 1
     for i in range(n_isl):
@@ -277,7 +274,7 @@ class StrongeIslands:
         v_new = st.v_free.copy()
         self.tols[0] = solver.rest_velocity
         G = np.ascontiguousarray(st.inv.G)
-        full, done, largest = stronge_islands(Ja, st.v, st.v_free, G, active, icon,
+        full, done, largest = stronge_islands(Ja, st.vn_k, st.v_free, G, active, icon,
                                               icoff, icol, icoloff, self.mu, self.last,
                                               self.tols, r, v_new, status)
         if full < 0:
