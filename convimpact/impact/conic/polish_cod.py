@@ -160,6 +160,60 @@ def cod_min_norm_solve(A, y, rcond):
 
 
 @_jit_internal
+def _trailing_basis(R, r):
+    """``Z[:, r:]`` of ``[R11 R12]^T = Z S`` (the first r rows of R, n columns): the
+    Householder reflections of that QR applied to ``[0; I]`` in reverse order, without
+    forming Z."""
+    n = R.shape[1]
+    T = np.empty((n, r))
+    for i in range(r):
+        for j in range(n):
+            T[j, i] = R[i, j]
+    V = np.zeros((r, n))
+    beta = np.zeros(r)
+    for k in range(r):
+        alpha = 0.0
+        for i in range(k, n):
+            alpha += T[i, k] * T[i, k]
+        alpha = np.sqrt(alpha)
+        if alpha == 0.0:
+            continue
+        if T[k, k] > 0.0:
+            alpha = -alpha
+        vn = 0.0
+        for i in range(k, n):
+            V[k, i] = T[i, k]
+        V[k, k] -= alpha
+        for i in range(k, n):
+            vn += V[k, i] * V[k, i]
+        if vn == 0.0:
+            continue
+        f = 2.0 / vn
+        beta[k] = f
+        for j in range(k, r):
+            s = 0.0
+            for i in range(k, n):
+                s += V[k, i] * T[i, j]
+            s *= f
+            for i in range(k, n):
+                T[i, j] -= s * V[k, i]
+    E = np.zeros((n, n - r))
+    for a in range(n - r):
+        E[r + a, a] = 1.0
+    for k in range(r - 1, -1, -1):
+        if beta[k] == 0.0:
+            continue
+        for a in range(n - r):
+            s = 0.0
+            for i in range(k, n):
+                s += V[k, i] * E[i, a]
+            s *= beta[k]
+            for i in range(k, n):
+                E[i, a] -= s * V[k, i]
+    return E
+
+
+@_jit_internal
 def cod_null_space(A, rcond):
     """An orthonormal basis (n, n - r) of the null space of ``A`` (m, n), the rank r cut at
     ``|R_kk| <= rcond |R_00|`` (see the module docstring)."""
@@ -173,10 +227,10 @@ def cod_null_space(A, rcond):
         for j in range(n):
             N[j, j] = 1.0
         return N
-    Z, _ = _right_factor(R, r)
+    B = _trailing_basis(R, r)
     for j in range(n):
         for a in range(n - r):
-            N[perm[j], a] = Z[j, r + a]
+            N[perm[j], a] = B[j, a]
     return N
 
 

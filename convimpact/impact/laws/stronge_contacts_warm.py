@@ -39,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
+from ...compiled import jit_internal as _jit_internal
 from ..conic.polish_cod import cod_null_space
 from ..conic.polish_newton import (BND, POLISH_MAX_NEWTON, TINY, _matmat, _matvec,
                                    active_set_jacobian, active_set_newton, primary_kinds)
@@ -81,6 +82,20 @@ def _coulomb_residual(W, b, mu, d, pi):
                 dot += pi[o + a] * u[o + a]
             r = max(r, abs(dot) / (ps * vsi))
     return r
+
+
+@_jit_internal
+def _times_sparse(A, B):
+    """A B for a B mostly zero (``dx/du``: at most three entries per column), the sums in
+    :func:`~convimpact.impact.conic.polish_newton._matmat`'s order."""
+    out = np.zeros((A.shape[0], B.shape[1]))
+    for k in range(B.shape[0]):
+        for c in range(B.shape[1]):
+            b = B[k, c]
+            if b != 0.0:
+                for r in range(A.shape[0]):
+                    out[r, c] += A[r, k] * b
+    return out
 
 
 @_jit
@@ -136,8 +151,8 @@ def warm_compression(W, b, mu, d, prev, fast=False):
     if fast and J.shape[1] > 0:
         V = cod_null_space(J, NULL_RTOL)
         if V.shape[1] > 0:
-            dv = _matmat(Wu, Jx)
-            moved = np.max(np.abs(_matmat(dv, V)))
+            dv = _times_sparse(Wu, Jx)
+            moved = np.max(np.abs(_matmat(Wu, _matmat(Jx, V))))
             status = REDUNDANT if moved <= STILL_RTOL * max(np.max(np.abs(dv)), TINY) \
                 else MOVING
     elif J.shape[1] > 0:
