@@ -70,8 +70,8 @@ TOLERANCES = (IMMOBILE_RTOL, TINY_NORMAL, DECOUPLED_RTOL, APPROACH_RTOL, WARM_RE
 
 
 @_jit
-def stronge_islands(Ja, vn_k, v_free, G, active, icon, icoff, icol, icoloff, mu_all, last,
-                    tols, r, v_new, status):
+def stronge_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, icol,
+                    icoloff, mu_all, last, tols, r, v_new, status):
     """For every island i (contacts ``icon[icoff[i]:icoff[i + 1]]``, rows of ``Ja`` (na, d,
     k), among the ``active`` contacts; coordinates ``icol[icoloff[i]:icoloff[i + 1]]``): the
     law's answer with every e = 0 where the module docstring's checks hold, from the start
@@ -79,7 +79,10 @@ def stronge_islands(Ja, vn_k, v_free, G, active, icon, icoff, icol, icoloff, mu_
     rest_velocity and the thresholds of :data:`TOLERANCES`, in that order.
 
     Returns ``(-1, 0, 0)``, doing nothing, on a step with an impact (some
-    ``vn_k < -rest_velocity``, ``vn_k`` (na,) the normal velocities at the step's start). Else writes ``status[i]``:
+    ``vn_k < -rest_velocity``, ``vn_k`` (na,) the normal velocities at the step's start), and
+    ``(-2, 0, 0)`` when the islands were laid out for other contacts: ``active`` is not
+    ``ref_active`` or the coordinates each contact moves (``Ja``'s nonzero columns) are not
+    ``ref_moves`` (na, k). Else writes ``status[i]``:
     ANSWERED (the impulse into ``r`` (na, d), ``v_free + G J^T pi`` into ``v_new`` on the
     island's coordinates), SEPARATING (no contact with v_n- < 0: no impulse, ``v_new`` left)
     or FULL (the law's full call decides; an island of one contact that may take an
@@ -92,6 +95,18 @@ def stronge_islands(Ja, vn_k, v_free, G, active, icon, icoff, icol, icoloff, mu_
     for c in range(vn_k.shape[0]):
         if vn_k[c] < -rest_velocity:
             return -1, 0, 0
+    if ref_active.shape[0] != Ja.shape[0]:
+        return -2, 0, 0
+    for c in range(Ja.shape[0]):
+        if active[c] != ref_active[c]:
+            return -2, 0, 0
+        for e in range(Ja.shape[2]):
+            moves = False
+            for a in range(d):
+                if Ja[c, a, e] != 0.0:
+                    moves = True
+            if moves != ref_moves[c, e]:
+                return -2, 0, 0
     n_isl = icoff.shape[0] - 1
     for i in range(n_isl):
         c0, c1 = icoff[i], icoff[i + 1]
@@ -212,7 +227,9 @@ class StrongeIslands:
         self.mu = np.array([float(mech.contact_parameters(c)[1]) for c in mech.contact_names])
         self.last: np.ndarray | None = None  # (n_contacts, d), allocated on first use
         self.answered = 0  # island steps answered here (SEPARATING ones not counted)
-        self._layout = (None, None)  # (islands list, flat layout)
+        #: the islands' flat layout (see _relayout) and the coordinate groups it holds for
+        self._flat: tuple | None = None
+        self._groups = None
         self._pending = None  # (step index, answer) of a step answered in part
         self.tols = np.array([0.0, *TOLERANCES])
 
@@ -229,16 +246,17 @@ class StrongeIslands:
             return None
         return cls(mech)
 
-    def _flat(self, islands, active, d):
-        """The flat layout of the islands (reused while ``islands`` is the same object:
-        :meth:`.moreau_impact.ImpactSolver._islands` keeps it). On a new layout, an island
-        of several contacts none of which has an impulse of its own yet takes the law's
-        memory as its start (:data:`~convimpact.impact.laws.stronge_contacts._WARM`: the last
-        compression of a problem of the same kind, the start its full call would try
-        first)."""
-        last, flat = self._layout
-        if islands is last:
-            return flat
+    def _relayout(self, solver, st) -> None:
+        """The step's islands (:meth:`.moreau_impact.ImpactSolver._islands`) laid out flat
+        for :func:`stronge_islands`, with the contacts and the coordinates they move that
+        the layout holds for. On a new layout, an island of several contacts none of which
+        has an impulse of its own yet takes the law's memory as its start
+        (:data:`~convimpact.impact.laws.stronge_contacts._WARM`: the last compression of a
+        problem of the same kind, the start its full call would try first)."""
+        active, Ja = st.active, st.Ja
+        d = Ja.shape[1]
+        moves = (Ja != 0.0).any(axis=1)
+        islands, _ = solver._islands(moves, st.inv.groups, None, active)
         for cs, _ in islands:
             g = active[cs]
             if cs.size > 1 and not self.last[g].any():
@@ -253,9 +271,9 @@ class StrongeIslands:
 
         icon, icoff = cat([cs for cs, _ in islands])
         icol, icoloff = cat([cols for _, cols in islands])
-        flat = (icon, icoff, icol, icoloff, np.zeros(len(islands), dtype=np.int64))
-        self._layout = (islands, flat)
-        return flat
+        self._flat = (np.array(active, dtype=np.int64), moves, icon, icoff, icol, icoloff,
+                      np.zeros(len(islands), dtype=np.int64))
+        self._groups = st.inv.groups
 
     def solve(self, solver, st):
         """``(v_{k+1}, sigma)`` of a step without an impact whose islands are all answered
@@ -265,18 +283,25 @@ class StrongeIslands:
         self._pending = None
         active, Ja = st.active, st.Ja
         na, d = Ja.shape[0], Ja.shape[1]
-        moves = (Ja != 0.0).any(axis=1)
-        islands, _ = solver._islands(moves, st.inv.groups, None, active)
         if self.last is None or self.last.shape[1] != d:
             self.last = np.zeros((self.n_contacts, d))
-        icon, icoff, icol, icoloff, status = self._flat(islands, active, d)
         r = np.zeros((na, d))
         v_new = st.v_free.copy()
         self.tols[0] = solver.rest_velocity
         G = np.ascontiguousarray(st.inv.G)
-        full, done, largest = stronge_islands(Ja, st.vn_k, st.v_free, G, active, icon,
-                                              icoff, icol, icoloff, self.mu, self.last,
-                                              self.tols, r, v_new, status)
+        vn_k = getattr(st, "vn_k", None)  # the predictor's J_n v_k (a hand-made step: none)
+        if vn_k is None:
+            vn_k = np.ascontiguousarray(Ja[:, 0, :] @ st.v)
+        for _ in range(2):  # the second call after a new layout of the islands
+            if st.inv.groups is not self._groups:
+                self._relayout(solver, st)
+            ref_active, ref_moves, icon, icoff, icol, icoloff, status = self._flat
+            full, done, largest = stronge_islands(
+                Ja, vn_k, st.v_free, G, active, ref_active, ref_moves, icon, icoff, icol,
+                icoloff, self.mu, self.last, self.tols, r, v_new, status)
+            if full != -2:
+                break
+            self._relayout(solver, st)
         if full < 0:
             return None
         if done:

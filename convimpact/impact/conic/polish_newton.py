@@ -459,6 +459,8 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
     best_u = u.copy()
     f0 = 0.0
     prev = np.inf
+    # the best iterate's residual, x and G, kept (the final check reads them)
+    best_F, best_x, best_G = np.zeros(0), np.zeros(0), np.zeros(0)
     for it in range(max_iter):
         F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows,
                                n_eq, n_prim, X0, near, scales)
@@ -468,6 +470,7 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
         if not have_best or fn < best_f:
             best_f = fn
             best_u = u.copy()
+            best_F, best_x, best_G = F, x, G
             have_best = True
         if fn <= 4.0 * EPS or (it >= 4 and best_f > 1e-6 * f0 and not damped):
             break  # converged, or not converging quadratically: wrong active set
@@ -497,8 +500,11 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
         for a in range(U):
             u[a] += t * step[a]
     u = best_u
-    F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
-                           n_prim, X0, near, scales)
+    if have_best:  # the residual at best_u, as evaluated there
+        F, x, G = best_F, best_x, best_G
+    else:
+        F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows,
+                               n_eq, n_prim, X0, near, scales)
     if not _absmax(F) <= POLISH_ACCEPT:
         return x0.copy(), False
     V = max(qmax, _absmax(_matvec(W, x)), TINY)
