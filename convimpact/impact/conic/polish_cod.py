@@ -30,6 +30,40 @@ from ...compiled import jit_internal as _jit_internal
 
 
 @_jit_internal
+def _reflect(R, k, v):
+    """The Householder reflection zeroing ``R[k+1:, k]``: its vector into ``v[k:]``, applied
+    to the columns k.. of R; returns ``2 / |v|^2`` (0 when the column is already zero)."""
+    m, n = R.shape
+    alpha = 0.0
+    for i in range(k, m):
+        alpha += R[i, k] * R[i, k]
+    alpha = np.sqrt(alpha)
+    if alpha == 0.0:
+        return 0.0
+    if R[k, k] > 0.0:
+        alpha = -alpha
+    for i in range(k, m):
+        v[i] = R[i, k]
+    v[k] -= alpha
+    vn = 0.0
+    for i in range(k, m):
+        vn += v[i] * v[i]
+    if vn == 0.0:
+        return 0.0
+    f = 2.0 / vn
+    for j in range(k, n):
+        s = 0.0
+        for i in range(k, m):
+            s += v[i] * R[i, j]
+        s *= f
+        for i in range(k, m):
+            R[i, j] -= s * v[i]
+    for i in range(k + 1, m):
+        R[i, k] = 0.0
+    return f
+
+
+@_jit_internal
 def householder_qr(A, pivot, want_q=True):
     """``A[:, perm] = Q R`` (A (m, n)): Q (m, m) orthogonal (explicit; the identity unless
     ``want_q``), R (m, n) upper triangular, perm the column order (the largest remaining
@@ -57,33 +91,8 @@ def householder_qr(A, pivot, want_q=True):
                 for i in range(m):
                     R[i, k], R[i, p] = R[i, p], R[i, k]
                 perm[k], perm[p] = perm[p], perm[k]
-        alpha = 0.0
-        for i in range(k, m):
-            alpha += R[i, k] * R[i, k]
-        alpha = np.sqrt(alpha)
-        if alpha == 0.0:
-            continue
-        if R[k, k] > 0.0:
-            alpha = -alpha
-        vn = 0.0
-        for i in range(k, m):
-            v[i] = R[i, k]
-        v[k] -= alpha
-        for i in range(k, m):
-            vn += v[i] * v[i]
-        if vn == 0.0:
-            continue
-        f = 2.0 / vn
-        for j in range(k, n):
-            s = 0.0
-            for i in range(k, m):
-                s += v[i] * R[i, j]
-            s *= f
-            for i in range(k, m):
-                R[i, j] -= s * v[i]
-        for i in range(k + 1, m):
-            R[i, k] = 0.0
-        if not want_q:
+        f = _reflect(R, k, v)
+        if f == 0.0 or not want_q:
             continue
         for i in range(m):
             s = 0.0
@@ -172,31 +181,7 @@ def _trailing_basis(R, r):
     V = np.zeros((r, n))
     beta = np.zeros(r)
     for k in range(r):
-        alpha = 0.0
-        for i in range(k, n):
-            alpha += T[i, k] * T[i, k]
-        alpha = np.sqrt(alpha)
-        if alpha == 0.0:
-            continue
-        if T[k, k] > 0.0:
-            alpha = -alpha
-        vn = 0.0
-        for i in range(k, n):
-            V[k, i] = T[i, k]
-        V[k, k] -= alpha
-        for i in range(k, n):
-            vn += V[k, i] * V[k, i]
-        if vn == 0.0:
-            continue
-        f = 2.0 / vn
-        beta[k] = f
-        for j in range(k, r):
-            s = 0.0
-            for i in range(k, n):
-                s += V[k, i] * T[i, j]
-            s *= f
-            for i in range(k, n):
-                T[i, j] -= s * V[k, i]
+        beta[k] = _reflect(T, k, V[k])
     E = np.zeros((n, n - r))
     for a in range(n - r):
         E[r + a, a] = 1.0
