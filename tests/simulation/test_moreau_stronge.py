@@ -143,3 +143,38 @@ def test_cod_against_the_svd(shape):
     assert np.allclose(N.T @ N, np.eye(n - r), atol=1e-12)
     V = np.linalg.svd(A)[2][r:].T
     assert np.allclose(N @ N.T, V @ V.T, atol=1e-10)
+
+
+@pytest.mark.parametrize("spin", [0.0, 2.0])
+def test_fast_warm_start_decides_as_the_svd(spin, monkeypatch):
+    """warm_compression's fast mode (COD, kappa eliminated, the family test skipped without
+    a boundary contact) against its SVD mode on the law's own problems and starts along a
+    run (a box sliding, and sliding while it spins: a family of motions)."""
+    from convimpact.impact.laws.stronge_contacts_warm import (MOVING, REDUNDANT, STILL,
+                                                              UNIQUE, warm_compression)
+
+    seen = []
+    law_warm = stronge_contacts._warm_plastic
+
+    def spy(P, opts):
+        starts = [s.copy() for s in stronge_contacts._WARM.get(stronge_contacts._warm_key(P), [])]
+        seen.append((P, starts))
+        return law_warm(P, opts)
+
+    monkeypatch.setattr(stronge_contacts, "_warm_plastic", spy)
+    mech, q, v = box_row(1, True)
+    v[5] = spin
+    _run(mech, q, v, 0.1, False, monkeypatch)
+    kinds = set()
+    for P, starts in seen:
+        W = np.ascontiguousarray(P.delassus)
+        b = np.ascontiguousarray(P.v_minus).ravel()
+        mu = np.ascontiguousarray(P.friction, dtype=float)
+        for start in starts:
+            fast, svd = (warm_compression(W, b, mu, 3, start, flag) for flag in (True, False))
+            kinds.add(int(svd[0]))
+            # STILL (no boundary contact: not told apart) stands for UNIQUE or REDUNDANT
+            assert fast[0] == svd[0] or (fast[0] == STILL and svd[0] in (UNIQUE, REDUNDANT))
+            if svd[0] in (UNIQUE, REDUNDANT):
+                assert np.max(np.abs(W @ (fast[1] - svd[1]))) <= 1e-12 * np.max(np.abs(b))
+    assert (MOVING in kinds) == (spin != 0.0)

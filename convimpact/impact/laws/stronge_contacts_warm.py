@@ -41,8 +41,9 @@ import numpy as np
 from ...compiled import jit as _jit
 from ...compiled import jit_internal as _jit_internal
 from ..conic.polish_cod import cod_null_space
-from ..conic.polish_newton import (BND, POLISH_MAX_NEWTON, TINY, _matmat, _matvec,
-                                   active_set_jacobian, active_set_newton, primary_kinds)
+from ..conic.polish_newton import (ACT, BND, INT, POLISH_MAX_NEWTON, TINY, _matmat,
+                                   _matvec, active_set_jacobian, active_set_newton,
+                                   primary_kinds)
 
 UNIQUE, REDUNDANT, MOVING, FAILED, STILL = 0, 1, 2, -1, 3
 #: singular values of the active set's Jacobian below this fraction of the largest: its null
@@ -98,6 +99,78 @@ def _times_sparse(A, B):
     return out
 
 
+@_jit_internal
+def _without_kappa(J, Jx, kind, d):
+    """J and dx/du without the boundary contacts' kappa (``fast``'s step 5): a boundary
+    contact's kappa enters only its tangential rows, along ``(c, s)`` (the column
+    ``(cos a, sin a) / sG``; in the plane the one tangential row), so the rows there are
+    turned by that unit vector (an orthogonal map) and the one along it, the only row with
+    kappa, is dropped with kappa's column. ``J v = 0`` then holds exactly when the reduced
+    rows vanish on v without kappa and kappa's component is the one that row fixes: the
+    null spaces have one dimension, and a family's velocities ``W dx/du v`` (kappa moves no
+    x) are the same. A kappa column without entries (not a boundary ray) keeps J whole."""
+    n = kind.size
+    m, U = J.shape
+    keep_r = np.ones(m, dtype=np.bool_)
+    keep_c = np.ones(U, dtype=np.bool_)
+    R = J.copy()
+    row = 0
+    col = 0
+    for i in range(n):
+        k = kind[i]
+        if k == BND:
+            kc = col + (2 if d == 3 else 1)
+            if d == 3:
+                a1, a2 = R[row + 1, kc], R[row + 2, kc]
+                h = np.sqrt(a1 * a1 + a2 * a2)
+                if h == 0.0:
+                    return J, Jx
+                c, s = a1 / h, a2 / h
+                for j in range(U):
+                    t1, t2 = R[row + 1, j], R[row + 2, j]
+                    R[row + 1, j] = -s * t1 + c * t2
+                    R[row + 2, j] = c * t1 + s * t2
+                keep_r[row + 2] = False
+            else:
+                if R[row + 1, kc] == 0.0:
+                    return J, Jx
+                keep_r[row + 1] = False
+            keep_c[kc] = False
+            row += d
+            col += 3 if d == 3 else 2
+        elif k == INT:
+            row += d
+            col += d
+        elif k == ACT:
+            row += 1
+            col += 1
+    mr, ur = 0, 0
+    for a in range(m):
+        if keep_r[a]:
+            mr += 1
+    for b in range(U):
+        if keep_c[b]:
+            ur += 1
+    Jr = np.empty((mr, ur))
+    Jxr = np.empty((Jx.shape[0], ur))
+    ia = 0
+    for a in range(m):
+        if keep_r[a]:
+            jb = 0
+            for b in range(U):
+                if keep_c[b]:
+                    Jr[ia, jb] = R[a, b]
+                    jb += 1
+            ia += 1
+    jb = 0
+    for b in range(U):
+        if keep_c[b]:
+            for a in range(Jx.shape[0]):
+                Jxr[a, jb] = Jx[a, b]
+            jb += 1
+    return Jr, Jxr
+
+
 @_jit
 def warm_compression(W, b, mu, d, prev, fast=False):
     """The warm-started plastic compression (see the module docstring; ``fast`` there):
@@ -149,10 +222,11 @@ def warm_compression(W, b, mu, d, prev, fast=False):
     J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, bool(True))
     status = UNIQUE
     if fast and J.shape[1] > 0:
-        V = cod_null_space(J, NULL_RTOL)
+        Jr, Jxr = _without_kappa(J, Jx, kind, d)
+        V = cod_null_space(Jr, NULL_RTOL)
         if V.shape[1] > 0:
-            dv = _times_sparse(Wu, Jx)
-            moved = np.max(np.abs(_matmat(Wu, _matmat(Jx, V))))
+            dv = _times_sparse(Wu, Jxr)
+            moved = np.max(np.abs(_matmat(Wu, _matmat(Jxr, V))))
             status = REDUNDANT if moved <= STILL_RTOL * max(np.max(np.abs(dv)), TINY) \
                 else MOVING
     elif J.shape[1] > 0:
