@@ -27,7 +27,9 @@ steps without an impact, :mod:`convimpact.simulation.moreau_stronge`) the linear
 takes the complete orthogonal decomposition of :mod:`convimpact.impact.conic.polish_cod`
 instead of the singular value decomposition (the Newton's minimum-norm steps, cut 1e-13, and
 the null space of step 5, cut :data:`NULL_RTOL`: the same steps and spaces wherever the rank
-is clear), and step 5 is skipped where no contact is on its cone's boundary: then the
+is clear); step 5 takes the Jacobian the Newton evaluated at its answer (not again at the
+start's tangent) without the boundary contacts' kappa (:func:`_without_kappa`), and is
+skipped where no contact is on its cone's boundary: then the
 unknowns are impulse components ``x_S = u`` (``dx/du`` the selection S), the equations the
 rows S of ``W x + b`` (no ``z`` term), so ``J = S^T W S`` (scaled) and a null vector v has
 ``v.J.v = |W^1/2 S v|^2 = 0``, i.e. ``W S v = 0``: every family moves no velocity, and the
@@ -41,8 +43,8 @@ import numpy as np
 from ...compiled import jit as _jit
 from ...compiled import jit_internal as _jit_internal
 from ..conic.polish_cod import cod_null_space
-from ..conic.polish_newton import (ACT, BND, INT, POLISH_MAX_NEWTON, TINY, _matmat,
-                                   _matvec, active_set_jacobian, active_set_newton,
+from ..conic.polish_newton import (ACT, BND, INT, POLISH_MAX_NEWTON, TINY, _layout, _matmat,
+                                   _matvec, _unpack, active_set_jacobian, newton_core,
                                    primary_kinds)
 
 UNIQUE, REDUNDANT, MOVING, FAILED, STILL = 0, 1, 2, -1, 3
@@ -205,8 +207,8 @@ def warm_compression(W, b, mu, d, prev, fast=False):
     # 3. Coulomb's conditions on that active set
     E = np.zeros((0, N))
     f = np.zeros(0)
-    y, ok = active_set_newton(Wu, qu, E, f, mu, d, kind, tang, y0, bool(True), bool(True),
-                              POLISH_MAX_NEWTON, False, False, fast)
+    y, ok, Jn, un = newton_core(Wu, qu, E, f, mu, d, kind, tang, y0, bool(True), bool(True),
+                                POLISH_MAX_NEWTON, False, False, fast)
     if not ok:
         return fail
     # 4. the certificate
@@ -219,7 +221,11 @@ def warm_compression(W, b, mu, d, prev, fast=False):
                 boundary = True
         if not boundary:
             return STILL, y * scale, resid
-    J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, bool(True))
+    if fast:  # the Jacobian at the answer's unknowns, as the Newton evaluated it
+        J = Jn
+        Jx = _unpack(un, kind, tang, mu, d, _layout(kind, d), bool(True), un.size)[2]
+    else:
+        J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, bool(True))
     status = UNIQUE
     if fast and J.shape[1] > 0:
         Jr, Jxr = _without_kappa(J, Jx, kind, d)
