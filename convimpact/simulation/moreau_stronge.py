@@ -33,7 +33,21 @@ law's full call makes on the way:
   the law may then take the exact single-contact integration) -> the full call;
 * the warm Newton not certified, a start of zeros, or the compression leaving a contact
   approaching by more than :data:`~convimpact.impact.laws.stronge_contacts.KKT_RTOL`
-  ``max |v-|`` (phase 3 would act), or a non-finite answer -> the full call.
+  ``max |v-|`` (phase 3 would act), or a non-finite answer -> the full call;
+* an island of one contact that may take an impulse -> the full call (the law's exact
+  single-contact integration).
+
+The warm start is the law's own, in its ``fast`` mode (:func:`~convimpact.impact.laws.
+stronge_contacts_warm.warm_compression`: a complete orthogonal decomposition instead of the
+SVD, the family test on the Newton's own Jacobian without the boundary contacts' kappa, none
+where no contact is on its cone's boundary): the same accept decisions wherever the ranks are
+clear (checked against the SVD mode in the tests), at a fraction of numba's SVD's cost.
+
+The islands are :meth:`.moreau_impact.ImpactSolver._islands`'; the compiled call checks that
+the step's active contacts and the coordinates each moves are the ones they were laid out
+for (else they are laid out again), and a new island none of whose contacts has an impulse
+of its own yet starts from the law's memory of the same kind of problem (the start its full
+call would try first).
 
 Answered islands take ``pi = pi_c`` (normals clipped at 0, as the law does) and
 ``v_{k+1} = v_free + G J^T pi`` on their coordinates: the law's answer, with the velocities
