@@ -115,6 +115,7 @@ from ..impact.laws.pn_complementarity_search import SlideWarmStart
 from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL, build_problem
 from .islands import contact_islands
 from .moreau_pn_kernels import STICK, certify_islands
+from .moreau_stronge import StrongeIslands
 from .result import ImpactEvent
 
 #: laws whose answer at contacts that all separate under v_free may still be an impulse
@@ -154,6 +155,8 @@ class ImpactSolver:
         self.calls = 0           # resolve_impact calls and direct law calls
         self.largest_island = 0  # contacts
         self.direct = law == DIRECT_LAW and method in DIRECT_METHODS
+        # law stronge's islands on steps without an impact: .moreau_stronge
+        self.stronge = StrongeIslands.applies(mech, law, method, self.options)
         self._direct_options = None
         self._last_islands = (None, b"", None, None)  # (groups, moves' bytes, islands, plan)
         #: islands (their contacts' bytes) certified sticking on every contact last step
@@ -303,6 +306,10 @@ class ImpactSolver:
 
     def solve(self, st) -> tuple[np.ndarray, np.ndarray]:
         """``(v_{k+1}, sigma)`` of the step ``st`` (:class:`.moreau_loop.Step`)."""
+        if self.stronge is not None:  # law stronge without an impact: .moreau_stronge
+            done = self.stronge.solve(self, st)
+            if done is not None:
+                return done
         active = np.asarray(st.active, dtype=np.int64)
         na = active.size
         # (read only below: no copies of the loop's arrays but v, kept by an ImpactEvent)
@@ -320,6 +327,8 @@ class ImpactSolver:
         # no contact approaching at the step's start: no ImpactEvent, only impulses needed
         direct = self.direct and not (vnk < -self.rest_velocity).any()
         certified = self._certify(st, plan, Ja, v_free, es, active) if direct else None
+        if self.stronge is not None:  # its islands answered by StrongeIslands.solve
+            certified = self.stronge.pending(st) or certified
         if certified is None:
             answered: set = set()
             v_new = v_free.copy()
@@ -390,6 +399,8 @@ class ImpactSolver:
                 self._note(st, r.diagnostics.notes)
         sigma = st.sigma + dsig if self.m else st.sigma
         self.impulse = impulse
+        if self.stronge is not None:
+            self.stronge.remember(active, impulse)
         hit = [] if direct else [i for i in range(na)
                                  if vnk[i] < -self.rest_velocity and impulse[i, 0] > 0.0]
         if hit:

@@ -24,6 +24,7 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ...compiled import jit_internal as _jit_internal
+from .polish_cod import cod_min_norm_solve
 
 TINY = 1e-300
 EPS = float(np.finfo(float).eps)
@@ -405,7 +406,7 @@ def _setup(W, q, E, mu, d, kind, tang, x0, coulomb):
 
 @_jit
 def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damped,
-                      pivoted):
+                      pivoted, cod=False):
     """Solve the KKT (``coulomb``: Coulomb's) equations of one active set from ``x0``.
 
     Parameters
@@ -432,26 +433,48 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
         singular J: redundant contacts); else by the singular value decomposition (the
         polish's, numpy's ``lstsq`` with ``rcond`` 1e-13). Either way the answer is accepted
         on its residual and sign conditions, never on how it was reached.
+    cod : bool
+        Unpivoted steps by the complete orthogonal decomposition instead of the singular
+        value decomposition (:func:`~.polish_cod.cod_min_norm_solve`, the same cut 1e-13 on
+        its pivots: the same minimum-norm steps wherever the rank is clear, at a fraction of
+        the cost), stopping as the pivoted steps do once the residual is accepted and stalls
+        (else a singular J's round-off, above 4 eps, runs every iteration).
 
     Returns
     -------
     x, consistent
         The solution (``x0`` when it is not accepted) and whether it was accepted.
     """
+    x, ok, _, _ = newton_core(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter,
+                              damped, pivoted, cod)
+    return x, ok
+
+
+@_jit_internal
+def newton_core(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damped, pivoted,
+                cod):
+    """:func:`active_set_newton` with the scaled Jacobian of the active set's equations at
+    the answer's unknowns and those unknowns: (x, accepted, J, u); J and u are empty unless
+    the Newton ran (the family of solutions through x: the null space of J,
+    :mod:`convimpact.impact.laws.stronge_contacts_warm`)."""
     n = mu.size
     N = n * d
     start, n_prim, U, X0, u, eq_rows, n_eq = _setup(W, q, E, mu, d, kind, tang, x0, coulomb)
     wmax = _absmax(W)
     qmax = _absmax(q)
     scales = np.array([qmax, wmax, _absmax(f), _absmax(E)])
+    none = np.zeros((0, 0))
     if U == 0:
         x = np.zeros(N)
-        return x, _consistent(W, q, mu, d, kind, start, x, q.copy(), u, coulomb, qmax, wmax)
+        return (x, _consistent(W, q, mu, d, kind, start, x, q.copy(), u, coulomb, qmax, wmax),
+                none, u)
     best_f = 0.0
     have_best = False
     best_u = u.copy()
     f0 = 0.0
     prev = np.inf
+    # the best iterate's residual, x and G, kept (the final check reads them)
+    best_F, best_x, best_G, best_J = np.zeros(0), np.zeros(0), np.zeros(0), none
     for it in range(max_iter):
         F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows,
                                n_eq, n_prim, X0, near, scales)
@@ -461,13 +484,19 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
         if not have_best or fn < best_f:
             best_f = fn
             best_u = u.copy()
+            best_F, best_x, best_G, best_J = F, x, G, J
             have_best = True
         if fn <= 4.0 * EPS or (it >= 4 and best_f > 1e-6 * f0 and not damped):
             break  # converged, or not converging quadratically: wrong active set
-        if pivoted and it > 0 and fn <= POLISH_ACCEPT and fn > 0.25 * prev:
+        if (pivoted or cod) and it > 0 and fn <= POLISH_ACCEPT and fn > 0.25 * prev:
             break  # at round-off and no longer falling (a singular J: redundant contacts)
         prev = fn
-        step = _pivoted_step(J, F) if pivoted else _min_norm_solve(J, -F, 1e-13)
+        if pivoted:
+            step = _pivoted_step(J, F)
+        elif cod:
+            step = cod_min_norm_solve(J, -F, 1e-13)
+        else:
+            step = _min_norm_solve(J, -F, 1e-13)
         finite = True
         for a in range(step.size):
             if not np.isfinite(step[a]):
@@ -485,21 +514,24 @@ def active_set_newton(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter
         for a in range(U):
             u[a] += t * step[a]
     u = best_u
-    F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
-                           n_prim, X0, near, scales)
+    if have_best:  # the residual at best_u, as evaluated there
+        F, x, G, J = best_F, best_x, best_G, best_J
+    else:
+        F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows,
+                               n_eq, n_prim, X0, near, scales)
     if not _absmax(F) <= POLISH_ACCEPT:
-        return x0.copy(), False
+        return x0.copy(), False, none, u
     V = max(qmax, _absmax(_matvec(W, x)), TINY)
     for a in range(N):
         if eq_rows[a] and not abs(G[a]) <= VELOCITY_RESIDUAL_MAX * V:
-            return x0.copy(), False
+            return x0.copy(), False, none, u
     if not _consistent(W, q, mu, d, kind, start, x, G, u, coulomb, qmax, wmax):
-        return x0.copy(), False
+        return x0.copy(), False, none, u
     if near:
         for a in range(N):
             if abs(x[a] - x0[a]) > 1e-2 * X0:
-                return x0.copy(), False
-    return x, True
+                return x0.copy(), False, none, u
+    return x, True, J, u
 
 
 @_jit
@@ -515,5 +547,6 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
     return J, Jx
 
 
-__all__ = ["active_set_newton", "active_set_jacobian", "primary_kinds", "ZERO", "ACT", "INT", "BND",
-           "POLISH_MAX_NEWTON", "DAMPED_MAX_NEWTON", "POLISH_ACCEPT", "VELOCITY_RESIDUAL_MAX"]
+__all__ = ["active_set_newton", "newton_core", "active_set_jacobian", "primary_kinds", "ZERO",
+           "ACT", "INT", "BND", "POLISH_MAX_NEWTON", "DAMPED_MAX_NEWTON", "POLISH_ACCEPT",
+           "VELOCITY_RESIDUAL_MAX"]

@@ -258,7 +258,7 @@ def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):
     b = np.ascontiguousarray(P.v_minus, dtype=float).ravel()
     plastic_only = not np.any(P.restitution != 0.0)
     for j, prev in enumerate(starts):
-        status, pi, resid = warm_compression(W, b, mu, d, prev)
+        status, pi, resid = warm_compression(W, b, mu, d, prev, False)
         if not resid <= WARM_RESIDUAL:
             continue
         if not (status == UNIQUE or (status == REDUNDANT and plastic_only)):

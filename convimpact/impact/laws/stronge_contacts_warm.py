@@ -21,6 +21,19 @@ From the previous compression ``prev`` of as many contacts, on the problem ``u =
 Returns ``(status, pi, residual)``: status :data:`UNIQUE` (locally unique), :data:`REDUNDANT`
 (a family of impulses with the same velocities) or :data:`MOVING` (a family of motions),
 or :data:`FAILED` (not certified: pi is zero, the caller takes the fixed point).
+
+With ``fast`` (for a caller that accepts UNIQUE and REDUNDANT alike: every e = 0, Moreau--Jean's
+steps without an impact, :mod:`convimpact.simulation.moreau_stronge`) the linear algebra
+takes the complete orthogonal decomposition of :mod:`convimpact.impact.conic.polish_cod`
+instead of the singular value decomposition (the Newton's minimum-norm steps, cut 1e-13, and
+the null space of step 5, cut :data:`NULL_RTOL`: the same steps and spaces wherever the rank
+is clear); step 5 takes the Jacobian the Newton evaluated at its answer (not again at the
+start's tangent) without the boundary contacts' kappa (:func:`_without_kappa`), and is
+skipped where no contact is on its cone's boundary: then the
+unknowns are impulse components ``x_S = u`` (``dx/du`` the selection S), the equations the
+rows S of ``W x + b`` (no ``z`` term), so ``J = S^T W S`` (scaled) and a null vector v has
+``v.J.v = |W^1/2 S v|^2 = 0``, i.e. ``W S v = 0``: every family moves no velocity, and the
+status is :data:`STILL` (UNIQUE or REDUNDANT, not told apart).
 """
 
 from __future__ import annotations
@@ -28,10 +41,13 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
-from ..conic.polish_newton import (POLISH_MAX_NEWTON, TINY, _matmat, _matvec,
-                                   active_set_jacobian, active_set_newton, primary_kinds)
+from ...compiled import jit_internal as _jit_internal
+from ..conic.polish_cod import cod_null_space
+from ..conic.polish_newton import (ACT, BND, INT, POLISH_MAX_NEWTON, TINY, _layout, _matmat,
+                                   _matvec, _unpack, active_set_jacobian, newton_core,
+                                   primary_kinds)
 
-UNIQUE, REDUNDANT, MOVING, FAILED = 0, 1, 2, -1
+UNIQUE, REDUNDANT, MOVING, FAILED, STILL = 0, 1, 2, -1, 3
 #: singular values of the active set's Jacobian below this fraction of the largest: its null
 #: space (the family of solutions)
 NULL_RTOL = 1e-9
@@ -71,10 +87,96 @@ def _coulomb_residual(W, b, mu, d, pi):
     return r
 
 
+@_jit_internal
+def _times_sparse(A, B):
+    """A B for a B mostly zero (``dx/du``: at most three entries per column), the sums in
+    :func:`~convimpact.impact.conic.polish_newton._matmat`'s order."""
+    out = np.zeros((A.shape[0], B.shape[1]))
+    for k in range(B.shape[0]):
+        for c in range(B.shape[1]):
+            b = B[k, c]
+            if b != 0.0:
+                for r in range(A.shape[0]):
+                    out[r, c] += A[r, k] * b
+    return out
+
+
+@_jit_internal
+def _without_kappa(J, Jx, kind, d):
+    """J and dx/du without the boundary contacts' kappa (``fast``'s step 5): a boundary
+    contact's kappa enters only its tangential rows, along ``(c, s)`` (the column
+    ``(cos a, sin a) / sG``; in the plane the one tangential row), so the rows there are
+    turned by that unit vector (an orthogonal map) and the one along it, the only row with
+    kappa, is dropped with kappa's column. ``J v = 0`` then holds exactly when the reduced
+    rows vanish on v without kappa and kappa's component is the one that row fixes: the
+    null spaces have one dimension, and a family's velocities ``W dx/du v`` (kappa moves no
+    x) are the same. A kappa column without entries (not a boundary ray) keeps J whole."""
+    n = kind.size
+    m, U = J.shape
+    keep_r = np.ones(m, dtype=np.bool_)
+    keep_c = np.ones(U, dtype=np.bool_)
+    R = J.copy()
+    row = 0
+    col = 0
+    for i in range(n):
+        k = kind[i]
+        if k == BND:
+            kc = col + (2 if d == 3 else 1)
+            if d == 3:
+                a1, a2 = R[row + 1, kc], R[row + 2, kc]
+                h = np.sqrt(a1 * a1 + a2 * a2)
+                if h == 0.0:
+                    return J, Jx
+                c, s = a1 / h, a2 / h
+                for j in range(U):
+                    t1, t2 = R[row + 1, j], R[row + 2, j]
+                    R[row + 1, j] = -s * t1 + c * t2
+                    R[row + 2, j] = c * t1 + s * t2
+                keep_r[row + 2] = False
+            else:
+                if R[row + 1, kc] == 0.0:
+                    return J, Jx
+                keep_r[row + 1] = False
+            keep_c[kc] = False
+            row += d
+            col += 3 if d == 3 else 2
+        elif k == INT:
+            row += d
+            col += d
+        elif k == ACT:
+            row += 1
+            col += 1
+    mr, ur = 0, 0
+    for a in range(m):
+        if keep_r[a]:
+            mr += 1
+    for b in range(U):
+        if keep_c[b]:
+            ur += 1
+    Jr = np.empty((mr, ur))
+    Jxr = np.empty((Jx.shape[0], ur))
+    ia = 0
+    for a in range(m):
+        if keep_r[a]:
+            jb = 0
+            for b in range(U):
+                if keep_c[b]:
+                    Jr[ia, jb] = R[a, b]
+                    jb += 1
+            ia += 1
+    jb = 0
+    for b in range(U):
+        if keep_c[b]:
+            for a in range(Jx.shape[0]):
+                Jxr[a, jb] = Jx[a, b]
+            jb += 1
+    return Jr, Jxr
+
+
 @_jit
-def warm_compression(W, b, mu, d, prev):
-    """The warm-started plastic compression (see the module docstring): (status, pi,
-    Coulomb residual on the equilibrated program)."""
+def warm_compression(W, b, mu, d, prev, fast=False):
+    """The warm-started plastic compression (see the module docstring; ``fast`` there):
+    (status, pi, Coulomb residual on the equilibrated program)."""
     n = mu.size
     N = n * d
     fail = (FAILED, np.zeros(N), np.inf)
@@ -105,16 +207,35 @@ def warm_compression(W, b, mu, d, prev):
     # 3. Coulomb's conditions on that active set
     E = np.zeros((0, N))
     f = np.zeros(0)
-    y, ok = active_set_newton(Wu, qu, E, f, mu, d, kind, tang, y0, bool(True), bool(True),
-                              POLISH_MAX_NEWTON, False, False)
+    y, ok, Jn, un = newton_core(Wu, qu, E, f, mu, d, kind, tang, y0, bool(True), bool(True),
+                                POLISH_MAX_NEWTON, False, False, fast)
     if not ok:
         return fail
     # 4. the certificate
     resid = _coulomb_residual(Wu, qu, mu, d, y)
     # 5. the family of solutions through y
-    J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, bool(True))
+    if fast:
+        boundary = False
+        for i in range(n):
+            if kind[i] == BND:
+                boundary = True
+        if not boundary:
+            return STILL, y * scale, resid
+    if fast:  # the Jacobian at the answer's unknowns, as the Newton evaluated it
+        J = Jn
+        Jx = _unpack(un, kind, tang, mu, d, _layout(kind, d), bool(True), un.size)[2]
+    else:
+        J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, bool(True))
     status = UNIQUE
-    if J.shape[1] > 0:
+    if fast and J.shape[1] > 0:
+        Jr, Jxr = _without_kappa(J, Jx, kind, d)
+        V = cod_null_space(Jr, NULL_RTOL)
+        if V.shape[1] > 0:
+            dv = _times_sparse(Wu, Jxr)
+            moved = np.max(np.abs(_matmat(Wu, _matmat(Jxr, V))))
+            status = REDUNDANT if moved <= STILL_RTOL * max(np.max(np.abs(dv)), TINY) \
+                else MOVING
+    elif J.shape[1] > 0:
         _, sv, Vt = np.linalg.svd(J)
         top = sv[0] if sv.size else 0.0
         rank = 0
@@ -129,4 +250,4 @@ def warm_compression(W, b, mu, d, prev):
     return status, y * scale, resid
 
 
-__all__ = ["warm_compression", "UNIQUE", "REDUNDANT", "MOVING", "FAILED"]
+__all__ = ["warm_compression", "UNIQUE", "REDUNDANT", "MOVING", "FAILED", "STILL"]
