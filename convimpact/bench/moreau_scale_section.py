@@ -11,7 +11,9 @@ islands certified at the natural-map residual 1e-8, warm starts and islands on; 
 (pereira-nikravesh: the law's impulse directly on steps without an impact, resting islands
 answered by the certificate of the law's answer after the first step of their resting mode,
 sliding islands by the law's search in one compiled call, warm-started, without the
-dominated active sets after the first step of their sliding mode),
+dominated active sets after the first step of their sliding mode; stronge: on steps without
+an impact every island's warm-started compression in one compiled call,
+:mod:`convimpact.simulation.moreau_stronge`),
 :mod:`convimpact.simulation.moreau_impact`); MuJoCo: its default solver and soft contact,
 elliptic cones, Euler, the same h (2 ms, MuJoCo's default). ``chatterjee-ruina`` is tried on
 the smallest row and its refusal reported (the law is defined per contact and refuses a box's
@@ -97,11 +99,12 @@ OTHER_SPAN = 0.04
 QUICK_OTHER_SPAN = 0.02
 OTHER_REPEATS = 1
 #: ... except where a law is cheap enough for a longer span and a median (quick runs: 1 run)
-OTHER_SPANS = {"pereira-nikravesh": 0.1}
-#: ... and at rest, where pereira-nikravesh's resting islands take the certificate (the
-#: engine laws' span: the first step's search of each island counted over as many steps)
-OTHER_REST_SPANS = {"pereira-nikravesh": SPAN}
-OTHER_REPEATS_BY_LAW = {"pereira-nikravesh": 3}
+OTHER_SPANS = {"pereira-nikravesh": 0.1, "stronge": 0.2}
+#: ... and at rest, where pereira-nikravesh's resting islands take the certificate and
+#: stronge's the warm-started compression in one compiled call (the engine laws' span: the
+#: first step's search of each island counted over as many steps)
+OTHER_REST_SPANS = {"pereira-nikravesh": SPAN, "stronge": SPAN}
+OTHER_REPEATS_BY_LAW = {"pereira-nikravesh": 3, "stronge": 3}
 #: steps of the untimed warm-up run of each of those laws
 WARM_STEPS = 25
 #: the pile's law and certificate tolerance (see the summary)
@@ -305,7 +308,9 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
                                     "the law's impulse directly on steps without an impact, "
                                     "resting islands by the certificate of its answer, "
                                     "sliding islands by its compiled search, pruned of the "
-                                    "dominated active sets)")):
+                                    "dominated active sets; stronge: every island's "
+                                    "warm-started compression in one compiled call on steps "
+                                    "without an impact)")):
         ratios = [t["ratio"] for t in table if t["ratio"] and t["law"] in laws]
         summary.append(
             f"moreau-scale: Moreau–Jean {what}, laws {', '.join(laws)}, against MuJoCo at "
