@@ -14,6 +14,10 @@ sparse) is :mod:`.ccp_interior`. Where W is singular the velocity is unique and 
 not: the answer is the interior point's iterate where it stops, or, from 120 to 300 rows, the
 ADMM's when its short try is certified first.
 
+Where W has more rows than rank (every stack and pile) and the finish's sparse step is the
+costlier one, the Newton steps and the sparse ADMM's solves go through ``W = G G^T``
+(:mod:`.lowrank`, decided once per solve by a count of flops).
+
 The answer is accepted on the natural-map residual in the original data
 (:func:`.cones.natural_map_residual`) and never returned above ``tol``: the caller raises.
 """
@@ -85,6 +89,12 @@ POLISH_FROM = 1e-4
 #: and 10 had stopped)
 LONG_NEWTON_FROM = 1e-5
 LONG_NEWTON_STEPS = 40
+#: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best residual
+#: (Newton's tries included) is above ADMM_STALL_ABOVE and has not halved in the last
+#: ADMM_STALL_ITER iterations (on the sphere piles of 624-897 contacts it stalled at 7e-3 to
+#: 3e-2 from 5,000 iterations to its 20,000: half their time, before the NSGS certified them)
+ADMM_STALL_ITER = 5000
+ADMM_STALL_ABOVE = 1e-4
 #: Coulomb's law on large sparse W: where the ADMM of :mod:`.admm` ends its ``admm_iter``
 #: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more
 #: (the brick wall of 976 contacts: 5.9e-7 at 20,000 iterations, where 1,000 Newton steps
@@ -349,10 +359,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 return True
             # sparing: Newton tried from within 1e-5, then after each drop by 1000 (as the
             # compiled ADMM's polish); else on each drop by 100 below 1e-4, and every 20
-            # checks below 1e-2 (on the largest sparse problems those tries took the sphere
-            # pile of 624 contacts to 8e-7, a geometric spacing to 8e-4 only)
+            # checks from 1e-2 to LONG_NEWTON_FROM (on the largest sparse problems those tries
+            # took the sphere pile of 624 contacts to 8e-7, a geometric spacing to 8e-4 only;
+            # below, on the brick wall of 976 contacts, 1,000 steps of them had all failed)
             if (res < min(1e-5, 1e-3 * tried[0]) if sparing else
-                    res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0)):
+                    res < min(1e-4, 1e-2 * tried[0])
+                    or (LONG_NEWTON_FROM < res < 1e-2 and len(tried) % 20 == 0)):
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
@@ -387,10 +399,15 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 interior()
         else:
             run = coulomb_admm(W, b, mu, R.impulse, sparse, factor=factor)
+            marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
             while done < admm_iter:
                 done += 10
                 if check(next(run)):
                     break
+                if done % ADMM_STALL_ITER == 0:
+                    marks.append(best[0])
+                    if best[0] > ADMM_STALL_ABOVE and best[0] > 0.5 * marks[-2]:
+                        break  # stalled far from a solution: the NSGS's way below
             # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries,
             # which had all failed there), at most ADMM_EXTEND_ITER iterations more
             extra = 0

@@ -34,7 +34,7 @@ LOWRANK_MAX_FRACTION = 0.4
 #: problems of fewer rows keep the finish's own step (its factorization is cheap there)
 LOWRANK_MIN_ROWS = 600
 #: W is not factored where even a rank of this fraction of the rows would not pay
-MIN_RANK_FRACTION = 0.1
+MIN_RANK_FRACTION = 0.2
 #: a flop of the sparse LDL^T (QDLDL, scalar code) costs about as much time as this many
 #: flops of the low-rank step's BLAS products (measured 1.2 and 20 Gflop/s on one core of the
 #: bench machine, piles and walls of 400-1,000 contacts)
