@@ -146,3 +146,25 @@ def test_admm_proximal_solve_through_the_factor(shift):
     expected = np.linalg.solve(K, rhs)
     bound = 100 * np.linalg.cond(K) * np.finfo(float).eps
     assert np.linalg.norm(solver.solve(rhs) - expected) <= bound * np.linalg.norm(expected)
+
+
+def test_dense_finish_chooses_the_factor_and_takes_the_same_steps():
+    # the pile of 16 capsules with W dense (168 rows, rank 89): the finish decides on its
+    # first step (the dense normal equations cost 2.3 N^3 = 1.1e7 flops, the rank-89 step
+    # 1.0e7), then takes the steps of the finish without the factor, to round-off; the answer
+    # is certified by this file's own residual
+    from convimpact.bench.contact_corpus import corpus
+
+    case, = corpus(names=["capsule-pile-4x4-56"])
+    W, b, mu = case.W.toarray(), case.b.reshape(56, 3), case.mu
+    ccp = engine_solve(W, b, mu, 3, coulomb=False, tol=1e-10)
+    r0 = ccp.impulse * (1.0 + 1e-3 * np.random.default_rng(2).normal(size=(56, 3)))
+    factor = DelassusFactor(W, min_rows=0, max_fraction=0.6)
+    r, res, steps = newton_finish(W, b, mu, r0, coulomb=True, tol=1e-10, max_iter=30,
+                                  factor=factor)
+    assert factor.decided and factor.G is not None and factor.rank == 89
+    r_ref, res_ref, steps_ref = newton_finish(W, b, mu, r0, coulomb=True, tol=1e-10,
+                                              max_iter=30)
+    assert steps == steps_ref >= 1
+    assert res <= 1e-10 and my_residual(W, b, mu, r, "coulomb")[0] <= 1e-10
+    np.testing.assert_allclose(r, r_ref, rtol=0, atol=1e-8 * np.abs(r_ref).max())
