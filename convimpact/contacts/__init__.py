@@ -17,6 +17,7 @@ sustained-contact forces (:mod:`convimpact.simulation`), and the public
   :mod:`.admm` (sparse): the ADMM on Coulomb's law in De Saxce's form; :mod:`.fixed_point`:
   the fixed point on De Saxce's shift, the last resort; :mod:`.threads`: the
   factorizations on one BLAS thread;
+* :mod:`.lowrank`: W's low-rank factor (pivoted Cholesky) and the finish's step through it;
 * :mod:`.contact_problem`: :func:`~.contact_problem.solve_contact_problem`, the public API on
   ``(W, b, mu)``;
 * the compiled dense kernels: :mod:`.interior_point` (Mehrotra, Nesterov-Todd),

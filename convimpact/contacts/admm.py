@@ -49,12 +49,22 @@ def _largest_eigenvalue(A, size: int) -> float:
 
 
 class _Solver:
-    def __init__(self, A, sparse: bool):
+    """Solves with ``A + shift I``: by a sparse LDL^T (QDLDL) or a dense Cholesky of it, or,
+    given ``G`` with ``A = G G^T`` (N x r, r < N), by Woodbury's identity
+    ``(G G^T + c I)^-1 = (I - G (c I + G^T G)^-1 G^T) / c`` (a Cholesky of r rows)."""
+
+    def __init__(self, A, sparse: bool, G: np.ndarray | None = None):
         self.A, self.sparse, self.f = A, sparse, None
+        self.G = G
+        self.GtG = None if G is None else G.T @ G
 
     def factor(self, shift: float) -> None:
         A = self.A
-        if self.sparse:
+        if self.G is not None:
+            K = self.GtG.copy()
+            K[np.diag_indices_from(K)] += shift
+            self.f = ("woodbury", sla.cho_factor(K, check_finite=False), shift)
+        elif self.sparse:
             K = sp.triu(A + shift * sp.identity(A.shape[0], format="csc"), format="csc")
             if self.f is None:
                 self.f = qdldl.Solver(K)
@@ -66,12 +76,15 @@ class _Solver:
             self.f = sla.cho_factor(K, check_finite=False)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
+        if self.G is not None:
+            _, f, shift = self.f
+            return (rhs - self.G @ sla.cho_solve(f, self.G.T @ rhs, check_finite=False)) / shift
         return self.f.solve(rhs) if self.sparse else sla.cho_solve(self.f, rhs,
                                                                    check_finite=False)
 
 
 def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool, *,
-                 check_every: int = 10) -> Iterator[np.ndarray]:
+                 check_every: int = 10, factor=None) -> Iterator[np.ndarray]:
     """ADMM iterations from ``r0`` (n, d), yielding the cone copy (n, d) every
     ``check_every`` iterations (the caller judges it and stops when it likes).
 
@@ -79,7 +92,9 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
     stacks and walls in our measurements), with Pinocchio's parameters: the proximal weight
     ``eta = 1e-6``, ``rho = tau sqrt(L eta) (L / eta)^0.2`` with ``tau = 1/2``, L the largest
     eigenvalue of W, and rho doubled or halved whenever the primal and dual residuals differ
-    by a factor of more than 10.
+    by a factor of more than 10. ``factor``, optional: W's low-rank factor
+    (:class:`~.lowrank.DelassusFactor`); where it has one, the proximal steps are solved
+    through it (Woodbury's identity), the same iteration.
     """
     n, d = r0.shape
     size = n * d
@@ -87,7 +102,7 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
     L = _largest_eigenvalue(W, size) or 1.0
     eta = ETA
     rho = TAU * np.sqrt(L * eta) * (L / eta) ** RHO_POWER
-    solver = _Solver(W, sparse)
+    solver = _Solver(W, sparse, None if factor is None else factor.G)
     solver.factor(rho + eta)
     x = np.asarray(r0, dtype=float).ravel()
     w = project(x.reshape(n, d), mu).ravel()

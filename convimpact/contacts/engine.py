@@ -14,6 +14,10 @@ sparse) is :mod:`.ccp_interior`. Where W is singular the velocity is unique and 
 not: the answer is the interior point's iterate where it stops, or, from 120 to 300 rows, the
 ADMM's when its short try is certified first.
 
+Where W has more rows than rank (every stack and pile) and the finish's sparse step is the
+costlier one, the Newton steps and the sparse ADMM's solves go through ``W = G G^T``
+(:mod:`.lowrank`, decided once per solve by a count of flops).
+
 The answer is accepted on the natural-map residual in the original data
 (:func:`.cones.natural_map_residual`) and never returned above ``tol``: the caller raises.
 """
@@ -31,6 +35,7 @@ from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .gauss_seidel import nsgs_newton
+from .lowrank import DelassusFactor
 from .threads import one_blas_thread
 
 #: contact rows up to which the compiled dense kernels (:mod:`.interior_point`,
@@ -84,6 +89,18 @@ POLISH_FROM = 1e-4
 #: and 10 had stopped)
 LONG_NEWTON_FROM = 1e-5
 LONG_NEWTON_STEPS = 40
+#: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best residual
+#: (Newton's tries included) is above ADMM_STALL_ABOVE and has not halved in the last
+#: ADMM_STALL_ITER iterations (on the sphere piles of 624-897 contacts it stalled at 7e-3 to
+#: 3e-2 from 5,000 iterations to its 20,000: half their time, before the NSGS certified them)
+ADMM_STALL_ITER = 5000
+ADMM_STALL_ABOVE = 1e-4
+#: Coulomb's law on large sparse W: where the ADMM of :mod:`.admm` ends its ``admm_iter``
+#: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more
+#: (the brick wall of 976 contacts: 5.9e-7 at 20,000 iterations, where 1,000 Newton steps
+#: tried on its way had failed, and 1e-8 at 43,520; the sphere piles' ADMM stalls at 5e-4)
+ADMM_EXTEND_FROM = 1e-6
+ADMM_EXTEND_ITER = 40000
 #: Newton steps of a try from an iterate of the nonsmooth Gauss-Seidel (:mod:`.gauss_seidel`;
 #: from 1e-5 on the sphere piles it converged in 4-16)
 NSGS_NEWTON_STEPS = 20
@@ -269,12 +286,14 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         sparse = use_sparse(W, n * d)
     W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
     b = np.asarray(b, dtype=float).reshape(n, d)
+    # W = G G^T found where the finish first needs it, kept when of low rank
+    factor = DelassusFactor(W)
     R = ccp if ccp is not None else solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter,
                                               sparse=sparse)
     iterations = R.iterations
     if R.residual > tol:
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
-                                  max_iter=newton_iter, sparse=sparse)
+                                  max_iter=newton_iter, sparse=sparse, factor=factor)
         iterations += k
         if res < R.residual:
             res, u = cones.natural_map_residual(W, b, mu, r, coulomb=False)
@@ -286,7 +305,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
     r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
                               max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
-                                            else 10), sparse=sparse)
+                                            else 10), sparse=sparse, factor=factor)
     iterations += k
     best = [res, r, "converged"]
     long_tried = [np.inf]
@@ -299,7 +318,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             return
         long_tried[0] = res
         rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
-                                    max_iter=LONG_NEWTON_STEPS, sparse=sparse)
+                                    max_iter=LONG_NEWTON_STEPS, sparse=sparse, factor=factor)
         iterations += k
         if resn < best[0]:
             best[:2] = resn, rn
@@ -314,7 +333,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         if tol < resc < POLISH_FROM:
             rn, resn, kn = newton_finish(W, b, mu, rc, coulomb=True, tol=tol,
                                          max_iter=min(newton_iter, POLISH_STEPS),
-                                         sparse=sparse)
+                                         sparse=sparse, factor=factor)
             iterations += kn
             if resn < resc:
                 rc, resc = rn, resn
@@ -340,14 +359,16 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 return True
             # sparing: Newton tried from within 1e-5, then after each drop by 1000 (as the
             # compiled ADMM's polish); else on each drop by 100 below 1e-4, and every 20
-            # checks below 1e-2 (on the largest sparse problems those tries took the sphere
-            # pile of 624 contacts to 8e-7, a geometric spacing to 8e-4 only)
+            # checks from 1e-2 to LONG_NEWTON_FROM (on the largest sparse problems those tries
+            # took the sphere pile of 624 contacts to 8e-7, a geometric spacing to 8e-4 only;
+            # below, on the brick wall of 976 contacts, 1,000 steps of them had all failed)
             if (res < min(1e-5, 1e-3 * tried[0]) if sparing else
-                    res < min(1e-4, 1e-2 * tried[0]) or (res < 1e-2 and len(tried) % 20 == 0)):
+                    res < min(1e-4, 1e-2 * tried[0])
+                    or (LONG_NEWTON_FROM < res < 1e-2 and len(tried) % 20 == 0)):
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
-                                                         else 10), sparse=sparse)
+                                                         else 10), sparse=sparse, factor=factor)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
@@ -364,7 +385,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 nonlocal iterations
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS),
-                                            sparse=sparse)
+                                            sparse=sparse, factor=factor)
                 iterations += k
                 return rn, resn, k
 
@@ -377,11 +398,26 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             if best[0] > tol and not ip_first:
                 interior()
         else:
-            run = coulomb_admm(W, b, mu, R.impulse, sparse)
+            run = coulomb_admm(W, b, mu, R.impulse, sparse, factor=factor)
+            marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
             while done < admm_iter:
                 done += 10
                 if check(next(run)):
                     break
+                if done % ADMM_STALL_ITER == 0:
+                    marks.append(best[0])
+                    if best[0] > ADMM_STALL_ABOVE and best[0] > 0.5 * marks[-2]:
+                        break  # stalled far from a solution: the NSGS's way below
+            # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries,
+            # which had all failed there), at most ADMM_EXTEND_ITER iterations more
+            extra = 0
+            while tol < best[0] <= ADMM_EXTEND_FROM and extra < ADMM_EXTEND_ITER:
+                extra += 10
+                r = next(run)
+                res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+                if res < best[0]:
+                    best[:2] = res, r
+            done += extra
             if best[0] > tol and not ip_first:
                 interior()
         iterations += done
@@ -396,7 +432,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             def nsgs_newton_step(r):
                 return newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                      max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
-                                     sparse=sparse)
+                                     sparse=sparse, factor=factor)
 
             rg, resg, kg = nsgs_newton(
                 W, b, mu, d, R.impulse, tol=tol, newton=nsgs_newton_step,

@@ -23,6 +23,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .cones import natural_map_residual, project
+from .lowrank import SPARSE_FLOP_COST, DelassusFactor, lowrank_step
 
 
 def projection_jacobian(v: np.ndarray, mu: np.ndarray) -> np.ndarray:
@@ -79,10 +80,14 @@ def _map(W, b, mu, rho, r, coulomb):
 
 
 def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: bool,
-                  tol: float, max_iter: int = 30, sparse: bool = False
-                  ) -> tuple[np.ndarray, float, int]:
+                  tol: float, max_iter: int = 30, sparse: bool = False,
+                  factor: DelassusFactor | None = None) -> tuple[np.ndarray, float, int]:
     """Newton steps on the natural map from ``r0`` (n, d) until the relative natural-map
     residual (:func:`~.cones.natural_map_residual`) is at most ``tol``.
+
+    ``factor``, optional: W's low-rank factor (:class:`~.lowrank.DelassusFactor`), decided
+    on the first step (from that step's cost); where it is chosen, the steps are solved
+    through it (:func:`~.lowrank.lowrank_step`, the same step to round-off).
 
     Returns the best ``(r, residual, steps)`` reached.
     """
@@ -111,13 +116,23 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
                 # D B = D + D[:, :, 0] (mu t^T) on the tangential columns
                 DB[slide, :, 1:] += (DB[slide, :, 0:1] * (mu[slide, None, None]
                                                           * th[:, None, :]))
-        if sparse:
+        G = factor.G if factor is not None else None
+        if factor is not None and not factor.decided and not sparse:
+            # the dense step: J^T J and its Cholesky
+            G = factor.decide(2.0 * (n * d) ** 3 + (n * d) ** 3 / 3.0)
+        if G is not None:
+            dr = lowrank_step(np.eye(d) - D, DB, G, lam, F.ravel())
+        elif sparse:
             Dm = _block_diag(D, True)
             J = (sp.identity(n * d, format="csr") - Dm + _block_diag(DB, True) @ W).tocsc()
             K = sp.bmat([[lam * sp.identity(n * d), J.T], [J, -sp.identity(n * d)]],
                         format="csc")
-            sol = qdldl.Solver(sp.triu(K, format="csc")).solve(
-                np.concatenate([np.zeros(n * d), -F.ravel()]))
+            solver = qdldl.Solver(sp.triu(K, format="csc"))
+            sol = solver.solve(np.concatenate([np.zeros(n * d), -F.ravel()]))
+            if factor is not None and not factor.decided:
+                # the LDL^T's flops: the sum of its columns' squared counts
+                counts = np.diff(solver.factors()[0].indptr).astype(float)
+                factor.decide(SPARSE_FLOP_COST * float(counts @ counts))
             dr = sol[: n * d]
         else:
             # the block rows of D B W, contact by contact (D B is block diagonal)
