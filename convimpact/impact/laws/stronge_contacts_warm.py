@@ -43,9 +43,9 @@ import numpy as np
 from ...compiled import jit as _jit
 from ...compiled import jit_internal as _jit_internal
 from ..conic.polish_cod import cod_null_space
-from ..conic.polish_newton import (ACT, BND, INT, POLISH_MAX_NEWTON, TINY, _layout, _matmat,
-                                   _matvec, _unpack, active_set_jacobian, newton_core,
-                                   primary_kinds)
+from ..conic.polish_newton import (ACT, BND, INT, POLISH_MAX_NEWTON, TINY, _layout, _unpack,
+                                   active_set_jacobian, newton_core, primary_kinds)
+from ..conic.polish_steps import _matmat, _matvec
 
 UNIQUE, REDUNDANT, MOVING, FAILED, STILL = 0, 1, 2, -1, 3
 #: singular values of the active set's Jacobian below this fraction of the largest: its null
@@ -90,7 +90,7 @@ def _coulomb_residual(W, b, mu, d, pi):
 @_jit_internal
 def _times_sparse(A, B):
     """A B for a B mostly zero (``dx/du``: at most three entries per column), the sums in
-    :func:`~convimpact.impact.conic.polish_newton._matmat`'s order."""
+    :func:`~convimpact.impact.conic.polish_steps._matmat`'s order."""
     out = np.zeros((A.shape[0], B.shape[1]))
     for k in range(B.shape[0]):
         for c in range(B.shape[1]):
