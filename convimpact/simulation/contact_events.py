@@ -40,7 +40,7 @@ class ContactEvents:
         force problem selects; returns the new ``[theta, p]``."""
         o = self.opts
         candidates = tuple(dict.fromkeys(candidates))
-        before = set(self.held)
+        before = tuple(self.held)  # (ordered: an instant's release events in this order)
         M = np.asarray(self.mech.mass_matrix(th), float)
         T0 = float(self.mech.kinetic_energy(th, dth))
         held, modes, dropped, dims = (), {}, frozenset(), {}

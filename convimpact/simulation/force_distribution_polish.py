@@ -10,13 +10,43 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import lstsq as _lstsq
+from scipy.linalg.lapack import dgelsy as _dgelsy
+from scipy.linalg.lapack import dgelsy_lwork as _dgelsy_lwork
 
 #: a cone of the max-min program whose slack and multiplier are both below this is
 #: degenerate (active or not: both are tried)
 DEGENERATE = 1e-5
 #: Newton steps without a smaller residual after which the polish stops (its best kept)
 NEWTON_STALL = 3
+
+
+#: LAPACK's optimal workspace of dgelsy per (rows, columns) of the system (queried once)
+_GELSY_LWORK: dict = {}
+
+
+def _lstsq(J: np.ndarray, F: np.ndarray, cond: float) -> np.ndarray:
+    """The least-squares solution of ``J x = F`` by LAPACK's dgelsy (a complete orthogonal
+    factorization with column pivoting; singular values below ``cond`` of the largest
+    cut), as ``scipy.linalg.lstsq(J, F, cond, lapack_driver="gelsy")`` computes it (the
+    same routine, arguments and workspace), without its per-call checks and look-ups:
+    the Newton steps here solve a hundred small systems per event."""
+    m, n = J.shape
+    lwork = _GELSY_LWORK.get((m, n))
+    if lwork is None:
+        work, info = _dgelsy_lwork(m, n, 1, cond)
+        if info != 0:
+            raise ValueError(f"dgelsy's workspace query failed: {info}")
+        lwork = _GELSY_LWORK[(m, n)] = int(work.real)
+    if m < n:  # (the solution overwrites the right-hand side: room for n entries)
+        rhs = np.zeros(n)
+        rhs[:m] = F
+    else:
+        rhs = F
+    x, info = _dgelsy(J, rhs, np.zeros((n, 1), dtype=np.int32), cond, lwork,
+                      False, False)[1::3]
+    if info < 0:
+        raise ValueError(f"illegal value in argument {-info} of dgelsy")
+    return x[:n]
 
 
 def _polish_max_min(blocks, x1: np.ndarray, z1: np.ndarray):
@@ -189,7 +219,7 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True)
     for _ in range(30):
         # least-squares steps, small singular values cut: along a face of maximizers the
         # conditions are singular, and the step stays near the solver's point
-        step = _lstsq(J, F, cond=1e-10, lapack_driver="gelsy", check_finite=False)[0]
+        step = _lstsq(J, F, 1e-10)
         v = v - step
         F, J = residual(v)  # (the next step's too)
         norm = float(np.max(np.abs(F)))
@@ -439,7 +469,7 @@ def _newton_least_norm(blocks, g: np.ndarray, kinds, y0: np.ndarray, scale: floa
             stalled += 1
         if res <= 1e-14 * scale or stalled >= NEWTON_STALL:
             break
-        v = v - _lstsq(J, F, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0]
+        v = v - _lstsq(J, F, 1e-12)
     res, v = best
     if not res <= 1e-12 * scale:
         return None

@@ -45,6 +45,9 @@ def test_box_stack_carries_its_weights_then_tips_at_the_closed_form_time():
             assert modes[1][1] == pytest.approx(tip, abs=1e-8)
         else:
             assert [m_ for m_, _ in modes] == ["stick"]
+    # the tip's release events in the held contacts' order (the scene's), not in the
+    # iteration order of a set of names, which changes with the interpreter's string hashes
+    assert [e.contact for e in res.contact_events if e.kind == "release"] == back
     assert any("statically indeterminate" in w_ for w_ in res.warnings)
     assert not res.painleve
     assert_coulomb(res, mech)
