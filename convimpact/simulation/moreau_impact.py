@@ -326,7 +326,13 @@ class ImpactSolver:
         dsig = np.zeros(self.m)
         # no contact approaching at the step's start: no ImpactEvent, only impulses needed
         direct = self.direct and not (vnk < -self.rest_velocity).any()
-        certified = self._certify(st, plan, Ja, v_free, es, active) if direct else None
+        # the certificate (sticking on every contact) is not tried where every island it
+        # would try slid on every contact on the step before (a sliding mode, whose first
+        # resting step the search finds: the law's own search, after the pruned one hands
+        # the decision to it on an admissible stick set)
+        sliding = all(k in self._warm and self._warm[k].full_slide for k in plan[1])
+        certified = (self._certify(st, plan, Ja, v_free, es, active)
+                     if direct and not sliding else None)
         if self.stronge is not None:  # its islands answered by StrongeIslands.solve
             certified = self.stronge.pending(st) or certified
         if certified is None:
