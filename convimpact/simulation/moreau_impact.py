@@ -87,7 +87,10 @@ and can only tie with it, which the full set wins as the largest (the argument a
 round-off caveat: that module's docstring). The answer is the law's (the test compares the
 trajectories with the law's own search on every step); the ambiguity warning is taken on
 the mode's first step (searched in full) and not re-checked inside the mode, as for resting
-modes. The counts: ``pruned`` island steps answered so.
+modes. The resting certificate is not tried on a step where every island it would try
+is in a sliding mode (it cannot hold while the island slips; the step the island stops,
+the pruned search finds an admissible stick set and hands the step to the law's own
+search, which ends the mode). The counts: ``pruned`` island steps answered so.
 
 An :class:`~.result.ImpactEvent` is recorded on the steps where an approaching contact
 receives a normal impulse: the step's active contacts' impulses, regimes (in the order of
@@ -326,7 +329,13 @@ class ImpactSolver:
         dsig = np.zeros(self.m)
         # no contact approaching at the step's start: no ImpactEvent, only impulses needed
         direct = self.direct and not (vnk < -self.rest_velocity).any()
-        certified = self._certify(st, plan, Ja, v_free, es, active) if direct else None
+        # the certificate (sticking on every contact) is not tried where every island it
+        # would try slid on every contact on the step before (a sliding mode, whose first
+        # resting step the search finds: the law's own search, after the pruned one hands
+        # the decision to it on an admissible stick set)
+        sliding = all(k in self._warm and self._warm[k].full_slide for k in plan[1])
+        certified = (self._certify(st, plan, Ja, v_free, es, active)
+                     if direct and not sliding else None)
         if self.stronge is not None:  # its islands answered by StrongeIslands.solve
             certified = self.stronge.pending(st) or certified
         if certified is None:

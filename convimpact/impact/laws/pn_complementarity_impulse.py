@@ -26,8 +26,15 @@ from .pn_complementarity_search import (DONE, NEEDS, SLIDE_TIER, SlideWarmStart,
 
 
 @functools.lru_cache(maxsize=512)
+def _sets(n: int, closing: tuple[bool, ...]) -> tuple[list, np.ndarray]:
+    """The law's :func:`~.pn_complementarity.candidate_sets` (read only), kept per pattern of
+    approaching contacts: a time stepper asks for the same ones step after step."""
+    return law.candidate_sets(n, closing)
+
+
+@functools.lru_cache(maxsize=512)
 def _ranks(n: int, closing: tuple[bool, ...]) -> np.ndarray:
-    return tuple_ranks(tuple(law.candidate_sets(n, closing)[0]))
+    return tuple_ranks(tuple(_sets(n, closing)[0]))
 
 
 def compiled_impulse(P, backend, opts, notes: list[str] | None = None,
@@ -48,7 +55,7 @@ def compiled_impulse(P, backend, opts, notes: list[str] | None = None,
     if not closing.any():
         closing = P.v_minus[:, 0] < 0.0
     key = tuple(bool(c) for c in closing)
-    subsets, masks = law.candidate_sets(n, key)
+    subsets, masks = _sets(n, key)
     if not subsets:
         return None
     W, bf, vf, mu = law._kernel_data(P, b)

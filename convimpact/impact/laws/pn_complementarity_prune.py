@@ -30,9 +30,17 @@ island's contacts see: ``null J_A = null J``; on a box: three corners or four) s
 ``f`` over every impulse (``f(pi) - min f = 1/2 u.W^+.u``), and if admissible it is feasible
 for P_N(full), so ``min f >= f(pi*) >= min f + 1/2 u*.W^+.u*``: impossible while the full
 set's answer still slips, ``1/2 |u*|^2 / tr W > 1e-6`` of the law's energy scale (a margin
-far above the programs' round-off). The stick sets left (rank W_AA judged by Gram-Schmidt
-with a clear gap, else not excluded) run the law's stick tier; any admissible one hands the
-decision to the law's own search.
+far above the programs' round-off). Before that, every stick set whose sticking impulse certainly leaves a cone is
+excluded whatever the restitution (:func:`stick_clearly_inadmissible`: W_SS factored by
+Cholesky where its condition is below 1e4, so that the law's LU solve and this one differ by
+far less than the margin the test keeps, 1e-8 of the impulse; on a sliding box: the lone
+corners, whose sticking needs a friction many times mu). The stick sets left (rank W_AA
+judged by Gram-Schmidt with a clear gap, else not excluded) run the law's stick tier; any
+admissible one hands the decision to the law's own search.
+
+**Cold smaller sets.** The sets not dominated are solved from the law's own guesses (not
+from the previous step's answer): on a sliding box a side's pair rejects its warm start on
+most steps, and a cold program costs about what a warm one does.
 
 The answer is the law's, except where its ranking is decided by round-off (a dominated set
 whose energy falls below the full set's by round-off with velocities more than ``1e-8``
@@ -48,10 +56,11 @@ import numpy as np
 from ...compiled import jit as _jit
 from .codes import OK as KERNEL_OK
 from .pereira_nikravesh_kernel import _pn_planar, _pn_spatial
-from .pn_complementarity_kernels import admissible, stick_tier
+from .pn_complementarity_kernels import admissible, set_rows, stick_tier
 from .pn_complementarity_slide import slide_set_warm
 
 TINY = 1e-300
+EPS = float(np.finfo(float).eps)
 #: the admissibility tolerance of the stick tier and of one-contact slides
 SINGLE_ACCURACY = 1e-10
 #: the out buffer of the single-contact kernels (laws.codes.OUT_SIZE)
@@ -63,6 +72,11 @@ STICK_EXCLUSION_MARGIN = 1e-6
 #: between them the rank is not judged
 RANK_INDEPENDENT = 1e-6
 RANK_DEPENDENT = 1e-12
+#: the sticking screen (:func:`stick_clearly_inadmissible`): the bound on cond_2(W_SS) below
+#: which its Cholesky solve stands for the law's LU one, and the allowance for the two
+#: solves' difference, relative to the impulse's norm
+SCREEN_COND_MAX = 1e4
+SCREEN_ERROR = 1e-8
 
 
 @_jit
@@ -216,28 +230,121 @@ def rank_clear(A):
 
 
 @_jit
-def _kept_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale):
-    """The stick sets the exclusion (module docstring) leaves, as a mask over ``masks``."""
-    ns = masks.shape[0]
+def stick_clearly_inadmissible(W, b, mu, d, member, cone_rtol, slack_max, tol):
+    """Whether the law's sticking impulse of the active set ``member`` (``W_SS pi_S = -b_S``,
+    :func:`~.pn_complementarity_kernels.stick_solve`) certainly leaves a cone of the set:
+    W_SS factored by Cholesky; with ``cond_2(W_SS) <= ||W_SS||_F ||L^-1||_F^2 <=``
+    :data:`SCREEN_COND_MAX` (far below the law's STICK_COND_MAX, so the law solves by LU) the
+    two backward-stable solves differ by less than ``cond m eps |pi|`` (about 1e-11 |pi|),
+    well inside :data:`SCREEN_ERROR` ``|pi| = E``. The set is excluded only when a contact's
+    friction exceeds its cone by more than what E can move in the law's test (``pt`` by
+    2E, ``pn`` by E, the tolerance ``ptol`` by ``(2 tol + max_row |W| / W_ii) E``, with
+    ``tol, slack_max <= 1``); otherwise
+    (False) the caller runs the law's stick tier on it."""
+    N = W.shape[0]
+    rows = np.empty(N, dtype=np.int64)
+    m, _ = set_rows(member, mu, d, rows, rows[:0])
+    L = np.zeros((m, m))
+    fro = 0.0
+    for a in range(m):
+        for c in range(m):
+            fro += W[rows[a], rows[c]] ** 2
+    for j in range(m):
+        acc = W[rows[j], rows[j]]
+        for k in range(j):
+            acc -= L[j, k] ** 2
+        if not acc > 0.0:
+            return False
+        L[j, j] = np.sqrt(acc)
+        for i in range(j + 1, m):
+            acc = W[rows[i], rows[j]]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            L[i, j] = acc / L[j, j]
+    inv2 = 0.0  # ||L^-1||_F^2, column by column of L^-1 (forward substitution)
+    col = np.empty(m)
+    for c in range(m):
+        for i in range(m):
+            acc = 1.0 if i == c else 0.0
+            for k in range(c, i):
+                acc -= L[i, k] * col[k]
+            col[i] = acc / L[i, i] if i >= c else 0.0
+            inv2 += col[i] * col[i]
+    if not np.sqrt(fro) * inv2 <= SCREEN_COND_MAX:
+        return False
+    y = np.empty(m)
+    for i in range(m):
+        acc = -b[rows[i]]
+        for k in range(i):
+            acc -= L[i, k] * y[k]
+        y[i] = acc / L[i, i]
+    x = np.empty(m)
+    for i in range(m - 1, -1, -1):
+        acc = y[i]
+        for k in range(i + 1, m):
+            acc -= L[k, i] * x[k]
+        x[i] = acc / L[i, i]
+    pi = np.zeros(N)
+    for a in range(m):
+        pi[rows[a]] = x[a]
+    err = SCREEN_ERROR * np.sqrt(_dot(x, x))
+    Wpi = W @ pi
+    rowmax = 0.0
+    for a in range(N):
+        acc = 0.0
+        for c in range(N):
+            acc += abs(W[a, c])
+        rowmax = max(rowmax, acc)
+    for i in range(mu.size):
+        if not (member[i] and mu[i] > 0.0):
+            continue
+        size = 0.0
+        roundoff = 0.0
+        for k in range(d):
+            j = i * d + k
+            size = max(size, max(abs(b[j]), abs(Wpi[j])))
+            ro = 0.0
+            for c in range(N):
+                ro += abs(W[j, c]) * abs(pi[c])
+            roundoff = max(roundoff, 1e2 * EPS * ro)
+        slack = max(tol * size, min(roundoff, slack_max * size))
+        pn = pi[i * d]
+        pt2 = 0.0
+        for k in range(1, d):
+            pt2 += pi[i * d + k] ** 2
+        pt = np.sqrt(pt2)
+        wii = W[i * d, i * d]
+        ptol = max(tol * np.sqrt(pn * pn + pt2), slack / wii)
+        if pt - 2.0 * err > (mu[i] * (pn + err) * (1.0 + cone_rtol) + ptol
+                             + (2.0 * tol + rowmax / wii) * err):
+            return True
+    return False
+
+
+@_jit
+def _rank_exclusion(W, b, vminus, mu, d, masks, pi_full, escale, keep):
+    """The rank argument (module docstring) on the stick sets still kept in ``keep``,
+    clearing those it excludes (in place)."""
     n = mu.size
     N = W.shape[0]
-    keep = np.ones(ns, dtype=np.bool_)
     for i in range(n):
         if not mu[i] > 0.0:
-            return keep
+            return
     for a in range(N):
         if b[a] != vminus[a]:
-            return keep
+            return
     u = W @ pi_full + b
     tr = 0.0
     for a in range(N):
         tr += W[a, a]
     if not (tr > 0.0 and 0.5 * (u @ u) / tr > STICK_EXCLUSION_MARGIN * escale):
-        return keep
+        return
     full_rank, clear = rank_clear(W)
     if not clear:
-        return keep
-    for s in range(ns):
+        return
+    for s in range(masks.shape[0]):
+        if not keep[s]:
+            continue
         members = np.flatnonzero(masks[s])
         m = members.size * d
         rows = np.empty(m, dtype=np.int64)
@@ -250,6 +357,31 @@ def _kept_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale):
                 Wss[x, y] = W[rows[x], rows[y]]
         r, clear = rank_clear(Wss)
         keep[s] = not (clear and r == full_rank)
+
+
+@_jit
+def _kept_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale):
+    """The stick sets the rank argument (module docstring) leaves, as a mask over
+    ``masks``."""
+    keep = np.ones(masks.shape[0], dtype=np.bool_)
+    _rank_exclusion(W, b, vminus, mu, d, masks, pi_full, escale, keep)
+    return keep
+
+
+@_jit
+def _screened_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale, cone_rtol, slack_max):
+    """The stick sets neither exclusion (module docstring) removes, as a mask over
+    ``masks``: :func:`stick_clearly_inadmissible` on every set, then the rank argument on
+    those left."""
+    ns = masks.shape[0]
+    keep = np.ones(ns, dtype=np.bool_)
+    left = 0
+    for s in range(ns):
+        keep[s] = not stick_clearly_inadmissible(W, b, mu, d, masks[s], cone_rtol, slack_max,
+                                                 SINGLE_ACCURACY)
+        left += keep[s]
+    if left:
+        _rank_exclusion(W, b, vminus, mu, d, masks, pi_full, escale, keep)
     return keep
 
 
@@ -279,7 +411,8 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
     wpi[0] = pi_full
     if not admissible(W, absW, masks[0], pi_full, b, mu, d, cone_rtol, slack_max, tol):
         return -1, 0
-    keep = _kept_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale)
+    keep = _screened_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale, cone_rtol,
+                                slack_max)
     sticks = np.flatnonzero(keep)
     if sticks.size:
         ok = stick_tier(W, b, vminus, mu, d, masks[sticks], cond_max, cone_rtol, slack_max,
@@ -304,8 +437,10 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
             continue
         members = np.flatnonzero(masks[s])
         if members.size >= 2:
+            # cold: the smaller sets' warm starts fail as often as not on a sliding box
+            # (a side's pair), and a cold program costs about what a warm one does
             st, pi, kind, tang = slide_set_warm(W, vminus, b, mu, d, members, wkind[s],
-                                                wtang[s], wpi[s], wvalid[s])
+                                                wtang[s], wpi[s], False)
             wvalid[s] = st == 1
             if st == 1:
                 wkind[s, :members.size] = kind
