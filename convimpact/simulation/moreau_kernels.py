@@ -128,6 +128,36 @@ def island_delassus(J, G, cons, cols, d, W):
 
 
 @_jit
+def island_velocity(J, v, cons, cols, d, out):
+    """``out = J_I v`` (N = len(cons) d): the contact velocities of the island with the
+    contacts ``cons`` (rows of J (n, d, k)) from ``v`` on its coordinates ``cols``."""
+    nk = cols.shape[0]
+    for c in range(cons.shape[0]):
+        for a in range(d):
+            acc = 0.0
+            for e in range(nk):
+                acc += J[cons[c], a, cols[e]] * v[cols[e]]
+            out[c * d + a] = acc
+
+
+@_jit
+def apply_island_impulse(J, G, cons, cols, d, pi, r, v_new):
+    """The island's impulse ``pi`` (N,) into ``r`` (its contacts' rows) and
+    ``v_new += G_II J_I^T pi`` on its coordinates ``cols``."""
+    nc, nk = cons.shape[0], cols.shape[0]
+    for c in range(nc):
+        for a in range(d):
+            r[cons[c], a] = pi[c * d + a]
+    for e in range(nk):
+        g = 0.0
+        for c in range(nc):
+            for a in range(d):
+                g += J[cons[c], a, cols[e]] * pi[c * d + a]
+        for f in range(nk):
+            v_new[cols[f]] += G[cols[f], cols[e]] * g
+
+
+@_jit
 def assemble_islands(J, G, C, K, d, out):
     """``W_b = J_b G_bb J_b^T`` of every island b of one batch (contacts C[b], coordinates
     K[b]) into ``out`` (B * N * N, row-major, N = nc d), symmetrized

@@ -38,7 +38,7 @@ import numpy as np
 from ..compiled import jit as _jit
 from ..contacts.interior_point import contact_checks
 from ..impact.laws.pn_complementarity_kernels import admissible, stick_solve
-from .moreau_kernels import island_delassus
+from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity
 
 EPS = float(np.finfo(float).eps)
 TINY = 1e-300
@@ -97,7 +97,6 @@ def certify_islands(Ja, v_free, es, mu_act, G, icon, icoff, icol, icoloff, d, co
         c0, c1 = icoff[i], icoff[i + 1]
         k0, k1 = icoloff[i], icoloff[i + 1]
         nc = c1 - c0
-        nk = k1 - k0
         N = nc * d
         cons = icon[c0:c1]
         cols = icol[k0:k1]
@@ -105,12 +104,7 @@ def certify_islands(Ja, v_free, es, mu_act, G, icon, icoff, icol, icoloff, d, co
         rows = np.empty(N, dtype=np.int64)
         island_delassus(Ja, G, cons, cols, d, W)
         vm = np.zeros(N)
-        for c in range(nc):
-            for a in range(d):
-                acc = 0.0
-                for e in range(nk):
-                    acc += Ja[cons[c], a, cols[e]] * v_free[cols[e]]
-                vm[c * d + a] = acc
+        island_velocity(Ja, v_free, cons, cols, d, vm)
         approaching = False
         for c in range(nc):
             if vm[c * d] < 0.0:
@@ -135,14 +129,5 @@ def certify_islands(Ja, v_free, es, mu_act, G, icon, icoff, icol, icoloff, d, co
         if not certified:
             continue
         status[i] = STICK
-        for c in range(nc):
-            for a in range(d):
-                r[cons[c], a] = pi[c * d + a]
         # v_new = v_free + G_II J_I^T pi on the island's coordinates
-        for e in range(nk):
-            g = 0.0
-            for c in range(nc):
-                for a in range(d):
-                    g += Ja[cons[c], a, cols[e]] * pi[c * d + a]
-            for f in range(nk):
-                v_new[cols[f]] += G[cols[f], cols[e]] * g
+        apply_island_impulse(Ja, G, cons, cols, d, pi, r, v_new)

@@ -71,7 +71,7 @@ from ..impact.exact.dispatch import DECOUPLED_RTOL
 from ..impact.laws.stronge_contacts import _WARM, KKT_RTOL, WARM_RESIDUAL
 from ..impact.laws.stronge_contacts_warm import REDUNDANT, STILL, UNIQUE, warm_compression
 from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL
-from .moreau_kernels import island_delassus
+from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity
 
 LAW = "stronge"
 #: the methods whose several-contact path is the law's conic one (the warm start included)
@@ -126,21 +126,17 @@ def stronge_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, ic
         c0, c1 = icoff[i], icoff[i + 1]
         k0, k1 = icoloff[i], icoloff[i + 1]
         nc = c1 - c0
-        nk = k1 - k0
         N = nc * d
         cons = icon[c0:c1]
         cols = icol[k0:k1]
         status[i] = FULL
         vm = np.zeros(N)
+        island_velocity(Ja, v_free, cons, cols, d, vm)
         vscale = 0.0
         touching = False
         for c in range(nc):
             for a in range(d):
-                acc = 0.0
-                for e in range(nk):
-                    acc += Ja[cons[c], a, cols[e]] * v_free[cols[e]]
-                vm[c * d + a] = acc
-                vscale = max(vscale, abs(acc))
+                vscale = max(vscale, abs(vm[c * d + a]))
             if vm[c * d] < 0.0:
                 touching = True
         if not touching:
@@ -213,16 +209,7 @@ def stronge_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, ic
         status[i] = ANSWERED
         done += 1
         largest = max(largest, nc)
-        for c in range(nc):
-            for a in range(d):
-                r[cons[c], a] = pi[c * d + a]
-        for e in range(nk):
-            g = 0.0
-            for c in range(nc):
-                for a in range(d):
-                    g += Ja[cons[c], a, cols[e]] * pi[c * d + a]
-            for f in range(nk):
-                v_new[cols[f]] += G[cols[f], cols[e]] * g
+        apply_island_impulse(Ja, G, cons, cols, d, pi, r, v_new)
     for i in range(n_isl):
         if status[i] == FULL:
             full += 1
