@@ -51,7 +51,7 @@ ENERGY_MARGIN = 1e-10
 
 
 @_jit
-def _stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows):
+def stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows):
     """The impulse sticking every contact and whether it is the law's answer (the
     certificate of the module docstring; needs every contact frictional and b = v-)."""
     N = W.shape[0]
@@ -125,7 +125,7 @@ def certify_islands(Ja, v_free, es, mu_act, G, icon, icoff, icol, icoloff, d, co
                 plain = False
         if not plain:
             continue
-        pi, certified = _stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
+        pi, certified = stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
         if not certified:
             continue
         status[i] = STICK
