@@ -92,6 +92,13 @@ is in a sliding mode (it cannot hold while the island slips; the step the island
 the pruned search finds an admissible stick set and hands the step to the law's own
 search, which ends the mode). The counts: ``pruned`` island steps answered so.
 
+**One call per step** (:mod:`.moreau_pn_islands`, same law and methods, no loops): on a
+direct step, every island inside a resting or a sliding mode is first answered by one
+compiled call for the whole step -- the same certificate and the same pruned search, from
+the same warm starts -- and the step returns without Python per island when it answers them
+all; the islands it leaves (a mode's first step, an impact, an island the certificate or the
+pruned search declines) take the path above, with the answered ones kept.
+
 An :class:`~.result.ImpactEvent` is recorded on the steps where an approaching contact
 receives a normal impulse: the step's active contacts' impulses, regimes (in the order of
 the active contacts) and the sum of the islands' energy losses; its ``result`` is the

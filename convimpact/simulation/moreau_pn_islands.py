@@ -338,6 +338,7 @@ class PnIslands:
         Ja = st.Ja
         na, d = Ja.shape[0], Ja.shape[1]
         if self._flat is None or st.inv.groups is not self._groups:
+            self._publish(solver)
             self._relayout(solver, st)
         if not self._synced:
             self._read_modes(solver)
@@ -358,6 +359,7 @@ class PnIslands:
                               self.mu, *flat[9:15], self.tols, r, v_new, flat[15], flat[16])
             if full != -2:
                 break
+            self._publish(solver)
             self._relayout(solver, st)
             self._read_modes(solver)
         if full < 0:
@@ -381,6 +383,16 @@ class PnIslands:
         # every island answered here (the kernel updated the modes)
         solver.impulse = r
         return v_new, st.sigma
+
+    def _publish(self, solver) -> None:
+        """Before a new layout: where the modes are this class's (steps answered here
+        alone since the solver's path last ran), they go into the solver's memory (resting
+        islands, sliding ones with their warm starts), which the new layout reads."""
+        if not self._synced or self._flat is None:
+            return
+        mode = self._flat[8]
+        solver._modes_last = {k for k, m in zip(self._keys, mode.tolist()) if m == REST}
+        self._hand_over(solver, None)
 
     def _hand_over(self, solver, moved) -> None:
         """The warm starts into the solver's memory before its path runs (it reads them),
