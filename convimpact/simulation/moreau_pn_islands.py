@@ -16,7 +16,8 @@ takes :class:`.moreau_impact.ImpactSolver`'s own path, as before.
 
 * an island in a *resting mode* (certified sticking on every contact on the step before,
   with the same contacts): the certificate of :mod:`.moreau_pn_kernels` again
-  (:func:`~.moreau_pn_kernels.stick_certificate`, the same call); where it holds, its
+  (:func:`~.moreau_pn_kernels.coordinate_certificate`: the same solve and tests, in the
+  island's coordinates where W is singular); where it holds, its
   impulse; where it does not, the solver's path;
 * an island in a *sliding mode* (the law's answer slid on every contact on the step
   before, with the same contacts): the law's search without the dominated active sets
@@ -63,7 +64,7 @@ from ..impact.laws.pn_complementarity_impulse import _ranks, _sets
 from ..impact.laws.pn_complementarity_search import DONE, SLIDE_TIER, SlideWarmStart, search
 from ..impact.problem.build import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
 from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity
-from .moreau_pn_kernels import stick_certificate
+from .moreau_pn_kernels import coordinate_certificate
 
 #: island modes (:class:`PnIslands`)
 NONE, REST, SLIDE = 0, 1, 2
@@ -196,9 +197,8 @@ def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, 
                     largest = max(largest, nc)
                     continue
         if frictional:
-            rows = np.empty(N, dtype=np.int64)
-            pi, certified = stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max,
-                                              rows)
+            pi, certified = coordinate_certificate(Ja, G, cons, cols, d, W, vm, mu, cond_max,
+                                                   cone_rtol, slack_max)
             if certified:
                 if mode[i] == REST:
                     status[i] = STUCK

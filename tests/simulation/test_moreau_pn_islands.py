@@ -168,3 +168,43 @@ def test_the_kernel_declines_impact_steps_and_other_layouts():
             *flat[:7], flat[7], flat[8], path.mu, *flat[9:15], path.tols, np.zeros((3, 3)),
             st.v_free.copy(), flat[15], flat[16])
     assert mpi.pn_islands(*args)[0] == -2
+
+
+@pytest.mark.parametrize("case", ["rest", "turned", "creeping", "sliding"])
+def test_the_certificate_in_the_islands_coordinates_is_the_contact_space_one(case):
+    """coordinate_certificate (the sticking impulse from the 6 x 6 B^T B of the island's
+    coordinates) against stick_certificate (W's 12 x 12 eigen-decomposition, the law's
+    stick_solve): the same decision and impulse. Closed forms: at rest each corner carries
+    m g h / 4; a box creeping at 1 mm/s sticks (it needs m v = 1e-3 N s of friction, less
+    than mu m g h = 5.9e-3), the corners' tangential impulses summing to -m v; sliding at
+    2 m/s no stick set is admissible."""
+    from convimpact.impact.laws import pn_complementarity as pc
+    from convimpact.simulation.moreau_pn_kernels import (coordinate_certificate,
+                                                         stick_certificate)
+
+    mech, q, v = box_row(1, case == "sliding")
+    q, v = q.copy(), v.copy()
+    if case == "turned":
+        q[5] = 0.3
+    if case == "creeping":
+        v[0] = 1e-3
+    st = _step(mech, q, v)
+    Ja, G = np.ascontiguousarray(st.Ja), np.ascontiguousarray(st.inv.G)
+    cons, cols = np.arange(4), np.arange(6)
+    W = Ja.reshape(12, 6) @ G @ Ja.reshape(12, 6).T
+    W = 0.5 * (W + W.T)
+    vm = Ja.reshape(12, 6) @ st.v_free
+    mu = np.full(4, MU)
+    consts = (pc.STICK_COND_MAX, pc.CONE_RTOL, pc.VELOCITY_SLACK_MAX)
+    x, ok = coordinate_certificate(Ja, G, cons, cols, 3, W, vm, mu, *consts)
+    x2, ok2 = stick_certificate(W, vm, mu, 3, *consts, np.empty(12, dtype=np.int64))
+    assert ok == ok2 == (case != "sliding")
+    if case == "sliding":
+        return
+    np.testing.assert_allclose(x, x2, rtol=0, atol=1e-13 * np.max(np.abs(x2)))
+    pi = x.reshape(4, 3)
+    np.testing.assert_allclose(pi[:, 0].sum(), BOX_MASS * GRAVITY * H, rtol=1e-12)
+    if case == "rest":
+        np.testing.assert_allclose(pi[:, 0], BOX_MASS * GRAVITY * H / 4, rtol=1e-12)
+    if case == "creeping":
+        np.testing.assert_allclose(pi[:, 1].sum(), -BOX_MASS * 1e-3, rtol=1e-12)
