@@ -124,7 +124,7 @@ from ..impact.laws.pn_complementarity_impulse import several_contacts_impulse
 from ..impact.laws.pn_complementarity_search import SlideWarmStart
 from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL, build_problem
 from .islands import contact_islands
-from .moreau_pn_islands import PnIslands
+from .moreau_pn_islands import PnIslands, flat_layout
 from .moreau_pn_kernels import STICK, certify_islands
 from .moreau_stronge import StrongeIslands
 from .result import ImpactEvent
@@ -234,13 +234,8 @@ class ImpactSolver:
                   if 1 < cs.size <= MAX_CONTACTS
                   and not (C is not None and self._loop_rows(C, cols).size)]
 
-        def flat(parts):
-            off = np.concatenate([[0], np.cumsum([x.size for x in parts])]).astype(np.int64)
-            return (np.concatenate(parts).astype(np.int64) if parts
-                    else np.zeros(0, np.int64)), off
-
-        icon, icoff = flat([islands[j][0] for j in chosen])
-        icol, icoloff = flat([islands[j][1] for j in chosen])
+        icon, icoff = flat_layout([islands[j][0] for j in chosen])
+        icol, icoloff = flat_layout([islands[j][1] for j in chosen])
         keys = [active[islands[j][0]].tobytes() for j in chosen]
         plan = (chosen, keys, icon, icoff, icol, icoloff)
         self._last_islands = (groups, key, islands, plan)

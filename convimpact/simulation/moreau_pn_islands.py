@@ -213,6 +213,14 @@ def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, 
     return full, stuck, slid, largest
 
 
+def flat_layout(parts: list) -> tuple[np.ndarray, np.ndarray]:
+    """Integer arrays ``parts`` laid end to end and their offsets (the kernels' layout of
+    islands: part i is ``flat[off[i]:off[i + 1]]``)."""
+    off = np.concatenate([[0], np.cumsum([x.size for x in parts])]).astype(np.int64)
+    return (np.concatenate(parts).astype(np.int64) if parts
+            else np.zeros(0, np.int64)), off
+
+
 class PnIslands:
     """The one-call path of :class:`.moreau_impact.ImpactSolver` for law
     ``pereira-nikravesh`` (module docstring): :meth:`solve` first on every step (the whole
@@ -287,13 +295,8 @@ class PnIslands:
             w.key, w.arrays = key3, views
             self._objs[j] = w
 
-        def cat(parts):
-            off = np.concatenate([[0], np.cumsum([x.size for x in parts])]).astype(np.int64)
-            return (np.concatenate(parts).astype(np.int64) if parts
-                    else np.zeros(0, np.int64)), off
-
-        icon, icoff = cat([cs for cs, _ in islands])
-        icol, icoloff = cat([cols for _, cols in islands])
+        icon, icoff = flat_layout([cs for cs, _ in islands])
+        icol, icoloff = flat_layout([cols for _, cols in islands])
         self._flat = (np.array(active, dtype=np.int64), moves, icon, icoff, icol, icoloff,
                       eligible, slot, np.zeros(len(islands), dtype=np.int64),
                       np.ascontiguousarray(masks), _ranks(n, key3[2]), *bufs,
@@ -420,4 +423,4 @@ class PnIslands:
         return got
 
 
-__all__ = ["PnIslands", "pn_islands", "NONE", "REST", "SLIDE"]
+__all__ = ["PnIslands", "pn_islands", "flat_layout", "NONE", "REST", "SLIDE"]

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..compiled import jit as _jit
 from ..contacts.interior_point import contact_checks
-from ..impact.laws.pn_complementarity_kernels import admissible, stick_solve
+from ..impact.laws.pn_complementarity_kernels import admissible, stick_solve, sub_cholesky
 from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity
 
 EPS = float(np.finfo(float).eps)
@@ -108,18 +108,8 @@ def coordinate_certificate(Ja, G, cons, cols, d, W, vm, mu, cond_max, cone_rtol,
     if N <= nk:
         return stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
     L = np.zeros((nk, nk))
-    for j in range(nk):
-        acc = G[cols[j], cols[j]]
-        for k in range(j):
-            acc -= L[j, k] * L[j, k]
-        if not acc > 0.0:
-            return stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
-        L[j, j] = np.sqrt(acc)
-        for i in range(j + 1, nk):
-            acc = G[cols[i], cols[j]]
-            for k in range(j):
-                acc -= L[i, k] * L[j, k]
-            L[i, j] = acc / L[j, j]
+    if not sub_cholesky(G, cols, nk, L):
+        return stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
     B = np.zeros((N, nk))
     for c in range(nc):
         for r in range(d):
