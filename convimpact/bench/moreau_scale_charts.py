@@ -63,8 +63,8 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
                  "stronge island by island (the law's impulse, resolve_impact at impacts; "
                  "pereira-nikravesh's resting\nislands by the certificate of its answer, its "
                  "sliding ones by its compiled search without the dominated active sets, after "
-                 "the first step;\nstronge's islands in one compiled call on steps without "
-                 "an impact; medians)", fontsize=10)
+                 "the first step,\nall in one compiled call per step; stronge's islands in one "
+                 "compiled call on steps without an impact; medians)", fontsize=10)
     fig.tight_layout()
     return save_chart(fig, out, "moreau_scale_growth.png")
 

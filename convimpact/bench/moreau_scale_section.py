@@ -11,7 +11,9 @@ islands certified at the natural-map residual 1e-8, warm starts and islands on; 
 (pereira-nikravesh: the law's impulse directly on steps without an impact, resting islands
 answered by the certificate of the law's answer after the first step of their resting mode,
 sliding islands by the law's search in one compiled call, warm-started, without the
-dominated active sets after the first step of their sliding mode; stronge: on steps without
+dominated active sets after the first step of their sliding mode, every island of such a
+mode in one compiled call per step, :mod:`convimpact.simulation.moreau_pn_islands`;
+stronge: on steps without
 an impact every island's warm-started compression in one compiled call,
 :mod:`convimpact.simulation.moreau_stronge`),
 :mod:`convimpact.simulation.moreau_impact`); MuJoCo: its default solver and soft contact,
@@ -308,7 +310,8 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
                                     "the law's impulse directly on steps without an impact, "
                                     "resting islands by the certificate of its answer, "
                                     "sliding islands by its compiled search, pruned of the "
-                                    "dominated active sets; stronge: every island's "
+                                    "dominated active sets, every island of such a mode in "
+                                    "one compiled call per step; stronge: every island's "
                                     "warm-started compression in one compiled call on steps "
                                     "without an impact)")):
         ratios = [t["ratio"] for t in table if t["ratio"] and t["law"] in laws]

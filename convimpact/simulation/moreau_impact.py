@@ -92,6 +92,13 @@ is in a sliding mode (it cannot hold while the island slips; the step the island
 the pruned search finds an admissible stick set and hands the step to the law's own
 search, which ends the mode). The counts: ``pruned`` island steps answered so.
 
+**One call per step** (:mod:`.moreau_pn_islands`, same law and methods, no loops): on a
+direct step, every island inside a resting or a sliding mode is first answered by one
+compiled call for the whole step -- the same certificate and the same pruned search, from
+the same warm starts -- and the step returns without Python per island when it answers them
+all; the islands it leaves (a mode's first step, an impact, an island the certificate or the
+pruned search declines) take the path above, with the answered ones kept.
+
 An :class:`~.result.ImpactEvent` is recorded on the steps where an approaching contact
 receives a normal impulse: the step's active contacts' impulses, regimes (in the order of
 the active contacts) and the sum of the islands' energy losses; its ``result`` is the
@@ -117,6 +124,7 @@ from ..impact.laws.pn_complementarity_impulse import several_contacts_impulse
 from ..impact.laws.pn_complementarity_search import SlideWarmStart
 from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL, build_problem
 from .islands import contact_islands
+from .moreau_pn_islands import PnIslands, flat_layout
 from .moreau_pn_kernels import STICK, certify_islands
 from .moreau_stronge import StrongeIslands
 from .result import ImpactEvent
@@ -171,10 +179,20 @@ class ImpactSolver:
         self.pruned = 0  # island steps of a sliding mode searched without dominated sets
         #: the direct steps' slide-program warm starts, per island (its contacts' bytes)
         self._warm: dict = {}
+        # the islands of a resting or sliding mode in one compiled call: .moreau_pn_islands
+        self.pn_islands = PnIslands.applies(mech, self.direct, self.options)
 
     def idle(self) -> None:
         self._modes_last = set()  # a step without contacts ends every resting mode
         self._warm = {}  # ... and every sliding mode
+        if self.pn_islands is not None:
+            self.pn_islands.reset()
+
+    def _direct_opts(self):
+        """The law's options on its direct path (its interior point's, ``"clarabel"``)."""
+        if self._direct_options is None:
+            self._direct_options = parse_options("clarabel", self.options)
+        return self._direct_options
 
     def _coefficients(self, st, active: np.ndarray):
         """Per active contact: e_eff, e_t (or None), v_n,k and v_n,free."""
@@ -216,13 +234,8 @@ class ImpactSolver:
                   if 1 < cs.size <= MAX_CONTACTS
                   and not (C is not None and self._loop_rows(C, cols).size)]
 
-        def flat(parts):
-            off = np.concatenate([[0], np.cumsum([x.size for x in parts])]).astype(np.int64)
-            return (np.concatenate(parts).astype(np.int64) if parts
-                    else np.zeros(0, np.int64)), off
-
-        icon, icoff = flat([islands[j][0] for j in chosen])
-        icol, icoloff = flat([islands[j][1] for j in chosen])
+        icon, icoff = flat_layout([islands[j][0] for j in chosen])
+        icol, icoloff = flat_layout([islands[j][1] for j in chosen])
         keys = [active[islands[j][0]].tobytes() for j in chosen]
         plan = (chosen, keys, icon, icoff, icol, icoloff)
         self._last_islands = (groups, key, islands, plan)
@@ -297,9 +310,7 @@ class ImpactSolver:
                 return None
             if not any(P.approaching):  # resolve_impact's separating answer
                 return P.dq_minus.copy(), np.zeros((P.n_contacts, P.dim))
-            if self._direct_options is None:
-                self._direct_options = parse_options("clarabel", self.options)
-            pi = several_contacts_impulse(P, conic_backend("clarabel"), self._direct_options,
+            pi = several_contacts_impulse(P, conic_backend("clarabel"), self._direct_opts(),
                                           notes, warm, prune)
         except ConvImpactError:
             return None
@@ -311,6 +322,10 @@ class ImpactSolver:
         """``(v_{k+1}, sigma)`` of the step ``st`` (:class:`.moreau_loop.Step`)."""
         if self.stronge is not None:  # law stronge without an impact: .moreau_stronge
             done = self.stronge.solve(self, st)
+            if done is not None:
+                return done
+        if self.pn_islands is not None:  # law pereira-nikravesh's modes: .moreau_pn_islands
+            done = self.pn_islands.solve(self, st)
             if done is not None:
                 return done
         active = np.asarray(st.active, dtype=np.int64)
@@ -333,9 +348,11 @@ class ImpactSolver:
         # would try slid on every contact on the step before (a sliding mode, whose first
         # resting step the search finds: the law's own search, after the pruned one hands
         # the decision to it on an admissible stick set)
+        # (islands answered by PnIslands.solve: their certificates and answers)
+        mine = self.pn_islands.pending(st) if self.pn_islands is not None else None
         sliding = all(k in self._warm and self._warm[k].full_slide for k in plan[1])
-        certified = (self._certify(st, plan, Ja, v_free, es, active)
-                     if direct and not sliding else None)
+        certified = mine or (self._certify(st, plan, Ja, v_free, es, active)
+                             if direct and not sliding else None)
         if self.stronge is not None:  # its islands answered by StrongeIslands.solve
             certified = self.stronge.pending(st) or certified
         if certified is None:
@@ -349,11 +366,13 @@ class ImpactSolver:
             # are searched this step if they were not the step before (the diagnostic of a
             # new mode) and answered by the certificate alone on the next
             answered, impulse, v_new, self._modes_last = certified
-            self.calls += len(answered)
-            self.certified += len(answered)
-        if answered:
+            if mine is None:  # (PnIslands counted its own)
+                self.calls += len(answered)
+                self.certified += len(answered)
+        if answered and mine is None:
             self.largest_island = max(self.largest_island,
                                       max(islands[j][0].size for j in answered))
+        if answered:
             islands = [isl for j, isl in enumerate(islands) if j not in answered]
         warm_last, self._warm = self._warm, {}
         for cs, cols in islands:
@@ -406,6 +425,8 @@ class ImpactSolver:
             if not one:
                 self.checks += 1
                 self._note(st, r.diagnostics.notes)
+        if mine is not None:  # the sliding islands PnIslands answered keep their warm starts
+            self._warm.update(self.pn_islands.keep())
         sigma = st.sigma + dsig if self.m else st.sigma
         self.impulse = impulse
         if self.stronge is not None:

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..compiled import jit as _jit
 from ..contacts.interior_point import contact_checks
-from ..impact.laws.pn_complementarity_kernels import admissible, stick_solve
+from ..impact.laws.pn_complementarity_kernels import admissible, stick_solve, sub_cholesky
 from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity
 
 EPS = float(np.finfo(float).eps)
@@ -51,17 +51,13 @@ ENERGY_MARGIN = 1e-10
 
 
 @_jit
-def _stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows):
-    """The impulse sticking every contact and whether it is the law's answer (the
-    certificate of the module docstring; needs every contact frictional and b = v-)."""
+def _certified(W, vm, mu, d, x, lam, cone_rtol, slack_max):
+    """Whether the impulse ``x`` sticking every contact (``W x = -v-``, ``lam`` the
+    eigenvalues of W) is the law's answer: the certificate of the module docstring."""
     N = W.shape[0]
-    nc = mu.size
-    member = np.ones(nc, dtype=np.bool_)
-    solved, m, x, lam = stick_solve(W, vm, mu, d, member, cond_max, rows)
-    # every contact frictional: S is every row in order, W_SS = W, x the impulse
-    if not (solved and admissible(W, np.abs(W), member, x, vm, mu, d, cone_rtol, slack_max,
-                                  1e-10)):
-        return x, False
+    member = np.ones(mu.size, dtype=np.bool_)
+    if not admissible(W, np.abs(W), member, x, vm, mu, d, cone_rtol, slack_max, 1e-10):
+        return False
     u = W @ x + vm
     unorm = np.sqrt(u @ u)
     vs = max(np.max(np.abs(vm)), TINY)
@@ -71,13 +67,67 @@ def _stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows):
     escale = max(0.5 * vs * vs / big, TINY)
     lmax = np.max(np.abs(lam))
     lmin = np.inf
-    for a in range(N):
+    for a in range(lam.size):
         if lam[a] > EPS * N * lmax:
             lmin = min(lmin, lam[a])
     if not (lmin < np.inf and lmax > 0.0):
+        return False
+    return (unorm * (1.0 + np.sqrt(lmax / lmin)) <= VELOCITY_MARGIN * vs
+            and 0.5 * unorm * unorm / lmin <= ENERGY_MARGIN * escale)
+
+
+@_jit
+def stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows):
+    """The impulse sticking every contact and whether it is the law's answer (the
+    certificate of the module docstring; needs every contact frictional and b = v-)."""
+    member = np.ones(mu.size, dtype=np.bool_)
+    solved, m, x, lam = stick_solve(W, vm, mu, d, member, cond_max, rows)
+    # every contact frictional: S is every row in order, W_SS = W, x the impulse
+    if not solved:
         return x, False
-    return x, (unorm * (1.0 + np.sqrt(lmax / lmin)) <= VELOCITY_MARGIN * vs
-               and 0.5 * unorm * unorm / lmin <= ENERGY_MARGIN * escale)
+    return x, _certified(W, vm, mu, d, x, lam, cone_rtol, slack_max)
+
+
+@_jit
+def coordinate_certificate(Ja, G, cons, cols, d, W, vm, mu, cond_max, cone_rtol, slack_max):
+    """:func:`stick_certificate` of the island with the contacts ``cons`` (rows of ``Ja``
+    (na, d, k)) and the coordinates ``cols`` (``W = J G J^T`` its Delassus matrix, ``G``
+    the step's block inverse of M), solved in the island's coordinates where it has more
+    contact rows than coordinates (W singular: a box on four corners, 12 rows and 6
+    coordinates): with ``G_II = L L^T`` and ``B = J_I L``, ``W = B B^T`` has the nonzero
+    eigenvalues of the small ``A = B^T B`` and ``W^+ = B (A^+)^2 B^T``, so the law's
+    minimum-norm sticking impulse ``x = -W^+ v-`` (:func:`~convimpact.impact.laws.
+    pn_complementarity_kernels.stick_solve`: W's eigenvalues above ``eps N max|lambda|``,
+    the others dropped; its consistency test ``|W x + v-| <= 1e-9 |v-|``) comes from A's
+    eigen-decomposition instead of W's: the same impulse and eigenvalues to round-off at a
+    fraction of the cost. Elsewhere (and where G_II is not positive definite) it is
+    :func:`stick_certificate` itself."""
+    nc, nk = cons.shape[0], cols.shape[0]
+    N = nc * d
+    rows = np.empty(N, dtype=np.int64)
+    if N <= nk:
+        return stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
+    L = np.zeros((nk, nk))
+    if not sub_cholesky(G, cols, nk, L):
+        return stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
+    B = np.zeros((N, nk))
+    for c in range(nc):
+        for r in range(d):
+            for a in range(nk):
+                acc = 0.0
+                for e in range(a, nk):
+                    acc += Ja[cons[c], r, cols[e]] * L[e, a]
+                B[c * d + r, a] = acc
+    lam, Q = np.linalg.eigh(B.T @ B)
+    smax = np.max(np.abs(lam))
+    y = Q.T @ (B.T @ vm)
+    for a in range(nk):
+        y[a] = y[a] / (lam[a] * lam[a]) if abs(lam[a]) > EPS * N * smax else 0.0
+    x = -(B @ (Q @ y))
+    res = W @ x + vm
+    if not np.sqrt(res @ res) <= 1e-9 * max(np.sqrt(vm @ vm), TINY):
+        return x, False
+    return x, _certified(W, vm, mu, d, x, lam, cone_rtol, slack_max)
 
 
 @_jit
@@ -125,7 +175,7 @@ def certify_islands(Ja, v_free, es, mu_act, G, icon, icoff, icol, icoloff, d, co
                 plain = False
         if not plain:
             continue
-        pi, certified = _stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
+        pi, certified = stick_certificate(W, vm, mu, d, cond_max, cone_rtol, slack_max, rows)
         if not certified:
             continue
         status[i] = STICK

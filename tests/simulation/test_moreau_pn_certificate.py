@@ -31,15 +31,19 @@ def _run(mech, q, v, span, certificate=True, prune=True):
     """``certificate=False``: resting islands searched; ``prune=False``: sliding islands
     searched in full on every step."""
     saved, saved_impulse = mi.ImpactSolver._certify, mi.several_contacts_impulse
+    saved_islands = mi.PnIslands.applies
     if not certificate:
         mi.ImpactSolver._certify = lambda *args: None
     if not prune:
         mi.several_contacts_impulse = lambda *a: saved_impulse(*a[:5])
+    if not (certificate and prune):  # nor the modes' one-call path (moreau_pn_islands)
+        mi.PnIslands.applies = classmethod(lambda cls, *args: None)
     try:
         return simulate_moreau(mech, (0.0, span), (q, v), h=H, law=LAW)
     finally:
         mi.ImpactSolver._certify = saved
         mi.several_contacts_impulse = saved_impulse
+        mi.PnIslands.applies = saved_islands
 
 
 def _step(mech, q, v):

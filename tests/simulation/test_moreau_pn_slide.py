@@ -8,6 +8,7 @@ import pytest
 
 from convimpact.bench.moreau_scenes import GRAVITY, MU, box_row
 from convimpact.impact.laws import pn_complementarity_impulse as pimp
+from convimpact.simulation import moreau_impact as mi
 from convimpact.simulation.moreau import simulate_moreau
 
 H = 2e-3
@@ -21,13 +22,15 @@ def compiled_path():
 
 def _run(mech, q, v, span, own_search=False):
     """``own_search``: the law's own search (``_search`` and ``_pick``) on every step."""
-    saved = pimp.compiled_impulse
-    if own_search:
+    saved, saved_islands = pimp.compiled_impulse, mi.PnIslands.applies
+    if own_search:  # (nor the modes' one-call path, moreau_pn_islands)
         pimp.compiled_impulse = lambda *args: None
+        mi.PnIslands.applies = classmethod(lambda cls, *args: None)
     try:
         return simulate_moreau(mech, (0.0, span), (q, v), h=H, law=LAW)
     finally:
         pimp.compiled_impulse = saved
+        mi.PnIslands.applies = saved_islands
 
 
 def test_sliding_boxes_follow_the_laws_own_search():

@@ -45,6 +45,25 @@ def _consistent(A, x, r, rtol):
 
 
 @_jit
+def sub_cholesky(A, idx, m, L):
+    """The lower Cholesky factor of ``A[idx[:m]][:, idx[:m]]`` into ``L[:m, :m]`` (zeros
+    above the diagonal on entry); False at the first pivot that is not positive."""
+    for j in range(m):
+        acc = A[idx[j], idx[j]]
+        for k in range(j):
+            acc -= L[j, k] ** 2
+        if not acc > 0.0:
+            return False
+        L[j, j] = np.sqrt(acc)
+        for i in range(j + 1, m):
+            acc = A[idx[i], idx[j]]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            L[i, j] = acc / L[j, j]
+    return True
+
+
+@_jit
 def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
     """Stick every active set of ``sets``; (admissible, energy change, impulses).
 

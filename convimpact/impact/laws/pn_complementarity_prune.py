@@ -56,7 +56,7 @@ import numpy as np
 from ...compiled import jit as _jit
 from .codes import OK as KERNEL_OK
 from .pereira_nikravesh_kernel import _pn_planar, _pn_spatial
-from .pn_complementarity_kernels import admissible, set_rows, stick_tier
+from .pn_complementarity_kernels import admissible, set_rows, stick_tier, sub_cholesky
 from .pn_complementarity_slide import slide_set_warm
 
 TINY = 1e-300
@@ -249,18 +249,8 @@ def stick_clearly_inadmissible(W, b, mu, d, member, cone_rtol, slack_max, tol):
     for a in range(m):
         for c in range(m):
             fro += W[rows[a], rows[c]] ** 2
-    for j in range(m):
-        acc = W[rows[j], rows[j]]
-        for k in range(j):
-            acc -= L[j, k] ** 2
-        if not acc > 0.0:
-            return False
-        L[j, j] = np.sqrt(acc)
-        for i in range(j + 1, m):
-            acc = W[rows[i], rows[j]]
-            for k in range(j):
-                acc -= L[i, k] * L[j, k]
-            L[i, j] = acc / L[j, j]
+    if not sub_cholesky(W, rows, m, L):
+        return False
     inv2 = 0.0  # ||L^-1||_F^2, column by column of L^-1 (forward substitution)
     col = np.empty(m)
     for c in range(m):
