@@ -1,0 +1,170 @@
+"""Dual (weak-duality) certificates of the largest-smallest-margin program
+(:func:`~.force_distribution.max_margin_distribution`, stage 1): a bound on its optimum from
+a multiplier vector, without the solver.
+
+The program, in the unknowns (y, tau) with blocks (kind, A, b, w) of
+:func:`~.force_distribution._margin_blocks` (its last block the bound tau <= 1), is
+
+    t* = max tau  s.t.  s = b - A y - tau w  in K  (K: a product of nonnegative half-lines
+                                                   and second-order cones, self-dual).
+
+For any z in K with ``A'z = 0`` and ``w'z > 0`` and any feasible (y, tau), ``s'z >= 0``
+gives ``tau w'z <= b'z - y'A'z = b'z``: **t* <= b'z / w'z** (weak duality). A multiplier
+vector so bounding t* below the level a combination of modes must reach proves the
+combination's refusal; the solver is not asked. :func:`refusal_bound` takes its candidate
+multipliers from the active sets a nearby program's Newton polish left
+(:func:`~.force_distribution_polish._warm_max_min`'s ``warm``): their support and values,
+moved onto ``A'z = 0, w'z = 1`` (the least change, on the same support) and into K. Where
+the nearby active set is this program's optimal one, the bound is the optimum itself; where
+the optimum is degenerate (the box stack's top box at its slip onset, one corner sticking
+and three slipping: a cone whose slack is 0.01 and multiplier 6e-9, on which Newton's method
+stalls at a residual of 1e-9) the dual point still bounds it. A point that does not meet
+``A'z = 0`` to :data:`DUAL_RTOL`, or leaves K, proves nothing: None.
+
+The stationarity residual ``e = A'z`` (at most :data:`DUAL_RTOL` relative) moves the bound by
+``|y'e| / w'z`` for a distribution y (in units of the force scale): the callers compare the
+bound with a guard of 1e-9 of the force scale, which covers distributions up to 1e3 force
+scales; every program's solution here is accepted on its optimality conditions to such
+tolerances (the solver's to 1e-8, Newton's to 1e-12).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .force_distribution_polish import _lstsq
+
+#: largest stationarity residual |A'z|_inf (relative to 1 + |A|_inf |z|_inf) of a dual point
+#: that certifies a bound
+DUAL_RTOL = 1e-12
+#: rounds of (move onto A'z = 0, w'z = 1; move into K) from the candidate multipliers
+DUAL_ROUNDS = 5
+
+
+def dual_bound(blocks, z: np.ndarray) -> float | None:
+    """The bound ``b'z / w'z`` on the largest smallest margin t* certified by the
+    multipliers ``z`` (all blocks' entries stacked, in the blocks' order), or None where
+    ``z`` is not dual feasible: outside K (no tolerance), ``w'z <= 0``, or ``|A'z|_inf`` above
+    :data:`DUAL_RTOL` (1 + |A|_inf |z|_inf)."""
+    z = np.asarray(z, float)
+    k = 0
+    for kind, _, bb, _ in blocks:
+        part = z[k:k + len(bb)]
+        k += len(bb)
+        if kind == "nn":
+            if part.size and float(part.min()) < 0.0:
+                return None
+        elif math.sqrt(float(part[1:] @ part[1:])) > float(part[0]):
+            return None
+    if k != z.size:
+        raise ValueError(f"the multipliers have {z.size} entries, the blocks {k}")
+    A = np.vstack([blk[1] for blk in blocks])
+    b = np.concatenate([blk[2] for blk in blocks])
+    w = np.concatenate([blk[3] for blk in blocks])
+    wz = float(w @ z)
+    if not wz > 0.0:
+        return None
+    zmax = float(np.max(np.abs(z), initial=0.0))
+    amax = float(np.max(np.abs(A), initial=0.0))
+    if float(np.max(np.abs(A.T @ z), initial=0.0)) > DUAL_RTOL * (1.0 + amax * zmax):
+        return None
+    return float(b @ z) / wz
+
+
+def active_multipliers(blocks, active) -> np.ndarray | None:
+    """The multipliers (stacked per block) of a Newton polish's active set ``active``
+    (kinds, unknowns: :func:`~.force_distribution_polish._polish_max_min`): zero on the
+    inactive cones, the unknowns on the "zero" ones, ``beta (1, -cos phi, -sin phi)`` on a
+    ray; None where the active set does not fit the blocks."""
+    kinds, parts = active
+    if len(kinds) != len(blocks):
+        return None
+    out = []
+    for (kind, _, bb, _), how, p in zip(blocks, kinds, parts):
+        m = len(bb)
+        if how is None:
+            out.append(np.zeros(m))
+        elif isinstance(how, str):
+            if p.size != m:
+                return None
+            out.append(np.asarray(p, float))
+        else:
+            if m != 3 or p.size != 3:
+                return None
+            beta, phi = float(p[1]), float(p[2])
+            out.append(beta * np.array([1.0, -math.cos(phi), -math.sin(phi)]))
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def _into_cones(blocks, z: np.ndarray) -> np.ndarray:
+    """The projection of z onto K (blockwise: the half-lines' negative parts cut, each
+    second-order cone's Euclidean projection)."""
+    out = z.copy()
+    k = 0
+    for kind, _, bb, _ in blocks:
+        m = len(bb)
+        part = out[k:k + m]
+        if kind == "nn":
+            np.maximum(part, 0.0, out=part)
+        else:
+            t, norm = float(part[0]), math.sqrt(float(part[1:] @ part[1:]))
+            if norm <= -t:
+                part[:] = 0.0
+            elif norm > t:
+                scale = 0.5 * (t + norm)
+                part[0] = scale
+                part[1:] *= scale / norm
+        k += m
+    return out
+
+
+def dual_point(blocks, z0: np.ndarray) -> np.ndarray | None:
+    """A dual point near the candidate ``z0`` on its support (the blocks where it is not
+    zero): alternately the least change onto ``A'z = 0, w'z = 1`` (a minimum-norm
+    least-squares step on the support's columns) and the projection into K, until the
+    point is dual feasible (:func:`dual_bound`), at most :data:`DUAL_ROUNDS` times; None
+    where it is not by then."""
+    sizes = [len(blk[2]) for blk in blocks]
+    starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+    support = [j for j in range(len(blocks))
+               if np.any(z0[starts[j]:starts[j + 1]] != 0.0)]
+    if not support:
+        return None
+    cols = np.concatenate([np.arange(starts[j], starts[j + 1]) for j in support])
+    # stationarity's rows on the support: A_S' (r rows), then w_S' (one)
+    M = np.vstack([np.vstack([blocks[j][1] for j in support]).T,
+                   np.concatenate([blocks[j][3] for j in support])[None, :]])
+    target = np.zeros(M.shape[0])
+    target[-1] = 1.0
+    z = z0.copy()
+    sub = [blocks[j] for j in support]
+    for _ in range(DUAL_ROUNDS):
+        zs = z[cols]
+        zs = zs - _lstsq(M, M @ zs - target, 1e-12)
+        z[cols] = _into_cones(sub, zs)
+        if dual_bound(blocks, z) is not None:
+            return z
+    return None
+
+
+def refusal_bound(blocks, warm: dict) -> float | None:
+    """The least bound on the program's largest smallest margin that the active sets of a
+    nearby program certify (``warm``: the last one, then the earlier ones kept, as
+    :func:`~.force_distribution._warm_tries` tries them), each moved to a dual point of this
+    program (:func:`dual_point`); None where none of them gives a dual-feasible point."""
+    sets = []
+    if warm.get("active") is not None:
+        sets.append(warm["active"])
+    sets += [entry[0] for entry in warm.get("earlier", ()) if entry[0] is not None]
+    best = None
+    for active in sets:
+        z0 = active_multipliers(blocks, active)
+        z = None if z0 is None else dual_point(blocks, z0)
+        if z is None:
+            continue
+        bound = dual_bound(blocks, z)
+        if bound is not None and (best is None or bound < best):
+            best = bound
+    return best
