@@ -20,25 +20,28 @@ DEGENERATE = 1e-5
 NEWTON_STALL = 3
 
 
-#: LAPACK's optimal workspace of dgelsy per (rows, columns) of the system (queried once)
+#: LAPACK's optimal workspace of dgelsy per (rows, columns, right-hand sides) of the system
+#: (queried once)
 _GELSY_LWORK: dict = {}
 
 
 def _lstsq(J: np.ndarray, F: np.ndarray, cond: float) -> np.ndarray:
-    """The least-squares solution of ``J x = F`` by LAPACK's dgelsy (a complete orthogonal
-    factorization with column pivoting; singular values below ``cond`` of the largest
-    cut), as ``scipy.linalg.lstsq(J, F, cond, lapack_driver="gelsy")`` computes it (the
-    same routine, arguments and workspace), without its per-call checks and look-ups:
-    the Newton steps here solve a hundred small systems per event."""
+    """The least-squares solution of ``J x = F`` (F a vector, or a matrix of right-hand
+    sides) by LAPACK's dgelsy (a complete orthogonal factorization with column pivoting;
+    singular values below ``cond`` of the largest cut), as ``scipy.linalg.lstsq(J, F, cond,
+    lapack_driver="gelsy")`` computes it (the same routine, arguments and workspace),
+    without its per-call checks and look-ups: the Newton steps here solve a hundred small
+    systems per event."""
     m, n = J.shape
-    lwork = _GELSY_LWORK.get((m, n))
+    nrhs = 1 if F.ndim == 1 else F.shape[1]
+    lwork = _GELSY_LWORK.get((m, n, nrhs))
     if lwork is None:
-        work, info = _dgelsy_lwork(m, n, 1, cond)
+        work, info = _dgelsy_lwork(m, n, nrhs, cond)
         if info != 0:
             raise ValueError(f"dgelsy's workspace query failed: {info}")
-        lwork = _GELSY_LWORK[(m, n)] = int(work.real)
+        lwork = _GELSY_LWORK[(m, n, nrhs)] = int(work.real)
     if m < n:  # (the solution overwrites the right-hand side: room for n entries)
-        rhs = np.zeros(n)
+        rhs = np.zeros((n,) + F.shape[1:])
         rhs[:m] = F
     else:
         rhs = F

@@ -122,10 +122,13 @@ def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[R
             dropped.append((c, j))
             continue
         trial = kept + [u]
-        S = G[np.ix_(trial, trial)]
-        smin = float(np.linalg.eigvalsh(0.5 * (S + S.T))[0])
+        S = G[trial][:, trial]
         norm = float(X[u] @ X[u]) * scale
-        if smin > RANK_RTOL * max(norm, 1e-300):
+        # its smallest eigenvalue above RANK_RTOL * norm: S - RANK_RTOL norm I positive
+        # definite, its Cholesky factor exists (a compiled factorization, not eigvalsh)
+        S = 0.5 * (S + S.T)
+        S.flat[::len(trial) + 1] -= RANK_RTOL * max(norm, 1e-300)
+        if _cholesky(S) is not None:
             kept.append(u)
         else:
             dropped.append((c, j))
