@@ -121,11 +121,15 @@ def _into_cones(blocks, z: np.ndarray) -> np.ndarray:
 
 
 def dual_point(blocks, z0: np.ndarray) -> np.ndarray | None:
-    """A dual point near the candidate ``z0`` on its support (the blocks where it is not
-    zero): alternately the least change onto ``A'z = 0, w'z = 1`` (a minimum-norm
-    least-squares step on the support's columns) and the projection into K, until the
-    point is dual feasible (:func:`dual_bound`), at most :data:`DUAL_ROUNDS` times; None
-    where it is not by then."""
+    """A dual point near the candidate ``z0`` on its support S (the blocks where it is not
+    zero), or None where none is found:
+
+    1. alternately the least change onto ``A'z = 0, w'z = 1`` (a minimum-norm least-squares
+       step on S's columns) and the projection into K, until the point is dual feasible
+       (:func:`dual_bound`), at most :data:`DUAL_ROUNDS` times;
+    2. else (the stationary points on S leave K: at a degenerate optimum the dual point
+       lies on a second-order cone's boundary and needs half-lines outside S with tiny
+       multipliers) :func:`_boundary_point` from step 1's first least-squares point."""
     sizes = [len(blk[2]) for blk in blocks]
     starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
     support = [j for j in range(len(blocks))
@@ -140,12 +144,83 @@ def dual_point(blocks, z0: np.ndarray) -> np.ndarray | None:
     target[-1] = 1.0
     z = z0.copy()
     sub = [blocks[j] for j in support]
+    first = None
     for _ in range(DUAL_ROUNDS):
         zs = z[cols]
         zs = zs - _lstsq(M, M @ zs - target, 1e-12)
+        if first is None:
+            first = zs
         z[cols] = _into_cones(sub, zs)
         if dual_bound(blocks, z) is not None:
             return z
+    z = np.zeros_like(z0)
+    z[cols] = first
+    return _boundary_point(blocks, z, support, starts)
+
+
+def _boundary_point(blocks, z: np.ndarray, support, starts) -> np.ndarray | None:
+    """A dual point from ``z`` (stationary on the ``support``): each second-order cone of
+    the support put on its boundary ray ``beta (1, -cos phi, -sin phi)`` through z's
+    (beta = its first entry), its half-lines kept as entries, and the program's other
+    half-lines (but the bound tau <= 1) added from zero; Gauss-Newton on stationarity
+    (``A'z = 0, w'z = 1``, minimum-norm steps: the added multipliers stay small) in those
+    unknowns, the added half-lines whose multiplier comes out negative left out and the
+    rest solved again (at most :data:`DUAL_ROUNDS` sets); the point where
+    :func:`dual_bound` accepts one, else None. (The box stack's slip onset: one corner
+    sticking, three slipping, the optimum's multipliers 1 on the sticking corner's cone
+    boundary and 6e-9 on a slipping corner's normal force.)"""
+    r = blocks[0][1].shape[1]
+    rays = [j for j in support if blocks[j][0] == "soc"]
+    kept = [j for j in support if blocks[j][0] != "soc"]
+    extra = [j for j in range(len(blocks) - 1)
+             if blocks[j][0] == "nn" and j not in support]
+    target = np.zeros(r + 1)
+    target[r] = 1.0
+    u0 = []
+    for j in rays:
+        zb = z[starts[j]:starts[j + 1]]
+        u0 += [float(zb[0]), math.atan2(-float(zb[2]), -float(zb[1]))]
+    AwT = {j: np.vstack([blocks[j][1].T, blocks[j][3][None, :]])
+           for j in rays + kept + extra}
+    for _ in range(DUAL_ROUNDS):
+        full = kept + extra
+        u = np.concatenate([u0, np.concatenate([z[starts[j]:starts[j + 1]] for j in full])
+                            if full else np.zeros(0)])
+        for _ in range(12):
+            F, cols, k = -target, [], 0
+            for j in rays:
+                beta, phi = u[k], u[k + 1]
+                c, sn = math.cos(phi), math.sin(phi)
+                g = AwT[j] @ np.array([1.0, -c, -sn])
+                F = F + beta * g
+                cols.append(np.column_stack([g, beta * (AwT[j] @ np.array([0.0, sn, -c]))]))
+                k += 2
+            for j in full:
+                m = len(blocks[j][2])
+                F = F + AwT[j] @ u[k:k + m]
+                cols.append(AwT[j])
+                k += m
+            if float(np.abs(F).max()) <= 1e-15:
+                break
+            u = u - _lstsq(np.hstack(cols), F, 1e-12)
+        out = np.zeros_like(z)
+        k = 0
+        for j in rays:
+            out[starts[j]:starts[j + 1]] = u[k] * np.array([1.0, -math.cos(u[k + 1]),
+                                                            -math.sin(u[k + 1])])
+            k += 2
+        negative = []
+        for j in full:
+            m = len(blocks[j][2])
+            out[starts[j]:starts[j + 1]] = u[k:k + m]
+            if j in extra and float(u[k:k + m].min()) < 0.0:
+                negative.append(j)
+            k += m
+        if dual_bound(blocks, out) is not None:
+            return out
+        if not negative:
+            return None
+        extra = [j for j in extra if j not in negative]
     return None
 
 

@@ -157,11 +157,11 @@ def test_an_expired_step_builds_no_dense_output():
 
 
 def test_refusals_certified_by_dual_points_are_the_solvers_refusals(onsets):
-    """At the top box's slip onset, combinations with one corner sticking are refused by a
-    dual point from the located margin's active set (force_dual.refusal_bound), without
-    the solver: each so certified, Clarabel's largest smallest margin of the same program
-    lies below the level asked too (and at or below the bound: weak duality); the answer
-    is the one the run took."""
+    """At the top box's slip onset, the four combinations with one corner sticking are
+    refused by a dual point from the located margin's active set (force_dual.refusal_bound),
+    without the solver: for each so certified, Clarabel's largest smallest margin of the
+    same program lies below the level asked too (and at or below the bound: weak duality);
+    the answer is the one the run took."""
     _, seen = onsets
     P, given, sol = seen[-1]
     bounds = []
@@ -179,7 +179,7 @@ def test_refusals_certified_by_dual_points_are_the_solvers_refusals(onsets):
         force_distribution.refusal_bound = certify
     level = -force_solver.RTOL - force_distribution.BELOW_GUARD  # (relative: the scale)
     certified = [(blocks, b) for blocks, b in bounds if b is not None and b < level]
-    assert len(certified) >= 2
+    assert len(certified) == 4  # the four combinations with one corner of the top box sticking
     for blocks, bound in certified:
         A = np.vstack([blk[1] for blk in blocks])
         b = np.concatenate([blk[2] for blk in blocks])
