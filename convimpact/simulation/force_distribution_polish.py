@@ -438,39 +438,26 @@ def _newton_least_norm(blocks, g: np.ndarray, kinds, y0: np.ndarray, scale: floa
             size += 3
     v = np.concatenate(v0)
 
+    ck = _kernels()
+    zero = np.array([how == "zero" for _, how, _, _ in act], dtype=np.bool_)
+    ks = np.array([k0 for _, _, k0, _ in act], dtype=np.int64)
+    ms = np.array([m for _, _, _, m in act], dtype=np.int64)
+    if act:
+        A = np.vstack([blocks[j][1] for j, _, _, _ in act])
+        b = np.concatenate([blocks[j][2] for j, _, _, _ in act])
+    else:
+        A, b = np.zeros((0, r)), np.zeros(0)
+
     def residual(v):
-        y = v[:r]
-        F = np.zeros(size)
-        J = np.zeros((size, size))
-        J[:r, :r] = np.eye(r)
-        stat = y + g
-        for j, how, k, m in act:
-            kind, Ab, bb, wb = blocks[j]
-            s = bb - Ab @ y
-            J[k:k + m, :r] = -Ab
-            if how == "zero":
-                z = v[k:k + m]
-                stat = stat + Ab.T @ z
-                J[:r, k:k + m] = Ab.T
-                F[k:k + m] = s
-            else:
-                alpha, beta, phi = v[k], v[k + 1], v[k + 2]
-                c, sn = math.cos(phi), math.sin(phi)
-                ray, dray = np.array([1.0, c, sn]), np.array([0.0, -sn, c])
-                zdir, dzdir = np.array([1.0, -c, -sn]), np.array([0.0, sn, -c])
-                stat = stat + beta * (Ab.T @ zdir)
-                J[:r, k + 1] = Ab.T @ zdir
-                J[:r, k + 2] = beta * (Ab.T @ dzdir)
-                F[k:k + 3] = s - alpha * ray
-                J[k:k + 3, k] = -ray
-                J[k:k + 3, k + 2] = -alpha * dray
-        F[:r] = stat
+        F = np.empty(size)
+        J = np.empty((size, size))
+        ck.least_norm_residual(v, r, g, zero, ks, ms, A, b, F, J)
         return F, J
 
     best, stalled = None, 0
     for _ in range(40):
         F, J = residual(v)
-        res = float(np.max(np.abs(F), initial=0.0))
+        res = float(np.abs(F).max()) if F.size else 0.0
         if best is None or res < best[0]:
             best, stalled = (res, v.copy()), 0
         else:

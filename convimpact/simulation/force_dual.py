@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from .force_distribution_polish import _lstsq
+from .force_distribution_polish import _kernels, _lstsq
 
 #: largest stationarity residual |A'z|_inf (relative to 1 + |A|_inf |z|_inf) of a dual point
 #: that certifies a bound
@@ -43,32 +43,35 @@ DUAL_RTOL = 1e-12
 DUAL_ROUNDS = 5
 
 
-def dual_bound(blocks, z: np.ndarray) -> float | None:
+def _stacked(blocks):
+    """(A, b, w, second-order flags, starts, sizes, |A|_inf) of the blocks, stacked."""
+    sizes = np.array([len(blk[2]) for blk in blocks], dtype=np.int64)
+    starts = np.zeros(len(blocks), dtype=np.int64)
+    np.cumsum(sizes[:-1], out=starts[1:])
+    A = np.vstack([blk[1] for blk in blocks])
+    return (A, np.concatenate([blk[2] for blk in blocks]),
+            np.concatenate([blk[3] for blk in blocks]),
+            np.array([blk[0] == "soc" for blk in blocks], dtype=np.bool_), starts, sizes,
+            float(np.abs(A).max()) if A.size else 0.0)
+
+
+def dual_bound(blocks, z: np.ndarray, stacked=None) -> float | None:
     """The bound ``b'z / w'z`` on the largest smallest margin t* certified by the
     multipliers ``z`` (all blocks' entries stacked, in the blocks' order), or None where
     ``z`` is not dual feasible: outside K (no tolerance), ``w'z <= 0``, or ``|A'z|_inf`` above
-    :data:`DUAL_RTOL` (1 + |A|_inf |z|_inf)."""
+    :data:`DUAL_RTOL` (1 + |A|_inf |z|_inf). ``stacked``: the blocks' :func:`_stacked`
+    arrays, where the caller has them."""
+    A, b, w, soc, starts, sizes, amax = _stacked(blocks) if stacked is None else stacked
     z = np.asarray(z, float)
-    k = 0
-    for kind, _, bb, _ in blocks:
-        part = z[k:k + len(bb)]
-        k += len(bb)
-        if kind == "nn":
-            if part.size and float(part.min()) < 0.0:
-                return None
-        elif math.sqrt(float(part[1:] @ part[1:])) > float(part[0]):
-            return None
-    if k != z.size:
-        raise ValueError(f"the multipliers have {z.size} entries, the blocks {k}")
-    A = np.vstack([blk[1] for blk in blocks])
-    b = np.concatenate([blk[2] for blk in blocks])
-    w = np.concatenate([blk[3] for blk in blocks])
+    if z.size != b.size:
+        raise ValueError(f"the multipliers have {z.size} entries, the blocks {b.size}")
+    if _kernels().cone_violation(z, soc, starts, sizes) > 0.0:
+        return None
     wz = float(w @ z)
     if not wz > 0.0:
         return None
-    zmax = float(np.max(np.abs(z), initial=0.0))
-    amax = float(np.max(np.abs(A), initial=0.0))
-    if float(np.max(np.abs(A.T @ z), initial=0.0)) > DUAL_RTOL * (1.0 + amax * zmax):
+    zmax = float(np.abs(z).max())
+    if float(np.abs(A.T @ z).max()) > DUAL_RTOL * (1.0 + amax * zmax):
         return None
     return float(b @ z) / wz
 
@@ -120,7 +123,7 @@ def _into_cones(blocks, z: np.ndarray) -> np.ndarray:
     return out
 
 
-def dual_point(blocks, z0: np.ndarray) -> np.ndarray | None:
+def dual_point(blocks, z0: np.ndarray, stacked=None) -> np.ndarray | None:
     """A dual point near the candidate ``z0`` on its support S (the blocks where it is not
     zero), or None where none is found:
 
@@ -130,6 +133,7 @@ def dual_point(blocks, z0: np.ndarray) -> np.ndarray | None:
     2. else (the stationary points on S leave K: at a degenerate optimum the dual point
        lies on a second-order cone's boundary and needs half-lines outside S with tiny
        multipliers) :func:`_boundary_point` from step 1's first least-squares point."""
+    stacked = _stacked(blocks) if stacked is None else stacked
     sizes = [len(blk[2]) for blk in blocks]
     starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
     support = [j for j in range(len(blocks))
@@ -151,14 +155,14 @@ def dual_point(blocks, z0: np.ndarray) -> np.ndarray | None:
         if first is None:
             first = zs
         z[cols] = _into_cones(sub, zs)
-        if dual_bound(blocks, z) is not None:
+        if dual_bound(blocks, z, stacked) is not None:
             return z
     z = np.zeros_like(z0)
     z[cols] = first
-    return _boundary_point(blocks, z, support, starts)
+    return _boundary_point(blocks, z, support, starts, stacked)
 
 
-def _boundary_point(blocks, z: np.ndarray, support, starts) -> np.ndarray | None:
+def _boundary_point(blocks, z: np.ndarray, support, starts, stacked) -> np.ndarray | None:
     """A dual point from ``z`` (stationary on the ``support``): each second-order cone of
     the support put on its boundary ray ``beta (1, -cos phi, -sin phi)`` through z's
     (beta = its first entry), its half-lines kept as entries, and the program's other
@@ -216,7 +220,7 @@ def _boundary_point(blocks, z: np.ndarray, support, starts) -> np.ndarray | None
             if j in extra and float(u[k:k + m].min()) < 0.0:
                 negative.append(j)
             k += m
-        if dual_bound(blocks, out) is not None:
+        if dual_bound(blocks, out, stacked) is not None:
             return out
         if not negative:
             return None
@@ -233,13 +237,13 @@ def refusal_bound(blocks, warm: dict) -> float | None:
     if warm.get("active") is not None:
         sets.append(warm["active"])
     sets += [entry[0] for entry in warm.get("earlier", ()) if entry[0] is not None]
-    best = None
+    best, stacked = None, _stacked(blocks)
     for active in sets:
         z0 = active_multipliers(blocks, active)
-        z = None if z0 is None else dual_point(blocks, z0)
+        z = None if z0 is None else dual_point(blocks, z0, stacked)
         if z is None:
             continue
-        bound = dual_bound(blocks, z)
+        bound = dual_bound(blocks, z, stacked)
         if bound is not None and (best is None or bound < best):
             best = bound
     return best

@@ -93,3 +93,65 @@ def cone_violation(x, soc, starts, sizes):
             for i in range(m):
                 worst = max(worst, -x[k + i])
     return worst
+
+
+@jit
+def least_norm_residual(v, r, g, zero, ks, ms, A, b, F, J):
+    """The conditions F (into ``F``) and their Jacobian (into ``J``) of the least-norm
+    program ``min |y|^2 / 2 + g'y`` s.t. ``b - A y`` in the cones, at ``v = (y, unknowns)``
+    with the active cones fixed (:func:`~.force_distribution_polish._newton_least_norm`):
+    stationarity ``y + g + sum_c A_c' z_c = 0`` (rows 0..r-1), then per active cone its
+    slack ``s_c = b_c - A_c y`` equal to 0 (``zero[c]``: z_c = its unknowns) or to
+    ``alpha (1, cos phi, sin phi)`` (a ray: unknowns alpha, beta, phi; z_c = beta (1, -cos
+    phi, -sin phi)). Cone c's unknowns and rows of F start at ``ks[c]`` (``ms[c]`` of each),
+    its rows of A and b at ``ks[c] - r``."""
+    size = J.shape[0]
+    for i in range(size):
+        for j in range(size):
+            J[i, j] = 0.0
+    for j in range(r):
+        F[j] = v[j] + g[j]
+        J[j, j] = 1.0
+    zdir = [0.0, 0.0, 0.0]
+    dzdir = [0.0, 0.0, 0.0]
+    ray = [0.0, 0.0, 0.0]
+    dray = [0.0, 0.0, 0.0]
+    for c in range(zero.shape[0]):
+        k, m = ks[c], ms[c]
+        a0 = k - r
+        for i in range(m):
+            for j in range(r):
+                J[k + i, j] = -A[a0 + i, j]
+        if zero[c]:
+            for i in range(m):
+                s = b[a0 + i]
+                for j in range(r):
+                    s -= A[a0 + i, j] * v[j]
+                F[k + i] = s
+                z = v[k + i]
+                for j in range(r):
+                    F[j] += A[a0 + i, j] * z
+                    J[j, k + i] = A[a0 + i, j]
+        else:
+            alpha, beta, phi = v[k], v[k + 1], v[k + 2]
+            co, sn = math.cos(phi), math.sin(phi)
+            ray[0], ray[1], ray[2] = 1.0, co, sn
+            dray[0], dray[1], dray[2] = 0.0, -sn, co
+            zdir[0], zdir[1], zdir[2] = 1.0, -co, -sn
+            dzdir[0], dzdir[1], dzdir[2] = 0.0, sn, -co
+            for j in range(r):
+                gz = 0.0
+                dgz = 0.0
+                for i in range(3):
+                    gz += A[a0 + i, j] * zdir[i]
+                    dgz += A[a0 + i, j] * dzdir[i]
+                F[j] += beta * gz
+                J[j, k + 1] = gz
+                J[j, k + 2] = beta * dgz
+            for i in range(3):
+                s = b[a0 + i]
+                for j in range(r):
+                    s -= A[a0 + i, j] * v[j]
+                F[k + i] = s - alpha * ray[i]
+                J[k + i, k] = -ray[i]
+                J[k + i, k + 2] = -alpha * dray[i]
