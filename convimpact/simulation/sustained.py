@@ -27,8 +27,12 @@ from .force_distribution import margin_extension
 #: a box on an incline with mu = tan(slope) exactly, keeps sticking)
 MARGIN_SLACK = 1e-9
 #: margin (relative to the force scale) above which a hinted distribution stands in for the
-#: exact largest-margin one in the event functions (:func:`held_forces`)
-HINT_MARGIN = 1e-3
+#: exact largest-margin one in the event functions (:func:`held_forces`): its margin, a lower
+#: bound of the largest, proves that positive (no event), and a step's end value of the
+#: margin enters the location of a crossing only as a bracket's positive end (Brent's method
+#: keeps the sign change, whatever the value). Was 1e-3: the box stack's sliding top box
+#: (margins 7e-4 to 7e-3) ran a cone program at each step's end for no decision
+HINT_MARGIN = 1e-6
 #: rank tolerance of the held rows (relative to the largest singular value of C M^-1 C^T)
 RANK_RTOL = 1e-10
 
