@@ -296,6 +296,13 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
     if kinds != {"stick"} and kinds != {"slip"}:
         return None
     theta = y[:eq.k]
+    # held rows fixing every velocity (a resting stack): theta_dot = 0, theta stays the
+    # segment's own to round-off, and B's factors are reused while it does (to 1e-13)
+    locked = kinds == {"stick"} and eq.n_constraints >= eq.k
+    memo = getattr(eq, "_locked_determinate", None) if locked else None
+    if (memo is not None and memo[0] == d and float(np.abs(theta - memo[1]).max())
+            <= 1e-13 * (1.0 + float(np.abs(memo[1]).max()))):
+        return memo[2]
     jac = eq.contact_jacobians(theta)
     if any(len(jac[c]) != d for c in eq.held):
         return None
@@ -325,7 +332,10 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
     R = Vt[:rank]
     null = rank < B.shape[1]  # indeterminate directions exist
     if T is None:
-        return (lambda v: R.T @ (R @ v)), null, (lambda: Vt[rank:].T)
+        out = (lambda v: R.T @ (R @ v)), null, (lambda: Vt[rank:].T)
+        if locked:
+            eq._locked_determinate = (d, np.array(theta, float), out)
+        return out
 
     def project(v):
         u = np.einsum("ij,ij->i", T, v.reshape(n, d))  # T^T v
