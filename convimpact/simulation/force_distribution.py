@@ -24,7 +24,6 @@ import numpy as np
 from ..errors import SolverError
 from .force_distribution_polish import (_cone_violation, _newton_max_min, _off_ray,
                                          _polish_least_norm, _polish_max_min, _warm_max_min)
-from .force_active_set import warm_corrected
 from .force_dual import refusal_bound
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
@@ -153,8 +152,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     # tau <= 1 (the force scale) keeps the max-min bounded: a margin of its own
     blocks.append(("nn", np.zeros((1, r)), np.ones(1), np.ones(1)))
     if warm is not None and below is not None and not np.isfinite(below) and below > 0.0:
-        got = _warm_tries(blocks, warm, lam0, Q, scale) or warm_corrected(
-            blocks, warm, lam0, Q, scale)  # (the last set corrected: force_active_set)
+        got = _warm_tries(blocks, warm, lam0, Q, scale)
         if got is not None:  # the margin alone, at a recent program's active set
             y_star, t_star = got
             lam = lam0 + Q @ (y_star * scale)

@@ -166,14 +166,12 @@ def _kernels():
 _KERNELS = None
 
 
-def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True,
-                    loose: bool = False):
+def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True):
     """Newton's method (least-squares steps) on the max-min optimality conditions with the
     cones' kinds fixed; the solution vector (y, tau, unknowns), or None when it does not
     converge to 1e-12 or leaves a cone (``check`` False: the cones are not checked, the
     solution of the conditions is returned wherever they hold: the smooth extension of
-    the active set's program; ``loose``: the best iterate, wherever Newton's method
-    ends, unchecked, for :mod:`.force_active_set` to read its violations). The conditions and their Jacobian are evaluated by
+    the active set's program). The conditions and their Jacobian are evaluated by
     :func:`~.force_newton_kernels.max_min_residual`."""
     ck = _kernels()
     r = x1.size - 1
@@ -231,8 +229,6 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True,
         if (norm <= (1e-15 if check else 1e-12) or float(np.abs(step).max()) <= 1e-16
                 or stalled >= NEWTON_STALL):
             break  # (an unchecked extension, a predictor, needs no digits past 1e-12)
-    if loose:
-        return best
     if not best_norm <= 1e-12:
         return None
     if not check:
