@@ -232,6 +232,7 @@ class StrongeIslands:
         self._flat: tuple | None = None
         self._groups = None
         self._pending = None  # (step index, answer) of a step answered in part
+        self._every = False  # the layout's active contacts are all of them, in order
         self.tols = np.array([0.0, *TOLERANCES])
 
     @classmethod
@@ -274,6 +275,8 @@ class StrongeIslands:
         icol, icoloff = cat([cols for _, cols in islands])
         self._flat = (np.array(active, dtype=np.int64), moves, icon, icoff, icol, icoloff,
                       np.zeros(len(islands), dtype=np.int64))
+        # (every contact active, in order: the impulses are ``last`` whole)
+        self._every = bool(np.array_equal(self._flat[0], np.arange(self.n_contacts)))
         self._groups = st.inv.groups
 
     def solve(self, solver, st):
@@ -316,7 +319,10 @@ class StrongeIslands:
             self._pending = (st.index, (answered, r, v_new, set()))
             return None
         solver.impulse = r
-        self.last[active] = r
+        if self._every:  # the layout's active contacts (the kernel checked: these) are all
+            self.last[...] = r
+        else:
+            self.last[active] = r
         return v_new, st.sigma
 
     def pending(self, st):
