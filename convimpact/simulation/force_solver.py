@@ -74,7 +74,7 @@ EDGE_MAX = 6
 #: relative residual below which an onset's tangential rows count as combinations of the
 #: rows its combination holds at zero (:func:`_refused_as_stuck`)
 STUCK_RTOL = 1e-10
-_EPS = float(np.finfo(float).eps)  # scipy.linalg.lstsq's default cond for dgelsy
+_EPS = float(np.finfo(float).eps)  # (scipy.linalg.lstsq's default cond for dgelsy)
 
 
 def islands(W: np.ndarray, n: int, d: int) -> list[np.ndarray]:
@@ -382,8 +382,7 @@ def _refused_as_stuck(P: ContactForceProblem, choice, edges, picks, refused) -> 
          for j in (range(d) if c[0] == STICK else (0,))]
     T = [i * d + j for i in onsets for j in range(1, d)]
     W, b = P.delassus, P.free_acceleration
-    # W_T ~ G W_K (least squares by a pivoted QR: W_K's rows may depend on one another;
-    # LAPACK's dgelsy as scipy.linalg.lstsq calls it, cond = eps, without its checks)
+    # W_T ~ G W_K (least squares by a pivoted QR, dgelsy: W_K's rows may be dependent)
     G = _lstsq(W[K].T, W[T].T, _EPS).T
     ascale = _scales(P)[0]
     wscale = max(float(np.max(np.abs(W))), 1e-300)
