@@ -66,8 +66,13 @@ class CompiledHeldPath:
             return None
         if not d.chol_ok:
             return None
-        L, C, A = np.empty((k, k)), np.empty((m, k)), np.empty((k, m))
-        S, SL = np.empty((m, m)), np.zeros((m, m))
+        # (the factors' work arrays, written whole by the kernel on every call, or on its
+        # lower triangle: SL's upper one stays zero; the results are new arrays)
+        work = getattr(self, "_held_work", None)
+        if work is None:
+            work = self._held_work = (np.empty((k, k)), np.empty((m, k)), np.empty((k, m)),
+                                      np.empty((m, m)), np.zeros((m, m)))
+        L, C, A, S, SL = work
         dtheta, sigma = np.empty(k), np.empty(m)
         if ck.held_velocities(d.L, d.contact_jacobian, self._row_contact, self._row_row, p,
                               L, C, A, S, SL, dtheta, sigma) != ck.OK:
@@ -107,7 +112,10 @@ class CompiledHeldPath:
                                                   for md in modes])
         else:
             stored, mu, floors = np.zeros((0, 1)), _EMPTY, _EMPTY
-        w = self.unknown_weights() if self.redundant else np.zeros(0)
+        w = getattr(self, "_held_weights", None)  # (the segment's: its mu are fixed)
+        if w is None:
+            w = self._held_weights = (self.unknown_weights() if self.redundant
+                                      else np.zeros(0))
         x0 = (self.offset if self.offset is not None and self.redundant
               else np.zeros(len(w)))
         out = np.empty(2 * k)

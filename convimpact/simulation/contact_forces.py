@@ -213,7 +213,8 @@ def _slacks(P: ContactForceProblem, combo, dirs, lam: np.ndarray, onset) -> np.n
         if mode == OPEN:
             out.append(a[n0] * to_force)
         elif mode == STICK:
-            out.append(mu[i] * lam[n0] - float(np.linalg.norm(lam[n0 + 1:n0 + d])))
+            t = lam[n0 + 1:n0 + d]  # (|t| as np.linalg.norm computes it: sqrt(t . t))
+            out.append(mu[i] * lam[n0] - math.sqrt(float(t @ t)))
             out.append(lam[n0])
         else:
             out.append(lam[n0])

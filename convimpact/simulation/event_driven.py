@@ -330,6 +330,11 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
         bound = o.next_bound(self.t)  # a breakpoint ends the segment there (no event)
         if self.h_next is not None and self.h_next > 0:
             opts["first_step"] = min(float(self.h_next), bound - self.t)
+        if eq.n_constraints >= k and bound > self.t:
+            # the held rows fix every velocity (theta_dot = 0: a resting stack, a table at
+            # rest): p changes with the applied forces alone, and the first step tried is
+            # the whole segment, which the integrator keeps where its error estimate allows
+            opts["first_step"] = min(bound - self.t, o.max_step)
         solver = o.solver_cls(eq, self.t, self.y, bound, **opts)
         self.n_restarts += 1
         g_prev = self.gaps(free, self.y[:k])

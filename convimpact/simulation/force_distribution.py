@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import SolverError
 from .force_distribution_polish import (_cone_violation, _newton_max_min, _off_ray,
                                          _polish_least_norm, _polish_max_min, _warm_max_min)
+from .force_dual import refusal_bound
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
 #: default relative tolerance of the inequalities
@@ -123,7 +124,10 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     conditions at that active set (:func:`_warm_max_min`), the solver only where it fails;
     with a finite ``below`` (a refusal), a largest margin certified so below ``below`` (by
     :data:`BELOW_GUARD`) is returned without the solver (the mode selection at the event a
-    held group's margin crossing located, from the located margin's active set).
+    held group's margin crossing located, from the located margin's active set); where
+    Newton's method fails there, a dual point from those active sets may still bound the
+    largest margin below ``below`` (weak duality, :func:`~.force_dual.refusal_bound`): then
+    ``lam0`` is returned with its own margin (below the bound), without the solver.
 
     ``orthonormal``: the columns of ``Z`` are orthonormal already (a basis from an SVD or
     a QR of full rank), used as they are (their round-off entries zeroed, as
@@ -161,6 +165,11 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
             # set: the polished solver's t*, without the solver)
             lam = lam0 + Q @ (got[0] * scale)
             return lam, _smallest_margin(mu, d, combo, lam)
+        bound = refusal_bound(blocks, warm) if got is None else None
+        if bound is not None and bound * scale < below - BELOW_GUARD * scale:
+            # certified below by weak duality (a dual point from those active sets): no
+            # distribution reaches ``below``; lam0's own margin is below it too
+            return lam0, _smallest_margin(mu, d, combo, lam0)
     A = np.vstack([blk[1] for blk in blocks])
     b = np.concatenate([blk[2] for blk in blocks])
     w = np.concatenate([blk[3] for blk in blocks])

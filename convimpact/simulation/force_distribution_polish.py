@@ -20,25 +20,28 @@ DEGENERATE = 1e-5
 NEWTON_STALL = 3
 
 
-#: LAPACK's optimal workspace of dgelsy per (rows, columns) of the system (queried once)
+#: LAPACK's optimal workspace of dgelsy per (rows, columns, right-hand sides) of the system
+#: (queried once)
 _GELSY_LWORK: dict = {}
 
 
 def _lstsq(J: np.ndarray, F: np.ndarray, cond: float) -> np.ndarray:
-    """The least-squares solution of ``J x = F`` by LAPACK's dgelsy (a complete orthogonal
-    factorization with column pivoting; singular values below ``cond`` of the largest
-    cut), as ``scipy.linalg.lstsq(J, F, cond, lapack_driver="gelsy")`` computes it (the
-    same routine, arguments and workspace), without its per-call checks and look-ups:
-    the Newton steps here solve a hundred small systems per event."""
+    """The least-squares solution of ``J x = F`` (F a vector, or a matrix of right-hand
+    sides) by LAPACK's dgelsy (a complete orthogonal factorization with column pivoting;
+    singular values below ``cond`` of the largest cut), as ``scipy.linalg.lstsq(J, F, cond,
+    lapack_driver="gelsy")`` computes it (the same routine, arguments and workspace),
+    without its per-call checks and look-ups: the Newton steps here solve a hundred small
+    systems per event."""
     m, n = J.shape
-    lwork = _GELSY_LWORK.get((m, n))
+    nrhs = 1 if F.ndim == 1 else F.shape[1]
+    lwork = _GELSY_LWORK.get((m, n, nrhs))
     if lwork is None:
-        work, info = _dgelsy_lwork(m, n, 1, cond)
+        work, info = _dgelsy_lwork(m, n, nrhs, cond)
         if info != 0:
             raise ValueError(f"dgelsy's workspace query failed: {info}")
-        lwork = _GELSY_LWORK[(m, n)] = int(work.real)
+        lwork = _GELSY_LWORK[(m, n, nrhs)] = int(work.real)
     if m < n:  # (the solution overwrites the right-hand side: room for n entries)
-        rhs = np.zeros(n)
+        rhs = np.zeros((n,) + F.shape[1:])
         rhs[:m] = F
     else:
         rhs = F
@@ -151,70 +154,64 @@ def _active_cones(blocks, slacks, flip):
     return kinds, unknowns
 
 
+def _kernels():
+    """:mod:`.force_newton_kernels`, imported on first use (it imports numba)."""
+    global _KERNELS
+    if _KERNELS is None:
+        from . import force_newton_kernels
+        _KERNELS = force_newton_kernels
+    return _KERNELS
+
+
+_KERNELS = None
+
+
 def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True):
     """Newton's method (least-squares steps) on the max-min optimality conditions with the
     cones' kinds fixed; the solution vector (y, tau, unknowns), or None when it does not
     converge to 1e-12 or leaves a cone (``check`` False: the cones are not checked, the
     solution of the conditions is returned wherever they hold: the smooth extension of
-    the active set's program)."""
+    the active set's program). The conditions and their Jacobian are evaluated by
+    :func:`~.force_newton_kernels.max_min_residual`."""
+    ck = _kernels()
     r = x1.size - 1
     sizes = [p.size for p in unknowns]
-
-    def parts(v):
-        out, k = [], r + 1
-        for n in sizes:
-            out.append(v[k:k + n])
-            k += n
-        return out
-
     # the active cones' constant parts, once: their rows of the equations' Jacobian (the
     # slacks' -A and -w), the stationarity's -Aw^T columns, and where each sits
-    active, k, row = [], r + 1, r + 1
+    act, k, row = [], r + 1, r + 1
     for (kind, Ab, bb, wb), how, n in zip(blocks, kinds, sizes):
         if how is not None:
-            AwT = np.empty((r + 1, len(bb)))  # the stationarity's -d/dz
-            AwT[:r] = Ab.T
-            AwT[r] = wb
-            active.append((how, Ab, bb, wb, AwT, k, row, len(bb)))
+            act.append((isinstance(how, str), Ab, bb, wb, k, row, len(bb)))
             row += len(bb)
         k += n
     size = r + 1 + sum(sizes)
     J0 = np.zeros((row, size))
-    for how, Ab, bb, wb, AwT, k, row0, m in active:
-        J0[row0:row0 + m, :r] = -Ab
-        J0[row0:row0 + m, r] = -wb
-        if how == "zero":
-            J0[:r + 1, k:k + m] = -AwT
+    if act:
+        A = np.vstack([a[1] for a in act])
+        b = np.concatenate([a[2] for a in act])
+        w = np.concatenate([a[3] for a in act])
+        J0[r + 1:, :r] = -A
+        J0[r + 1:, r] = -w
+        for zero, Ab, bb, wb, k, row0, m in act:
+            if zero:  # the stationarity's -d/dz: -(A_c, w_c)'
+                J0[:r, k:k + m] = -Ab.T
+                J0[r, k:k + m] = -wb
+    else:
+        A, b, w = np.zeros((0, r)), np.zeros(0), np.zeros(0)
+    zero = np.array([a[0] for a in act], dtype=np.bool_)
+    ks = np.array([a[4] for a in act], dtype=np.int64)
+    rows0 = np.array([a[5] for a in act], dtype=np.int64)
+    ms = np.array([a[6] for a in act], dtype=np.int64)
 
     def residual(v):
-        y, tau = v[:r], v[r]
         F = np.empty(row)
-        J = J0.copy()
-        stat = np.zeros(r + 1)
-        stat[r] = 1.0
-        for how, Ab, bb, wb, AwT, k, row0, m in active:
-            s = bb - Ab @ y - tau * wb
-            if how == "zero":
-                zb = v[k:k + m]
-                F[row0:row0 + m] = s
-            else:
-                alpha, beta, phi = v[k], v[k + 1], v[k + 2]
-                c, sn = math.cos(phi), math.sin(phi)
-                ray, dray = np.array([1.0, c, sn]), np.array([0.0, -sn, c])
-                zdir, dzdir = np.array([1.0, -c, -sn]), np.array([0.0, sn, -c])
-                zb = beta * zdir
-                J[:r + 1, k + 1] = -AwT @ zdir
-                J[:r + 1, k + 2] = -AwT @ (beta * dzdir)
-                F[row0:row0 + m] = s - alpha * ray
-                J[row0:row0 + m, k] = -ray
-                J[row0:row0 + m, k + 2] = -alpha * dray
-            stat -= AwT @ zb
-        F[:r + 1] = stat
+        J = np.empty((row, size))
+        ck.max_min_residual(v, r, zero, ks, rows0, ms, A, b, w, J0, F, J)
         return F, J
 
     v = np.concatenate([x1] + unknowns)
     F, J = residual(v)
-    best, best_norm = v, float(np.max(np.abs(F)))
+    best, best_norm = v, float(np.abs(F).max())
     stalled = 0
     for _ in range(30):
         # least-squares steps, small singular values cut: along a face of maximizers the
@@ -222,37 +219,48 @@ def _newton_max_min(blocks, kinds, unknowns, x1: np.ndarray, check: bool = True)
         step = _lstsq(J, F, 1e-10)
         v = v - step
         F, J = residual(v)  # (the next step's too)
-        norm = float(np.max(np.abs(F)))
+        norm = float(np.abs(F).max())
         # (no gain over NEWTON_STALL steps running: Newton's method is at its round-off
         # floor or stuck where the cut singular directions hold the residual; the box
         # stack's onsets ran all 30 steps on an unchanged residual, 8 of its 55 polishes)
         stalled = 0 if norm < best_norm else stalled + 1
         if norm < best_norm:
             best, best_norm = v, norm
-        if (norm <= (1e-15 if check else 1e-12) or float(np.max(np.abs(step))) <= 1e-16
+        if (norm <= (1e-15 if check else 1e-12) or float(np.abs(step).max()) <= 1e-16
                 or stalled >= NEWTON_STALL):
             break  # (an unchecked extension, a predictor, needs no digits past 1e-12)
     if not best_norm <= 1e-12:
         return None
     if not check:
         return best
-    y, tau = best[:r], best[r]
-    # every cone's slack at once (the inactive ones must lie in their cones), as floats
-    slack = (np.concatenate([blk[2] for blk in blocks]) - np.vstack([blk[1] for blk in blocks]) @ y
-             - tau * np.concatenate([blk[3] for blk in blocks])).tolist()
-    k = 0
-    for (kind, Ab, bb, wb), how, p in zip(blocks, kinds, parts(best)):
-        m = len(bb)
-        if how is None:
-            viol = _list_violation(kind, slack[k:k + m])
-        elif how == "zero":
-            viol = _cone_violation(p, [(kind, m)])
-        else:
-            viol = max(-p[0], -p[1])
-        k += m
-        if viol > 1e-12:
-            return None
-    return best
+    return best if _in_cones(blocks, kinds, sizes, best, r) else None
+
+
+def _in_cones(blocks, kinds, sizes, v: np.ndarray, r: int) -> bool:
+    """Whether Newton's solution ``v`` of :func:`_newton_max_min` keeps every inactive
+    cone's slack and every active cone's multiplier in its cone (to 1e-12): the inactive
+    cones' slacks at once, the "zero" cones' multipliers and the rays' (alpha, beta) >= 0."""
+    y, tau = v[:r], v[r]
+    off = [blk for blk, how in zip(blocks, kinds) if how is None]
+    if off:
+        slack = (np.concatenate([blk[2] for blk in off]) - np.vstack([blk[1] for blk in off]) @ y
+                 - tau * np.concatenate([blk[3] for blk in off]))
+        m = np.array([len(blk[2]) for blk in off], dtype=np.int64)
+        starts = np.zeros(len(off), dtype=np.int64)
+        np.cumsum(m[:-1], out=starts[1:])
+        soc = np.array([blk[0] == "soc" for blk in off], dtype=np.bool_)
+        if _kernels().cone_violation(slack, soc, starts, m) > 1e-12:
+            return False
+    k = r + 1
+    for (kind, _, bb, _), how, n in zip(blocks, kinds, sizes):
+        if how is not None:
+            p = v[k:k + n]
+            viol = (_cone_violation(p, [(kind, len(bb))]) if isinstance(how, str)
+                    else max(-p[0], -p[1]))
+            if viol > 1e-12:
+                return False
+        k += n
+    return True
 
 
 def _off_ray(u: np.ndarray) -> np.ndarray:
@@ -430,39 +438,26 @@ def _newton_least_norm(blocks, g: np.ndarray, kinds, y0: np.ndarray, scale: floa
             size += 3
     v = np.concatenate(v0)
 
+    ck = _kernels()
+    zero = np.array([how == "zero" for _, how, _, _ in act], dtype=np.bool_)
+    ks = np.array([k0 for _, _, k0, _ in act], dtype=np.int64)
+    ms = np.array([m for _, _, _, m in act], dtype=np.int64)
+    if act:
+        A = np.vstack([blocks[j][1] for j, _, _, _ in act])
+        b = np.concatenate([blocks[j][2] for j, _, _, _ in act])
+    else:
+        A, b = np.zeros((0, r)), np.zeros(0)
+
     def residual(v):
-        y = v[:r]
-        F = np.zeros(size)
-        J = np.zeros((size, size))
-        J[:r, :r] = np.eye(r)
-        stat = y + g
-        for j, how, k, m in act:
-            kind, Ab, bb, wb = blocks[j]
-            s = bb - Ab @ y
-            J[k:k + m, :r] = -Ab
-            if how == "zero":
-                z = v[k:k + m]
-                stat = stat + Ab.T @ z
-                J[:r, k:k + m] = Ab.T
-                F[k:k + m] = s
-            else:
-                alpha, beta, phi = v[k], v[k + 1], v[k + 2]
-                c, sn = math.cos(phi), math.sin(phi)
-                ray, dray = np.array([1.0, c, sn]), np.array([0.0, -sn, c])
-                zdir, dzdir = np.array([1.0, -c, -sn]), np.array([0.0, sn, -c])
-                stat = stat + beta * (Ab.T @ zdir)
-                J[:r, k + 1] = Ab.T @ zdir
-                J[:r, k + 2] = beta * (Ab.T @ dzdir)
-                F[k:k + 3] = s - alpha * ray
-                J[k:k + 3, k] = -ray
-                J[k:k + 3, k + 2] = -alpha * dray
-        F[:r] = stat
+        F = np.empty(size)
+        J = np.empty((size, size))
+        ck.least_norm_residual(v, r, g, zero, ks, ms, A, b, F, J)
         return F, J
 
     best, stalled = None, 0
     for _ in range(40):
         F, J = residual(v)
-        res = float(np.max(np.abs(F), initial=0.0))
+        res = float(np.abs(F).max()) if F.size else 0.0
         if best is None or res < best[0]:
             best, stalled = (res, v.copy()), 0
         else:

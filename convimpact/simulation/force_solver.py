@@ -51,7 +51,6 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..contacts.engine import solve as engine_solve
 from ..contacts.finish import newton_finish
@@ -60,6 +59,7 @@ from .contact_forces import (ContactForceProblem, ContactForceSolution, _candida
                              _label_frictionless, _onset_roots, _scales, _unit,
                              force_solutions, planar_contact_force)
 from .force_distribution import OPEN, RTOL, SLIP, STICK
+from .force_distribution_polish import _lstsq
 
 #: largest island whose possible paradox (or failed solve) is decided by enumeration
 ENUMERATE_MAX = 7
@@ -74,6 +74,7 @@ EDGE_MAX = 6
 #: relative residual below which an onset's tangential rows count as combinations of the
 #: rows its combination holds at zero (:func:`_refused_as_stuck`)
 STUCK_RTOL = 1e-10
+_EPS = float(np.finfo(float).eps)  # (scipy.linalg.lstsq's default cond for dgelsy)
 
 
 def islands(W: np.ndarray, n: int, d: int) -> list[np.ndarray]:
@@ -381,8 +382,8 @@ def _refused_as_stuck(P: ContactForceProblem, choice, edges, picks, refused) -> 
          for j in (range(d) if c[0] == STICK else (0,))]
     T = [i * d + j for i in onsets for j in range(1, d)]
     W, b = P.delassus, P.free_acceleration
-    # W_T ~ G W_K (least squares by a pivoted QR: W_K's rows may depend on one another)
-    G = sla.lstsq(W[K].T, W[T].T, lapack_driver="gelsy", check_finite=False)[0].T
+    # W_T ~ G W_K (least squares by a pivoted QR, dgelsy: W_K's rows may be dependent)
+    G = _lstsq(W[K].T, W[T].T, _EPS).T
     ascale = _scales(P)[0]
     wscale = max(float(np.max(np.abs(W))), 1e-300)
     return bool(np.max(np.abs(W[T] - G @ W[K])) <= STUCK_RTOL * wscale

@@ -15,8 +15,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from ..compiled import jit as _jit
 
@@ -67,9 +65,14 @@ class Groups:
 
 
 def coordinate_groups(pattern: np.ndarray) -> Groups:
-    """Groups of the symmetric coupling pattern (k, k) (bool: M_ij != 0 or loop-coupled)."""
+    """Groups of the symmetric coupling pattern (k, k) (bool: M_ij != 0 or loop-coupled):
+    its connected components (union-find, :func:`_components`), numbered by their lowest
+    coordinate, as scipy's ``connected_components`` numbers them."""
     k = pattern.shape[0]
-    n, label = connected_components(sp.csr_matrix(pattern), directed=False)
+    i, j = np.nonzero(pattern)
+    roots = _components(i.astype(np.int64), j.astype(np.int64), 0, k)
+    _, label = np.unique(roots, return_inverse=True)  # (roots: each component's lowest)
+    n = int(label.max()) + 1 if k else 0
     order = np.argsort(label, kind="stable")
     counts = np.bincount(label, minlength=n)
     members = tuple(np.split(order, np.cumsum(counts)[:-1])) if k else ()

@@ -232,6 +232,7 @@ class StrongeIslands:
         self._flat: tuple | None = None
         self._groups = None
         self._pending = None  # (step index, answer) of a step answered in part
+        self._every = False  # the layout's active contacts are all of them, in order
         self.tols = np.array([0.0, *TOLERANCES])
 
     @classmethod
@@ -274,6 +275,26 @@ class StrongeIslands:
         icol, icoloff = cat([cols for _, cols in islands])
         self._flat = (np.array(active, dtype=np.int64), moves, icon, icoff, icol, icoloff,
                       np.zeros(len(islands), dtype=np.int64))
+        # (every contact active, in order: the impulses are ``last`` whole)
+        self._every = bool(np.array_equal(self._flat[0], np.arange(self.n_contacts)))
+        # the island of each coordinate (-1: none), for _same_islands
+        self._island_of = np.full(Ja.shape[2], -1, dtype=np.int64)
+        for i in range(len(islands)):
+            self._island_of[icol[icoloff[i]:icoloff[i + 1]]] = i
+
+    def _same_islands(self, groups) -> bool:
+        """Whether new coordinate groups leave the layout's islands as they are: each group
+        lies within one island's coordinates or outside every island (a group joining two
+        islands, or an island and a free coordinate, changes them). Then the layout holds
+        (the islands are the components of the contacts and the groups they move; the
+        compiled call checks the contacts and the coordinates they move each step)."""
+        if groups.label.shape != self._island_of.shape:
+            return False
+        order = np.argsort(groups.label, kind="stable")
+        where = self._island_of[order]
+        starts = np.flatnonzero(np.r_[True, np.diff(groups.label[order]) != 0])
+        return bool(np.array_equal(np.minimum.reduceat(where, starts),
+                                   np.maximum.reduceat(where, starts)))
         self._groups = st.inv.groups
 
     def solve(self, solver, st):
@@ -295,7 +316,10 @@ class StrongeIslands:
             vn_k = np.ascontiguousarray(Ja[:, 0, :] @ st.v)
         for _ in range(2):  # the second call after a new layout of the islands
             if st.inv.groups is not self._groups:
-                self._relayout(solver, st)
+                if self._flat is not None and self._same_islands(st.inv.groups):
+                    self._groups = st.inv.groups
+                else:
+                    self._relayout(solver, st)
             ref_active, ref_moves, icon, icoff, icol, icoloff, status = self._flat
             full, done, largest = stronge_islands(
                 Ja, vn_k, st.v_free, G, active, ref_active, ref_moves, icon, icoff, icol,
@@ -316,7 +340,10 @@ class StrongeIslands:
             self._pending = (st.index, (answered, r, v_new, set()))
             return None
         solver.impulse = r
-        self.last[active] = r
+        if self._every:  # the layout's active contacts (the kernel checked: these) are all
+            self.last[...] = r
+        else:
+            self.last[active] = r
         return v_new, st.sigma
 
     def pending(self, st):

@@ -27,8 +27,12 @@ from .force_distribution import margin_extension
 #: a box on an incline with mu = tan(slope) exactly, keeps sticking)
 MARGIN_SLACK = 1e-9
 #: margin (relative to the force scale) above which a hinted distribution stands in for the
-#: exact largest-margin one in the event functions (:func:`held_forces`)
-HINT_MARGIN = 1e-3
+#: exact largest-margin one in the event functions (:func:`held_forces`): its margin, a lower
+#: bound of the largest, proves that positive (no event), and a step's end value of the
+#: margin enters the location of a crossing only as a bracket's positive end (Brent's method
+#: keeps the sign change, whatever the value). Was 1e-3: the box stack's sliding top box
+#: (margins 7e-4 to 7e-3) ran a cone program at each step's end for no decision
+HINT_MARGIN = 1e-6
 #: rank tolerance of the held rows (relative to the largest singular value of C M^-1 C^T)
 RANK_RTOL = 1e-10
 
@@ -122,10 +126,13 @@ def redundant_rows(M: np.ndarray, loop_rows: np.ndarray | None, rows: Sequence[R
             dropped.append((c, j))
             continue
         trial = kept + [u]
-        S = G[np.ix_(trial, trial)]
-        smin = float(np.linalg.eigvalsh(0.5 * (S + S.T))[0])
+        S = G[trial][:, trial]
         norm = float(X[u] @ X[u]) * scale
-        if smin > RANK_RTOL * max(norm, 1e-300):
+        # its smallest eigenvalue above RANK_RTOL * norm: S - RANK_RTOL norm I positive
+        # definite, its Cholesky factor exists (a compiled factorization, not eigvalsh)
+        S = 0.5 * (S + S.T)
+        S.flat[::len(trial) + 1] -= RANK_RTOL * max(norm, 1e-300)
+        if _cholesky(S) is not None:
             kept.append(u)
         else:
             dropped.append((c, j))
@@ -289,6 +296,13 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
     if kinds != {"stick"} and kinds != {"slip"}:
         return None
     theta = y[:eq.k]
+    # held rows fixing every velocity (a resting stack): theta_dot = 0, theta stays the
+    # segment's own to round-off, and B's factors are reused while it does (to 1e-13)
+    locked = kinds == {"stick"} and eq.n_constraints >= eq.k
+    memo = getattr(eq, "_locked_determinate", None) if locked else None
+    if (memo is not None and memo[0] == d and float(np.abs(theta - memo[1]).max())
+            <= 1e-13 * (1.0 + float(np.abs(memo[1]).max()))):
+        return memo[2]
     jac = eq.contact_jacobians(theta)
     if any(len(jac[c]) != d for c in eq.held):
         return None
@@ -318,7 +332,10 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
     R = Vt[:rank]
     null = rank < B.shape[1]  # indeterminate directions exist
     if T is None:
-        return (lambda v: R.T @ (R @ v)), null, (lambda: Vt[rank:].T)
+        out = (lambda v: R.T @ (R @ v)), null, (lambda: Vt[rank:].T)
+        if locked:
+            eq._locked_determinate = (d, np.array(theta, float), out)
+        return out
 
     def project(v):
         u = np.einsum("ij,ij->i", T, v.reshape(n, d))  # T^T v

@@ -8,6 +8,8 @@ ramp = 0.44 s, closed form; its top box starts to slide later):
   later combination from the first one's): the same modes and forces as without;
 * a margin's zero located from the predicted bracket (EventWatch.locate_margin): the time
   Brent's method over the whole step finds, to its tolerance;
+* a combination's refusal certified by a dual point (force_dual.refusal_bound): the
+  solver's optimum of each such program is below the level asked too;
 * a step's dense output built on first use (event_driven.StepDense): the samples of a run
   that keeps every interpolant, bit for bit, with fewer right-hand sides.
 """
@@ -19,7 +21,8 @@ import pytest
 
 from convimpact.errors import SimulationError
 from convimpact.scenes import load_scene
-from convimpact.simulation import contact_events, event_watch, force_solver, simulate
+from convimpact.simulation import (contact_events, event_watch, force_distribution,
+                                   force_solver, simulate)
 from convimpact.simulation.event_driven import StepDense
 
 
@@ -151,3 +154,44 @@ def test_an_expired_step_builds_no_dense_output():
     step.expire()
     with pytest.raises(SimulationError):
         step(0.0)
+
+
+def test_refusals_certified_by_dual_points_are_the_solvers_refusals(onsets):
+    """At the top box's slip onset, the four combinations with one corner sticking are
+    refused by a dual point from the located margin's active set (force_dual.refusal_bound),
+    without the solver: for each so certified, Clarabel's largest smallest margin of the
+    same program lies below the level asked too (and at or below the bound: weak duality);
+    the answer is the one the run took."""
+    _, seen = onsets
+    P, given, sol = seen[-1]
+    bounds = []
+    certify = force_distribution.refusal_bound
+
+    def spy(blocks, warm):
+        out = certify(blocks, warm)
+        bounds.append((blocks, out))
+        return out
+    force_distribution.refusal_bound = spy
+    try:
+        again = force_solver.solve_contact_forces(
+            P, warm={**given, "earlier": list(given.get("earlier", ()))})
+    finally:
+        force_distribution.refusal_bound = certify
+    level = -force_solver.RTOL - force_distribution.BELOW_GUARD  # (relative: the scale)
+    certified = [(blocks, b) for blocks, b in bounds if b is not None and b < level]
+    assert len(certified) == 4  # the four combinations with one corner of the top box sticking
+    for blocks, bound in certified:
+        A = np.vstack([blk[1] for blk in blocks])
+        b = np.concatenate([blk[2] for blk in blocks])
+        w = np.concatenate([blk[3] for blk in blocks])
+        r = A.shape[1]
+        q = np.zeros(r + 1)
+        q[r] = -1.0
+        out = force_distribution._clarabel(np.zeros((r + 1, r + 1)), q,
+                                           np.hstack([A, w[:, None]]), b,
+                                           [(blk[0], len(blk[2])) for blk in blocks])
+        t_star = float(out.x[r])
+        assert t_star <= bound + 1e-9
+        assert t_star < level
+    assert again.modes == sol.modes
+    np.testing.assert_array_equal(again.force, sol.force)
