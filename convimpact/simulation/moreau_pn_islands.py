@@ -63,7 +63,7 @@ from ..impact.laws.pn_complementarity import MAX_CONTACTS
 from ..impact.laws.pn_complementarity_impulse import _ranks, _sets
 from ..impact.laws.pn_complementarity_search import DONE, SLIDE_TIER, SlideWarmStart, search
 from ..impact.problem.build import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
-from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity
+from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity, same_pattern
 from .moreau_pn_kernels import coordinate_certificate
 
 #: island modes (:class:`PnIslands`)
@@ -116,18 +116,8 @@ def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, 
     for c in range(vn_k.shape[0]):
         if vn_k[c] < -rest_velocity:
             return -1, 0, 0, 0
-    if ref_active.shape[0] != Ja.shape[0]:
+    if not same_pattern(Ja, active, ref_active, ref_moves):
         return -2, 0, 0, 0
-    for c in range(Ja.shape[0]):
-        if active[c] != ref_active[c]:
-            return -2, 0, 0, 0
-        for e in range(Ja.shape[2]):
-            moves = False
-            for a in range(d):
-                if Ja[c, a, e] != 0.0:
-                    moves = True
-            if moves != ref_moves[c, e]:
-                return -2, 0, 0, 0
     full, stuck, slid, largest = 0, 0, 0, 0
     for i in range(icoff.shape[0] - 1):
         c0, c1 = icoff[i], icoff[i + 1]

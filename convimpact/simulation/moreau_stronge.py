@@ -71,7 +71,7 @@ from ..impact.exact.dispatch import DECOUPLED_RTOL
 from ..impact.laws.stronge_contacts import _WARM, KKT_RTOL, WARM_RESIDUAL
 from ..impact.laws.stronge_contacts_warm import REDUNDANT, STILL, UNIQUE, warm_compression
 from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL
-from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity
+from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity, same_pattern
 
 LAW = "stronge"
 #: the methods whose several-contact path is the law's conic one (the warm start included)
@@ -109,18 +109,8 @@ def stronge_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, ic
     for c in range(vn_k.shape[0]):
         if vn_k[c] < -rest_velocity:
             return -1, 0, 0
-    if ref_active.shape[0] != Ja.shape[0]:
+    if not same_pattern(Ja, active, ref_active, ref_moves):
         return -2, 0, 0
-    for c in range(Ja.shape[0]):
-        if active[c] != ref_active[c]:
-            return -2, 0, 0
-        for e in range(Ja.shape[2]):
-            moves = False
-            for a in range(d):
-                if Ja[c, a, e] != 0.0:
-                    moves = True
-            if moves != ref_moves[c, e]:
-                return -2, 0, 0
     n_isl = icoff.shape[0] - 1
     for i in range(n_isl):
         c0, c1 = icoff[i], icoff[i + 1]
