@@ -73,6 +73,8 @@ from ..exact.dispatch import solve_contact
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
 from . import pn_complementarity_kernels as kernels
+from . import pn_complementarity_search as search
+from . import pn_complementarity_slide as slide
 
 LAW = "pereira-nikravesh"
 #: largest number of simultaneous contacts whose active sets are enumerated
@@ -242,17 +244,15 @@ def compiled_kernels() -> bool:
     (:mod:`.pn_complementarity_kernels`, :mod:`.pn_complementarity_slide`): at once when
     numba's disk cache holds them, else from the :data:`HOT_CALLS`-th several-contact call of
     the process on (a time-stepping loop, not a handful of impacts; their first compilation
-    takes about a minute on 2 cores, announced on stderr), or after :func:`~.pn_complementarity_impulse.compile_kernels`.
-    Both paths solve the same systems and apply the same tests (the slide programs'
+    takes about a minute on 2 cores, announced on stderr), or after
+    :func:`~.pn_complementarity_impulse.compile_kernels`. Before, the same stick tier, bounds
+    and tests run as plain Python and the slide programs by the interior-point method (their
     minimizers agree to round-off; where redundant contacts leave a family of minimizers,
     the two paths may return different members, with the same velocities and energy)."""
     global _CALLS
     _CALLS += 1
     if _CALLS > HOT_CALLS:
         return True
-    from . import pn_complementarity_search as search
-    from . import pn_complementarity_slide as slide
-
     entries = (kernels.stick_tier, kernels.relaxed_bounds, slide.slide_many, search.search)
     if _CALLS == 1 and all(cached(k) for k in entries):
         _CALLS = HOT_CALLS + 1
@@ -328,9 +328,7 @@ def _slide_tier(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
     bounds = _RELAXED_BOUNDS[bool(fast)](*data, d, masks).tolist()
     index = {A: i for i, A in enumerate(subsets)}
     if fast:
-        from .pn_complementarity_slide import slide_many
-
-        status, pis, ok_many, energy = slide_many(*data, d, masks, CONE_RTOL,
+        status, pis, ok_many, energy = slide.slide_many(*data, d, masks, CONE_RTOL,
                                                   VELOCITY_SLACK_MAX, opts.accuracy(True))
     for bound, A in sorted(zip(bounds, subsets)):
         if math.isinf(bound):

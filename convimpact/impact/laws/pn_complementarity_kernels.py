@@ -4,19 +4,19 @@ themselves: :mod:`.pn_complementarity_slide`). The law
 (:mod:`.pn_complementarity`) runs these functions compiled, or, before they are compiled, as
 plain Python (:func:`convimpact.compiled.plain`): one source for both.
 
-:func:`stick_tier` runs, in one call, for each candidate active set (every
-subset holding an approaching contact, up to 2^8 - 1 of them): the sticking system
-``W_SS pi_S = -b_S`` (S: every row of a frictional contact of A, the normal row of a
-frictionless one) solved by LU when ``cond_2(W_SS) < STICK_COND_MAX`` (the ratio of its
-extreme singular values: of its eigenvalues' magnitudes, W_SS being symmetric), else in the
-least-squares sense (the minimum-norm solution with numpy's default cut-off ``eps max(m, m)``
-relative to the largest singular value, from the eigenvectors) and kept only when
-consistent; then the cones and Newton's law on A and no penetration off A, contact by
-contact, each with its round-off allowance; then ``T+ - T- = pi.v- + 1/2 pi.W.pi``. The
-same numbers as numpy's ``cond``, ``solve`` and ``lstsq`` (the first and the last from the
-symmetric eigendecomposition rather than an SVD: equal to round-off). :func:`stick_solve` is one active set's system (the law's ``stick_on``),
-:func:`admissible` the law's admissibility test, :func:`relaxed_bounds` the slide tier's
-lower bound of T+ - T- of every active set in one call.
+:func:`stick_tier` runs, in one call, for each candidate active set (every subset holding an
+approaching contact, up to 2^8 - 1 of them): the sticking system ``W_SS pi_S = -b_S`` (S:
+every row of a frictional contact of A, the normal row of a frictionless one) solved by LU
+when ``cond_2(W_SS) < STICK_COND_MAX`` (the ratio of its extreme singular values: of its
+eigenvalues' magnitudes, W_SS being symmetric), else in the least-squares sense (the
+minimum-norm solution with numpy's default cut-off ``eps max(m, m)`` relative to the largest
+singular value, from the eigenvectors) and kept only when consistent; then the cones and
+Newton's law on A and no penetration off A, contact by contact, each with its round-off
+allowance; then ``T+ - T- = pi.v- + 1/2 pi.W.pi``. The same numbers as numpy's ``cond``,
+``solve`` and ``lstsq`` (the first and the last from the symmetric eigendecomposition rather
+than an SVD: equal to round-off). :func:`stick_solve` is one active set's system (the law's
+``stick_on``), :func:`admissible` the law's admissibility test, :func:`relaxed_bounds` the
+slide tier's lower bound of T+ - T- of every active set in one call.
 """
 
 from __future__ import annotations
