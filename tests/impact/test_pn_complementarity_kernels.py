@@ -93,9 +93,10 @@ CASES = [(seed, n, d) for seed in range(6) for n in (2, 3, 4) for d in (2, 3)]
 
 @pytest.mark.parametrize("seed,n,d", CASES)
 def test_random_impacts_match_the_interior_point_path(monkeypatch, seed, n, d):
-    """Random impacts (some sliding: the tangential speed scaled up): the compiled path's
-    tier, active set, admissible sets, regimes and warnings are the interior-point path's,
-    its velocities equal to 1e-8."""
+    """Random impacts (most sliding): the compiled path's tier, active set, admissible sets,
+    regimes and warnings are the interior-point path's, its velocities equal to 1e-8. (Both
+    paths run the same stick tier, compiled or as Python; its answers are checked against
+    numpy below. The slide programs are two methods: certified Newton, interior point.)"""
     args = random_several(seed, n, d)
     dq = np.asarray(args["dq"], float)
     args["dq"] = dq * (1.0 + 4.0 * (seed % 2))  # odd seeds: larger slip
