@@ -93,9 +93,10 @@ CASES = [(seed, n, d) for seed in range(6) for n in (2, 3, 4) for d in (2, 3)]
 
 @pytest.mark.parametrize("seed,n,d", CASES)
 def test_random_impacts_match_the_interior_point_path(monkeypatch, seed, n, d):
-    """Random impacts (some sliding: the tangential speed scaled up): the compiled path's
-    tier, active set, admissible sets, regimes and warnings are the interior-point path's,
-    its velocities equal to 1e-8."""
+    """Random impacts (most sliding): the compiled path's tier, active set, admissible sets,
+    regimes and warnings are the interior-point path's, its velocities equal to 1e-8. (Both
+    paths run the same stick tier, compiled or as Python; its answers are checked against
+    numpy below. The slide programs are two methods: certified Newton, interior point.)"""
     args = random_several(seed, n, d)
     dq = np.asarray(args["dq"], float)
     args["dq"] = dq * (1.0 + 4.0 * (seed % 2))  # odd seeds: larger slip
@@ -105,6 +106,70 @@ def test_random_impacts_match_the_interior_point_path(monkeypatch, seed, n, d):
     assert len(fast.diagnostics.warnings) == len(slow.diagnostics.warnings)
     scale = np.max(np.abs(slow.v_plus)) + np.max(np.abs(slow.v_minus))
     assert np.max(np.abs(fast.v_plus - slow.v_plus)) <= 1e-8 * scale
+
+
+def _numpy_stick_sets(P, margin):
+    """Every active set (holding an approaching contact) whose sticking impulse, solved here
+    by numpy's least squares, satisfies the law's conditions with ``margin`` (relative to
+    the impulses' and velocities' scales; negative: looser, positive: strictly inside):
+    cones on A, no penetration off A. {A: T+ - T-}."""
+    n, d, W = P.n_contacts, P.dim, P.delassus
+    b = P.v_minus.copy()
+    b[:, 0] += P.restitution * np.minimum(P.v_minus[:, 0], 0.0)
+    vs = np.max(np.abs(P.v_minus))
+    closing = P.v_minus[:, 0] < -1e-9 * vs
+    out = {}
+    for A in itertools.chain(*(itertools.combinations(range(n), k) for k in range(1, n + 1))):
+        if not closing[list(A)].any():
+            continue
+        S = [i * d + a for i in A for a in (range(d) if P.friction[i] > 0 else (0,))]
+        x = np.linalg.lstsq(W[np.ix_(S, S)], -b.ravel()[S], rcond=None)[0]
+        if np.linalg.norm(W[np.ix_(S, S)] @ x + b.ravel()[S]) > 1e-9 * np.linalg.norm(b):
+            continue
+        pi = np.zeros(n * d)
+        pi[S] = x
+        u = (W @ pi + b.ravel()).reshape(n, d)
+        p = pi.reshape(n, d)
+        ps = max(np.max(np.abs(pi)), 1e-300)
+        cones = all(np.linalg.norm(p[i, 1:]) <= P.friction[i] * p[i, 0] - margin * ps
+                    and p[i, 0] >= margin * ps for i in A)
+        apart = all(u[i, 0] >= margin * vs for i in range(n) if i not in A)
+        if cones and apart:
+            out[A] = pi @ P.v_minus.ravel() + 0.5 * pi @ W @ pi
+    return out
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("seed,n,d", CASES)
+def test_random_impacts_stick_by_numpys_least_squares(monkeypatch, compiled, seed, n, d):
+    """The stick tier against its definition, solved by numpy: where some active set's
+    sticking impulse lies strictly inside the cones with every other contact leaving
+    (margin 1e-7), the law sticks; where no set is admissible even loosely (margin -1e-7),
+    it slides. A stick answer is a loosely admissible set's sticking impulse (its T+ - T-)
+    and dissipates at least as much as every strictly admissible set. The law's kernels
+    (compiled or run as Python) decide by the symmetric eigendecomposition, LU and their
+    own round-off allowances; numpy here by lstsq and fixed margins. (36 impacts, 15 of
+    them stick.)"""
+    args = random_several(seed, n, d)
+    if seed % 2 == 0:  # even seeds: rough contacts (mu 1.7 to 2.6), most stick
+        args["mu"] = np.asarray(args["mu"], float) * 10.0
+    P = build_problem(args["M"], args["Jc"], args["dq"], args["e"], args["mu"])
+    strict, loose = _numpy_stick_sets(P, 1e-7), _numpy_stick_sets(P, -1e-7)
+    r = _resolve(monkeypatch, compiled, **args)
+    x = r.diagnostics.extras
+    if strict:
+        assert x["tier"] == "stick"
+    if not loose:
+        assert x["tier"] == "slide"
+    if x["tier"] != "stick":
+        return
+    A = tuple(x["active_set"])
+    assert A in loose
+    pi = r.impulse.ravel()
+    dT = pi @ P.v_minus.ravel() + 0.5 * pi @ P.delassus @ pi
+    scale = np.max(np.abs(P.v_minus)) ** 2 / np.max(np.diag(P.delassus))
+    assert abs(dT - loose[A]) <= 1e-9 * scale
+    assert dT <= min(strict.values(), default=np.inf) + 1e-9 * scale
 
 
 def _slide_program(P, A):

@@ -1,7 +1,8 @@
 """The sticking screen of law pereira-nikravesh's pruned search
 (:func:`convimpact.impact.laws.pn_complementarity_prune.stick_clearly_inadmissible`): a stick
-set it excludes is never admissible by the law's own test (the law's Python ``stick_on``
-and ``_admissible``, numpy's solve: the second method), on random impacts and on a box on
+set it excludes is never admissible by the law's own test (the law's ``stick_on`` and
+``_admissible``: the stick tier's eigendecomposition and LU, not the screen's Cholesky bounds,
+run as Python), on random impacts and on a box on
 four corners sliding, landing and nearly at rest; and on the sliding box it excludes the
 lone corners, whose sticking impulses need a friction far outside the cone (by hand)."""
 

@@ -33,21 +33,25 @@ rocking block and McGeer's rimless wheel land sticking on the new corner, the ol
 lifting: the stick tier's answer.) Several
 admissible active sets with different velocities (Newton's law with friction is not unique
 at several contacts) are reported in the warnings; equally dissipative sets with the same
-velocities (redundant contacts) give the largest set's least-norm impulse. The stick tier solves every active set
-(2^n - 1 linear systems, at most :data:`MAX_CONTACTS` contacts; a NotSupportedError names
-the other laws); the slide tier visits them by increasing lower bound of T+ (the same
-minimum without the cones, :func:`relaxed_bound`) and stops when no remaining set can be
+velocities (redundant contacts) give the largest set's least-norm impulse. The stick tier
+solves every active set (2^n - 1 linear systems, at most :data:`MAX_CONTACTS` contacts; a
+NotSupportedError names the other laws); the slide tier visits them by increasing lower
+bound of T+ (the same minimum without the cones,
+:func:`~.pn_complementarity_kernels.relaxed_bounds`) and stops when no remaining set can be
 more dissipative than the best admissible one. An active set whose program fails (not
 converged, a jam) is listed in ``extras["failed_active_sets"]`` and, when it might have
 been more dissipative than the answer, in a warning.
 
-Compiled path (:func:`compiled_kernels`: at once from a warm cache, else from the
-:data:`HOT_CALLS`-th call of a process or after :func:`~.pn_complementarity_impulse.compile_kernels`): the stick tier and the relaxed bounds in one compiled call each
-(:mod:`.pn_complementarity_kernels`), every slide program of several contacts solved exactly
-from guessed active sets of its cones and certified by its KKT conditions
-(:mod:`.pn_complementarity_slide`), the interior-point method only for the programs no
-guess certifies. The same sets, tests, tie-break and warnings; measured on a box's four
-corners 11x (stick) and 29x (slide) faster than the Python path.
+The stick tier, the relaxed bounds and the admissibility test are written once, in
+:mod:`.pn_complementarity_kernels`. On the compiled path (:func:`compiled_kernels`: at once
+from a warm cache, else from the :data:`HOT_CALLS`-th call of a process or after
+:func:`~.pn_complementarity_impulse.compile_kernels`) they run compiled, and every slide
+program of several contacts is solved exactly from guessed active sets of its cones and
+certified by its KKT conditions (:mod:`.pn_complementarity_slide`), the interior-point
+method only for the programs no guess certifies. Before, the same kernel functions run as
+plain Python (:func:`convimpact.compiled.plain`: no compilation to wait for) and every
+slide program goes to the interior-point method and its polish (a second method: the two
+paths' minimizers agree to round-off). The same sets, tests, tie-break and warnings.
 """
 
 from __future__ import annotations
@@ -63,10 +67,14 @@ from ..conic.paths import ProgramOptions, approaching, regimes_from_slip, solver
 from ..conic.polish import kkt_residual
 from ..conic.qp import TINY, Backend, ConeQP, equilibrated, solve_cone_qp
 from ..diagnostics import assemble_result
+from ...compiled import announce, cached, plain
 from ...errors import ConvImpactError, NotSupportedError, SolverError
 from ..exact.dispatch import solve_contact
 from ..problem.build import ImpactProblem
 from ..results import ImpactResult
+from . import pn_complementarity_kernels as kernels
+from . import pn_complementarity_search as search
+from . import pn_complementarity_slide as slide
 
 LAW = "pereira-nikravesh"
 #: largest number of simultaneous contacts whose active sets are enumerated
@@ -83,6 +91,13 @@ HOT_CALLS = 200
 _CALLS = 0
 #: ``extras["solver_status"]`` of a slide program certified without the interior-point method
 CERTIFIED = "certified active-set Newton"
+# the stick tier, the relaxed bounds and the admissibility test are the compiled kernels'
+# (pn_complementarity_kernels); before those are compiled the same functions run as plain
+# Python (convimpact.compiled.plain): one source, two ways of running it
+_STICK_SOLVE = plain(kernels.stick_solve)
+_ADMISSIBLE = plain(kernels.admissible)
+_STICK_TIER = {True: kernels.stick_tier, False: plain(kernels.stick_tier)}
+_RELAXED_BOUNDS = {True: kernels.relaxed_bounds, False: plain(kernels.relaxed_bounds)}
 
 
 def newton_velocity_shift(P: ImpactProblem) -> np.ndarray:
@@ -92,35 +107,28 @@ def newton_velocity_shift(P: ImpactProblem) -> np.ndarray:
     return b
 
 
-def _rows(P: ImpactProblem, A: tuple[int, ...], stick: bool) -> np.ndarray:
-    """Flat indices of the unknowns of active set A: every row of a frictional contact
-    (stick) or its normal only."""
-    d = P.dim
-    out = []
-    for i in A:
-        out.append(i * d)
-        if stick and P.friction[i] > 0.0:
-            out += range(i * d + 1, (i + 1) * d)
-    return np.array(out, dtype=int)
+def _mask(P: ImpactProblem, A: tuple[int, ...]) -> np.ndarray:
+    """Active set A as the kernels take it: an (n,) bool membership mask."""
+    member = np.zeros(P.n_contacts, dtype=np.bool_)
+    member[list(A)] = True
+    return member
 
 
 def stick_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray) -> np.ndarray | None:
     """Impulse sticking every contact of A with ``u_n = 0`` (eq. 42/52 jointly), or None.
 
     A frictionless contact keeps only its normal row. A singular system (redundant
-    contacts) is solved in the least-squares sense and accepted only when consistent.
+    contacts) is solved in the least-squares sense and accepted only when consistent. The
+    stick tier's own solve (:func:`~.pn_complementarity_kernels.stick_solve`), run as plain
+    Python.
     """
-    S = _rows(P, A, stick=True)
-    Wss = P.delassus[np.ix_(S, S)]
-    r = -b.ravel()[S]
-    if np.linalg.cond(Wss) < STICK_COND_MAX:
-        x = np.linalg.solve(Wss, r)
-    else:
-        x, *_ = np.linalg.lstsq(Wss, r, rcond=None)
-        if np.linalg.norm(Wss @ x - r) > 1e-9 * max(float(np.linalg.norm(r)), TINY):
-            return None
+    W, bf, _, mu = _kernel_data(P, b)
+    rows = np.empty(W.shape[0], dtype=np.int64)
+    solved, m, x, _ = _STICK_SOLVE(W, bf, mu, P.dim, _mask(P, A), STICK_COND_MAX, rows)
+    if not solved:
+        return None
     pi = np.zeros(P.n_contacts * P.dim)
-    pi[S] = x
+    pi[rows[:m]] = x
     return pi.reshape(P.n_contacts, P.dim)
 
 
@@ -176,52 +184,19 @@ def _kkt_residual(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, b: np.nd
     return kkt_residual(scaled, pi[list(A)].ravel() / s)
 
 
-def relaxed_bound(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray) -> float:
-    """A lower bound of T+ - T- over every impulse on A with ``u_n = 0`` there: the same
-    minimum without the cones (the KKT system of an equality-constrained QP, by least
-    squares). +inf when the equalities cannot hold; P_N(A) and the single-contact slide
-    satisfy them, so neither can dissipate more than this."""
-    S = _rows(P, A, stick=True)
-    W = P.delassus
-    normals = [i * P.dim for i in A]
-    E = W[np.ix_(normals, S)]
-    m = len(normals)
-    K = np.block([[W[np.ix_(S, S)], E.T], [E, np.zeros((m, m))]])
-    rhs = np.concatenate([-P.v_minus.ravel()[S], -b[list(A), 0]])
-    sol, *_ = np.linalg.lstsq(K, rhs, rcond=None)
-    if np.linalg.norm(K @ sol - rhs) > 1e-8 * max(float(np.linalg.norm(rhs)), TINY):
-        return math.inf
-    pi = np.zeros(P.n_contacts * P.dim)
-    pi[S] = sol[:S.size]
-    return _energy_change(P, pi.reshape(P.n_contacts, P.dim))
-
-
 def _admissible(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, b: np.ndarray,
                 tol: float) -> bool:
-    """(N) and the cones: pi_n >= 0 and |pi_t| <= mu pi_n on A, u_n >= 0 off A, to round-off.
+    """(N) and the cones: pi_n >= 0 and |pi_t| <= mu pi_n on A, u_n >= 0 off A, to round-off
+    (:func:`~.pn_complementarity_kernels.admissible`, run as plain Python).
 
     Contact by contact (their effective masses may lie far apart): a velocity row is allowed
     ``tol`` of its own size plus the round-off of forming it, ``1e2 eps sum_k |W_jk| |pi_k|``
     (cond(W) eps of the velocities where W is ill-conditioned), capped at
     :data:`VELOCITY_SLACK_MAX`; an impulse the same divided by the contact's W_nn.
     """
-    d = P.dim
-    W = P.delassus
-    flat = pi.ravel()
-    Wpi = W @ flat
-    u = (Wpi + b.ravel()).reshape(P.n_contacts, d)
-    size = np.maximum(np.abs(b.ravel()), np.abs(Wpi)).reshape(P.n_contacts, d).max(axis=1)
-    roundoff = 1e2 * EPS * (np.abs(W) @ np.abs(flat)).reshape(P.n_contacts, d).max(axis=1)
-    slack = np.maximum(tol * size, np.minimum(roundoff, VELOCITY_SLACK_MAX * size))
-    for i in range(P.n_contacts):
-        if i in A:
-            pn, pt = pi[i, 0], float(np.linalg.norm(pi[i, 1:]))
-            ptol = max(tol * float(np.linalg.norm(pi[i])), slack[i] / W[i * d, i * d])
-            if pn < -ptol or pt > P.friction[i] * pn * (1.0 + CONE_RTOL) + ptol:
-                return False
-        elif u[i, 0] < -slack[i]:
-            return False
-    return True
+    W, bf, _, mu = _kernel_data(P, b)
+    return bool(_ADMISSIBLE(W, np.abs(W), _mask(P, A), np.ascontiguousarray(pi.ravel(), float),
+                            bf, mu, P.dim, CONE_RTOL, VELOCITY_SLACK_MAX, float(tol)))
 
 
 def _energy_change(P: ImpactProblem, pi: np.ndarray) -> float:
@@ -269,19 +244,15 @@ def compiled_kernels() -> bool:
     (:mod:`.pn_complementarity_kernels`, :mod:`.pn_complementarity_slide`): at once when
     numba's disk cache holds them, else from the :data:`HOT_CALLS`-th several-contact call of
     the process on (a time-stepping loop, not a handful of impacts; their first compilation
-    takes about a minute on 2 cores, announced on stderr), or after :func:`~.pn_complementarity_impulse.compile_kernels`.
-    Both paths solve the same systems and apply the same tests (the slide programs'
+    takes about a minute on 2 cores, announced on stderr), or after
+    :func:`~.pn_complementarity_impulse.compile_kernels`. Before, the same stick tier, bounds
+    and tests run as plain Python and the slide programs by the interior-point method (their
     minimizers agree to round-off; where redundant contacts leave a family of minimizers,
     the two paths may return different members, with the same velocities and energy)."""
     global _CALLS
     _CALLS += 1
     if _CALLS > HOT_CALLS:
         return True
-    from ...compiled import announce, cached
-    from . import pn_complementarity_kernels as kernels
-    from . import pn_complementarity_search as search
-    from . import pn_complementarity_slide as slide
-
     entries = (kernels.stick_tier, kernels.relaxed_bounds, slide.slide_many, search.search)
     if _CALLS == 1 and all(cached(k) for k in entries):
         _CALLS = HOT_CALLS + 1
@@ -314,15 +285,14 @@ def _kernel_data(P: ImpactProblem, b: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 def stick_candidates(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
-                     masks: np.ndarray) -> list[tuple]:
+                     masks: np.ndarray, fast: bool = True) -> list[tuple]:
     """The stick tier: every active set whose sticking impulse (:func:`stick_on`) is
-    admissible, as (T+ - T-, A, pi, info), in the order of ``subsets``; one compiled call
-    (:func:`~.pn_complementarity_kernels.stick_tier`, the same solves and tests)."""
-    from .pn_complementarity_kernels import stick_tier
-
+    admissible, as (T+ - T-, A, pi, info), in the order of ``subsets``; one call of
+    :func:`~.pn_complementarity_kernels.stick_tier`, compiled with ``fast``, else run as
+    plain Python."""
     n, d = P.n_contacts, P.dim
-    ok, energy, pis = stick_tier(*_kernel_data(P, b), d, masks, STICK_COND_MAX, CONE_RTOL,
-                                 VELOCITY_SLACK_MAX, 1e-10)
+    ok, energy, pis = _STICK_TIER[bool(fast)](*_kernel_data(P, b), d, masks, STICK_COND_MAX,
+                                              CONE_RTOL, VELOCITY_SLACK_MAX, 1e-10)
     return [(float(energy[s]), A, pis[s].reshape(n, d), {"accuracy": 1e-10})
             for s, A in enumerate(subsets) if ok[s]]
 
@@ -354,17 +324,12 @@ def _slide_tier(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
     failures: list[str] = []
     energy_scale = max(0.5 * float(np.max(np.abs(P.v_minus))) ** 2 /
                        float(np.max(np.abs(np.diag(P.delassus)))), TINY)
+    data = _kernel_data(P, b)
+    bounds = _RELAXED_BOUNDS[bool(fast)](*data, d, masks).tolist()
+    index = {A: i for i, A in enumerate(subsets)}
     if fast:
-        from .pn_complementarity_kernels import admissible, relaxed_bounds
-        from .pn_complementarity_slide import slide_many
-
-        data = _kernel_data(P, b)
-        bounds = relaxed_bounds(*data, d, masks).tolist()
-        status, pis, ok_many, energy = slide_many(*data, d, masks, CONE_RTOL,
+        status, pis, ok_many, energy = slide.slide_many(*data, d, masks, CONE_RTOL,
                                                   VELOCITY_SLACK_MAX, opts.accuracy(True))
-        index = {A: i for i, A in enumerate(subsets)}
-    else:
-        bounds = [relaxed_bound(P, A, b) for A in subsets]
     for bound, A in sorted(zip(bounds, subsets)):
         if math.isinf(bound):
             continue
@@ -383,13 +348,10 @@ def _slide_tier(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
             continue
         if got is None:
             continue
-        if fast:  # the same test, compiled
-            ok = admissible(data[0], np.abs(data[0]), masks[index[A]], got[0].ravel(),
-                            data[1], data[3], d, CONE_RTOL, VELOCITY_SLACK_MAX,
-                            float(got[1]["accuracy"]))
-        else:
-            ok = _admissible(P, A, got[0], b, got[1]["accuracy"])
-        if ok:
+        admissible = kernels.admissible if fast else _ADMISSIBLE
+        if admissible(data[0], np.abs(data[0]), masks[index[A]],
+                      np.ascontiguousarray(got[0].ravel(), float), data[1], data[3], d,
+                      CONE_RTOL, VELOCITY_SLACK_MAX, float(got[1]["accuracy"])):
             found.append((_energy_change(P, got[0]), A, got[0], got[1]))
     return found, failures
 
@@ -411,14 +373,7 @@ def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
         closing = P.v_minus[:, 0] < 0.0
     subsets, masks = candidate_sets(n, tuple(bool(c) for c in closing))
     fast = compiled_kernels()
-    if fast:
-        stick = stick_candidates(P, b, subsets, masks)
-    else:
-        stick = []
-        for A in subsets:
-            pi = stick_on(P, A, b)
-            if pi is not None and _admissible(P, A, pi, b, 1e-10):
-                stick.append((_energy_change(P, pi), A, pi, {"accuracy": 1e-10}))
+    stick = stick_candidates(P, b, subsets, masks, fast)
     tier = "stick"
     found = stick
     failures: list[str] = []

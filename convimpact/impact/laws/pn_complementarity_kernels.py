@@ -1,23 +1,22 @@
-"""Compiled tiers of the ``pereira-nikravesh`` law at several contacts: the stick tier, the
-admissibility test and the slide tier's relaxed bounds (the slide programs themselves:
-:mod:`.pn_complementarity_slide`).
+"""The tiers of the ``pereira-nikravesh`` law at several contacts, written once: the stick
+tier, the admissibility test and the slide tier's relaxed bounds (the slide programs
+themselves: :mod:`.pn_complementarity_slide`). The law
+(:mod:`.pn_complementarity`) runs these functions compiled, or, before they are compiled, as
+plain Python (:func:`convimpact.compiled.plain`): one source for both.
 
-:func:`stick_tier` runs, in one compiled call, what
-:func:`~convimpact.impact.laws.pn_complementarity.stick_on` and the law's admissibility test
-do for each candidate active set (every subset holding an approaching contact, up to
-2^8 - 1 of them): the sticking system ``W_SS pi_S = -b_S`` (S: every row of a frictional
-contact of A, the normal row of a frictionless one) solved by LU when
-``cond_2(W_SS) < STICK_COND_MAX`` (the ratio of its extreme singular values: of its
-eigenvalues' magnitudes, W_SS being symmetric), else in the
-least-squares sense (the minimum-norm solution with numpy's default cut-off
-``eps max(m, m)`` relative to the largest singular value, from the eigenvectors) and kept
-only when consistent; then the cones and Newton's law on A and
-no penetration off A, contact by contact with the same round-off allowances; then
-``T+ - T- = pi.v- + 1/2 pi.W.pi``. The same numbers as numpy's ``cond``, ``solve`` and
-``lstsq`` (the first and the last from the symmetric eigendecomposition rather than an SVD:
-equal to round-off), so the answers are the Python path's to round-off; the Python path stays the
-reference (``tests/impact/test_pn_complementarity_kernels.py`` compares them).
-:func:`relaxed_bounds` is the law's ``relaxed_bound`` of every active set in one call.
+:func:`stick_tier` runs, in one call, for each candidate active set (every subset holding an
+approaching contact, up to 2^8 - 1 of them): the sticking system ``W_SS pi_S = -b_S`` (S:
+every row of a frictional contact of A, the normal row of a frictionless one) solved by LU
+when ``cond_2(W_SS) < STICK_COND_MAX`` (the ratio of its extreme singular values: of its
+eigenvalues' magnitudes, W_SS being symmetric), else in the least-squares sense (the
+minimum-norm solution with numpy's default cut-off ``eps max(m, m)`` relative to the largest
+singular value, from the eigenvectors) and kept only when consistent; then the cones and
+Newton's law on A and no penetration off A, contact by contact, each with its round-off
+allowance; then ``T+ - T- = pi.v- + 1/2 pi.W.pi``. The same numbers as numpy's ``cond``,
+``solve`` and ``lstsq`` (the first and the last from the symmetric eigendecomposition rather
+than an SVD: equal to round-off). :func:`stick_solve` is one active set's system (the law's
+``stick_on``), :func:`admissible` the law's admissibility test, :func:`relaxed_bounds` the
+slide tier's lower bound of T+ - T- of every active set in one call.
 """
 
 from __future__ import annotations
@@ -164,8 +163,10 @@ def stick_solve(W, b, mu, d, member, cond_max, rows):
 
 @_jit
 def admissible(W, absW, A, pi, b, mu, d, cone_rtol, slack_max, tol):
-    """The law's ``_admissible`` (pn_complementarity): cones and pi_n >= 0 on A, u_n >= 0
-    off A, each to its own round-off allowance."""
+    """The law's admissibility test of impulse ``pi`` (N,) on active set ``A`` (n,) bool:
+    cones and pi_n >= 0 on A, u_n >= 0 off A, contact by contact, each to its own round-off
+    allowance (``tol`` of the row's size plus ``1e2 eps sum_k |W_jk| |pi_k|``, capped at
+    ``slack_max`` of it; an impulse the same divided by the contact's W_nn)."""
     n = mu.size
     Wpi = W @ pi
     ro = absW @ np.abs(pi)
@@ -194,7 +195,7 @@ def admissible(W, absW, A, pi, b, mu, d, cone_rtol, slack_max, tol):
 
 @_jit
 def relaxed_bounds(W, b, vminus, mu, d, sets):
-    """The law's ``relaxed_bound`` of every active set of ``sets``: min of T+ - T- over the
+    """The slide tier's lower bound of every active set of ``sets``: min of T+ - T- over the
     impulses on A with ``u_n = 0`` there, without the cones (the KKT system of the
     equality-constrained QP, least squares with numpy's default cut-off), +inf where the
     equalities cannot hold (a residual above 1e-8 of the right-hand side)."""
