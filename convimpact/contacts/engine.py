@@ -95,6 +95,13 @@ LONG_NEWTON_STEPS = 40
 #: 3e-2 from 5,000 iterations to its 20,000: half their time, before the NSGS certified them)
 ADMM_STALL_ITER = 5000
 ADMM_STALL_ABOVE = 1e-4
+#: ...and where it is below ADMM_STALL_ABOVE but has not dropped by this factor in the last
+#: ADMM_STALL_ITER iterations, the ADMM starts again from zero (Pinocchio's start), once: on
+#: the brick wall of 976 contacts the ADMM from the CCP answer crawled from 6.9e-7 at 6,000
+#: iterations to 5.2e-7 at 28,000 and reached 1e-8 at 43,610; from zero it reached 1e-8 in
+#: 5,810 (from zero on the log pile of 528 contacts: 6,410 iterations, from the CCP
+#: answer 1,810: the CCP answer stays the first start)
+ADMM_CRAWL_DROP = 0.1
 #: Coulomb's law on large sparse W: where the ADMM of :mod:`.admm` ends its ``admm_iter``
 #: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more
 #: (the brick wall of 976 contacts: 5.9e-7 at 20,000 iterations, where 1,000 Newton steps
@@ -350,9 +357,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     if best[0] > tol:
         tried = [np.inf]
 
+        last = [np.inf]  # the residual of the last iterate checked
+
         def check(r):
             nonlocal iterations
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+            last[0] = res
             if res < best[0]:
                 best[:2] = res, r
             if best[0] <= tol:
@@ -400,14 +410,24 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         else:
             run = coulomb_admm(W, b, mu, R.impulse, sparse, factor=factor)
             marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
+            own = [np.inf]  # the ADMM's own (Newton's tries apart) every ADMM_STALL_ITER
+            restarted = False
             while done < admm_iter:
                 done += 10
                 if check(next(run)):
                     break
+                own[-1] = min(own[-1], last[0])
                 if done % ADMM_STALL_ITER == 0:
                     marks.append(best[0])
                     if best[0] > ADMM_STALL_ABOVE and best[0] > 0.5 * marks[-2]:
                         break  # stalled far from a solution: the NSGS's way below
+                    own.append(own[-1])
+                    if (not restarted and len(own) > 2 and own[-1] <= ADMM_STALL_ABOVE
+                            and own[-1] > ADMM_CRAWL_DROP * own[-3]):
+                        # crawling near a solution: the ADMM again, from zero
+                        run = coulomb_admm(W, b, mu, np.zeros_like(R.impulse), sparse,
+                                           factor=factor)
+                        restarted = True
             # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries,
             # which had all failed there), at most ADMM_EXTEND_ITER iterations more
             extra = 0
