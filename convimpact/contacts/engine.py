@@ -89,6 +89,12 @@ POLISH_FROM = 1e-4
 #: and 10 had stopped)
 LONG_NEWTON_FROM = 1e-5
 LONG_NEWTON_STEPS = 40
+#: past :data:`SPARING_NEWTON_MAX_ROWS` rows (a sparse Newton step: 0.05-0.15 s at 2,700-2,900
+#: rows), a short try from an ADMM iterate stops where its best residual has not halved in
+#: this many steps (on the brick wall of 976 contacts the tries crawled, 4x in 10 steps; on
+#: the sphere piles those that served dropped 100x in 10 steps; the long Newton is left
+#: alone: on a pile of 624 spheres it went from 8e-7 to 7e-9 in 30 steps)
+TRY_STALL = 5
 #: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best residual
 #: (Newton's tries included) is above ADMM_STALL_ABOVE and has not halved in the last
 #: ADMM_STALL_ITER iterations (on the sphere piles of 624-897 contacts it stalled at 7e-3 to
@@ -378,7 +384,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
-                                                         else 10), sparse=sparse, factor=factor)
+                                                         else 10), sparse=sparse, factor=factor,
+                                            stall_steps=None if sparing else TRY_STALL)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn

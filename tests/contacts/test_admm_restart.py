@@ -82,3 +82,33 @@ def test_no_restart_without_a_crawl(monkeypatch, wall):
     assert len(starts) == 1
     assert R.converged
     assert coulomb_residual(W.toarray(), b, mu, R.impulse) <= 1e-8
+
+
+def test_newton_stall_window_stops_where_the_best_residual_has_not_halved(wall):
+    """newton_finish(stall_steps=k) stops at the first step s >= k where the best residual is
+    above half of what it was k steps earlier; the residuals of every step are recomputed
+    here (runs of 1, 2, ... steps without the window give the same iterates: Newton is
+    deterministic); tol 0 is never met, and from zero Newton crawls here (30 steps without
+    the window end at 1.3e-2), so the window stops it early."""
+    from convimpact.contacts.finish import newton_finish
+
+    W, b, mu, d = wall
+    n = mu.shape[0]
+    Wd = W.toarray()
+    r0 = np.zeros((n, d))
+    k = 3
+    history = [coulomb_residual(Wd, b, mu, r0)]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for m in range(1, 31):
+            r, _, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                        max_iter=m, sparse=True)
+            if steps < m:  # the line search stopped it: no further step exists
+                break
+            history.append(min(history[-1], coulomb_residual(Wd, b, mu, r)))
+        expected = next((s for s in range(k, len(history))
+                         if history[s] > 0.5 * history[s - k]), None)
+        assert expected is not None  # a crawl within the runs above
+        _, res, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                      max_iter=30, sparse=True, stall_steps=k)
+    assert steps == expected
+    assert res == pytest.approx(history[expected], rel=1e-6, abs=1e-15)
