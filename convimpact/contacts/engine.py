@@ -110,8 +110,9 @@ ADMM_STALL_ABOVE = 1e-4
 ADMM_CRAWL_DROP = 0.1
 #: Coulomb's law on large sparse W: where the ADMM of :mod:`.admm` ends its ``admm_iter``
 #: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more
-#: (the brick wall of 976 contacts: 5.9e-7 at 20,000 iterations, where 1,000 Newton steps
-#: tried on its way had failed, and 1e-8 at 43,520; the sphere piles' ADMM stalls at 5e-4)
+#: (the brick wall of 976 contacts, before the restart of ADMM_CRAWL_DROP: 5.9e-7 at 20,000
+#: iterations, where 1,000 Newton steps tried on its way had failed, and 1e-8 at 43,520; the
+#: sphere piles' ADMM stalls at 5e-4)
 ADMM_EXTEND_FROM = 1e-6
 ADMM_EXTEND_ITER = 40000
 #: Newton steps of a try from an iterate of the nonsmooth Gauss-Seidel (:mod:`.gauss_seidel`;
@@ -151,7 +152,8 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     the law itself (:mod:`.coulomb_interior`, at most :data:`COULOMB_IP_ITER` steps, before
     the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows, after it below) and the ADMM from the CCP's answer
     (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
-    sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
+    sparse factorization, started again from zero, once, where it crawls:
+    :data:`ADMM_CRAWL_DROP`), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
     long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`; past
     :data:`SPARING_NEWTON_MAX_ROWS` rows the nonsmooth Gauss-Seidel of
     :func:`.gauss_seidel.nsgs_newton` from the CCP's answer (Newton tried on its way); then
@@ -393,8 +395,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             tried.append(res)
             return best[0] <= tol
 
-        # the ADMM from the CCP answer (from zero, Pinocchio's start, was 4x faster on a
-        # brick wall but 1.2-3x slower on most of the corpus, and running both cost that)
+        # the ADMM from the CCP answer (from zero, Pinocchio's start, was 7.5x faster on a
+        # brick wall but 1.2-3.5x slower on most of the corpus: zero is the sparse ADMM's
+        # second start where the first crawls, ADMM_CRAWL_DROP)
         done = 0
         if dense_admm_here:  # compiled, dense
 
