@@ -23,8 +23,9 @@ every solver's batch runs in turn (a burst of load falls on all alike), after a 
 problem that is not timed; past :data:`ONE_REPEAT_ABOVE` contacts, or when a call lasts more than
 :data:`SLOW_CALL` seconds, that first call is the one measurement. The first solve of each law
 (compilation, caches) is a warm-up and not recorded. The peers run in forked worker processes
-(timed inside them, their stack limit lifted: Pinocchio's PGS overflows 8 MB from about 400
-contacts on), killed when a call exceeds :data:`TIME_LIMIT` seconds; a peer that timed out is
+(:mod:`.contact_scale_workers`; timed inside them, their stack limit lifted: Pinocchio's PGS
+overflows 8 MB from about 400 contacts on), killed when a call exceeds
+:data:`~.contact_scale_workers.TIME_LIMIT` seconds; a peer that timed out is
 skipped on the larger problems of the same family, and a worker that crashes is recorded as
 ``crashed``.
 
@@ -37,8 +38,6 @@ record's ``impulse_key``), so the residuals can be recomputed.
 from __future__ import annotations
 
 import math
-import multiprocessing
-import signal
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -55,8 +54,8 @@ from .contact_scale_charts import (
     power_law_fit,
 )
 from .contact_peers import natural_map_residual, pinocchio_contact_call
+from .contact_scale_workers import TIME_LIMIT, PeerWorker
 from .registry import BenchConfig, Progress, SectionResult, register_section
-from .threads import blas_threads
 from .timing import MAX_INNER
 
 LAWS = ("ccp", "coulomb")
@@ -65,10 +64,6 @@ TOL = 1e-8
 TIGHT_TOL = 1e-10
 ADMM_MAX_ITERATIONS = 100_000
 PGS_MAX_ITERATIONS = 10_000
-#: seconds one peer call may last before its worker is killed
-TIME_LIMIT = 60.0
-#: seconds a worker may take to build the peer (embedding, Delassus operator)
-BUILD_LIMIT = 120.0
 #: past this many contacts a solver is timed once
 ONE_REPEAT_ABOVE = 300
 #: a call lasting longer than this (seconds) is timed once
@@ -76,107 +71,6 @@ SLOW_CALL = 10.0
 #: the worst ratio ours / ADMM is quoted over problems of more than this many contacts
 WORST_RATIO_ABOVE = 40
 NPZ = "contact_scale_impulses.npz"
-
-
-# -- peers in worker processes -------------------------------------------------------------------
-
-def _raise_stack_limit() -> None:
-    """Lift this process's soft stack limit to the hard one: Pinocchio 4.1's PGS overflows the
-    default 8 MB stack from about 400 contacts on (a segmentation fault; it runs with more)."""
-    try:
-        import resource
-
-        soft, hard = resource.getrlimit(resource.RLIMIT_STACK)
-        if soft != resource.RLIM_INFINITY and (hard == resource.RLIM_INFINITY or hard > soft):
-            resource.setrlimit(resource.RLIMIT_STACK, (hard, hard))
-    except (ImportError, ValueError, OSError):
-        pass
-
-
-def _serve(make_call: Callable[[], Callable[[], Any]], conn) -> None:
-    """The worker: build the call, then time batches of it on demand."""
-    _raise_stack_limit()
-    try:
-        with blas_threads(1):
-            call = make_call()
-            conn.send(("ready", None, None, None, None))
-            while True:
-                n_inner = conn.recv()
-                if n_inner is None:
-                    break
-                t = time.perf_counter()
-                try:
-                    for _ in range(n_inner):
-                        value = call()
-                except Exception as exc:  # a peer reporting no convergence
-                    conn.send(("failed", time.perf_counter() - t, None, None,
-                               f"{type(exc).__name__}: {exc}"))
-                    continue
-                conn.send(("ok", (time.perf_counter() - t) / n_inner, np.asarray(value),
-                           None, None))
-    except (EOFError, BrokenPipeError, KeyboardInterrupt):
-        pass
-    except Exception as exc:  # the peer could not be built
-        try:
-            conn.send(("failed", None, None, None, f"{type(exc).__name__}: {exc}"))
-        except (BrokenPipeError, OSError):
-            pass
-
-
-def _signal_name(number: int) -> str:
-    try:
-        return signal.Signals(number).name
-    except ValueError:
-        return "unknown signal"
-
-
-class PeerWorker:
-    """A forked process holding one peer call; :meth:`run` times a batch of it, and kills the
-    process when the batch lasts longer than ``limit`` seconds."""
-
-    def __init__(self, make_call: Callable[[], Callable[[], Any]]):
-        ctx = multiprocessing.get_context("fork")
-        self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=_serve, args=(make_call, child), daemon=True)
-        self.proc.start()
-        child.close()
-        self.ready = self._receive(BUILD_LIMIT)
-
-    def _receive(self, limit: float) -> tuple:
-        try:
-            if self.conn.poll(limit):
-                return self.conn.recv()
-        except (EOFError, OSError):  # the peer crashed its process (a segmentation fault)
-            self.proc.join(5.0)
-            code = self.proc.exitcode
-            self.close()
-            how = (f"killed by signal {-code} ({_signal_name(-code)})" if code and code < 0
-                   else f"exit code {code}")
-            return ("crashed", None, None, None, f"the worker process died: {how}")
-        self.close()
-        return ("timeout", limit, None, None, f"no answer within {limit:g} s")
-
-    def run(self, n_inner: int = 1, limit: float = TIME_LIMIT) -> tuple:
-        """``(status, seconds per call, impulse, None, error)``; status ok, failed, timeout
-        or crashed (the seconds then: to the failure, the limit, or None)."""
-        if self.proc is None:
-            return ("failed", None, None, None, "the worker was closed")
-        self.conn.send(int(n_inner))
-        return self._receive(limit)
-
-    def close(self) -> None:
-        if self.proc is None:
-            return
-        try:
-            self.conn.send(None)
-        except (BrokenPipeError, OSError):
-            pass
-        self.proc.join(0.5)
-        if self.proc.is_alive():
-            self.proc.kill()
-            self.proc.join()
-        self.conn.close()
-        self.proc = None
 
 
 # -- one problem -----------------------------------------------------------------------------

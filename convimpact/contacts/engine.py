@@ -89,16 +89,30 @@ POLISH_FROM = 1e-4
 #: and 10 had stopped)
 LONG_NEWTON_FROM = 1e-5
 LONG_NEWTON_STEPS = 40
+#: past :data:`SPARING_NEWTON_MAX_ROWS` rows (a sparse Newton step: 0.05-0.15 s at 2,700-2,900
+#: rows), a short try from an ADMM iterate stops where its best residual has not halved in
+#: this many steps (on the brick wall of 976 contacts the tries crawled, 4x in 10 steps; on
+#: the sphere piles those that served dropped 100x in 10 steps; the long Newton is left
+#: alone: on a pile of 624 spheres it went from 8e-7 to 7e-9 in 30 steps)
+TRY_STALL = 5
 #: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best residual
 #: (Newton's tries included) is above ADMM_STALL_ABOVE and has not halved in the last
 #: ADMM_STALL_ITER iterations (on the sphere piles of 624-897 contacts it stalled at 7e-3 to
 #: 3e-2 from 5,000 iterations to its 20,000: half their time, before the NSGS certified them)
 ADMM_STALL_ITER = 5000
 ADMM_STALL_ABOVE = 1e-4
+#: ...and where it is below ADMM_STALL_ABOVE but has not dropped by this factor in the last
+#: ADMM_STALL_ITER iterations, the ADMM starts again from zero (Pinocchio's start), once: on
+#: the brick wall of 976 contacts the ADMM from the CCP answer crawled from 6.9e-7 at 6,000
+#: iterations to 5.2e-7 at 28,000 and reached 1e-8 at 43,610; from zero it reached 1e-8 in
+#: 5,810 (from zero on the log pile of 528 contacts: 6,410 iterations, from the CCP
+#: answer 1,810: the CCP answer stays the first start)
+ADMM_CRAWL_DROP = 0.1
 #: Coulomb's law on large sparse W: where the ADMM of :mod:`.admm` ends its ``admm_iter``
 #: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more
-#: (the brick wall of 976 contacts: 5.9e-7 at 20,000 iterations, where 1,000 Newton steps
-#: tried on its way had failed, and 1e-8 at 43,520; the sphere piles' ADMM stalls at 5e-4)
+#: (the brick wall of 976 contacts, before the restart of ADMM_CRAWL_DROP: 5.9e-7 at 20,000
+#: iterations, where 1,000 Newton steps tried on its way had failed, and 1e-8 at 43,520; the
+#: sphere piles' ADMM stalls at 5e-4)
 ADMM_EXTEND_FROM = 1e-6
 ADMM_EXTEND_ITER = 40000
 #: Newton steps of a try from an iterate of the nonsmooth Gauss-Seidel (:mod:`.gauss_seidel`;
@@ -138,7 +152,8 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     the law itself (:mod:`.coulomb_interior`, at most :data:`COULOMB_IP_ITER` steps, before
     the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows, after it below) and the ADMM from the CCP's answer
     (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
-    sparse factorization), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
+    sparse factorization, started again from zero, once, where it crawls:
+    :data:`ADMM_CRAWL_DROP`), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
     long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`; past
     :data:`SPARING_NEWTON_MAX_ROWS` rows the nonsmooth Gauss-Seidel of
     :func:`.gauss_seidel.nsgs_newton` from the CCP's answer (Newton tried on its way); then
@@ -350,9 +365,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     if best[0] > tol:
         tried = [np.inf]
 
+        last = [np.inf]  # the residual of the last iterate checked
+
         def check(r):
             nonlocal iterations
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+            last[0] = res
             if res < best[0]:
                 best[:2] = res, r
             if best[0] <= tol:
@@ -368,7 +386,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
-                                                         else 10), sparse=sparse, factor=factor)
+                                                         else 10), sparse=sparse, factor=factor,
+                                            stall_steps=None if sparing else TRY_STALL)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
@@ -376,8 +395,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             tried.append(res)
             return best[0] <= tol
 
-        # the ADMM from the CCP answer (from zero, Pinocchio's start, was 4x faster on a
-        # brick wall but 1.2-3x slower on most of the corpus, and running both cost that)
+        # the ADMM from the CCP answer (from zero, Pinocchio's start, was 7.5x faster on a
+        # brick wall but 1.2-3.5x slower on most of the corpus: zero is the sparse ADMM's
+        # second start where the first crawls, ADMM_CRAWL_DROP)
         done = 0
         if dense_admm_here:  # compiled, dense
 
@@ -400,14 +420,24 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         else:
             run = coulomb_admm(W, b, mu, R.impulse, sparse, factor=factor)
             marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
+            own = [np.inf]  # the ADMM's own (Newton's tries apart) every ADMM_STALL_ITER
+            restarted = False
             while done < admm_iter:
                 done += 10
                 if check(next(run)):
                     break
+                own[-1] = min(own[-1], last[0])
                 if done % ADMM_STALL_ITER == 0:
                     marks.append(best[0])
                     if best[0] > ADMM_STALL_ABOVE and best[0] > 0.5 * marks[-2]:
                         break  # stalled far from a solution: the NSGS's way below
+                    own.append(own[-1])
+                    if (not restarted and len(own) > 2 and own[-1] <= ADMM_STALL_ABOVE
+                            and own[-1] > ADMM_CRAWL_DROP * own[-3]):
+                        # crawling near a solution: the ADMM again, from zero
+                        run = coulomb_admm(W, b, mu, np.zeros_like(R.impulse), sparse,
+                                           factor=factor)
+                        restarted = True
             # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries,
             # which had all failed there), at most ADMM_EXTEND_ITER iterations more
             extra = 0

@@ -81,13 +81,18 @@ def _map(W, b, mu, rho, r, coulomb):
 
 def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: bool,
                   tol: float, max_iter: int = 30, sparse: bool = False,
-                  factor: DelassusFactor | None = None) -> tuple[np.ndarray, float, int]:
+                  factor: DelassusFactor | None = None,
+                  stall_steps: int | None = None) -> tuple[np.ndarray, float, int]:
     """Newton steps on the natural map from ``r0`` (n, d) until the relative natural-map
     residual (:func:`~.cones.natural_map_residual`) is at most ``tol``.
 
     ``factor``, optional: W's low-rank factor (:class:`~.lowrank.DelassusFactor`), decided
     on the first step (from that step's cost); where it is chosen, the steps are solved
     through it (:func:`~.lowrank.lowrank_step`, the same step to round-off).
+
+    ``stall_steps``, optional: stop where the best residual has not halved in the last
+    ``stall_steps`` steps (Newton converging drops it faster; a try far from its region of
+    fast convergence crawls).
 
     Returns the best ``(r, residual, steps)`` reached.
     """
@@ -101,8 +106,12 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
     F, u, ut, v = _map(W, b, mu, rho, r, coulomb)
     fn = np.linalg.norm(F)
     steps = 0
+    history = [best_res]  # the best residual after each step
     for _ in range(max_iter):
         if best_res <= tol:
+            break
+        if stall_steps is not None and steps >= stall_steps and \
+                best_res > 0.5 * history[steps - stall_steps]:
             break
         D = projection_jacobian(v, mu)
         scale = max(np.linalg.norm(r), np.linalg.norm(b) * float(rho.max()), 1e-300)
@@ -171,4 +180,5 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
         res, _ = natural_map_residual(W, b, mu, r, coulomb)
         if res < best_res:
             best_res, best = res, r.copy()
+        history.append(best_res)
     return best, best_res, steps

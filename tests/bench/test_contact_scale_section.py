@@ -20,6 +20,7 @@ import pytest
 from convimpact.bench import BenchConfig, run_bench, section_names
 from convimpact.bench import contact_scale_charts as csc
 from convimpact.bench import contact_scale_section as css
+from convimpact.bench import contact_scale_workers as csw
 from convimpact.bench.contact_corpus import corpus
 from convimpact.bench.contact_peers import natural_map_residual
 
@@ -38,7 +39,7 @@ def run(tmp_path_factory):
         # the section's limits on a peer's build (120 s) and call (60 s) made generous: on a
         # loaded machine with a cold cache a worker compiles its kernels first, and a tiny
         # problem should never be reported as timed out here
-        mp.setattr(css, "BUILD_LIMIT", 1800.0)
+        mp.setattr(csw, "BUILD_LIMIT", 1800.0)
         mp.setattr(css, "TIME_LIMIT", 1800.0)
         run_bench(BenchConfig.make(out, quick=True, repeat=2), ["contact-scale"],
                   messages.append)
@@ -182,7 +183,7 @@ def _crashing():
 def test_peer_worker_is_killed_past_its_time_limit():
     # the peer sleeps 600 s: its worker is killed at the 0.3 s limit (the bound on the wait is
     # generous, for a loaded machine; only a worker left to sleep to the end can exceed it)
-    w = css.PeerWorker(_sleepy)
+    w = csw.PeerWorker(_sleepy)
     t = time.perf_counter()
     status, seconds, impulse, _, err = w.run(1, limit=0.3)
     waited = time.perf_counter() - t
@@ -190,12 +191,12 @@ def test_peer_worker_is_killed_past_its_time_limit():
     assert waited < GENEROUS, f"the worker was not killed at its 0.3 s limit: {waited:.0f} s"
     assert w.proc is None  # killed and closed
     # peers that answer at once: a failure, a crash (the generous limits are never reached)
-    w = css.PeerWorker(_refusing)
+    w = csw.PeerWorker(_refusing)
     try:
         status, _, impulse, _, err = w.run(1, limit=GENEROUS)
         assert status == "failed" and impulse is None and "did not converge" in err
     finally:
         w.close()
-    w = css.PeerWorker(_crashing)  # a peer that kills its process (as PGS's segfaults)
+    w = csw.PeerWorker(_crashing)  # a peer that kills its process (as PGS's segfaults)
     status, seconds, impulse, _, err = w.run(1, limit=GENEROUS)
     assert status == "crashed" and seconds is None and "SIGKILL" in err and w.proc is None

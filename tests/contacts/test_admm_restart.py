@@ -1,0 +1,114 @@
+"""The engine's ADMM on large sparse problems starts again from zero, once, where it crawls
+near a solution (engine.ADMM_CRAWL_DROP).
+
+The path is forced on a small brick wall of the corpus (the sizes that choose it and the
+window of the rule made small, Newton's tries switched off), and the starts the engine
+gives the ADMM are recorded. Oracles, none of them the code under test: the natural-map
+residual recomputed here with this folder's own projection onto the friction cone
+(``test_contact_admm.coulomb_residual``), and the CCP answer the ADMM must start from first,
+checked here against the CCP's own natural map (within 1e-6: the interior point's iterate,
+its Newton finish being off).
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from convimpact.bench.contact_corpus import corpus
+from convimpact.contacts import engine
+
+from .cone_checks import project_cone
+from .test_contact_admm import coulomb_residual
+
+
+def ccp_residual(W, b, mu, r):
+    """The CCP's natural-map residual (y = u), computed here."""
+    n, d = r.shape
+    u = (W @ r.ravel() + np.ravel(b)).reshape(n, d)
+    err = np.linalg.norm(r - project_cone(r - u, mu))
+    return err / max(np.linalg.norm(b), np.linalg.norm(r), np.linalg.norm(u))
+
+
+@pytest.fixture(scope="module")
+def wall():
+    (case,) = corpus(names=["box-wall-2x2-16"])
+    return sp.csr_matrix(case.W), np.asarray(case.b, float), np.asarray(case.mu, float), case.dim
+
+
+def _run(monkeypatch, wall, crawl_drop):
+    W, b, mu, d = wall
+    starts = []
+    real = engine.coulomb_admm
+
+    def recording(W_, b_, mu_, r0, sparse, **kw):
+        starts.append(np.array(r0, dtype=float))
+        return real(W_, b_, mu_, r0, sparse, **kw)
+
+    monkeypatch.setattr(engine, "coulomb_admm", recording)
+    # the sparse ADMM's branch on 48 rows, the interior point on the law and Newton's tries
+    # off (newton_iter 0), the rule's window 50 iterations
+    monkeypatch.setattr(engine, "DENSE_ADMM_MAX_ROWS", 0)
+    monkeypatch.setattr(engine, "SPARING_NEWTON_MAX_ROWS", 0)
+    monkeypatch.setattr(engine, "COULOMB_IP_ITER", 0)
+    monkeypatch.setattr(engine, "LONG_NEWTON_FROM", 0.0)
+    monkeypatch.setattr(engine, "ADMM_STALL_ITER", 50)
+    monkeypatch.setattr(engine, "ADMM_STALL_ABOVE", 10.0)
+    monkeypatch.setattr(engine, "ADMM_CRAWL_DROP", crawl_drop)
+    n = mu.shape[0]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        R = engine._solve(W, b.reshape(n, d), mu, d, True, 1e-8, 100, 0, 20000, True)
+    return R, starts
+
+
+def test_crawling_admm_restarts_from_zero_once(monkeypatch, wall):
+    # a required drop to 0: every window is a crawl, so the restart comes at the second
+    # mark (100 iterations), and only once
+    W, b, mu, d = wall
+    R, starts = _run(monkeypatch, wall, 0.0)
+    assert len(starts) == 2
+    # the CCP answer first (the interior point's, its Newton finish off here)...
+    assert np.abs(starts[0]).max() > 0.0
+    assert ccp_residual(W, b, mu, starts[0]) <= 1e-6
+    assert np.all(starts[1] == 0.0)               # ...then zero
+    assert R.converged
+    assert coulomb_residual(W.toarray(), b, mu, R.impulse) <= 1e-8
+
+
+def test_no_restart_without_a_crawl(monkeypatch, wall):
+    # a required drop of 1 (none: the ADMM's best never rises): no window is a crawl, the
+    # ADMM runs from the CCP answer alone
+    W, b, mu, d = wall
+    R, starts = _run(monkeypatch, wall, 1.0)
+    assert len(starts) == 1
+    assert R.converged
+    assert coulomb_residual(W.toarray(), b, mu, R.impulse) <= 1e-8
+
+
+def test_newton_stall_window_stops_where_the_best_residual_has_not_halved(wall):
+    """newton_finish(stall_steps=k) stops at the first step s >= k where the best residual is
+    above half of what it was k steps earlier; the residuals of every step are recomputed
+    here (runs of 1, 2, ... steps without the window give the same iterates: Newton is
+    deterministic); tol 0 is never met, and from zero Newton crawls here (30 steps without
+    the window end at 1.3e-2), so the window stops it early."""
+    from convimpact.contacts.finish import newton_finish
+
+    W, b, mu, d = wall
+    n = mu.shape[0]
+    Wd = W.toarray()
+    r0 = np.zeros((n, d))
+    k = 3
+    history = [coulomb_residual(Wd, b, mu, r0)]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for m in range(1, 31):
+            r, _, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                        max_iter=m, sparse=True)
+            if steps < m:  # the line search stopped it: no further step exists
+                break
+            history.append(min(history[-1], coulomb_residual(Wd, b, mu, r)))
+        expected = next((s for s in range(k, len(history))
+                         if history[s] > 0.5 * history[s - k]), None)
+        assert expected is not None  # a crawl within the runs above
+        _, res, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                      max_iter=30, sparse=True, stall_steps=k)
+    assert steps == expected
+    assert res == pytest.approx(history[expected], rel=1e-6, abs=1e-15)
