@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
+from ..problem.compiled_reduction import cholesky_into
 
 EPS = float(np.finfo(float).eps)
 TINY = 1e-300
@@ -46,20 +47,14 @@ def _consistent(A, x, r, rtol):
 @_jit
 def sub_cholesky(A, idx, m, L):
     """The lower Cholesky factor of ``A[idx[:m]][:, idx[:m]]`` into ``L[:m, :m]`` (zeros
-    above the diagonal on entry); False at the first pivot that is not positive."""
-    for j in range(m):
-        acc = A[idx[j], idx[j]]
-        for k in range(j):
-            acc -= L[j, k] ** 2
-        if not acc > 0.0:
-            return False
-        L[j, j] = np.sqrt(acc)
-        for i in range(j + 1, m):
-            acc = A[idx[i], idx[j]]
-            for k in range(j):
-                acc -= L[i, k] * L[j, k]
-            L[i, j] = acc / L[j, j]
-    return True
+    above the diagonal on entry), by the package's one Cholesky
+    (:func:`~convimpact.impact.problem.compiled_reduction.cholesky_into`); False at the first
+    pivot that is not positive."""
+    S = np.empty((m, m))
+    for i in range(m):
+        for j in range(m):
+            S[i, j] = A[idx[i], idx[j]]
+    return cholesky_into(S, L, m, 0.0)
 
 
 @_jit

@@ -56,6 +56,7 @@ import numpy as np
 from ...compiled import jit as _jit
 from .codes import OK as KERNEL_OK
 from .pereira_nikravesh_kernel import _pn_planar, _pn_spatial
+from ..problem.compiled_reduction import back_substitute
 from .pn_complementarity_kernels import admissible, set_rows, stick_tier, sub_cholesky
 from .pn_complementarity_slide import slide_set_warm
 
@@ -268,12 +269,8 @@ def stick_clearly_inadmissible(W, b, mu, d, member, cone_rtol, slack_max, tol):
         for k in range(i):
             acc -= L[i, k] * y[k]
         y[i] = acc / L[i, i]
-    x = np.empty(m)
-    for i in range(m - 1, -1, -1):
-        acc = y[i]
-        for k in range(i + 1, m):
-            acc -= L[k, i] * x[k]
-        x[i] = acc / L[i, i]
+    x = y
+    back_substitute(L, x)  # x = L^-T y
     pi = np.zeros(N)
     for a in range(m):
         pi[rows[a]] = x[a]
