@@ -12,7 +12,18 @@ from __future__ import annotations
 
 import math
 
-from ..compiled import jit
+from ..compiled import jit, jit_internal
+
+
+@jit_internal
+def _ray(phi, ray, dray, zdir, dzdir):
+    """A cone's boundary ray ``(1, cos phi, sin phi)`` and its dual direction
+    ``(1, -cos phi, -sin phi)``, with their derivatives in phi, into the four 3-vectors."""
+    co, sn = math.cos(phi), math.sin(phi)
+    ray[0], ray[1], ray[2] = 1.0, co, sn
+    dray[0], dray[1], dray[2] = 0.0, -sn, co
+    zdir[0], zdir[1], zdir[2] = 1.0, -co, -sn
+    dzdir[0], dzdir[1], dzdir[2] = 0.0, sn, -co
 
 
 @jit
@@ -52,11 +63,7 @@ def max_min_residual(v, r, zero, ks, rows0, ms, A, b, w, J0, F, J):
                 F[r] -= w[a0 + i] * z
         else:
             alpha, beta, phi = v[k], v[k + 1], v[k + 2]
-            co, sn = math.cos(phi), math.sin(phi)
-            ray[0], ray[1], ray[2] = 1.0, co, sn
-            dray[0], dray[1], dray[2] = 0.0, -sn, co
-            zdir[0], zdir[1], zdir[2] = 1.0, -co, -sn
-            dzdir[0], dzdir[1], dzdir[2] = 0.0, sn, -co
+            _ray(phi, ray, dray, zdir, dzdir)
             for j in range(r + 1):
                 g = 0.0
                 dg = 0.0
@@ -134,11 +141,7 @@ def least_norm_residual(v, r, g, zero, ks, ms, A, b, F, J):
                     J[j, k + i] = A[a0 + i, j]
         else:
             alpha, beta, phi = v[k], v[k + 1], v[k + 2]
-            co, sn = math.cos(phi), math.sin(phi)
-            ray[0], ray[1], ray[2] = 1.0, co, sn
-            dray[0], dray[1], dray[2] = 0.0, -sn, co
-            zdir[0], zdir[1], zdir[2] = 1.0, -co, -sn
-            dzdir[0], dzdir[1], dzdir[2] = 0.0, sn, -co
+            _ray(phi, ray, dray, zdir, dzdir)
             for j in range(r):
                 gz = 0.0
                 dgz = 0.0
