@@ -7,7 +7,8 @@ distribution violates an inequality of the contacts' modes, :func:`max_margin_di
 picks one in two stages: the largest smallest margin t* (a cone program by Clarabel, its
 solution refined by Newton's method on the optimality conditions, the active cones fixed),
 then the least norm among the distributions whose margins all reach :func:`shell_floor`
-(t*), just below t* (a strictly convex program, refined the same way): unique, and
+(t*), just below t* (a strictly convex program, solved the same way, from the
+unconstrained minimizer first, the solver's answer where that does not certify): unique, and
 continuous in the data (a 1e-13 change of the state moves it by round-off). Every
 program's solution is certified here (cone membership, stationarity, complementarity)
 before it is accepted.
@@ -22,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
-from .force_distribution_polish import (_cone_violation, _newton_max_min, _off_ray,
+from .force_distribution_polish import (_cone_violation, _off_ray,
                                          _polish_least_norm, _polish_max_min, _warm_max_min)
 from .force_dual import refusal_bound
 
@@ -92,11 +93,12 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
 
     Stage 1's solution is refined by Newton's method on its optimality conditions, the
     active cones fixed (:func:`_polish_max_min`: an interior-point solution meets them to
-    about the square root of its tolerance only). Stage 2 is solved by Clarabel on S, then
-    by Newton's method on its optimality conditions (:func:`_polish_least_norm`: a
-    primal-dual active set from Clarabel's solution, cones whose equations depend on the
-    others' left out, a multiplier of the wrong sign or a violated cone correcting the
-    set), certified there to round-off. Where that polish does not certify, the former
+    about the square root of its tolerance only). Stage 2 is solved by Newton's method on
+    its optimality conditions (:func:`_polish_least_norm`: a primal-dual active set, cones
+    whose equations depend on the others' left out, a multiplier of the wrong sign or a
+    violated cone correcting the set), certified there to round-off, from the unconstrained
+    minimizer (the cones it violates active), else from Clarabel's solution on S
+    (:func:`_least_norm_in_shell`). Where that polish does not certify, the former
     stage 2 is used (:func:`_least_norm_on_face`: the least-norm program on the affine hull
     of F read off stage 1's active cones), exact where that active set is, but not
     continuous where it is degenerate. The answer depends on the span of ``Z`` only (an
@@ -277,10 +279,17 @@ def _least_norm_on_face(blocks, kinds, t_star: float, y_star: np.ndarray, A, b, 
 
 def _least_norm_in_shell(shell, g: np.ndarray) -> np.ndarray | None:
     """argmin |y|^2 / 2 + g'y s.t. ``b - A y`` in each block's cone
-    (:func:`max_margin_distribution`'s stage 2): Clarabel's solution (from which status
-    soever: a shell as thin as 1e-10 often ends "AlmostSolved") refined by
-    :func:`_polish_least_norm` and certified there to round-off; None where it does not
-    certify."""
+    (:func:`max_margin_distribution`'s stage 2), by :func:`_polish_least_norm` (a
+    primal-dual active-set method, certified to round-off on the program's optimality
+    conditions) first from the unconstrained minimizer ``-g`` (no multiplier: the cones it
+    violates start active), then from Clarabel's solution (from which status soever: a
+    shell as thin as 1e-10 often ends "AlmostSolved"); None where neither certifies. The
+    program is strictly convex: a certified answer is its unique minimizer, whichever the
+    start (the box stack's tip and slip onset: both starts certify, 3e-16 apart; the
+    solver is not run)."""
+    y = _polish_least_norm(shell, g, -g, np.zeros(sum(len(blk[2]) for blk in shell)))
+    if y is not None:
+        return y
     A = np.vstack([blk[1] for blk in shell])
     b = np.concatenate([blk[2] for blk in shell])
     cones = [(blk[0], len(blk[2])) for blk in shell]
@@ -289,37 +298,6 @@ def _least_norm_in_shell(shell, g: np.ndarray) -> np.ndarray | None:
     if x is None:
         return None
     return _polish_least_norm(shell, g, x, z)
-
-
-def margin_extension(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: np.ndarray,
-                     fscale: float, state: tuple, orthonormal: bool = False) -> float | None:
-    """The smooth extension of the largest smallest margin from one program's active set:
-    the optimality conditions of :func:`max_margin_distribution`'s stage 1 with the cones'
-    kinds of ``state`` (active set, maximizer, margin: a warm start's, at a nearby state)
-    solved by Newton's method, without checking the cones. Where that active set is the
-    program's it is the largest smallest margin (relative to ``fscale``); elsewhere a
-    smooth continuation of it, not a margin of any distribution. None where Newton's
-    method does not converge. (The event location's predictor of a margin's zero:
-    :meth:`~.event_watch.EventWatch.locate_margin`.)"""
-    active, lam_prev, tau = state
-    lam0 = np.asarray(lam0, float).ravel()
-    Q = _zero_round_off(Z) if orthonormal else _range_basis(Z)
-    r = Q.shape[1]
-    blocks = _margin_blocks(np.asarray(mu, float).ravel(), d, combo, lam0 / fscale, Q)
-    if r == 0 or not blocks or active is None:
-        return None
-    blocks.append(("nn", np.zeros((1, r)), np.ones(1), np.ones(1)))
-    kinds, parts = active
-    if len(kinds) != len(blocks) or lam_prev is None or lam_prev.shape != lam0.shape:
-        return None
-    x0 = np.empty(r + 1)
-    x0[:r] = Q.T @ ((lam_prev - lam0) / fscale)
-    x0[r] = tau
-    try:
-        v = _newton_max_min(blocks, kinds, [p.copy() for p in parts], x0, check=False)
-    except (ValueError, np.linalg.LinAlgError):  # a block's size differs: not this program
-        return None
-    return None if v is None else float(v[r])
 
 
 def _warm_tries(blocks, warm: dict, lam0: np.ndarray, Q: np.ndarray, scale: float):

@@ -20,7 +20,7 @@ import scipy.linalg as sla
 
 from .canonical import CanonicalEquations, HeldMode, Row, _cho_solve, _cholesky
 from .contact_forces import (OPEN, SLIP, STICK, ContactForceProblem, max_margin_distribution)
-from .force_distribution import margin_extension
+from .force_margin_extension import margin_extension
 
 
 #: relative slack below which a margin counts as violated (a mode on the cone's boundary, e.g.
@@ -238,7 +238,7 @@ def held_margin_extension(eq: CanonicalEquations, t: float, y: np.ndarray,
     """The smooth extension of the held contacts' largest smallest margin (relative to the
     force scale, as :func:`held_forces`') from the active set of a nearby exact program
     (``state``: its active set, maximizer and margin), by
-    :func:`~.force_distribution.margin_extension`; None where it does not apply (no
+    :func:`~.force_margin_extension.margin_extension`; None where it does not apply (no
     redundancy, no convergence). Not a margin: a predictor of where the margin crosses
     zero while the active set stays the program's."""
     if not eq.held or not eq.dropped:
