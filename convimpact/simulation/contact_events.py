@@ -57,8 +57,7 @@ class ContactEvents:
             else:
                 warm = None
             try:
-                sol = solve_contact_forces(cs.problem, warm=warm,
-                                           start=self.force_start(candidates, cs.problem.d))
+                sol = solve_contact_forces(cs.problem, warm=warm)
             except PainleveError as exc:
                 involved = [candidates[i] for i in getattr(exc, "contacts", ())]
                 text = str(exc) + (f" (contacts involved: {', '.join(involved)})"
@@ -124,23 +123,6 @@ class ContactEvents:
                 self.detector.forget(c)
         self.modes.update(t, {c: modes[c].kind if c in modes else "open" for c in self.contacts})
         return self.pack(th, dth, sig_loops)
-
-    def force_start(self, candidates: Sequence[str], d: int) -> np.ndarray | None:
-        """The engine's warm start at an event (:func:`~.force_solver.solve_contact_forces`'s
-        ``start``, (n, d)): the held contacts' last distribution of the segment just ended
-        (the event functions', :attr:`margin_hint`'s ``lam``, at or next to the event), zero
-        for the other candidates; None where there is none (no redundant held group)."""
-        hint = self.margin_hint
-        lam = hint.get("lam") if hint.get("eq") is self.eq else None
-        if lam is None or not self.held or lam.size != len(self.held) * d:
-            return None
-        F = np.asarray(lam, float).reshape(len(self.held), d)
-        at = {c: i for i, c in enumerate(self.held)}
-        out = np.zeros((len(candidates), d))
-        for j, c in enumerate(candidates):
-            if c in at:
-                out[j] = F[at[c]]
-        return out
 
     def freeze_directions(self, modes: dict[str, HeldMode], cs, onsets: Collection[str],
                           dth: np.ndarray) -> dict[str, HeldMode]:

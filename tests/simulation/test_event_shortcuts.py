@@ -3,10 +3,9 @@ on the box stack (problems/box_stack.py: it tips at t_tip = t_push + n w / ((2n 
 ramp = 0.44 s, closed form; its top box starts to slide later):
 
 * a slip-onset combination refused because the same combination with its onsets sticking
-  was (force_combinations._refused_as_stuck): every one so refused is refused when solved;
+  was (force_solver._refused_as_stuck): every one so refused is refused when solved;
 * the force problem at an event warm-started from the located margin's program (and each
-  later combination from the first one's), its engine from the held forces there: the same
-  modes and forces as without;
+  later combination from the first one's): the same modes and forces as without;
 * a margin's zero located from the predicted bracket (EventWatch.locate_margin): the time
   Brent's method over the whole step finds, to its tolerance;
 * a combination's refusal certified by a dual point (force_dual.refusal_bound): the
@@ -22,8 +21,8 @@ import pytest
 
 from convimpact.errors import SimulationError
 from convimpact.scenes import load_scene
-from convimpact.simulation import (contact_events, event_watch, force_combinations,
-                                   force_distribution, force_solver, simulate)
+from convimpact.simulation import (contact_events, event_watch, force_distribution,
+                                   force_solver, simulate)
 from convimpact.simulation.event_driven import StepDense
 
 
@@ -51,10 +50,10 @@ def onsets(stack):
     seen = []
     solve = contact_events.solve_contact_forces
 
-    def spy(P, rtol=force_solver.RTOL, warm=None, start=None):
+    def spy(P, rtol=force_solver.RTOL, warm=None):
         given = None if warm is None else {**warm, "earlier": list(warm.get("earlier", ()))}
-        sol = solve(P, rtol, warm=warm, start=start)
-        seen.append((P, given, sol, start))
+        sol = solve(P, rtol, warm=warm)
+        seen.append((P, given, sol))
         return sol
     contact_events.solve_contact_forces = spy
     try:
@@ -73,54 +72,40 @@ def test_the_stack_tips_and_slides_as_before(onsets, stack):
     # the top box slides from rest: its four corners at once, the lower boxes sticking
     t_slip = _slip_onset(res)
     assert t_tip < t_slip < stack.t_end
-    assert [sol.modes.count("slip") for _, _, sol, _ in seen] == [0, 0, 4]
+    assert [sol.modes.count("slip") for _, _, sol in seen] == [0, 0, 4]
 
 
 def test_combinations_refused_as_stuck_are_refused_when_solved(onsets):
     _, seen = onsets
-    P, _, sol, start = seen[-1]  # the top box's slip onset: 4 edge contacts, 16 combinations
+    P, _, sol = seen[-1]  # the top box's slip onset: 4 edge contacts, 16 combinations
     calls = []
-    rule = force_combinations._refused_as_stuck
+    rule = force_solver._refused_as_stuck
 
     def spy(P_, choice, edges, picks, refused):
         out = rule(P_, choice, edges, picks, refused)
         calls.append((list(choice), out))
         return out
-    force_combinations._refused_as_stuck = spy
+    force_solver._refused_as_stuck = spy
     try:
-        again = force_solver.solve_contact_forces(P, start=start)  # (the run's engine start)
+        again = force_solver.solve_contact_forces(P)
     finally:
-        force_combinations._refused_as_stuck = rule
+        force_solver._refused_as_stuck = rule
     refused = [choice for choice, out in calls if out]
     assert len(refused) == 10  # two or three of the top box's corners sticking
     for choice in refused:  # solved in full, each is refused too
-        assert force_combinations._exact(P, choice, force_solver.RTOL) is None
+        assert force_solver._exact(P, choice, force_solver.RTOL) is None
     assert again.modes == sol.modes
     np.testing.assert_allclose(again.force, sol.force, atol=1e-9 * P.scales[1])
 
 
 def test_warm_started_force_problems_give_the_cold_answers(onsets):
     _, seen = onsets
-    warmed = [(P, warm, sol) for P, warm, sol, start in seen if warm is not None]
+    warmed = [(P, warm, sol) for P, warm, sol in seen if warm is not None]
     assert len(warmed) == 2  # the tip and the slip onset, each after a located margin
-    # the engine started from the held forces there (none at the start of the run)
-    assert [start is not None for *_, start in seen] == [False, True, True]
-    for (P, _, sol), start in zip(warmed, [start for *_, start in seen][1:]):
-        # the margin programs' warm starts (the engine's start kept): round-off
-        cold = force_solver.solve_contact_forces(P, start=start)
-        assert cold.modes == sol.modes
-        np.testing.assert_allclose(cold.force, sol.force, atol=1e-9 * P.scales[1])
-        np.testing.assert_allclose(cold.acceleration, sol.acceleration,
-                                   atol=1e-9 * P.scales[0])
-        # the engine's cold answer too: the same modes; the slip onsets' directions,
-        # read off accelerations that vanish at the instant (to 1e-9 of their scale), to
-        # the run's resolution of a slip direction (SLIP_TURN_TOL rad)
+    for P, _, sol in warmed:
         cold = force_solver.solve_contact_forces(P)
         assert cold.modes == sol.modes
-        np.testing.assert_allclose(cold.direction, sol.direction, rtol=0,
-                                   atol=event_watch.SLIP_TURN_TOL)
-        np.testing.assert_allclose(cold.force, sol.force,
-                                   atol=event_watch.SLIP_TURN_TOL * P.scales[1])
+        np.testing.assert_allclose(cold.force, sol.force, atol=1e-9 * P.scales[1])
         np.testing.assert_allclose(cold.acceleration, sol.acceleration,
                                    atol=1e-9 * P.scales[0])
 
@@ -178,7 +163,7 @@ def test_refusals_certified_by_dual_points_are_the_solvers_refusals(onsets):
     same program lies below the level asked too (and at or below the bound: weak duality);
     the answer is the one the run took."""
     _, seen = onsets
-    P, given, sol, start = seen[-1]
+    P, given, sol = seen[-1]
     bounds = []
     certify = force_distribution.refusal_bound
 
@@ -189,7 +174,7 @@ def test_refusals_certified_by_dual_points_are_the_solvers_refusals(onsets):
     force_distribution.refusal_bound = spy
     try:
         again = force_solver.solve_contact_forces(
-            P, warm={**given, "earlier": list(given.get("earlier", ()))}, start=start)
+            P, warm={**given, "earlier": list(given.get("earlier", ()))})
     finally:
         force_distribution.refusal_bound = certify
     level = -force_solver.RTOL - force_distribution.BELOW_GUARD  # (relative: the scale)
