@@ -262,17 +262,65 @@ class EventWatch:
         along its anchor or the Painleve indicator through zero; a slip turning away from its
         frozen direction)."""
         found: list[Event] = []
-        for key, prev in w_prev.items():
-            new = w_new[key]
-            if prev > 0.0 >= new:
-                def fun(s, key=key):
-                    return self.watch(s, np.asarray(interp(s), float), anchors, (key,))[key]
-                if key == "margin":
-                    te = self.locate_margin(fun, interp, t_old, t_new, prev, new)
-                else:
-                    te = locate_crossing(fun, t_old, t_new, prev, new, self.opts.event_tol)
-                found.append((te, "mode", key))
-        return found
+        crossing = [key for key, prev in w_prev.items() if prev > 0.0 >= w_new[key]]
+        rest = [key for key in crossing if key != "margin"]
+        together = (self.locate_together(interp, t_old, t_new, w_prev, w_new, anchors, rest)
+                    if len(rest) > 1 and not self.opts.sensitivities else None)
+        for key in crossing:
+            if key != "margin" and together is not None:
+                continue
+            prev, new = w_prev[key], w_new[key]
+
+            def fun(s, key=key):
+                return self.watch(s, np.asarray(interp(s), float), anchors, (key,))[key]
+            if key == "margin":
+                te = self.locate_margin(fun, interp, t_old, t_new, prev, new)
+            else:
+                te = locate_crossing(fun, t_old, t_new, prev, new, self.opts.event_tol)
+            found.append((te, "mode", key))
+        return found + (together or [])
+
+    def locate_together(self, interp, t_old: float, t_new: float, w_prev: Mapping[str, float],
+                        w_new: Mapping[str, float], anchors, keys: Sequence[str]):
+        """The events of several held contacts' functions (slip velocities, frozen
+        directions, the Painleve indicator: ``keys``) crossing zero in one step, where
+        only the earliest instant matters (the run stops there and the force problem
+        decides every mode): the earliest by the values' linear interpolation located by
+        Brent's method (:func:`~.events.locate_crossing`, to ``event_tol``), then every
+        other key evaluated at once (one evaluation of the state for all) at that instant
+        te, and at te - event_tol (those crossed by te) or te + event_tol (the others):
+        crossed within event_tol of te, an event there (the instant's group); crossed
+        later, none in this step (its own crossing, if any, ends a later segment). A table
+        sliding on 48 legs stops on all of them at once: 3 evaluations of the state for
+        the 47 others instead of ~3 each. None where some key crossed more than event_tol
+        before te (then each is located by itself, as without this)."""
+        tol = self.opts.event_tol
+
+        def values(s: float, which) -> Mapping[str, float]:
+            if s == t_new:
+                return w_new
+            return self.watch(s, np.asarray(interp(s), float), anchors, tuple(which))
+
+        def estimate(key: str) -> float:
+            return t_old + (t_new - t_old) * w_prev[key] / (w_prev[key] - w_new[key])
+        first = min(keys, key=lambda key: (estimate(key), key))
+        te = locate_crossing(lambda s: values(s, (first,))[first], t_old, t_new,
+                             w_prev[first], w_new[first], tol)
+        others = [key for key in keys if key != first]
+        at = values(te, others)
+        crossed = [key for key in others if at[key] <= 0.0]
+        if crossed:
+            lo = te - tol
+            if not lo > t_old:
+                return None
+            at_lo = values(lo, crossed)
+            if any(at_lo[key] <= 0.0 for key in crossed):
+                return None  # an earlier crossing: located one by one
+        pending = [key for key in others if at[key] > 0.0]
+        hi = min(te + tol, t_new)
+        at_hi = values(hi, pending) if pending else {}
+        return ([(te, "mode", first)] + [(te, "mode", key) for key in crossed]
+                + [(hi, "mode", key) for key in pending if at_hi[key] <= 0.0])
 
     def locate_margin(self, fun, interp, t_old: float, t_new: float, fa: float,
                       fb: float) -> float:

@@ -1,0 +1,67 @@
+"""Several held contacts' event functions crossing zero in one step, located together
+(EventWatch.locate_together): the earliest by Brent's method, the others evaluated at once
+at that instant. Checked against the closed form (a table sliding on n legs stops at
+t_s = v0 / (mu g), every leg at once) and against the one-by-one location it replaces (each
+key by Brent's method): the same events, to event_tol, and the same motion.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import convimpact as ci
+from convimpact.scenes import load_scene
+from convimpact.simulation import event_watch
+
+TOL = 1e-12  # the runs' event_tol (the default)
+
+
+def _stops(res, mech) -> list[float]:
+    return [next(iv.t_start for iv in res.modes_of(c) if iv.mode == "stick")
+            for c in mech.contact_names]
+
+
+def _one_by_one(monkeypatch):
+    monkeypatch.setattr(event_watch.EventWatch, "locate_together", lambda self, *a: None)
+
+
+@pytest.mark.parametrize("legs", [6, 24])
+def test_a_table_stops_on_every_leg_at_once_at_v0_over_mu_g(legs, monkeypatch):
+    sc = load_scene("table", legs=legs, v0=0.6, t_end=0.5)
+    p, mech = sc.parameters, sc.mechanism
+    res = ci.simulate(mech, (0.0, sc.t_end), (sc.theta0, sc.dtheta0))
+    assert res.status == 0, res.message
+    t_s = p["v0"] / (p["mu"] * p["gravity"])
+    stops = _stops(res, mech)
+    assert max(stops) - min(stops) <= TOL
+    assert stops[0] == pytest.approx(t_s, rel=1e-8)
+    _one_by_one(monkeypatch)
+    ref = ci.simulate(mech, (0.0, sc.t_end), (sc.theta0, sc.dtheta0))
+    assert abs(_stops(ref, mech)[0] - stops[0]) <= 2 * TOL
+    np.testing.assert_allclose(res.theta[-1], ref.theta[-1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(res.dtheta[-1], ref.dtheta[-1], rtol=0, atol=1e-12)
+    # the other legs' crossings checked at the instant, not each located by Brent's method
+    assert res.nevents_fev < ref.nevents_fev - legs
+
+
+def test_a_spinning_table_stops_its_legs_as_located_one_by_one(monkeypatch):
+    """Sliding at 1 m/s and spinning at 5 rad/s: the legs' slips stop at different
+    instants (several crossings in a step, some more than event_tol apart)."""
+    sc = load_scene("table", legs=6, v0=1.0, mu=0.5)
+    mech = sc.mechanism
+    th = np.asarray(sc.theta0, float)
+    spin = next(j for j in range(3, mech.n_coordinates)
+                if all(abs(float(np.asarray(mech.contact_jacobian(c, th), float)[0, j]))
+                       < 1e-12 for c in mech.contact_names))
+    dth = np.array(sc.dtheta0, float)
+    dth[spin] = 5.0
+    res = ci.simulate(mech, (0.0, sc.t_end), (th, dth))
+    _one_by_one(monkeypatch)
+    ref = ci.simulate(mech, (0.0, sc.t_end), (th, dth))
+    assert res.status == ref.status == 0
+    assert [(e.contact, e.kind) for e in res.contact_events] == \
+        [(e.contact, e.kind) for e in ref.contact_events]
+    np.testing.assert_allclose([e.time for e in res.contact_events],
+                               [e.time for e in ref.contact_events], rtol=0, atol=2 * TOL)
+    np.testing.assert_allclose(res.theta[-1], ref.theta[-1], rtol=0, atol=1e-10)
