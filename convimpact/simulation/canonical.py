@@ -200,6 +200,10 @@ class CanonicalEquations(HeldForces, CompiledHeldPath):
         #: the last state's compiled velocities and terms (asked for several times at a
         #: step's end)
         self._velocity_memo = self._terms_memo = None
+        #: changes of the stored slip directions (:meth:`set_slip_direction`), and the
+        #: compiled path's arrays of them (modes, version, directions, mu)
+        self._modes_version = 0
+        self._slip_arrays = None
 
     # ---- terms of one configuration ---------------------------------------------------------
     def factors(self, theta: np.ndarray, constraints: bool = True) -> Factors:
@@ -364,6 +368,14 @@ class CanonicalEquations(HeldForces, CompiledHeldPath):
         if stored.shape != vt.shape or float(vt @ stored) >= 0.0:
             return vt / norm
         return -vt / norm
+
+    def set_slip_direction(self, c: str, direction) -> None:
+        """Store ``direction`` (unit, tangent basis) as sliding contact ``c``'s slip
+        direction (its :class:`HeldMode`'s ``direction``; the run does at each step)."""
+        mode = self.modes[c]
+        self.modes[c] = HeldMode(mode.kind, tuple(float(x) for x in direction), mode.mu,
+                                 mode.frozen)
+        self._modes_version += 1
 
     def friction_columns(self, theta: np.ndarray, dtheta: np.ndarray,
                          jac: Mapping[str, np.ndarray] | None = None) -> np.ndarray:

@@ -99,17 +99,24 @@ class CompiledHeldPath:
         except NonFiniteError:
             return None
         if self.slipping:
-            modes = [self.modes[c] for c, _ in self.slipping]
-            if any(len(md.direction) != self._d - 1 for md in modes):
-                return None  # no stored direction (a hand-built mode): the general path
-            stored = np.array([md.direction for md in modes], float)
-            mu = np.array([md.mu for md in modes])
+            # the stored directions and mu as arrays, kept while the modes are the same
+            # (the run replaces the directions at each step: set_slip_direction)
+            kept = self._slip_arrays
+            if kept is None or kept[0] is not self.modes or kept[1] != self._modes_version:
+                modes = [self.modes[c] for c, _ in self.slipping]
+                if any(len(md.direction) != self._d - 1 for md in modes):
+                    return None  # no stored direction (a hand-built mode): the general path
+                kept = self._slip_arrays = (self.modes, self._modes_version,
+                                            np.array([md.direction for md in modes], float),
+                                            np.array([md.mu for md in modes]))
+            stored, mu = kept[2], kept[3]
             # below its floor a contact keeps its stored direction: a frozen one always
             # (the flags are the segment's: the run replaces only the directions)
             floors = getattr(self, "_floors", None)
             if floors is None:
-                floors = self._floors = np.array([np.inf if md.frozen else self.slip_floor
-                                                  for md in modes])
+                floors = self._floors = np.array([
+                    np.inf if self.modes[c].frozen else self.slip_floor
+                    for c, _ in self.slipping])
         else:
             stored, mu, floors = np.zeros((0, 1)), _EMPTY, _EMPTY
         w = getattr(self, "_held_weights", None)  # (the segment's: its mu are fixed)

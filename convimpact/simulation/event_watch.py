@@ -36,7 +36,6 @@ variational equations differentiate it).
 
 from __future__ import annotations
 
-from dataclasses import replace
 from functools import partial
 from typing import Any, Mapping, Sequence
 
@@ -251,9 +250,10 @@ class EventWatch:
         friction keeps while the slip speed is below the floor."""
         th, dth, _ = self.state(y)
         out = {}
+        jac = self._jacobians(th) if self.eq.slipping else None  # (one compiled pass)
         for c, _ in self.eq.slipping:
-            out[c] = self.eq.slip_direction(c, self.contact_row(c, th), dth)
-            self.eq.modes[c] = replace(self.eq.modes[c], direction=tuple(map(float, out[c])))
+            out[c] = self.eq.slip_direction(c, jac(c), dth)
+            self.eq.set_slip_direction(c, out[c])
         return out
 
     def held_in_step(self, interp, t_old: float, t_new: float, w_prev: Mapping[str, float],
