@@ -167,7 +167,8 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
             # set: the polished solver's t*, without the solver)
             lam = lam0 + Q @ (got[0] * scale)
             return lam, _smallest_margin(mu, d, combo, lam)
-        bound = refusal_bound(blocks, warm) if got is None else None
+        bound = (refusal_bound(blocks, warm, below / scale - BELOW_GUARD) if got is None
+                 else None)
         if bound is not None and bound * scale < below - BELOW_GUARD * scale:
             # certified below by weak duality (a dual point from those active sets): no
             # distribution reaches ``below``; lam0's own margin is below it too

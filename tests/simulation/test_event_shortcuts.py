@@ -167,8 +167,8 @@ def test_refusals_certified_by_dual_points_are_the_solvers_refusals(onsets):
     bounds = []
     certify = force_distribution.refusal_bound
 
-    def spy(blocks, warm):
-        out = certify(blocks, warm)
+    def spy(blocks, warm, level=None):
+        out = certify(blocks, warm, level)
         bounds.append((blocks, out))
         return out
     force_distribution.refusal_bound = spy
