@@ -125,7 +125,7 @@ def project_onto(M: np.ndarray, C: np.ndarray, dtheta: np.ndarray) -> np.ndarray
     """M-orthogonal projection of theta_dot onto ``C theta_dot = 0``, C possibly rank
     deficient (redundant contacts): the frictionless plastic correction of least energy."""
     dtheta = np.asarray(dtheta, float)
-    if C.shape[0] == 0:
+    if C.shape[0] == 0 or not np.any(C @ dtheta):  # (already on it: at rest, exactly)
         return dtheta.copy()
     cho = sla.cho_factor(M, lower=True)
     A = sla.cho_solve(cho, C.T)
