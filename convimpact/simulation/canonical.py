@@ -369,6 +369,25 @@ class CanonicalEquations(HeldForces, CompiledHeldPath):
             return vt / norm
         return -vt / norm
 
+    def slip_directions(self, contacts: Sequence[str], J: np.ndarray,
+                        dtheta: np.ndarray) -> np.ndarray | None:
+        """(n, d - 1): :meth:`slip_direction` of each of the sliding ``contacts`` (spatial,
+        J (n, d, k) their Jacobians) at once, by the same rules, the slip velocities in one
+        product; None where one has no stored direction or the contacts are planar (then
+        :meth:`slip_direction` one by one)."""
+        n, d = J.shape[0], J.shape[1]
+        modes = [self.modes[c] for c in contacts]
+        if d != 3 or any(len(m.direction) != 2 for m in modes):
+            return None
+        out = np.array([m.direction for m in modes], float).reshape(n, 2)  # the stored
+        V = J[:, 1:, :] @ dtheta  # (n, 2): the slip velocities
+        norm = np.sqrt(np.einsum("ij,ij->i", V, V))
+        follow = ((norm > self.slip_floor) & (norm > 0.0)
+                  & ~np.array([m.frozen for m in modes], dtype=bool))
+        sign = np.where(np.einsum("ij,ij->i", V, out) >= 0.0, 1.0, -1.0)
+        out[follow] = sign[follow, None] * V[follow] / norm[follow, None]
+        return out
+
     def set_slip_direction(self, c: str, direction) -> None:
         """Store ``direction`` (unit, tangent basis) as sliding contact ``c``'s slip
         direction (its :class:`HeldMode`'s ``direction``; the run does at each step)."""

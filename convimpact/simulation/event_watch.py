@@ -250,9 +250,13 @@ class EventWatch:
         friction keeps while the slip speed is below the floor."""
         th, dth, _ = self.state(y)
         out = {}
-        jac = self._jacobians(th) if self.eq.slipping else None  # (one compiled pass)
-        for c, _ in self.eq.slipping:
-            out[c] = self.eq.slip_direction(c, jac(c), dth)
+        if not self.eq.slipping:
+            return out
+        jac = self._jacobians(th)  # (one compiled pass)
+        names = [c for c, _ in self.eq.slipping]
+        S = self.eq.slip_directions(names, np.array([jac(c) for c in names]), dth)
+        for i, c in enumerate(names):
+            out[c] = S[i] if S is not None else self.eq.slip_direction(c, jac(c), dth)
             self.eq.set_slip_direction(c, out[c])
         return out
 

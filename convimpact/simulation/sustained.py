@@ -316,10 +316,13 @@ def _determinate_part(eq: CanonicalEquations, y: np.ndarray, d: int):
             return None
         mu = mus.pop()
         dtheta, _ = eq.theta_dot(theta, y[eq.k:])
-        S = np.array([eq.slip_direction(c, jac[c], dtheta) if mu > 0 else np.zeros(d - 1)
-                      for c in eq.held]).reshape(n, d - 1)
-        Jn = np.array([jac[c][0] for c in eq.held])  # (n, k)
-        Jt = np.array([jac[c][1:] for c in eq.held])  # (n, d - 1, k)
+        Jh = np.array([jac[c] for c in eq.held])  # (n, d, k)
+        S = (None if mu <= 0 else eq.slip_directions(eq.held, Jh, dtheta))  # (at once)
+        if S is None:
+            S = np.array([eq.slip_direction(c, jac[c], dtheta) if mu > 0 else np.zeros(d - 1)
+                          for c in eq.held]).reshape(n, d - 1)
+        Jn = Jh[:, 0]  # (n, k)
+        Jt = Jh[:, 1:]  # (n, d - 1, k)
         B = (Jn - mu * np.einsum("ijk,ij->ik", Jt, S)).T
         cols = np.hstack([np.ones((n, 1)), -mu * S])  # (n, d): each unknown's block
         norms = np.sqrt(np.einsum("ij,ij->i", cols, cols))

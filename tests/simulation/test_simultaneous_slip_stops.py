@@ -65,3 +65,36 @@ def test_a_spinning_table_stops_its_legs_as_located_one_by_one(monkeypatch):
     np.testing.assert_allclose([e.time for e in res.contact_events],
                                [e.time for e in ref.contact_events], rtol=0, atol=2 * TOL)
     np.testing.assert_allclose(res.theta[-1], ref.theta[-1], rtol=0, atol=1e-10)
+
+
+def test_slip_directions_at_once_are_the_one_by_one_directions():
+    """CanonicalEquations.slip_directions against slip_direction contact by contact: slips
+    followed, reversed against their stored direction, below the slip floor, frozen."""
+    from convimpact.simulation.canonical import CanonicalEquations, HeldMode
+
+    sc = load_scene("table", legs=8, v0=0.6)
+    mech = sc.mechanism
+    names = list(mech.contact_names)
+    rng = np.random.default_rng(3)
+    stored = rng.normal(size=(8, 2))
+    stored /= np.linalg.norm(stored, axis=1)[:, None]
+    modes = {c: HeldMode("slip", tuple(stored[i]), 0.4, frozen=(i == 5))
+             for i, c in enumerate(names)}
+    eq = CanonicalEquations(mech, names, modes, slip_floor=1e-6)
+    th = np.asarray(sc.theta0, float) + 0.01 * rng.normal(size=mech.n_coordinates)
+    for scale in (1.0, 1e-9):  # (1e-9: every slip below the floor)
+        dth = scale * rng.normal(size=mech.n_coordinates)
+        J = np.array([np.asarray(mech.contact_jacobian(c, th), float) for c in names])
+        at_once = eq.slip_directions(names, J, dth)
+        one_by_one = np.array([eq.slip_direction(c, J[i], dth) for i, c in enumerate(names)])
+        np.testing.assert_allclose(at_once, one_by_one, rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(at_once[5], stored[5])  # frozen: kept
+        if scale < 1.0:  # below the floor: every stored direction kept
+            np.testing.assert_array_equal(at_once, stored)
+        else:  # followed, some against their stored directions (a reversal: -v_t / |v_t|)
+            V = J[:, 1:, :] @ dth
+            against = [i for i in range(8) if i != 5 and V[i] @ stored[i] < 0.0]
+            assert against
+            for i in against:
+                np.testing.assert_allclose(at_once[i], -V[i] / np.linalg.norm(V[i]),
+                                           rtol=0, atol=1e-15)
