@@ -246,7 +246,7 @@ def refusal_bound(blocks, warm: dict, level: float | None = None) -> float | Non
     program (:func:`dual_point`); None where none of them gives a dual-feasible point.
     ``level`` (optional): the first bound below it is returned, the later sets not tried
     (the caller asks whether the optimum lies below ``level``: any bound below it proves
-    so; the box stack's slip onset tried four sets for each of its four refusals)."""
+    so)."""
     sets = []
     if warm.get("active") is not None:
         sets.append(warm["active"])
