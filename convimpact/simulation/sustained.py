@@ -223,10 +223,16 @@ def held_forces(eq: CanonicalEquations, t: float, y: np.ndarray, hint: dict | No
 
 
 def _held_data(eq: CanonicalEquations, forces: Mapping[str, np.ndarray]):
-    """(d, mu, modes, lam0 (n d,), force scale) of the held contacts' forces ``forces``."""
+    """(d, mu, modes, lam0 (n d,), force scale) of the held contacts' forces ``forces``
+    (mu and the modes kept on ``eq`` while its modes are the same dict: the run replaces
+    only the slip directions in it)."""
     d = max(len(v) for v in forces.values())
-    mu = np.array([eq.modes[c].mu for c in eq.held])
-    combo = [STICK if eq.modes[c].kind == "stick" else SLIP for c in eq.held]
+    kept = getattr(eq, "_held_kinds", None)
+    if kept is None or kept[0] is not eq.modes:
+        kept = eq._held_kinds = (eq.modes, np.array([eq.modes[c].mu for c in eq.held]),
+                                 [STICK if eq.modes[c].kind == "stick" else SLIP
+                                  for c in eq.held])
+    mu, combo = kept[1], kept[2]
     lam0 = np.zeros(len(eq.held) * d)
     for i, c in enumerate(eq.held):
         lam0[i * d:i * d + len(forces[c])] = forces[c]
