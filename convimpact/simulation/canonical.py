@@ -313,8 +313,16 @@ class CanonicalEquations(HeldForces, CompiledHeldPath):
         if self.n_loops:
             parts.append(np.asarray(self.mechanism.loop_residual(theta), float).ravel())
         if self.position_rows:
-            parts.append(np.array([self.mechanism.contact_gap(c, theta)
-                                   for c, _ in self.position_rows]))
+            gaps = None
+            if self._model:  # one compiled pass for every gap (the same numbers)
+                d = self.mechanism.rhs_positions(np.ascontiguousarray(theta, dtype=float))
+                idx = [self.mechanism.contact_index(c) for c, _ in self.position_rows]
+                if d.contact_ok[idx].all():  # (else contact_gap raises the typed error)
+                    gaps = d.gap[idx]
+            if gaps is None:
+                gaps = np.array([self.mechanism.contact_gap(c, theta)
+                                 for c, _ in self.position_rows])
+            parts.append(gaps)
         return np.concatenate(parts) if parts else np.zeros(0)
 
     def position_jacobian(self, theta: np.ndarray) -> np.ndarray:

@@ -367,8 +367,9 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
             self.segments.append((t_old, t_new, interp))
             self.dissipate(interp, t_old, t_new)
             self.t, self.y = t_new, y_new
-            if eq.n_constraints and len(eq.residual(self.y[:k])):
-                drift = float(np.max(np.abs(eq.residual(self.y[:k]))))
+            residual = eq.residual(self.y[:k]) if eq.n_constraints else ()
+            if len(residual):
+                drift = float(np.max(np.abs(residual)))
                 if drift > o.drift_threshold:
                     interp.expire()  # (the integrator's state is replaced below)
                     self.y = self.project_state(self.y)
