@@ -289,7 +289,8 @@ class ContactEvents:
         closed: list[str] = []
         for _ in range(MAX_EVENTS_AT_ONE_INSTANT):
             watched = near + (held if o.impacts == "sequential" else [])
-            vn = {c: self.normal_speed(c, th, dth) for c in watched}
+            jac = self._jacobians(th)  # (one compiled pass for all)
+            vn = {c: float(jac(c)[0] @ dth) for c in watched}
             group = [c for c in watched if vn[c] < -o.rest_velocity]
             if not group:
                 break
@@ -313,7 +314,8 @@ class ContactEvents:
             raise SimulationError(
                 f"{MAX_EVENTS_AT_ONE_INSTANT} impacts at t = {t:.9g} without the contacts "
                 f"{', '.join(near + held)} coming to rest (impacts='{o.impacts}')")
+        jac = self._jacobians(th)  # (one compiled pass for all)
         candidates = [c for c in dict.fromkeys(held + near + closed)
-                      if abs(self.normal_speed(c, th, dth)) <= o.rest_velocity]
+                      if abs(float(jac(c)[0] @ dth)) <= o.rest_velocity]
         y = self.select_modes(t, th, dth, sig_loops, candidates, reason)
         return self.project_state(y), stop_msg
