@@ -13,6 +13,7 @@ import pytest
 import convimpact as ci
 from convimpact.scenes import load_scene
 from convimpact.simulation import event_watch
+from convimpact.simulation.canonical import CanonicalEquations, HeldMode
 
 TOL = 1e-12  # the runs' event_tol (the default)
 
@@ -70,8 +71,6 @@ def test_a_spinning_table_stops_its_legs_as_located_one_by_one(monkeypatch):
 def test_slip_directions_at_once_are_the_one_by_one_directions():
     """CanonicalEquations.slip_directions against slip_direction contact by contact: slips
     followed, reversed against their stored direction, below the slip floor, frozen."""
-    from convimpact.simulation.canonical import CanonicalEquations, HeldMode
-
     sc = load_scene("table", legs=8, v0=0.6)
     mech = sc.mechanism
     names = list(mech.contact_names)
