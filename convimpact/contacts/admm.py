@@ -25,6 +25,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .cones import project
+from .generalized import WoodburySolver
 
 #: Pinocchio's ADMM parameters: the proximal weight, the over-relaxation of rho, the power of
 #: the condition number in the first rho, the factor rho changes by, and the residual ratio
@@ -102,7 +103,8 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
     L = _largest_eigenvalue(W, size) or 1.0
     eta = ETA
     rho = TAU * np.sqrt(L * eta) * (L / eta) ** RHO_POWER
-    solver = _Solver(W, sparse, None if factor is None else factor.G)
+    G = None if factor is None else factor.G
+    solver = WoodburySolver(G) if sp.issparse(G) else _Solver(W, sparse, G)
     solver.factor(rho + eta)
     x = np.asarray(r0, dtype=float).ravel()
     w = project(x.reshape(n, d), mu).ravel()

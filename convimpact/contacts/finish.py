@@ -23,6 +23,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .cones import natural_map_residual, project
+from .generalized import sparse_lowrank_step
 from .lowrank import SPARSE_FLOP_COST, DelassusFactor, lowrank_step
 
 
@@ -129,7 +130,12 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
         if factor is not None and not factor.decided and not sparse:
             # the dense step: J^T J and its Cholesky
             G = factor.decide(2.0 * (n * d) ** 3 + (n * d) ** 3 / 3.0)
-        if G is not None:
+        if G is not None and sp.issparse(G):
+            try:
+                dr = sparse_lowrank_step(np.eye(d) - D, DB, G, lam, F.ravel())
+            except RuntimeError:  # SuperLU: an exactly singular system
+                break
+        elif G is not None:
             dr = lowrank_step(np.eye(d) - D, DB, G, lam, F.ravel())
         elif sparse:
             Dm = _block_diag(D, True)

@@ -75,6 +75,14 @@ class DelassusFactor:
         self.decided = False
         self.rank: int | None = None
 
+    @classmethod
+    def given(cls, G) -> "DelassusFactor":
+        """A factor known beforehand (``G = J L^-T`` of :mod:`.generalized`, sparse), decided
+        at once."""
+        f = cls(None)
+        f._G, f.decided, f.rank = G, True, G.shape[1]
+        return f
+
     @property
     def G(self) -> np.ndarray | None:
         """The factor chosen (None: not chosen, or not decided yet)."""
