@@ -306,7 +306,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     b = np.asarray(b, dtype=float).reshape(n, d)
     # W = G G^T found where the finish first needs it, kept when of low rank
     factor, admm_factor = engine_factors(W, generalized, sparse)
-    Gs = admm_factor.G if sp.issparse(admm_factor.G) else None  # (M, J)'s G: sparse
+    Gs = factor.G if sp.issparse(factor.G) else None  # (M, J)'s G where m <= 0.4 N
     R = ccp if ccp is not None else solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter,
                                               sparse=sparse, G=Gs)
     iterations = R.iterations
