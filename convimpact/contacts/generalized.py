@@ -41,29 +41,38 @@ CONSISTENCY_RTOL = 1e-9
 
 def inverse_cholesky_transpose(M) -> sp.csr_matrix:
     """``L^-T`` (sparse, block diagonal) with ``M = L L^T``, block by block over the connected
-    components of M's pattern. Raises :class:`MassMatrixError` where a block is not
-    positive definite or larger than :data:`MAX_BLOCK_ROWS` rows."""
-    M = sp.csr_matrix(M)
+    components of M's pattern (blocks of one size factored together, batched). Raises
+    :class:`~convimpact.errors.MassMatrixError` where a block is not positive definite or
+    larger than :data:`MAX_BLOCK_ROWS` rows."""
+    M = sp.coo_matrix(M)
     m = M.shape[0]
     count, labels = connected_components(M, directed=False)
     order = np.argsort(labels, kind="stable")
-    bounds = np.searchsorted(labels[order], np.arange(count + 1))
+    sizes = np.bincount(labels, minlength=count)
+    if sizes.max(initial=0) > MAX_BLOCK_ROWS:
+        raise MassMatrixError(f"a coupled block of M has {sizes.max()} rows: more than "
+                              f"{MAX_BLOCK_ROWS}, not factored dense")
+    first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    local = np.empty(m, dtype=np.int64)
+    local[order] = np.arange(m) - first[labels[order]]   # a coordinate's place in its block
     rows, cols, vals = [], [], []
-    for k in range(count):
-        idx = order[bounds[k]:bounds[k + 1]]
-        if idx.size > MAX_BLOCK_ROWS:
-            raise MassMatrixError(f"a coupled block of M has {idx.size} rows: more than "
-                                  f"{MAX_BLOCK_ROWS}, not factored dense")
-        B = M[idx][:, idx].toarray()
+    for k in np.unique(sizes):
+        which = np.flatnonzero(sizes == k)              # the blocks of k rows
+        slot = np.full(count, -1)
+        slot[which] = np.arange(which.size)
+        B = np.zeros((which.size, k, k))
+        sel = slot[labels[M.row]] >= 0
+        np.add.at(B, (slot[labels[M.row[sel]]], local[M.row[sel]], local[M.col[sel]]),
+                  M.data[sel])
         try:
-            L = np.linalg.cholesky(0.5 * (B + B.T))
+            L = np.linalg.cholesky(0.5 * (B + np.transpose(B, (0, 2, 1))))
         except np.linalg.LinAlgError as exc:
-            raise MassMatrixError(f"M is not positive definite (on coordinates "
-                                  f"{idx[:6].tolist()}...)") from exc
-        Li = sla.solve_triangular(L, np.eye(idx.size), lower=True, check_finite=False).T
+            raise MassMatrixError("M is not positive definite") from exc
+        Li = np.transpose(np.linalg.inv(L), (0, 2, 1))  # L^-T, block by block
+        coords = order[first[which][:, None] + np.arange(k)[None, :]]   # (blocks, k)
         nz = np.nonzero(Li)
-        rows.append(idx[nz[0]])
-        cols.append(idx[nz[1]])
+        rows.append(coords[nz[0], nz[1]])
+        cols.append(coords[nz[0], nz[2]])
         vals.append(Li[nz])
     return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                          shape=(m, m))

@@ -54,6 +54,22 @@ def test_factor_gives_the_delassus_matrix():
     assert np.allclose(f.times(x), W @ x, rtol=0, atol=1e-12 * np.abs(W).max() * 10)
 
 
+def test_factor_of_mixed_blocks_in_shuffled_coordinates():
+    # blocks of 1, 3, 3 and 5 coordinates, the coordinates shuffled: G G^T = J M^-1 J^T
+    rng = np.random.default_rng(4)
+    blocks = []
+    for k in (1, 3, 3, 5):
+        A = rng.standard_normal((k, k))
+        blocks.append(A @ A.T + k * np.eye(k))
+    Md = sp.block_diag(blocks).toarray()
+    p = rng.permutation(Md.shape[0])
+    Md = Md[p][:, p]
+    J = rng.standard_normal((9, Md.shape[0]))
+    W = J @ np.linalg.solve(Md, J.T)
+    G = GeneralizedFactor(sp.csr_matrix(Md), J).G
+    assert np.abs((G @ G.T) - W).max() <= 1e-12 * np.abs(W).max()
+
+
 def test_woodbury_solver_solves_the_shifted_system_for_each_shift():
     rng = np.random.default_rng(2)
     M, J = _random_generalized(rng, bodies=3, contacts=9)  # 27 rows, rank <= 18
