@@ -108,6 +108,7 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
     fn = np.linalg.norm(F)
     steps = 0
     history = [best_res]  # the best residual after each step
+    kept = None  # the sparse step's pattern and its QDLDL solver
     for _ in range(max_iter):
         if best_res <= tol:
             break
@@ -142,7 +143,14 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
             J = (sp.identity(n * d, format="csr") - Dm + _block_diag(DB, True) @ W).tocsc()
             K = sp.bmat([[lam * sp.identity(n * d), J.T], [J, -sp.identity(n * d)]],
                         format="csc")
-            solver = qdldl.Solver(sp.triu(K, format="csc"))
+            K = sp.triu(K, format="csc")
+            if kept is not None and np.array_equal(kept[0], K.indptr) and \
+                    np.array_equal(kept[1], K.indices):
+                solver = kept[2]  # the same pattern: its symbolic factorization reused
+                solver.update(K)
+            else:
+                solver = qdldl.Solver(K)
+                kept = (K.indptr.copy(), K.indices.copy(), solver)
             sol = solver.solve(np.concatenate([np.zeros(n * d), -F.ravel()]))
             if factor is not None and not factor.decided:
                 # the LDL^T's flops: the sum of its columns' squared counts

@@ -35,6 +35,9 @@ from .lowrank import LOWRANK_MAX_FRACTION, DelassusFactor
 #: a block of M of more rows than this is not factored dense (the generalized path is then
 #: declined: the engine works on W alone)
 MAX_BLOCK_ROWS = 2000
+#: the Newton steps and the interior point go through G where m is at most this fraction of
+#: the contact rows
+NEWTON_MAX_FRACTION = LOWRANK_MAX_FRACTION
 #: W given with M and J must equal J M^-1 J^T to this fraction of the scale of a probe
 CONSISTENCY_RTOL = 1e-9
 
@@ -176,7 +179,7 @@ def engine_factors(W, generalized: GeneralizedFactor | None, sparse: bool
         return own, own
     given = DelassusFactor.given(generalized.G)
     G = generalized.G
-    return (given if G.shape[1] <= LOWRANK_MAX_FRACTION * G.shape[0] else own), given
+    return (given if G.shape[1] <= NEWTON_MAX_FRACTION * G.shape[0] else own), given
 
 
 class WoodburySolver:
