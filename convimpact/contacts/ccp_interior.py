@@ -181,13 +181,13 @@ class _Factor:
         return out
 
     def _positions(self, rows, cols):
+        # the pattern's entries keyed (column, row), ascending in CSC with sorted indices
         P = self.pattern
-        pos = np.empty(rows.size, dtype=np.int64)
-        for j in np.unique(cols):
-            sel = cols == j
-            start, stop = P.indptr[j], P.indptr[j + 1]
-            pos[sel] = start + np.searchsorted(P.indices[start:stop], rows[sel])
-        return pos
+        size = np.int64(P.shape[0])
+        col_of = np.repeat(np.arange(P.shape[1], dtype=np.int64), np.diff(P.indptr))
+        keys = col_of * size + P.indices
+        return np.searchsorted(keys, np.asarray(cols, dtype=np.int64) * size
+                               + np.asarray(rows, dtype=np.int64))
 
     def _gather(self, Au):
         Au = Au.tocoo()

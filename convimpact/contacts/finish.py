@@ -25,6 +25,7 @@ import scipy.sparse as sp
 from .cones import natural_map_residual, project
 from .generalized import sparse_lowrank_step
 from .lowrank import SPARSE_FLOP_COST, DelassusFactor, lowrank_step
+from .sparse_step import SparseStepSystem
 
 
 def projection_jacobian(v: np.ndarray, mu: np.ndarray) -> np.ndarray:
@@ -108,7 +109,6 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
     fn = np.linalg.norm(F)
     steps = 0
     history = [best_res]  # the best residual after each step
-    kept = None  # the sparse step's pattern and its QDLDL solver
     for _ in range(max_iter):
         if best_res <= tol:
             break
@@ -139,24 +139,17 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
         elif G is not None:
             dr = lowrank_step(np.eye(d) - D, DB, G, lam, F.ravel())
         elif sparse:
-            Dm = _block_diag(D, True)
-            J = (sp.identity(n * d, format="csr") - Dm + _block_diag(DB, True) @ W).tocsc()
-            K = sp.bmat([[lam * sp.identity(n * d), J.T], [J, -sp.identity(n * d)]],
-                        format="csc")
-            K = sp.triu(K, format="csc")
-            if kept is not None and np.array_equal(kept[0], K.indptr) and \
-                    np.array_equal(kept[1], K.indices):
-                solver = kept[2]  # the same pattern: its symbolic factorization reused
-                solver.update(K)
-            else:
-                solver = qdldl.Solver(K)
-                kept = (K.indptr.copy(), K.indices.copy(), solver)
-            sol = solver.solve(np.concatenate([np.zeros(n * d), -F.ravel()]))
+            # the system on W's block pattern, set up once per problem (kept on the factor)
+            system = factor.step_system if factor is not None else None
+            if system is None:
+                system = SparseStepSystem(W, d)
+                if factor is not None:
+                    factor.step_system = system
+            dr = system.solve(D, DB, lam, F.ravel())
             if factor is not None and not factor.decided:
                 # the LDL^T's flops: the sum of its columns' squared counts
-                counts = np.diff(solver.factors()[0].indptr).astype(float)
+                counts = np.diff(system.solver.factors()[0].indptr).astype(float)
                 factor.decide(SPARSE_FLOP_COST * float(counts @ counts))
-            dr = sol[: n * d]
         else:
             # the block rows of D B W, contact by contact (D B is block diagonal)
             J = np.einsum("nij,njk->nik", DB, W.reshape(n, d, n * d)).reshape(n * d, n * d)

@@ -72,6 +72,9 @@ class DelassusFactor:
         self._max_fraction = max_fraction
         self._always = always
         self._G: np.ndarray | None = None
+        #: the Newton finish's sparse step system (:mod:`.sparse_step`), set up on its first
+        #: sparse step and kept for the problem's later ones
+        self.step_system = None
         self.decided = False
         self.rank: int | None = None
 
