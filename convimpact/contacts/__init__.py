@@ -18,8 +18,13 @@ sustained-contact forces (:mod:`convimpact.simulation`), and the public
   the fixed point on De Saxce's shift, the last resort; :mod:`.threads`: the
   factorizations on one BLAS thread;
 * :mod:`.lowrank`: W's low-rank factor (pivoted Cholesky) and the finish's step through it;
+* :mod:`.generalized`: the problem in generalized coordinates, ``W = G G^T`` with
+  ``G = J L^-T`` sparse from the mass matrix and the contact Jacobian, and the engine's
+  linear algebra through it (the ADMM's solves by Woodbury's identity, the interior point's
+  quasi-definite system, the finish's sparse step); :mod:`.sparse_step`: the finish's sparse
+  step system on W's block pattern, set up once per problem;
 * :mod:`.contact_problem`: :func:`~.contact_problem.solve_contact_problem`, the public API on
-  ``(W, b, mu)``;
+  ``(W, b, mu)``, or ``(M, J, b, mu)`` (``mass_matrix=``, ``jacobian=``);
 * the compiled dense kernels: :mod:`.interior_point` (Mehrotra, Nesterov-Todd),
   :mod:`.newton` (the scaled programs and their drivers), :mod:`.natural_map` (their Newton
   finish), :mod:`.certificates`.

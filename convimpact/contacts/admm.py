@@ -24,16 +24,10 @@ import qdldl
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from .admm_kernel import BALANCE, ETA, RHO_POWER, RHO_STEP, TAU, admm_update  # noqa: F401
 from .cones import project
+from .generalized import WoodburySolver
 
-#: Pinocchio's ADMM parameters: the proximal weight, the over-relaxation of rho, the power of
-#: the condition number in the first rho, the factor rho changes by, and the residual ratio
-#: that changes it
-ETA = 1e-6
-TAU = 0.5
-RHO_POWER = 0.2
-RHO_STEP = 2.0
-BALANCE = 10.0
 
 
 def _largest_eigenvalue(A, size: int) -> float:
@@ -102,7 +96,8 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
     L = _largest_eigenvalue(W, size) or 1.0
     eta = ETA
     rho = TAU * np.sqrt(L * eta) * (L / eta) ** RHO_POWER
-    solver = _Solver(W, sparse, None if factor is None else factor.G)
+    G = None if factor is None else factor.G
+    solver = WoodburySolver(G) if sp.issparse(G) else _Solver(W, sparse, G)
     solver.factor(rho + eta)
     x = np.asarray(r0, dtype=float).ravel()
     w = project(x.reshape(n, d), mu).ravel()
@@ -115,19 +110,17 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
         return out.ravel()
 
     s = shift(-lam)
+    x, w, lam = x.copy(), np.ascontiguousarray(w), np.ascontiguousarray(lam)
+    m = np.ascontiguousarray(mu, dtype=float)
     it = 0
     while True:
         it += 1
-        x_old = x
-        x = solver.solve(eta * x - q - s + rho * w - lam)
-        w_old = w
-        w = project((x + lam / rho).reshape(n, d), mu).ravel()
-        lam = lam + rho * (x - w)
-        s = shift(-lam)                  # -lam -> the shifted velocity u + s at the solution
+        x_new = solver.solve(eta * x - q - s + rho * w - lam)
+        # w, lam, s (-lam -> the shifted velocity u + s at the solution), x: compiled
+        primal, dual = admm_update(np.ascontiguousarray(x_new), x, w, lam, s, m, d, rho, eta,
+                                   True)
         if it % check_every == 0:
-            yield w.reshape(n, d)
-        primal = np.abs(x - w).max()
-        dual = (rho * np.abs(w - w_old) + eta * np.abs(x - x_old)).max()
+            yield w.reshape(n, d).copy()
         if primal > BALANCE * dual and rho < 1e8 * L:
             rho *= RHO_STEP
             solver.factor(rho + eta)

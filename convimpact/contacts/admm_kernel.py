@@ -29,8 +29,16 @@ except ImportError:  # the plain-Python form of compiled.jit
     _jit_reassociating = _jit
 else:
     _jit_reassociating = _njit(**compiled.JIT_OPTIONS, fastmath=_REASSOCIATE)
-from .admm import ETA, RHO_POWER, TAU
 from .cones import project
+
+#: Pinocchio's ADMM parameters (:mod:`.admm` and this module): the proximal weight, the
+#: over-relaxation of rho, the power of the condition number in the first rho, the factor
+#: rho changes by, and the residual ratio that changes it
+ETA = 1e-6
+TAU = 0.5
+RHO_POWER = 0.2
+RHO_STEP = 2.0
+BALANCE = 10.0
 
 #: iterations between two natural-map checks inside a batch
 CHECK_EVERY = 10
@@ -99,6 +107,37 @@ def _desaxce(v, mu, d, out, add):
             out[o] += mu[c] * math.sqrt(t)
         else:
             out[o] = mu[c] * math.sqrt(t)
+
+
+@_jit
+def admm_update(x_new, x, w, lam, s, mu, d, rho, eta, coulomb):
+    """The part of an ADMM iteration after its proximal solve ``x_new``, in place: ``w`` the
+    projection of ``x_new + lam / rho`` onto the cones, ``lam += rho (x_new - w)``, ``s`` De
+    Saxce's shift of ``-lam`` (with ``coulomb``), ``x = x_new``. Returns the primal and dual
+    residuals (max norms) that balance rho."""
+    N = x.shape[0]
+    v = np.empty(N)
+    for i in range(N):
+        v[i] = x_new[i] + lam[i] / rho
+    wn = np.empty(N)
+    _project_into(v, mu, d, wn)
+    primal = 0.0
+    dual = 0.0
+    for i in range(N):
+        dx = x_new[i] - wn[i]
+        lam[i] += rho * dx
+        if abs(dx) > primal:
+            primal = abs(dx)
+        dd = rho * abs(wn[i] - w[i]) + eta * abs(x_new[i] - x[i])
+        if dd > dual:
+            dual = dd
+        x[i] = x_new[i]
+        w[i] = wn[i]
+    if coulomb:
+        for i in range(N):
+            s[i] = 0.0
+        _desaxce(lam, mu, d, s, False)  # of -lam: |(-lam)_t| = |lam_t|
+    return primal, dual
 
 
 @_jit

@@ -36,6 +36,8 @@ from . import cones
 STEP_FRACTION = 0.99
 #: the interior point stops at this gap (unit data): the Newton finish takes over from here
 GAP_FLOOR = 1e-14
+#: refinement steps of a solve through W = G G^T (:class:`_Factor`'s quasi-definite system)
+AUGMENTED_REFINEMENTS = 2
 #: sparse factorization is used for W given sparse with more than this many rows...
 SPARSE_MIN_ROWS = 200
 #: ...and at most this density
@@ -123,11 +125,14 @@ def _shift_into(blocks: _Blocks, v: np.ndarray) -> np.ndarray:
 
 
 class _Factor:
-    """Factorizations of ``A + H`` (H block diagonal), dense or sparse."""
+    """Factorizations of ``A + H`` (H block diagonal), dense or sparse; given ``Gk`` with
+    ``A = Gk Gk^T`` (sparse, N x m), the quasi-definite system ``[[H, Gk], [Gk^T, -I]]``
+    (N + m rows, QDLDL, its symbolic analysis made once) in place of ``A + H``."""
 
-    def __init__(self, blocks: _Blocks, sparse: bool):
+    def __init__(self, blocks: _Blocks, sparse: bool, Gk: sp.spmatrix | None = None):
         self.blocks, self.sparse = blocks, sparse
         self.solver = None
+        self.aug_rows = 0
         if sparse:
             # W's pattern and the cones' diagonal blocks (every entry counted positive)
             rows, cols = [], []
@@ -137,13 +142,28 @@ class _Factor:
                 rows.append((base + np.arange(m)[None, :, None]).repeat(m, 2).ravel())
                 cols.append((base + np.arange(m)[None, None, :]).repeat(m, 1).ravel())
             rows, cols = np.concatenate(rows), np.concatenate(cols)
-            P = abs(blocks.A) + sp.csc_matrix((np.ones(rows.size), (rows, cols)),
-                                              shape=(blocks.size, blocks.size))
+            Hpat = sp.csc_matrix((np.ones(rows.size), (rows, cols)),
+                                 shape=(blocks.size, blocks.size))
+            P = abs(blocks.A) + Hpat
             self.pattern = sp.triu(P, format="csc")
             self.pattern.sum_duplicates()
             self.pattern.sort_indices()
-            # where each block of H and each entry of A lands in the pattern's data
-            self.A_data = self._gather(sp.triu(blocks.A, format="csc"))
+            if Gk is not None:  # H's blocks, Gk beside them, -I below
+                Nk, self.aug_rows = Gk.shape
+                self.Gk, self.GkT = sp.csr_matrix(Gk), sp.csr_matrix(Gk.T)
+                P = sp.bmat([[Hpat, abs(Gk)], [None, sp.identity(self.aug_rows)]],
+                            format="csc")
+                self.pattern = sp.triu(P, format="csc")
+                self.pattern.sum_duplicates()
+                self.pattern.sort_indices()
+                Gc = sp.coo_matrix(Gk)
+                rows_b = np.concatenate([Gc.row, Nk + np.arange(self.aug_rows)])
+                cols_b = np.concatenate([Nk + Gc.col, Nk + np.arange(self.aug_rows)])
+                self.A_data = (self._positions(rows_b, cols_b),
+                               np.concatenate([Gc.data, -np.ones(self.aug_rows)]))
+            else:
+                # where each block of H and each entry of A lands in the pattern's data
+                self.A_data = self._gather(sp.triu(blocks.A, format="csc"))
             self.H_slots = []
             for s, m, _ in blocks.groups:
                 k = (s.stop - s.start) // m
@@ -153,14 +173,21 @@ class _Factor:
                 upper = rows <= colsb
                 self.H_slots.append((upper, self._positions(rows[upper], colsb[upper])))
 
+    def _times(self, x: np.ndarray) -> np.ndarray:
+        """``(A + H) x`` with ``A = Gk Gk^T``."""
+        out = self.Gk @ (self.GkT @ x)
+        for (s, m, _), H in zip(self.blocks.groups, self.Hs):
+            out[s] += np.einsum("nij,nj->ni", H, x[s].reshape(-1, m)).ravel()
+        return out
+
     def _positions(self, rows, cols):
+        # the pattern's entries keyed (column, row), ascending in CSC with sorted indices
         P = self.pattern
-        pos = np.empty(rows.size, dtype=np.int64)
-        for j in np.unique(cols):
-            sel = cols == j
-            start, stop = P.indptr[j], P.indptr[j + 1]
-            pos[sel] = start + np.searchsorted(P.indices[start:stop], rows[sel])
-        return pos
+        size = np.int64(P.shape[0])
+        col_of = np.repeat(np.arange(P.shape[1], dtype=np.int64), np.diff(P.indptr))
+        keys = col_of * size + P.indices
+        return np.searchsorted(keys, np.asarray(cols, dtype=np.int64) * size
+                               + np.asarray(rows, dtype=np.int64))
 
     def _gather(self, Au):
         Au = Au.tocoo()
@@ -185,6 +212,7 @@ class _Factor:
             except np.linalg.LinAlgError:
                 self.solver = ("lu", sla.lu_factor(K, check_finite=False))
             return
+        self.Hs = Hs
         data = np.zeros(self.pattern.nnz)
         pos, vals = self.A_data
         np.add.at(data, pos, vals)
@@ -193,12 +221,20 @@ class _Factor:
         M = sp.csc_matrix((data, self.pattern.indices, self.pattern.indptr),
                           shape=self.pattern.shape)
         if self.solver is None:
-            self.solver = ("qdldl", qdldl.Solver(M))
+            self.solver = ("augmented" if self.aug_rows else "qdldl", qdldl.Solver(M))
         else:
             self.solver[1].update(M)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         kind, f = self.solver
+        if kind == "augmented":
+            # refined on A + H itself (A x = Gk Gk^T x): the quasi-definite system's answer
+            # alone lost digits where H spans many orders near the cones' boundary
+            pad = np.zeros(self.aug_rows)
+            x = f.solve(np.concatenate([rhs, pad]))[:rhs.shape[0]]
+            for _ in range(AUGMENTED_REFINEMENTS):
+                x += f.solve(np.concatenate([rhs - self._times(x), pad]))[:rhs.shape[0]]
+            return x
         if kind == "chol":
             return sla.cho_solve(f, rhs, check_finite=False)
         if kind == "lu":
@@ -222,9 +258,14 @@ def standard_form(W, b: np.ndarray, mu: np.ndarray, d: int, sparse: bool):
 
 
 def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
-              max_iter: int = 100, sparse: bool | None = None) -> EngineResult:
+              max_iter: int = 100, sparse: bool | None = None,
+              G: sp.spmatrix | None = None) -> EngineResult:
     """Solve the CCP ``K ∋ r ⊥ W r + b ∈ K*`` by the interior point alone (W dense, or sparse
-    CSR when ``sparse``); the residual reported is the CCP's natural-map residual."""
+    CSR when ``sparse``); the residual reported is the CCP's natural-map residual.
+
+    ``G``, optional (sparse path only): ``W = G G^T`` (N x m, :mod:`.generalized`); each
+    iteration's system is then the quasi-definite ``[[H, S G], [(S G)^T, -I]]`` (S the
+    equilibration), the same directions to round-off."""
     n = mu.shape[0]
     if sparse is None:
         sparse = use_sparse(W, n * d)
@@ -232,7 +273,9 @@ def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
     bb = np.asarray(b, dtype=float).reshape(n, d)
     blocks, q, qs = standard_form(W, bb, mu, d, sparse)
     A = blocks.A
-    factor = _Factor(blocks, sparse)
+    Gk = (sp.diags(blocks.scale) @ sp.csr_matrix(G)[blocks.cols]).tocsc() \
+        if sparse and G is not None else None
+    factor = _Factor(blocks, sparse, Gk)
     # start (CVXOPT's coneqp): x from (A + I) x = -q, shifted into the cones
     Hs = [np.broadcast_to(np.eye(m), ((s.stop - s.start) // m, m, m)).copy()
           for s, m, _ in blocks.groups]

@@ -29,6 +29,7 @@ from ..errors import (
     real_number,
 )
 from . import engine
+from .generalized import generalized_inputs
 
 CONTACT_LAWS = ("coulomb", "ccp")
 #: a sparse W of at most this many rows is checked and solved dense
@@ -121,16 +122,26 @@ def _check_W(W, N: int):
     return W, big
 
 
+def generalized_serves(W) -> bool:
+    """Whether :func:`solve_contact_problem` uses ``mass_matrix`` and ``jacobian`` on the
+    Delassus matrix W (n*d rows): where the engine works on sparse W, W sparse with at least
+    :data:`~.ccp_interior.SPARSE_MIN_ROWS` rows and at most
+    :data:`~.ccp_interior.SPARSE_MAX_DENSITY` of its entries nonzero (a fixed rule on the
+    data, no timing); elsewhere they are only checked."""
+    return engine.use_sparse(W, W.shape[0])
+
+
 def solve_contact_problem(W, b, mu, *, law: str = "coulomb", tol: float = 1e-8,
                           dim: int | None = None, max_iter: int = 100,
-                          newton_iter: int = 30) -> ContactSolution:
+                          newton_iter: int = 30, mass_matrix=None,
+                          jacobian=None) -> ContactSolution:
     """Solve the contact problem ``u = W r + b`` with friction cones ``mu``.
 
     Parameters
     ----------
-    W : (n*d, n*d) array_like or scipy.sparse matrix
+    W : (n*d, n*d) array_like or scipy.sparse matrix, or None
         The Delassus matrix (symmetric positive semidefinite), contacts in order, each contact's
-        rows normal first.
+        rows normal first. None: ``J M^-1 J^T`` from ``mass_matrix`` and ``jacobian``.
     b : (n*d,) or (n, d) array_like
         The free velocity (``u`` at ``r = 0``).
     mu : float or (n,) array_like
@@ -144,6 +155,17 @@ def solve_contact_problem(W, b, mu, *, law: str = "coulomb", tol: float = 1e-8,
         divisible by 6).
     max_iter, newton_iter : int
         Interior-point iterations and Newton steps allowed.
+    mass_matrix, jacobian : optional, both or neither
+        The problem in generalized coordinates: ``M`` (m, m) symmetric positive definite and
+        ``J`` (n*d, m), dense or scipy.sparse, with ``W = J M^-1 J^T`` (checked on probe
+        vectors when W is given too). Where the engine works on sparse W (large, thin
+        problems), it then solves its linear systems through ``G = J L^-T`` (``M = L L^T``,
+        block by block): the ADMM's by Woodbury's identity on the m x m ``c I + G^T G`` (its
+        symbolic factorization kept), the Newton steps through a sparse 2m-row system
+        (:mod:`convimpact.contacts.generalized`); elsewhere (:func:`generalized_serves`)
+        they are only checked. The problem and its certificate (on ``W``
+        and ``b``) are unchanged; ``b`` stays the contact-space free velocity (``J`` times
+        the generalized one, with any restitution shift).
 
     Returns
     -------
@@ -151,8 +173,9 @@ def solve_contact_problem(W, b, mu, *, law: str = "coulomb", tol: float = 1e-8,
 
     Raises
     ------
-    ShapeError, NonFiniteError, ParameterError
-        Bad input, naming the argument.
+    ShapeError, NonFiniteError, ParameterError, MassMatrixError
+        Bad input, naming the argument (a ShapeError also where W is not
+        ``J M^-1 J^T``).
     UncertifiedSolutionError
         No answer certified at ``tol`` (carries the best one reached).
 
@@ -189,9 +212,18 @@ def solve_contact_problem(W, b, mu, *, law: str = "coulomb", tol: float = 1e-8,
     if mu_arr.shape != (n,):
         raise ShapeError(f"mu has {mu_arr.size} entries for {n} contacts (b has {N} = "
                          f"{n} x {d} entries)")
-    W, _ = _check_W(W, N)
+    generalized = None
+    if (mass_matrix is None) != (jacobian is None):
+        raise ParameterError("mass_matrix and jacobian go together: pass both or neither")
+    if W is None and mass_matrix is None:
+        raise ShapeError("W is None: pass the Delassus matrix, or mass_matrix and jacobian")
+    W = None if W is None else _check_W(W, N)[0]
+    if mass_matrix is not None:
+        generalized = generalized_inputs(mass_matrix, jacobian, N, W)
+        W = _check_W(generalized.delassus(), N)[0] if W is None else W
     R = engine.solve(W, b.reshape(n, d), mu_arr, d, coulomb=law == "coulomb", tol=tol,
-                     max_iter=int(max_iter), newton_iter=int(newton_iter))
+                     max_iter=int(max_iter), newton_iter=int(newton_iter),
+                     generalized=generalized)
     sol = ContactSolution(R.impulse, R.velocity, float(R.residual),
                           "solved" if R.converged else "not certified", int(R.iterations),
                           law, tol)

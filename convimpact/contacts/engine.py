@@ -35,7 +35,7 @@ from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .gauss_seidel import nsgs_newton
-from .lowrank import DelassusFactor
+from .generalized import engine_factors
 from .threads import one_blas_thread
 
 #: contact rows up to which the compiled dense kernels (:mod:`.interior_point`,
@@ -136,7 +136,7 @@ def kernels():
 def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float = 1e-8,
           max_iter: int = 100, newton_iter: int = 30, admm_iter: int = 20000,
           sparse: bool | None = None, compiled: bool = True,
-          start: np.ndarray | None = None) -> EngineResult:
+          start: np.ndarray | None = None, generalized=None) -> EngineResult:
     """The engine.
 
     With ``compiled``: from :data:`ADMM_FIRST_MIN_ROWS` to :data:`ADMM_FIRST_MAX_ROWS` rows the
@@ -173,7 +173,8 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
         if R.converged:
             return R
         warm_steps = R.iterations
-    R = _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled)
+    R = _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled,
+              generalized)
     if warm_steps:
         R = EngineResult(R.impulse, R.velocity, R.residual, R.iterations + warm_steps,
                          R.converged, R.message)
@@ -219,7 +220,8 @@ def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
                         "converged (warm start)" if ok else "warm start not certified")
 
 
-def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled):
+def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled,
+          generalized=None):
     n = mu.shape[0]
     ccp = None
     admm_first = compiled and n * d <= ADMM_FIRST_MAX_ROWS
@@ -244,7 +246,7 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
             ccp = ccp if ccp is not None and ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
-                      ccp)
+                      ccp, generalized)
 
 
 def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResult:
@@ -295,16 +297,18 @@ def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
                         "converged" if ok else "")
 
 
-def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, ccp=None):
+def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, ccp=None,
+           generalized=None):
     n = mu.shape[0]
     if sparse is None:
         sparse = use_sparse(W, n * d)
     W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
     b = np.asarray(b, dtype=float).reshape(n, d)
     # W = G G^T found where the finish first needs it, kept when of low rank
-    factor = DelassusFactor(W)
+    factor, admm_factor = engine_factors(W, generalized, sparse)
+    Gs = factor.G if sp.issparse(factor.G) else None  # (M, J)'s G where m <= 0.4 N
     R = ccp if ccp is not None else solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter,
-                                              sparse=sparse)
+                                              sparse=sparse, G=Gs)
     iterations = R.iterations
     if R.residual > tol:
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
@@ -418,7 +422,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             if best[0] > tol and not ip_first:
                 interior()
         else:
-            run = coulomb_admm(W, b, mu, R.impulse, sparse, factor=factor)
+            run = coulomb_admm(W, b, mu, R.impulse, sparse, factor=admm_factor)
             marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
             own = [np.inf]  # the ADMM's own (Newton's tries apart) every ADMM_STALL_ITER
             restarted = False
@@ -436,7 +440,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                             and own[-1] > ADMM_CRAWL_DROP * own[-3]):
                         # crawling near a solution: the ADMM again, from zero
                         run = coulomb_admm(W, b, mu, np.zeros_like(R.impulse), sparse,
-                                           factor=factor)
+                                           factor=admm_factor)
                         restarted = True
             # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries,
             # which had all failed there), at most ADMM_EXTEND_ITER iterations more

@@ -23,7 +23,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .cones import natural_map_residual, project
+from .generalized import sparse_lowrank_step
 from .lowrank import SPARSE_FLOP_COST, DelassusFactor, lowrank_step
+from .sparse_step import SparseStepSystem
 
 
 def projection_jacobian(v: np.ndarray, mu: np.ndarray) -> np.ndarray:
@@ -129,20 +131,25 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
         if factor is not None and not factor.decided and not sparse:
             # the dense step: J^T J and its Cholesky
             G = factor.decide(2.0 * (n * d) ** 3 + (n * d) ** 3 / 3.0)
-        if G is not None:
+        if G is not None and sp.issparse(G):
+            try:
+                dr = sparse_lowrank_step(np.eye(d) - D, DB, G, lam, F.ravel())
+            except RuntimeError:  # SuperLU: an exactly singular system
+                break
+        elif G is not None:
             dr = lowrank_step(np.eye(d) - D, DB, G, lam, F.ravel())
         elif sparse:
-            Dm = _block_diag(D, True)
-            J = (sp.identity(n * d, format="csr") - Dm + _block_diag(DB, True) @ W).tocsc()
-            K = sp.bmat([[lam * sp.identity(n * d), J.T], [J, -sp.identity(n * d)]],
-                        format="csc")
-            solver = qdldl.Solver(sp.triu(K, format="csc"))
-            sol = solver.solve(np.concatenate([np.zeros(n * d), -F.ravel()]))
+            # the system on W's block pattern, set up once per problem (kept on the factor)
+            system = factor.step_system if factor is not None else None
+            if system is None:
+                system = SparseStepSystem(W, d)
+                if factor is not None:
+                    factor.step_system = system
+            dr = system.solve(D, DB, lam, F.ravel())
             if factor is not None and not factor.decided:
                 # the LDL^T's flops: the sum of its columns' squared counts
-                counts = np.diff(solver.factors()[0].indptr).astype(float)
+                counts = np.diff(system.solver.factors()[0].indptr).astype(float)
                 factor.decide(SPARSE_FLOP_COST * float(counts @ counts))
-            dr = sol[: n * d]
         else:
             # the block rows of D B W, contact by contact (D B is block diagonal)
             J = np.einsum("nij,njk->nik", DB, W.reshape(n, d, n * d)).reshape(n * d, n * d)

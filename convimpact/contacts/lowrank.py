@@ -72,8 +72,19 @@ class DelassusFactor:
         self._max_fraction = max_fraction
         self._always = always
         self._G: np.ndarray | None = None
+        #: the Newton finish's sparse step system (:mod:`.sparse_step`), set up on its first
+        #: sparse step and kept for the problem's later ones
+        self.step_system = None
         self.decided = False
         self.rank: int | None = None
+
+    @classmethod
+    def given(cls, G) -> "DelassusFactor":
+        """A factor known beforehand (``G = J L^-T`` of :mod:`.generalized`, sparse), decided
+        at once."""
+        f = cls(None)
+        f._G, f.decided, f.rank = G, True, G.shape[1]
+        return f
 
     @property
     def G(self) -> np.ndarray | None:

@@ -200,3 +200,20 @@ def test_peer_worker_is_killed_past_its_time_limit():
     w = csw.PeerWorker(_crashing)  # a peer that kills its process (as PGS's segfaults)
     status, seconds, impulse, _, err = w.run(1, limit=GENEROUS)
     assert status == "crashed" and seconds is None and "SIGKILL" in err and w.proc is None
+
+
+def test_ours_call_passes_m_and_j_where_the_engine_rule_uses_them():
+    # the rule (contact_problem.generalized_serves): the engine's sparse path, W sparse with at
+    # least 200 rows; a 72-sphere pile has 216 rows, the tiny problems fewer than 200
+    import scipy.sparse as sp
+
+    from convimpact.contacts.contact_problem import generalized_serves
+
+    big = corpus(names=("sphere-pile-sq-72",))[0]
+    tiny = corpus(names=("four-corner-box",))[0]
+    assert sp.issparse(big.W) and big.W.shape[0] >= 200 and generalized_serves(big.W)
+    assert not generalized_serves(tiny.W)
+    for case, expected in ((big, True), (tiny, False)):
+        status, r, facts, err = css._ours_call(case, "coulomb")()
+        assert status == "ok" and facts["generalized"] is expected
+        assert natural_map_residual(case.W, case.b, case.mu, r, "coulomb") <= 1e-8
