@@ -112,13 +112,14 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
     s = shift(-lam)
     x, w, lam = x.copy(), np.ascontiguousarray(w), np.ascontiguousarray(lam)
     m = np.ascontiguousarray(mu, dtype=float)
+    scratch = np.empty(x.size), np.empty(x.size)
     it = 0
     while True:
         it += 1
         x_new = solver.solve(eta * x - q - s + rho * w - lam)
         # w, lam, s (-lam -> the shifted velocity u + s at the solution), x: compiled
         primal, dual = admm_update(np.ascontiguousarray(x_new), x, w, lam, s, m, d, rho, eta,
-                                   True)
+                                   True, *scratch)
         if it % check_every == 0:
             yield w.reshape(n, d).copy()
         if primal > BALANCE * dual and rho < 1e8 * L:

@@ -110,16 +110,15 @@ def _desaxce(v, mu, d, out, add):
 
 
 @_jit
-def admm_update(x_new, x, w, lam, s, mu, d, rho, eta, coulomb):
+def admm_update(x_new, x, w, lam, s, mu, d, rho, eta, coulomb, v, wn):
     """The part of an ADMM iteration after its proximal solve ``x_new``, in place: ``w`` the
     projection of ``x_new + lam / rho`` onto the cones, ``lam += rho (x_new - w)``, ``s`` De
-    Saxce's shift of ``-lam`` (with ``coulomb``), ``x = x_new``. Returns the primal and dual
+    Saxce's shift of ``-lam`` in its normal rows (with ``coulomb``; its tangential rows stay
+    zero), ``x = x_new``; ``v`` and ``wn`` are scratch of x's size. Returns the primal and dual
     residuals (max norms) that balance rho."""
     N = x.shape[0]
-    v = np.empty(N)
     for i in range(N):
         v[i] = x_new[i] + lam[i] / rho
-    wn = np.empty(N)
     _project_into(v, mu, d, wn)
     primal = 0.0
     dual = 0.0
@@ -133,10 +132,8 @@ def admm_update(x_new, x, w, lam, s, mu, d, rho, eta, coulomb):
             dual = dd
         x[i] = x_new[i]
         w[i] = wn[i]
-    if coulomb:
-        for i in range(N):
-            s[i] = 0.0
-        _desaxce(lam, mu, d, s, False)  # of -lam: |(-lam)_t| = |lam_t|
+    if coulomb:  # -lam tends to the shifted velocity u + s; |(-lam)_t| = |lam_t|
+        _desaxce(lam, mu, d, s, False)
     return primal, dual
 
 
@@ -230,23 +227,7 @@ def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, co
         for i in range(N):
             rhs[i] = eta * x[i] - b[i] - s[i] + rho * w[i] - lam[i]
         _chol_solve(L, rhs, xn, tmp)
-        for i in range(N):
-            v[i] = xn[i] + lam[i] / rho
-        _project_into(v, mu, d, wn)
-        primal = 0.0
-        dual = 0.0
-        for i in range(N):
-            dx = xn[i] - wn[i]
-            lam[i] += rho * dx
-            if abs(dx) > primal:
-                primal = abs(dx)
-            dd = rho * abs(wn[i] - w[i]) + eta * abs(xn[i] - x[i])
-            if dd > dual:
-                dual = dd
-            x[i] = xn[i]
-            w[i] = wn[i]
-        if coulomb:  # -lam tends to the shifted velocity u + s
-            _desaxce(lam, mu, d, s, False)
+        primal, dual = admm_update(xn, x, w, lam, s, mu, d, rho, eta, coulomb, v, wn)
         if it % CHECK_EVERY == 0:
             res = natural_residual(W, b, mu, d, w, coulomb, u, y, p)
             if res < best:
