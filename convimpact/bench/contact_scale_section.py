@@ -356,13 +356,12 @@ def aggregate(records: list[dict[str, Any]], laws) -> dict[str, Any]:
                                if r["status"] in ("timeout", "skipped"))
         a["crashes"] = sorted(f"{r['solver']} {r['problem']} ({r.get('error', '')})"
                               for r in rows.values() if r["status"] == "crashed")
-        a["exponents"] = {}
-        for s in SOLVERS:
-            pts = [(n_of[p], t) for p, t in zip(problems, table[s])
-                   if t is not None and n_of[p] >= FIT_MIN_CONTACTS]
-            p_, c_ = (power_law_fit(*zip(*pts)) if len(pts) >= FIT_MIN_POINTS
-                      else (math.nan, math.nan))
-            a["exponents"][s] = {"exponent": p_, "coefficient": c_, "points": len(pts)}
+        a["exponents"] = {s: _fit(problems, table[s], n_of) for s in SOLVERS}
+        family_of = {r["problem"]: r.get("family", "") for r in records if r["law"] == law}
+        a["family_exponents"] = {
+            fam: {s: _fit(problems, table[s], n_of, lambda p: family_of[p] == fam)
+                  for s in ("ours", "admm")}
+            for fam in sorted(set(family_of.values()) - {""})}
         ratios = [(p, o / m) for p, o, m in zip(problems, table["ours"], table["admm"])
                   if o is not None and m is not None]
         a["ratio_ours_admm_median"] = (float(np.median([x for _, x in ratios]))
@@ -380,6 +379,17 @@ def aggregate(records: list[dict[str, Any]], laws) -> dict[str, Any]:
                               and not r["certified"]]
         out[law] = a
     return out
+
+
+def _fit(problems, times, n_of, keep=lambda p: True) -> dict[str, Any]:
+    """The power law ``t = c n^p`` fitted over the certified problems of at least
+    :data:`FIT_MIN_CONTACTS` contacts that ``keep`` accepts (nan below
+    :data:`FIT_MIN_POINTS` of them)."""
+    pts = [(n_of[p], t) for p, t in zip(problems, times)
+           if t is not None and n_of[p] >= FIT_MIN_CONTACTS and keep(p)]
+    p_, c_ = (power_law_fit(*zip(*pts)) if len(pts) >= FIT_MIN_POINTS
+              else (math.nan, math.nan))
+    return {"exponent": p_, "coefficient": c_, "points": len(pts)}
 
 
 def summary_lines(aggregates: dict[str, Any]) -> list[str]:
@@ -407,6 +417,13 @@ def summary_lines(aggregates: dict[str, Any]) -> list[str]:
                          f"{NAMES[s].split(' (')[0]} p = {ex[s]['exponent']:.2f} "
                          f"({ex[s]['points']} problems)" if ex[s]["points"] >= FIT_MIN_POINTS else
                          f"{NAMES[s].split(' (')[0]} (too few)" for s in SOLVERS))
+        fams = [(f, e) for f, e in a.get("family_exponents", {}).items()
+                if e["ours"]["points"] >= FIT_MIN_POINTS]
+        if fams:
+            lines.append(f"{law}: the same fit per family, ours (ADMM): " + ", ".join(
+                f"{f} n^{e['ours']['exponent']:.2f} (" + (
+                    f"n^{e['admm']['exponent']:.2f}" if e["admm"]["points"] >= FIT_MIN_POINTS
+                    else "too few") + ")" for f, e in fams))
         if a["ours_failures"]:
             lines.append(f"{law}: ours not certified on " + ", ".join(
                 f"{f['problem']} (residual {f['residual']:.1e})" if f["residual"] is not None

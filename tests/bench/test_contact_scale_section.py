@@ -217,3 +217,27 @@ def test_ours_call_passes_m_and_j_where_the_engine_rule_uses_them():
         status, r, facts, err = css._ours_call(case, "coulomb")()
         assert status == "ok" and facts["generalized"] is expected
         assert natural_map_residual(case.W, case.b, case.mu, r, "coulomb") <= 1e-8
+
+
+def test_family_exponents_are_fitted_per_family():
+    # two families with exact power laws of different exponents (and a mixed overall slope)
+    recs = []
+    for fam, p, c in (("stack", 1.0, 1e-5), ("pile", 2.5, 1e-7)):
+        for n in (10, 30, 100, 300, 1000):
+            prob = f"{fam}-{n}"
+            for solver, scale in (("ours", 1.0), ("admm", 2.0)):
+                recs.append({"law": "coulomb", "problem": prob, "family": fam, "n": n,
+                             "solver": solver, "status": "ok", "certified": True,
+                             "time_median": scale * c * n ** p, "residual": 1e-12})
+            recs.append({"law": "coulomb", "problem": prob, "family": fam, "n": n,
+                         "solver": "pgs", "status": "ok", "certified": False,
+                         "time_median": 1.0, "residual": 1e-3})
+    agg = css.aggregate(recs, ["coulomb"])["coulomb"]
+    fe = agg["family_exponents"]
+    assert set(fe) == {"stack", "pile"}
+    assert fe["stack"]["ours"]["exponent"] == pytest.approx(1.0, abs=1e-9)
+    assert fe["pile"]["ours"]["exponent"] == pytest.approx(2.5, abs=1e-9)
+    assert fe["pile"]["admm"]["coefficient"] == pytest.approx(2e-7, rel=1e-9)
+    assert fe["stack"]["ours"]["points"] == 5
+    line = [x for x in css.summary_lines({"coulomb": agg}) if "per family" in x][0]
+    assert "pile n^2.50 (n^2.50)" in line and "stack n^1.00 (n^1.00)" in line
