@@ -26,7 +26,9 @@ floor more steeply than the cone's dual allows, ``kappa_i = -(c_n,i + mu_i' |c_t
   (``P = sum_i p_i``, ``eps1 = 2 tol + 2 theta Omega sum_i 1 / W_ii < 1``),
 * admissibility gives ``s >= -theta sum_j (|b|_j + Omega Pi)``;
 
-so ``0 <= R0 + P (K1 A1 - kappa_min)`` (the constants of :func:`no_admissible_impulse`),
+so ``0 <= R0 + P (K1 A1 - kappa_min)`` (the constants of :func:`_closes`, where ``tol`` is
+taken as ``theta``: the bound then holds for every admissibility tolerance the law uses up to
+``slack_max``, the interior point's unpolished answers' 1e-4 included),
 impossible when ``K1 A1 <= kappa_min`` and ``R0 < 0``: no impulse on C passes the law's test,
 whatever program produced it. On a box sliding on its face the far corners' push
 presses an edge pair down by about ``2.8 - 0.3 * 2.4`` (velocity per unit impulse), ``R0``
@@ -167,7 +169,8 @@ def _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, c):
                 for k in range(d):
                     acc += abs(W[r, i * d + k])
                 omega = max(omega, acc)
-    return _closes(W, member, mu, d, c, c0, bmax, tol, max(tol, slack_max), cone_rtol, 0.0,
+    theta = max(tol, slack_max)
+    return _closes(W, member, mu, d, c, c0, bmax, theta, theta, cone_rtol, 0.0,
                    0.0, 0.0, far_b, n_far, omega)
 
 
@@ -204,7 +207,8 @@ def _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slippin
                 fro2 += W[r, k] ** 2
         c[r] = acc
     rho1 = LU_RESIDUAL * np.sqrt(fro2)
-    return _closes(W, member, mu, d, c, c0, bmax, tol, max(tol, slack_max), cone_rtol,
+    theta = max(tol, slack_max)
+    return _closes(W, member, mu, d, c, c0, bmax, theta, theta, cone_rtol,
                    STICK_RESIDUAL * np.sqrt(bnorm2), rho1, np.sqrt(xin2), 0.0, 0, 0.0)
 
 
