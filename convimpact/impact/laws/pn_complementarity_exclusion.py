@@ -134,8 +134,23 @@ def _closes(W, member, mu, d, c, c0, bmax, tol, theta, cone_rtol, rho0, rho1, xi
 
 
 @_jit
-def _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, c):
-    """:func:`no_admissible_impulse` with ``bmax`` given and ``c`` (N,) a work array."""
+def _row_sums(W, n, d):
+    """``A[r, i]``: the sum of ``|W|`` over row r and contact i's columns."""
+    N = W.shape[0]
+    A = np.empty((N, n))
+    for r in range(N):
+        for i in range(n):
+            acc = 0.0
+            for k in range(d):
+                acc += abs(W[r, i * d + k])
+            A[r, i] = acc
+    return A
+
+
+@_jit
+def _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, c, A):
+    """:func:`no_admissible_impulse` with ``bmax`` and ``A`` (:func:`_row_sums`) given and
+    ``c`` (N,) a work array."""
     n = mu.size
     N = W.shape[0]
     n_far = 0
@@ -161,14 +176,19 @@ def _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, c):
         for r in range(N):
             if member[r // d]:
                 c[r] += W[j * d, r]
+    for i in range(n):  # (the push must press every member down: else no need for Omega)
+        if member[i]:
+            o = i * d
+            ct2 = 0.0
+            for k in range(1, d):
+                ct2 += c[o + k] ** 2
+            if not c[o] + mu[i] * (1.0 + cone_rtol) * np.sqrt(ct2) < 0.0:
+                return False
     omega = 0.0  # the largest sum of |W| over a row and a member contact's columns
     for r in range(N):
         for i in range(n):
             if member[i]:
-                acc = 0.0
-                for k in range(d):
-                    acc += abs(W[r, i * d + k])
-                omega = max(omega, acc)
+                omega = max(omega, A[r, i])
     theta = max(tol, slack_max)
     return _closes(W, member, mu, d, c, c0, bmax, theta, theta, cone_rtol, 0.0,
                    0.0, 0.0, far_b, n_far, omega)
@@ -224,7 +244,7 @@ def no_admissible_impulse(W, b, mu, d, member, tol, slack_max, cone_rtol):
     slipping = np.empty(n, dtype=np.bool_)
     _contact_data(W, b, mu, d, bmax, xi, slipping)
     return _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax,
-                     np.empty(W.shape[0]))
+                     np.empty(W.shape[0]), _row_sums(W, n, d))
 
 
 @_jit
@@ -255,11 +275,12 @@ def excluded_sets(W, b, mu, d, masks, tol, slack_max, cone_rtol):
     slipping = np.empty(n, dtype=np.bool_)
     c = np.empty(N)
     _contact_data(W, b, mu, d, bmax, xi, slipping)
+    A = _row_sums(W, n, d)
     none = np.zeros(ns, dtype=np.bool_)
     stick = np.zeros(ns, dtype=np.bool_)
     for s in range(ns):
         if s > 0:
-            none[s] = _far_sink(W, b, mu, d, masks[s], tol, slack_max, cone_rtol, bmax, c)
+            none[s] = _far_sink(W, b, mu, d, masks[s], tol, slack_max, cone_rtol, bmax, c, A)
         stick[s] = none[s] or _stuck_out(W, b, mu, d, masks[s], tol, slack_max, cone_rtol,
                                          bmax, xi, slipping, c)
     return none, stick
