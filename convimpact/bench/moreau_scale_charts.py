@@ -62,8 +62,9 @@ def growth_chart(records: list[dict[str, Any]], exps: dict[str, Any], out, step:
                  "dissipative on the contact engine (certified at 1e-8),\npereira-nikravesh and "
                  "stronge island by island (the law's impulse, resolve_impact at impacts; "
                  "pereira-nikravesh's resting\nislands by the certificate of its answer, its "
-                 "sliding ones by its compiled search without the dominated active sets, after "
-                 "the first step,\nall in one compiled call per step; stronge's islands in one "
+                 "sliding ones by its compiled search without the dominated active sets\nand "
+                 "those certified to have no admissible impulse, after the first step, all in "
+                 "one compiled call per step;\nstronge's islands in one "
                  "compiled call on steps without an impact; medians)", fontsize=10)
     fig.tight_layout()
     return save_chart(fig, out, "moreau_scale_growth.png")

@@ -11,8 +11,10 @@ islands certified at the natural-map residual 1e-8, warm starts and islands on; 
 (pereira-nikravesh: the law's impulse directly on steps without an impact, resting islands
 answered by the certificate of the law's answer after the first step of their resting mode,
 sliding islands by the law's search in one compiled call, warm-started, without the
-dominated active sets after the first step of their sliding mode, every island of such a
-mode in one compiled call per step, :mod:`convimpact.simulation.moreau_pn_islands`;
+dominated active sets and the sets certified to have no admissible impulse
+(:mod:`convimpact.impact.laws.pn_complementarity_exclusion`), the previous step's impulse
+re-certified by its KKT conditions, after the first step of their sliding mode, every island
+of such a mode in one compiled call per step, :mod:`convimpact.simulation.moreau_pn_islands`;
 stronge: on steps without
 an impact every island's warm-started compression in one compiled call,
 :mod:`convimpact.simulation.moreau_stronge`),
@@ -100,8 +102,10 @@ OTHER_LAWS = ("pereira-nikravesh", "stronge")
 OTHER_SPAN = 0.04
 QUICK_OTHER_SPAN = 0.02
 OTHER_REPEATS = 1
-#: ... except where a law is cheap enough for a longer span and a median (quick runs: 1 run)
-OTHER_SPANS = {"pereira-nikravesh": 0.1, "stronge": 0.2}
+#: ... except where a law is cheap enough for a longer span and a median (quick runs: 1 run):
+#: pereira-nikravesh sliding over the engine laws' and MuJoCo's span (its sliding islands
+#: pruned by certificates, :mod:`convimpact.impact.laws.pn_complementarity_exclusion`)
+OTHER_SPANS = {"pereira-nikravesh": SPAN, "stronge": 0.2}
 #: ... and at rest, where pereira-nikravesh's resting islands take the certificate and
 #: stronge's the warm-started compression in one compiled call (the engine laws' span: the
 #: first step's search of each island counted over as many steps)
@@ -310,7 +314,9 @@ def moreau_scale_section(config: BenchConfig, progress: Progress) -> SectionResu
                                     "the law's impulse directly on steps without an impact, "
                                     "resting islands by the certificate of its answer, "
                                     "sliding islands by its compiled search, pruned of the "
-                                    "dominated active sets, every island of such a mode in "
+                                    "dominated active sets and of those certified to have no "
+                                    "admissible impulse, the previous impulse re-certified, "
+                                    "every island of such a mode in "
                                     "one compiled call per step; stronge: every island's "
                                     "warm-started compression in one compiled call on steps "
                                     "without an impact)")):

@@ -20,7 +20,9 @@ takes :class:`.moreau_impact.ImpactSolver`'s own path, as before.
   island's coordinates where W is singular); where it holds, its
   impulse; where it does not, the solver's path;
 * an island in a *sliding mode* (the law's answer slid on every contact on the step
-  before, with the same contacts): the law's search without the dominated active sets
+  before, with the same contacts): the law's search without the dominated active sets and
+  those certified to have no admissible impulse, the previous impulse re-certified where it
+  still solves the full set's program
   (:func:`~convimpact.impact.laws.pn_complementarity_search.search` with ``prune``, the
   call :func:`~convimpact.impact.laws.pn_complementarity_impulse.compiled_impulse` makes,
   with the island's warm starts), when every contact of the island approaches by more

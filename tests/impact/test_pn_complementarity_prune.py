@@ -104,5 +104,5 @@ def test_the_pruned_search_keeps_only_the_pairs_of_a_sliding_box_for_its_stick_t
     subsets, masks = pc.candidate_sets(4, (True,) * 4)
     escale = 0.5 * np.max(np.abs(v)) ** 2 / np.max(np.diag(W))
     keep = _screened_stick_sets(W, b, v, mu, 3, masks, pi_full, escale, pc.CONE_RTOL,
-                                pc.VELOCITY_SLACK_MAX)
+                                pc.VELOCITY_SLACK_MAX, np.zeros(len(masks), dtype=bool))
     assert [A for A, k in zip(subsets, keep) if k] == list(itertools.combinations(range(4), 2))

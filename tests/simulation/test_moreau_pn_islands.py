@@ -84,9 +84,10 @@ def test_the_one_call_answers_are_the_laws_full_search_on_the_same_states(answer
         st = _step(mech, q, v, index)
         v_new, _ = s.solve(st)
     # the first step searches every island; on the next two the compiled call answers
-    # boxes 0, 2 (sliding on four corners) and 3 (at rest); box 1's pruned search needs an
-    # interior-point program: the solver's path, each step
-    assert answered[0] == 6
+    # every box: 0, 1, 2 sliding on four corners (box 1's edge pair, whose program once
+    # needed the interior-point method, is certified to have no admissible impulse) and 3
+    # at rest
+    assert answered[0] == 8
     assert s.pruned == 6 and s.certified == 2 and s.checks == 4
     for b in range(4):
         cols = np.arange(6 * b, 6 * b + 6)

@@ -66,3 +66,53 @@ def test_a_box_slides_to_coulombs_stopping_distance():
     assert cs["pruned"] > 40 and cs["certified"] > 10
     np.testing.assert_allclose(fast.theta, slow.theta, rtol=0, atol=1e-13)
     np.testing.assert_allclose(fast.dtheta, slow.dtheta, rtol=0, atol=1e-11)
+
+
+def test_a_box_sliding_straight_loses_mu_g_h_per_step_through_the_certificates():
+    """Every step after the first answered by the pruned search through its certificates
+    (the edges, corners and stick sets excluded, the previous impulse re-certified): the
+    speed falls by exactly mu g h per step (friction mu m g h against the slip, normal
+    impulse m g h), the box neither pitches nor rolls, and the trajectory is the law's own
+    search's."""
+    mech, q, v = box_row(1, True)
+    fast = _run(mech, q, v, 0.1)
+    slow = _run(mech, q, v, 0.1, own_search=True)
+    k = np.arange(fast.dtheta.shape[0])
+    np.testing.assert_allclose(fast.dtheta[:, 0], 2.0 - k * MU * GRAVITY * H, rtol=0,
+                               atol=1e-12)
+    assert np.abs(fast.dtheta[1:, 2:]).max() < 1e-12
+    assert fast.contact_solver["pruned"] == fast.n_steps - 1
+    np.testing.assert_allclose(fast.theta, slow.theta, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(fast.dtheta, slow.dtheta, rtol=0, atol=1e-11)
+
+
+def _tall_box(mu):
+    """A box of half sizes (0.05, 0.15, 0.3), 1 kg, on its four bottom corners, sliding at
+    2 m/s along x: friction tips it onto its front edge where mu c / a > 1."""
+    from convimpact.model import Joint, ModelBuilder
+
+    a, b, c = 0.05, 0.15, 0.3
+    inertia = np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) / 3.0
+    builder = ModelBuilder(planar=False, gravity=(0.0, 0.0, -GRAVITY))
+    builder.add_body("box", "ground", Joint.free(), 1.0, (0.0, 0.0, 0.0), inertia,
+                     joint_name="float")
+    for j, (sx, sy) in enumerate(((-1, -1), (1, -1), (1, 1), (-1, 1))):
+        builder.add_contact(f"corner{j}", body="box", point=(sx * a, sy * b, -c),
+                            normal=(0.0, 0.0, 1.0), e=0.0, mu=mu)
+    q = np.zeros(6)
+    q[2] = c
+    v = np.zeros(6)
+    v[0] = 2.0
+    return builder.build().mechanism(), q, v
+
+
+def test_a_tall_box_that_tips_takes_the_full_search_and_follows_the_law():
+    """mu c / a = 3: the edge-pair certificate must not fire (the front edge is the law's
+    answer: the back corners lift); the trajectory with the one-call islands and the pruned
+    search is the law's own search's, and the box pitches forward (it tips)."""
+    mech, q, v = _tall_box(0.5)
+    fast = _run(mech, q, v, 0.02)
+    slow = _run(mech, q, v, 0.02, own_search=True)
+    np.testing.assert_allclose(fast.theta, slow.theta, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(fast.dtheta, slow.dtheta, rtol=0, atol=1e-11)
+    assert fast.theta[-1, 2] > q[2] + 1e-4  # the centre rises as it pitches onto the edge

@@ -38,6 +38,19 @@ corners, whose sticking needs a friction many times mu). The stick sets left (ra
 judged by Gram-Schmidt with a clear gap, else not excluded) run the law's stick tier; any
 admissible one hands the decision to the law's own search.
 
+**Sets with no admissible impulse** (:mod:`.pn_complementarity_exclusion`): before any
+other test, the sets whose far contacts would have to sink (on a sliding box the edges and
+the lone corners: no impulse on them passes the law's admissibility test) are neither stuck
+nor slid, and the stick sets whose sticking would need more friction than the cones give
+(on a box sliding at 2 m/s: all of them) are not stuck; the screens and the rank argument
+then run only on the stick sets left. Both are certificates on ``W``, ``b`` and the law's
+tolerances, not heuristics: an excluded set has no candidate the law could rank.
+
+**The full set's program re-certified.** Where the previous step's answer of the full set
+is still a KKT point of this step's program (:func:`~.pn_complementarity_slide.
+warm_kkt_point`; a box sliding straight: the same normal impulses and friction direction
+every step) it is the minimizer, taken without the Newton.
+
 **Cold smaller sets.** The sets not dominated are solved from the law's own guesses (not
 from the previous step's answer): on a sliding box a side's pair rejects its warm start on
 most steps, and a cold program costs about what a warm one does.
@@ -57,8 +70,9 @@ from ...compiled import jit as _jit
 from .codes import OK as KERNEL_OK
 from .pereira_nikravesh_kernel import _pn_planar, _pn_spatial
 from ..problem.compiled_reduction import back_substitute
+from .pn_complementarity_exclusion import excluded_sets
 from .pn_complementarity_kernels import admissible, set_rows, stick_tier, sub_cholesky
-from .pn_complementarity_slide import slide_set_warm
+from .pn_complementarity_slide import slide_set_warm, warm_kkt_point
 
 TINY = 1e-300
 EPS = float(np.finfo(float).eps)
@@ -158,15 +172,14 @@ def _project_out(r, Q, k):
 
 
 @_jit
-def _residual(R, Q, k, j):
-    """Row j of R minus its projection on the orthonormal rows ``Q[:k]``."""
-    r = R[j].copy()
-    _project_out(r, Q, k)
-    return r
+def dominated(R, member):
+    """:func:`dominated_into` with its own work arrays."""
+    n, L = R.shape
+    return dominated_into(R, member, np.empty((n, L)), np.empty(L), np.empty((2, L)))
 
 
 @_jit
-def dominated(R, member):
+def dominated_into(R, member, Q, r, outside):
     """Whether the normal velocities ``u_n = R [pi; 1]`` (R: the normal rows of ``[W | b]``,
     its last column rescaled to W's size) vanishing on the contacts of ``member`` and
     non-negative elsewhere vanish everywhere: every other row in the span of the member rows
@@ -177,20 +190,20 @@ def dominated(R, member):
     for i in range(n):
         scale = max(scale, np.sqrt(_dot(R[i], R[i])))
     cut = 1e-11 * max(scale, TINY)
-    Q = np.empty((n, L))
     k = 0
     for i in range(n):
         if member[i]:
-            r = _residual(R, Q, k, i)
+            r[:] = R[i]
+            _project_out(r, Q, k)
             nr = np.sqrt(_dot(r, r))
             if nr > cut:
                 Q[k] = r / nr
                 k += 1
-    outside = np.empty((2, L))
     count = 0
     for j in range(n):
         if not member[j]:
-            r = _residual(R, Q, k, j)
+            r[:] = R[j]
+            _project_out(r, Q, k)
             nr = np.sqrt(_dot(r, r))
             if nr > cut:
                 if count == 2:
@@ -356,16 +369,18 @@ def _kept_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale):
 
 
 @_jit
-def _screened_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale, cone_rtol, slack_max):
-    """The stick sets neither exclusion (module docstring) removes, as a mask over
-    ``masks``: :func:`stick_clearly_inadmissible` on every set, then the rank argument on
+def _screened_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale, cone_rtol, slack_max,
+                         skip):
+    """The stick sets no exclusion (module docstring) removes, as a mask over ``masks``:
+    those of ``skip`` (no admissible impulse at all, :mod:`.pn_complementarity_exclusion`)
+    out, :func:`stick_clearly_inadmissible` on every other set, then the rank argument on
     those left."""
     ns = masks.shape[0]
     keep = np.ones(ns, dtype=np.bool_)
     left = 0
     for s in range(ns):
-        keep[s] = not stick_clearly_inadmissible(W, b, mu, d, masks[s], cone_rtol, slack_max,
-                                                 SINGLE_ACCURACY)
+        keep[s] = not (skip[s] or stick_clearly_inadmissible(W, b, mu, d, masks[s], cone_rtol,
+                                                             slack_max, SINGLE_ACCURACY))
         left += keep[s]
     if left:
         _rank_exclusion(W, b, vminus, mu, d, masks, pi_full, escale, keep)
@@ -388,18 +403,24 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
         return -1, 0
     absW = np.abs(W)
     full = np.flatnonzero(masks[0])
-    st, pi_full, kind, tang = slide_set_warm(W, vminus, b, mu, d, full, wkind[0], wtang[0],
-                                             wpi[0], wvalid[0])
-    wvalid[0] = st == 1
-    if st != 1:
-        return -1, 0
-    wkind[0, :n] = kind
-    wtang[0, :n] = tang
-    wpi[0] = pi_full
+    if wvalid[0] and warm_kkt_point(W, vminus, b, mu, d, wpi[0], cone_rtol):
+        pi_full = wpi[0].copy()  # the previous answer, a minimizer again (kind, tang kept)
+    else:
+        st, pi_full, kind, tang = slide_set_warm(W, vminus, b, mu, d, full, wkind[0],
+                                                 wtang[0], wpi[0], wvalid[0])
+        wvalid[0] = st == 1
+        if st != 1:
+            return -1, 0
+        wkind[0, :n] = kind
+        wtang[0, :n] = tang
+        wpi[0] = pi_full
     if not admissible(W, absW, masks[0], pi_full, b, mu, d, cone_rtol, slack_max, tol):
         return -1, 0
+    # the sets with no admissible impulse at all (their far contacts would sink)
+    skip, skip_stick = excluded_sets(W, b, mu, d, masks, max(tol, SINGLE_ACCURACY),
+                                     slack_max, cone_rtol)
     keep = _screened_stick_sets(W, b, vminus, mu, d, masks, pi_full, escale, cone_rtol,
-                                slack_max)
+                                slack_max, skip_stick)
     sticks = np.flatnonzero(keep)
     if sticks.size:
         ok = stick_tier(W, b, vminus, mu, d, masks[sticks], cond_max, cone_rtol, slack_max,
@@ -419,8 +440,14 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
     fpi[0] = pi_full
     nf = 1
     nn = 0
+    Qw = np.empty((n, N + 1))
+    rw = np.empty(N + 1)
+    ow = np.empty((2, N + 1))
     for s in range(1, masks.shape[0]):
-        if dominated(R, masks[s]):
+        if skip[s]:
+            wvalid[s] = False
+            continue
+        if dominated_into(R, masks[s], Qw, rw, ow):
             continue
         members = np.flatnonzero(masks[s])
         if members.size >= 2:

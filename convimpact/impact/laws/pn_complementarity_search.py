@@ -33,6 +33,11 @@ of the convex program, hence a minimizer, with the velocities and energy of the 
 the step before): :func:`~.pn_complementarity_prune.pruned_search`, without the stick sets
 and slide programs that provably cannot be the law's answer (the argument there).
 
+**Sets without a candidate.** The whole search too skips the sets certified to have no
+admissible impulse and the stick sets certified to have no admissible sticking impulse
+(:mod:`~.pn_complementarity_exclusion`): they could never be candidates, so the answer, the
+candidates and the law's warning are those of the search over every set.
+
 Where the law's Python path would do anything else -- an interior-point program (a slide
 program no guess certifies), a one-contact kernel outside its safe scale or without
 friction, a kernel error, a NaN bound, no admissible set -- :func:`search` returns
@@ -49,6 +54,7 @@ import functools
 import numpy as np
 
 from ...compiled import jit as _jit
+from .pn_complementarity_exclusion import excluded_sets
 from .pn_complementarity_kernels import relaxed_bounds, stick_tier
 from .pn_complementarity_prune import SINGLE_ACCURACY, pruned_search, single_candidate
 from .pn_complementarity_slide import slide_many_warm
@@ -71,6 +77,41 @@ def tuple_ranks(subsets: tuple[tuple[int, ...], ...]) -> np.ndarray:
     rank[order] = np.arange(len(subsets))
     rank.flags.writeable = False
     return rank
+
+
+@_jit
+def _slide_tier(W, b, vminus, mu, d, masks, cone_rtol, slack_max, tol, wkind, wtang, wpi,
+                wvalid, skip):
+    """The relaxed bounds and :func:`~.pn_complementarity_slide.slide_many_warm` on the sets
+    not in ``skip`` (those: bound +inf, not solved, their warm starts dropped)."""
+    ns = masks.shape[0]
+    N = W.shape[0]
+    kept = np.flatnonzero(~skip)
+    bounds = np.full(ns, np.inf)
+    status = np.full(ns, -3, dtype=np.int64)
+    spis = np.zeros((ns, N))
+    sok = np.zeros(ns, dtype=np.bool_)
+    senergy = np.zeros(ns)
+    sub = masks[kept]
+    kb = relaxed_bounds(W, b, vminus, mu, d, sub)
+    kk, kt, kp, kv = wkind[kept], wtang[kept], wpi[kept], wvalid[kept]
+    st, pis, ok, energy = slide_many_warm(W, b, vminus, mu, d, sub, cone_rtol, slack_max, tol,
+                                          kk, kt, kp, kv)
+    for t in range(kept.size):
+        s = kept[t]
+        bounds[s] = kb[t]
+        status[s] = st[t]
+        spis[s] = pis[t]
+        sok[s] = ok[t]
+        senergy[s] = energy[t]
+        wkind[s] = kk[t]
+        wtang[s] = kt[t]
+        wpi[s] = kp[t]
+        wvalid[s] = kv[t]
+    for s in range(ns):
+        if skip[s]:
+            wvalid[s] = False
+    return bounds, status, spis, sok, senergy
 
 
 @_jit
@@ -107,14 +148,20 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
     none_i = np.zeros(0, dtype=np.int64)
     none_b = np.zeros(0, dtype=np.bool_)
     none_pi = np.zeros((0, N))
+    skip = np.zeros(ns, dtype=np.bool_)
     if not prune:  # (the pruned search runs the stick sets it cannot exclude)
-        ok, energy, pis = stick_tier(W, b, vminus, mu, d, masks, cond_max, cone_rtol,
+        # the sets with no admissible impulse, stick or slide, and those with no admissible
+        # sticking impulse (:mod:`.pn_complementarity_exclusion`): never candidates
+        skip, skip_stick = excluded_sets(W, b, mu, d, masks, max(tol, SINGLE_ACCURACY),
+                                         slack_max, cone_rtol)
+        kept = np.flatnonzero(~skip_stick)
+        ok, energy, pis = stick_tier(W, b, vminus, mu, d, masks[kept], cond_max, cone_rtol,
                                      slack_max, SINGLE_ACCURACY)
-        for s in range(ns):
-            if ok[s]:
-                fe[nf] = energy[s]
-                fs[nf] = s
-                fpi[nf] = pis[s]
+        for t in range(kept.size):
+            if ok[t]:
+                fe[nf] = energy[t]
+                fs[nf] = kept[t]
+                fpi[nf] = pis[t]
                 nf += 1
     vs = 0.0
     for a in range(N):
@@ -136,10 +183,9 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
                 needs[:nn].copy()
     elif nf == 0:
         tier = SLIDE_TIER
-        bounds = relaxed_bounds(W, b, vminus, mu, d, masks)
-        status, spis, sok, senergy = slide_many_warm(W, b, vminus, mu, d, masks, cone_rtol,
-                                                     slack_max, tol, wkind, wtang, wpi,
-                                                     wvalid)
+        bounds, status, spis, sok, senergy = _slide_tier(W, b, vminus, mu, d, masks, cone_rtol,
+                                                         slack_max, tol, wkind, wtang, wpi,
+                                                         wvalid, skip)
         absW = np.abs(W)
         for s in range(ns):
             if np.isnan(bounds[s]):

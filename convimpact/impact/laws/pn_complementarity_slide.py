@@ -37,6 +37,11 @@ from ..conic.polish_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_
 
 EPS = float(np.finfo(float).eps)
 TINY = 1e-300
+#: :func:`warm_kkt_point`: the residuals of the KKT conditions accepted, relative to
+#: ``max(|v-|, |b|, |W| |pi|)`` (the polish's POLISH_ACCEPT), and a contact read as on its
+#: cone's boundary within this of ``mu pn`` (relative)
+KKT_RTOL = 1e-11
+BOUNDARY_RTOL = 1e-10
 
 
 @_jit
@@ -217,6 +222,140 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
     for a in range(N):
         pi[idx[a]] = x[a] * scale[a]
     return 1, pi, kind, tang
+
+
+@_jit
+def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
+    """Whether ``pi`` (a previous time step's answer) is a minimizer of the full set's slide
+    program P_N (every contact, all frictional) on this problem, by its KKT conditions: ``pi``
+    in the cones (``pn > 0``, ``|pt| <= mu pn (1 + cone_rtol)``), ``u_n = (W pi + b)_n = 0``,
+    and multipliers ``lambda`` (free) and ``gamma >= 0`` with ``W pi + v- - W_n^T lambda``
+    equal to ``gamma_i (mu_i, -t_i)`` on every contact on its cone's boundary (``t_i`` its
+    friction's direction, ``pt_i = mu_i pn_i t_i``) and zero on every other (``y`` in the
+    dual cone, orthogonal to ``pi``), found by least squares (Gram-Schmidt, dependent columns
+    dropped: the twist of redundant contacts), every residual within :data:`KKT_RTOL`. A KKT
+    point of the convex program is a minimizer: the one :func:`slide_set_warm`'s Newton
+    accepts from this start, to round-off, without its iterations. On a box sliding
+    straight the previous step's impulse is this step's (the normal impulses and the
+    friction's direction do not depend on the speed)."""
+    n = mu.size
+    N = n * d
+    X = 0.0
+    for a in range(N):
+        X = max(X, abs(pi[a]))
+    wmax = 0.0
+    for a in range(N):
+        for c in range(N):
+            wmax = max(wmax, abs(W[a, c]))
+    bmax = 0.0
+    for a in range(N):
+        bmax = max(bmax, max(abs(b[a]), abs(vminus[a])))
+    tolr = KKT_RTOL * max(bmax, wmax * X, TINY)
+    u = np.empty(N)
+    for a in range(N):
+        acc = 0.0
+        for c in range(N):
+            acc += W[a, c] * pi[c]
+        u[a] = acc
+    bnd = np.zeros(n, dtype=np.bool_)
+    nb = 0
+    for i in range(n):
+        o = i * d
+        pn = pi[o]
+        if not (mu[i] > 0.0 and pn > 0.0):
+            return False
+        if not abs(u[o] + b[o]) <= tolr:
+            return False
+        pt2 = 0.0
+        for k in range(1, d):
+            pt2 += pi[o + k] ** 2
+        pt = np.sqrt(pt2)
+        if not pt <= mu[i] * pn * (1.0 + cone_rtol):
+            return False
+        if pt >= mu[i] * pn * (1.0 - BOUNDARY_RTOL):
+            bnd[i] = True
+            nb += 1
+    for a in range(N):
+        u[a] += vminus[a]
+    # the columns: gamma's (disjoint supports: independent, kept), then lambda's
+    ncol = nb + n
+    C = np.zeros((ncol, N))
+    k = 0
+    for i in range(n):
+        if bnd[i]:
+            o = i * d
+            pt2 = 0.0
+            for c in range(1, d):
+                pt2 += pi[o + c] ** 2
+            pt = np.sqrt(pt2)
+            C[k, o] = mu[i]
+            for c in range(1, d):
+                C[k, o + c] = -pi[o + c] / pt
+            k += 1
+    for i in range(n):
+        for a in range(N):
+            C[k, a] = W[a, i * d]
+        k += 1
+    cscale = 0.0
+    for j in range(ncol):
+        acc = 0.0
+        for a in range(N):
+            acc += C[j, a] * C[j, a]
+        cscale = max(cscale, np.sqrt(acc))
+    cut = 1e-11 * max(cscale, TINY)
+    Q = np.zeros((ncol, N))
+    R = np.zeros((ncol, ncol))
+    coef = np.empty(ncol)
+    m = 0
+    for j in range(ncol):
+        r = C[j]  # (in place: C's row j is not read again)
+        for t in range(m):
+            coef[t] = 0.0
+        for _ in range(2):
+            for t in range(m):
+                h = 0.0
+                for a in range(N):
+                    h += Q[t, a] * r[a]
+                coef[t] += h
+                for a in range(N):
+                    r[a] -= h * Q[t, a]
+        nr = 0.0
+        for a in range(N):
+            nr += r[a] * r[a]
+        nr = np.sqrt(nr)
+        if nr > cut:
+            for t in range(m):
+                R[t, m] = coef[t]
+            R[m, m] = nr
+            for a in range(N):
+                Q[m, a] = r[a] / nr
+            m += 1
+        elif j < nb:
+            return False
+    y = np.zeros(m)
+    res = u
+    for _ in range(2):
+        for t in range(m):
+            h = 0.0
+            for a in range(N):
+                h += Q[t, a] * res[a]
+            y[t] += h
+            for a in range(N):
+                res[a] -= h * Q[t, a]
+    for a in range(N):
+        if not abs(res[a]) <= tolr:
+            return False
+    # the gammas: the first nb coefficients of R c = y
+    x = np.zeros(m)
+    for t in range(m - 1, -1, -1):
+        acc = y[t]
+        for c in range(t + 1, m):
+            acc -= R[t, c] * x[c]
+        x[t] = acc / R[t, t]
+    for t in range(nb):
+        if not x[t] >= 0.0:
+            return False
+    return True
 
 
 @_jit
