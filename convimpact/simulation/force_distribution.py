@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import SolverError
 from .force_distribution_polish import (_cone_violation, _off_ray,
                                          _polish_least_norm, _polish_max_min, _warm_max_min)
+from .force_cold_start import cold_max_min
 from .force_dual import refusal_bound
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
@@ -91,9 +92,12 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
        width (1.4e-11 of the force scale for a planar table on three legs whose F is one
        point, ``m g (5/18, 5/18, 4/9)``); the margin comes first.
 
-    Stage 1's solution is refined by Newton's method on its optimality conditions, the
-    active cones fixed (:func:`_polish_max_min`: an interior-point solution meets them to
-    about the square root of its tolerance only). Stage 2 is solved by Newton's method on
+    Stage 1 is solved by a compiled primal-dual interior-point method from a cold start
+    and refined by Newton's method on its optimality conditions, the active cones fixed,
+    which certifies it (:func:`~.force_cold_start.cold_max_min`); where that does not
+    certify, by Clarabel, its solution refined the same way (:func:`_polish_max_min`: an
+    interior-point solution meets the conditions to about the square root of its
+    tolerance only). Stage 2 is solved by Newton's method on
     its optimality conditions (:func:`_polish_least_norm`: a primal-dual active set, cones
     whose equations depend on the others' left out, a multiplier of the wrong sign or a
     violated cone correcting the set), certified there to round-off, from the unconstrained
@@ -180,17 +184,22 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     # stage 1: max tau s.t. b - A y - tau w in the cones; unknowns (y, tau)
     q1 = np.zeros(r + 1)
     q1[r] = -1.0
-    x1, z1, status = _solve_certified(np.zeros((r + 1, r + 1)), q1,
-                                      np.hstack([A, w[:, None]]), b, cones,
-                                      "largest smallest margin")
-    if (below is not None and np.isfinite(below) and status == "Solved"
-            and x1[r] * scale < below - SOLVED_GUARD * scale):
-        # clearly below: the margin is all the caller needs (Clarabel's "Solved" holds
-        # its duality gap and residuals to 1e-11, far inside the guard), no polish
-        lam = lam0 + Q @ (x1[:r] * scale)
-        return lam, min(x1[r] * scale, _smallest_margin(mu, d, combo, lam))
-    # its optimality conditions solved to round-off on the active cones (Newton)
-    y_star, t_star, kinds, active = _polish_max_min(blocks, x1, z1)
+    # a compiled interior-point solve polished and certified on the optimality conditions
+    # (:func:`~.force_cold_start.cold_max_min`); Clarabel only where that does not certify
+    stage1 = cold_max_min(blocks)
+    if stage1 is None:
+        x1, z1, status = _solve_certified(np.zeros((r + 1, r + 1)), q1,
+                                          np.hstack([A, w[:, None]]), b, cones,
+                                          "largest smallest margin")
+        if (below is not None and np.isfinite(below) and status == "Solved"
+                and x1[r] * scale < below - SOLVED_GUARD * scale):
+            # clearly below: the margin is all the caller needs (Clarabel's "Solved" holds
+            # its duality gap and residuals to 1e-11, far inside the guard), no polish
+            lam = lam0 + Q @ (x1[:r] * scale)
+            return lam, min(x1[r] * scale, _smallest_margin(mu, d, combo, lam))
+        # its optimality conditions solved to round-off on the active cones (Newton)
+        stage1 = _polish_max_min(blocks, x1, z1)
+    y_star, t_star, kinds, active = stage1
     if warm is not None:
         _keep_earlier(warm)
         warm["active"] = active

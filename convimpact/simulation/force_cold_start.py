@@ -1,0 +1,61 @@
+"""The largest-smallest-margin program (:func:`~.force_distribution.max_margin_distribution`,
+stage 1) solved without the cone solver from a cold start: a compiled primal-dual
+interior-point method's last point
+(:func:`~.force_interior_kernels.primal_dual_max_min`) refined by Newton's method on
+the program's optimality conditions (:func:`~.force_distribution_polish._polish_max_min`),
+which certifies it: stationarity and the active cones' equations to 1e-12, every inactive
+cone's slack and every active cone's multiplier in its cone (a KKT point of the convex
+program: its optimum). Where that polish does not certify, None: the caller asks Clarabel.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .force_distribution_polish import _polish_max_min
+from .force_interior_kernels import primal_dual_max_min
+
+#: the interior-point method's duality gap s'z at which its point is handed to the polish
+#: (an active cone's slack and an inactive one's multiplier are then ~1e-11 against entries
+#: of order one: the active set reads off as from the solver's point; with 1e-8 the polish
+#: did not certify two degenerate programs of the box stack, t* ~ -3.3e-8, that it
+#: certifies from 1e-11)
+COLD_GAP = 1e-11
+
+
+def cold_max_min(blocks):
+    """(y, t*, kinds, active) of the max-min program on ``blocks`` (kind, A, b, w; the
+    last one the bound tau <= 1) as :func:`~.force_distribution_polish._polish_max_min`
+    returns them, certified there (``active`` not None); None where the interior-point
+    method fails, the blocks are not of its form (a second-order cone of three rows whose ``w``
+    is ``(w0 > 0, 0, 0)``, half-lines with ``w > 0`` or ``A, w = 0 < b``), or the polish
+    does not certify."""
+    sizes = np.array([len(blk[2]) for blk in blocks], dtype=np.int64)
+    soc = np.array([blk[0] == "soc" for blk in blocks], dtype=np.bool_)
+    tau0 = np.inf
+    for (kind, Ab, bb, wb) in blocks:
+        if kind == "soc":
+            if bb.size != 3 or not (wb[0] > 0.0 and wb[1] == 0.0 and wb[2] == 0.0):
+                return None
+            tau0 = min(tau0, (bb[0] - np.hypot(bb[1], bb[2])) / wb[0])
+        elif np.all(wb > 0.0):
+            tau0 = min(tau0, float(np.min(bb / wb)))
+        elif not (np.all(wb == 0.0) and np.all(bb > 0.0) and not np.any(Ab)):
+            return None
+    if not np.isfinite(tau0):
+        return None
+    starts = np.zeros(len(blocks), dtype=np.int64)
+    np.cumsum(sizes[:-1], out=starts[1:])
+    A = np.vstack([blk[1] for blk in blocks])
+    G = np.ascontiguousarray(np.hstack([A, np.concatenate([blk[3] for blk in blocks])[:, None]]))
+    b = np.concatenate([blk[2] for blk in blocks])
+    x = np.zeros(G.shape[1])
+    x[-1] = tau0 - 1.0  # (every slack at least 1 inside its cone)
+    z = np.zeros(b.size)
+    try:
+        if not primal_dual_max_min(G, b, soc, starts, sizes, x, z, COLD_GAP):
+            return None
+    except np.linalg.LinAlgError:  # (a singular Newton system)
+        return None
+    got = _polish_max_min(blocks, x, z)
+    return got if got[3] is not None else None
