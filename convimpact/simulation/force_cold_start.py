@@ -5,14 +5,19 @@ interior-point method's last point
 the program's optimality conditions (:func:`~.force_distribution_polish._polish_max_min`),
 which certifies it: stationarity and the active cones' equations to 1e-12, every inactive
 cone's slack and every active cone's multiplier in its cone (a KKT point of the convex
-program: its optimum). Where that polish does not certify, None: the caller asks Clarabel.
+program: its optimum). Where that polish does not converge in the cones (a degenerate
+optimum: the box stack's slip onset of its middle box, on which Clarabel ends "AlmostSolved"
+and the polish fails from its point too), the interior point itself is accepted where it
+meets the conditions Clarabel's answer is held to (:func:`optimality_residuals` within the
+caller's tolerance, 1e-8, on the original data; its gap s'z is 1e-11), as the caller accepts
+the solver's there; otherwise None: the caller asks Clarabel.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .force_distribution_polish import _polish_max_min
+from .force_distribution_polish import _cone_violation, _polish_max_min
 from .force_interior_kernels import primal_dual_max_min
 
 #: the interior-point method's duality gap s'z at which its point is handed to the polish
@@ -23,13 +28,15 @@ from .force_interior_kernels import primal_dual_max_min
 COLD_GAP = 1e-11
 
 
-def cold_max_min(blocks):
+def cold_max_min(blocks, rtol: float):
     """(y, t*, kinds, active) of the max-min program on ``blocks`` (kind, A, b, w; the
     last one the bound tau <= 1) as :func:`~.force_distribution_polish._polish_max_min`
-    returns them, certified there (``active`` not None); None where the interior-point
-    method fails, the blocks are not of its form (a second-order cone of three rows whose ``w``
-    is ``(w0 > 0, 0, 0)``, half-lines with ``w > 0`` or ``A, w = 0 < b``), or the polish
-    does not certify."""
+    returns them: certified there (``active`` not None), or, where the polish does not
+    converge, the interior point with every :func:`optimality_residuals` at most ``rtol``
+    (``active`` None, as the polish returns a solver's point it cannot refine). None where
+    the interior-point method fails, the blocks are not of its form (a second-order cone
+    of three rows whose ``w`` is ``(w0 > 0, 0, 0)``, half-lines with ``w > 0`` or ``A, w =
+    0 < b``), or neither certificate holds."""
     sizes = np.array([len(blk[2]) for blk in blocks], dtype=np.int64)
     soc = np.array([blk[0] == "soc" for blk in blocks], dtype=np.bool_)
     tau0 = np.inf
@@ -58,4 +65,29 @@ def cold_max_min(blocks):
     except np.linalg.LinAlgError:  # (a singular Newton system)
         return None
     got = _polish_max_min(blocks, x, z)
-    return got if got[3] is not None else None
+    if got[3] is not None:
+        return got
+    q = np.zeros(x.size)
+    q[-1] = -1.0
+    cones = [(blk[0], len(blk[2])) for blk in blocks]
+    residuals = optimality_residuals(np.zeros((x.size, x.size)), q, G, b, cones, x, z)
+    return got if all(v <= rtol for v in residuals.values()) else None
+
+
+def optimality_residuals(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray, cones,
+                         x: np.ndarray, z: np.ndarray) -> dict:
+    """The optimality conditions of ``argmin x'Px/2 + q'x s.t. b - A x in the cones`` at
+    (x, multipliers z), each relative to the size of its terms (as a solver's own
+    criteria): s = b - A x and z in their (self-dual) cones, stationarity P x + q + A'z =
+    0, complementarity s'z = 0."""
+    s = b - A @ x
+    Px, Az = P @ x, A.T @ z
+
+    def big(*vs):
+        return 1.0 + max(float(np.max(np.abs(v), initial=0.0)) for v in vs)
+
+    return {"primal cone": _cone_violation(s, cones) / big(b, A @ x),
+            "dual cone": _cone_violation(z, cones) / big(z),
+            "stationarity": float(np.max(np.abs(Px + q + Az))) / big(Px, q, Az),
+            "complementarity": abs(float(s @ z)) / big(0.5 * float(x @ Px) + float(q @ x),
+                                                      float(b @ z))}

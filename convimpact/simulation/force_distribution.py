@@ -23,9 +23,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
-from .force_distribution_polish import (_cone_violation, _off_ray,
-                                         _polish_least_norm, _polish_max_min, _warm_max_min)
-from .force_cold_start import cold_max_min
+from .force_cold_start import cold_max_min, optimality_residuals
+from .force_distribution_polish import (_off_ray, _polish_least_norm, _polish_max_min,
+                                         _warm_max_min)
 from .force_dual import refusal_bound
 
 OPEN, STICK, SLIP = "open", "stick", "slip"
@@ -186,7 +186,7 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
     q1[r] = -1.0
     # a compiled interior-point solve polished and certified on the optimality conditions
     # (:func:`~.force_cold_start.cold_max_min`); Clarabel only where that does not certify
-    stage1 = cold_max_min(blocks)
+    stage1 = cold_max_min(blocks, CERTIFY_RTOL)
     if stage1 is None:
         x1, z1, status = _solve_certified(np.zeros((r + 1, r + 1)), q1,
                                           np.hstack([A, w[:, None]]), b, cones,
@@ -464,18 +464,7 @@ def _solve_certified(P: np.ndarray, q: np.ndarray, A: np.ndarray, b: np.ndarray,
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
         raise SolverError(f"the force distribution of redundant contacts ({what}): Clarabel "
                           f"{status} with a non-finite solution")
-    s = b - A @ x
-    Px, Az = P @ x, A.T @ z
-
-    def big(*vs):
-        return 1.0 + max(float(np.max(np.abs(v), initial=0.0)) for v in vs)
-
-    # each residual relative to the size of its terms (as the solver's own criteria)
-    residuals = {"primal cone": _cone_violation(s, cones) / big(b, A @ x),
-                 "dual cone": _cone_violation(z, cones) / big(z),
-                 "stationarity": float(np.max(np.abs(Px + q + Az))) / big(Px, q, Az),
-                 "complementarity": abs(float(s @ z)) / big(0.5 * float(x @ Px) + float(q @ x),
-                                                           float(b @ z))}
+    residuals = optimality_residuals(P, q, A, b, cones, x, z)
     bad = {k: v for k, v in residuals.items() if not v <= CERTIFY_RTOL}
     if bad:
         raise SolverError(f"the force distribution of redundant contacts ({what}): Clarabel "
