@@ -94,8 +94,10 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
 
     Stage 1 is solved by a compiled primal-dual interior-point method from a cold start
     and refined by Newton's method on its optimality conditions, the active cones fixed,
-    which certifies it (:func:`~.force_cold_start.cold_max_min`); where that does not
-    certify, by Clarabel, its solution refined the same way (:func:`_polish_max_min`: an
+    which certifies it (:func:`~.force_cold_start.cold_max_min`; where that polish does
+    not converge, the interior point is taken on the optimality residuals a solver's
+    answer is held to); where neither certifies, by Clarabel, its solution refined the
+    same way (:func:`_polish_max_min`: an
     interior-point solution meets the conditions to about the square root of its
     tolerance only). Stage 2 is solved by Newton's method on
     its optimality conditions (:func:`_polish_least_norm`: a primal-dual active set, cones
@@ -110,7 +112,8 @@ def max_margin_distribution(mu: np.ndarray, d: int, combo, lam0: np.ndarray, Z: 
 
     Each program's solution is accepted only with its optimality conditions (primal and
     dual cone membership, stationarity, complementarity) holding, evaluated here: to
-    ``CERTIFY_RTOL`` for Clarabel's (with its status ``Solved`` or ``AlmostSolved``), to
+    ``CERTIFY_RTOL`` for Clarabel's (with its status ``Solved`` or ``AlmostSolved``) and an
+    unpolished interior point's, to
     1e-12 for stage 2's polished one; the returned
     margin must be within ``RTOL`` (relative to the force scale and the distribution's size;
     ``CERTIFY_RTOL |t*|`` if larger) of the floor. Otherwise
