@@ -66,18 +66,20 @@ def test_the_closed_form_margin_of_four_sticking_corners(T):
     assert _margins(blocks, got[0]).min() >= got[1] - 1e-12
 
 
-def test_random_programs_agree_with_clarabel():
-    rng = np.random.default_rng(7)
+@pytest.mark.parametrize("d", [2, 3])
+def test_random_programs_agree_with_clarabel(d):
+    """Planar (stick: two half-planes) and spatial (stick: a second-order cone) modes."""
+    rng = np.random.default_rng(7 + d)
     certified = 0
     for _ in range(60):
-        n = int(rng.integers(3, 7))
+        n = int(rng.integers(2 if d == 2 else 3, 7))
         combo = [STICK if rng.uniform() < 0.7 else SLIP for _ in range(n)]
         mu = rng.uniform(0.2, 1.0, n)
-        lam0 = rng.normal(size=(n, 3))
+        lam0 = rng.normal(size=(n, d))
         lam0[:, 0] = rng.uniform(0.0, 2.0, n)
-        r = int(rng.integers(1, min(7, 3 * n)))
-        Q, _ = np.linalg.qr(rng.normal(size=(3 * n, r)))
-        blocks = _margin_blocks(mu, 3, combo, lam0.ravel(), Q)
+        r = int(rng.integers(1, min(7, d * n)))
+        Q, _ = np.linalg.qr(rng.normal(size=(d * n, r)))
+        blocks = _margin_blocks(mu, d, combo, lam0.ravel(), Q)
         blocks.append(("nn", np.zeros((1, r)), np.ones(1), np.ones(1)))
         status, t_ref = _by_clarabel(blocks)
         got = cold_max_min(blocks, 1e-8)
