@@ -183,10 +183,18 @@ class ModelPredictor:
                              buf.b, buf.vn_k, self.msup, jcol, joff, buf.held)
 
     def predict(self, index: int, t: float, q, v, hk: float, sigma) -> Step:
-        c = self.cache
-        Mv = self.views[1]
-        for _ in range(2):  # the second call only after a regroup, at the same state
-            status, na = self.predict_into(q, v, hk)
+        c, buf = self.cache, self.buf
+        work, Mv, gapv, Jv, biasv = self.views
+        jcol, joff = self.support
+        # (predict_into's call, inline: this is the step's hot path)
+        status, na = predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, self.theta, c.gflat,
+                                   c.gsize, c.goff, c.mask, c.Minv, self.qm, self.vtmp,
+                                   self.vfree, buf.e, self.gap_tol, self.rest_velocity,
+                                   buf.active, buf.Ja, buf.b, buf.vn_k, self.msup, jcol, joff,
+                                   buf.held)
+        for i in range(2):  # another call only after a regroup, at the same state
+            if i:
+                status, na = self.predict_into(q, v, hk)
             if status != REGROUP:
                 break
             if self.structural and not self.certify():
