@@ -30,8 +30,8 @@ from __future__ import annotations
 import time as _time
 
 from ..compiled import jit as _jit
-from .moreau_kernels import apply_impulses, same_pattern, solve_small_islands
-from .moreau_step_kernels import advance, predict_model
+from .moreau_kernels import apply_impulses, same_pattern_on, solve_small_islands
+from .moreau_step_kernels import advance
 
 #: :func:`solve_apply_advance`'s outcomes
 DONE, LAYOUT, NOT_CERTIFIED, NON_FINITE = 0, 1, 2, 3
@@ -44,7 +44,7 @@ def solve_apply_advance(Ja_all, b_all, vn_all, active_all, na, mu_all, G, gflat,
                         key_active, key_moves, icon, icoff, icol, icoloff, d, coulomb,
                         poisson, tol, max_iter, newton_iter, last, use_start, r_all, res,
                         used, b2_all, factor_all, v_free, v_new, gen, rest_velocity, qm,
-                        h_theta, q_out, v_out):
+                        h_theta, q_out, v_out, jcol, joff):
     """A step's contact problem on its cached layout, ``v_{k+1}`` and ``q_{k+1}``.
 
     ``Ja_all``, ``b_all``, ``vn_all``, ``active_all``, ``r_all`` are the active rows' buffers
@@ -56,11 +56,12 @@ def solve_apply_advance(Ja_all, b_all, vn_all, active_all, na, mu_all, G, gflat,
     ``v_new``, ``gen``, ``last`` and ``q_out``, ``v_out`` written. ``poisson``: the
     dissipative law (the plastic problem, ``b_n = J_n v_free``, each impulse times
     ``1 + e_eff = b_n / J_n v_free`` where ``J_n v_free < 0``; ``b2_all``, ``factor_all``
-    scratch).
+    scratch). ``jcol``, ``joff``: the supports of the contacts' rows
+    (:attr:`.moreau_loop.Step.support`).
     """
     Ja = Ja_all[:na]
     active = active_all[:na]
-    if not same_pattern(Ja, active, key_active, key_moves):
+    if not same_pattern_on(Ja, active, key_active, key_moves, jcol, joff):
         return LAYOUT, 0, 0, 0
     r = r_all[:na]
     b = b_all[:na]
@@ -134,12 +135,8 @@ class FastStep:
         s, p = self.solver, self.pred
         c = p.cache
         buf = p.buf
-        work, Mv, gapv, Jv, biasv = p.views
         th = p.theta
-        status, na = predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, th, c.gflat, c.gsize,
-                                   c.goff, c.mask, c.Minv, p.qm, p.vtmp, p.vfree, buf.e,
-                                   p.gap_tol, p.rest_velocity, buf.active, buf.Ja, buf.b,
-                                   buf.vn_k)
+        status, na = p.predict_into(q, v, hk)
         if status:
             return REDO
         self.na = na
@@ -160,7 +157,7 @@ class FastStep:
             lay.active, lay.moves, lay.icon, lay.icoff, lay.icol, lay.icoloff,
             buf.Ja.shape[1], s.coulomb, s.poisson, s.tol, s.max_iter, s.newton_iter, s.last,
             s.warm_start, s.r, lay.res, lay.used, self._b2, self._factor, p.vfree, s.v_new,
-            s.gen, s.rest_velocity, p.qm, hk * th, q_out, v_out)
+            s.gen, s.rest_velocity, p.qm, hk * th, q_out, v_out, *p.support)
         spent = _time.perf_counter() - t0
         if outcome:
             return PREDICTED

@@ -11,7 +11,8 @@ point and the Newton finish of :func:`convimpact.contacts.engine.solve`) over al
 them in one call, each island warm-started, when asked, by Newton on its law's natural map
 from the previous step's impulses (:func:`convimpact.contacts.engine.warm_newton`'s
 compiled branch). :func:`apply_impulses` gives ``v_{k+1} = v_free + G J^T r``;
-:func:`same_pattern` tells whether a step keeps the previous step's island layout.
+:func:`same_pattern` tells whether a step keeps the previous step's island layout
+(:func:`same_pattern_on`: the same answer, reading each row on its contact's support).
 
 Every answer is judged by the relative natural-map residual on the island's original data,
 :func:`natural_map_residual` (the formula of
@@ -273,6 +274,32 @@ def same_pattern(Ja, active, key_active, key_moves):
         if active[c] != key_active[c]:
             return False
         for a in range(k):
+            moves = False
+            for r in range(d):
+                if Ja[c, r, a] != 0.0:
+                    moves = True
+                    break
+            if moves != key_moves[c, a]:
+                return False
+    return True
+
+
+@_jit
+def same_pattern_on(Ja, active, key_active, key_moves, jcol, joff):
+    """:func:`same_pattern` where contact c's rows are zero outside the columns
+    ``jcol[joff[c]:joff[c + 1]]`` (:mod:`.moreau_step_kernels`): once the active contacts
+    are the key's, each row is compared on its contact's columns only (``key_moves``, made
+    from rows of the same contacts, is False outside them)."""
+    na, d, k = Ja.shape
+    if key_active.shape[0] != na:
+        return False
+    for c in range(na):
+        if active[c] != key_active[c]:
+            return False
+    for c in range(na):
+        a0, a1 = joff[active[c]], joff[active[c] + 1]
+        for t in range(a0, a1):
+            a = jcol[t]
             moves = False
             for r in range(d):
                 if Ja[c, r, a] != 0.0:

@@ -46,7 +46,9 @@ from .moreau_step_kernels import (
     REGROUP,
     advance,
     contact_rows_into,
+    dense_support,
     model_series,
+    model_support,
     predict_model,
 )
 from .projection import project_positions, project_velocities
@@ -78,10 +80,12 @@ class Step:
     and ``inv`` (:class:`.moreau_engine.InverseMass`) at q_m, ``blocks`` (the
     :class:`.moreau_engine.GroupCache` G is block diagonal over), ``C`` (loop rows at q_m),
     ``v_free``, ``sigma`` (the loop impulse after the smooth part), and the active contacts:
-    ``active`` (indices), ``Ja`` (na, d, k), ``b`` (na, d), ``vn_k`` (na,)."""
+    ``active`` (indices), ``Ja`` (na, d, k), ``b`` (na, d), ``vn_k`` (na,); ``support``:
+    ``(jcol, joff)``, contact c's row of J is zero outside the columns
+    ``jcol[joff[c]:joff[c + 1]]`` (:mod:`.moreau_step_kernels`)."""
 
     __slots__ = ("index", "tm", "hk", "qm", "v", "M", "inv", "blocks", "C", "v_free",
-                 "sigma", "active", "Ja", "b", "vn_k")
+                 "sigma", "active", "Ja", "b", "vn_k", "support")
 
 
 class _Buffers:
@@ -94,6 +98,8 @@ class _Buffers:
         self.Ja = np.zeros((nc, d, k))
         self.b = np.zeros((nc, d))
         self.vn_k = np.zeros(nc)
+        #: per row of Ja, the contact whose columns it holds (-1: none)
+        self.held = np.full(nc, -1, dtype=np.int64)
         self._views: dict = {}
 
     def fill(self, st: Step, na: int) -> None:
@@ -106,7 +112,9 @@ class _Buffers:
 
 class ModelPredictor:
     """The predictor on a model without loops or applied forces: one compiled call per step
-    (:func:`.moreau_step_kernels.predict_model`) on the model's work buffer."""
+    (:func:`.moreau_step_kernels.predict_model`) on the model's work buffer, on the supports
+    of M and of the contacts' Jacobians (:func:`.moreau_step_kernels.model_support`),
+    certified on the model's evaluation at every regroup (:meth:`certify`)."""
 
     #: its steps may be taken by :class:`.moreau_fast.FastStep` (with an EngineSolver's)
     FAST = True
@@ -135,17 +143,64 @@ class ModelPredictor:
         self.buf = _Buffers(mech, nc, d, k)
         self.C = np.zeros((0, k))
         self.st = Step()
+        self.msup, jcol, joff = model_support(data.work)
+        self.support = (jcol, joff)
+        #: the supports held on every regroup so far (False: the dense ones, for good)
+        self.structural = True
+        self._off = None
+
+    def certify(self) -> bool:
+        """Whether M and the contacts' Jacobians, as the model evaluated them last, are
+        zero outside the supports; if not, the dense supports from now on (False)."""
+        _, Mv, _, Jv, _ = self.views
+        k, nc = Mv.shape[0], Jv.shape[0]
+        if self._off is None:  # the entries outside the supports, once
+            jcol, joff = self.support
+            moff = np.ones(k * k, dtype=np.bool_)
+            moff[self.msup] = False
+            joff_mask = np.ones((nc, k), dtype=np.bool_)
+            joff_mask[np.repeat(np.arange(nc), np.diff(joff)), jcol] = False
+            self._off = (moff, joff_mask)
+        moff, joff_mask = self._off
+        ok = not (np.any(Mv.reshape(-1)[moff]) or np.any(np.any(Jv != 0.0, axis=1)[joff_mask]))
+        if not ok:
+            self.structural = False
+            self.msup, jcol, joff = dense_support(nc, k)
+            self.support = (jcol, joff)
+            self.buf.held[:] = -1
+            self.buf.Ja[...] = 0.0
+        return ok
+
+    def predict_into(self, q, v, hk: float) -> tuple[int, int]:
+        """:func:`.moreau_step_kernels.predict_model` on this predictor's buffers:
+        ``(status, n_active)``."""
+        c, buf = self.cache, self.buf
+        work, Mv, gapv, Jv, biasv = self.views
+        jcol, joff = self.support
+        return predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, self.theta, c.gflat,
+                             c.gsize, c.goff, c.mask, c.Minv, self.qm, self.vtmp, self.vfree,
+                             buf.e, self.gap_tol, self.rest_velocity, buf.active, buf.Ja,
+                             buf.b, buf.vn_k, self.msup, jcol, joff, buf.held)
 
     def predict(self, index: int, t: float, q, v, hk: float, sigma) -> Step:
-        c, buf, th = self.cache, self.buf, self.theta
+        c, buf = self.cache, self.buf
         work, Mv, gapv, Jv, biasv = self.views
-        for _ in range(2):  # the second call only after a regroup, at the same state
-            status, na = predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, th, c.gflat,
-                                       c.gsize, c.goff, c.mask, c.Minv, self.qm, self.vtmp,
-                                       self.vfree, buf.e, self.gap_tol, self.rest_velocity,
-                                       buf.active, buf.Ja, buf.b, buf.vn_k)
+        jcol, joff = self.support
+        # (predict_into's call, inline: this is the step's hot path)
+        status, na = predict_model(work, Mv, gapv, Jv, biasv, q, v, hk, self.theta, c.gflat,
+                                   c.gsize, c.goff, c.mask, c.Minv, self.qm, self.vtmp,
+                                   self.vfree, buf.e, self.gap_tol, self.rest_velocity,
+                                   buf.active, buf.Ja, buf.b, buf.vn_k, self.msup, jcol, joff,
+                                   buf.held)
+        for i in range(2):  # another call only after a regroup, at the same state
+            if i:
+                status, na = self.predict_into(q, v, hk)
             if status != REGROUP:
                 break
+            if self.structural and not self.certify():
+                status, na = self.predict_into(q, v, hk)  # on the dense supports
+                if status != REGROUP:
+                    break
             regroup(Mv, self.C, c)
             self.inv = InverseMass(c.Minv, c.groups)
         if status:
@@ -159,6 +214,7 @@ class ModelPredictor:
         st.M, st.inv, st.C, st.v_free = self.views[1], self.inv, self.C, self.vfree
         st.sigma = sigma
         st.blocks = self.cache
+        st.support = self.support
         self.buf.fill(st, na)
         return st
 
@@ -194,7 +250,7 @@ class ModelPredictor:
         try:
             gmin = model_series(data.work, data.M, data.gap, data.position3, data.rotation3,
                                 lay.body_mass, lay.body_com, lay.gravity, theta, dtheta, p,
-                                T, V)
+                                T, V, self.msup)
         finally:
             data.cache.clear()
         zeros = np.zeros(n)
@@ -218,6 +274,7 @@ class ProtocolPredictor:
         self.cache = GroupCache()
         self.buf = None
         self.st = Step()
+        self.support = dense_support(len(self.contacts), self.k)[1:]
 
     def loop_rows(self, q):
         m, k = self.m, self.k
@@ -246,6 +303,7 @@ class ProtocolPredictor:
         st = self.st
         st.index, st.tm, st.hk, st.qm, st.v, st.M, st.inv, st.C = index, tm, hk, qm, v, M, inv, C
         st.v_free, st.sigma, st.blocks = v_free, sigma, self.cache
+        st.support = self.support
         na = 0
         if self.contacts:
             if self.buf is None:
@@ -257,7 +315,7 @@ class ProtocolPredictor:
             slack = GAP_ROUNDOFF * max(1.0, float(np.max(np.abs(qm), initial=0.0)))
             na = contact_rows_into(gaps, np.ascontiguousarray(J), v, v_free, buf.e, hk * th,
                                    self.gap_tol + slack, self.rest_velocity, buf.active,
-                                   buf.Ja, buf.b, buf.vn_k)
+                                   buf.Ja, buf.b, buf.vn_k, *self.support, buf.held)
             buf.fill(st, na)
         else:
             st.active = np.zeros(0, dtype=np.int64)

@@ -65,8 +65,10 @@ from ..impact.laws.pn_complementarity import MAX_CONTACTS
 from ..impact.laws.pn_complementarity_impulse import _ranks, _sets
 from ..impact.laws.pn_complementarity_search import DONE, SLIDE_TIER, SlideWarmStart, search
 from ..impact.problem.build import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
-from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity, same_pattern
+from .moreau_kernels import (apply_island_impulse, island_delassus, island_velocity,
+                             same_pattern_on)
 from .moreau_pn_kernels import coordinate_certificate
+from .moreau_step_kernels import dense_support
 
 #: island modes (:class:`PnIslands`)
 NONE, REST, SLIDE = 0, 1, 2
@@ -89,7 +91,7 @@ def _end_mode(i, slot, mode, wvalid):
 @_jit
 def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, icol,
                icoloff, eligible, slot, mode, mu_all, masks, rank, wkind, wtang, wpi, wvalid,
-               tols, r, v_new, status, full_slide):
+               tols, r, v_new, status, full_slide, jcol, joff):
     """For every island i (contacts ``icon[icoff[i]:icoff[i + 1]]``, rows of ``Ja`` (na, d,
     k), among the ``active`` contacts; coordinates ``icol[icoloff[i]:icoloff[i + 1]]``) the
     answer of the module docstring where it applies.
@@ -110,7 +112,8 @@ def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, 
     (sliding mode, the pruned search's answer; ``full_slide[i]``: on every contact),
     SEPARATING, CERTIFIED_NEW (certified, not in a resting mode: the solver searches it)
     or FULL; impulses into ``r`` (na, d) and ``v_free + G J^T pi`` into ``v_new`` (which
-    holds ``v_free`` on entry) for STUCK and SLID islands."""
+    holds ``v_free`` on entry) for STUCK and SLID islands. ``jcol``, ``joff``: the
+    supports of the contacts' rows (:attr:`.moreau_loop.Step.support`)."""
     rest_velocity, immobile_rtol, tiny_normal = tols[0], tols[1], tols[2]
     approach_rtol, cond_max, cone_rtol, slack_max = tols[3], tols[4], tols[5], tols[6]
     slide_tol, lo, hi = tols[7], tols[8], tols[9]
@@ -118,7 +121,7 @@ def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, 
     for c in range(vn_k.shape[0]):
         if vn_k[c] < -rest_velocity:
             return -1, 0, 0, 0
-    if not same_pattern(Ja, active, ref_active, ref_moves):
+    if not same_pattern_on(Ja, active, ref_active, ref_moves, jcol, joff):
         return -2, 0, 0, 0
     full, stuck, slid, largest = 0, 0, 0, 0
     for i in range(icoff.shape[0] - 1):
@@ -348,10 +351,14 @@ class PnIslands:
         vn_k = getattr(st, "vn_k", None)  # the predictor's J_n v_k (a hand-made step: none)
         if vn_k is None:
             vn_k = np.ascontiguousarray(Ja[:, 0, :] @ st.v)
+        support = getattr(st, "support", None)  # (a hand-made step: none, the dense one)
+        if support is None:
+            support = dense_support(self.n_contacts, Ja.shape[2])[1:]
         for _ in range(2):  # the second call after a new layout
             flat = self._flat
-            full, stuck, slid, largest = pn_islands(Ja, vn_k, st.v_free, G, st.active, *flat[:7], flat[7], flat[8],
-                              self.mu, *flat[9:15], self.tols, r, v_new, flat[15], flat[16])
+            full, stuck, slid, largest = pn_islands(
+                Ja, vn_k, st.v_free, G, st.active, *flat[:7], flat[7], flat[8], self.mu,
+                *flat[9:15], self.tols, r, v_new, flat[15], flat[16], *support)
             if full != -2:
                 break
             self._publish(solver)

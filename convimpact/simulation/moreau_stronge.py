@@ -71,7 +71,9 @@ from ..impact.exact.dispatch import DECOUPLED_RTOL
 from ..impact.laws.stronge_contacts import _WARM, KKT_RTOL, WARM_RESIDUAL
 from ..impact.laws.stronge_contacts_warm import REDUNDANT, STILL, UNIQUE, warm_compression
 from ..impact.problem.build import IMMOBILE_RTOL, TINY_NORMAL
-from .moreau_kernels import apply_island_impulse, island_delassus, island_velocity, same_pattern
+from .moreau_kernels import (apply_island_impulse, island_delassus, island_velocity,
+                             same_pattern_on)
+from .moreau_step_kernels import dense_support
 
 LAW = "stronge"
 #: the methods whose several-contact path is the law's conic one (the warm start included)
@@ -85,7 +87,7 @@ TOLERANCES = (IMMOBILE_RTOL, TINY_NORMAL, DECOUPLED_RTOL, APPROACH_RTOL, WARM_RE
 
 @_jit
 def stronge_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, icol,
-                    icoloff, mu_all, last, tols, r, v_new, status):
+                    icoloff, mu_all, last, tols, r, v_new, status, jcol, joff):
     """For every island i (contacts ``icon[icoff[i]:icoff[i + 1]]``, rows of ``Ja`` (na, d,
     k), among the ``active`` contacts; coordinates ``icol[icoloff[i]:icoloff[i + 1]]``): the
     law's answer with every e = 0 where the module docstring's checks hold, from the start
@@ -109,7 +111,7 @@ def stronge_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, ic
     for c in range(vn_k.shape[0]):
         if vn_k[c] < -rest_velocity:
             return -1, 0, 0
-    if not same_pattern(Ja, active, ref_active, ref_moves):
+    if not same_pattern_on(Ja, active, ref_active, ref_moves, jcol, joff):
         return -2, 0, 0
     n_isl = icoff.shape[0] - 1
     for i in range(n_isl):
@@ -285,7 +287,6 @@ class StrongeIslands:
         starts = np.flatnonzero(np.r_[True, np.diff(groups.label[order]) != 0])
         return bool(np.array_equal(np.minimum.reduceat(where, starts),
                                    np.maximum.reduceat(where, starts)))
-        self._groups = st.inv.groups
 
     def solve(self, solver, st):
         """``(v_{k+1}, sigma)`` of a step without an impact whose islands are all answered
@@ -304,6 +305,9 @@ class StrongeIslands:
         vn_k = getattr(st, "vn_k", None)  # the predictor's J_n v_k (a hand-made step: none)
         if vn_k is None:
             vn_k = np.ascontiguousarray(Ja[:, 0, :] @ st.v)
+        support = getattr(st, "support", None)  # (a hand-made step: none, the dense one)
+        if support is None:
+            support = dense_support(self.mu.size, Ja.shape[2])[1:]
         for _ in range(2):  # the second call after a new layout of the islands
             if st.inv.groups is not self._groups:
                 if self._flat is not None and self._same_islands(st.inv.groups):
@@ -313,7 +317,7 @@ class StrongeIslands:
             ref_active, ref_moves, icon, icoff, icol, icoloff, status = self._flat
             full, done, largest = stronge_islands(
                 Ja, vn_k, st.v_free, G, active, ref_active, ref_moves, icon, icoff, icol,
-                icoloff, self.mu, self.last, self.tols, r, v_new, status)
+                icoloff, self.mu, self.last, self.tols, r, v_new, status, *support)
             if full != -2:
                 break
             self._relayout(solver, st)

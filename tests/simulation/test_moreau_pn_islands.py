@@ -16,6 +16,7 @@ from convimpact.simulation import moreau_impact as mi
 from convimpact.simulation import moreau_pn_islands as mpi
 from convimpact.simulation.moreau import simulate_moreau
 from convimpact.simulation.moreau_impact import ImpactSolver
+from convimpact.simulation.moreau_step_kernels import dense_support
 
 H = 2e-3
 LAW = "pereira-nikravesh"
@@ -167,7 +168,8 @@ def test_the_kernel_declines_impact_steps_and_other_layouts():
     Ja = np.ascontiguousarray(st.Ja[:3])
     args = (Ja, np.zeros(3), st.v_free, np.ascontiguousarray(st.inv.G), np.arange(3),
             *flat[:7], flat[7], flat[8], path.mu, *flat[9:15], path.tols, np.zeros((3, 3)),
-            st.v_free.copy(), flat[15], flat[16])
+            st.v_free.copy(), flat[15], flat[16],
+            *dense_support(len(mech.contact_names), q.size)[1:])
     assert mpi.pn_islands(*args)[0] == -2
 
 

@@ -173,9 +173,10 @@ def _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, c, A):
             continue
         c0 += b[j * d]
         far_b += bmax[j]
-        for r in range(N):
-            if member[r // d]:
-                c[r] += W[j * d, r]
+        for i in range(n):  # (the members' rows, contact by contact: no division per row)
+            if member[i]:
+                for r in range(i * d, i * d + d):
+                    c[r] += W[j * d, r]
     for i in range(n):  # (the push must press every member down: else no need for Omega)
         if member[i]:
             o = i * d
@@ -214,15 +215,18 @@ def _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slippin
     c0 = 0.0
     fro2 = 0.0
     xin2 = 0.0
+    rows = np.empty(N, dtype=np.bool_)  # the members' rows (no division in the loops)
+    for r in range(N):
+        rows[r] = member[r // d]
     for r in range(N):
         c[r] = 0.0
-        if not member[r // d]:
+        if not rows[r]:
             continue
         c0 += xi[r] * b[r]
         xin2 += xi[r] * xi[r]
         acc = 0.0
         for k in range(N):
-            if member[k // d]:
+            if rows[k]:
                 acc += W[r, k] * xi[k]
                 fro2 += W[r, k] ** 2
         c[r] = acc
