@@ -264,22 +264,37 @@ def apply_impulses(Ja, r, G, gflat, gsize, goff, v_free, v_new, gen, last, activ
 
 
 @_jit
-def same_pattern(Ja, active, key_active, key_moves):
-    """True when the active contacts are ``key_active`` and the columns their rows move
-    (nonzero entries, ``key_moves`` (n_active, k)) are those of the key."""
-    na, d, k = Ja.shape
+def _same_active(active, key_active, na):
     if key_active.shape[0] != na:
         return False
     for c in range(na):
         if active[c] != key_active[c]:
             return False
+    return True
+
+
+@_jit
+def _moves_as_key(Ja, c, a, key_moves):
+    """Whether row block c of ``Ja`` moves column a (a nonzero entry) exactly where the key
+    does."""
+    moves = False
+    for r in range(Ja.shape[1]):
+        if Ja[c, r, a] != 0.0:
+            moves = True
+            break
+    return moves == key_moves[c, a]
+
+
+@_jit
+def same_pattern(Ja, active, key_active, key_moves):
+    """True when the active contacts are ``key_active`` and the columns their rows move
+    (nonzero entries, ``key_moves`` (n_active, k)) are those of the key."""
+    na, d, k = Ja.shape
+    if not _same_active(active, key_active, na):
+        return False
+    for c in range(na):
         for a in range(k):
-            moves = False
-            for r in range(d):
-                if Ja[c, r, a] != 0.0:
-                    moves = True
-                    break
-            if moves != key_moves[c, a]:
+            if not _moves_as_key(Ja, c, a, key_moves):
                 return False
     return True
 
@@ -290,21 +305,11 @@ def same_pattern_on(Ja, active, key_active, key_moves, jcol, joff):
     ``jcol[joff[c]:joff[c + 1]]`` (:mod:`.moreau_step_kernels`): once the active contacts
     are the key's, each row is compared on its contact's columns only (``key_moves``, made
     from rows of the same contacts, is False outside them)."""
-    na, d, k = Ja.shape
-    if key_active.shape[0] != na:
+    na = Ja.shape[0]
+    if not _same_active(active, key_active, na):
         return False
     for c in range(na):
-        if active[c] != key_active[c]:
-            return False
-    for c in range(na):
-        a0, a1 = joff[active[c]], joff[active[c] + 1]
-        for t in range(a0, a1):
-            a = jcol[t]
-            moves = False
-            for r in range(d):
-                if Ja[c, r, a] != 0.0:
-                    moves = True
-                    break
-            if moves != key_moves[c, a]:
+        for t in range(joff[active[c]], joff[active[c] + 1]):
+            if not _moves_as_key(Ja, c, jcol[t], key_moves):
                 return False
     return True
