@@ -225,6 +225,23 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
 
 
 @_jit
+def _project_out(Q, m, r, coef):
+    """r minus its projection on the orthonormal rows ``Q[:m]``, in place (classical
+    Gram-Schmidt, twice), the coefficients taken out into ``coef[:m]``."""
+    N = r.shape[0]
+    for t in range(m):
+        coef[t] = 0.0
+    for _ in range(2):
+        for t in range(m):
+            h = 0.0
+            for a in range(N):
+                h += Q[t, a] * r[a]
+            coef[t] += h
+            for a in range(N):
+                r[a] -= h * Q[t, a]
+
+
+@_jit
 def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
     """Whether ``pi`` (a previous time step's answer) is a minimizer of the full set's slide
     program P_N (every contact, all frictional) on this problem, by its KKT conditions: ``pi``
@@ -309,16 +326,7 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
     m = 0
     for j in range(ncol):
         r = C[j]  # (in place: C's row j is not read again)
-        for t in range(m):
-            coef[t] = 0.0
-        for _ in range(2):
-            for t in range(m):
-                h = 0.0
-                for a in range(N):
-                    h += Q[t, a] * r[a]
-                coef[t] += h
-                for a in range(N):
-                    r[a] -= h * Q[t, a]
+        _project_out(Q, m, r, coef)
         nr = 0.0
         for a in range(N):
             nr += r[a] * r[a]
@@ -334,14 +342,7 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
             return False
     y = np.zeros(m)
     res = u
-    for _ in range(2):
-        for t in range(m):
-            h = 0.0
-            for a in range(N):
-                h += Q[t, a] * res[a]
-            y[t] += h
-            for a in range(N):
-                res[a] -= h * Q[t, a]
+    _project_out(Q, m, res, y)
     for a in range(N):
         if not abs(res[a]) <= tolr:
             return False
