@@ -32,8 +32,8 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import MassMatrixError, NonFiniteError, ShapeError, as_real_array
 from .lowrank import LOWRANK_MAX_FRACTION, DelassusFactor
 
-#: a block of M of more rows than this is not factored dense (the generalized path is then
-#: declined: the engine works on W alone)
+#: a coupled block of M of more rows than this is not factored dense: the entry raises
+#: MassMatrixError and says to pass W alone (a sparse factorization of such blocks is not built)
 MAX_BLOCK_ROWS = 2000
 #: the Newton steps and the interior point go through G where m is at most this fraction of
 #: the contact rows
@@ -54,7 +54,8 @@ def inverse_cholesky_transpose(M) -> sp.csr_matrix:
     sizes = np.bincount(labels, minlength=count)
     if sizes.max(initial=0) > MAX_BLOCK_ROWS:
         raise MassMatrixError(f"a coupled block of M has {sizes.max()} rows: more than "
-                              f"{MAX_BLOCK_ROWS}, not factored dense")
+                              f"{MAX_BLOCK_ROWS}, not factored dense; pass the Delassus "
+                              "matrix W alone (without mass_matrix and jacobian)")
     first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     local = np.empty(m, dtype=np.int64)
     local[order] = np.arange(m) - first[labels[order]]   # a coordinate's place in its block
