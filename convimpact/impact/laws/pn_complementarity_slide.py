@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
+from ..problem.compiled_reduction import back_substitute
 from .pn_complementarity_kernels import admissible
 from ..conic.polish_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_NEWTON, ZERO,
                                    active_set_newton, primary_kinds)
@@ -347,12 +348,8 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
         if not abs(res[a]) <= tolr:
             return False
     # the gammas: the first nb coefficients of R c = y
-    x = np.zeros(m)
-    for t in range(m - 1, -1, -1):
-        acc = y[t]
-        for c in range(t + 1, m):
-            acc -= R[t, c] * x[c]
-        x[t] = acc / R[t, t]
+    x = y.copy()
+    back_substitute(np.ascontiguousarray(R[:m, :m].T), x)  # R x = y, R = (R^T)^T
     for t in range(nb):
         if not x[t] >= 0.0:
             return False
