@@ -35,6 +35,8 @@ from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .gauss_seidel import nsgs_newton
+from .light_newton import light_newton
+from .sparse_step import SparseStepSystem
 from .generalized import engine_factors
 from .threads import one_blas_thread
 
@@ -115,9 +117,12 @@ ADMM_CRAWL_DROP = 0.1
 #: sphere piles' ADMM stalls at 5e-4)
 ADMM_EXTEND_FROM = 1e-6
 ADMM_EXTEND_ITER = 40000
-#: Newton steps of a try from an iterate of the nonsmooth Gauss-Seidel (:mod:`.gauss_seidel`;
-#: from 1e-5 on the sphere piles it converged in 4-16)
+#: Newton steps of a try from an iterate of the nonsmooth Gauss-Seidel (:mod:`.gauss_seidel`),
+#: the light Newton of :mod:`.light_newton` (from 2e-4-5e-5 on the sphere piles of 624-897
+#: contacts it certified in 2-7 steps, where the finish's took 26 from 1e-5), a try stopped
+#: where its best residual has not halved in NSGS_NEWTON_STALL steps (failed tries: 3-4)
 NSGS_NEWTON_STEPS = 20
+NSGS_NEWTON_STALL = 3
 
 
 def kernels():
@@ -463,10 +468,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             # answer, Newton tried on its way (it certified the sphere piles of 726 and 897
             # contacts in 3-12 s, where the interior point, the ADMM and the fixed point had
             # stalled at 5e-4-1e-3); after the ADMM, whose way certifies the others
+            system = SparseStepSystem(W, d)
+
             def nsgs_newton_step(r):
-                return newton_finish(W, b, mu, r, coulomb=True, tol=tol,
-                                     max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
-                                     sparse=sparse, factor=factor)
+                return light_newton(W, b, mu, r, tol=tol, system=system,
+                                    max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
+                                    stall_steps=NSGS_NEWTON_STALL)
 
             rg, resg, kg = nsgs_newton(
                 W, b, mu, d, R.impulse, tol=tol, newton=nsgs_newton_step,

@@ -65,42 +65,31 @@ def _slide_at(A, q, mu, c, s, out):
 
 @_jit
 def local_residual(A, q, mu, r):
-    """The one-contact natural-map error ``|r - P_K(r - u - mu |u_t| e_n)|`` (absolute)."""
+    """The one-contact natural-map error ``|r - P_K(r - u - mu |u_t| e_n)|`` (absolute),
+    in scalars (d = 2 or 3: no array allocated)."""
     d = q.shape[0]
-    u = np.empty(d)
-    for i in range(d):
-        s = q[i]
-        for j in range(d):
-            s += A[i, j] * r[j]
-        u[i] = s
-    ut = 0.0
-    for i in range(1, d):
-        ut += u[i] * u[i]
-    ut = math.sqrt(ut)
-    v = np.empty(d)
-    v[0] = r[0] - u[0] - mu * ut
-    for i in range(1, d):
-        v[i] = r[i] - u[i]
-    t = 0.0
-    for i in range(1, d):
-        t += v[i] * v[i]
-    t = math.sqrt(t)
-    p = np.zeros(d)
-    if t <= mu * v[0]:
-        for i in range(d):
-            p[i] = v[i]
-    elif mu * t <= -v[0]:
-        pass
+    u0 = q[0]
+    u1 = q[1]
+    u2 = q[2] if d == 3 else 0.0
+    for j in range(d):
+        u0 += A[0, j] * r[j]
+        u1 += A[1, j] * r[j]
+        if d == 3:
+            u2 += A[2, j] * r[j]
+    r2 = r[2] if d == 3 else 0.0
+    v0 = r[0] - u0 - mu * math.sqrt(u1 * u1 + u2 * u2)
+    v1 = r[1] - u1
+    v2 = r2 - u2
+    t = math.sqrt(v1 * v1 + v2 * v2)
+    if t <= mu * v0:
+        p0, p1, p2 = v0, v1, v2
+    elif mu * t <= -v0:
+        p0, p1, p2 = 0.0, 0.0, 0.0
     else:
-        pn = (v[0] + mu * t) / (1.0 + mu * mu)
-        p[0] = pn
-        sc = mu * pn / t if t > 0.0 else 0.0
-        for i in range(1, d):
-            p[i] = v[i] * sc
-    e = 0.0
-    for i in range(d):
-        e += (r[i] - p[i]) ** 2
-    return math.sqrt(e)
+        p0 = (v0 + mu * t) / (1.0 + mu * mu)
+        sc = mu * p0 / t if t > 0.0 else 0.0
+        p1, p2 = v1 * sc, v2 * sc
+    return math.sqrt((r[0] - p0) ** 2 + (r[1] - p1) ** 2 + (r2 - p2) ** 2)
 
 
 @_jit
@@ -118,26 +107,40 @@ def solve_local(A, q, mu, r, hint):
         for i in range(1, d):
             r[i] = 0.0
         return 1
-    # stick needs A invertible (a singular diagonal block of W: no stick answer is tried)
-    if d == 2:
-        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-    else:
-        det = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
-               - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
-               + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+    # stick needs A invertible (a singular diagonal block of W: no stick answer is tried);
+    # x = -A^-1 q by the adjugate (Cramer's rule: no LAPACK call and no array allocated, the
+    # sweeps' cost was 70% local solves, most of it there)
     big = 0.0
     for i in range(d):
         big = max(big, abs(A[i, i]))
-    if abs(det) > 1e-13 * big ** d:
-        x = np.linalg.solve(A, -q)
+    x0 = -1.0
+    x1 = 0.0
+    x2 = 0.0
+    if d == 2:
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        if abs(det) > 1e-13 * big ** d:
+            x0 = -(A[1, 1] * q[0] - A[0, 1] * q[1]) / det
+            x1 = -(A[0, 0] * q[1] - A[1, 0] * q[0]) / det
     else:
-        x = np.full(d, -1.0)
-    t = 0.0
-    for i in range(1, d):
-        t += x[i] * x[i]
-    if x[0] >= 0.0 and math.sqrt(t) <= mu * x[0]:
-        for i in range(d):
-            r[i] = x[i]
+        c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+        c01 = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
+        c02 = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
+        det = A[0, 0] * c00 + A[1, 0] * c01 + A[2, 0] * c02
+        if abs(det) > 1e-13 * big ** d:
+            c10 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+            c11 = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
+            c12 = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
+            c20 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+            c21 = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
+            c22 = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+            x0 = -(c00 * q[0] + c01 * q[1] + c02 * q[2]) / det
+            x1 = -(c10 * q[0] + c11 * q[1] + c12 * q[2]) / det
+            x2 = -(c20 * q[0] + c21 * q[1] + c22 * q[2]) / det
+    if x0 >= 0.0 and math.sqrt(x1 * x1 + x2 * x2) <= mu * x0:
+        r[0] = x0
+        r[1] = x1
+        if d == 3:
+            r[2] = x2
         return 1
     cand = np.empty(d)
     if d == 2:
@@ -159,7 +162,10 @@ def solve_local(A, q, mu, r, hint):
             f2, ok2, fwd2 = _slide_at(A, q, mu, math.cos(th + h), math.sin(th + h), cand)
             if not ok2 or f2 == f:
                 break
-            th = th - f * h / (f2 - f)
+            step = f * h / (f2 - f)
+            th = th - step
+            if abs(step) <= 1e-15:  # converged (it ran all 8 before: 2x the slides' cost)
+                break
         f, ok, fwd = _slide_at(A, q, mu, math.cos(th), math.sin(th), cand)
         if fwd and local_residual(A, q, mu, cand) <= 1e-14 * (abs(q[0]) + abs(q[1]) + abs(q[2])):
             for i in range(3):
