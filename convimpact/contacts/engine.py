@@ -34,7 +34,7 @@ from .admm_kernel import dense_admm, natural_residual
 from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
-from .gauss_seidel import nsgs_newton
+from .gauss_seidel import nsgs_newton, weakly_coupled
 from .light_newton import light_newton
 from .sparse_step import SparseStepSystem
 from .generalized import engine_factors
@@ -365,11 +365,40 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             best[:2] = resc, rc
         long_newton(rc, resc)
 
+    def nsgs():
+        """Past SPARING_NEWTON_MAX_ROWS: the over-relaxed NSGS with exact one-contact solves
+        from the CCP answer, the light Newton (:mod:`.light_newton`) tried on its way."""
+        nonlocal iterations
+        system = SparseStepSystem(W, d)
+
+        def newton_try(r):
+            return light_newton(W, b, mu, r, tol=tol, system=system,
+                                max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
+                                stall_steps=NSGS_NEWTON_STALL)
+
+        rg, resg, kg = nsgs_newton(
+            W, b, mu, d, R.impulse, tol=tol, newton=newton_try,
+            residual=lambda r: cones.natural_map_residual(W, b, mu, r, coulomb=True)[0])
+        iterations += kg
+        if resg < best[0]:
+            best[:2] = resg, rg
+            best[2] = "converged" if resg <= tol else "the NSGS's limits"
+
     # before the ADMM past SPARING_NEWTON_MAX_ROWS (the sparse ADMM was slow where it served:
     # 10 s on a 400-contact stack), after it below (the ADMM's way was 1.5-3.5x faster than
     # the interior point's stall on piles, walls and robots of 120-260 contacts)
     ip_first = not sparing
-    if res > tol and ip_first:
+    # a separate branch, before the interior point and the ADMM: past SPARING_NEWTON_MAX_ROWS
+    # on weakly coupled contacts (:func:`.gauss_seidel.weakly_coupled`: the sphere piles) the
+    # NSGS first. It certified the piles of 624, 726 and 897 spheres in 0.6-1.6 s from the CCP
+    # answer, where the interior point and the ADMM had spent 1.2-2.5 s before it and stalled
+    # at 2e-3-6e-2 and 7e-5-1e-2; on the strongly coupled ones (walls, robots' soles, log
+    # piles) the ADMM's way stays first (the NSGS left walls of 424 and 976 bricks at
+    # 2e-5-2e-6 after 2-8 s)
+    nsgs_first = bool(res > tol and ip_first and weakly_coupled(W, d))
+    if nsgs_first:
+        nsgs()
+    if best[0] > tol and ip_first:
         interior()
     if best[0] > tol:
         tried = [np.inf]
@@ -463,25 +492,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         iterations += k
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
         long_newton(best[1], best[0])  # from the ADMM's best answer
-        if best[0] > tol and ip_first:
-            # past SPARING_NEWTON_MAX_ROWS: NSGS with exact one-contact solves from the CCP
-            # answer, Newton tried on its way (it certified the sphere piles of 726 and 897
-            # contacts in 3-12 s, where the interior point, the ADMM and the fixed point had
-            # stalled at 5e-4-1e-3); after the ADMM, whose way certifies the others
-            system = SparseStepSystem(W, d)
-
-            def nsgs_newton_step(r):
-                return light_newton(W, b, mu, r, tol=tol, system=system,
-                                    max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
-                                    stall_steps=NSGS_NEWTON_STALL)
-
-            rg, resg, kg = nsgs_newton(
-                W, b, mu, d, R.impulse, tol=tol, newton=nsgs_newton_step,
-                residual=lambda r: cones.natural_map_residual(W, b, mu, r, coulomb=True)[0])
-            iterations += kg
-            if resg < best[0]:
-                best[:2] = resg, rg
-                best[2] = "converged" if resg <= tol else best[2]
+        if best[0] > tol and ip_first and not nsgs_first:
+            nsgs()
         if best[0] > tol:  # the fixed point on the De Saxce shift, CCP by CCP
             for r in shift_fixed_point(W, b, mu, d, best[1], tol, max_iter, sparse, solve_ccp):
                 iterations += 1
