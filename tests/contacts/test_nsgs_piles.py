@@ -1,0 +1,141 @@
+"""The sphere piles' way through the contact engine: the light Newton
+(convimpact.contacts.light_newton), the NSGS's coupling rule
+(convimpact.contacts.gauss_seidel.weakly_coupled) and the large sphere piles certified.
+
+Oracles, none of them the code under test: answers built backwards (an impulse and a velocity
+satisfying the law by construction, q = u - A r), hand derivations in the comments, and the
+natural-map residual recomputed here with this folder's own cone projection.
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from convimpact.contacts.gauss_seidel import weakly_coupled
+from convimpact.contacts.light_newton import light_newton
+
+from .cone_checks import project_cone
+
+
+def coulomb_residual(W, b, mu, r):
+    """|r - P_K(r - y)| / max(|b|, |r|, |u|), y = u + mu |u_t| e_n, u = W r + b (here)."""
+    n, d = r.shape
+    u = (W @ r.ravel() + b.ravel()).reshape(n, d)
+    y = u.copy()
+    y[:, 0] += mu * np.linalg.norm(u[:, 1:], axis=1)
+    err = np.linalg.norm(r - project_cone(r - y, mu))
+    return err / max(np.linalg.norm(b), np.linalg.norm(r), np.linalg.norm(u))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_light_newton_finds_a_slide_built_backwards(seed):
+    # r* = rn (1, -mu t) on the cone's boundary, u* = (0, lam t), lam > 0: a solution by
+    # construction; b = u* - A r*. From r* moved by 1e-3 the light Newton returns r*.
+    rng = np.random.default_rng(seed)
+    mu = rng.uniform(0.1, 1.0)
+    B = rng.normal(size=(3, 3))
+    A = np.eye(3) + 0.1 * (B @ B.T)
+    t = rng.normal(size=2)
+    t /= np.linalg.norm(t)
+    rn, lam = rng.uniform(0.2, 2.0), rng.uniform(0.05, 1.0)
+    r_star = np.concatenate([[rn], -mu * rn * t])[None, :]
+    b = (np.concatenate([[0.0], lam * t]) - A @ r_star[0])[None, :]
+    W = sp.csr_matrix(A)
+    mu_v = np.array([mu])
+    assert coulomb_residual(W, b, mu_v, r_star) < 1e-15
+    r0 = r_star + 1e-3 * rng.normal(size=(1, 3))
+    r, res, steps = light_newton(W, b, mu_v, r0, tol=1e-13, max_iter=30)
+    assert res <= 1e-13
+    assert coulomb_residual(W, b, mu_v, r) <= 1e-13
+    np.testing.assert_allclose(r, r_star, atol=1e-11)
+    assert steps >= 1
+
+
+def test_light_newton_on_two_decoupled_contacts_matches_their_closed_forms():
+    # contact 1: A = diag(2, 1, 1), q = (-1, 0.6, 0.8), mu = 0.5 slides: u_n = 2 r_n - 1 = 0,
+    # r = (0.5, -0.15, -0.2), u_t = (0.45, 0.6) along (0.6, 0.8); contact 2: W2 = I,
+    # q2 = -(1, 0.1, 0), mu = 0.5: the stick r = (1, 0.1, 0) (|r_t| = 0.1 < 0.5)
+    W = sp.block_diag([np.diag([2.0, 1.0, 1.0]), np.eye(3)], format="csr")
+    b = np.array([[-1.0, 0.6, 0.8], [-1.0, -0.1, 0.0]])
+    mu = np.array([0.5, 0.5])
+    expected = np.array([[0.5, -0.15, -0.2], [1.0, 0.1, 0.0]])
+    r0 = expected + np.array([[0.01, -0.005, 0.004], [-0.02, 0.01, 0.003]])
+    r, res, _ = light_newton(W, b, mu, r0, tol=1e-14, max_iter=30)
+    assert coulomb_residual(W, b, mu, r) <= 1e-14
+    np.testing.assert_allclose(r, expected, atol=1e-13)
+
+
+def _point_masses_W(pairs, normals, n_particles):
+    """W = J J^T for unit point masses (3 translations each) and point contacts between
+    particle pairs (a, b) (b = -1: the fixed floor), each contact's frame (normal, two
+    tangents) orthonormal: row k of J is +e on b's coordinates and -e on a's."""
+    rows = []
+    for (a, c), nrm in zip(pairs, normals):
+        nrm = np.asarray(nrm, float) / np.linalg.norm(nrm)
+        t1 = np.cross(nrm, [0.0, 0.0, 1.0] if abs(nrm[2]) < 0.9 else [1.0, 0.0, 0.0])
+        t1 /= np.linalg.norm(t1)
+        t2 = np.cross(nrm, t1)
+        for e in (nrm, t1, t2):
+            row = np.zeros(3 * n_particles)
+            row[3 * c:3 * c + 3] += e
+            if a >= 0:
+                row[3 * a:3 * a + 3] -= e
+            rows.append(row)
+    J = np.array(rows)
+    return sp.csr_matrix(J @ J.T)
+
+
+def test_point_contacts_in_a_chain_are_weakly_coupled():
+    # four particles in a line, contacts (0,1), (1,2), (2,3) along x: W_nn,ii = 2 (two unit
+    # masses) and W_nn,i,i+1 = -1 (one shared mass, opposite signs): coupling 1/2 for every
+    # contact, median 1/2 <= 0.6
+    x = [1.0, 0.0, 0.0]
+    W = _point_masses_W([(0, 1), (1, 2), (2, 3)], [x, x, x], 4)
+    np.testing.assert_allclose(W.toarray()[0, 3], -1.0)
+    assert weakly_coupled(W, 3)
+
+
+def test_two_contacts_on_one_pair_are_strongly_coupled():
+    # two particles touching at two points with the same normal (a flat interface of point
+    # masses): each contact's normal row equals the other's, coupling 1; a third contact
+    # (0 on the floor) couples at 1/sqrt(2); the median of (1, 1, 0.707) is 1 > 0.6
+    z = [0.0, 0.0, 1.0]
+    W = _point_masses_W([(0, 1), (0, 1), (-1, 0)], [z, z, z], 2)
+    assert not weakly_coupled(W, 3)
+
+
+def _perturbed(case, scale, seed):
+    rng = np.random.default_rng(seed)
+    b = np.asarray(case.b, float)
+    return b * (1.0 + scale * rng.standard_normal(b.shape))
+
+
+@pytest.mark.parametrize("scale, seed", [(0.0, 0), (1e-14, 1), (1e-14, 2), (1e-10, 3)])
+def test_sphere_pile_of_624_contacts_certified_under_perturbations(scale, seed):
+    # the pile whose certification hung on round-off (certified in one run, 7.5e-5 in the
+    # next): b moved by 1e-14-1e-10 relative, each answer checked here on the natural map
+    from convimpact import solve_contact_problem
+    from convimpact.bench.contact_corpus import corpus
+
+    (case,) = corpus(names=["sphere-pile-sq-624"])
+    b = _perturbed(case, scale, seed)
+    s = solve_contact_problem(case.W, b, case.mu, law="coulomb", tol=1e-8, dim=case.dim)
+    n, d = case.n_contacts, case.dim
+    r = np.asarray(s.impulse).reshape(n, d)
+    assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["sphere-pile-sq-897", "sphere-pile-hex-726"])
+@pytest.mark.parametrize("seed", [1, 2])
+def test_large_sphere_piles_certified_under_perturbations(name, seed):
+    from convimpact import solve_contact_problem
+    from convimpact.bench.contact_corpus import corpus
+
+    (case,) = corpus(names=[name])
+    b = _perturbed(case, 1e-14, seed)
+    s = solve_contact_problem(case.W, b, case.mu, law="coulomb", tol=1e-8, dim=case.dim,
+                              mass_matrix=case.M, jacobian=case.J)
+    n, d = case.n_contacts, case.dim
+    r = np.asarray(s.impulse).reshape(n, d)
+    assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
