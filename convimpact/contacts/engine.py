@@ -34,9 +34,7 @@ from .admm_kernel import dense_admm, natural_residual
 from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
-from .gauss_seidel import nsgs_newton, weakly_coupled
-from .light_newton import light_newton
-from .sparse_step import SparseStepSystem
+from .gauss_seidel import nsgs_light, weakly_coupled
 from .generalized import engine_factors
 from .threads import one_blas_thread
 
@@ -117,12 +115,6 @@ ADMM_CRAWL_DROP = 0.1
 #: sphere piles' ADMM stalls at 5e-4)
 ADMM_EXTEND_FROM = 1e-6
 ADMM_EXTEND_ITER = 40000
-#: Newton steps of a try from an iterate of the nonsmooth Gauss-Seidel (:mod:`.gauss_seidel`),
-#: the light Newton of :mod:`.light_newton` (from 2e-4-5e-5 on the sphere piles of 624-897
-#: contacts it certified in 2-7 steps, where the finish's took 26 from 1e-5), a try stopped
-#: where its best residual has not halved in NSGS_NEWTON_STALL steps (failed tries: 3-4)
-NSGS_NEWTON_STEPS = 20
-NSGS_NEWTON_STALL = 3
 
 
 def kernels():
@@ -366,19 +358,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         long_newton(rc, resc)
 
     def nsgs():
-        """Past SPARING_NEWTON_MAX_ROWS: the over-relaxed NSGS with exact one-contact solves
-        from the CCP answer, the light Newton (:mod:`.light_newton`) tried on its way."""
+        """Past SPARING_NEWTON_MAX_ROWS: the NSGS from the CCP answer, light Newton tries."""
         nonlocal iterations
-        system = SparseStepSystem(W, d)
-
-        def newton_try(r):
-            return light_newton(W, b, mu, r, tol=tol, system=system,
-                                max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
-                                stall_steps=NSGS_NEWTON_STALL)
-
-        rg, resg, kg = nsgs_newton(
-            W, b, mu, d, R.impulse, tol=tol, newton=newton_try,
-            residual=lambda r: cones.natural_map_residual(W, b, mu, r, coulomb=True)[0])
+        rg, resg, kg = nsgs_light(W, b, mu, d, R.impulse, tol=tol, newton_iter=newton_iter)
         iterations += kg
         if resg < best[0]:
             best[:2] = resg, rg
@@ -388,13 +370,10 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     # 10 s on a 400-contact stack), after it below (the ADMM's way was 1.5-3.5x faster than
     # the interior point's stall on piles, walls and robots of 120-260 contacts)
     ip_first = not sparing
-    # a separate branch, before the interior point and the ADMM: past SPARING_NEWTON_MAX_ROWS
-    # on weakly coupled contacts (:func:`.gauss_seidel.weakly_coupled`: the sphere piles) the
-    # NSGS first. It certified the piles of 624, 726 and 897 spheres in 0.6-1.6 s from the CCP
-    # answer, where the interior point and the ADMM had spent 1.2-2.5 s before it and stalled
-    # at 2e-3-6e-2 and 7e-5-1e-2; on the strongly coupled ones (walls, robots' soles, log
-    # piles) the ADMM's way stays first (the NSGS left walls of 424 and 976 bricks at
-    # 2e-5-2e-6 after 2-8 s)
+    # a separate branch: past SPARING_NEWTON_MAX_ROWS on weakly coupled contacts (the sphere
+    # piles, :func:`.gauss_seidel.weakly_coupled`) the NSGS first: 0.6-1.6 s to certify piles
+    # of 624-897 spheres, where the interior point and the ADMM spent 1.2-2.5 s and stalled
+    # at 7e-5-6e-2; elsewhere (it left walls of 424 and 976 bricks at 2e-5-2e-6) after them
     nsgs_first = bool(res > tol and ip_first and weakly_coupled(W, d))
     if nsgs_first:
         nsgs()
