@@ -4,8 +4,10 @@ Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP
 where that misses, by an interior point on the law itself (:mod:`.coulomb_interior`, stopped
 where it stalls) and an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W),
 Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEPS`), and past
-:data:`SPARING_NEWTON_MAX_ROWS` rows, where these miss, the nonsmooth Gauss-Seidel with exact
-one-contact solves (:mod:`.gauss_seidel`, :mod:`.local_coulomb`). :func:`solve` is the entry; small problems go first to the compiled dense
+:data:`SPARING_NEWTON_MAX_ROWS` rows, where these miss (before them on weakly coupled contacts:
+the sphere piles), the nonsmooth Gauss-Seidel with exact one-contact solves and Newton tries
+(:mod:`.gauss_seidel`, :mod:`.local_coulomb`, :mod:`.light_newton`). :func:`solve` is the
+entry; small problems go first to the compiled dense
 kernels of the same method, and up to :data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from
 zero gets a bounded try first (before the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows).
 
@@ -153,8 +155,9 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     :data:`ADMM_CRAWL_DROP`), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
     long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`; past
     :data:`SPARING_NEWTON_MAX_ROWS` rows the nonsmooth Gauss-Seidel of
-    :func:`.gauss_seidel.nsgs_newton` from the CCP's answer (Newton tried on its way); then
-    the fixed point on De Saxce's shift (:mod:`.fixed_point`).
+    :func:`.gauss_seidel.nsgs_light` from the CCP's answer (Newton tried on its way; before
+    the interior point and the ADMM where :func:`.gauss_seidel.weakly_coupled`); then the
+    fixed point on De Saxce's shift (:mod:`.fixed_point`).
 
     ``start`` (n, d), optional, is a warm start (a time-stepping scheme's impulses of the
     previous step): the law's Newton finish (:func:`warm_newton`) runs from it first, and its
@@ -371,7 +374,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     # the interior point's stall on piles, walls and robots of 120-260 contacts)
     ip_first = not sparing
     # a separate branch: past SPARING_NEWTON_MAX_ROWS on weakly coupled contacts (the sphere
-    # piles, :func:`.gauss_seidel.weakly_coupled`) the NSGS first: 0.6-1.6 s to certify piles
+    # piles, :func:`.gauss_seidel.weakly_coupled`) the NSGS first: 0.9-1.9 s to certify piles
     # of 624-897 spheres, where the interior point and the ADMM spent 1.2-2.5 s and stalled
     # at 7e-5-6e-2; elsewhere (it left walls of 424 and 976 bricks at 2e-5-2e-6) after them
     nsgs_first = bool(res > tol and ip_first and weakly_coupled(W, d))

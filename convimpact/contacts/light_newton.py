@@ -4,8 +4,8 @@ the nonsmooth Gauss-Seidel's iterates on large sparse W (:mod:`.gauss_seidel`).
 The map and its generalized Jacobian are the finish's (:mod:`.finish`):
 ``F(r) = r - P_K(r - rho y(r))``, ``y = u + mu |u_t| e_n``, ``u = W r + b``,
 ``rho_i = 1 / W_nn,i``, ``J = I - D + D rho B W``. A step solves
-``min |J dr + F|^2 + lam |dr|^2`` on W's sparse block pattern (:class:`.sparse_step.SparseStepSystem`)
-and is followed by a backtracking line search on ``|F|``. The one difference from the
+``min |J dr + F|^2 + lam |dr|^2`` on W's sparse block pattern
+(:class:`.sparse_step.SparseStepSystem`) and is followed by a backtracking line search on ``|F|``. The one difference from the
 finish is ``lam = LIGHT_LAM |F| / scale`` instead of ``|F| / scale``: on the sphere piles of
 624-897 contacts J is ill-conditioned (a step of 1.4e-4 for a map of 5e-7: singular values
 near 1e-3), the finish's lam damped exactly those directions and its steps shrank the map
