@@ -163,3 +163,51 @@ def ccp_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool, *, 
         if res < best_res:
             best_res, best = res, r
     return best, best_res, done
+
+
+class AdmmRace:
+    """The ADMM of :func:`coulomb_admm` from ``r0``, joined by a second run from zero
+    (Pinocchio's start) where the first crawls; the runs then take turns of ten iterations,
+    until the second's best residual is below the first's: the first is then dropped.
+
+    :meth:`next` gives the next iterate (ten iterations of one run), :meth:`judge` takes its
+    natural-map residual. Every ``crawl_iter`` iterations the first run's best residual is
+    marked; where it is at most ``below`` and above ``drop`` times the mark ``window`` marks
+    earlier, the run from zero joins (once). On the brick wall of 976 contacts the second
+    run passed the first 4,480 iterations after it joined (the two at 1e-6), and certified
+    alone 3,500 later.
+    """
+
+    def __init__(self, W, b, mu, r0, sparse: bool, *, factor=None, crawl_iter: int = 1000,
+                 window: int = 2, drop: float = 0.1, below: float = 1e-4):
+        self.args = W, b, mu, sparse, factor
+        self.runs = [coulomb_admm(W, b, mu, r0, sparse, factor=factor)]
+        self.zeros = np.zeros_like(np.asarray(r0, dtype=float))
+        self.crawl = crawl_iter, window, drop, below
+        self.done = 0
+        self.last = 0  # the run of the last iterate
+        self.best = [np.inf, np.inf]  # each run's best residual
+        self.joined = False
+        self.marks = [np.inf]  # the first run's best every crawl_iter iterations
+
+    def next(self) -> np.ndarray:
+        self.last = (self.done // 10) % len(self.runs)
+        self.done += 10
+        return next(self.runs[self.last])
+
+    def judge(self, res: float) -> None:
+        which = self.last + (1 if self.joined and len(self.runs) == 1 else 0)
+        self.best[which] = min(self.best[which], res)
+        if len(self.runs) > 1:
+            if self.best[1] < self.best[0]:
+                del self.runs[0]
+            return
+        crawl_iter, window, drop, below = self.crawl
+        self.marks[-1] = self.best[0]
+        if not self.joined and self.done % crawl_iter == 0:
+            m = self.marks
+            if len(m) > window and m[-1] <= below and m[-1] > drop * m[-1 - window]:
+                W, b, mu, sparse, factor = self.args
+                self.runs.append(coulomb_admm(W, b, mu, self.zeros, sparse, factor=factor))
+                self.joined = True
+            m.append(m[-1])

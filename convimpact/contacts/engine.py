@@ -29,7 +29,7 @@ import scipy.sparse as sp
 
 from . import cones
 from .ccp_interior import EngineResult, solve_ccp, use_sparse  # noqa: F401 (public here)
-from .admm import ccp_admm, coulomb_admm
+from .admm import AdmmRace, ccp_admm, coulomb_admm
 from .admm_kernel import dense_admm, natural_residual
 from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
@@ -95,30 +95,36 @@ POLISH_FROM = 1e-4
 #: and 10 had stopped)
 LONG_NEWTON_FROM = 1e-5
 LONG_NEWTON_STEPS = 40
-#: past :data:`SPARING_NEWTON_MAX_ROWS` rows (a sparse Newton step: 0.05-0.15 s at 2,700-2,900
-#: rows), a short try from an ADMM iterate stops where its best residual has not halved in
-#: this many steps (on the brick wall of 976 contacts the tries crawled, 4x in 10 steps; on
-#: the sphere piles those that served dropped 100x in 10 steps; the long Newton is left
-#: alone: on a pile of 624 spheres it went from 8e-7 to 7e-9 in 30 steps)
+#: past :data:`SPARING_NEWTON_MAX_ROWS` rows (a sparse Newton step: 0.05-0.15 s at 2,900
+#: rows) a try from an ADMM iterate, the direct one and the CCP's finish stop where their best
+#: has not halved in this many steps, the long Newton in LONG_STALL (it crawled on the walls
+#: of 424 and 976 contacts, 6e-6 to 4.3e-6 in 40 steps, 1.2 s; 8e-7 to 7e-9 in 30 formerly;
+#: below, where a step is cheap, it crawled to tol in 26-39 steps on 480-600 rows)
 TRY_STALL = 5
+LONG_STALL = 10
+#: ...and comes from within this residual, then on each drop by 100 (the ADMM alone certified
+#: the walls of 424 and 976 contacts, from zero, and the log pile of 528 in 4,600, 5,740 and
+#: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing)
+ADMM_TRY_FROM = 1e-6
 #: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best residual
 #: (Newton's tries included) is above ADMM_STALL_ABOVE and has not halved in the last
 #: ADMM_STALL_ITER iterations (on the sphere piles of 624-897 contacts it stalled at 7e-3 to
 #: 3e-2 from 5,000 iterations to its 20,000: half their time, before the NSGS certified them)
 ADMM_STALL_ITER = 5000
 ADMM_STALL_ABOVE = 1e-4
-#: ...and where it is below ADMM_STALL_ABOVE but has not dropped by this factor in the last
-#: ADMM_STALL_ITER iterations, the ADMM starts again from zero (Pinocchio's start), once: on
-#: the brick wall of 976 contacts the ADMM from the CCP answer crawled from 6.9e-7 at 6,000
-#: iterations to 5.2e-7 at 28,000 and reached 1e-8 at 43,610; from zero it reached 1e-8 in
-#: 5,810 (from zero on the log pile of 528 contacts: 6,410 iterations, from the CCP
-#: answer 1,810: the CCP answer stays the first start)
+#: ...and where its own best is below ADMM_STALL_ABOVE but has not dropped by ADMM_CRAWL_DROP
+#: over ADMM_CRAWL_WINDOW marks ADMM_CRAWL_ITER iterations apart, a second ADMM from zero
+#: (Pinocchio's start) joins it, the two taking turns (:class:`.admm.AdmmRace`): on the wall
+#: of 976 contacts from the CCP answer it crawled from 1e-6 at 3,000 iterations to 5e-7 at
+#: 27,000, from zero it certified at 5,740; on the wall of 424 from the CCP answer it stayed
+#: at 4e-7 from 2,000 to 4,400, certified at 4,600 (4,920 from zero); log pile of 528: 1,780
+#: (6,350 from zero)
 ADMM_CRAWL_DROP = 0.1
+ADMM_CRAWL_ITER = 1000
+ADMM_CRAWL_WINDOW = 2
 #: Coulomb's law on large sparse W: where the ADMM of :mod:`.admm` ends its ``admm_iter``
-#: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more
-#: (the brick wall of 976 contacts, before the restart of ADMM_CRAWL_DROP: 5.9e-7 at 20,000
-#: iterations, where 1,000 Newton steps tried on its way had failed, and 1e-8 at 43,520; the
-#: sphere piles' ADMM stalls at 5e-4)
+#: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more (the
+#: brick wall of 976 contacts from the CCP answer: 5.9e-7 at 20,000 iterations, 1e-8 at 43,520)
 ADMM_EXTEND_FROM = 1e-6
 ADMM_EXTEND_ITER = 40000
 #: Newton steps of a try from an iterate of the nonsmooth Gauss-Seidel (:mod:`.gauss_seidel`;
@@ -319,7 +325,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     if R.residual > tol:
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
                                   max_iter=newton_iter, sparse=sparse, factor=factor,
-                                  stall_steps=None if coulomb else TRY_STALL)
+                                  stall_steps=TRY_STALL)
         iterations += k
         if res < R.residual:
             res, u = cones.natural_map_residual(W, b, mu, r, coulomb=False)
@@ -339,7 +345,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
     r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
                               max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
-                                            else 10), sparse=sparse, factor=factor)
+                                            else 10), sparse=sparse, factor=factor,
+                              stall_steps=None if sparing else TRY_STALL)
     iterations += k
     best = [res, r, "converged"]
     long_tried = [np.inf]
@@ -352,7 +359,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             return
         long_tried[0] = res
         rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
-                                    max_iter=LONG_NEWTON_STEPS, sparse=sparse, factor=factor)
+                                    max_iter=LONG_NEWTON_STEPS, sparse=sparse, factor=factor,
+                                    stall_steps=None if sparing else LONG_STALL)
         iterations += k
         if resn < best[0]:
             best[:2] = resn, rn
@@ -395,13 +403,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             if best[0] <= tol:
                 return True
             # sparing: Newton tried from within 1e-5, then after each drop by 1000 (as the
-            # compiled ADMM's polish); else on each drop by 100 below 1e-4, and every 20
-            # checks from 1e-2 to LONG_NEWTON_FROM (on the largest sparse problems those tries
-            # took the sphere pile of 624 contacts to 8e-7, a geometric spacing to 8e-4 only;
-            # below, on the brick wall of 976 contacts, 1,000 steps of them had all failed)
-            if (res < min(1e-5, 1e-3 * tried[0]) if sparing else
-                    res < min(1e-4, 1e-2 * tried[0])
-                    or (LONG_NEWTON_FROM < res < 1e-2 and len(tried) % 20 == 0)):
+            # compiled ADMM's polish); else from within ADMM_TRY_FROM, on each drop by 100
+            if res < (min(1e-5, 1e-3 * tried[0]) if sparing
+                      else min(ADMM_TRY_FROM, 1e-2 * tried[0])):
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
@@ -410,13 +414,13 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
-                long_newton(rn, resn)
+                if sparing:  # else the try stopped where it crawled (TRY_STALL)
+                    long_newton(rn, resn)
             tried.append(res)
             return best[0] <= tol
 
-        # the ADMM from the CCP answer (from zero, Pinocchio's start, was 7.5x faster on a
-        # brick wall but 1.2-3.5x slower on most of the corpus: zero is the sparse ADMM's
-        # second start where the first crawls, ADMM_CRAWL_DROP)
+        # the ADMM from the CCP answer (from zero, 1.2-3.5x slower on most of the corpus, is
+        # the sparse ADMM's second start, joining where the first crawls: ADMM_CRAWL_DROP)
         done = 0
         if dense_admm_here:  # compiled, dense
 
@@ -437,40 +441,32 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             if best[0] > tol and not ip_first:
                 interior()
         else:
-            run = coulomb_admm(W, b, mu, R.impulse, sparse, factor=admm_factor)
+            runs = AdmmRace(W, b, mu, R.impulse, sparse, factor=admm_factor,
+                            crawl_iter=ADMM_CRAWL_ITER, window=ADMM_CRAWL_WINDOW,
+                            drop=ADMM_CRAWL_DROP, below=ADMM_STALL_ABOVE)
             marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
-            own = [np.inf]  # the ADMM's own (Newton's tries apart) every ADMM_STALL_ITER
-            restarted = False
             while done < admm_iter:
                 done += 10
-                if check(next(run)):
+                if check(runs.next()):
                     break
-                own[-1] = min(own[-1], last[0])
+                runs.judge(last[0])
                 if done % ADMM_STALL_ITER == 0:
                     marks.append(best[0])
                     if best[0] > ADMM_STALL_ABOVE and best[0] > 0.5 * marks[-2]:
                         break  # stalled far from a solution: the NSGS's way below
-                    own.append(own[-1])
-                    if (not restarted and len(own) > 2 and own[-1] <= ADMM_STALL_ABOVE
-                            and own[-1] > ADMM_CRAWL_DROP * own[-3]):
-                        # crawling near a solution: the ADMM again, from zero
-                        run = coulomb_admm(W, b, mu, np.zeros_like(R.impulse), sparse,
-                                           factor=admm_factor)
-                        restarted = True
             # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries,
             # which had all failed there), at most ADMM_EXTEND_ITER iterations more
             extra = 0
             while tol < best[0] <= ADMM_EXTEND_FROM and extra < ADMM_EXTEND_ITER:
                 extra += 10
-                r = next(run)
+                done += 10
+                r = runs.next()
                 res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
                 if res < best[0]:
                     best[:2] = res, r
-            done += extra
             if best[0] > tol and not ip_first:
                 interior()
-        iterations += done
-        iterations += k
+        iterations += done  # (the direct Newton's steps were counted once, above)
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
         long_newton(best[1], best[0])  # from the ADMM's best answer
         if best[0] > tol and ip_first:
