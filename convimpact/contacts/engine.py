@@ -95,11 +95,10 @@ POLISH_FROM = 1e-4
 #: and 10 had stopped)
 LONG_NEWTON_FROM = 1e-5
 LONG_NEWTON_STEPS = 40
-#: past :data:`SPARING_NEWTON_MAX_ROWS` rows (a sparse Newton step: 0.05-0.15 s at 2,900
-#: rows) a try from an ADMM iterate, the direct one and the CCP's finish stop where their best
-#: has not halved in this many steps, the long Newton in LONG_STALL (it crawled on the walls
-#: of 424 and 976 contacts, 6e-6 to 4.3e-6 in 40 steps, 1.2 s; 8e-7 to 7e-9 in 30 formerly;
-#: below, where a step is cheap, it crawled to tol in 26-39 steps on 480-600 rows)
+#: past :data:`SPARING_NEWTON_MAX_ROWS` rows (a Newton step: 0.05-0.15 s at 2,900 rows) a try
+#: from an ADMM iterate, the direct one and the CCP's finish stop where their best has not
+#: halved in this many steps, the long Newton in LONG_STALL (on the walls of 424 and 976
+#: contacts 6e-6 to 4.3e-6 in 40 steps, 1.2 s; below, it reached tol in 26-39 at 480-600 rows)
 TRY_STALL = 5
 LONG_STALL = 10
 #: ...and comes from within this residual, then on each drop by 100 (the ADMM alone certified
@@ -159,13 +158,13 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     :data:`ADMM_FIRST_MIN_ROWS` rows the ADMM's try after them. Each answer is kept when its
     natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
     finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
-    certified). Coulomb's law: Newton on its natural map from the CCP's answer
-    (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior point on
-    the law itself (:mod:`.coulomb_interior`, at most :data:`COULOMB_IP_ITER` steps, before
-    the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows, after it below) and the ADMM from the CCP's answer
-    (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
-    sparse factorization, started again from zero, once, where it crawls:
-    :data:`ADMM_CRAWL_DROP`), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
+    certified), then the ADMM (:data:`CCP_ADMM_ITER`). Coulomb's law: Newton from the CCP's
+    answer (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior
+    point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER` steps at most; before
+    the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows where Newton came near, else after) and
+    the ADMM (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm`
+    on the sparse factorization, joined by a run from zero where it crawls:
+    :data:`ADMM_CRAWL_DROP`), Newton tried within 1e-5 (:data:`ADMM_TRY_FROM` in .admm) and run
     long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`; past
     :data:`SPARING_NEWTON_MAX_ROWS` rows the nonsmooth Gauss-Seidel of
     :func:`.gauss_seidel.nsgs_newton` from the CCP's answer (Newton tried on its way); then
@@ -383,11 +382,13 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             best[:2] = resc, rc
         long_newton(rc, resc)
 
-    # before the ADMM past SPARING_NEWTON_MAX_ROWS (the sparse ADMM was slow where it served:
-    # 10 s on a 400-contact stack), after it below (the ADMM's way was 1.5-3.5x faster than
-    # the interior point's stall on piles, walls and robots of 120-260 contacts)
+    # before the ADMM past SPARING_NEWTON_MAX_ROWS where Newton came within POLISH_FROM (the
+    # sparse ADMM took 10 s on a 400-box stack, Newton 3e-5, the interior point certified it);
+    # after it below and where Newton stayed far (walls of 424 and 976 contacts, log pile of
+    # 528: 6.5e-4 to 1.5e-3; the interior point stalled at 8e-4 to 9e-3 in 0.15-0.45 s)
     ip_first = not sparing
-    if res > tol and ip_first:
+    ip_before = ip_first and res <= POLISH_FROM
+    if res > tol and ip_before:
         interior()
     if best[0] > tol:
         tried = [np.inf]
@@ -438,7 +439,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
             if res < best[0]:
                 best[:2] = res, r
-            if best[0] > tol and not ip_first:
+            if best[0] > tol and not ip_before:
                 interior()
         else:
             runs = AdmmRace(W, b, mu, R.impulse, sparse, factor=admm_factor,
@@ -454,8 +455,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                     marks.append(best[0])
                     if best[0] > ADMM_STALL_ABOVE and best[0] > 0.5 * marks[-2]:
                         break  # stalled far from a solution: the NSGS's way below
-            # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries,
-            # which had all failed there), at most ADMM_EXTEND_ITER iterations more
+            # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries)
             extra = 0
             while tol < best[0] <= ADMM_EXTEND_FROM and extra < ADMM_EXTEND_ITER:
                 extra += 10
@@ -464,7 +464,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
                 if res < best[0]:
                     best[:2] = res, r
-            if best[0] > tol and not ip_first:
+            if best[0] > tol and not ip_before:
                 interior()
         iterations += done  # (the direct Newton's steps were counted once, above)
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
