@@ -29,7 +29,7 @@ import scipy.sparse as sp
 
 from . import cones
 from .ccp_interior import EngineResult, solve_ccp, use_sparse  # noqa: F401 (public here)
-from .admm import AdmmRace, ccp_admm, coulomb_admm
+from .admm import RELAX, AdmmRace, ccp_admm
 from .admm_kernel import dense_admm, natural_residual
 from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
@@ -75,10 +75,9 @@ DENSE_ADMM_MAX_ROWS = 450
 #: also tries Newton more often (the sphere piles of 624-897 contacts)
 DIRECT_NEWTON_STEPS = 4
 SPARING_NEWTON_MAX_ROWS = 900
-#: the CCP: past its interior point and Newton finish (stopped where it crawls, TRY_STALL),
-#: the ADMM (:func:`.admm.ccp_admm`) at most this many iterations, aiming at this fraction of
-#: tol (on the brick wall of 976 contacts it stopped at 9.1e-9 to 9.4e-9 at tol under five
-#: perturbations of b by 1e-14; at 0.1 tol 8.8e-10 to 1e-9, 1,300-1,800 iterations more)
+#: the CCP: past its interior point and Newton finish (stopped by TRY_STALL) the ADMM
+#: (:func:`.admm.ccp_admm`), at most this many iterations, aiming at this fraction of tol (a
+#: wall of 976 contacts: 9.1e-9 to 9.4e-9 at tol with b perturbed by 1e-14, 8e-10 at 0.1 tol)
 CCP_ADMM_ITER = 10000
 CCP_ADMM_MARGIN = 0.1
 #: Newton steps of a try from an ADMM iterate (within 1e-5 it converges in 1-4 where it does)
@@ -105,10 +104,10 @@ LONG_STALL = 10
 #: the walls of 424 and 976 contacts, from zero, and the log pile of 528 in 4,600, 5,740 and
 #: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing)
 ADMM_TRY_FROM = 1e-6
-#: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best residual
-#: (Newton's tries included) is above ADMM_STALL_ABOVE and has not halved in the last
-#: ADMM_STALL_ITER iterations (on the sphere piles of 624-897 contacts it stalled at 7e-3 to
-#: 3e-2 from 5,000 iterations to its 20,000: half their time, before the NSGS certified them)
+#: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best (Newton's
+#: tries included) is above ADMM_STALL_ABOVE every ADMM_STALL_ITER iterations (sphere piles
+#: of 624-897 contacts: 1e-3 to 3e-2, the NSGS's; walls, log piles: 1e-5 by 1,500); it is
+#: over-relaxed (RELAX) past SPARING_NEWTON_MAX_ROWS (below, a robot's crawl was lost)
 ADMM_STALL_ITER = 5000
 ADMM_STALL_ABOVE = 1e-4
 #: ...and where its own best is below ADMM_STALL_ABOVE but has not dropped by ADMM_CRAWL_DROP
@@ -444,7 +443,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         else:
             runs = AdmmRace(W, b, mu, R.impulse, sparse, factor=admm_factor,
                             crawl_iter=ADMM_CRAWL_ITER, window=ADMM_CRAWL_WINDOW,
-                            drop=ADMM_CRAWL_DROP, below=ADMM_STALL_ABOVE)
+                            drop=ADMM_CRAWL_DROP, below=ADMM_STALL_ABOVE,
+                            relax=RELAX if not sparing else 1.0)
             marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
             while done < admm_iter:
                 done += 10
@@ -453,7 +453,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 runs.judge(last[0])
                 if done % ADMM_STALL_ITER == 0:
                     marks.append(best[0])
-                    if best[0] > ADMM_STALL_ABOVE and best[0] > 0.5 * marks[-2]:
+                    if best[0] > ADMM_STALL_ABOVE:
                         break  # stalled far from a solution: the NSGS's way below
             # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries)
             extra = 0

@@ -85,3 +85,25 @@ def test_brick_wall_of_976_contacts_is_certified_under_round_off(big_wall, seed)
     n = case.mu.shape[0]
     r = np.asarray(s.impulse).reshape(n, case.dim)
     assert ccp_residual(sp.csr_matrix(case.W), b.reshape(n, case.dim), case.mu, r) <= 1e-8
+
+
+@pytest.mark.parametrize("relax", [1.0, 1.6])
+def test_over_relaxed_sparse_admm_solves_coulombs_law(relax):
+    # the sparse ADMM (admm.coulomb_admm) over-relaxed or not, from zero, on a small brick
+    # wall: Coulomb's natural-map residual, recomputed here, reaches 1e-8
+    from convimpact.contacts.admm import coulomb_admm
+
+    from .test_contact_admm import coulomb_residual
+
+    (case,) = corpus(names=["box-wall-3x3-44"])
+    n, d = case.mu.shape[0], case.dim
+    W, b, mu = sp.csr_matrix(case.W), np.asarray(case.b, float).reshape(n, d), case.mu
+    run = coulomb_admm(W, b, mu, np.zeros((n, d)), True, relax=relax)
+    Wd = W.toarray()
+    best = np.inf
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for _ in range(3000):
+            best = min(best, coulomb_residual(Wd, b, mu, next(run)))
+            if best <= 1e-8:
+                break
+    assert best <= 1e-8
