@@ -434,7 +434,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
 
             Wd = W.toarray() if sp.issparse(W) else W
             r, _, done = dense_admm(Wd, b, mu, d, R.impulse, tol=tol, max_iter=admm_iter,
-                                    polish=polish)
+                                    polish=polish, relax=RELAX)
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
             if res < best[0]:
                 best[:2] = res, r

@@ -107,3 +107,21 @@ def test_over_relaxed_sparse_admm_solves_coulombs_law(relax):
             if best <= 1e-8:
                 break
     assert best <= 1e-8
+
+
+@pytest.mark.parametrize("relax", [1.0, 1.6])
+def test_over_relaxed_compiled_admm_solves_coulombs_law(relax):
+    # the compiled dense ADMM (admm_kernel.dense_admm) over-relaxed or not, from zero, on a
+    # small log pile: Coulomb's natural-map residual, recomputed here, at most 1e-8
+    from convimpact.contacts.admm_kernel import dense_admm
+
+    from .test_contact_admm import coulomb_residual
+
+    (case,) = corpus(names=["capsule-pile-4x4-56"])
+    n, d = case.mu.shape[0], case.dim
+    Wd, b, mu = case.W.toarray(), np.asarray(case.b, float).reshape(n, d), case.mu
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r, res, its = dense_admm(Wd, b, mu, d, np.zeros((n, d)), tol=1e-8, max_iter=20000,
+                                 relax=relax)
+    assert its < 20000
+    assert coulomb_residual(Wd, b, mu, r) <= 1e-8
