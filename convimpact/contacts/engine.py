@@ -106,9 +106,9 @@ LONG_STALL = 10
 ADMM_TRY_FROM = 1e-6
 #: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best (Newton's
 #: tries included) is above ADMM_STALL_ABOVE every ADMM_STALL_ITER iterations (sphere piles
-#: of 624-897 contacts: 1e-3 to 3e-2, the NSGS's; walls, log piles: 1e-5 by 1,500); it is
+#: of 624-897 contacts: 1e-2 at 2,000, the NSGS's; walls, log piles: 1e-4 by 640); it is
 #: over-relaxed (RELAX) past SPARING_NEWTON_MAX_ROWS (below, a robot's crawl was lost)
-ADMM_STALL_ITER = 5000
+ADMM_STALL_ITER = 2000
 ADMM_STALL_ABOVE = 1e-4
 #: ...and where its own best is below ADMM_STALL_ABOVE but has not dropped by ADMM_CRAWL_DROP
 #: over ADMM_CRAWL_WINDOW marks ADMM_CRAWL_ITER iterations apart, a second ADMM from zero
@@ -159,8 +159,8 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
     certified), then the ADMM (:data:`CCP_ADMM_ITER`). Coulomb's law: Newton from the CCP's
     answer (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior
-    point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER` steps at most; before
-    the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows where Newton came near, else after) and
+    point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER` steps at most; past
+    :data:`SPARING_NEWTON_MAX_ROWS` rows before the ADMM where Newton came near, below after) and
     the ADMM (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm`
     on the sparse factorization, joined by a run from zero where it crawls:
     :data:`ADMM_CRAWL_DROP`), Newton tried within 1e-5 (:data:`ADMM_TRY_FROM` in .admm) and run
@@ -381,10 +381,10 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             best[:2] = resc, rc
         long_newton(rc, resc)
 
-    # before the ADMM past SPARING_NEWTON_MAX_ROWS where Newton came within POLISH_FROM (the
-    # sparse ADMM took 10 s on a 400-box stack, Newton 3e-5, the interior point certified it);
-    # after it below and where Newton stayed far (walls of 424 and 976 contacts, log pile of
-    # 528: 6.5e-4 to 1.5e-3; the interior point stalled at 8e-4 to 9e-3 in 0.15-0.45 s)
+    # past SPARING_NEWTON_MAX_ROWS before the ADMM where Newton came within POLISH_FROM (the
+    # sparse ADMM took 10 s on a 400-box stack, Newton 3e-5, the interior point certified it),
+    # else not (walls of 424 and 976 contacts, log pile of 528, sphere piles: Newton 6.5e-4 to
+    # 2e-2, the interior point stalled at 8e-4 to 6e-2 in 0.15-0.55 s); below, after the ADMM
     ip_first = not sparing
     ip_before = ip_first and res <= POLISH_FROM
     if res > tol and ip_before:
@@ -438,7 +438,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
             if res < best[0]:
                 best[:2] = res, r
-            if best[0] > tol and not ip_before:
+            if best[0] > tol and not ip_first:
                 interior()
         else:
             runs = AdmmRace(W, b, mu, R.impulse, sparse, factor=admm_factor,
@@ -464,7 +464,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
                 if res < best[0]:
                     best[:2] = res, r
-            if best[0] > tol and not ip_before:
+            if best[0] > tol and not ip_first:
                 interior()
         iterations += done  # (the direct Newton's steps were counted once, above)
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
