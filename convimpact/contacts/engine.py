@@ -110,16 +110,8 @@ ADMM_TRY_FROM = 1e-6
 #: over-relaxed (RELAX) past SPARING_NEWTON_MAX_ROWS (below, a robot's crawl was lost)
 ADMM_STALL_ITER = 2000
 ADMM_STALL_ABOVE = 1e-4
-#: ...and where its own best is below ADMM_STALL_ABOVE but has not dropped by ADMM_CRAWL_DROP
-#: over ADMM_CRAWL_WINDOW marks ADMM_CRAWL_ITER iterations apart, a second ADMM from zero
-#: (Pinocchio's start) joins it, the two taking turns (:class:`.admm.AdmmRace`): on the wall
-#: of 976 contacts from the CCP answer it crawled from 1e-6 at 3,000 iterations to 5e-7 at
-#: 27,000, from zero it certified at 5,740; on the wall of 424 from the CCP answer it stayed
-#: at 4e-7 from 2,000 to 4,400, certified at 4,600 (4,920 from zero); log pile of 528: 1,780
-#: (6,350 from zero)
-ADMM_CRAWL_DROP = 0.1
-ADMM_CRAWL_ITER = 1000
-ADMM_CRAWL_WINDOW = 2
+#: ...and where its own best crawls below ADMM_STALL_ABOVE, a run from zero joins it
+#: (:class:`.admm.AdmmRace`: the brick wall of 976 contacts)
 #: Coulomb's law on large sparse W: where the ADMM of :mod:`.admm` ends its ``admm_iter``
 #: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more (the
 #: brick wall of 976 contacts from the CCP answer: 5.9e-7 at 20,000 iterations, 1e-8 at 43,520)
@@ -163,7 +155,7 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     :data:`SPARING_NEWTON_MAX_ROWS` rows before the ADMM where Newton came near, below after) and
     the ADMM (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm`
     on the sparse factorization, joined by a run from zero where it crawls:
-    :data:`ADMM_CRAWL_DROP`), Newton tried within 1e-5 (:data:`ADMM_TRY_FROM` in .admm) and run
+    :class:`.admm.AdmmRace`), Newton tried within 1e-5 (:data:`ADMM_TRY_FROM` in .admm) and run
     long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`; past
     :data:`SPARING_NEWTON_MAX_ROWS` rows the nonsmooth Gauss-Seidel of
     :func:`.gauss_seidel.nsgs_newton` from the CCP's answer (Newton tried on its way); then
@@ -420,7 +412,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             return best[0] <= tol
 
         # the ADMM from the CCP answer (from zero, 1.2-3.5x slower on most of the corpus, is
-        # the sparse ADMM's second start, joining where the first crawls: ADMM_CRAWL_DROP)
+        # the sparse ADMM's second start, joining where the first crawls: admm.AdmmRace)
         done = 0
         if dense_admm_here:  # compiled, dense
 
@@ -442,9 +434,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 interior()
         else:
             runs = AdmmRace(W, b, mu, R.impulse, sparse, factor=admm_factor,
-                            crawl_iter=ADMM_CRAWL_ITER, window=ADMM_CRAWL_WINDOW,
-                            drop=ADMM_CRAWL_DROP, below=ADMM_STALL_ABOVE,
-                            relax=RELAX if not sparing else 1.0)
+                            below=ADMM_STALL_ABOVE, relax=RELAX if not sparing else 1.0)
             marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
             while done < admm_iter:
                 done += 10

@@ -1,5 +1,5 @@
 """The engine's ADMM on large sparse problems is joined by a second run from zero, once, where
-it crawls near a solution (engine.ADMM_CRAWL_DROP, admm.AdmmRace).
+it crawls near a solution (admm.AdmmRace, admm.CRAWL_DROP).
 
 The path is forced on a small brick wall of the corpus (the sizes that choose it and the
 window of the rule made small, Newton's tries switched off), and the starts the engine
@@ -54,10 +54,10 @@ def _run(monkeypatch, wall, crawl_drop):
     monkeypatch.setattr(engine, "COULOMB_IP_ITER", 0)
     monkeypatch.setattr(engine, "LONG_NEWTON_FROM", 0.0)
     monkeypatch.setattr(engine, "ADMM_STALL_ITER", 50)
-    monkeypatch.setattr(engine, "ADMM_CRAWL_ITER", 50)
-    monkeypatch.setattr(engine, "ADMM_CRAWL_WINDOW", 1)
+    monkeypatch.setattr(admm, "CRAWL_ITER", 50)
+    monkeypatch.setattr(admm, "CRAWL_WINDOW", 1)
     monkeypatch.setattr(engine, "ADMM_STALL_ABOVE", 10.0)
-    monkeypatch.setattr(engine, "ADMM_CRAWL_DROP", crawl_drop)
+    monkeypatch.setattr(admm, "CRAWL_DROP", crawl_drop)
     n = mu.shape[0]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         R = engine._solve(W, b.reshape(n, d), mu, d, True, 1e-8, 100, 0, 20000, True)
@@ -131,8 +131,10 @@ def test_race_alternates_then_drops_the_run_that_is_passed(monkeypatch):
         return itertools.repeat(np.full((1, 3), label))
 
     monkeypatch.setattr(admm, "coulomb_admm", fake)
-    race = admm.AdmmRace(None, None, None, np.ones((1, 3)), True, crawl_iter=30, window=1,
-                         drop=0.1, below=1e-4)
+    monkeypatch.setattr(admm, "CRAWL_ITER", 30)
+    monkeypatch.setattr(admm, "CRAWL_WINDOW", 1)
+    monkeypatch.setattr(admm, "CRAWL_DROP", 0.1)
+    race = admm.AdmmRace(None, None, None, np.ones((1, 3)), True, below=1e-4)
     seen = []
     for _ in range(6):  # 60 iterations of the first run, its residual flat
         seen.append(race.next()[0, 0])
