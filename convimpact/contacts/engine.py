@@ -322,7 +322,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             R = EngineResult(r, u, res, iterations, res <= tol,
                              "converged" if res <= tol else R.message)
     if not coulomb:
-        if R.residual > tol:  # the ADMM from the best answer (CCP_ADMM_ITER)
+        if R.residual > tol and newton_iter > 0:  # the ADMM (CCP_ADMM_ITER), a finish too
             r, _, k = ccp_admm(W, b, mu, R.impulse, sparse, tol=CCP_ADMM_MARGIN * tol,
                                max_iter=min(admm_iter, CCP_ADMM_ITER), factor=admm_factor,
                                dense=not sparse or n * d <= DENSE_ADMM_MAX_ROWS)

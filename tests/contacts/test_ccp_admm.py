@@ -47,8 +47,9 @@ def test_ccp_admm_from_zero_solves_the_ccp(pile, dense):
 
 
 def test_engine_hands_a_short_interior_point_to_the_admm(monkeypatch, pile):
-    # the interior point cut at 6 iterations and the Newton finish off (newton_iter 0): only
-    # the ADMM can certify, and does, from the interior point's answer
+    # the interior point cut at 6 iterations and the Newton finish made idle (it answers its
+    # start): only the ADMM can certify, and does, from the interior point's answer; with
+    # newton_iter 0 (every finish off) it does not run
     W, b, mu, d = pile
     calls = []
     real = engine.ccp_admm
@@ -58,8 +59,11 @@ def test_engine_hands_a_short_interior_point_to_the_admm(monkeypatch, pile):
         return real(*a, **k)
 
     monkeypatch.setattr(engine, "ccp_admm", recording)
+    monkeypatch.setattr(engine, "newton_finish", lambda W, b, mu, r0, **k: (r0, np.inf, 0))
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        R = engine._solve(W, b, mu, d, False, 1e-8, 6, 0, 20000, True)
+        R0 = engine._solve(W, b, mu, d, False, 1e-8, 6, 0, 20000, True)
+        assert not calls and not R0.converged
+        R = engine._solve(W, b, mu, d, False, 1e-8, 6, 30, 20000, True)
     assert len(calls) == 1
     assert ccp_residual(W, b, mu, calls[0]) > 1e-8          # the start was not a solution
     assert R.converged
