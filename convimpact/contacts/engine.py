@@ -100,6 +100,10 @@ LONG_NEWTON_STEPS = 40
 #: contacts 6e-6 to 4.3e-6 in 40 steps, 1.2 s; below, it reached tol in 26-39 at 480-600 rows)
 TRY_STALL = 5
 LONG_STALL = 10
+#: ...and a try from an ADMM iterate stops after TRY_FIRST[0] steps where it has not dropped
+#: by TRY_FIRST[1] (the tries that served dropped 10-500x in 1-2 steps: walls of 424 and 976
+#: contacts, log pile of 528, sphere piles; the failed ones 1.9-8x, 6-8 steps on)
+TRY_FIRST = (2, 0.1)
 #: ...and comes from within this residual, then on each drop by 100 (the ADMM alone certified
 #: the walls of 424 and 976 contacts, from zero, and the log pile of 528 in 4,600, 5,740 and
 #: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing)
@@ -402,7 +406,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
                                                          else 10), sparse=sparse, factor=factor,
-                                            stall_steps=None if sparing else TRY_STALL)
+                                            stall_steps=None if sparing else TRY_STALL,
+                                            first=None if sparing else TRY_FIRST)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn

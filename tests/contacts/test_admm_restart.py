@@ -154,3 +154,31 @@ def test_race_alternates_then_drops_the_run_that_is_passed(monkeypatch):
     race.judge(5e-7)  # the second passes the first: only it runs from here
     assert [race.next()[0, 0] for _ in range(5)] == [1.0] * 5
     assert len(starts) == 2  # and no third run joins
+
+
+def test_newton_first_steps_rule_stops_a_try_that_has_not_contracted(wall):
+    """newton_finish(first=(2, drop)) stops after two steps exactly where the best residual is
+    then above drop times the start's; the residuals are recomputed here from runs of one and
+    two steps (Newton is deterministic), and drop is set on either side of the ratio found."""
+    from convimpact.contacts.finish import newton_finish
+
+    W, b, mu, d = wall
+    n = mu.shape[0]
+    Wd = W.toarray()
+    r0 = np.zeros((n, d))
+    history = [coulomb_residual(Wd, b, mu, r0)]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for m in (1, 2):
+            r, _, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                        max_iter=m, sparse=True)
+            assert steps == m
+            history.append(min(history[-1], coulomb_residual(Wd, b, mu, r)))
+        ratio = history[2] / history[0]
+        assert 0.0 < ratio < 1.0
+        _, res, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                      max_iter=10, sparse=True, first=(2, 0.5 * ratio))
+        assert steps == 2
+        assert res == pytest.approx(history[2], rel=1e-6, abs=1e-15)
+        _, _, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                    max_iter=10, sparse=True, first=(2, 2.0 * ratio))
+    assert steps > 2
