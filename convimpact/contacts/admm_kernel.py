@@ -197,13 +197,15 @@ def natural_residual(W, b, mu, d, r, coulomb, u, y, p):
 
 
 @_jit
-def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, coulomb):
+def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, coulomb,
+               relax=1.0):
     """Up to ``iterations`` ADMM iterations from the state ``(x, w, lam)`` (updated in place)
     with the factor L of ``W + (rho + eta) I``.
 
     Every :data:`CHECK_EVERY` iterations the natural-map residual of the cone copy w is
     computed; the batch stops when it is at most ``target``. rho is doubled or halved when the
-    primal and dual residuals differ by more than a factor 10 (L refactored). Returns
+    primal and dual residuals differ by more than a factor 10 (L refactored); the proximal
+    step is over-relaxed by ``relax`` (as in :func:`.admm.coulomb_admm`). Returns
     ``(L, rho, iterations done, last residual, best residual, best w)``.
     """
     N = b.shape[0]
@@ -227,7 +229,11 @@ def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, co
         for i in range(N):
             rhs[i] = eta * x[i] - b[i] - s[i] + rho * w[i] - lam[i]
         _chol_solve(L, rhs, xn, tmp)
-        primal, dual = admm_update(xn, x, w, lam, s, mu, d, rho, eta, coulomb, v, wn)
+        for i in range(N):  # the over-relaxed step, in tmp (free after the solve)
+            tmp[i] = relax * xn[i] + (1.0 - relax) * w[i]
+        primal, dual = admm_update(tmp, x, w, lam, s, mu, d, rho, eta, coulomb, v, wn)
+        for i in range(N):  # the proximal centre: the solve's own answer
+            x[i] = xn[i]
         if it % CHECK_EVERY == 0:
             res = natural_residual(W, b, mu, d, w, coulomb, u, y, p)
             if res < best:
@@ -246,7 +252,7 @@ def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, co
 
 def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *,
                tol: float, max_iter: int, polish=None, coulomb: bool = True,
-               batch: int = 200, patience: float | None = None
+               batch: int = 200, patience: float | None = None, relax: float = 1.0
                ) -> tuple[np.ndarray, float, int]:
     """The compiled ADMM on dense W from ``r0`` (n, d), batch by batch, until its natural-map
     residual is at most ``tol`` or ``max_iter`` iterations are done.
@@ -279,7 +285,8 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
         if first_miss and patience is not None and done >= patience * first_miss:
             break
         F, rho, it, res, bres, bw = admm_batch(W, q, m, d, F, x, w, lam, rho, ETA, Lmax,
-                                               min(batch, max_iter - done), tol, coulomb)
+                                               min(batch, max_iter - done), tol, coulomb,
+                                               relax)
         done += it
         if bres < best_res:
             best_res, best_r = bres, bw.reshape(n, d).copy()

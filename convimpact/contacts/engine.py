@@ -31,7 +31,7 @@ import scipy.sparse as sp
 
 from . import cones
 from .ccp_interior import EngineResult, solve_ccp, use_sparse  # noqa: F401 (public here)
-from .admm import coulomb_admm
+from .admm import RELAX, AdmmRace, ccp_admm
 from .admm_kernel import dense_admm, natural_residual
 from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
@@ -77,6 +77,11 @@ DENSE_ADMM_MAX_ROWS = 450
 #: also tries Newton more often (the sphere piles of 624-897 contacts)
 DIRECT_NEWTON_STEPS = 4
 SPARING_NEWTON_MAX_ROWS = 900
+#: the CCP: past its interior point and Newton finish (stopped by TRY_STALL) the ADMM
+#: (:func:`.admm.ccp_admm`), at most this many iterations, aiming at this fraction of tol (a
+#: wall of 976 contacts: 9.1e-9 to 9.4e-9 at tol with b perturbed by 1e-14, 8e-10 at 0.1 tol)
+CCP_ADMM_ITER = 10000
+CCP_ADMM_MARGIN = 0.1
 #: Newton steps of a try from an ADMM iterate (within 1e-5 it converges in 1-4 where it does)
 POLISH_STEPS = 4
 #: Coulomb's law: the interior point on the law itself (:mod:`.coulomb_interior`) runs at most
@@ -91,30 +96,31 @@ POLISH_FROM = 1e-4
 #: and 10 had stopped)
 LONG_NEWTON_FROM = 1e-5
 LONG_NEWTON_STEPS = 40
-#: past :data:`SPARING_NEWTON_MAX_ROWS` rows (a sparse Newton step: 0.05-0.15 s at 2,700-2,900
-#: rows), a short try from an ADMM iterate stops where its best residual has not halved in
-#: this many steps (on the brick wall of 976 contacts the tries crawled, 4x in 10 steps; on
-#: the sphere piles those that served dropped 100x in 10 steps; the long Newton is left
-#: alone: on a pile of 624 spheres it went from 8e-7 to 7e-9 in 30 steps)
+#: past :data:`SPARING_NEWTON_MAX_ROWS` rows (a Newton step: 0.05-0.15 s at 2,900 rows) a try
+#: from an ADMM iterate, the direct one and the CCP's finish stop where their best has not
+#: halved in this many steps, the long Newton in LONG_STALL (on the walls of 424 and 976
+#: contacts 6e-6 to 4.3e-6 in 40 steps, 1.2 s; below, it reached tol in 26-39 at 480-600 rows)
 TRY_STALL = 5
-#: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best residual
-#: (Newton's tries included) is above ADMM_STALL_ABOVE and has not halved in the last
-#: ADMM_STALL_ITER iterations (on the sphere piles of 624-897 contacts it stalled at 7e-3 to
-#: 3e-2 from 5,000 iterations to its 20,000: half their time, before the NSGS certified them)
-ADMM_STALL_ITER = 5000
+LONG_STALL = 10
+#: ...and a try from an ADMM iterate stops after TRY_FIRST[0] steps where it has not dropped
+#: by TRY_FIRST[1] (the tries that served dropped 10-500x in 1-2 steps: walls of 424 and 976
+#: contacts, log pile of 528, sphere piles; the failed ones 1.9-8x, 6-8 steps on)
+TRY_FIRST = (2, 0.1)
+#: ...and comes from within this residual, then on each drop by 100 (the ADMM alone certified
+#: the walls of 424 and 976 contacts, from zero, and the log pile of 528 in 4,600, 5,740 and
+#: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing)
+ADMM_TRY_FROM = 1e-6
+#: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best (Newton's
+#: tries included) is above ADMM_STALL_ABOVE every ADMM_STALL_ITER iterations (sphere piles
+#: of 624-897 contacts: 1e-2 at 2,000, the NSGS's; walls, log piles: 1e-4 by 640); it is
+#: over-relaxed (RELAX) past SPARING_NEWTON_MAX_ROWS (below, a robot's crawl was lost)
+ADMM_STALL_ITER = 2000
 ADMM_STALL_ABOVE = 1e-4
-#: ...and where it is below ADMM_STALL_ABOVE but has not dropped by this factor in the last
-#: ADMM_STALL_ITER iterations, the ADMM starts again from zero (Pinocchio's start), once: on
-#: the brick wall of 976 contacts the ADMM from the CCP answer crawled from 6.9e-7 at 6,000
-#: iterations to 5.2e-7 at 28,000 and reached 1e-8 at 43,610; from zero it reached 1e-8 in
-#: 5,810 (from zero on the log pile of 528 contacts: 6,410 iterations, from the CCP
-#: answer 1,810: the CCP answer stays the first start)
-ADMM_CRAWL_DROP = 0.1
+#: ...and where its own best crawls below ADMM_STALL_ABOVE, a run from zero joins it
+#: (:class:`.admm.AdmmRace`: the brick wall of 976 contacts)
 #: Coulomb's law on large sparse W: where the ADMM of :mod:`.admm` ends its ``admm_iter``
-#: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more
-#: (the brick wall of 976 contacts, before the restart of ADMM_CRAWL_DROP: 5.9e-7 at 20,000
-#: iterations, where 1,000 Newton steps tried on its way had failed, and 1e-8 at 43,520; the
-#: sphere piles' ADMM stalls at 5e-4)
+#: iterations within this residual, it runs on alone up to :data:`ADMM_EXTEND_ITER` more (the
+#: brick wall of 976 contacts from the CCP answer: 5.9e-7 at 20,000 iterations, 1e-8 at 43,520)
 ADMM_EXTEND_FROM = 1e-6
 ADMM_EXTEND_ITER = 40000
 
@@ -146,13 +152,13 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     :data:`ADMM_FIRST_MIN_ROWS` rows the ADMM's try after them. Each answer is kept when its
     natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
     finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
-    certified). Coulomb's law: Newton on its natural map from the CCP's answer
-    (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior point on
-    the law itself (:mod:`.coulomb_interior`, at most :data:`COULOMB_IP_ITER` steps, before
-    the ADMM past :data:`SPARING_NEWTON_MAX_ROWS` rows, after it below) and the ADMM from the CCP's answer
-    (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the
-    sparse factorization, started again from zero, once, where it crawls:
-    :data:`ADMM_CRAWL_DROP`), Newton tried as it comes within 1e-5 (1e-4 in :mod:`.admm`) and run
+    certified), then the ADMM (:data:`CCP_ADMM_ITER`). Coulomb's law: Newton from the CCP's
+    answer (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior
+    point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER` steps at most; past
+    :data:`SPARING_NEWTON_MAX_ROWS` rows before the ADMM where Newton came near, below after) and
+    the ADMM (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm`
+    on the sparse factorization, joined by a run from zero where it crawls:
+    :class:`.admm.AdmmRace`), Newton tried within 1e-5 (:data:`ADMM_TRY_FROM` in .admm) and run
     long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`; past
     :data:`SPARING_NEWTON_MAX_ROWS` rows the nonsmooth Gauss-Seidel of
     :func:`.gauss_seidel.nsgs_light` from the CCP's answer (Newton tried on its way; before
@@ -312,19 +318,29 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     iterations = R.iterations
     if R.residual > tol:
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
-                                  max_iter=newton_iter, sparse=sparse, factor=factor)
+                                  max_iter=newton_iter, sparse=sparse, factor=factor,
+                                  stall_steps=TRY_STALL)
         iterations += k
         if res < R.residual:
             res, u = cones.natural_map_residual(W, b, mu, r, coulomb=False)
             R = EngineResult(r, u, res, iterations, res <= tol,
                              "converged" if res <= tol else R.message)
     if not coulomb:
+        if R.residual > tol and newton_iter > 0:  # the ADMM (CCP_ADMM_ITER), a finish too
+            r, _, k = ccp_admm(W, b, mu, R.impulse, sparse, tol=CCP_ADMM_MARGIN * tol,
+                               max_iter=min(admm_iter, CCP_ADMM_ITER), factor=admm_factor,
+                               dense=not sparse or n * d <= DENSE_ADMM_MAX_ROWS)
+            res, u = cones.natural_map_residual(W, b, mu, r, coulomb=False)
+            if res < R.residual:
+                R = EngineResult(r, u, res, iterations + k, res <= tol,
+                                 "converged" if res <= tol else R.message)
         return R
     dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
     sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
     r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
                               max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
-                                            else 10), sparse=sparse, factor=factor)
+                                            else 10), sparse=sparse, factor=factor,
+                              stall_steps=None if sparing else TRY_STALL)
     iterations += k
     best = [res, r, "converged"]
     long_tried = [np.inf]
@@ -337,7 +353,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             return
         long_tried[0] = res
         rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
-                                    max_iter=LONG_NEWTON_STEPS, sparse=sparse, factor=factor)
+                                    max_iter=LONG_NEWTON_STEPS, sparse=sparse, factor=factor,
+                                    stall_steps=None if sparing else LONG_STALL)
         iterations += k
         if resn < best[0]:
             best[:2] = resn, rn
@@ -369,10 +386,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             best[:2] = resg, rg
             best[2] = "converged" if resg <= tol else "the NSGS's limits"
 
-    # before the ADMM past SPARING_NEWTON_MAX_ROWS (the sparse ADMM was slow where it served:
-    # 10 s on a 400-contact stack), after it below (the ADMM's way was 1.5-3.5x faster than
-    # the interior point's stall on piles, walls and robots of 120-260 contacts)
+    # past SPARING_NEWTON_MAX_ROWS before the ADMM where Newton came within POLISH_FROM (the
+    # sparse ADMM took 10 s on a 400-box stack, Newton 3e-5, the interior point certified it),
+    # else not (walls of 424 and 976 contacts, log pile of 528, sphere piles: Newton 6.5e-4 to
+    # 2e-2, the interior point stalled at 8e-4 to 6e-2 in 0.15-0.55 s); below, after the ADMM
     ip_first = not sparing
+    ip_before = ip_first and res <= POLISH_FROM
     # a separate branch: past SPARING_NEWTON_MAX_ROWS on weakly coupled contacts (the sphere
     # piles, :func:`.gauss_seidel.weakly_coupled`) the NSGS first: 0.9-1.9 s to certify piles
     # of 624-897 spheres, where the interior point and the ADMM spent 1.2-2.5 s and stalled
@@ -380,7 +399,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     nsgs_first = bool(res > tol and ip_first and weakly_coupled(W, d))
     if nsgs_first:
         nsgs()
-    if best[0] > tol and ip_first:
+    if best[0] > tol and ip_before:
         interior()
     if best[0] > tol:
         tried = [np.inf]
@@ -396,28 +415,25 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             if best[0] <= tol:
                 return True
             # sparing: Newton tried from within 1e-5, then after each drop by 1000 (as the
-            # compiled ADMM's polish); else on each drop by 100 below 1e-4, and every 20
-            # checks from 1e-2 to LONG_NEWTON_FROM (on the largest sparse problems those tries
-            # took the sphere pile of 624 contacts to 8e-7, a geometric spacing to 8e-4 only;
-            # below, on the brick wall of 976 contacts, 1,000 steps of them had all failed)
-            if (res < min(1e-5, 1e-3 * tried[0]) if sparing else
-                    res < min(1e-4, 1e-2 * tried[0])
-                    or (LONG_NEWTON_FROM < res < 1e-2 and len(tried) % 20 == 0)):
+            # compiled ADMM's polish); else from within ADMM_TRY_FROM, on each drop by 100
+            if res < (min(1e-5, 1e-3 * tried[0]) if sparing
+                      else min(ADMM_TRY_FROM, 1e-2 * tried[0])):
                 tried[0] = res
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
                                                          else 10), sparse=sparse, factor=factor,
-                                            stall_steps=None if sparing else TRY_STALL)
+                                            stall_steps=None if sparing else TRY_STALL,
+                                            first=None if sparing else TRY_FIRST)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
-                long_newton(rn, resn)
+                if sparing:  # else the try stopped where it crawled (TRY_STALL)
+                    long_newton(rn, resn)
             tried.append(res)
             return best[0] <= tol
 
-        # the ADMM from the CCP answer (from zero, Pinocchio's start, was 7.5x faster on a
-        # brick wall but 1.2-3.5x slower on most of the corpus: zero is the sparse ADMM's
-        # second start where the first crawls, ADMM_CRAWL_DROP)
+        # the ADMM from the CCP answer (from zero, 1.2-3.5x slower on most of the corpus, is
+        # the sparse ADMM's second start, joining where the first crawls: admm.AdmmRace)
         done = 0
         if dense_admm_here:  # compiled, dense
 
@@ -431,47 +447,34 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
 
             Wd = W.toarray() if sp.issparse(W) else W
             r, _, done = dense_admm(Wd, b, mu, d, R.impulse, tol=tol, max_iter=admm_iter,
-                                    polish=polish)
+                                    polish=polish, relax=RELAX)
             res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
             if res < best[0]:
                 best[:2] = res, r
             if best[0] > tol and not ip_first:
                 interior()
         else:
-            run = coulomb_admm(W, b, mu, R.impulse, sparse, factor=admm_factor)
-            marks = [best[0]]  # the best residual every ADMM_STALL_ITER iterations
-            own = [np.inf]  # the ADMM's own (Newton's tries apart) every ADMM_STALL_ITER
-            restarted = False
+            runs = AdmmRace(W, b, mu, R.impulse, sparse, factor=admm_factor,
+                            below=ADMM_STALL_ABOVE, relax=RELAX if not sparing else 1.0)
             while done < admm_iter:
                 done += 10
-                if check(next(run)):
+                if check(runs.next()):
                     break
-                own[-1] = min(own[-1], last[0])
-                if done % ADMM_STALL_ITER == 0:
-                    marks.append(best[0])
-                    if best[0] > ADMM_STALL_ABOVE and best[0] > 0.5 * marks[-2]:
-                        break  # stalled far from a solution: the NSGS's way below
-                    own.append(own[-1])
-                    if (not restarted and len(own) > 2 and own[-1] <= ADMM_STALL_ABOVE
-                            and own[-1] > ADMM_CRAWL_DROP * own[-3]):
-                        # crawling near a solution: the ADMM again, from zero
-                        run = coulomb_admm(W, b, mu, np.zeros_like(R.impulse), sparse,
-                                           factor=admm_factor)
-                        restarted = True
-            # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries,
-            # which had all failed there), at most ADMM_EXTEND_ITER iterations more
+                runs.judge(last[0])
+                if done % ADMM_STALL_ITER == 0 and best[0] > ADMM_STALL_ABOVE:
+                    break  # stalled far from a solution: the NSGS's way below
+            # within ADMM_EXTEND_FROM at its limit the ADMM goes on alone (no Newton tries)
             extra = 0
             while tol < best[0] <= ADMM_EXTEND_FROM and extra < ADMM_EXTEND_ITER:
                 extra += 10
-                r = next(run)
+                done += 10
+                r = runs.next()
                 res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
                 if res < best[0]:
                     best[:2] = res, r
-            done += extra
             if best[0] > tol and not ip_first:
                 interior()
-        iterations += done
-        iterations += k
+        iterations += done  # (the direct Newton's steps were counted once, above)
         best[2] = "the ADMM's iteration limit" if best[0] > tol else "converged"
         long_newton(best[1], best[0])  # from the ADMM's best answer
         if best[0] > tol and ip_first and not nsgs_first:

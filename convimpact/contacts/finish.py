@@ -84,7 +84,8 @@ def _map(W, b, mu, rho, r, coulomb):
 def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: bool,
                   tol: float, max_iter: int = 30, sparse: bool = False,
                   factor: DelassusFactor | None = None,
-                  stall_steps: int | None = None) -> tuple[np.ndarray, float, int]:
+                  stall_steps: int | None = None,
+                  first: tuple[int, float] | None = None) -> tuple[np.ndarray, float, int]:
     """Newton steps on the natural map from ``r0`` (n, d) until the relative natural-map
     residual (:func:`~.cones.natural_map_residual`) is at most ``tol``.
 
@@ -95,6 +96,9 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
     ``stall_steps``, optional: stop where the best residual has not halved in the last
     ``stall_steps`` steps (Newton converging drops it faster; a try far from its region of
     fast convergence crawls).
+
+    ``first = (k, drop)``, optional: stop after ``k`` steps where the best residual is above
+    ``drop`` times the start's (a try judged on its first steps' contraction).
 
     Returns the best ``(r, residual, steps)`` reached.
     """
@@ -114,6 +118,8 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
             break
         if stall_steps is not None and steps >= stall_steps and \
                 best_res > 0.5 * history[steps - stall_steps]:
+            break
+        if first is not None and steps == first[0] and best_res > first[1] * history[0]:
             break
         D = projection_jacobian(v, mu)
         scale = max(np.linalg.norm(r), np.linalg.norm(b) * float(rho.max()), 1e-300)

@@ -1,5 +1,5 @@
-"""The engine's ADMM on large sparse problems starts again from zero, once, where it crawls
-near a solution (engine.ADMM_CRAWL_DROP).
+"""The engine's ADMM on large sparse problems is joined by a second run from zero, once, where
+it crawls near a solution (admm.AdmmRace, admm.CRAWL_DROP).
 
 The path is forced on a small brick wall of the corpus (the sizes that choose it and the
 window of the rule made small, Newton's tries switched off), and the starts the engine
@@ -10,12 +10,14 @@ checked here against the CCP's own natural map (within 1e-6: the interior point'
 its Newton finish being off).
 """
 
+import itertools
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
 from convimpact.bench.contact_corpus import corpus
-from convimpact.contacts import engine
+from convimpact.contacts import admm, engine
 
 from .cone_checks import project_cone
 from .test_contact_admm import coulomb_residual
@@ -38,13 +40,13 @@ def wall():
 def _run(monkeypatch, wall, crawl_drop):
     W, b, mu, d = wall
     starts = []
-    real = engine.coulomb_admm
+    real = admm.coulomb_admm
 
     def recording(W_, b_, mu_, r0, sparse, **kw):
         starts.append(np.array(r0, dtype=float))
         return real(W_, b_, mu_, r0, sparse, **kw)
 
-    monkeypatch.setattr(engine, "coulomb_admm", recording)
+    monkeypatch.setattr(admm, "coulomb_admm", recording)
     # the sparse ADMM's branch on 48 rows, the interior point on the law and Newton's tries
     # off (newton_iter 0), the rule's window 50 iterations
     monkeypatch.setattr(engine, "DENSE_ADMM_MAX_ROWS", 0)
@@ -52,8 +54,10 @@ def _run(monkeypatch, wall, crawl_drop):
     monkeypatch.setattr(engine, "COULOMB_IP_ITER", 0)
     monkeypatch.setattr(engine, "LONG_NEWTON_FROM", 0.0)
     monkeypatch.setattr(engine, "ADMM_STALL_ITER", 50)
+    monkeypatch.setattr(admm, "CRAWL_ITER", 50)
+    monkeypatch.setattr(admm, "CRAWL_WINDOW", 1)
     monkeypatch.setattr(engine, "ADMM_STALL_ABOVE", 10.0)
-    monkeypatch.setattr(engine, "ADMM_CRAWL_DROP", crawl_drop)
+    monkeypatch.setattr(admm, "CRAWL_DROP", crawl_drop)
     n = mu.shape[0]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         R = engine._solve(W, b.reshape(n, d), mu, d, True, 1e-8, 100, 0, 20000, True)
@@ -61,8 +65,8 @@ def _run(monkeypatch, wall, crawl_drop):
 
 
 def test_crawling_admm_restarts_from_zero_once(monkeypatch, wall):
-    # a required drop to 0: every window is a crawl, so the restart comes at the second
-    # mark (100 iterations), and only once
+    # a required drop to 0: every window is a crawl, so the run from zero joins at the
+    # second mark (100 iterations), and only once
     W, b, mu, d = wall
     R, starts = _run(monkeypatch, wall, 0.0)
     assert len(starts) == 2
@@ -112,3 +116,69 @@ def test_newton_stall_window_stops_where_the_best_residual_has_not_halved(wall):
                                       max_iter=30, sparse=True, stall_steps=k)
     assert steps == expected
     assert res == pytest.approx(history[expected], rel=1e-6, abs=1e-15)
+
+
+def test_race_alternates_then_drops_the_run_that_is_passed(monkeypatch):
+    """admm.AdmmRace with stand-in runs (each yields its start's label, as an array): a first
+    run whose residual stays at 1e-6 is a crawl at the second mark (window 1, 30 iterations
+    apart), the run from zero joins and the two alternate ten iterations each; once a
+    residual of the second is below the first's best, only the second runs."""
+    starts = []
+
+    def fake(W, b, mu, r0, sparse, **kw):
+        label = float(len(starts))
+        starts.append(np.array(r0, dtype=float))
+        return itertools.repeat(np.full((1, 3), label))
+
+    monkeypatch.setattr(admm, "coulomb_admm", fake)
+    monkeypatch.setattr(admm, "CRAWL_ITER", 30)
+    monkeypatch.setattr(admm, "CRAWL_WINDOW", 1)
+    monkeypatch.setattr(admm, "CRAWL_DROP", 0.1)
+    race = admm.AdmmRace(None, None, None, np.ones((1, 3)), True, below=1e-4)
+    seen = []
+    for _ in range(6):  # 60 iterations of the first run, its residual flat
+        seen.append(race.next()[0, 0])
+        race.judge(1e-6)
+    assert seen == [0.0] * 6 and len(starts) == 2 and np.all(starts[1] == 0.0)
+    residual = {0.0: 1e-6, 1.0: 1e-5}
+    seen = []
+    for _ in range(6):  # both, in turns: the second's residual above the first's best
+        label = race.next()[0, 0]
+        seen.append(label)
+        race.judge(residual[label])
+    assert seen == [0.0, 1.0] * 3
+    label = race.next()[0, 0]  # the first's turn
+    race.judge(1e-6)
+    label = race.next()[0, 0]
+    assert label == 1.0
+    race.judge(5e-7)  # the second passes the first: only it runs from here
+    assert [race.next()[0, 0] for _ in range(5)] == [1.0] * 5
+    assert len(starts) == 2  # and no third run joins
+
+
+def test_newton_first_steps_rule_stops_a_try_that_has_not_contracted(wall):
+    """newton_finish(first=(2, drop)) stops after two steps exactly where the best residual is
+    then above drop times the start's; the residuals are recomputed here from runs of one and
+    two steps (Newton is deterministic), and drop is set on either side of the ratio found."""
+    from convimpact.contacts.finish import newton_finish
+
+    W, b, mu, d = wall
+    n = mu.shape[0]
+    Wd = W.toarray()
+    r0 = np.zeros((n, d))
+    history = [coulomb_residual(Wd, b, mu, r0)]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for m in (1, 2):
+            r, _, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                        max_iter=m, sparse=True)
+            assert steps == m
+            history.append(min(history[-1], coulomb_residual(Wd, b, mu, r)))
+        ratio = history[2] / history[0]
+        assert 0.0 < ratio < 1.0
+        _, res, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                      max_iter=10, sparse=True, first=(2, 0.5 * ratio))
+        assert steps == 2
+        assert res == pytest.approx(history[2], rel=1e-6, abs=1e-15)
+        _, _, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
+                                    max_iter=10, sparse=True, first=(2, 2.0 * ratio))
+    assert steps > 2
