@@ -85,7 +85,9 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
                   tol: float, max_iter: int = 30, sparse: bool = False,
                   factor: DelassusFactor | None = None,
                   stall_steps: int | None = None,
-                  first: tuple[int, float] | None = None) -> tuple[np.ndarray, float, int]:
+                  first: tuple[int, float] | None = None, damping: float = 1.0,
+                  step_system: SparseStepSystem | None = None
+                  ) -> tuple[np.ndarray, float, int]:
     """Newton steps on the natural map from ``r0`` (n, d) until the relative natural-map
     residual (:func:`~.cones.natural_map_residual`) is at most ``tol``.
 
@@ -99,6 +101,13 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
 
     ``first = (k, drop)``, optional: stop after ``k`` steps where the best residual is above
     ``drop`` times the start's (a try judged on its first steps' contraction).
+
+    ``damping``: the Levenberg-Marquardt weight is ``damping |F| / scale`` (1: Yamashita and
+    Fukushima's choice above; the NSGS's tries on the sphere piles take 1e-3:
+    :data:`.gauss_seidel.NSGS_NEWTON_DAMPING`). ``step_system``, optional: the sparse step
+    system of W (:class:`~.sparse_step.SparseStepSystem`) for ``sparse`` without ``factor``,
+    kept by a caller that runs many tries on one W. Where the sparse system is not
+    quasi-definite to round-off (a tiny weight near the answer), the steps stop there.
 
     Returns the best ``(r, residual, steps)`` reached.
     """
@@ -123,7 +132,7 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
             break
         D = projection_jacobian(v, mu)
         scale = max(np.linalg.norm(r), np.linalg.norm(b) * float(rho.max()), 1e-300)
-        lam = fn / scale
+        lam = damping * fn / scale
         # J = I - D + D rho B W
         DB = D * rho[:, None, None]
         if coulomb:
@@ -146,12 +155,15 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
             dr = lowrank_step(np.eye(d) - D, DB, G, lam, F.ravel())
         elif sparse:
             # the system on W's block pattern, set up once per problem (kept on the factor)
-            system = factor.step_system if factor is not None else None
+            system = factor.step_system if factor is not None else step_system
             if system is None:
-                system = SparseStepSystem(W, d)
+                system = step_system = SparseStepSystem(W, d)
                 if factor is not None:
                     factor.step_system = system
-            dr = system.solve(D, DB, lam, F.ravel())
+            try:
+                dr = system.solve(D, DB, lam, F.ravel())
+            except RuntimeError:  # QDLDL: not quasi-definite to round-off
+                break
             if factor is not None and not factor.decided:
                 # the LDL^T's flops: the sum of its columns' squared counts
                 counts = np.diff(system.solver.factors()[0].indptr).astype(float)

@@ -1,5 +1,5 @@
 """The sphere piles' way through the contact engine: the light Newton
-(convimpact.contacts.light_newton), the NSGS's coupling rule
+(convimpact.contacts.finish.newton_finish with the NSGS's damping), the NSGS's coupling rule
 (convimpact.contacts.gauss_seidel.weakly_coupled) and the large sphere piles certified.
 
 Oracles, none of them the code under test: answers built backwards (an impulse and a velocity
@@ -12,9 +12,16 @@ import pytest
 import scipy.sparse as sp
 
 from convimpact.contacts.gauss_seidel import weakly_coupled
-from convimpact.contacts.light_newton import light_newton
+from convimpact.contacts.finish import newton_finish
+from convimpact.contacts.gauss_seidel import NSGS_NEWTON_DAMPING
 
 from .cone_checks import project_cone
+
+
+def light_newton(W, b, mu, r0, *, tol, max_iter):
+    """The NSGS's Newton tries: the finish on sparse W with the light damping."""
+    return newton_finish(W, b, mu, r0, coulomb=True, tol=tol, max_iter=max_iter, sparse=True,
+                         damping=NSGS_NEWTON_DAMPING)
 
 
 def coulomb_residual(W, b, mu, r):
@@ -139,3 +146,23 @@ def test_large_sphere_piles_certified_under_perturbations(name, seed):
     n, d = case.n_contacts, case.dim
     r = np.asarray(s.impulse).reshape(n, d)
     assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
+
+
+def test_a_step_system_that_is_not_quasi_definite_ends_the_steps_not_the_solve(monkeypatch):
+    # QDLDL raises RuntimeError where the weight is so small that the step system loses its
+    # quasi-definiteness to round-off: the Newton steps stop there and the best answer so
+    # far (here the start, whose residual is recomputed in the test) comes back, no raise
+    from convimpact.contacts import sparse_step
+
+    def not_quasi_definite(self, *args):
+        raise RuntimeError("not quasi-definite")
+
+    monkeypatch.setattr(sparse_step.SparseStepSystem, "solve", not_quasi_definite)
+    W = sp.block_diag([np.diag([2.0, 1.0, 1.0]), np.eye(3)], format="csr")
+    b = np.array([[-1.0, 0.6, 0.8], [-1.0, -0.1, 0.0]])
+    mu = np.array([0.5, 0.5])
+    r0 = np.array([[0.4, -0.1, -0.2], [1.0, 0.0, 0.0]])
+    r, res, steps = light_newton(W, b, mu, r0, tol=1e-14, max_iter=30)
+    assert steps == 0
+    np.testing.assert_array_equal(r, r0)
+    assert res == pytest.approx(coulomb_residual(W, b, mu, r0), rel=1e-12)
