@@ -16,6 +16,7 @@ from convimpact.simulation import event_watch
 from convimpact.simulation.canonical import CanonicalEquations, HeldMode
 
 TOL = 1e-12  # the runs' event_tol (the default)
+ATOL = 1e-10  # the runs' atol (the default)
 
 
 def _stops(res, mech) -> list[float]:
@@ -40,8 +41,11 @@ def test_a_table_stops_on_every_leg_at_once_at_v0_over_mu_g(legs, monkeypatch):
     _one_by_one(monkeypatch)
     ref = ci.simulate(mech, (0.0, sc.t_end), (sc.theta0, sc.dtheta0))
     assert abs(_stops(ref, mech)[0] - stops[0]) <= 2 * TOL
-    np.testing.assert_allclose(res.theta[-1], ref.theta[-1], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(res.dtheta[-1], ref.dtheta[-1], rtol=0, atol=1e-12)
+    # the same motion to the runs' accuracy (simulate's atol, 1e-10): the table's angles,
+    # zero by symmetry, carry round-off of 1e-12 that differs between the two runs (on 24
+    # legs 2.3e-12 against 1.1e-12 on one machine), so 1e-12 was a bound on round-off
+    np.testing.assert_allclose(res.theta[-1], ref.theta[-1], rtol=0, atol=ATOL)
+    np.testing.assert_allclose(res.dtheta[-1], ref.dtheta[-1], rtol=0, atol=ATOL)
     # the other legs' crossings checked at the instant, not each located by Brent's method
     assert res.nevents_fev < ref.nevents_fev - legs
 
