@@ -26,3 +26,14 @@ def project_cone(x, mu):
             e = np.concatenate([[1.0], m * xt / t]) / math.sqrt(1.0 + m * m)
             out[i] = (row @ e) * e
     return out
+
+
+def coulomb_residual(W, b, mu, r):
+    """|r - P_K(r - y)| / max(|b|, |r|, |u|), y = u + mu |u_t| e_n, u = W r + b: Coulomb's
+    natural-map residual in De Saxce's form, with :func:`project_cone` (b flat or (n, d))."""
+    n, d = r.shape
+    u = (W @ r.ravel() + np.ravel(b)).reshape(n, d)
+    y = u.copy()
+    y[:, 0] += mu * np.linalg.norm(u[:, 1:], axis=1)
+    err = np.linalg.norm(r - project_cone(r - y, mu))
+    return err / max(np.linalg.norm(b), np.linalg.norm(r), np.linalg.norm(u))

@@ -16,7 +16,7 @@ import scipy.sparse as sp
 from convimpact.contacts.gauss_seidel import diagonal_blocks, gauss_seidel
 from convimpact.contacts.local_coulomb import solve_local
 
-from .cone_checks import project_cone
+from .cone_checks import coulomb_residual, project_cone
 
 
 def local_error(A, q, mu, r):
@@ -154,16 +154,6 @@ def test_gauss_seidel_on_two_decoupled_contacts_matches_their_closed_forms():
     np.testing.assert_array_equal(diagonal_blocks(W, 3)[0], np.diag([2.0, 1.0, 1.0]))
     r = next(gauss_seidel(W, b, mu, 3, np.zeros((2, 3)), sweeps=1))
     np.testing.assert_allclose(r, [[0.5, -0.15, -0.2], [1.0, 0.1, 0.0]], atol=1e-13)
-
-
-def coulomb_residual(W, b, mu, r):
-    """|r - P_K(r - y)| / max(|b|, |r|, |u|), y = u + mu |u_t| e_n, u = W r + b (here)."""
-    n, d = r.shape
-    u = (W @ r.ravel() + b).reshape(n, d)
-    y = u.copy()
-    y[:, 0] += mu * np.linalg.norm(u[:, 1:], axis=1)
-    err = np.linalg.norm(r - project_cone(r - y, mu))
-    return err / max(np.linalg.norm(b), np.linalg.norm(r), np.linalg.norm(u))
 
 
 @pytest.mark.parametrize("seed", range(4))

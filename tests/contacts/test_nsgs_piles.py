@@ -11,27 +11,16 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from convimpact.contacts.gauss_seidel import weakly_coupled
 from convimpact.contacts.finish import newton_finish
-from convimpact.contacts.gauss_seidel import NSGS_NEWTON_DAMPING
+from convimpact.contacts.gauss_seidel import NSGS_NEWTON_DAMPING, weakly_coupled
 
-from .cone_checks import project_cone
+from .cone_checks import coulomb_residual
 
 
 def light_newton(W, b, mu, r0, *, tol, max_iter):
     """The NSGS's Newton tries: the finish on sparse W with the light damping."""
     return newton_finish(W, b, mu, r0, coulomb=True, tol=tol, max_iter=max_iter, sparse=True,
                          damping=NSGS_NEWTON_DAMPING)
-
-
-def coulomb_residual(W, b, mu, r):
-    """|r - P_K(r - y)| / max(|b|, |r|, |u|), y = u + mu |u_t| e_n, u = W r + b (here)."""
-    n, d = r.shape
-    u = (W @ r.ravel() + b.ravel()).reshape(n, d)
-    y = u.copy()
-    y[:, 0] += mu * np.linalg.norm(u[:, 1:], axis=1)
-    err = np.linalg.norm(r - project_cone(r - y, mu))
-    return err / max(np.linalg.norm(b), np.linalg.norm(r), np.linalg.norm(u))
 
 
 @pytest.mark.parametrize("seed", range(6))
