@@ -63,6 +63,11 @@ ADMM_FIRST_PATIENCE = 3.0
 #: follow are cheap (at 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24
 #: contacts of two humanoids and two quadrupeds)
 ADMM_FIRST_PATIENCE_SMALL = 1.0
+#: ...or after a batch of 200 iterations that lowered its best less than this (certified tries:
+#: 40-500x a batch; 2-5x on 24 robot feet and 40 planar blocks, 600 and 2,000 iterations lost)
+ADMM_FIRST_CRAWL = 10.0
+#: ...its Newton tries lightly damped (``damping`` of :func:`.finish.newton_finish`), 8 steps
+ADMM_FIRST_DAMPING, ADMM_FIRST_POLISH_STEPS = 1e-3, 8
 #: ...and for the CCP, from :data:`COMPILED_MAX_ROWS` rows (whose interior point is sure and
 #: fast: the ADMM gets a short try)
 ADMM_FIRST_ITER_CCP = 300
@@ -189,11 +194,12 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
 
 def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
                 coulomb: bool, tol: float = 1e-8, newton_iter: int = 30,
-                sparse: bool | None = None, compiled: bool = True) -> EngineResult:
+                sparse: bool | None = None, compiled: bool = True, damping: float = 1.0
+                ) -> EngineResult:
     """Newton on the law's natural map from ``start`` (n, d) alone: the compiled finish of the
     kernels (on their scaled program) up to :data:`COMPILED_MAX_ROWS` rows, the vectorized
-    :func:`.finish.newton_finish` above. ``converged`` when the natural-map residual of the
-    answer, on the original data, is at most ``tol``."""
+    :func:`.finish.newton_finish` above (its weight times ``damping``). ``converged`` when the
+    natural-map residual of the answer, on the original data, is at most ``tol``."""
     n = mu.shape[0]
     start = np.asarray(start, dtype=float).reshape(n, d)
     bb = np.asarray(b, dtype=float).reshape(n, d)
@@ -219,7 +225,7 @@ def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
         W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
         with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             r, res, steps = newton_finish(W, bb, mu, start, coulomb=coulomb, tol=tol,
-                                          max_iter=newton_iter, sparse=sparse)
+                                          max_iter=newton_iter, sparse=sparse, damping=damping)
             res, u = cones.natural_map_residual(W, bb, mu, r, coulomb)
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), int(steps), ok,
@@ -246,10 +252,9 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
         R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
             return R
-    if compiled and n * d <= COMPILED_MAX_ROWS:
-        if coulomb:  # the compiled CCP answer, Coulomb's start below
-            ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
-            ccp = ccp if ccp is not None and ccp.converged else None
+    if compiled and n * d <= COMPILED_MAX_ROWS and coulomb:  # the CCP answer, a start below
+        ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
+        ccp = ccp if ccp is not None and ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
                       ccp, generalized)
@@ -264,11 +269,11 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
     steps = [0]
 
     def polish(r):
-        # the compiled finish (complete pivoting, rows^3 per step in loops) on the smallest
-        # problems, LAPACK's above
+        # the compiled finish (complete pivoting, rows^3 loops) on the smallest, LAPACK's above
         R = warm_newton(Wd, bb, mu, d, r, coulomb=coulomb, tol=tol,
-                        newton_iter=min(newton_iter, POLISH_STEPS), sparse=False,
-                        compiled=compiled and n * d <= ADMM_FIRST_MIN_ROWS)
+                        newton_iter=min(newton_iter, ADMM_FIRST_POLISH_STEPS), sparse=False,
+                        compiled=compiled and n * d <= ADMM_FIRST_MIN_ROWS,
+                        damping=ADMM_FIRST_DAMPING)
         steps[0] += R.iterations
         return R.impulse, R.residual, R.iterations
 
@@ -277,8 +282,12 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
                               max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
                               polish=polish, coulomb=coulomb,
                               patience=(ADMM_FIRST_PATIENCE if n * d > COMPILED_MAX_ROWS
-                                        else ADMM_FIRST_PATIENCE_SMALL))
+                                        else ADMM_FIRST_PATIENCE_SMALL),
+                              crawl=ADMM_FIRST_CRAWL if n * d <= COMPILED_MAX_ROWS else None)
         res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=coulomb)
+        p = cones.project(r, mu)  # Newton's answer on the cones where that stays certified
+        resp, up = cones.natural_map_residual(Wd, bb, mu, p, coulomb=coulomb)
+        r, res, u = (p, resp, up) if resp <= tol else (r, res, u)
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
 
@@ -294,8 +303,7 @@ def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
     pi, status, it, steps, _, _ = kernel(Wd, bb, m, d, HANDOVER_TOL, max_iter,
                                          min(newton_iter, 20))
     r = pi.reshape(n, d)
-    # the natural-map residual of cones.natural_map_residual, compiled (its Python form
-    # cost as much as the kernel on the smallest problems); u = W r + b comes with it
+    # cones.natural_map_residual compiled (in Python as costly as the kernel); u = W r + b
     u, y, p = np.empty(n * d), np.empty(n * d), np.empty(n * d)
     res = float(natural_residual(Wd, bb, m, d, pi, coulomb, u, y, p))
     ok = bool(res <= tol)
