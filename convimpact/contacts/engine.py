@@ -50,26 +50,24 @@ HANDOVER_TOL = 1e-9
 _KERNELS = None
 #: up to this many rows, the compiled ADMM from zero runs first (for Coulomb's law at most
 #: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way; it needed 80-1,900 on the
-#: corpus's walls, piles and robots of 40-300 rows, 4,500-10,000 on its stacks)...
+#: corpus's walls, piles, robots and stacks of 40-300 rows)...
 ADMM_FIRST_MAX_ROWS = 300
 #: ...before the compiled kernels above this many rows, after them below
 ADMM_FIRST_MIN_ROWS = 40
 ADMM_FIRST_ITER = 5000
 #: ...ending at this many times the iterations to 1e-5 where Newton failed from there (the
-#: stacks' ADMM crawls from 1e-5 on: 520 iterations to 1e-5, 6,700 to 1e-8 on two humanoids
-#: and two quadrupeds; a 100-box stack certified at 2.8 times)...
+#: stacks' ADMM crawls from 1e-5 on: a 100-box stack certified at 2.8 times with Newton's
+#: full weight, at once with the light one below)...
 ADMM_FIRST_PATIENCE = 3.0
-#: ...and at once up to :data:`COMPILED_MAX_ROWS` rows, where the compiled kernels that
-#: follow are cheap (at 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24
-#: contacts of two humanoids and two quadrupeds)
+#: ...and at once up to :data:`COMPILED_MAX_ROWS` rows, whose compiled kernels are cheap (at
+#: 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24 robot feet)
 ADMM_FIRST_PATIENCE_SMALL = 1.0
 #: ...or after a batch of 200 iterations that lowered its best less than this (certified tries:
 #: 40-500x a batch; 2-5x on 24 robot feet and 40 planar blocks, 600 and 2,000 iterations lost)
 ADMM_FIRST_CRAWL = 10.0
 #: ...its Newton tries lightly damped (``damping`` of :func:`.finish.newton_finish`), 8 steps
 ADMM_FIRST_DAMPING, ADMM_FIRST_POLISH_STEPS = 1e-3, 8
-#: ...and for the CCP, from :data:`COMPILED_MAX_ROWS` rows (whose interior point is sure and
-#: fast: the ADMM gets a short try)
+#: ...and for the CCP (from :data:`COMPILED_MAX_ROWS` rows: below, its kernels are sure, fast)
 ADMM_FIRST_ITER_CCP = 300
 #: Coulomb's law: the ADMM from the CCP answer is the compiled dense one
 #: (:mod:`.admm_kernel`) for W dense or up to this many rows; above, :mod:`.admm` on W's
