@@ -38,26 +38,24 @@ from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .gauss_seidel import nsgs_light, weakly_coupled
 from .generalized import engine_factors
+from .light_direct import light_direct, on_cones
 from .threads import one_blas_thread
 
-#: contact rows up to which the compiled dense kernels (:mod:`.interior_point`,
-#: :mod:`.natural_map`, :mod:`.newton`: the same interior point and Newton finish, compiled
-#: with a dense unblocked factorization) are tried first; above, and where their answer is
-#: not certified, the vectorized dense/sparse backend of this module takes the problem
+#: rows up to which the compiled dense kernels (:mod:`.interior_point`, :mod:`.natural_map`,
+#: :mod:`.newton`: the same interior point and Newton finish) are tried; above, and where
+#: their answer is not certified, the vectorized backend of this module takes the problem
 COMPILED_MAX_ROWS = 120
 #: the compiled kernels' interior-point tolerance before their Newton finish
 HANDOVER_TOL = 1e-9
 _KERNELS = None
 #: up to this many rows, the compiled ADMM from zero runs first (for Coulomb's law at most
-#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way; it needed 80-1,900 on the
-#: corpus's walls, piles, robots and stacks of 40-300 rows)...
+#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way: 80-1,900 at 40-300 rows)...
 ADMM_FIRST_MAX_ROWS = 300
 #: ...before the compiled kernels above this many rows, after them below
 ADMM_FIRST_MIN_ROWS = 40
 ADMM_FIRST_ITER = 5000
-#: ...ending at this many times the iterations to 1e-5 where Newton failed from there (the
-#: stacks' ADMM crawls from 1e-5 on: a 100-box stack certified at 2.8 times with Newton's
-#: full weight, at once with the light one below)...
+#: ...ending at this many times the iterations to 1e-5 where Newton failed from there (a
+#: 100-box stack: certified at 2.8 times with Newton's full weight, at once with the light)...
 ADMM_FIRST_PATIENCE = 3.0
 #: ...and at once up to :data:`COMPILED_MAX_ROWS` rows, whose compiled kernels are cheap (at
 #: 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24 robot feet)
@@ -156,7 +154,8 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
     finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
     certified), then the ADMM (:data:`CCP_ADMM_ITER`). Coulomb's law: Newton from the CCP's
-    answer (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior
+    answer (lightly damped first up to :data:`DENSE_ADMM_MAX_ROWS` rows, :mod:`.light_direct`;
+    then :data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior
     point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER` steps at most; past
     :data:`SPARING_NEWTON_MAX_ROWS` rows before the ADMM where Newton came near, below after) and
     the ADMM (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm`
@@ -254,6 +253,10 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
         ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
         ccp = ccp if ccp is not None and ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if coulomb and compiled and ccp is None and n * d <= DENSE_ADMM_MAX_ROWS:
+            R, ccp = light_direct(W, b, mu, d, tol=tol, max_iter=max_iter, sparse=sparse)
+            if R.converged:  # (:mod:`.light_direct`: the stacks)
+                return R
         return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
                       ccp, generalized)
 
@@ -282,10 +285,7 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
                               patience=(ADMM_FIRST_PATIENCE if n * d > COMPILED_MAX_ROWS
                                         else ADMM_FIRST_PATIENCE_SMALL),
                               crawl=ADMM_FIRST_CRAWL if n * d <= COMPILED_MAX_ROWS else None)
-        res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=coulomb)
-        p = cones.project(r, mu)  # Newton's answer on the cones where that stays certified
-        resp, up = cones.natural_map_residual(Wd, bb, mu, p, coulomb=coulomb)
-        r, res, u = (p, resp, up) if resp <= tol else (r, res, u)
+        r, res, u = on_cones(Wd, bb, mu, r, coulomb, tol)  # Newton's answer on the cones
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
 
