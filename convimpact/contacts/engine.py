@@ -63,7 +63,8 @@ ADMM_FIRST_PATIENCE_SMALL = 1.0
 #: ...or after a batch of 200 iterations that lowered its best less than this (certified tries:
 #: 40-500x a batch; 2-5x on 24 robot feet and 40 planar blocks, 600 and 2,000 iterations lost)
 ADMM_FIRST_CRAWL = 10.0
-#: ...its Newton tries lightly damped (``damping`` of :func:`.finish.newton_finish`), 8 steps
+#: ...its Newton tries lightly damped (``damping`` of :func:`.finish.newton_finish`), 8 steps;
+#: over-relaxed (:data:`RELAX`) where no compiled kernels follow (1.2-2x fewer iterations)
 ADMM_FIRST_DAMPING, ADMM_FIRST_POLISH_STEPS = 1e-3, 8
 #: ...and for the CCP (from :data:`COMPILED_MAX_ROWS` rows: below, its kernels are sure, fast)
 ADMM_FIRST_ITER_CCP = 300
@@ -278,13 +279,14 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
         steps[0] += R.iterations
         return R.impulse, R.residual, R.iterations
 
+    small = n * d <= COMPILED_MAX_ROWS  # (over-relaxed, 24 robot feet lost a Newton try: 2x)
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
                               max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
                               polish=polish, coulomb=coulomb,
-                              patience=(ADMM_FIRST_PATIENCE if n * d > COMPILED_MAX_ROWS
-                                        else ADMM_FIRST_PATIENCE_SMALL),
-                              crawl=ADMM_FIRST_CRAWL if n * d <= COMPILED_MAX_ROWS else None)
+                              patience=ADMM_FIRST_PATIENCE_SMALL if small else ADMM_FIRST_PATIENCE,
+                              crawl=ADMM_FIRST_CRAWL if small else None,
+                              relax=1.0 if small else RELAX)
         r, res, u = on_cones(Wd, bb, mu, r, coulomb, tol)  # Newton's answer on the cones
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
@@ -297,15 +299,13 @@ def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
     Wd = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=float)
     bb = np.ascontiguousarray(b, dtype=float).reshape(-1)
     m = np.ascontiguousarray(mu, dtype=float)
-    kernel = K.coulomb_kernel if coulomb else K.ccp_kernel
-    pi, status, it, steps, _, _ = kernel(Wd, bb, m, d, HANDOVER_TOL, max_iter,
-                                         min(newton_iter, 20))
-    r = pi.reshape(n, d)
+    pi, _, it, steps, _, _ = (K.coulomb_kernel if coulomb else K.ccp_kernel)(
+        Wd, bb, m, d, HANDOVER_TOL, max_iter, min(newton_iter, 20))
     # cones.natural_map_residual compiled (in Python as costly as the kernel); u = W r + b
     u, y, p = np.empty(n * d), np.empty(n * d), np.empty(n * d)
     res = float(natural_residual(Wd, bb, m, d, pi, coulomb, u, y, p))
     ok = bool(res <= tol)
-    return EngineResult(r, u.reshape(n, d), res, int(it) + int(steps), ok,
+    return EngineResult(pi.reshape(n, d), u.reshape(n, d), res, int(it) + int(steps), ok,
                         "converged" if ok else "")
 
 
