@@ -252,8 +252,8 @@ def admm_batch(W, b, mu, d, L, x, w, lam, rho, eta, Lmax, iterations, target, co
 
 def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *,
                tol: float, max_iter: int, polish=None, coulomb: bool = True,
-               batch: int = 200, patience: float | None = None, relax: float = 1.0
-               ) -> tuple[np.ndarray, float, int]:
+               batch: int = 200, patience: float | None = None, relax: float = 1.0,
+               crawl: float | None = None) -> tuple[np.ndarray, float, int]:
     """The compiled ADMM on dense W from ``r0`` (n, d), batch by batch, until its natural-map
     residual is at most ``tol`` or ``max_iter`` iterations are done.
 
@@ -263,6 +263,8 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
     stacks, it fails again and again, and the ADMM goes on). With ``patience``, the run also
     ends once it has gone ``patience`` times as many iterations as it took to come within
     1e-5 with Newton failing there (a try that the caller backs up with another method).
+    With ``crawl``, it ends after a batch (the first excepted) that did not lower the best
+    residual by that factor (another such try: the ADMM crawls).
     Returns the best ``(r, residual, iterations)``; the residual is the one of
     :func:`natural_residual` (the engine certifies again on its own).
     """
@@ -288,10 +290,12 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
                                                min(batch, max_iter - done), tol, coulomb,
                                                relax)
         done += it
+        before = best_res
         if bres < best_res:
             best_res, best_r = bres, bw.reshape(n, d).copy()
         if best_res <= tol:
             break
+        crawled = crawl is not None and done > it and best_res > before / crawl
         if polish is not None and bres < min(1e-5, 1e-3 * tried):
             tried = bres
             rn, resn, _ = polish(bw.reshape(n, d).copy())
@@ -300,4 +304,6 @@ def dense_admm(W: np.ndarray, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndar
             if best_res <= tol:
                 break
             first_miss = first_miss or done
+        if crawled:
+            break
     return best_r, float(best_res), done

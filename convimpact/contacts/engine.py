@@ -38,33 +38,35 @@ from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .gauss_seidel import nsgs_light, weakly_coupled
 from .generalized import engine_factors
+from .light_direct import light_direct, on_cones
 from .threads import one_blas_thread
 
-#: contact rows up to which the compiled dense kernels (:mod:`.interior_point`,
-#: :mod:`.natural_map`, :mod:`.newton`: the same interior point and Newton finish, compiled
-#: with a dense unblocked factorization) are tried first; above, and where their answer is
-#: not certified, the vectorized dense/sparse backend of this module takes the problem
+#: rows up to which the compiled dense kernels (:mod:`.interior_point`, :mod:`.natural_map`,
+#: :mod:`.newton`: the same interior point and Newton finish) are tried; above, and where
+#: their answer is not certified, the vectorized backend of this module takes the problem
 COMPILED_MAX_ROWS = 120
 #: the compiled kernels' interior-point tolerance before their Newton finish
 HANDOVER_TOL = 1e-9
 _KERNELS = None
 #: up to this many rows, the compiled ADMM from zero runs first (for Coulomb's law at most
-#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way; it needed 80-1,900 on the
-#: corpus's walls, piles and robots of 40-300 rows, 4,500-10,000 on its stacks)...
+#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way: 80-1,900 at 40-300 rows)...
 ADMM_FIRST_MAX_ROWS = 300
 #: ...before the compiled kernels above this many rows, after them below
 ADMM_FIRST_MIN_ROWS = 40
 ADMM_FIRST_ITER = 5000
-#: ...ending at this many times the iterations to 1e-5 where Newton failed from there (the
-#: stacks' ADMM crawls from 1e-5 on: 520 iterations to 1e-5, 6,700 to 1e-8 on two humanoids
-#: and two quadrupeds; a 100-box stack certified at 2.8 times)...
+#: ...ending at this many times the iterations to 1e-5 where Newton failed from there (a
+#: 100-box stack: certified at 2.8 times with Newton's full weight, at once with the light)...
 ADMM_FIRST_PATIENCE = 3.0
-#: ...and at once up to :data:`COMPILED_MAX_ROWS` rows, where the compiled kernels that
-#: follow are cheap (at 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24
-#: contacts of two humanoids and two quadrupeds)
+#: ...and at once up to :data:`COMPILED_MAX_ROWS` rows, whose compiled kernels are cheap (at
+#: 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24 robot feet)
 ADMM_FIRST_PATIENCE_SMALL = 1.0
-#: ...and for the CCP, from :data:`COMPILED_MAX_ROWS` rows (whose interior point is sure and
-#: fast: the ADMM gets a short try)
+#: ...or after a batch of 200 iterations that lowered its best less than this (certified tries:
+#: 40-500x a batch; 2-5x on 24 robot feet and 40 planar blocks, 600 and 2,000 iterations lost)
+ADMM_FIRST_CRAWL = 10.0
+#: ...its Newton tries lightly damped (``damping`` of :func:`.finish.newton_finish`), 8 steps;
+#: over-relaxed (:data:`RELAX`) where no compiled kernels follow (1.2-2x fewer iterations)
+ADMM_FIRST_DAMPING, ADMM_FIRST_POLISH_STEPS = 1e-3, 8
+#: ...and for the CCP (from :data:`COMPILED_MAX_ROWS` rows: below, its kernels are sure, fast)
 ADMM_FIRST_ITER_CCP = 300
 #: Coulomb's law: the ADMM from the CCP answer is the compiled dense one
 #: (:mod:`.admm_kernel`) for W dense or up to this many rows; above, :mod:`.admm` on W's
@@ -153,7 +155,8 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
     finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
     certified), then the ADMM (:data:`CCP_ADMM_ITER`). Coulomb's law: Newton from the CCP's
-    answer (:data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior
+    answer (lightly damped first up to :data:`DENSE_ADMM_MAX_ROWS` rows, :mod:`.light_direct`;
+    then :data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior
     point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER` steps at most; past
     :data:`SPARING_NEWTON_MAX_ROWS` rows before the ADMM where Newton came near, below after) and
     the ADMM (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm`
@@ -189,11 +192,12 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
 
 def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
                 coulomb: bool, tol: float = 1e-8, newton_iter: int = 30,
-                sparse: bool | None = None, compiled: bool = True) -> EngineResult:
+                sparse: bool | None = None, compiled: bool = True, damping: float = 1.0
+                ) -> EngineResult:
     """Newton on the law's natural map from ``start`` (n, d) alone: the compiled finish of the
     kernels (on their scaled program) up to :data:`COMPILED_MAX_ROWS` rows, the vectorized
-    :func:`.finish.newton_finish` above. ``converged`` when the natural-map residual of the
-    answer, on the original data, is at most ``tol``."""
+    :func:`.finish.newton_finish` above (its weight times ``damping``). ``converged`` when the
+    natural-map residual of the answer, on the original data, is at most ``tol``."""
     n = mu.shape[0]
     start = np.asarray(start, dtype=float).reshape(n, d)
     bb = np.asarray(b, dtype=float).reshape(n, d)
@@ -219,7 +223,7 @@ def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
         W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
         with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             r, res, steps = newton_finish(W, bb, mu, start, coulomb=coulomb, tol=tol,
-                                          max_iter=newton_iter, sparse=sparse)
+                                          max_iter=newton_iter, sparse=sparse, damping=damping)
             res, u = cones.natural_map_residual(W, bb, mu, r, coulomb)
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), int(steps), ok,
@@ -246,11 +250,14 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
         R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
             return R
-    if compiled and n * d <= COMPILED_MAX_ROWS:
-        if coulomb:  # the compiled CCP answer, Coulomb's start below
-            ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
-            ccp = ccp if ccp is not None and ccp.converged else None
+    if compiled and n * d <= COMPILED_MAX_ROWS and coulomb:  # the CCP answer, a start below
+        ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
+        ccp = ccp if ccp is not None and ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if coulomb and compiled and ccp is None and n * d <= DENSE_ADMM_MAX_ROWS:
+            R, ccp = light_direct(W, b, mu, d, tol=tol, max_iter=max_iter, sparse=sparse)
+            if R.converged:  # (:mod:`.light_direct`: the stacks)
+                return R
         return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
                       ccp, generalized)
 
@@ -264,21 +271,23 @@ def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResul
     steps = [0]
 
     def polish(r):
-        # the compiled finish (complete pivoting, rows^3 per step in loops) on the smallest
-        # problems, LAPACK's above
+        # the compiled finish (complete pivoting, rows^3 loops) on the smallest, LAPACK's above
         R = warm_newton(Wd, bb, mu, d, r, coulomb=coulomb, tol=tol,
-                        newton_iter=min(newton_iter, POLISH_STEPS), sparse=False,
-                        compiled=compiled and n * d <= ADMM_FIRST_MIN_ROWS)
+                        newton_iter=min(newton_iter, ADMM_FIRST_POLISH_STEPS), sparse=False,
+                        compiled=compiled and n * d <= ADMM_FIRST_MIN_ROWS,
+                        damping=ADMM_FIRST_DAMPING)
         steps[0] += R.iterations
         return R.impulse, R.residual, R.iterations
 
+    small = n * d <= COMPILED_MAX_ROWS  # (over-relaxed, 24 robot feet lost a Newton try: 2x)
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
                               max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
                               polish=polish, coulomb=coulomb,
-                              patience=(ADMM_FIRST_PATIENCE if n * d > COMPILED_MAX_ROWS
-                                        else ADMM_FIRST_PATIENCE_SMALL))
-        res, u = cones.natural_map_residual(Wd, bb, mu, r, coulomb=coulomb)
+                              patience=ADMM_FIRST_PATIENCE_SMALL if small else ADMM_FIRST_PATIENCE,
+                              crawl=ADMM_FIRST_CRAWL if small else None,
+                              relax=1.0 if small else RELAX)
+        r, res, u = on_cones(Wd, bb, mu, r, coulomb, tol)  # Newton's answer on the cones
     ok = bool(res <= tol)
     return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
 
@@ -290,16 +299,13 @@ def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
     Wd = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=float)
     bb = np.ascontiguousarray(b, dtype=float).reshape(-1)
     m = np.ascontiguousarray(mu, dtype=float)
-    kernel = K.coulomb_kernel if coulomb else K.ccp_kernel
-    pi, status, it, steps, _, _ = kernel(Wd, bb, m, d, HANDOVER_TOL, max_iter,
-                                         min(newton_iter, 20))
-    r = pi.reshape(n, d)
-    # the natural-map residual of cones.natural_map_residual, compiled (its Python form
-    # cost as much as the kernel on the smallest problems); u = W r + b comes with it
+    pi, _, it, steps, _, _ = (K.coulomb_kernel if coulomb else K.ccp_kernel)(
+        Wd, bb, m, d, HANDOVER_TOL, max_iter, min(newton_iter, 20))
+    # cones.natural_map_residual compiled (in Python as costly as the kernel); u = W r + b
     u, y, p = np.empty(n * d), np.empty(n * d), np.empty(n * d)
     res = float(natural_residual(Wd, bb, m, d, pi, coulomb, u, y, p))
     ok = bool(res <= tol)
-    return EngineResult(r, u.reshape(n, d), res, int(it) + int(steps), ok,
+    return EngineResult(pi.reshape(n, d), u.reshape(n, d), res, int(it) + int(steps), ok,
                         "converged" if ok else "")
 
 
