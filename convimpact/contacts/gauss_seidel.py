@@ -203,6 +203,12 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
 #: failed tries stopped in 3-4)
 NSGS_NEWTON_STEPS = 20
 NSGS_NEWTON_STALL = 3
+#: ...and after 2 steps where it has not halved (:func:`.finish.newton_finish`'s ``first``):
+#: the tries that certified the large sphere piles (b perturbed by 0-1e-6) dropped 2.4-100x
+#: in 2 steps, most failed ones 1.1-2x; Newton steps on the 624/897/726-sphere piles 41/20/20
+#: -> 33/15/18, the same tries certifying (at 4x, (2, 0.25), a certifying try on the
+#: 624-sphere pile with b moved by 1e-6 was cut: 6,800 -> 8,900 sweeps)
+NSGS_NEWTON_FIRST = (2, 0.5)
 #: ...with a light Levenberg-Marquardt weight (:func:`.finish.newton_finish`'s ``damping``):
 #: on the sphere piles of 624-897 contacts the Newton matrix is ill-conditioned (a step of
 #: 1.4e-4 for a map of 5e-7: singular values near 1e-3); the finish's weight damped exactly
@@ -226,7 +232,7 @@ def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol:
         return newton_finish(W, b, mu, r, coulomb=True, tol=tol, sparse=True,
                              step_system=system, damping=NSGS_NEWTON_DAMPING,
                              max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
-                             stall_steps=NSGS_NEWTON_STALL)
+                             stall_steps=NSGS_NEWTON_STALL, first=NSGS_NEWTON_FIRST)
 
     return nsgs_newton(W, b, mu, d, r0, tol=tol, newton=newton,
                        residual=lambda r: natural_map_residual(W, b, mu, r, True)[0])
