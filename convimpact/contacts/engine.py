@@ -343,12 +343,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         return R
     dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
     sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
-    r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                              max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
-                                            else 10), sparse=sparse, factor=factor,
-                              stall_steps=None if sparing else TRY_STALL)
-    iterations += k
-    best = [res, r, "converged"]
+    best = [np.inf, R.impulse, "converged"]
     long_tried = [np.inf]
 
     def long_newton(r, res):
@@ -392,19 +387,29 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             best[:2] = resg, rg
             best[2] = "converged" if resg <= tol else "the NSGS's limits"
 
+    # a separate branch: past SPARING_NEWTON_MAX_ROWS on weakly coupled contacts (the sphere
+    # piles, :func:`.gauss_seidel.weakly_coupled`) the NSGS first: 0.9-1.9 s to certify piles
+    # of 624-897 spheres, where the interior point and the ADMM spent 1.2-2.5 s and stalled
+    # at 7e-5-6e-2 (after them elsewhere: it left brick walls at 2e-5-2e-6); before the direct
+    # Newton too (on the piles it stalled, 0.2-0.4 s; not needed by planar-stack-1000)
+    ip_first = not sparing
+    nsgs_first = bool(ip_first and weakly_coupled(W, d))
+    if nsgs_first:
+        nsgs()
+    res = best[0]
+    if res > tol:
+        r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
+                                  max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
+                                                else 10), sparse=sparse, factor=factor,
+                                  stall_steps=None if sparing else TRY_STALL)
+        iterations += k
+        if res < best[0]:
+            best[:2] = res, r
     # past SPARING_NEWTON_MAX_ROWS before the ADMM where Newton came within POLISH_FROM (the
     # sparse ADMM took 10 s on a 400-box stack, Newton 3e-5, the interior point certified it),
     # else not (walls of 424 and 976 contacts, log pile of 528, sphere piles: Newton 6.5e-4 to
     # 2e-2, the interior point stalled at 8e-4 to 6e-2 in 0.15-0.55 s); below, after the ADMM
-    ip_first = not sparing
     ip_before = ip_first and res <= POLISH_FROM
-    # a separate branch: past SPARING_NEWTON_MAX_ROWS on weakly coupled contacts (the sphere
-    # piles, :func:`.gauss_seidel.weakly_coupled`) the NSGS first: 0.9-1.9 s to certify piles
-    # of 624-897 spheres, where the interior point and the ADMM spent 1.2-2.5 s and stalled
-    # at 7e-5-6e-2; elsewhere (it left walls of 424 and 976 bricks at 2e-5-2e-6) after them
-    nsgs_first = bool(res > tol and ip_first and weakly_coupled(W, d))
-    if nsgs_first:
-        nsgs()
     if best[0] > tol and ip_before:
         interior()
     if best[0] > tol:

@@ -70,7 +70,8 @@ def diagonal_blocks(W: sp.csr_matrix, d: int) -> np.ndarray:
 def gauss_seidel(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *,
                  sweeps: int = 10, omega: float = 1.0, order=None, first: int = 0):
     """A generator of NSGS iterates: each ``next()`` runs ``sweeps`` sweeps from the last
-    iterate (``r0`` (n, d) first) and yields the impulses (n, d) (a copy). ``order`` (k, n):
+    iterate (``r0`` (n, d) first) and yields the impulses (n, d) (a copy); ``send(r)`` runs
+    them from ``r`` (n, d) instead. ``order`` (k, n):
     the contact orders, sweep j in ``order[(first + j) % k]``."""
     W = sp.csr_matrix(W)
     W.sort_indices()
@@ -93,7 +94,9 @@ def gauss_seidel(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *,
         _sweeps(indptr, indices, data, bb, m, d, r, hints, blocks, sweeps, omega, order,
                 done % order.shape[0])
         done += sweeps
-        yield r.reshape(n, d).copy()
+        restart = yield r.reshape(n, d).copy()
+        if restart is not None:  # send(r): the sweeps go on from r
+            r[:] = np.asarray(restart, dtype=float).reshape(-1)
 
 
 #: :func:`weakly_coupled`: the median over contacts of the largest normal coupling at most
@@ -151,6 +154,15 @@ NSGS_NEWTON_AGAIN = 500
 #: generator of fixed seed so that the engine stays deterministic
 NSGS_ORDERS = 64
 NSGS_SEED = 20261126
+#: a Newton try that ends below this fraction of the residual of the iterate it started
+#: from hands its answer to the sweeps, which go on from there (the tries on the plateau end
+#: at 3e-5-3e-4, often 2-10x below the sweeps' iterate). Work (sweeps plus Newton steps) on
+#: 36 perturbed large sphere piles (b moved by 0-1e-3, 12 seeds each): 624 pile 6,800 ->
+#: 5,900 (1e-3: 7,800/9,100 -> 3,800/7,300), 897 pile unchanged at 1e-14-1e-10, 15,400 ->
+#: 11,600 at 1e-6 seed 7, and certified at 1e-3 seed 14 (uncertified before, 1.2e-6 on
+#: 678e8f2, 4.9e-5 with the NSGS first), 726 pile 3,060 -> 2,930; none uncertified. At 1
+#: (any better answer handed on) one of 24 was left uncertified.
+NSGS_RESTART_BELOW = 0.5
 
 
 def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol: float,
@@ -162,7 +174,9 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
     ``residual(r)`` is the certificate (the natural-map residual of Coulomb's law);
     ``newton(r)`` returns ``(r, residual, steps)`` (a Newton finish), tried from iterates
     within :data:`NSGS_NEWTON_FROM`, after each drop by :data:`NSGS_NEWTON_DROP` below the
-    residual of the last try and :data:`NSGS_NEWTON_AGAIN` sweeps after it. Stops at ``tol``,
+    residual of the last try and :data:`NSGS_NEWTON_AGAIN` sweeps after it; the sweeps go on
+    from a try's answer below :data:`NSGS_RESTART_BELOW` times its start's residual (the
+    generator :func:`gauss_seidel` takes it by ``send``). Stops at ``tol``,
     at ``max_sweeps`` or when the NSGS's own best residual (Newton's answers apart) has not
     dropped tenfold in :data:`NSGS_STALL_SWEEPS` sweeps. Returns the best
     ``(r, residual, work)`` (work: sweeps plus Newton steps).
@@ -178,8 +192,10 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
     own = best  # the NSGS's own best residual
     drop_at, drop_level = 0, best
     tried, tried_at = NSGS_NEWTON_FROM / NSGS_NEWTON_DROP, 0
+    restart = None
     while best > tol and sweeps < max_sweeps and sweeps - drop_at < NSGS_STALL_SWEEPS:
-        r = next(run)
+        r = next(run) if restart is None else run.send(restart)
+        restart = None
         sweeps += NSGS_CHECK
         res = residual(r)
         if res < best:
@@ -194,6 +210,8 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
             work += k
             if resn < best:
                 best, best_r = resn, rn
+            if resn < NSGS_RESTART_BELOW * res:
+                restart = rn
     return best_r, float(best), work + sweeps
 
 
@@ -203,6 +221,12 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
 #: failed tries stopped in 3-4)
 NSGS_NEWTON_STEPS = 20
 NSGS_NEWTON_STALL = 3
+#: ...and after 2 steps where it has not halved (:func:`.finish.newton_finish`'s ``first``):
+#: the tries that certified the large sphere piles (b perturbed by 0-1e-6) dropped 2.4-100x
+#: in 2 steps, most failed ones 1.1-2x; Newton steps on the 624/897/726-sphere piles 41/20/20
+#: -> 33/15/18, the same tries certifying (at 4x, (2, 0.25), a certifying try on the
+#: 624-sphere pile with b moved by 1e-6 was cut: 6,800 -> 8,900 sweeps)
+NSGS_NEWTON_FIRST = (2, 0.5)
 #: ...with a light Levenberg-Marquardt weight (:func:`.finish.newton_finish`'s ``damping``):
 #: on the sphere piles of 624-897 contacts the Newton matrix is ill-conditioned (a step of
 #: 1.4e-4 for a map of 5e-7: singular values near 1e-3); the finish's weight damped exactly
@@ -226,7 +250,7 @@ def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol:
         return newton_finish(W, b, mu, r, coulomb=True, tol=tol, sparse=True,
                              step_system=system, damping=NSGS_NEWTON_DAMPING,
                              max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
-                             stall_steps=NSGS_NEWTON_STALL)
+                             stall_steps=NSGS_NEWTON_STALL, first=NSGS_NEWTON_FIRST)
 
     return nsgs_newton(W, b, mu, d, r0, tol=tol, newton=newton,
                        residual=lambda r: natural_map_residual(W, b, mu, r, True)[0])
