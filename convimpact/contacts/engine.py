@@ -7,9 +7,9 @@ Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEP
 :data:`SPARING_NEWTON_MAX_ROWS` rows, where these miss (before them on weakly coupled contacts:
 the sphere piles), the nonsmooth Gauss-Seidel with exact one-contact solves and Newton tries
 (:mod:`.gauss_seidel`, :mod:`.local_coulomb`; Newton's tries lightly damped). :func:`solve` is the
-entry; small problems go first to the compiled dense
-kernels of the same method, and up to :data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from
-zero gets a bounded try first (before the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows).
+entry; small problems go first to the compiled dense kernels of the same method, and up to
+:data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from zero gets a bounded try first (before
+the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows): :mod:`.first_tries`.
 
 The CCP's interior point (Mehrotra's predictor-corrector with Nesterov-Todd scaling, dense or
 sparse) is :mod:`.ccp_interior`. Where W is singular the velocity is unique and the impulses are
@@ -32,42 +32,18 @@ import scipy.sparse as sp
 from . import cones
 from .ccp_interior import EngineResult, solve_ccp, use_sparse  # noqa: F401 (public here)
 from .admm import RELAX, AdmmRace, ccp_admm
-from .admm_kernel import dense_admm, natural_residual
+from .admm_kernel import dense_admm
 from .coulomb_interior import coulomb_interior
 from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .gauss_seidel import nsgs_light, weakly_coupled
 from .generalized import engine_factors
-from .light_direct import light_direct, on_cones
+from .light_direct import light_direct
+from .first_tries import (  # noqa: F401 (the engine's constants and warm start, public here)
+    ADMM_FIRST_MAX_ROWS, ADMM_FIRST_MIN_ROWS, COMPILED_MAX_ROWS, HANDOVER_TOL, admm_first,
+    compiled_answer, kernels, warm_newton)
 from .threads import one_blas_thread
 
-#: rows up to which the compiled dense kernels (:mod:`.interior_point`, :mod:`.natural_map`,
-#: :mod:`.newton`: the same interior point and Newton finish) are tried; above, and where
-#: their answer is not certified, the vectorized backend of this module takes the problem
-COMPILED_MAX_ROWS = 120
-#: the compiled kernels' interior-point tolerance before their Newton finish
-HANDOVER_TOL = 1e-9
-_KERNELS = None
-#: up to this many rows, the compiled ADMM from zero runs first (for Coulomb's law at most
-#: :data:`ADMM_FIRST_ITER` iterations, Newton tried on its way: 80-1,900 at 40-300 rows)...
-ADMM_FIRST_MAX_ROWS = 300
-#: ...before the compiled kernels above this many rows, after them below
-ADMM_FIRST_MIN_ROWS = 40
-ADMM_FIRST_ITER = 5000
-#: ...ending at this many times the iterations to 1e-5 where Newton failed from there (a
-#: 100-box stack: certified at 2.8 times with Newton's full weight, at once with the light)...
-ADMM_FIRST_PATIENCE = 3.0
-#: ...and at once up to :data:`COMPILED_MAX_ROWS` rows, whose compiled kernels are cheap (at
-#: 3 the try lost 1,800 iterations, 2-3x the kernels' time, on 24 robot feet)
-ADMM_FIRST_PATIENCE_SMALL = 1.0
-#: ...or after a batch of 200 iterations that lowered its best less than this (certified tries:
-#: 40-500x a batch; 2-5x on 24 robot feet and 40 planar blocks, 600 and 2,000 iterations lost)
-ADMM_FIRST_CRAWL = 10.0
-#: ...its Newton tries lightly damped (``damping`` of :func:`.finish.newton_finish`), 8 steps;
-#: over-relaxed (:data:`RELAX`) where no compiled kernels follow (1.2-2x fewer iterations)
-ADMM_FIRST_DAMPING, ADMM_FIRST_POLISH_STEPS = 1e-3, 8
-#: ...and for the CCP (from :data:`COMPILED_MAX_ROWS` rows: below, its kernels are sure, fast)
-ADMM_FIRST_ITER_CCP = 300
 #: Coulomb's law: the ADMM from the CCP answer is the compiled dense one
 #: (:mod:`.admm_kernel`) for W dense or up to this many rows; above, :mod:`.admm` on W's
 #: sparse factorization (per iteration the dense one was 1.5-1.8x faster than it at 380-400
@@ -127,19 +103,6 @@ ADMM_EXTEND_FROM = 1e-6
 ADMM_EXTEND_ITER = 40000
 
 
-def kernels():
-    """The compiled kernels (:mod:`.newton`), imported on first use (compiled then, or loaded
-    from numba's on-disk cache, with a message when that takes long)."""
-    global _KERNELS
-    if _KERNELS is None:
-        from . import newton
-        from ..compiled import announce
-
-        announce("contact engine kernels", 25, newton.ccp_kernel, newton.coulomb_kernel)
-        _KERNELS = newton
-    return _KERNELS
-
-
 def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float = 1e-8,
           max_iter: int = 100, newton_iter: int = 30, admm_iter: int = 20000,
           sparse: bool | None = None, compiled: bool = True,
@@ -154,19 +117,20 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     :data:`ADMM_FIRST_MIN_ROWS` rows the ADMM's try after them. Each answer is kept when its
     natural-map residual is at most ``tol``. Then the CCP: the interior point, and the Newton
     finish where it stops short of ``tol`` (skipped when the compiled CCP kernel's answer is
-    certified), then the ADMM (:data:`CCP_ADMM_ITER`). Coulomb's law: Newton from the CCP's
-    answer (lightly damped first up to :data:`DENSE_ADMM_MAX_ROWS` rows, :mod:`.light_direct`;
-    then :data:`DIRECT_NEWTON_STEPS`); where that does not reach ``tol``, the interior
-    point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER` steps at most; past
-    :data:`SPARING_NEWTON_MAX_ROWS` rows before the ADMM where Newton came near, below after) and
-    the ADMM (compiled on dense W and up to :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm`
-    on the sparse factorization, joined by a run from zero where it crawls:
-    :class:`.admm.AdmmRace`), Newton tried within 1e-5 (:data:`ADMM_TRY_FROM` in .admm) and run
-    long (:data:`LONG_NEWTON_STEPS`) from any answer within :data:`LONG_NEWTON_FROM`; past
-    :data:`SPARING_NEWTON_MAX_ROWS` rows the nonsmooth Gauss-Seidel of
-    :func:`.gauss_seidel.nsgs_light` from the CCP's answer (Newton tried on its way; before
-    the interior point and the ADMM where :func:`.gauss_seidel.weakly_coupled`); then the
-    fixed point on De Saxce's shift (:mod:`.fixed_point`).
+    certified), then the ADMM (:data:`CCP_ADMM_ITER`). Coulomb's law: past
+    :data:`SPARING_NEWTON_MAX_ROWS` rows on weakly coupled contacts
+    (:func:`.gauss_seidel.weakly_coupled`: the sphere piles) the nonsmooth Gauss-Seidel first
+    (:func:`.gauss_seidel.nsgs_light`, from the CCP's answer, Newton tried on its way); then
+    Newton from the CCP's answer (lightly damped first up to :data:`DENSE_ADMM_MAX_ROWS` rows,
+    :mod:`.light_direct`; then :data:`DIRECT_NEWTON_STEPS`); where that does not reach
+    ``tol``, the interior point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER`
+    steps at most; past :data:`SPARING_NEWTON_MAX_ROWS` rows before the ADMM where Newton came
+    near, below after) and the ADMM (compiled on dense W and up to
+    :data:`DENSE_ADMM_MAX_ROWS` rows, else :mod:`.admm` on the sparse factorization, joined by
+    a run from zero where it crawls: :class:`.admm.AdmmRace`), Newton tried within 1e-5
+    (:data:`ADMM_TRY_FROM` in .admm) and run long (:data:`LONG_NEWTON_STEPS`) from any answer
+    within :data:`LONG_NEWTON_FROM`; past :data:`SPARING_NEWTON_MAX_ROWS` rows the NSGS
+    where it did not run first; then the fixed point on De Saxce's shift (:mod:`.fixed_point`).
 
     ``start`` (n, d), optional, is a warm start (a time-stepping scheme's impulses of the
     previous step): the law's Newton finish (:func:`warm_newton`) runs from it first, and its
@@ -190,68 +154,28 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     return R
 
 
-def warm_newton(W, b: np.ndarray, mu: np.ndarray, d: int, start: np.ndarray, *,
-                coulomb: bool, tol: float = 1e-8, newton_iter: int = 30,
-                sparse: bool | None = None, compiled: bool = True, damping: float = 1.0
-                ) -> EngineResult:
-    """Newton on the law's natural map from ``start`` (n, d) alone: the compiled finish of the
-    kernels (on their scaled program) up to :data:`COMPILED_MAX_ROWS` rows, the vectorized
-    :func:`.finish.newton_finish` above (its weight times ``damping``). ``converged`` when the
-    natural-map residual of the answer, on the original data, is at most ``tol``."""
-    n = mu.shape[0]
-    start = np.asarray(start, dtype=float).reshape(n, d)
-    bb = np.asarray(b, dtype=float).reshape(n, d)
-    if compiled and n * d <= COMPILED_MAX_ROWS:
-        K = kernels()
-        Wd = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=float)
-        m = np.ascontiguousarray(mu, dtype=float)
-        P, q, idx, scale, starts, sizes, f, trivial = K.scaled_program(Wd, bb.ravel().copy(),
-                                                                        m, d)
-        if trivial:
-            r, steps = np.zeros((n, d)), 0
-        else:
-            x = start.ravel()[idx[:q.shape[0]]] / (scale[:q.shape[0]] * f)
-            x, _, steps = K.natural_map_newton(P, q, np.ascontiguousarray(x), starts, sizes,
-                                               min(newton_iter, 20), coulomb)
-            r = np.zeros(n * d)
-            r[idx[:q.shape[0]]] = scale[:q.shape[0]] * f * x
-            r = r.reshape(n, d)
-        res, u = cones.natural_map_residual(Wd, bb, m, r, coulomb)
-    else:
-        if sparse is None:
-            sparse = use_sparse(W, n * d)
-        W = sp.csr_matrix(W) if sparse else (W.toarray() if sp.issparse(W) else W)
-        with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            r, res, steps = newton_finish(W, bb, mu, start, coulomb=coulomb, tol=tol,
-                                          max_iter=newton_iter, sparse=sparse, damping=damping)
-            res, u = cones.natural_map_residual(W, bb, mu, r, coulomb)
-    ok = bool(res <= tol)
-    return EngineResult(r, u, float(res), int(steps), ok,
-                        "converged (warm start)" if ok else "warm start not certified")
-
-
 def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, compiled,
           generalized=None):
     n = mu.shape[0]
     ccp = None
-    admm_first = compiled and n * d <= ADMM_FIRST_MAX_ROWS
+    try_admm = compiled and n * d <= ADMM_FIRST_MAX_ROWS
     # the CCP's compiled kernels are fast and sure on their rows: its ADMM try comes above
-    if admm_first and n * d > (ADMM_FIRST_MIN_ROWS if coulomb else COMPILED_MAX_ROWS):
+    if try_admm and n * d > (ADMM_FIRST_MIN_ROWS if coulomb else COMPILED_MAX_ROWS):
         # the compiled interior point's dense Newton grows as rows^3: the ADMM first
-        R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
+        R = admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
             return R
-        admm_first = False
+        try_admm = False
     if compiled and n * d <= COMPILED_MAX_ROWS:
-        R = _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter)
+        R = compiled_answer(W, b, mu, d, coulomb, tol, max_iter, newton_iter)
         if R is not None and R.converged:
             return R
-    if admm_first and coulomb:
-        R = _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
+    if try_admm and coulomb:
+        R = admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
             return R
     if compiled and n * d <= COMPILED_MAX_ROWS and coulomb:  # the CCP answer, a start below
-        ccp = _compiled(W, b, mu, d, False, tol, max_iter, newton_iter)
+        ccp = compiled_answer(W, b, mu, d, False, tol, max_iter, newton_iter)
         ccp = ccp if ccp is not None and ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         if coulomb and compiled and ccp is None and n * d <= DENSE_ADMM_MAX_ROWS:
@@ -260,53 +184,6 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
                 return R
         return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
                       ccp, generalized)
-
-
-def _admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled) -> EngineResult:
-    """Coulomb's law by the compiled ADMM from zero (Pinocchio's start), at most
-    :data:`ADMM_FIRST_ITER` iterations, Newton (:func:`warm_newton`) tried on its way."""
-    n = mu.shape[0]
-    Wd = W.toarray() if sp.issparse(W) else np.asarray(W, dtype=float)
-    bb = np.asarray(b, dtype=float).reshape(n, d)
-    steps = [0]
-
-    def polish(r):
-        # the compiled finish (complete pivoting, rows^3 loops) on the smallest, LAPACK's above
-        R = warm_newton(Wd, bb, mu, d, r, coulomb=coulomb, tol=tol,
-                        newton_iter=min(newton_iter, ADMM_FIRST_POLISH_STEPS), sparse=False,
-                        compiled=compiled and n * d <= ADMM_FIRST_MIN_ROWS,
-                        damping=ADMM_FIRST_DAMPING)
-        steps[0] += R.iterations
-        return R.impulse, R.residual, R.iterations
-
-    small = n * d <= COMPILED_MAX_ROWS  # (over-relaxed, 24 robot feet lost a Newton try: 2x)
-    with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        r, _, it = dense_admm(Wd, bb, mu, d, np.zeros((n, d)), tol=tol,
-                              max_iter=ADMM_FIRST_ITER if coulomb else ADMM_FIRST_ITER_CCP,
-                              polish=polish, coulomb=coulomb,
-                              patience=ADMM_FIRST_PATIENCE_SMALL if small else ADMM_FIRST_PATIENCE,
-                              crawl=ADMM_FIRST_CRAWL if small else None,
-                              relax=1.0 if small else RELAX)
-        r, res, u = on_cones(Wd, bb, mu, r, coulomb, tol)  # Newton's answer on the cones
-    ok = bool(res <= tol)
-    return EngineResult(r, u, float(res), it + steps[0], ok, "converged" if ok else "")
-
-
-def _compiled(W, b, mu, d, coulomb, tol, max_iter, newton_iter) -> EngineResult:
-    """The compiled kernels' answer (``converged`` when certified at ``tol``)."""
-    K = kernels()
-    n = mu.shape[0]
-    Wd = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=float)
-    bb = np.ascontiguousarray(b, dtype=float).reshape(-1)
-    m = np.ascontiguousarray(mu, dtype=float)
-    pi, _, it, steps, _, _ = (K.coulomb_kernel if coulomb else K.ccp_kernel)(
-        Wd, bb, m, d, HANDOVER_TOL, max_iter, min(newton_iter, 20))
-    # cones.natural_map_residual compiled (in Python as costly as the kernel); u = W r + b
-    u, y, p = np.empty(n * d), np.empty(n * d), np.empty(n * d)
-    res = float(natural_residual(Wd, bb, m, d, pi, coulomb, u, y, p))
-    ok = bool(res <= tol)
-    return EngineResult(pi.reshape(n, d), u.reshape(n, d), res, int(it) + int(steps), ok,
-                        "converged" if ok else "")
 
 
 def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, ccp=None,
@@ -378,8 +255,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
             best[:2] = resc, rc
         long_newton(rc, resc)
 
-    def nsgs():
-        """Past SPARING_NEWTON_MAX_ROWS: the NSGS from the CCP answer, light Newton tries."""
+    def nsgs():  # past SPARING_NEWTON_MAX_ROWS: the NSGS from the CCP answer
         nonlocal iterations
         rg, resg, kg = nsgs_light(W, b, mu, d, R.impulse, tol=tol, newton_iter=newton_iter)
         iterations += kg

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import convimpact as ci
-from convimpact.contacts import admm_kernel, engine
+from convimpact.contacts import admm_kernel, first_tries
 
 from .cone_checks import project_cone
 
@@ -92,7 +92,7 @@ def test_engine_coulomb_through_the_admm_on_a_brick_wall():
     (case,) = corpus(names=["box-wall-2x2-16"])
     W = case.W.toarray()
     d = case.dim
-    compiled = engine._compiled(W, case.b, case.mu, d, True, 1e-8, 100, 30)
+    compiled = first_tries.compiled_answer(W, case.b, case.mu, d, True, 1e-8, 100, 30)
     assert not compiled.converged  # the path this test is about
     sol = ci.solve_contact_problem(case.W, case.b, case.mu, law="coulomb", dim=d)
     assert sol.status == "solved"

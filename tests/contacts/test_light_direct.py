@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from convimpact.bench.contact_corpus import corpus
-from convimpact.contacts import engine, light_direct
+from convimpact.contacts import engine, first_tries, light_direct
 
 from .cone_checks import project_cone
 from .test_admm_restart import ccp_residual
@@ -63,15 +63,15 @@ def test_the_admm_first_try_gives_way_where_it_crawls(cases, name):
     """Below COMPILED_MAX_ROWS the ADMM-first try ends after its second batch of 200 where it
     crawls (these two: 2-5x a batch); the compiled kernels certify them after it."""
     W, b, mu, d = _data(cases[name])
-    R = engine._admm_first(W, b, mu, d, True, 1e-8, 30, True)
-    assert not R.converged and R.iterations <= 400 + engine.ADMM_FIRST_POLISH_STEPS
+    R = first_tries.admm_first(W, b, mu, d, True, 1e-8, 30, True)
+    assert not R.converged and R.iterations <= 400 + first_tries.ADMM_FIRST_POLISH_STEPS
     E = engine.solve(W, b, mu, d, coulomb=True)
     assert E.converged and coulomb_residual(W.toarray(), b, mu, E.impulse) <= 1e-8
 
 
 def test_the_admm_first_light_newton_certifies_a_box_stack_on_the_cones(cases):
     W, b, mu, d = _data(cases["box-stack-100"])
-    R = engine._admm_first(W, b, mu, d, True, 1e-8, 30, True)
+    R = first_tries.admm_first(W, b, mu, d, True, 1e-8, 30, True)
     assert R.converged
     assert coulomb_residual(W.toarray(), b, mu, R.impulse) <= 1e-8
     assert project_cone(R.impulse, mu) == pytest.approx(R.impulse, abs=1e-9)
