@@ -158,6 +158,7 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
           generalized=None):
     n = mu.shape[0]
     ccp = None
+    spent = 0  # the iterations of the tries that did not certify (counted in the answer's)
     try_admm = compiled and n * d <= ADMM_FIRST_MAX_ROWS
     # the CCP's compiled kernels are fast and sure on their rows: its ADMM try comes above
     if try_admm and n * d > (ADMM_FIRST_MIN_ROWS if coulomb else COMPILED_MAX_ROWS):
@@ -165,25 +166,35 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
         R = admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
             return R
+        spent += R.iterations
         try_admm = False
     if compiled and n * d <= COMPILED_MAX_ROWS:
         R = compiled_answer(W, b, mu, d, coulomb, tol, max_iter, newton_iter)
-        if R is not None and R.converged:
-            return R
+        if R.converged:
+            return _counted(R, spent)
+        spent += R.iterations
     if try_admm and coulomb:
         R = admm_first(W, b, mu, d, coulomb, tol, newton_iter, compiled)
         if R.converged:
-            return R
+            return _counted(R, spent)
+        spent += R.iterations
     if compiled and n * d <= COMPILED_MAX_ROWS and coulomb:  # the CCP answer, a start below
         ccp = compiled_answer(W, b, mu, d, False, tol, max_iter, newton_iter)
-        ccp = ccp if ccp is not None and ccp.converged else None
+        ccp = ccp if ccp.converged else None
     with one_blas_thread(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         if coulomb and compiled and ccp is None and n * d <= DENSE_ADMM_MAX_ROWS:
             R, ccp = light_direct(W, b, mu, d, tol=tol, max_iter=max_iter, sparse=sparse)
             if R.converged:  # (:mod:`.light_direct`: the stacks)
-                return R
-        return _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse,
-                      ccp, generalized)
+                return _counted(R, spent)
+            spent += R.iterations - ccp.iterations  # (the CCP's are counted below)
+        return _counted(_solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter,
+                               sparse, ccp, generalized), spent)
+
+
+def _counted(R: EngineResult, spent: int) -> EngineResult:
+    """``R`` with ``spent`` more iterations (those of the tries before it)."""
+    return R if not spent else EngineResult(R.impulse, R.velocity, R.residual,
+                                            R.iterations + spent, R.converged, R.message)
 
 
 def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, ccp=None,
