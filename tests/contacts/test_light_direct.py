@@ -62,6 +62,8 @@ def test_the_light_try_gives_way_on_a_pile_after_one_step(cases):
 def test_the_admm_first_try_gives_way_where_it_crawls(cases, name):
     """Below COMPILED_MAX_ROWS the ADMM-first try ends after its second batch of 200 where it
     crawls (these two: 2-5x a batch); the compiled kernels certify them after it."""
+    if name not in cases:  # the corpus leaves the robots out without their models
+        pytest.skip("the robot models need example-robot-data (pip install -e \".[test-full]\")")
     W, b, mu, d = _data(cases[name])
     R = first_tries.admm_first(W, b, mu, d, True, 1e-8, 30, True)
     assert not R.converged and R.iterations <= 400 + first_tries.ADMM_FIRST_POLISH_STEPS
