@@ -18,13 +18,12 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import qdldl
 import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .cones import natural_map_residual, project
-from .generalized import sparse_lowrank_step
 from .lowrank import SPARSE_FLOP_COST, DelassusFactor, lowrank_step
+from .lowrank_sparse import SparseLowRankStep
 from .sparse_step import SparseStepSystem
 
 
@@ -147,8 +146,11 @@ def newton_finish(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, *, coulomb: 
             # the dense step: J^T J and its Cholesky
             G = factor.decide(2.0 * (n * d) ** 3 + (n * d) ** 3 / 3.0)
         if G is not None and sp.issparse(G):
+            # the system's layout and symbolic factorization kept on the factor
+            if factor.sparse_lowrank is None or factor.sparse_lowrank.G_given is not G:
+                factor.sparse_lowrank = SparseLowRankStep(G, d)
             try:
-                dr = sparse_lowrank_step(np.eye(d) - D, DB, G, lam, F.ravel())
+                dr = factor.sparse_lowrank.solve(np.eye(d) - D, DB, lam, F.ravel())
             except RuntimeError:  # SuperLU: an exactly singular system
                 break
         elif G is not None:

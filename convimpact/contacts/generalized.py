@@ -13,8 +13,8 @@ each block). Then
   m x m matrix ``c I + G^T G``, whose pattern does not change with c (its symbolic
   factorization is reused at every change of the ADMM's rho: :class:`WoodburySolver`);
 * the Newton finish's Levenberg-Marquardt step is the one of :func:`.lowrank.lowrank_step`
-  with its 2m-row Schur complement assembled sparse and factored by SuperLU
-  (:func:`sparse_lowrank_step`), instead of dense products of N x m matrices.
+  with its 2m-row Schur complement assembled sparse and factored by a sparse LDL^T
+  (:mod:`.lowrank_sparse`), instead of dense products of N x m matrices.
 
 Nothing changes in the problem: the certificate stays the natural-map residual on ``W`` and
 ``b`` as given.
@@ -24,9 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 import qdldl
-import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import MassMatrixError, NonFiniteError, ShapeError, as_real_array
@@ -221,55 +219,3 @@ class WoodburySolver:
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return (rhs - self.G @ self._f.solve(self.Gt @ rhs)) / self._shift
-
-
-def _block_diag(blocks: np.ndarray) -> sp.csr_matrix:
-    n, d, _ = blocks.shape
-    rows = (np.arange(n)[:, None, None] * d + np.arange(d)[None, :, None]).repeat(d, 2)
-    cols = (np.arange(n)[:, None, None] * d + np.arange(d)[None, None, :]).repeat(d, 1)
-    return sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(n * d, n * d))
-
-
-def sparse_lowrank_step(A: np.ndarray, E: np.ndarray, G: sp.csr_matrix, lam: float,
-                        F: np.ndarray) -> np.ndarray:
-    """:func:`.lowrank.lowrank_step` for a sparse G: the Levenberg-Marquardt step
-    ``dr = -(J^T J + lam I)^-1 J^T F`` of ``J = A + E G G^T``, the same elimination (the
-    contact blocks in closed form, then the symmetric 2m-row system in ``t = G^T dr`` and
-    ``p = U^T s``, equilibrated) with the system assembled sparse and factored by SuperLU.
-
-    Parameters
-    ----------
-    A, E : (n, d, d) the block-diagonal parts of the Jacobian (``I - D`` and ``D B rho``).
-    G : (n d, m) CSR with ``W = G G^T``.
-    lam : float > 0.
-    F : (n d,) the natural map.
-    """
-    n, d, _ = A.shape
-    m = G.shape[1]
-    F = F.ravel()
-    eye = np.eye(d)
-    At = np.transpose(A, (0, 2, 1))
-    H0inv = np.linalg.inv(At @ A + lam * eye)
-    R1 = H0inv @ At
-    Cq = lam * np.linalg.inv(A @ At + lam * eye)
-    U = sp.csr_matrix(_block_diag(E) @ G)
-    Ut = sp.csr_matrix(U.T)
-    S11 = Ut @ (_block_diag(Cq) @ U)
-    S12 = -(Ut @ (_block_diag(np.transpose(R1, (0, 2, 1))) @ G)) - sp.identity(m)
-    Y3 = sp.csr_matrix(_block_diag(H0inv) @ G)
-    S22 = -(G.T @ Y3)
-    S = sp.bmat([[S11, S12], [S12.T, S22]], format="csc")
-    dr0 = -np.einsum("nij,nj->ni", R1, F.reshape(n, d)).ravel()
-    s0 = np.einsum("nij,nj->ni", A, dr0.reshape(n, d)).ravel() + F
-    rhs = -np.concatenate([Ut @ s0, G.T @ dr0])
-    big = np.asarray(abs(S).max(axis=1).todense()).ravel()
-    sc = 1.0 / np.sqrt(np.where(big > 0.0, big, 1.0))
-    Dsc = sp.diags(sc)
-    S = sp.csc_matrix(Dsc @ S @ Dsc)
-    # symmetric mode (an ordering of S + S^T, diagonal pivots preferred): half the time and
-    # fill of SuperLU's default on brick walls of 1,000 contacts
-    lu = spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                   options={"SymmetricMode": True})
-    x = sc * lu.solve(sc * rhs)
-    t, p = x[:m], x[m:]
-    return -(Y3 @ p) - np.einsum("nij,nj->ni", R1, (F + U @ t).reshape(n, d)).ravel()

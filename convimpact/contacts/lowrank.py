@@ -75,6 +75,9 @@ class DelassusFactor:
         #: the Newton finish's sparse step system (:mod:`.sparse_step`), set up on its first
         #: sparse step and kept for the problem's later ones
         self.step_system = None
+        #: the step through a sparse G (:class:`.lowrank_sparse.SparseLowRankStep`), laid out
+        #: on its first step and kept for the problem's later ones
+        self.sparse_lowrank = None
         self.decided = False
         self.rank: int | None = None
 

@@ -15,11 +15,9 @@ import scipy.sparse as sp
 import convimpact as ci
 from convimpact.bench.contact_corpus import corpus
 from convimpact.contacts import engine
-from convimpact.contacts.generalized import (
-    GeneralizedFactor,
-    WoodburySolver,
-    sparse_lowrank_step,
-)
+from convimpact.contacts.generalized import GeneralizedFactor, WoodburySolver
+from convimpact.contacts import lowrank_sparse
+from convimpact.contacts.lowrank_sparse import SparseLowRankStep, sparse_lowrank_step
 from convimpact.errors import MassMatrixError, NonFiniteError, ParameterError, ShapeError
 
 from .cone_checks import project_cone
@@ -96,6 +94,35 @@ def test_sparse_step_is_the_levenberg_marquardt_step():
     want = -np.linalg.solve(Jn.T @ Jn + lam * np.eye(n * d), Jn.T @ F)
     got = sparse_lowrank_step(A, E, G, lam, F)
     assert np.abs(got - want).max() <= 1e-8 * np.abs(want).max()
+
+
+def _lm_step(A, E, G, lam, F):
+    """The Levenberg-Marquardt step from the dense normal equations (an independent check)."""
+    Jn = sp.block_diag(list(A)).toarray() + sp.block_diag(list(E)).toarray() @ (G @ G.T)
+    return -np.linalg.solve(Jn.T @ Jn + lam * np.eye(Jn.shape[0]), Jn.T @ F)
+
+
+def test_kept_sparse_step_is_the_levenberg_marquardt_step_at_every_step(monkeypatch):
+    # one layout, several steps with other blocks and weights (contacts opening: E's block
+    # zero; a weight down to 1e-8), each against the dense normal equations; then the same
+    # with the LDL^T's refinement refused, so that SuperLU takes every step
+    rng = np.random.default_rng(11)
+    n, d = 10, 3
+    M, J = _random_generalized(rng, bodies=4, contacts=n, d=d)
+    G = GeneralizedFactor(M, J).G
+    for refuse in (False, True):
+        if refuse:
+            monkeypatch.setattr(lowrank_sparse, "MAX_REFINEMENTS", -1)
+        stepper = SparseLowRankStep(G, d)
+        for k, lam in enumerate((0.3, 1e-3, 1e-8)):
+            A = rng.standard_normal((n, d, d))
+            E = rng.standard_normal((n, d, d))
+            E[rng.permutation(n)[:k + 2]] = 0.0
+            F = rng.standard_normal(n * d)
+            want = _lm_step(A, E, G, lam, F)
+            got = stepper.solve(A, E, lam, F)
+            assert np.abs(got - want).max() <= 1e-7 * np.abs(want).max()
+        assert (stepper.fallbacks == 3) if refuse else (stepper.fallbacks == 0)
 
 
 def test_one_sliding_contact_closed_form_from_generalized_coordinates():
