@@ -26,11 +26,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import qdldl
 import scipy.linalg as sla
 import scipy.sparse as sp
 
 from . import cones
+from .supernodal import SupernodalLDL
 
 #: the interior-point path's parameters (Mehrotra): the fraction of the step to the boundary
 STEP_FRACTION = 0.99
@@ -221,9 +221,10 @@ class _Factor:
         M = sp.csc_matrix((data, self.pattern.indices, self.pattern.indptr),
                           shape=self.pattern.shape)
         if self.solver is None:
-            self.solver = ("augmented" if self.aug_rows else "qdldl", qdldl.Solver(M))
+            self.solver = ("augmented" if self.aug_rows else "qdldl",
+                           SupernodalLDL(M, upper=True))
         else:
-            self.solver[1].update(M)
+            self.solver[1].update(M, upper=True)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         kind, f = self.solver

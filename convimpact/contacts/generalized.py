@@ -23,12 +23,12 @@ Nothing changes in the problem: the certificate stays the natural-map residual o
 from __future__ import annotations
 
 import numpy as np
-import qdldl
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import MassMatrixError, NonFiniteError, ShapeError, as_real_array
 from .lowrank import LOWRANK_MAX_FRACTION, DelassusFactor
+from .supernodal import SupernodalLDL
 
 #: a coupled block of M of more rows than this is not factored dense: the entry raises
 #: MassMatrixError and says to pass W alone (a sparse factorization of such blocks is not built)
@@ -212,9 +212,9 @@ class WoodburySolver:
         K.data[:] = self._base
         K.data[self._diag] += shift
         if self._f is None:
-            self._f = qdldl.Solver(K)
+            self._f = SupernodalLDL(K, upper=True)
         else:
-            self._f.update(K)
+            self._f.update(K, upper=True)
         self._shift = shift
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:

@@ -28,9 +28,10 @@ factorization 14 and 16 ms a step, QDLDL's numeric one 6 and 2.5 ms (fill 144k a
 from __future__ import annotations
 
 import numpy as np
-import qdldl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from .supernodal import SupernodalLDL
 
 #: the static regularization of the equilibrated S (whose rows' largest entries are 1)
 REGULARIZATION = 1e-9
@@ -147,7 +148,7 @@ class SparseLowRankStep:
         scale = max(float(np.max(np.abs(rhs))), 1e-300)
         try:
             if self._solver is None:
-                self._solver = qdldl.Solver(K, upper=True)
+                self._solver = SupernodalLDL(K, upper=True)
             else:
                 self._solver.update(K, upper=True)
             self.factorizations += 1
