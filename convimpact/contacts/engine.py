@@ -80,6 +80,12 @@ LONG_NEWTON_STEPS = 40
 #: contacts 6e-6 to 4.3e-6 in 40 steps, 1.2 s; below, it reached tol in 26-39 at 480-600 rows)
 TRY_STALL = 5
 LONG_STALL = 10
+#: ...the direct one (from the CCP answer) where its best has not halved in DIRECT_STALL
+#: steps (walls of 424 and 976 contacts, log pile of 528: 2-3 steps instead of 5-7, 3.7e-3
+#: to 1.1e-3 left, 20 ms a step at 976; those that served halved it every two steps: a log
+#: pile of 920, 10 steps to 2.5e-9, a robot crowd of 480, 10 steps to 2e-8)
+DIRECT_STALL = 2
+CCP_START_STALL = 2
 #: ...and a try from an ADMM iterate stops after TRY_FIRST[0] steps where it has not dropped
 #: by TRY_FIRST[1] (the tries that served dropped 10-500x in 1-2 steps: walls of 424 and 976
 #: contacts, log pile of 528, sphere piles; the failed ones 1.9-8x, 6-8 steps on)
@@ -210,10 +216,17 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     R = ccp if ccp is not None else solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter,
                                               sparse=sparse, G=Gs)
     iterations = R.iterations
+    dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
+    sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
+    ip_first = not sparing
+    nsgs_first = bool(coulomb and ip_first and weakly_coupled(W, d))
     if R.residual > tol:
+        # Coulomb's law past SPARING_NEWTON_MAX_ROWS on strongly coupled contacts: the CCP
+        # answer is a start only, its finish stopped by DIRECT_STALL (CCP_START_STALL)
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
                                   max_iter=newton_iter, sparse=sparse, factor=factor,
-                                  stall_steps=TRY_STALL)
+                                  stall_steps=CCP_START_STALL if coulomb and ip_first
+                                  and not nsgs_first else TRY_STALL)
         iterations += k
         if res < R.residual:
             res, u = cones.natural_map_residual(W, b, mu, r, coulomb=False)
@@ -229,8 +242,6 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 R = EngineResult(r, u, res, iterations + k, res <= tol,
                                  "converged" if res <= tol else R.message)
         return R
-    dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
-    sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
     best = [np.inf, R.impulse, "converged"]
     long_tried = [np.inf]
 
@@ -279,8 +290,6 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     # of 624-897 spheres, where the interior point and the ADMM spent 1.2-2.5 s and stalled
     # at 7e-5-6e-2 (after them elsewhere: it left brick walls at 2e-5-2e-6); before the direct
     # Newton too (on the piles it stalled, 0.2-0.4 s; not needed by planar-stack-1000)
-    ip_first = not sparing
-    nsgs_first = bool(ip_first and weakly_coupled(W, d))
     if nsgs_first:
         nsgs()
     res = best[0]
@@ -288,7 +297,7 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
                                   max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
                                                 else 10), sparse=sparse, factor=factor,
-                                  stall_steps=None if sparing else TRY_STALL)
+                                  stall_steps=None if sparing else DIRECT_STALL)
         iterations += k
         if res < best[0]:
             best[:2] = res, r
@@ -304,9 +313,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
 
         last = [np.inf]  # the residual of the last iterate checked
 
-        def check(r):
+        def check(r, given=None):
+            # given: the compiled sparse ADMM's own residual of r (W's product through G),
+            # taken above 2 tol; near tol and elsewhere the certificate's, on W as given
             nonlocal iterations
-            res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+            res = given if given is not None and given > 2.0 * tol else \
+                cones.natural_map_residual(W, b, mu, r, coulomb=True)[0]
             last[0] = res
             if res < best[0]:
                 best[:2] = res, r
@@ -356,7 +368,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                             below=ADMM_STALL_ABOVE, relax=RELAX if not sparing else 1.0)
             while done < admm_iter:
                 done += 10
-                if check(runs.next()):
+                r = runs.next()
+                if check(r, runs.residual):
                     break
                 runs.judge(last[0])
                 if done % ADMM_STALL_ITER == 0 and best[0] > ADMM_STALL_ABOVE:
@@ -367,7 +380,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 extra += 10
                 done += 10
                 r = runs.next()
-                res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+                res = runs.residual
+                if res is None or res <= 2.0 * tol:
+                    res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
                 if res < best[0]:
                     best[:2] = res, r
             if best[0] > tol and not ip_first:
