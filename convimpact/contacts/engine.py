@@ -85,11 +85,20 @@ LONG_STALL = 10
 #: to 1.1e-3 left, 20 ms a step at 976; those that served halved it every two steps: a log
 #: pile of 920, 10 steps to 2.5e-9, a robot crowd of 480, 10 steps to 2e-8)
 DIRECT_STALL = 2
-CCP_START_STALL = 2
+#: ...and for Coulomb's law on strongly coupled contacts (not the NSGS's first) the CCP
+#: answer is a start only: its finish is skipped from within CCP_START_FROM, else stopped
+#: by DIRECT_STALL (the wall of 976 contacts: 5 steps, 0.15 s, from 1.9e-7 to 1.2e-7, the
+#: ADMM's iterations after them 6,054 from there, 6,049 from the interior point's 1.9e-7)
+CCP_START_FROM = 1e-6
 #: ...and a try from an ADMM iterate stops after TRY_FIRST[0] steps where it has not dropped
 #: by TRY_FIRST[1] (the tries that served dropped 10-500x in 1-2 steps: walls of 424 and 976
-#: contacts, log pile of 528, sphere piles; the failed ones 1.9-8x, 6-8 steps on)
-TRY_FIRST = (2, 0.1)
+#: contacts, log pile of 528, sphere piles; the failed ones 1.9-8x, 6-8 steps on; on the
+#: walls of 424 and 976 and the log pile of 528 the one that served dropped 11x in its first
+#: step, the failed ones by at most 1.2x: at 20-28 ms a step at 976) and after ADMM_TRY_STALL
+#: steps where its best has not halved (the wall of 424: 9.3e-7 to 8.4e-8 in one step, then
+#: 8.3e-8 for 5 more)
+TRY_FIRST = (1, 0.5)
+ADMM_TRY_STALL = 3
 #: ...and comes from within this residual, then on each drop by 100 (the ADMM alone certified
 #: the walls of 424 and 976 contacts, from zero, and the log pile of 528 in 4,600, 5,740 and
 #: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing)
@@ -220,13 +229,11 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
     ip_first = not sparing
     nsgs_first = bool(coulomb and ip_first and weakly_coupled(W, d))
-    if R.residual > tol:
-        # Coulomb's law past SPARING_NEWTON_MAX_ROWS on strongly coupled contacts: the CCP
-        # answer is a start only, its finish stopped by DIRECT_STALL (CCP_START_STALL)
+    start_only = coulomb and ip_first and not nsgs_first  # (CCP_START_FROM)
+    if R.residual > (CCP_START_FROM if start_only else tol):
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
                                   max_iter=newton_iter, sparse=sparse, factor=factor,
-                                  stall_steps=CCP_START_STALL if coulomb and ip_first
-                                  and not nsgs_first else TRY_STALL)
+                                  stall_steps=DIRECT_STALL if start_only else TRY_STALL)
         iterations += k
         if res < R.residual:
             res, u = cones.natural_map_residual(W, b, mu, r, coulomb=False)
@@ -332,12 +339,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
                                                          else 10), sparse=sparse, factor=factor,
-                                            stall_steps=None if sparing else TRY_STALL,
+                                            stall_steps=None if sparing else ADMM_TRY_STALL,
                                             first=None if sparing else TRY_FIRST)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
-                if sparing:  # else the try stopped where it crawled (TRY_STALL)
+                if sparing:  # else the try stopped where it crawled (ADMM_TRY_STALL)
                     long_newton(rn, resn)
             tried.append(res)
             return best[0] <= tol
