@@ -304,7 +304,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
                                   max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
                                                 else 10), sparse=sparse, factor=factor,
-                                  stall_steps=None if sparing else DIRECT_STALL)
+                                  stall_steps=None if sparing else
+                                  TRY_STALL if nsgs_first else DIRECT_STALL)
         iterations += k
         if res < best[0]:
             best[:2] = res, r
