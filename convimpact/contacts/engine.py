@@ -378,7 +378,8 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 interior()
         else:
             runs = AdmmRace(W, b, mu, R.impulse, sparse, factor=admm_factor,
-                            below=ADMM_STALL_ABOVE, relax=RELAX if not sparing else 1.0)
+                            below=ADMM_STALL_ABOVE, relax=RELAX if not sparing else 1.0,
+                            tol=tol)
             while done < admm_iter:
                 done += 10
                 r = runs.next()
