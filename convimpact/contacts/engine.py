@@ -2,7 +2,8 @@
 ``K ∋ r ⊥ u = W r + b ∈ K*`` (the convex relaxation of Coulomb's law, ``ccp``), finished by
 Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP's answer, or
 where that misses, by an interior point on the law itself (:mod:`.coulomb_interior`, stopped
-where it stalls) and an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W),
+where it stalls) and an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W,
+its iterations compiled in :mod:`.admm_sparse_kernel`),
 Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEPS`), and past
 :data:`SPARING_NEWTON_MAX_ROWS` rows, where these miss (before them on weakly coupled contacts:
 the sphere piles), the nonsmooth Gauss-Seidel with exact one-contact solves and Newton tries
