@@ -111,8 +111,11 @@ TRY_FIRST = (1, 0.5)
 ADMM_TRY_STALL = 3
 #: ...and comes from within this residual, then on each drop by 100 (the ADMM alone certified
 #: the walls of 424 and 976 contacts, from zero, and the log pile of 528 in 4,600, 5,740 and
-#: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing)
-ADMM_TRY_FROM = 1e-6
+#: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing; from
+#: 9.3e-7 to 9.7e-7 the tries failed on all three, from 2.7e-7 and 2.2e-7 they certified the
+#: wall of 424 and the log pile of 528 in one step, 100x: 2,616 -> 2,493 and 1,140 -> 1,080
+#: iterations; on the wall of 976 from 2.7e-7 it failed)
+ADMM_TRY_FROM = 3e-7
 #: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best (Newton's
 #: tries included) is above ADMM_STALL_ABOVE every ADMM_STALL_ITER iterations (sphere piles
 #: of 624-897 contacts: 1e-2 at 2,000, the NSGS's; walls, log piles: 1e-4 by 640); it is
