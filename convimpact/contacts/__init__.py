@@ -14,7 +14,8 @@ sustained-contact forces (:mod:`convimpact.simulation`), and the public
   factorizations, and Coulomb's law from its answer;
 * :mod:`.cones`: the friction cones' algebra and the natural-map residual; :mod:`.finish`: the
   regularized semismooth Newton finish; :mod:`.admm_kernel` (compiled, dense) and
-  :mod:`.admm` (sparse): the ADMM on Coulomb's law in De Saxce's form; :mod:`.fixed_point`:
+  :mod:`.admm` (sparse; its iterations compiled in :mod:`.admm_sparse_kernel`): the ADMM on
+  Coulomb's law in De Saxce's form; :mod:`.fixed_point`:
   the fixed point on De Saxce's shift, the last resort; :mod:`.threads`: the
   factorizations on one BLAS thread;
 * :mod:`.lowrank`: W's low-rank factor (pivoted Cholesky) and the finish's step through it;

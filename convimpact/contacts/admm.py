@@ -26,6 +26,7 @@ import scipy.sparse as sp
 
 from .admm_kernel import (BALANCE, ETA, RHO_POWER, RHO_STEP, TAU, admm_update,  # noqa: F401
                           dense_admm)
+from .admm_sparse_kernel import SparseAdmmRun
 from .cones import natural_map_residual, project
 from .generalized import WoodburySolver
 
@@ -92,7 +93,7 @@ class _Solver:
 
 def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool, *,
                  check_every: int = 10, factor=None, coulomb: bool = True,
-                 relax: float = RELAX) -> Iterator[np.ndarray]:
+                 relax: float = RELAX, like=None):
     """ADMM iterations from ``r0`` (n, d), yielding the cone copy (n, d) every
     ``check_every`` iterations (the caller judges it and stops when it likes).
 
@@ -103,7 +104,42 @@ def coulomb_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool,
     by a factor of more than 10. ``factor``, optional: W's low-rank factor
     (:class:`~.lowrank.DelassusFactor`); where it has one, the proximal steps are solved
     through it (Woodbury's identity), the same iteration.
+
+    On sparse W (G none or sparse) the iterations are compiled
+    (:class:`.admm_sparse_kernel.SparseAdmmRun`, the same iteration to round-off; its
+    ``residual`` is the natural-map residual of the last iterate given); elsewhere a
+    Python generator. Either is an iterator: ``next(run)``. ``like``, optional: a compiled
+    run on the same W and factor whose set-up the new one shares.
     """
+    G = None if factor is None else factor.G
+    if sparse and sp.issparse(W) and check_every == 10 and (G is None or sp.issparse(G)):
+        n, d = r0.shape
+        like = like if isinstance(like, SparseAdmmRun) else None
+        L = like.L if like is not None else _largest_eigenvalue(_Product(W, G), n * d) or 1.0
+        rho = TAU * np.sqrt(L * ETA) * (L / ETA) ** RHO_POWER
+        return SparseAdmmRun(W, b, mu, np.asarray(r0, dtype=float), G, L=L, rho=rho,
+                             eta=ETA, relax=relax, balance=BALANCE, step=RHO_STEP,
+                             coulomb=coulomb, like=like)
+    return _python_admm(W, b, mu, r0, sparse, check_every=check_every, factor=factor,
+                        coulomb=coulomb, relax=relax)
+
+
+class _Product:
+    """``v -> W v``, through ``G (G^T v)`` where G is given (sparse)."""
+
+    def __init__(self, W, G):
+        self.W, self.G = W, G
+        self.Gt = None if G is None else sp.csr_matrix(G.T)
+
+    def __matmul__(self, v):
+        return self.W @ v if self.G is None else self.G @ (self.Gt @ v)
+
+
+def _python_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool, *,
+                 check_every: int = 10, factor=None, coulomb: bool = True,
+                 relax: float = RELAX) -> Iterator[np.ndarray]:
+    """:func:`coulomb_admm`'s iterations in Python (dense W, or a dense low-rank factor)."""
+
     n, d = r0.shape
     size = n * d
     q = np.asarray(b, dtype=float).ravel()
@@ -173,10 +209,20 @@ def ccp_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool, *, 
     while done < max_iter and best_res > tol:
         r = next(run)
         done += 10
-        res, _ = natural_map_residual(W, b, mu, r, coulomb=False)
+        res = _residual(run, W, b, mu, r, coulomb=False, tol=tol)
         if res < best_res:
             best_res, best = res, r
     return best, best_res, done
+
+
+def _residual(run, W, b, mu, r, *, coulomb: bool, tol: float) -> float:
+    """The natural-map residual of the iterate ``r`` of ``run``: the compiled run's own
+    (W's product through G) where it is above twice ``tol``, else computed on W as given
+    (the certificate's)."""
+    res = getattr(run, "residual", None)
+    if res is None or res <= 2.0 * tol:
+        res, _ = natural_map_residual(W, b, mu, r, coulomb=coulomb)
+    return float(res)
 
 
 #: :class:`AdmmRace`: the first run's best is marked every CRAWL_ITER iterations; where it has
@@ -184,28 +230,41 @@ def ccp_admm(W, b: np.ndarray, mu: np.ndarray, r0: np.ndarray, sparse: bool, *, 
 #: wall of 976 contacts, without over-relaxation, the ADMM from the CCP answer crawled from
 #: 1e-6 at 3,000 iterations to 5e-7 at 27,000, from zero it certified at 5,740; on the wall of
 #: 424 from the CCP answer it stayed at 4e-7 from 2,000 to 4,400 and certified at 4,600, 4,920
-#: from zero; on the log pile of 528 from the CCP answer at 1,780, 6,350 from zero)
+#: from zero; on the log pile of 528 from the CCP answer at 1,780, 6,350 from zero); over-
+#: relaxed, the wall of 976 went from 3.2e-6 at 1,000 to 1.4e-6 at 2,000: with a window of one
+#: mark the run from zero joins there, 5,040 iterations in all instead of 6,050 with two (the
+#: wall of 424 and the log pile of 528 certify before any crawl either way)
 CRAWL_ITER = 1000
-CRAWL_WINDOW = 2
+CRAWL_WINDOW = 1
 CRAWL_DROP = 0.1
+#: ...and where the first run, at its rate over that window, would need more than
+#: REPLACE_BEYOND iterations to reach tol, it is dropped as the run from zero joins (the
+#: longest runs from zero measured, over-relaxed: log pile of 528 4,000, wall of 424 3,720;
+#: on the wall of 976, 3.2e-6 to 1.4e-6 over 1,000 iterations, 5,800 more at that rate: the
+#: run from zero alone from 2,000 certified at 3,770 iterations in all instead of 5,040)
+REPLACE_BEYOND = 4000
 
 
 class AdmmRace:
     """The ADMM of :func:`coulomb_admm` from ``r0``, joined by a second run from zero
     (Pinocchio's start) where the first crawls; the runs then take turns of ten iterations,
-    until the second's best residual is below the first's: the first is then dropped.
+    until the second's best residual is below the first's: the first is then dropped (at
+    once where it is too slow for ``tol``).
 
     :meth:`next` gives the next iterate (ten iterations of one run), :meth:`judge` takes its
     natural-map residual. Every :data:`CRAWL_ITER` iterations the first run's best residual
     is marked; where it is at most ``below`` and above :data:`CRAWL_DROP` times the mark
-    :data:`CRAWL_WINDOW` marks earlier, the run from zero joins (once). On the brick wall of
-    976 contacts (over-relaxed) it joined at 3,000 iterations, passed the first at 5,560 (the
-    two at 7e-7) and certified alone at 6,060.
+    :data:`CRAWL_WINDOW` marks earlier, the run from zero joins (once); where the first would
+    need more than :data:`REPLACE_BEYOND` iterations to reach ``tol`` at its rate over that
+    window, the first is dropped there and then. On the brick wall of 976 contacts
+    (over-relaxed) the run from zero replaces it at 2,000 iterations and certifies at 3,770
+    (joining only: 5,040; with a window of two marks: joining at 3,000, 6,060).
     """
 
     def __init__(self, W, b, mu, r0, sparse: bool, *, factor=None, below: float = 1e-4,
-                 relax: float = RELAX):
+                 relax: float = RELAX, tol: float = 1e-8):
         self.args = W, b, mu, sparse, factor, relax
+        self.tol = tol
         self.runs = [coulomb_admm(W, b, mu, r0, sparse, factor=factor, relax=relax)]
         self.zeros = np.zeros_like(np.asarray(r0, dtype=float))
         self.crawl = CRAWL_ITER, CRAWL_WINDOW, CRAWL_DROP, below
@@ -214,11 +273,16 @@ class AdmmRace:
         self.best = [np.inf, np.inf]  # each run's best residual
         self.joined = False
         self.marks = [np.inf]  # the first run's best every crawl_iter iterations
+        self.residual = None
 
     def next(self) -> np.ndarray:
         self.last = (self.done // 10) % len(self.runs)
         self.done += 10
-        return next(self.runs[self.last])
+        run = self.runs[self.last]
+        r = next(run)
+        #: the natural-map residual of the iterate given, where its run computed it
+        self.residual = getattr(run, "residual", None)
+        return r
 
     def judge(self, res: float) -> None:
         which = self.last + (1 if self.joined and len(self.runs) == 1 else 0)
@@ -234,6 +298,15 @@ class AdmmRace:
             if len(m) > window and m[-1] <= below and m[-1] > drop * m[-1 - window]:
                 W, b, mu, sparse, factor, relax = self.args
                 self.runs.append(coulomb_admm(W, b, mu, self.zeros, sparse, factor=factor,
-                                              relax=relax))
+                                              relax=relax, like=self.runs[0]))
                 self.joined = True
+                # the first run's iterations to tol at its rate over the window: beyond
+                # REPLACE_BEYOND it is dropped at once (the run from zero alone)
+                rate = m[-1] / m[-1 - window]
+                if rate < 1.0 and m[-1] > self.tol:
+                    left = np.log(m[-1] / self.tol) / -np.log(rate) * window * crawl_iter
+                else:
+                    left = np.inf
+                if left > REPLACE_BEYOND:
+                    del self.runs[0]
             m.append(m[-1])

@@ -2,7 +2,8 @@
 ``K ∋ r ⊥ u = W r + b ∈ K*`` (the convex relaxation of Coulomb's law, ``ccp``), finished by
 Newton (:mod:`.finish`); Coulomb's law in De Saxce's form by Newton from the CCP's answer, or
 where that misses, by an interior point on the law itself (:mod:`.coulomb_interior`, stopped
-where it stalls) and an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W),
+where it stalls) and an ADMM (:mod:`.admm_kernel` compiled, :mod:`.admm` on large sparse W,
+its iterations compiled in :mod:`.admm_sparse_kernel`),
 Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEPS`), and past
 :data:`SPARING_NEWTON_MAX_ROWS` rows, where these miss (before them on weakly coupled contacts:
 the sphere piles), the nonsmooth Gauss-Seidel with exact one-contact solves and Newton tries
@@ -55,7 +56,8 @@ DENSE_ADMM_MAX_ROWS = 450
 #: also tries Newton more often (the sphere piles of 624-897 contacts)
 DIRECT_NEWTON_STEPS = 4
 SPARING_NEWTON_MAX_ROWS = 900
-#: the CCP: past its interior point and Newton finish (stopped by TRY_STALL) the ADMM
+#: the CCP: past its interior point and Newton finish (stopped by TRY_STALL, DIRECT_STALL past
+#: SPARING_NEWTON_MAX_ROWS) the ADMM
 #: (:func:`.admm.ccp_admm`), at most this many iterations, aiming at this fraction of tol (a
 #: wall of 976 contacts: 9.1e-9 to 9.4e-9 at tol with b perturbed by 1e-14, 8e-10 at 0.1 tol)
 CCP_ADMM_ITER = 10000
@@ -80,14 +82,40 @@ LONG_NEWTON_STEPS = 40
 #: contacts 6e-6 to 4.3e-6 in 40 steps, 1.2 s; below, it reached tol in 26-39 at 480-600 rows)
 TRY_STALL = 5
 LONG_STALL = 10
+#: ...the direct one (from the CCP answer) where its best has not halved in DIRECT_STALL
+#: steps (walls of 424 and 976 contacts, log pile of 528: 2-3 steps instead of 5-7, 3.7e-3
+#: to 1.1e-3 left, 20 ms a step at 976; those that served halved it every two steps: a log
+#: pile of 920, 10 steps to 2.5e-9, a robot crowd of 480, 10 steps to 2e-8)
+DIRECT_STALL = 2
+#: ...and after DIRECT_FIRST[0] steps where its best is above DIRECT_FIRST[1] times the
+#: start's (first steps from the CCP answer: 0.29 on the log pile of 920 and the box stack of
+#: 400, 0.45 on the robot crowd of 480, 0.49 and 0.54 on the walls of 976 and 424; the log
+#: pile of 528 none, 1.0: one step, 17 ms, instead of two, 0.154 -> 0.130 s)
+DIRECT_FIRST = (1, 0.6)
+#: ...and for Coulomb's law on strongly coupled contacts (not the NSGS's first) the CCP
+#: answer is a start only: its finish is skipped from within CCP_START_FROM, else stopped
+#: by DIRECT_STALL (the wall of 976 contacts: 5 steps, 0.15 s, from 1.9e-7 to 1.2e-7, the
+#: ADMM's iterations after them 6,054 from there, 6,049 from the interior point's 1.9e-7)
+CCP_START_FROM = 1e-6
+#: (the CCP's own finish past SPARING_NEWTON_MAX_ROWS rows stops by DIRECT_STALL too: on the
+#: wall of 976 contacts 2 steps instead of 5, its ADMM then 1,050 iterations instead of 920,
+#: the CCP in 0.23 s instead of 0.29)
 #: ...and a try from an ADMM iterate stops after TRY_FIRST[0] steps where it has not dropped
 #: by TRY_FIRST[1] (the tries that served dropped 10-500x in 1-2 steps: walls of 424 and 976
-#: contacts, log pile of 528, sphere piles; the failed ones 1.9-8x, 6-8 steps on)
-TRY_FIRST = (2, 0.1)
+#: contacts, log pile of 528, sphere piles; the failed ones 1.9-8x, 6-8 steps on; on the
+#: walls of 424 and 976 and the log pile of 528 the one that served dropped 11x in its first
+#: step, the failed ones by at most 1.2x: at 20-28 ms a step at 976) and after ADMM_TRY_STALL
+#: steps where its best has not halved (the wall of 424: 9.3e-7 to 8.4e-8 in one step, then
+#: 8.3e-8 for 5 more)
+TRY_FIRST = (1, 0.5)
+ADMM_TRY_STALL = 3
 #: ...and comes from within this residual, then on each drop by 100 (the ADMM alone certified
 #: the walls of 424 and 976 contacts, from zero, and the log pile of 528 in 4,600, 5,740 and
-#: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing)
-ADMM_TRY_FROM = 1e-6
+#: 1,780 iterations, where tries from 1e-4 and in 1e-5 to 1e-2 had cost 1-4 s, failing; from
+#: 9.3e-7 to 9.7e-7 the tries failed on all three, from 2.7e-7 and 2.2e-7 they certified the
+#: wall of 424 and the log pile of 528 in one step, 100x: 2,616 -> 2,493 and 1,140 -> 1,080
+#: iterations; on the wall of 976 from 2.7e-7 it failed)
+ADMM_TRY_FROM = 3e-7
 #: Coulomb's law on large sparse W: the ADMM of :mod:`.admm` stops where its best (Newton's
 #: tries included) is above ADMM_STALL_ABOVE every ADMM_STALL_ITER iterations (sphere piles
 #: of 624-897 contacts: 1e-2 at 2,000, the NSGS's; walls, log piles: 1e-4 by 640); it is
@@ -210,10 +238,16 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     R = ccp if ccp is not None else solve_ccp(W, b, mu, d, tol=tol, max_iter=max_iter,
                                               sparse=sparse, G=Gs)
     iterations = R.iterations
-    if R.residual > tol:
+    dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
+    sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
+    ip_first = not sparing
+    nsgs_first = bool(coulomb and ip_first and weakly_coupled(W, d))
+    start_only = coulomb and ip_first and not nsgs_first  # (CCP_START_FROM)
+    if R.residual > (CCP_START_FROM if start_only else tol):
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=False, tol=tol,
                                   max_iter=newton_iter, sparse=sparse, factor=factor,
-                                  stall_steps=TRY_STALL)
+                                  stall_steps=DIRECT_STALL if start_only or ip_first
+                                  and not coulomb else TRY_STALL)
         iterations += k
         if res < R.residual:
             res, u = cones.natural_map_residual(W, b, mu, r, coulomb=False)
@@ -229,8 +263,6 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 R = EngineResult(r, u, res, iterations + k, res <= tol,
                                  "converged" if res <= tol else R.message)
         return R
-    dense_admm_here = not sparse or n * d <= DENSE_ADMM_MAX_ROWS
-    sparing = dense_admm_here or n * d <= SPARING_NEWTON_MAX_ROWS
     best = [np.inf, R.impulse, "converged"]
     long_tried = [np.inf]
 
@@ -279,8 +311,6 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     # of 624-897 spheres, where the interior point and the ADMM spent 1.2-2.5 s and stalled
     # at 7e-5-6e-2 (after them elsewhere: it left brick walls at 2e-5-2e-6); before the direct
     # Newton too (on the piles it stalled, 0.2-0.4 s; not needed by planar-stack-1000)
-    ip_first = not sparing
-    nsgs_first = bool(ip_first and weakly_coupled(W, d))
     if nsgs_first:
         nsgs()
     res = best[0]
@@ -288,7 +318,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
         r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
                                   max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
                                                 else 10), sparse=sparse, factor=factor,
-                                  stall_steps=None if sparing else TRY_STALL)
+                                  stall_steps=None if sparing else
+                                  TRY_STALL if nsgs_first else DIRECT_STALL,
+                                  first=None if sparing or nsgs_first else DIRECT_FIRST)
         iterations += k
         if res < best[0]:
             best[:2] = res, r
@@ -304,9 +336,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
 
         last = [np.inf]  # the residual of the last iterate checked
 
-        def check(r):
+        def check(r, given=None):
+            # given: the compiled sparse ADMM's own residual of r (W's product through G),
+            # taken above 2 tol; near tol and elsewhere the certificate's, on W as given
             nonlocal iterations
-            res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+            res = given if given is not None and given > 2.0 * tol else \
+                cones.natural_map_residual(W, b, mu, r, coulomb=True)[0]
             last[0] = res
             if res < best[0]:
                 best[:2] = res, r
@@ -320,12 +355,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 rn, resn, k = newton_finish(W, b, mu, r, coulomb=True, tol=tol,
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
                                                          else 10), sparse=sparse, factor=factor,
-                                            stall_steps=None if sparing else TRY_STALL,
+                                            stall_steps=None if sparing else ADMM_TRY_STALL,
                                             first=None if sparing else TRY_FIRST)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
-                if sparing:  # else the try stopped where it crawled (TRY_STALL)
+                if sparing:  # else the try stopped where it crawled (ADMM_TRY_STALL)
                     long_newton(rn, resn)
             tried.append(res)
             return best[0] <= tol
@@ -353,10 +388,12 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 interior()
         else:
             runs = AdmmRace(W, b, mu, R.impulse, sparse, factor=admm_factor,
-                            below=ADMM_STALL_ABOVE, relax=RELAX if not sparing else 1.0)
+                            below=ADMM_STALL_ABOVE, relax=RELAX if not sparing else 1.0,
+                            tol=tol)
             while done < admm_iter:
                 done += 10
-                if check(runs.next()):
+                r = runs.next()
+                if check(r, runs.residual):
                     break
                 runs.judge(last[0])
                 if done % ADMM_STALL_ITER == 0 and best[0] > ADMM_STALL_ABOVE:
@@ -367,7 +404,9 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                 extra += 10
                 done += 10
                 r = runs.next()
-                res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
+                res = runs.residual
+                if res is None or res <= 2.0 * tol:
+                    res, _ = cones.natural_map_residual(W, b, mu, r, coulomb=True)
                 if res < best[0]:
                     best[:2] = res, r
             if best[0] > tol and not ip_first:

@@ -134,11 +134,14 @@ def test_race_alternates_then_drops_the_run_that_is_passed(monkeypatch):
     monkeypatch.setattr(admm, "CRAWL_ITER", 30)
     monkeypatch.setattr(admm, "CRAWL_WINDOW", 1)
     monkeypatch.setattr(admm, "CRAWL_DROP", 0.1)
-    race = admm.AdmmRace(None, None, None, np.ones((1, 3)), True, below=1e-4)
+    race = admm.AdmmRace(None, None, None, np.ones((1, 3)), True, below=1e-4, tol=1e-8)
     seen = []
-    for _ in range(6):  # 60 iterations of the first run, its residual flat
+    # 60 iterations of the first run, its residual halved from the first mark (30) to the
+    # second (60): a crawl (above CRAWL_DROP), with ln(1e-6 / 1e-8) / ln 2 * 30 = 199
+    # iterations to tol at that rate, below REPLACE_BEYOND: the two runs then alternate
+    for k in range(6):
         seen.append(race.next()[0, 0])
-        race.judge(1e-6)
+        race.judge(2e-6 if k < 3 else 1e-6)
     assert seen == [0.0] * 6 and len(starts) == 2 and np.all(starts[1] == 0.0)
     residual = {0.0: 1e-6, 1.0: 1e-5}
     seen = []
@@ -182,3 +185,35 @@ def test_newton_first_steps_rule_stops_a_try_that_has_not_contracted(wall):
         _, _, steps = newton_finish(W, b.reshape(n, d), mu, r0, coulomb=True, tol=0.0,
                                     max_iter=10, sparse=True, first=(2, 2.0 * ratio))
     assert steps > 2
+
+
+@pytest.mark.parametrize("later, beyond, replaced", [(1e-6, 4000, True),     # flat: never
+                                                     (1e-6 / 2, 4000, False),  # 199 left
+                                                     (1e-6 / 2, 150, True)])
+def test_race_drops_a_first_run_too_slow_for_tol(monkeypatch, later, beyond, replaced):
+    """admm.AdmmRace with stand-in runs: at the join, the first run is dropped at once where
+    its rate over the window (later / 1e-6 per 30 iterations) would take more than
+    REPLACE_BEYOND iterations to reach tol (1e-8): ln(later / tol) / ln(1e-6 / later) * 30,
+    infinite for a flat run, 199 for a halving one."""
+    starts = []
+
+    def fake(W, b, mu, r0, sparse, **kw):
+        label = float(len(starts))
+        starts.append(np.array(r0, dtype=float))
+        return itertools.repeat(np.full((1, 3), label))
+
+    monkeypatch.setattr(admm, "coulomb_admm", fake)
+    monkeypatch.setattr(admm, "CRAWL_ITER", 30)
+    monkeypatch.setattr(admm, "CRAWL_WINDOW", 1)
+    monkeypatch.setattr(admm, "CRAWL_DROP", 0.1)
+    monkeypatch.setattr(admm, "REPLACE_BEYOND", beyond)
+    race = admm.AdmmRace(None, None, None, np.ones((1, 3)), True, below=1e-4, tol=1e-8)
+    for k in range(6):
+        assert race.next()[0, 0] == 0.0
+        race.judge(1e-6 if k < 3 else later)
+    assert len(starts) == 2 and np.all(starts[1] == 0.0)
+    labels = []
+    for _ in range(4):
+        labels.append(race.next()[0, 0])
+        race.judge(1e-3)  # the second run far behind: only a drop at the join removes the first
+    assert labels == ([1.0] * 4 if replaced else [0.0, 1.0] * 2)
