@@ -22,8 +22,10 @@ sustained-contact forces (:mod:`convimpact.simulation`), and the public
 * :mod:`.generalized`: the problem in generalized coordinates, ``W = G G^T`` with
   ``G = J L^-T`` sparse from the mass matrix and the contact Jacobian, and the engine's
   linear algebra through it (the ADMM's solves by Woodbury's identity, the interior point's
-  quasi-definite system, the finish's sparse step); :mod:`.sparse_step`: the finish's sparse
-  step system on W's block pattern, set up once per problem;
+  quasi-definite system); :mod:`.lowrank_sparse`: the finish's step through a sparse G, laid
+  out once per solve; :mod:`.sparse_step`: the finish's sparse step system on W's block
+  pattern, set up once per problem; :mod:`.supernodal`: a supernodal LDL^T, in place of
+  QDLDL's numeric factorization where a fixed pattern fills in;
 * :mod:`.contact_problem`: :func:`~.contact_problem.solve_contact_problem`, the public API on
   ``(W, b, mu)``, or ``(M, J, b, mu)`` (``mass_matrix=``, ``jacobian=``);
 * the compiled dense kernels: :mod:`.interior_point` (Mehrotra, Nesterov-Todd),
