@@ -30,6 +30,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from . import cones
+from .nt_kernels import affine_target, corrector_target, max_step, nt_blocks, scaled_rhs
 from .supernodal import SupernodalLDL
 
 #: the interior-point path's parameters (Mehrotra): the fraction of the step to the boundary
@@ -291,9 +292,9 @@ def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
     for it in range(1, max_iter + 1):
         rp = z - A @ x - q
         mu_c = float(x @ z) / nu
-        xs, zs = blocks.cone_rows(x), blocks.cone_rows(z)
-        scal = [cones.nt_scaling(xi, zi) for xi, zi in zip(xs, zs)]
-        Hs = [np.einsum("nij,njk->nik", Gi, Gi) for _, Gi, _ in scal]
+        # the cones' scalings, group by group (:mod:`.nt_kernels`, compiled)
+        scal = [nt_blocks(x[sl], z[sl], m) for sl, m, _ in blocks.groups]
+        Hs = [H for _, _, _, H in scal]
         try:
             factor.factor(Hs)
         except (np.linalg.LinAlgError, ValueError) as exc:
@@ -301,19 +302,20 @@ def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
             break
 
         def direction(target):
-            # (A + H) dx = G^-1 (lam \ target) + rp;  dz = A dx - rp
-            t = np.concatenate([np.einsum("nij,nj->ni", Gi, cones.jsolve(lam, tg)).ravel()
-                                for (G, Gi, lam), tg in zip(scal, target)])
+            # (A + H) dx = T^-1 (lam \ target) + rp;  dz = A dx - rp
+            t = np.concatenate([scaled_rhs(v, beta, lam, tg, m) for (v, beta, lam, _), tg,
+                                (_, m, _) in zip(scal, target, blocks.groups)])
             dx = factor.solve(t + rp)
             return dx, A @ dx - rp
 
-        lams = [lam for _, _, lam in scal]
-        target = [-cones.jprod(lam, lam) for lam in lams]
+        target = [affine_target(lam, m) for (_, _, lam, _), (_, m, _) in
+                  zip(scal, blocks.groups)]
         dxa, dza = direction(target)
         alpha = _step(blocks, x, z, dxa, dza)
         mu_aff = float((x + alpha * dxa) @ (z + alpha * dza)) / nu
         sigma = min(1.0, max(0.0, mu_aff / max(mu_c, 1e-300))) ** 3
-        dx, dz = direction(corrector_targets(scal, blocks, dxa, dza, sigma * mu_c))
+        dx, dz = direction([corrector_target(v, beta, lam, dxa[sl], dza[sl], sigma * mu_c, m)
+                            for (v, beta, lam, _), (sl, m, _) in zip(scal, blocks.groups)])
         alpha = min(1.0, STEP_FRACTION * _step(blocks, x, z, dx, dz))
         if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dz))) or alpha < 1e-8:
             message = "stalled (the step to the cones' boundary vanished)"
@@ -336,24 +338,7 @@ def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
     return EngineResult(r, u, res, it, res <= tol, message if res > tol else "converged")
 
 
-def corrector_targets(scal, blocks: _Blocks, dxa, dza, centering: float) -> list:
-    """Mehrotra's corrector right-hand sides per cone block, in the Nesterov-Todd scaled
-    variables: ``centering e - lam o lam - (G^-1 dx_aff) o (G dz_aff)`` (``o`` the Jordan
-    product, ``centering = sigma mu``) from the scalings ``(G, G^-1, lam)`` and the affine
-    step ``(dxa, dza)``."""
-    target = []
-    for (G, Gi, lam), dxi, dzi in zip(scal, blocks.cone_rows(dxa), blocks.cone_rows(dza)):
-        e = np.zeros_like(lam)
-        e[:, 0] = 1.0
-        sx = np.einsum("nij,nj->ni", Gi, dxi)
-        sz = np.einsum("nij,nj->ni", G, dzi)
-        target.append(centering * e - cones.jprod(lam, lam) - cones.jprod(sx, sz))
-    return target
-
-
 def _step(blocks: _Blocks, x, z, dx, dz) -> float:
-    a = 1e30
-    for v, dv in ((x, dx), (z, dz)):
-        for rows, drows in zip(blocks.cone_rows(v), blocks.cone_rows(dv)):
-            a = min(a, cones.max_step(rows, drows))
-    return a
+    """The largest step (at most 1e30) keeping x and z in their cones."""
+    return min((max_step(x[sl], dx[sl], z[sl], dz[sl], m) for sl, m, _ in blocks.groups),
+               default=1e30)

@@ -24,7 +24,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import cones
-from .ccp_interior import _shift_into, _step, corrector_targets, standard_form
+from .ccp_interior import _shift_into, _step, standard_form
+from .nt_kernels import affine_target, corrector_target, nt_blocks, scaled_rhs
 
 #: the fraction of the step to the cones' boundary taken
 STEP_FRACTION = 0.99
@@ -112,9 +113,9 @@ def coulomb_interior(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1
         phi, ts = _shift(blocks, v)
         rp = y - v - phi
         gap = float(x @ y) / nu
-        scal = [cones.nt_scaling(xi, yi)
-                for xi, yi in zip(blocks.cone_rows(x), blocks.cone_rows(y))]
-        H = _block_matrix(blocks, [np.einsum("nij,njk->nik", Gi, Gi) for _, Gi, _ in scal])
+        # the cones' scalings, group by group (:mod:`.nt_kernels`, compiled)
+        scal = [nt_blocks(x[sl], y[sl], m) for sl, m, _ in blocks.groups]
+        H = _block_matrix(blocks, [Hg for _, _, _, Hg in scal])
         BA = _tangent_matrix(blocks, ts) @ A
         try:
             if sparse:
@@ -129,17 +130,19 @@ def coulomb_interior(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1
             break  # a singular Newton matrix: the try ends
 
         def direction(target):
-            t = np.concatenate([np.einsum("nij,nj->ni", Gi, cones.jsolve(lam, tg)).ravel()
-                                for (_, Gi, lam), tg in zip(scal, target)])
+            t = np.concatenate([scaled_rhs(sv, beta, lam, tg, m) for (sv, beta, lam, _), tg,
+                                (_, m, _) in zip(scal, target, blocks.groups)])
             dx = solve(t + rp)
             return dx, BA @ dx - rp
 
-        target = [-cones.jprod(lam, lam) for _, _, lam in scal]
+        target = [affine_target(lam, m) for (_, _, lam, _), (_, m, _) in
+                  zip(scal, blocks.groups)]
         dxa, dya = direction(target)
         alpha = _step(blocks, x, y, dxa, dya)
         gap_aff = float((x + alpha * dxa) @ (y + alpha * dya)) / nu
         sigma = min(1.0, max(0.0, gap_aff / max(gap, 1e-300))) ** 3
-        dx, dy = direction(corrector_targets(scal, blocks, dxa, dya, sigma * gap))
+        dx, dy = direction([corrector_target(sv, beta, lam, dxa[sl], dya[sl], sigma * gap, m)
+                            for (sv, beta, lam, _), (sl, m, _) in zip(scal, blocks.groups)])
         if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dy))):
             break
         alpha = min(1.0, STEP_FRACTION * _step(blocks, x, y, dx, dy))
