@@ -30,7 +30,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from . import cones
-from .nt_kernels import affine_target, corrector_target, max_step, nt_blocks, scaled_rhs
+from .nt_kernels import (affine_target, announce_compilation, corrector_target, max_step,
+                         nt_blocks, scaled_rhs)
 from .supernodal import SupernodalLDL
 
 #: the interior-point path's parameters (Mehrotra): the fraction of the step to the boundary
@@ -289,6 +290,7 @@ def solve_ccp(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1e-8,
     best = (np.inf, x, 0)
     message = "iteration limit"
     it = 0
+    announce_compilation()
     for it in range(1, max_iter + 1):
         rp = z - A @ x - q
         mu_c = float(x @ z) / nu

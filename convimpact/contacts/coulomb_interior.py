@@ -25,7 +25,8 @@ import scipy.sparse.linalg as spla
 
 from . import cones
 from .ccp_interior import _shift_into, _step, standard_form
-from .nt_kernels import affine_target, corrector_target, nt_blocks, scaled_rhs
+from .nt_kernels import (affine_target, announce_compilation, corrector_target, nt_blocks,
+                         scaled_rhs)
 
 #: the fraction of the step to the cones' boundary taken
 STEP_FRACTION = 0.99
@@ -108,6 +109,7 @@ def coulomb_interior(W, b: np.ndarray, mu: np.ndarray, d: int, *, tol: float = 1
     history: list[float] = []
     tiny = 0
     it = 0
+    announce_compilation()
     for it in range(1, max_iter + 1):
         v = A @ x + q
         phi, ts = _shift(blocks, v)

@@ -14,8 +14,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..compiled import announce
 from ..compiled import jit as _jit
 from .interior_point import _apply_t, _jordan_solve, _max_step, _nt_scaling
+
+
+#: first compilation of this module's kernels on 2 cores (s), announced
+COMPILE_SECONDS = 3
+
+
+def announce_compilation() -> None:
+    """Say on stderr, once, that these kernels compile now (a cold cache)."""
+    announce("interior point's cone kernels", COMPILE_SECONDS, nt_blocks, scaled_rhs,
+             corrector_target)
 
 
 @_jit

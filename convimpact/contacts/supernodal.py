@@ -27,6 +27,7 @@ import numpy as np
 import qdldl
 import scipy.sparse as sp
 
+from ..compiled import announce
 from ..compiled import jit as _jit
 
 #: supernodes of at least this many columns count as wide (:attr:`SupernodalLDL.wide_share`)
@@ -38,6 +39,9 @@ WIDE = 16
 #: 6 Mflop elsewhere, where the supernodes' setup and small panels cost what they save)
 MIN_FLOPS = 1e7
 MIN_WIDE_SHARE = 0.6
+
+#: first compilation of the numeric factorization and solve on 2 cores (s), announced
+COMPILE_SECONDS = 6
 
 #: columns of a panel factored one by one before a matrix product updates the panel's rest
 PANEL_BLOCK = 32
@@ -226,6 +230,7 @@ class SupernodalLDL:
         self.supernodal = self.flops >= MIN_FLOPS and self.wide_share >= MIN_WIDE_SHARE
         if not self.supernodal:
             return
+        announce("supernodal sparse factorization", COMPILE_SECONDS, _factor, _solve)
         col_of = np.repeat(np.arange(nsn, dtype=np.int64), width)
         first_col = start[:-1]
         # each supernode's rows: its own columns, then its first column's rows below them
