@@ -167,8 +167,8 @@ NSGS_RESTART_BELOW = 0.5
 
 def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol: float,
                 residual: Callable, newton: Callable | None = None,
-                max_sweeps: int = NSGS_MAX_SWEEPS,
-                omega: float = NSGS_OMEGA) -> tuple[np.ndarray, float, int]:
+                max_sweeps: int = NSGS_MAX_SWEEPS, omega: float = NSGS_OMEGA,
+                seed: int = NSGS_SEED) -> tuple[np.ndarray, float, int]:
     """Over-relaxed NSGS in random contact orders from ``r0`` (n, d), Newton tried on its way.
 
     ``residual(r)`` is the certificate (the natural-map residual of Coulomb's law);
@@ -182,7 +182,7 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
     ``(r, residual, work)`` (work: sweeps plus Newton steps).
     """
     n = mu.shape[0]
-    rng = np.random.default_rng(NSGS_SEED)
+    rng = np.random.default_rng(seed)
     order = np.stack([rng.permutation(n) for _ in range(NSGS_ORDERS)])
     run = gauss_seidel(W, b, mu, d, r0, sweeps=NSGS_CHECK, omega=omega, order=order)
     best_r = np.asarray(r0, dtype=float).reshape(n, d)
@@ -236,12 +236,23 @@ NSGS_NEWTON_FIRST = (2, 0.5)
 NSGS_NEWTON_DAMPING = 1e-3
 
 
+#: :func:`nsgs_light`: where the NSGS stops uncertified (its stall rule), it runs again from
+#: the same start in other contact orders (the next seed), at most this many times: which
+#: plateau iterate Newton certifies from is a matter of the orders (the 897-sphere pile with
+#: b moved by 1e-6, seed 1, and by 1e-3, seed 12: stalled at 2.2e-5 and 1.2e-5 after 16,300
+#: and 17,300 sweeps, 7.8 and 8.5 s, then certified in 5,400 and 7,700 sweeps with the next
+#: seed's orders, 2.1 and 4.4 s, and with the one after, 5,200 and 6,800)
+NSGS_RESTARTS = 2
+
+
 def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol: float,
                newton_iter: int = NSGS_NEWTON_STEPS) -> tuple[np.ndarray, float, int]:
     """Coulomb's law on sparse W by :func:`nsgs_newton` from ``r0`` (n, d), its Newton tries
     by :func:`.finish.newton_finish` with :data:`NSGS_NEWTON_DAMPING` (at most ``newton_iter``
     and :data:`NSGS_NEWTON_STEPS` steps) on one step system of W, certified on the natural-map
-    residual. Returns the best ``(r, residual, work)``."""
+    residual; run again in other contact orders where it stops uncertified
+    (:data:`NSGS_RESTARTS`). Returns the best ``(r, residual, work)`` (the runs' work summed).
+    """
     W = sp.csr_matrix(W)
     b = np.asarray(b, dtype=float).reshape(mu.shape[0], d)
     system = SparseStepSystem(W, d)
@@ -252,5 +263,13 @@ def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol:
                              max_iter=min(newton_iter, NSGS_NEWTON_STEPS),
                              stall_steps=NSGS_NEWTON_STALL, first=NSGS_NEWTON_FIRST)
 
-    return nsgs_newton(W, b, mu, d, r0, tol=tol, newton=newton,
-                       residual=lambda r: natural_map_residual(W, b, mu, r, True)[0])
+    best_r, best, work = r0, np.inf, 0
+    for k in range(NSGS_RESTARTS + 1):
+        r, res, w = nsgs_newton(W, b, mu, d, r0, tol=tol, newton=newton, seed=NSGS_SEED + k,
+                                residual=lambda r: natural_map_residual(W, b, mu, r, True)[0])
+        work += w
+        if res < best:
+            best_r, best = r, res
+        if best <= tol:
+            break
+    return best_r, best, work
