@@ -164,6 +164,35 @@ NSGS_SEED = 20261126
 #: (any better answer handed on) one of 24 was left uncertified.
 NSGS_RESTART_BELOW = 0.5
 
+# What the plateau is (measured on the 624-sphere pile from the CCP answer, 3,000 sweeps:
+# residual 1.9e-4; the 726-sphere pile alike), for whoever tries to shorten it:
+# * 95 % of the residual's square sits on sticking contacts whose velocity is not zero
+#   (|u| ~ 1e-4): the linear part has not converged, the kinds are mostly right;
+# * at omega 1 the kinds do not change for hundreds of sweeps (0 of 624 per 10 sweeps; at
+#   1.25, 70 per 10 sweeps: the over-relaxed slides leave their cones) while the residual
+#   stays at 0.9-1.7e-4 and the impulses drift along a fixed direction (cosine 0.99 between
+#   50-sweep differences, 4 % of |r| in 2,000 sweeps): 77 % normal impulses of sticking
+#   contacts, and the velocity it brings is the spheres' spin only;
+# * the light Newton step from there predicts 9.5e-5 -> 8.7e-6 on its linear model, but the
+#   full step changes the kind of ~5 contacts (sticks with |u_t| ~ 1e-5 turning to slides, a
+#   slide opening) that then carry 99 % of the new residual; the line search cuts it to
+#   1/64-1/256 (full steps without it cycle between 1e-4 and 1e-5);
+# * where the tries stall (3.3e-5 on the 726-sphere pile, 5 tries in a row), 90 % of the
+#   residual is on the 4 contacts around one sphere, all "sticking" (r inside the cone)
+#   while separating (u_n > 0): no solution with these kinds, a least-squares point.
+# Tried without gain (no change made): extrapolating along the drift (t = 10 windows: 1e-3),
+# Anderson mixing of 10-sweep maps at omega 1 (m = 5, 20: 8e-5 as without), a Newton weight
+# 100x heavier on sticking contacts (steps accepted whole, stalled at 1.7e-5-4.5e-5), rho
+# times 10-1000, opening the separating sticks of a stalled try (certified 1 of 9 plateau
+# iterates, 8 steps each), contact orders by the CCP's normal impulse, jittered (jitter
+# 0.1-1: 624/897/726 piles 1.4-1.5 / 1.7-2.1 / 0.76-0.88 s, but at 0.3 the 897-sphere pile
+# was left at 2.3e-5 after 23 s), omega 1 and 1.1 (20-50 % more work), tries every 250
+# sweeps (897-sphere pile, b moved by 1e-6, seeds 0-11: seed 10 left at 3.9e-7 where now
+# seed 1 is left at 2.2e-5; by 1e-3, seed 12 left at 1.2e-5 either way) or 1,000 (624-sphere
+# pile 5,900 -> 8,900), the sweeps on G (W = G G^T, 9 entries a row for 32: 7 % faster, the
+# slides' local solves, 250 ns each, dominate), the step in (dr, G^T dr) (its LDL^T 318k
+# entries for W's 283k).
+
 
 def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol: float,
                 residual: Callable, newton: Callable | None = None,
