@@ -171,18 +171,28 @@ def natural_residual(W, b, mu, d, r, coulomb, u, y, p):
     """The relative natural-map residual of r (as :func:`.cones.natural_map_residual`);
     u, y, p are work arrays (u holds W r + b on return)."""
     N = b.shape[0]
-    nb = 0.0
-    nr = 0.0
-    nu = 0.0
     for i in range(N):
         s = b[i]
         for j in range(N):
             s += W[i, j] * r[j]
         u[i] = s
-        y[i] = s
+    return residual_of_velocity(b, mu, d, r, coulomb, u, y, p)
+
+
+@_jit
+def residual_of_velocity(b, mu, d, r, coulomb, u, y, p):
+    """The relative natural-map residual of r given its velocity ``u = W r + b`` (u kept;
+    y, p work arrays): ``|r - P_K(r - y)| / max(|b|, |r|, |u|)``, ``y = u`` (CCP) or De
+    Saxce's ``u + mu |u_t| e_n`` (Coulomb)."""
+    N = b.shape[0]
+    nb = 0.0
+    nr = 0.0
+    nu = 0.0
+    for i in range(N):
+        y[i] = u[i]
         nb += b[i] * b[i]
         nr += r[i] * r[i]
-        nu += s * s
+        nu += u[i] * u[i]
     if coulomb:
         _desaxce(u, mu, d, y, True)
     for i in range(N):

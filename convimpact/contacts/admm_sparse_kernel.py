@@ -24,14 +24,12 @@ indirect loads of G, G^T and the factor, 86 thousand multiply-adds, not by Pytho
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import qdldl
 import scipy.sparse as sp
 
 from ..compiled import jit as _jit
-from .admm_kernel import _desaxce, _project_into, admm_update
+from .admm_kernel import _desaxce, _project_into, admm_update, residual_of_velocity
 
 
 @_jit
@@ -145,26 +143,9 @@ def sparse_residual(woodbury, Gp, Gi, Gx, Tp, Ti, Tx, Wp, Wi, Wx, b, mu, d, r, c
     p = np.empty(N)
     t = np.empty(M)
     _times_w(woodbury, Gp, Gi, Gx, Tp, Ti, Tx, Wp, Wi, Wx, r, u, t)
-    nb = 0.0
-    nr = 0.0
-    nu = 0.0
     for i in range(N):
         u[i] += b[i]
-        y[i] = u[i]
-        nb += b[i] * b[i]
-        nr += r[i] * r[i]
-        nu += u[i] * u[i]
-    if coulomb:
-        _desaxce(u, mu, d, y, True)
-    for i in range(N):
-        y[i] = r[i] - y[i]
-    _project_into(y, mu, d, p)
-    err = 0.0
-    for i in range(N):
-        e = r[i] - p[i]
-        err += e * e
-    scale = max(math.sqrt(nb), math.sqrt(nr), math.sqrt(nu), 1e-300)
-    return math.sqrt(err) / scale
+    return residual_of_velocity(b, mu, d, r, coulomb, u, y, p)
 
 
 class _Factor:
