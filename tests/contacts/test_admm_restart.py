@@ -118,11 +118,10 @@ def test_newton_stall_window_stops_where_the_best_residual_has_not_halved(wall):
     assert res == pytest.approx(history[expected], rel=1e-6, abs=1e-15)
 
 
-def test_race_alternates_then_drops_the_run_that_is_passed(monkeypatch):
-    """admm.AdmmRace with stand-in runs (each yields its start's label, as an array): a first
-    run whose residual stays at 1e-6 is a crawl at the second mark (window 1, 30 iterations
-    apart), the run from zero joins and the two alternate ten iterations each; once a
-    residual of the second is below the first's best, only the second runs."""
+def _stand_in_runs(monkeypatch) -> list:
+    """admm.coulomb_admm replaced by runs that yield their start's label (0, 1, ...) as a
+    (1, 3) array, a crawl judged every 30 iterations over a window of one mark; returns the
+    list the runs' starts are appended to."""
     starts = []
 
     def fake(W, b, mu, r0, sparse, **kw):
@@ -134,6 +133,15 @@ def test_race_alternates_then_drops_the_run_that_is_passed(monkeypatch):
     monkeypatch.setattr(admm, "CRAWL_ITER", 30)
     monkeypatch.setattr(admm, "CRAWL_WINDOW", 1)
     monkeypatch.setattr(admm, "CRAWL_DROP", 0.1)
+    return starts
+
+
+def test_race_alternates_then_drops_the_run_that_is_passed(monkeypatch):
+    """admm.AdmmRace with stand-in runs (each yields its start's label, as an array): a first
+    run whose residual stays at 1e-6 is a crawl at the second mark (window 1, 30 iterations
+    apart), the run from zero joins and the two alternate ten iterations each; once a
+    residual of the second is below the first's best, only the second runs."""
+    starts = _stand_in_runs(monkeypatch)
     race = admm.AdmmRace(None, None, None, np.ones((1, 3)), True, below=1e-4, tol=1e-8)
     seen = []
     # 60 iterations of the first run, its residual halved from the first mark (30) to the
@@ -195,17 +203,7 @@ def test_race_drops_a_first_run_too_slow_for_tol(monkeypatch, later, beyond, rep
     its rate over the window (later / 1e-6 per 30 iterations) would take more than
     REPLACE_BEYOND iterations to reach tol (1e-8): ln(later / tol) / ln(1e-6 / later) * 30,
     infinite for a flat run, 199 for a halving one."""
-    starts = []
-
-    def fake(W, b, mu, r0, sparse, **kw):
-        label = float(len(starts))
-        starts.append(np.array(r0, dtype=float))
-        return itertools.repeat(np.full((1, 3), label))
-
-    monkeypatch.setattr(admm, "coulomb_admm", fake)
-    monkeypatch.setattr(admm, "CRAWL_ITER", 30)
-    monkeypatch.setattr(admm, "CRAWL_WINDOW", 1)
-    monkeypatch.setattr(admm, "CRAWL_DROP", 0.1)
+    starts = _stand_in_runs(monkeypatch)
     monkeypatch.setattr(admm, "REPLACE_BEYOND", beyond)
     race = admm.AdmmRace(None, None, None, np.ones((1, 3)), True, below=1e-4, tol=1e-8)
     for k in range(6):

@@ -106,35 +106,35 @@ def _perturbed(case, scale, seed):
     return b * (1.0 + scale * rng.standard_normal(b.shape))
 
 
+def _assert_pile_certified(name, scale, seed, generalized=False):
+    """The corpus's pile ``name`` with b moved by ``scale`` (relative, ``seed``), solved by
+    Coulomb's law at 1e-8 (given M and J too with ``generalized``), its answer checked here
+    on the natural map."""
+    from convimpact import solve_contact_problem
+    from convimpact.bench.contact_corpus import corpus
+
+    (case,) = corpus(names=[name])
+    b = _perturbed(case, scale, seed)
+    extra = {"mass_matrix": case.M, "jacobian": case.J} if generalized else {}
+    s = solve_contact_problem(case.W, b, case.mu, law="coulomb", tol=1e-8, dim=case.dim,
+                              **extra)
+    n, d = case.n_contacts, case.dim
+    r = np.asarray(s.impulse).reshape(n, d)
+    assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
+
+
 @pytest.mark.parametrize("scale, seed", [(0.0, 0), (1e-14, 1), (1e-14, 2), (1e-10, 3)])
 def test_sphere_pile_of_624_contacts_certified_under_perturbations(scale, seed):
     # the pile whose certification hung on round-off (certified in one run, 7.5e-5 in the
     # next): b moved by 1e-14-1e-10 relative, each answer checked here on the natural map
-    from convimpact import solve_contact_problem
-    from convimpact.bench.contact_corpus import corpus
-
-    (case,) = corpus(names=["sphere-pile-sq-624"])
-    b = _perturbed(case, scale, seed)
-    s = solve_contact_problem(case.W, b, case.mu, law="coulomb", tol=1e-8, dim=case.dim)
-    n, d = case.n_contacts, case.dim
-    r = np.asarray(s.impulse).reshape(n, d)
-    assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
+    _assert_pile_certified("sphere-pile-sq-624", scale, seed)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["sphere-pile-sq-897", "sphere-pile-hex-726"])
 @pytest.mark.parametrize("seed", [1, 2])
 def test_large_sphere_piles_certified_under_perturbations(name, seed):
-    from convimpact import solve_contact_problem
-    from convimpact.bench.contact_corpus import corpus
-
-    (case,) = corpus(names=[name])
-    b = _perturbed(case, 1e-14, seed)
-    s = solve_contact_problem(case.W, b, case.mu, law="coulomb", tol=1e-8, dim=case.dim,
-                              mass_matrix=case.M, jacobian=case.J)
-    n, d = case.n_contacts, case.dim
-    r = np.asarray(s.impulse).reshape(n, d)
-    assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
+    _assert_pile_certified(name, 1e-14, seed, generalized=True)
 
 
 def test_a_step_system_that_is_not_quasi_definite_ends_the_steps_not_the_solve(monkeypatch):
@@ -197,28 +197,11 @@ def test_the_897_sphere_pile_certified_where_the_first_orders_stall(scale, seed)
     # b moved by 1e-6 (seed 1) and 1e-3 (seed 12): the NSGS in its first contact orders
     # stalled at 2.2e-5 and 1.2e-5 and the engine refused the pile after 19 s; in the next
     # seed's orders it certifies (gauss_seidel.NSGS_RESTARTS); checked here on the natural map
-    from convimpact import solve_contact_problem
-    from convimpact.bench.contact_corpus import corpus
-
-    (case,) = corpus(names=["sphere-pile-sq-897"])
-    b = _perturbed(case, scale, seed)
-    s = solve_contact_problem(case.W, b, case.mu, law="coulomb", tol=1e-8, dim=case.dim)
-    n, d = case.n_contacts, case.dim
-    r = np.asarray(s.impulse).reshape(n, d)
-    assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
+    _assert_pile_certified("sphere-pile-sq-897", scale, seed)
 
 
 @pytest.mark.slow
 def test_the_897_sphere_pile_with_b_moved_by_1e_3_is_certified():
     # b moved by 1e-3 (seed 14): left at 1.2e-6 before the NSGS went on from the Newton
     # tries' answers; the answer checked here on the natural map
-    from convimpact import solve_contact_problem
-    from convimpact.bench.contact_corpus import corpus
-
-    (case,) = corpus(names=["sphere-pile-sq-897"])
-    b = _perturbed(case, 1e-3, 14)
-    s = solve_contact_problem(case.W, b, case.mu, law="coulomb", tol=1e-8, dim=case.dim,
-                              mass_matrix=case.M, jacobian=case.J)
-    n, d = case.n_contacts, case.dim
-    r = np.asarray(s.impulse).reshape(n, d)
-    assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
+    _assert_pile_certified("sphere-pile-sq-897", 1e-3, 14, generalized=True)
