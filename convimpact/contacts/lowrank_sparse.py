@@ -14,11 +14,13 @@ contact), equilibrated by the square roots of its rows' largest entries. Each co
 S a small dense block on the columns of G its rows touch (two bodies: at most 12), so S's
 pattern is that of G's columns' co-occurrence, whatever the values: it is laid out once per
 solve (:class:`SparseLowRankStep`), and a step is four batched products of those blocks and
-one scatter into its entries. S is then factored by QDLDL (LDL^T without pivoting, its
-ordering and symbolic factorization kept from the first step) with a static regularization
+one scatter into its entries. S is then factored by an LDL^T without pivoting
+(:class:`.supernodal.SupernodalLDL`: QDLDL's ordering and symbolic factorization kept from
+the first step, the supernodes where S fills in) with a static regularization
 of :data:`REGULARIZATION` (+ on the t block, - on the p block: quasi-definite) removed by
 iterative refinement on S itself; where the refinement does not reach
-:data:`REFINED_RTOL`, or QDLDL meets a zero pivot, SuperLU factors S (its symmetric mode).
+:data:`REFINED_RTOL`, or the first factorization meets a zero pivot, SuperLU factors S (its
+symmetric mode).
 
 Measured on the corpus's largest problems (one core, S of 1,200 and 1,596 rows): SuperLU's
 factorization 14 and 16 ms a step, QDLDL's numeric one 6 and 2.5 ms (fill 144k and 96k against
@@ -59,7 +61,7 @@ class SparseLowRankStep:
         G.sort_indices()
         N, m = G.shape
         n = N // d
-        self.G, self.Gt, self.d, self.m = G, sp.csr_matrix(G.T), d, m
+        self.G, self.Gt, self.m = G, sp.csr_matrix(G.T), m
         # each contact's columns (the union of its d rows'), padded to k: G_c (n, d, k)
         row = np.repeat(np.arange(N), np.diff(G.indptr))
         contact = row // d
@@ -69,7 +71,6 @@ class SparseLowRankStep:
         first = np.searchsorted(ucontact, np.arange(n))
         local = np.arange(ukey.size) - first[ucontact]
         k = int(local.max(initial=-1)) + 1
-        self.k = k
         Gc = np.zeros((n, d, max(k, 1)))
         Gc[contact, row % d, local[where]] = G.data
         cols = np.full((n, max(k, 1)), -1, dtype=np.int64)
@@ -121,7 +122,7 @@ class SparseLowRankStep:
         self._udiag = udiag
         self._sign = np.where(ucol[udiag] < m, 1.0, -1.0)
         self._solver = None
-        self.factorizations = self.fallbacks = 0  # (for the tests)
+        self.fallbacks = 0  # (the steps SuperLU took: for the tests)
 
     def _assemble(self, B11, B12, B22) -> np.ndarray:
         """S's CSC data from the contact blocks (module docstring)."""
@@ -151,7 +152,6 @@ class SparseLowRankStep:
                 self._solver = SupernodalLDL(K, upper=True)
             else:
                 self._solver.update(K, upper=True)
-            self.factorizations += 1
             x = self._solver.solve(rhs)
             best = np.inf
             for _ in range(MAX_REFINEMENTS + 1):
