@@ -37,8 +37,6 @@ def cold_max_min(blocks, rtol: float):
     the interior-point method fails, the blocks are not of its form (a second-order cone
     of three rows whose ``w`` is ``(w0 > 0, 0, 0)``, half-lines with ``w > 0`` or ``A, w =
     0 < b``), or neither certificate holds."""
-    sizes = np.array([len(blk[2]) for blk in blocks], dtype=np.int64)
-    soc = np.array([blk[0] == "soc" for blk in blocks], dtype=np.bool_)
     tau0 = np.inf
     for (kind, Ab, bb, wb) in blocks:
         if kind == "soc":
@@ -51,7 +49,10 @@ def cold_max_min(blocks, rtol: float):
             return None
     if not np.isfinite(tau0):
         return None
-    starts = np.zeros(len(blocks), dtype=np.int64)
+    # the kernel's cones: a second-order cone of three rows, each row of a half-line block
+    sizes = np.concatenate([[3] if blk[0] == "soc" else np.ones(len(blk[2]), dtype=np.int64)
+                            for blk in blocks]).astype(np.int64)
+    starts = np.zeros(sizes.size, dtype=np.int64)
     np.cumsum(sizes[:-1], out=starts[1:])
     A = np.vstack([blk[1] for blk in blocks])
     G = np.ascontiguousarray(np.hstack([A, np.concatenate([blk[3] for blk in blocks])[:, None]]))
@@ -60,7 +61,7 @@ def cold_max_min(blocks, rtol: float):
     x[-1] = tau0 - 1.0  # (every slack at least 1 inside its cone)
     z = np.zeros(b.size)
     try:
-        if not primal_dual_max_min(G, b, soc, starts, sizes, x, z, COLD_GAP):
+        if not primal_dual_max_min(G, b, starts, sizes, x, z, COLD_GAP):
             return None
     except np.linalg.LinAlgError:  # (a singular Newton system)
         return None
