@@ -93,6 +93,23 @@ def _columns(node, s, con, c, side, rows, sign, out, rate):
 
 
 @jit_internal
+def _jacobian_rows(ni, node, con, c, ai, aj, rows, k, cj, out, dot):
+    """Contact c's rows of the contact Jacobian (``dot``: of its time derivative) into
+    ``cj[c, :, :k]``: the columns of body i's joints and their ancestors, less body j's."""
+    for r in range(3):
+        for s in range(k):
+            cj[c, r, s] = 0.0
+    for side in range(2):
+        s = ai if side == 0 else aj
+        sign = 1.0 if side == 0 else -1.0
+        while s >= 0:
+            _columns(node, s, con, c, side, rows, sign, out, dot)
+            for r in range(rows):
+                cj[c, r, s] += out[r]
+            s = ni[s, NI_PARENT]
+
+
+@jit_internal
 def _contacts(ni, ci, node, con, cj, scr, k, nc, planar):
     rows = 2 if planar else 3
     for c in range(nc):
@@ -140,21 +157,7 @@ def _contacts(ni, ci, node, con, cj, scr, k, nc, planar):
         con[c, e + 6], con[c, e + 7], con[c, e + 8] = u0, u1, u2
         con[c, CW_X], con[c, CW_X + 1], con[c, CW_X + 2] = xi0, xi1, xi2
         con[c, CW_X + 3], con[c, CW_X + 4], con[c, CW_X + 5] = xj0, xj1, xj2
-        for r in range(3):
-            for s in range(k):
-                cj[c, r, s] = 0.0
-        for side in range(2):
-            nd = ai if side == 0 else aj
-            if nd < 0:
-                continue
-            sign = 1.0 if side == 0 else -1.0
-            out = scr[SC_W]
-            s = nd
-            while s >= 0:
-                _columns(node, s, con, c, side, rows, sign, out, False)
-                for r in range(rows):
-                    cj[c, r, s] += out[r]
-                s = ni[s, NI_PARENT]
+        _jacobian_rows(ni, node, con, c, ai, aj, rows, k, cj, scr[SC_W], False)
 
 
 @jit_internal
@@ -211,18 +214,4 @@ def _contacts_dot(ni, ci, node, con, cjd, scr, k, nc, planar):
             t0, t1, t2, u0, u1, u2 = _complement_dot(n0, n1, n2, m0, m1, m2)
             con[c, ed + 3], con[c, ed + 4], con[c, ed + 5] = t0, t1, t2
             con[c, ed + 6], con[c, ed + 7], con[c, ed + 8] = u0, u1, u2
-        for r in range(3):
-            for s in range(k):
-                cjd[c, r, s] = 0.0
-        for side in range(2):
-            nd_ = ai if side == 0 else aj
-            if nd_ < 0:
-                continue
-            sign = 1.0 if side == 0 else -1.0
-            out = scr[SC_W]
-            s = nd_
-            while s >= 0:
-                _columns(node, s, con, c, side, rows, sign, out, True)
-                for r in range(rows):
-                    cjd[c, r, s] += out[r]
-                s = ni[s, NI_PARENT]
+        _jacobian_rows(ni, node, con, c, ai, aj, rows, k, cjd, scr[SC_W], True)
