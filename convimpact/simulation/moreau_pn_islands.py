@@ -68,6 +68,7 @@ from ..impact.problem.build import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
 from .moreau_kernels import (apply_island_impulse, island_delassus, island_velocity,
                              same_pattern_on)
 from .moreau_pn_kernels import coordinate_certificate
+from .moreau_pn_slide import recertified_slide
 from .moreau_step_kernels import dense_support
 
 #: island modes (:class:`PnIslands`)
@@ -166,6 +167,16 @@ def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, 
                     closing = False
             if closing:
                 s = slot[i]
+                absW = np.abs(W)
+                if recertified_slide(W, absW, vm, mu, d, masks, slide_tol, cone_rtol,
+                                     slack_max, wpi[s], wvalid[s]):
+                    # the pruned search's answer, by its own certificates (.moreau_pn_slide)
+                    status[i] = SLID
+                    full_slide[i] = True
+                    apply_island_impulse(Ja, G, cons, cols, d, wpi[s, 0], r, v_new)
+                    slid += 1
+                    largest = max(largest, nc)
+                    continue
                 # on copies: the arrays change only where the search answers
                 k_ = wkind[s].copy()
                 t_ = wtang[s].copy()
