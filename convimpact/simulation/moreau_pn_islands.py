@@ -310,6 +310,9 @@ class PnIslands:
                       np.zeros(len(islands), dtype=np.bool_))
         self._groups = st.inv.groups
         self._synced = False
+        flat = self._flat  # (the kernel's arguments after the step's own, built once)
+        self._mid = (*flat[:7], flat[7], flat[8], self.mu, *flat[9:15], self.tols)
+        self._tail = (flat[15], flat[16])
 
     def _read_modes(self, solver) -> None:
         """The modes after a step of the solver's own path, from its memory: resting where
@@ -366,10 +369,9 @@ class PnIslands:
         if support is None:
             support = dense_support(self.n_contacts, Ja.shape[2])[1:]
         for _ in range(2):  # the second call after a new layout
-            flat = self._flat
-            full, stuck, slid, largest = pn_islands(
-                Ja, vn_k, st.v_free, G, st.active, *flat[:7], flat[7], flat[8], self.mu,
-                *flat[9:15], self.tols, r, v_new, flat[15], flat[16], *support)
+            full, stuck, slid, largest = pn_islands(Ja, vn_k, st.v_free, G, st.active,
+                                                    *self._mid, r, v_new, *self._tail,
+                                                    *support)
             if full != -2:
                 break
             self._publish(solver)
