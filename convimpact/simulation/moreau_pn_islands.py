@@ -23,7 +23,9 @@ takes :class:`.moreau_impact.ImpactSolver`'s own path, as before.
   before, with the same contacts): the law's search without the dominated active sets and
   those certified to have no admissible impulse, the previous impulse re-certified where it
   still solves the full set's program
-  (:func:`~convimpact.impact.laws.pn_complementarity_search.search` with ``prune``, the
+  (first the previous impulse with the search's own certificates in one pass,
+  :func:`.moreau_pn_recertify.recertified_slide`, then, where one fails,
+  :func:`~convimpact.impact.laws.pn_complementarity_search.search` with ``prune``, the
   call :func:`~convimpact.impact.laws.pn_complementarity_impulse.compiled_impulse` makes,
   with the island's warm starts), when every contact of the island approaches by more
   than round-off (the candidate sets of the law are then every non-empty subset, the
@@ -68,7 +70,7 @@ from ..impact.problem.build import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
 from .moreau_kernels import (apply_island_impulse, island_delassus, island_velocity,
                              same_pattern_on)
 from .moreau_pn_kernels import coordinate_certificate
-from .moreau_pn_slide import recertified_slide
+from .moreau_pn_recertify import recertified_slide
 from .moreau_step_kernels import dense_support
 
 #: island modes (:class:`PnIslands`)
@@ -170,7 +172,7 @@ def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, 
                 absW = np.abs(W)
                 if recertified_slide(W, absW, vm, mu, d, masks, slide_tol, cone_rtol,
                                      slack_max, wpi[s], wvalid[s]):
-                    # the pruned search's answer, by its own certificates (.moreau_pn_slide)
+                    # the pruned search's answer, by its own certificates (.moreau_pn_recertify)
                     status[i] = SLID
                     full_slide[i] = True
                     apply_island_impulse(Ja, G, cons, cols, d, wpi[s, 0], r, v_new)
