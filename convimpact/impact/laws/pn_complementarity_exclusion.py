@@ -196,9 +196,9 @@ def _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, c, A):
 
 
 @_jit
-def _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slipping, c, rows):
-    """:func:`no_sticking_impulse` with the contact data given and ``c`` (N,), ``rows``
-    (N,) bool work arrays."""
+def _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slipping, c):
+    """:func:`no_sticking_impulse` with the contact data given and ``c`` (N,) a work
+    array."""
     n = mu.size
     N = W.shape[0]
     m = 0
@@ -215,7 +215,8 @@ def _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slippin
     c0 = 0.0
     fro2 = 0.0
     xin2 = 0.0
-    for r in range(N):  # the members' rows (no division in the loops)
+    rows = np.empty(N, dtype=np.bool_)  # the members' rows (no division in the loops)
+    for r in range(N):
         rows[r] = member[r // d]
     for r in range(N):
         c[r] = 0.0
@@ -261,7 +262,7 @@ def no_sticking_impulse(W, b, mu, d, member, tol, slack_max, cone_rtol):
     slipping = np.empty(n, dtype=np.bool_)
     _contact_data(W, b, mu, d, bmax, xi, slipping)
     return _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slipping,
-                      np.empty(W.shape[0]), np.empty(W.shape[0], dtype=np.bool_))
+                      np.empty(W.shape[0]))
 
 
 @_jit
@@ -277,7 +278,6 @@ def excluded_sets(W, b, mu, d, masks, tol, slack_max, cone_rtol):
     xi = np.empty(N)
     slipping = np.empty(n, dtype=np.bool_)
     c = np.empty(N)
-    rows = np.empty(N, dtype=np.bool_)
     _contact_data(W, b, mu, d, bmax, xi, slipping)
     A = _row_sums(W, n, d)
     none = np.zeros(ns, dtype=np.bool_)
@@ -286,7 +286,7 @@ def excluded_sets(W, b, mu, d, masks, tol, slack_max, cone_rtol):
         if s > 0:
             none[s] = _far_sink(W, b, mu, d, masks[s], tol, slack_max, cone_rtol, bmax, c, A)
         stick[s] = none[s] or _stuck_out(W, b, mu, d, masks[s], tol, slack_max, cone_rtol,
-                                         bmax, xi, slipping, c, rows)
+                                         bmax, xi, slipping, c)
     return none, stick
 
 
