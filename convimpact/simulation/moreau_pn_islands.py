@@ -23,7 +23,9 @@ takes :class:`.moreau_impact.ImpactSolver`'s own path, as before.
   before, with the same contacts): the law's search without the dominated active sets and
   those certified to have no admissible impulse, the previous impulse re-certified where it
   still solves the full set's program
-  (:func:`~convimpact.impact.laws.pn_complementarity_search.search` with ``prune``, the
+  (first the previous impulse with the search's own certificates in one pass,
+  :func:`.moreau_pn_recertify.recertified_slide`, then, where one fails,
+  :func:`~convimpact.impact.laws.pn_complementarity_search.search` with ``prune``, the
   call :func:`~convimpact.impact.laws.pn_complementarity_impulse.compiled_impulse` makes,
   with the island's warm starts), when every contact of the island approaches by more
   than round-off (the candidate sets of the law are then every non-empty subset, the
@@ -68,6 +70,7 @@ from ..impact.problem.build import IMMOBILE_RTOL, SAFE_SCALE, TINY_NORMAL
 from .moreau_kernels import (apply_island_impulse, island_delassus, island_velocity,
                              same_pattern_on)
 from .moreau_pn_kernels import coordinate_certificate
+from .moreau_pn_recertify import recertified_slide
 from .moreau_step_kernels import dense_support
 
 #: island modes (:class:`PnIslands`)
@@ -166,6 +169,16 @@ def pn_islands(Ja, vn_k, v_free, G, active, ref_active, ref_moves, icon, icoff, 
                     closing = False
             if closing:
                 s = slot[i]
+                absW = np.abs(W)
+                if recertified_slide(W, absW, vm, mu, d, masks, slide_tol, cone_rtol,
+                                     slack_max, wpi[s], wvalid[s]):
+                    # the pruned search's answer, by its own certificates (.moreau_pn_recertify)
+                    status[i] = SLID
+                    full_slide[i] = True
+                    apply_island_impulse(Ja, G, cons, cols, d, wpi[s, 0], r, v_new)
+                    slid += 1
+                    largest = max(largest, nc)
+                    continue
                 # on copies: the arrays change only where the search answers
                 k_ = wkind[s].copy()
                 t_ = wtang[s].copy()
@@ -299,6 +312,9 @@ class PnIslands:
                       np.zeros(len(islands), dtype=np.bool_))
         self._groups = st.inv.groups
         self._synced = False
+        flat = self._flat  # (the kernel's arguments after the step's own, built once)
+        self._mid = (*flat[:7], flat[7], flat[8], self.mu, *flat[9:15], self.tols)
+        self._tail = (flat[15], flat[16])
 
     def _read_modes(self, solver) -> None:
         """The modes after a step of the solver's own path, from its memory: resting where
@@ -355,10 +371,9 @@ class PnIslands:
         if support is None:
             support = dense_support(self.n_contacts, Ja.shape[2])[1:]
         for _ in range(2):  # the second call after a new layout
-            flat = self._flat
-            full, stuck, slid, largest = pn_islands(
-                Ja, vn_k, st.v_free, G, st.active, *flat[:7], flat[7], flat[8], self.mu,
-                *flat[9:15], self.tols, r, v_new, flat[15], flat[16], *support)
+            full, stuck, slid, largest = pn_islands(Ja, vn_k, st.v_free, G, st.active,
+                                                    *self._mid, r, v_new, *self._tail,
+                                                    *support)
             if full != -2:
                 break
             self._publish(solver)

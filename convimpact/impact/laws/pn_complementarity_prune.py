@@ -197,7 +197,8 @@ def dominated_into(R, member, Q, r, outside):
             _project_out(r, Q, k)
             nr = np.sqrt(_dot(r, r))
             if nr > cut:
-                Q[k] = r / nr
+                for x in range(L):  # (loops, not array expressions: no temporaries)
+                    Q[k, x] = r[x] / nr
                 k += 1
     count = 0
     for j in range(n):
@@ -208,14 +209,17 @@ def dominated_into(R, member, Q, r, outside):
             if nr > cut:
                 if count == 2:
                     return False
-                outside[count] = r / nr
+                for x in range(L):
+                    outside[count, x] = r[x] / nr
                 count += 1
     if count == 0:
         return True
     if count == 1:
         return False
-    gap = outside[0] + outside[1]
-    return np.sqrt(_dot(gap, gap)) <= 1e-9
+    gap = 0.0
+    for x in range(L):
+        gap += (outside[0, x] + outside[1, x]) ** 2
+    return np.sqrt(gap) <= 1e-9
 
 
 @_jit
