@@ -316,7 +316,8 @@ def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol:
     and :data:`NSGS_NEWTON_STEPS` steps) on one step system of W, certified on the natural-map
     residual, the firmly sticking contacts solved every :data:`NSGS_SUBSPACE_EVERY` sweeps
     (:func:`.subspace.stick_step`); run again in other contact orders, without those steps,
-    where it stops uncertified (:data:`NSGS_RESTARTS`). Returns the best ``(r, residual, work)`` (the runs' work summed).
+    where it stops uncertified (:data:`NSGS_RESTARTS`). Returns the best
+    ``(r, residual, work)`` (the runs' work summed).
     """
     W = sp.csr_matrix(W)
     b = np.asarray(b, dtype=float).reshape(mu.shape[0], d)
