@@ -181,7 +181,9 @@ NSGS_RESTART_BELOW = 0.5
 #: Only the first run has the steps (:data:`NSGS_RESTARTS`): with b moved by 1e-3, seeds
 #: 3-7, the 897 pile's sweeps 39,500 / 5,500 / 5,100 / 4,100 / refused (4.5e-7) without them,
 #: with them in every run 81,500 and refused (2.2e-6) / 3,100 / 19,600 / 4,300 / refused, in
-#: the first only seed 3 certified in 35,400 (seed 5 20,200, seed 7 refused at 4.5e-7)
+#: the first only seed 3 certified in 35,400 (seed 5 20,200, seed 7 refused at 4.5e-7).
+#: Process time unperturbed (medians of 3, load 2): 624 pile 1.64 -> 1.15 s, 726 pile 1.02 ->
+#: 0.74 s, 897 pile 1.85 -> 2.05 s (75 steps, 0.19 s; its Newton tries 0.55 -> 0.77 s)
 NSGS_SUBSPACE_EVERY = 50
 NSGS_SUBSPACE_STALL = 1000
 NSGS_SUBSPACE_PAUSE = 500
