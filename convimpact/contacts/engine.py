@@ -7,7 +7,8 @@ its iterations compiled in :mod:`.admm_sparse_kernel`),
 Newton again from what comes within 1e-5 (a long finish, :data:`LONG_NEWTON_STEPS`), and past
 :data:`SPARING_NEWTON_MAX_ROWS` rows, where these miss (before them on weakly coupled contacts:
 the sphere piles), the nonsmooth Gauss-Seidel with exact one-contact solves and Newton tries
-(:mod:`.gauss_seidel`, :mod:`.local_coulomb`; Newton's tries lightly damped). :func:`solve` is the
+(:mod:`.gauss_seidel`, :mod:`.local_coulomb`; Newton's tries lightly damped; the sticking
+contacts' velocity solved to zero between sweeps, :mod:`.subspace`). :func:`solve` is the
 entry; small problems go first to the compiled dense kernels of the same method, and up to
 :data:`ADMM_FIRST_MAX_ROWS` rows the compiled ADMM from zero gets a bounded try first (before
 the kernels above :data:`ADMM_FIRST_MIN_ROWS` rows): :mod:`.first_tries`.

@@ -16,6 +16,7 @@ from .cones import natural_map_residual
 from .finish import newton_finish
 from .local_coulomb import solve_local
 from .sparse_step import SparseStepSystem
+from .subspace import stick_step
 
 
 @_jit
@@ -163,6 +164,29 @@ NSGS_SEED = 20261126
 #: 678e8f2, 4.9e-5 with the NSGS first), 726 pile 3,060 -> 2,930; none uncertified. At 1
 #: (any better answer handed on) one of 24 was left uncertified.
 NSGS_RESTART_BELOW = 0.5
+#: every this many sweeps the firmly sticking contacts' velocity is solved to zero
+#: (:func:`.subspace.stick_step`, 1-5 ms on the large sphere piles, 4-20 sweeps) and the
+#: sweeps go on from its answer; the steps pause NSGS_SUBSPACE_PAUSE sweeps where the
+#: residual has not halved in NSGS_SUBSPACE_STALL (the steps and the sweeps can hold each
+#: other at a point that is no solution: the 897-sphere pile with b moved by 1e-6, seed 2,
+#: at 9e-5 for 30,000 sweeps, its residual on the sliding contacts and the sticking ones near
+#: their cone's boundary, which the steps hold; turned off for good instead, on the same
+#: pile with b moved by 1e-3 the sweeps then wandered at 1e-3-5e-3 for 10,000). Sweeps on
+#: the sphere piles, b moved by 0 / 1e-14 (seeds 1-3) / 1e-6 (seeds 1-3) / 1e-3 (seeds 0-2),
+#: without -> with the steps: 624 pile 5,900 / 5,900 / 5,900-6,400 / 6,000-61,000 (seed 0
+#: refused at 2.5e-5) -> 3,400 / 3,400 / 3,200-4,200 / 4,400-5,000; 726 pile 2,900 / 2,900 /
+#: 2,900 / 2,500-6,600 -> 1,400 / 1,400 / 1,400 / 1,600-2,900; 897 pile 5,400 / 5,400 /
+#: 4,600-21,800 / 6,700-54,000 -> 4,800 / 4,800 / 4,600-5,000 / 7,000-18,000. Every 100
+#: sweeps: 897 pile 21,400 unperturbed; never paused: 897 pile 36,000 at 1e-6, seeds 2 and 3.
+#: Only the first run has the steps (:data:`NSGS_RESTARTS`): with b moved by 1e-3, seeds
+#: 3-7, the 897 pile's sweeps 39,500 / 5,500 / 5,100 / 4,100 / refused (4.5e-7) without them,
+#: with them in every run 81,500 and refused (2.2e-6) / 3,100 / 19,600 / 4,300 / refused, in
+#: the first only seed 3 certified in 35,400 (seed 5 20,200, seed 7 refused at 4.5e-7).
+#: Process time unperturbed (medians of 3, load 2): 624 pile 1.64 -> 1.15 s, 726 pile 1.02 ->
+#: 0.74 s, 897 pile 1.85 -> 2.05 s (75 steps, 0.19 s; its Newton tries 0.55 -> 0.77 s)
+NSGS_SUBSPACE_EVERY = 50
+NSGS_SUBSPACE_STALL = 1000
+NSGS_SUBSPACE_PAUSE = 500
 
 # What the plateau is (measured on the 624-sphere pile from the CCP answer, 3,000 sweeps:
 # residual 1.9e-4; the 726-sphere pile alike), for whoever tries to shorten it:
@@ -196,6 +220,7 @@ NSGS_RESTART_BELOW = 0.5
 
 def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol: float,
                 residual: Callable, newton: Callable | None = None,
+                subspace: Callable | None = None,
                 max_sweeps: int = NSGS_MAX_SWEEPS, omega: float = NSGS_OMEGA,
                 seed: int = NSGS_SEED) -> tuple[np.ndarray, float, int]:
     """Over-relaxed NSGS in random contact orders from ``r0`` (n, d), Newton tried on its way.
@@ -205,7 +230,9 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
     within :data:`NSGS_NEWTON_FROM`, after each drop by :data:`NSGS_NEWTON_DROP` below the
     residual of the last try and :data:`NSGS_NEWTON_AGAIN` sweeps after it; the sweeps go on
     from a try's answer below :data:`NSGS_RESTART_BELOW` times its start's residual (the
-    generator :func:`gauss_seidel` takes it by ``send``). Stops at ``tol``,
+    generator :func:`gauss_seidel` takes it by ``send``); ``subspace(r)``, optional, returns
+    impulses the sweeps go on from every :data:`NSGS_SUBSPACE_EVERY` sweeps (or None), paused
+    as that constant says (:func:`.subspace.stick_step`). Stops at ``tol``,
     at ``max_sweeps`` or when the NSGS's own best residual (Newton's answers apart) has not
     dropped tenfold in :data:`NSGS_STALL_SWEEPS` sweeps. Returns the best
     ``(r, residual, work)`` (work: sweeps plus Newton steps).
@@ -222,11 +249,21 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
     drop_at, drop_level = 0, best
     tried, tried_at = NSGS_NEWTON_FROM / NSGS_NEWTON_DROP, 0
     restart = None
+    # the subspace steps: paused until paused_until; the residual last halved at sub_at
+    paused_until, sub_at, sub_level = 0, 0, best
     while best > tol and sweeps < max_sweeps and sweeps - drop_at < NSGS_STALL_SWEEPS:
+        if restart is None and subspace is not None and sweeps >= paused_until and \
+                sweeps and sweeps % NSGS_SUBSPACE_EVERY == 0:
+            restart = subspace(r)
         r = next(run) if restart is None else run.send(restart)
         restart = None
         sweeps += NSGS_CHECK
         res = residual(r)
+        if res < 0.5 * sub_level:
+            sub_at, sub_level = sweeps, res
+        if sweeps - sub_at >= NSGS_SUBSPACE_STALL:
+            paused_until = sweeps + NSGS_SUBSPACE_PAUSE
+            sub_at, sub_level = paused_until, np.inf
         if res < best:
             best, best_r = res, r
         own = min(own, res)
@@ -279,8 +316,10 @@ def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol:
     """Coulomb's law on sparse W by :func:`nsgs_newton` from ``r0`` (n, d), its Newton tries
     by :func:`.finish.newton_finish` with :data:`NSGS_NEWTON_DAMPING` (at most ``newton_iter``
     and :data:`NSGS_NEWTON_STEPS` steps) on one step system of W, certified on the natural-map
-    residual; run again in other contact orders where it stops uncertified
-    (:data:`NSGS_RESTARTS`). Returns the best ``(r, residual, work)`` (the runs' work summed).
+    residual, the firmly sticking contacts solved every :data:`NSGS_SUBSPACE_EVERY` sweeps
+    (:func:`.subspace.stick_step`); run again in other contact orders, without those steps,
+    where it stops uncertified (:data:`NSGS_RESTARTS`). Returns the best
+    ``(r, residual, work)`` (the runs' work summed).
     """
     W = sp.csr_matrix(W)
     b = np.asarray(b, dtype=float).reshape(mu.shape[0], d)
@@ -295,6 +334,7 @@ def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol:
     best_r, best, work = r0, np.inf, 0
     for k in range(NSGS_RESTARTS + 1):
         r, res, w = nsgs_newton(W, b, mu, d, r0, tol=tol, newton=newton, seed=NSGS_SEED + k,
+                                subspace=(lambda r: stick_step(W, b, mu, r)) if k == 0 else None,
                                 residual=lambda r: natural_map_residual(W, b, mu, r, True)[0])
         work += w
         if res < best:
