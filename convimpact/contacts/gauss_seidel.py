@@ -216,6 +216,19 @@ NSGS_SUBSPACE_PAUSE = 500
 # pile 5,900 -> 8,900), the sweeps on G (W = G G^T, 9 entries a row for 32: 7 % faster, the
 # slides' local solves, 250 ns each, dominate), the step in (dr, G^T dr) (its LDL^T 318k
 # entries for W's 283k).
+# Tried without gain, a second time (an active-set Newton with a ratio test, from the 624-sphere
+# pile's plateau iterates after 100-3,000 sweeps): pivoting on the natural map's kinds cycles at
+# the first kink (steps of 1e-14 on one contact, 1.9e-4 after 40 pivots); a Lemke orientation
+# (|F| 9.5e-5 -> 4e-3 in 60 pivots); kink contacts held with the mixed Jacobian or a
+# least-squares row (stalled at 1.3e-5 / 1.3e-4); full fixed-kind steps then local sweeps over
+# the contacts that crossed (1.9e-4 -> 1e-2); the cone constraints as an active set (50-150
+# active, residual 0.1); a watchdog over 12 full steps (9.8e-6-7.6e-4, none certified); a full
+# step every 100 sweeps (2.9e-4 after 2,000 sweeps, 1.2e-4 without). Why: at 3,000 sweeps the
+# plateau iterate is 6.5 % of |r| and 13 % of |u| from the certified answer, 18 kinds wrong,
+# the residual 1e-3 on the segment between them (a curved valley the sweeps drift along). On
+# the 726-sphere pile every stalled try had one kind wrong (a stick separating at 2.5e-5-1e-4
+# m/s); opened, it certified in 5-7 steps, but the rule that picked it fired on the 624-sphere
+# pile's stalls too (1.00 -> 1.08 s and 1.62 -> 1.73 s unperturbed).
 
 
 def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol: float,
