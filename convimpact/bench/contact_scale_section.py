@@ -21,7 +21,8 @@ Every answer is judged by one independent measure,
 most 1e-8 (and, for ours, no exception). Times are medians of ``config.repeat`` rounds in which
 every solver's batch runs in turn (a burst of load falls on all alike), after a first call per
 problem that is not timed; past :data:`ONE_REPEAT_ABOVE` contacts, or when a call lasts more than
-:data:`SLOW_CALL` seconds, that first call is the one measurement. The first solve of each law
+:data:`SLOW_CALL` seconds, that first call is the one measurement (ours past
+:data:`ONE_REPEAT_ABOVE`: its second call, the first compiling what only large problems reach). The first solve of each law
 (compilation, caches) is a warm-up and not recorded. The peers run in forked worker processes
 (:mod:`.contact_scale_workers`; timed inside them, their stack limit lifted: Pinocchio's PGS
 overflows 8 MB from about 400 contacts on), killed when a call exceeds
@@ -178,6 +179,12 @@ def measure_problem(case, law: str, repeat: int, min_batch_time: float, peers: b
             e.repeat = case.n_contacts <= ONE_REPEAT_ABOVE and dt <= SLOW_CALL
             e.n_inner = int(min(MAX_INNER, max(1, math.ceil(min_batch_time / max(dt, 1e-9)))))
             if not e.repeat:
+                if e.solver == "ours" and dt <= SLOW_CALL:
+                    # its first call may have compiled kernels that only large problems reach
+                    # (the supernodal factorization, the NSGS: 4.1 s for 0.2 s on the
+                    # 624-sphere pile's CCP with a cold cache): the second one is measured
+                    again = e.run(1)
+                    dt = again[1] if again[0] == e.first[0] else dt
                 e.times.append(dt)
         for _ in range(max(1, repeat)):  # interleaved rounds
             for e in timed:
@@ -318,7 +325,8 @@ def contact_scale_section(config: BenchConfig, progress: Progress) -> SectionRes
                            "time is then the 1e-10 run's)",
             "time": f"median of up to {config.repeat} interleaved rounds after an untimed "
                     f"first call; one call past {ONE_REPEAT_ABOVE} contacts or "
-                    f"{SLOW_CALL:g} s; peers timed in worker processes",
+                    f"{SLOW_CALL:g} s (ours past {ONE_REPEAT_ABOVE}: its second); peers "
+                    "timed in worker processes",
             "limits": {"time_limit_seconds": TIME_LIMIT,
                        "admm_max_iterations": ADMM_MAX_ITERATIONS,
                        "pgs_max_iterations": PGS_MAX_ITERATIONS},
