@@ -23,7 +23,7 @@ and the cost of one stop's contact force problem against the enumerator it repla
    are spent; after one untimed run of another scene, which warms the caches); MuJoCo's
    rollouts after a 10-step warm-up.
 3. **A humanoid pushed** (full run, with the ``robots`` extra): ``humanoid_push`` (TALOS on
-   its 8 sole corners) ours once against MuJoCo on the same 18 coordinates
+   its 8 sole corners) ours once (after an untimed run) against MuJoCo on the same 18 coordinates
    (:mod:`.humanoid_peer`: the MJCF written from our reduced Pinocchio model, PD as MuJoCo's
    joint springs and dampers): time per simulated second, the soles' penetration, and how far
    the push carries the base (sideways displacement, roll, sole slip), computed with our
