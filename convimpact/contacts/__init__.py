@@ -16,7 +16,8 @@ sustained-contact forces (:mod:`convimpact.simulation`), and the public
   regularized semismooth Newton finish; :mod:`.admm_kernel` (compiled, dense) and
   :mod:`.admm` (sparse; its iterations compiled in :mod:`.admm_sparse_kernel`): the ADMM on
   Coulomb's law in De Saxce's form; :mod:`.fixed_point`:
-  the fixed point on De Saxce's shift, the last resort; :mod:`.threads`: the
+  the fixed point on De Saxce's shift, the last resort; :mod:`.subspace`: the firmly sticking
+  contacts' velocity solved to zero between the Gauss-Seidel's sweeps; :mod:`.threads`: the
   factorizations on one BLAS thread;
 * :mod:`.lowrank`: W's low-rank factor (pivoted Cholesky) and the finish's step through it;
 * :mod:`.generalized`: the problem in generalized coordinates, ``W = G G^T`` with
