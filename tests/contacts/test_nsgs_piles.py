@@ -214,3 +214,27 @@ def test_the_897_sphere_pile_with_b_moved_by_1e_3_is_certified():
     # b moved by 1e-3 (seed 14): left at 1.2e-6 before the NSGS went on from the Newton
     # tries' answers; the answer checked here on the natural map
     _assert_pile_certified("sphere-pile-sq-897", 1e-3, 14, generalized=True)
+
+
+@pytest.mark.slow
+def test_a_pile_the_engine_cannot_certify_gets_an_error_not_an_answer():
+    # the 897-sphere pile with b moved by 1e-3 (seed 7): the engine stops at 4.5e-7 (with and
+    # without the subspace steps). Whatever it does, an answer it returns satisfies Coulomb's
+    # law at 1e-8 on the natural map computed here, and a refusal is the typed error carrying
+    # a best residual above tol and the impulses it reached, whose residual is that one
+    from convimpact import UncertifiedSolutionError, solve_contact_problem
+    from convimpact.bench.contact_corpus import corpus
+
+    (case,) = corpus(names=["sphere-pile-sq-897"])
+    b = _perturbed(case, 1e-3, 7)
+    n, d = case.n_contacts, case.dim
+    try:
+        s = solve_contact_problem(case.W, b, case.mu, law="coulomb", tol=1e-8, dim=d)
+    except UncertifiedSolutionError as err:
+        assert err.residual > 1e-8
+        r = np.asarray(err.solution.impulse).reshape(n, d)
+        assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) == pytest.approx(
+            err.residual, rel=1e-6)
+    else:
+        r = np.asarray(s.impulse).reshape(n, d)
+        assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
