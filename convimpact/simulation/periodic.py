@@ -485,8 +485,9 @@ def find_periodic_orbit(system, y0=None, *, section: str = "impact",
     A, W, mult = _multipliers(DPT, Nt)
     order = np.argsort(-np.abs(mult), kind="stable")
     mult = mult[order]
-    trivial = tuple(TrivialMultiplier(name, float(v), U @ Nt[:, j])
-                    for j, (name, v) in enumerate(zip(names, _images(Nt, DPT))))
+    # each trivial unit direction n with |DP n| (0 by construction)
+    trivial = tuple(TrivialMultiplier(name, float(np.linalg.norm(DPT @ Nt[:, j])), U @ Nt[:, j])
+                    for j, name in enumerate(names))
     return PeriodicOrbit(
         theta=z[:k].copy(), dtheta=z[k:].copy(), period=s.time, multipliers=mult,
         trivial_multipliers=trivial, stable=bool(np.all(np.abs(mult) < 1.0)),
@@ -495,8 +496,3 @@ def find_periodic_orbit(system, y0=None, *, section: str = "impact",
         sticking_contacts=sec.sticking,
         section_contacts=sec.leaving, impact_contacts=s.contacts, strides=prob.strides,
         points=np.vstack([z] + list(s.points[:-1])))
-
-
-def _images(Nt, DPT):
-    """|DP n| of each trivial unit direction n (0 by construction)."""
-    return [float(np.linalg.norm(DPT @ Nt[:, j])) for j in range(Nt.shape[1])]
