@@ -40,10 +40,9 @@ import numpy as np
 from ..compiled import jit as _jit
 from ..impact.laws.pn_complementarity_exclusion import excluded_sets
 from ..impact.laws.pn_complementarity_kernels import admissible
-from ..impact.laws.pn_complementarity_prune import SINGLE_ACCURACY, dominated_into
+from ..impact.laws.pn_complementarity_prune import (SINGLE_ACCURACY, dominance_rows,
+                                                     dominated_into)
 from ..impact.laws.pn_complementarity_slide import warm_kkt_point
-
-TINY = 1e-300
 
 
 @_jit
@@ -72,19 +71,7 @@ def recertified_slide(W, absW, vm, mu, d, masks, tol, cone_rtol, slack_max, wpi,
     for s in range(ns):
         if not skip_stick[s]:
             return False
-    # the dominance rows as the pruned search forms them
-    wscale = TINY
-    for a in range(N):
-        for c in range(N):
-            wscale = max(wscale, absW[a, c])
-    bscale = 0.0
-    for i in range(n):
-        bscale = max(bscale, abs(vm[i * d]))
-    R = np.empty((n, N + 1))
-    for i in range(n):
-        for a in range(N):
-            R[i, a] = W[i * d, a]
-        R[i, N] = vm[i * d] * (wscale / bscale) if bscale > 0.0 else 0.0
+    R = dominance_rows(W, absW, vm, d)  # (the pruned search's rows)
     Qw = np.empty((n, N + 1))
     rw = np.empty(N + 1)
     ow = np.empty((2, N + 1))

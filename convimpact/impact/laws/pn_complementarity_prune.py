@@ -172,6 +172,23 @@ def _project_out(r, Q, k):
 
 
 @_jit
+def dominance_rows(W, absW, b, d):
+    """The rows ``[W_n | b_n]`` the dominance tests compare (:func:`dominated_into`): each
+    contact's normal row of W and its b, b rescaled to W's largest entry (``absW = |W|``)."""
+    n = b.shape[0] // d
+    N = W.shape[0]
+    wscale = max(np.max(absW), TINY)
+    bscale = 0.0
+    for i in range(n):
+        bscale = max(bscale, abs(b[i * d]))
+    R = np.empty((n, N + 1))
+    for i in range(n):
+        R[i, :N] = W[i * d]
+        R[i, N] = b[i * d] * (wscale / bscale) if bscale > 0.0 else 0.0
+    return R
+
+
+@_jit
 def dominated(R, member):
     """:func:`dominated_into` with its own work arrays."""
     n, L = R.shape
@@ -431,14 +448,7 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
                         SINGLE_ACCURACY)[0]
         if np.any(ok):
             return -1, 0
-    wscale = max(np.max(absW), TINY)
-    bscale = 0.0
-    for i in range(n):
-        bscale = max(bscale, abs(b[i * d]))
-    R = np.empty((n, N + 1))
-    for i in range(n):
-        R[i, :N] = W[i * d]
-        R[i, N] = b[i * d] * (wscale / bscale) if bscale > 0.0 else 0.0
+    R = dominance_rows(W, absW, b, d)
     fe[0] = energy_change(W, vminus, pi_full)
     fs[0] = 0
     fpi[0] = pi_full
