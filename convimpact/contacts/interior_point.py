@@ -213,6 +213,17 @@ def _apply_t(wbar, beta, o, m, v, out, inverse):
 
 
 @_jit
+def _jordan_product(u, v, o, m, out):
+    """out[o:o+m] = u o v, the Jordan product of block [o, o + m): (u'v, u_0 v_1 + v_0 u_1)."""
+    s = 0.0
+    for j in range(o, o + m):
+        s += u[j] * v[j]
+    out[o] = s
+    for j in range(o + 1, o + m):
+        out[j] = u[o] * v[j] + v[o] * u[j]
+
+
+@_jit
 def _jordan_solve(lam, r, o, m, out):
     """out[o:o+m] = lambda \\ r, the solution v of lambda o v = r (Jordan product)."""
     l0 = lam[o]

@@ -28,7 +28,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..compiled import jit, jit_internal
-from ..contacts.interior_point import _apply_t, _jordan_solve, _max_step, _nt_scaling
+from ..contacts.interior_point import (_apply_t, _jordan_product, _jordan_solve, _max_step,
+                                       _nt_scaling)
 
 #: iterations at most
 PD_STEPS = 50
@@ -68,15 +69,9 @@ def _lam_solve(lam, r, starts, sizes, out):
 
 @jit_internal
 def _jordan(u, v, starts, sizes, out):
-    """``out = u o v`` per cone (``(u'v, u0 v1 + v0 u1)``; a half-line's ``u v``)."""
+    """``out = u o v`` per cone (a half-line's ``u v``)."""
     for c in range(starts.size):
-        o, m = starts[c], sizes[c]
-        s = 0.0
-        for j in range(o, o + m):
-            s += u[j] * v[j]
-        out[o] = s
-        for j in range(o + 1, o + m):
-            out[j] = u[o] * v[j] + v[o] * u[j]
+        _jordan_product(u, v, starts[c], sizes[c], out)
 
 
 @jit
