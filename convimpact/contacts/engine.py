@@ -40,7 +40,8 @@ from .finish import newton_finish
 from .fixed_point import shift_fixed_point
 from .gauss_seidel import nsgs_light, weakly_coupled
 from .generalized import engine_factors
-from .light_direct import light_direct
+from .light_direct import DAMPING as LIGHT_DAMPING, FIRST as LIGHT_FIRST, \
+    STALL_STEPS as LIGHT_STALL, STEPS as LIGHT_STEPS, light_direct
 from .first_tries import (  # noqa: F401 (the engine's constants and warm start, public here)
     ADMM_FIRST_MAX_ROWS, ADMM_FIRST_MIN_ROWS, COMPILED_MAX_ROWS, HANDOVER_TOL, admm_first,
     compiled_answer, kernels, warm_newton)
@@ -58,10 +59,11 @@ DENSE_ADMM_MAX_ROWS = 450
 DIRECT_NEWTON_STEPS = 4
 SPARING_NEWTON_MAX_ROWS = 900
 #: ...ending after SPARING_FIRST[0] steps where its best is above SPARING_FIRST[1] times the
-#: start's (first steps that served or came near: 0.008 on planar-stack-400, 0.13 on
-#: box-stack-200, 0.32 on 160 TALOS feet, 0.40 on the log pile of 264; those that crawled all
-#: 4 steps: 0.68-0.96 on the wall of 224, log pile of 135, sphere piles of 126-288 contacts,
-#: 2-3 steps saved, 4-30 ms)
+#: start's (its full weight's first steps that served or came near: 0.008 on planar-stack-400,
+#: 0.13 on box-stack-200, 0.32 on 160 TALOS feet, 0.40 on the log pile of 264; those that
+#: crawled all 4 steps: 0.68-0.96 on the wall of 224, log pile of 135, sphere piles of 126-288
+#: contacts, 2-3 steps saved, 4-30 ms; past DENSE_ADMM_MAX_ROWS the light weight's now, see
+#: _solve)
 SPARING_FIRST = (1, 0.5)
 #: the CCP: past its interior point and Newton finish (stopped by TRY_STALL, DIRECT_STALL past
 #: SPARING_NEWTON_MAX_ROWS) the ADMM
@@ -321,17 +323,32 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     if nsgs_first:
         nsgs()
     res = best[0]
+    # sparing past DENSE_ADMM_MAX_ROWS (where :mod:`.light_direct` did not run) the direct
+    # Newton is light (its weight, steps and stops), the long one following within
+    # LONG_NEWTON_FROM (160 TALOS feet: 9 light steps to 1.4e-8, where the full weight's 4
+    # had left 1.3e-4 and the ADMM's way took 40 more; box-stack-200: 3 to 2.9e-7, then 12;
+    # the log pile of 264: cut after 1, 0.44, where the full weight's 4 had served nothing)
+    light = sparing and n * d > DENSE_ADMM_MAX_ROWS
     if res > tol:
-        r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                                  max_iter=min(newton_iter, DIRECT_NEWTON_STEPS if sparing
-                                                else 10), sparse=sparse, factor=factor,
-                                  stall_steps=None if sparing else
-                                  TRY_STALL if nsgs_first else DIRECT_STALL,
-                                  first=SPARING_FIRST if sparing else
-                                  None if nsgs_first else DIRECT_FIRST)
+        if light:
+            r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
+                                      max_iter=min(newton_iter, LIGHT_STEPS), sparse=sparse,
+                                      factor=factor, stall_steps=LIGHT_STALL,
+                                      first=LIGHT_FIRST, damping=LIGHT_DAMPING)
+        else:
+            r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
+                                      max_iter=min(newton_iter, DIRECT_NEWTON_STEPS
+                                                   if sparing else 10),
+                                      sparse=sparse, factor=factor,
+                                      stall_steps=None if sparing else
+                                      TRY_STALL if nsgs_first else DIRECT_STALL,
+                                      first=SPARING_FIRST if sparing else
+                                      None if nsgs_first else DIRECT_FIRST)
         iterations += k
         if res < best[0]:
             best[:2] = res, r
+        if light:
+            long_newton(r, res)
     # past SPARING_NEWTON_MAX_ROWS before the ADMM where Newton came within POLISH_FROM (the
     # sparse ADMM took 10 s on a 400-box stack, Newton 3e-5, the interior point certified it),
     # else not (walls of 424 and 976 contacts, log pile of 528, sphere piles: Newton 6.5e-4 to
