@@ -52,23 +52,17 @@ from .threads import one_blas_thread
 #: sparse factorization (per iteration the dense one was 1.5-1.8x faster than it at 380-400
 #: rows on piles, 1.5x slower at 670 on a wall)
 DENSE_ADMM_MAX_ROWS = 450
-#: Newton steps on Coulomb's natural map straight from the CCP answer, up to
-#: :data:`SPARING_NEWTON_MAX_ROWS` rows or on dense W (when it converges from there it does
-#: in 1-4; else the ADMM's way is the cheaper one); DIRECT_NEWTON_STEPS_PAST above, where the
-#: ADMM of :mod:`.admm` also tries Newton more often (the sphere piles of 624-897 contacts),
-#: stopped where it crawls (DIRECT_STALL, DIRECT_FIRST: the log pile of 920 certified in 10
-#: steps, the robot crowd of 480 at 2e-8 after 10, certified in 12: 78 -> 53 ms, where the
-#: interior point on the law had followed the 10; the others stop before 10)
-DIRECT_NEWTON_STEPS = 4
-DIRECT_NEWTON_STEPS_PAST = 12
+#: Newton steps on Coulomb's natural map straight from the CCP answer past
+#: :data:`SPARING_NEWTON_MAX_ROWS` rows on sparse W, where the ADMM of :mod:`.admm` also
+#: tries Newton more often (the sphere piles of 624-897 contacts), stopped where it crawls
+#: (DIRECT_STALL, DIRECT_FIRST: the log pile of 920 certified in 10 steps, the robot crowd of
+#: 480 at 2e-8 after 10, certified in 12: 78 -> 53 ms, where the interior point on the law had
+#: followed the 10; the others stop before 10); up to those rows or on dense W the light
+#: Newton of :mod:`.light_direct` (its weight, steps and stops; when it converges from there
+#: it does in 1-11; else the ADMM's way is the cheaper one), run there where light_direct
+#: has not
+DIRECT_NEWTON_STEPS = 12
 SPARING_NEWTON_MAX_ROWS = 900
-#: ...ending after SPARING_FIRST[0] steps where its best is above SPARING_FIRST[1] times the
-#: start's (its full weight's first steps that served or came near: 0.008 on planar-stack-400,
-#: 0.13 on box-stack-200, 0.32 on 160 TALOS feet, 0.40 on the log pile of 264; those that
-#: crawled all 4 steps: 0.68-0.96 on the wall of 224, log pile of 135, sphere piles of 126-288
-#: contacts, 2-3 steps saved, 4-30 ms; past DENSE_ADMM_MAX_ROWS the light weight's now, see
-#: _solve)
-SPARING_FIRST = (1, 0.5)
 #: the CCP: past its interior point and Newton finish (stopped by TRY_STALL, DIRECT_STALL past
 #: SPARING_NEWTON_MAX_ROWS) the ADMM
 #: (:func:`.admm.ccp_admm`), at most this many iterations, aiming at this fraction of tol (a
@@ -162,8 +156,9 @@ def solve(W, b: np.ndarray, mu: np.ndarray, d: int, *, coulomb: bool, tol: float
     :data:`SPARING_NEWTON_MAX_ROWS` rows on weakly coupled contacts
     (:func:`.gauss_seidel.weakly_coupled`: the sphere piles) the nonsmooth Gauss-Seidel first
     (:func:`.gauss_seidel.nsgs_light`, from the CCP's answer, Newton tried on its way); then
-    Newton from the CCP's answer (lightly damped first up to :data:`DENSE_ADMM_MAX_ROWS` rows,
-    :mod:`.light_direct`; then :data:`DIRECT_NEWTON_STEPS`); where that does not reach
+    Newton from the CCP's answer (lightly damped, :mod:`.light_direct`, up to
+    :data:`SPARING_NEWTON_MAX_ROWS` rows or on dense W, the long Newton following within
+    :data:`LONG_NEWTON_FROM`; past them :data:`DIRECT_NEWTON_STEPS`); where that does not reach
     ``tol``, the interior point on the law (:mod:`.coulomb_interior`, :data:`COULOMB_IP_ITER`
     steps at most; past :data:`SPARING_NEWTON_MAX_ROWS` rows before the ADMM where Newton came
     near, below after) and the ADMM (compiled on dense W and up to
@@ -228,8 +223,11 @@ def _cold(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, c
             if R.converged:  # (:mod:`.light_direct`: the stacks)
                 return _counted(R, spent)
             spent += R.iterations - ccp.iterations  # (the CCP's are counted below)
+            light_tried = True
+        else:
+            light_tried = False
         return _counted(_solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter,
-                               sparse, ccp, generalized), spent)
+                               sparse, ccp, generalized, light_tried), spent)
 
 
 def _counted(R: EngineResult, spent: int) -> EngineResult:
@@ -239,7 +237,7 @@ def _counted(R: EngineResult, spent: int) -> EngineResult:
 
 
 def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, ccp=None,
-           generalized=None):
+           generalized=None, light_tried=False):
     n = mu.shape[0]
     if sparse is None:
         sparse = use_sparse(W, n * d)
@@ -327,31 +325,29 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
     if nsgs_first:
         nsgs()
     res = best[0]
-    # sparing past DENSE_ADMM_MAX_ROWS (where :mod:`.light_direct` did not run) the direct
-    # Newton is light (its weight, steps and stops), the long one following within
-    # LONG_NEWTON_FROM (160 TALOS feet: 9 light steps to 1.4e-8, where the full weight's 4
-    # had left 1.3e-4 and the ADMM's way took 40 more; box-stack-200: 3 to 2.9e-7, then 12;
-    # the log pile of 264: cut after 1, 0.44, where the full weight's 4 had served nothing)
-    light = sparing and n * d > DENSE_ADMM_MAX_ROWS
-    if res > tol:
-        if light:
+    # sparing, the direct Newton is light (:mod:`.light_direct`'s weight, steps and stops),
+    # the long one following within LONG_NEWTON_FROM, and none where light_direct ran (160
+    # TALOS feet: 9 light steps to 1.4e-8, where the full weight's 4 had left 1.3e-4 and the
+    # ADMM's way took 40 more; box-stack-200: 3 to 2.9e-7, then 12; the log pile of 264: cut
+    # after 1, 0.44, where the full weight's 4 had served nothing; after light_direct the
+    # full weight's first step crawled too, 0.68-0.83, on the log pile of 135 and the sphere
+    # piles of 126 and 145 contacts)
+    if res > tol and not (sparing and light_tried):
+        if sparing:
             r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
                                       max_iter=min(newton_iter, LIGHT_STEPS), sparse=sparse,
                                       factor=factor, stall_steps=LIGHT_STALL,
                                       first=LIGHT_FIRST, damping=LIGHT_DAMPING)
         else:
             r, res, k = newton_finish(W, b, mu, R.impulse, coulomb=True, tol=tol,
-                                      max_iter=min(newton_iter, DIRECT_NEWTON_STEPS
-                                                   if sparing else DIRECT_NEWTON_STEPS_PAST),
+                                      max_iter=min(newton_iter, DIRECT_NEWTON_STEPS),
                                       sparse=sparse, factor=factor,
-                                      stall_steps=None if sparing else
-                                      TRY_STALL if nsgs_first else DIRECT_STALL,
-                                      first=SPARING_FIRST if sparing else
-                                      None if nsgs_first else DIRECT_FIRST)
+                                      stall_steps=TRY_STALL if nsgs_first else DIRECT_STALL,
+                                      first=None if nsgs_first else DIRECT_FIRST)
         iterations += k
         if res < best[0]:
             best[:2] = res, r
-        if light:
+        if sparing:
             long_newton(r, res)
     # past SPARING_NEWTON_MAX_ROWS before the ADMM where Newton came within POLISH_FROM (the
     # sparse ADMM took 10 s on a 400-box stack, Newton 3e-5, the interior point certified it),
