@@ -113,7 +113,12 @@ CCP_START_FROM = 1e-6
 #: walls of 424 and 976 and the log pile of 528 the one that served dropped 11x in its first
 #: step, the failed ones by at most 1.2x: at 20-28 ms a step at 976) and after ADMM_TRY_STALL
 #: steps where its best has not halved (the wall of 424: 9.3e-7 to 8.4e-8 in one step, then
-#: 8.3e-8 for 5 more)
+#: 8.3e-8 for 5 more); up to SPARING_NEWTON_MAX_ROWS the try (POLISH_STEPS) is judged by
+#: TRY_FIRST too, and the long Newton follows only where it was not cut (first steps that
+#: served: 2.5e-4 to 0.012 on sphere piles of 145-288 contacts; cut: 0.99 on the wall of 224,
+#: whose try and long Newton had taken 13 steps, 26 ms, where its sparse ADMM went on
+#: for 240 iterations, 6 ms: 48 -> 34 ms; 0.70 on the log pile of 264, certified in 3, the
+#: ADMM alone instead, 39 -> 38 ms)
 TRY_FIRST = (1, 0.5)
 ADMM_TRY_STALL = 3
 #: ...and comes from within this residual, then on each drop by 100 (the ADMM alone certified
@@ -381,11 +386,11 @@ def _solve(W, b, mu, d, coulomb, tol, max_iter, newton_iter, admm_iter, sparse, 
                                             max_iter=min(newton_iter, POLISH_STEPS if sparing
                                                          else 10), sparse=sparse, factor=factor,
                                             stall_steps=None if sparing else ADMM_TRY_STALL,
-                                            first=None if sparing else TRY_FIRST)
+                                            first=TRY_FIRST)
                 iterations += k
                 if resn < best[0]:
                     best[:2] = resn, rn
-                if sparing:  # else the try stopped where it crawled (ADMM_TRY_STALL)
+                if sparing and resn <= TRY_FIRST[1] * res:  # (else it was cut: TRY_FIRST)
                     long_newton(rn, resn)
             tried.append(res)
             return best[0] <= tol
