@@ -58,9 +58,9 @@ DENSE_ADMM_MAX_ROWS = 450
 #: (DIRECT_STALL, DIRECT_FIRST: the log pile of 920 certified in 10 steps, the robot crowd of
 #: 480 at 2e-8 after 10, certified in 12: 78 -> 53 ms, where the interior point on the law had
 #: followed the 10; the others stop before 10); up to those rows or on dense W the light
-#: Newton of :mod:`.light_direct` (its weight, steps and stops; when it converges from there
-#: it does in 1-11; else the ADMM's way is the cheaper one), run there where light_direct
-#: has not
+#: Newton of :mod:`.light_direct` (its weight, steps and stops), run there where light_direct
+#: has not, the long Newton following (certified: planar-stack-400 in 1 light step, 160
+#: TALOS feet in 9 and 1, box-stack-200 in 3 and 12; elsewhere the ADMM's way is the cheaper)
 DIRECT_NEWTON_STEPS = 12
 SPARING_NEWTON_MAX_ROWS = 900
 #: the CCP: past its interior point and Newton finish (stopped by TRY_STALL, DIRECT_STALL past
