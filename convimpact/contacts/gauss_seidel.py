@@ -283,8 +283,9 @@ NSGS_SUBSPACE_PAUSE = 500
 # the 726-sphere pile every stalled try had one kind wrong (a stick separating at 2.5e-5-1e-4
 # m/s); opened, it certified in 5-7 steps, but the rule that picked it fired on the 624-sphere
 # pile's stalls too (1.00 -> 1.08 s and 1.62 -> 1.73 s unperturbed).
-# Tried without gain, a third time (from the engine's CCP start; work = sweeps + Newton steps,
-# the three large piles with b moved by 1e-6, seeds 0-2, unless said): where the sweeps spend
+# Tried without gain, a third time (every kind over-relaxed at 1.25 then; from the engine's
+# CCP start; work = sweeps + Newton steps, the three large piles with b moved by 1e-6, seeds
+# 0-2, unless said): where the sweeps spend
 # their time on the 897-sphere pile, sweeps 700-3,400 at 1e-3-5e-3 (omega 1 alike, without the
 # subspace steps alike), the distance to the certified answer falls steadily (0.22 of |r| at
 # 500 sweeps, 0.12 at 2,000, 0.06 at 3,000, 0.017 at 4,750) with 45-77 kinds wrong (13-35 of
@@ -292,7 +293,7 @@ NSGS_SUBSPACE_PAUSE = 500
 # different handful of spheres each time; a subspace step there lowers it 1.0-1.7x (in 2 of
 # 11 it raised it 8x) and the next 10 sweeps raise it back. Body-blocked sweeps (the contacts under one sphere in a row, 4 on the
 # square piles, repeated m times; orders of the spheres random): m = 1 624 / 897 pile
-# 2,400 / 22,100 sweeps (3,400 / 4,800 now), m = 2 5,700 / 16,700 and m = 4 10,800 / 21,600
+# 2,400 / 22,100 sweeps (3,400 / 4,800 without the blocks), m = 2 5,700 / 16,700 and m = 4 10,800 / 21,600
 # contact solves per contact. A proximal term (W + rho I, b - rho r_k, r_k renewed every 10
 # sweeps; rho 0.01 and 0.1 of W's mean diagonal): the 897 pile still at 1e-3-2e-3 after
 # 4,800 sweeps. A smoothing Newton (CHKS on the second-order cone, |u_t| smoothed alike,
