@@ -25,9 +25,10 @@ def _sweeps(bptr, bcol, bdata, b, mu, d, r, hints, blocks, count, omega, order, 
     """``count`` sweeps over the contacts, sweep k in ``order[(first + k) % len(order)]``, in
     place on ``r`` (n d,); returns the number of contacts without a local answer in the last
     sweep. ``omega`` over-relaxes the sticking answers, ``omega_other`` the others (take-off
-    and slide; negative: ``omega``). W by block rows (BSR: ``bptr``, ``bcol``, ``bdata`` (nb, d, d)): each neighbour's
-    impulse read once for its d x d block (on the 897-sphere pile 1,000 sweeps in 0.15 s
-    against 0.21 s by scalar rows, CSR; the same sums in the same order, bit for bit)."""
+    and slide; negative: ``omega``). W by block rows (BSR: ``bptr``, ``bcol``, ``bdata``
+    (nb, d, d)): each neighbour's impulse read once for its d x d block (on the 897-sphere
+    pile 1,000 sweeps in 0.15 s against 0.21 s by scalar rows, CSR; the same sums in the same
+    order, bit for bit)."""
     q = np.empty(d)
     ri = np.empty(d)
     old = np.empty(d)
@@ -283,31 +284,35 @@ NSGS_SUBSPACE_PAUSE = 500
 # the 726-sphere pile every stalled try had one kind wrong (a stick separating at 2.5e-5-1e-4
 # m/s); opened, it certified in 5-7 steps, but the rule that picked it fired on the 624-sphere
 # pile's stalls too (1.00 -> 1.08 s and 1.62 -> 1.73 s unperturbed).
-# Tried without gain, a third time (every kind over-relaxed at 1.25 then; from the engine's
-# CCP start; work = sweeps + Newton steps, the three large piles with b moved by 1e-6, seeds
-# 0-2, unless said): where the sweeps spend
-# their time on the 897-sphere pile, sweeps 700-3,400 at 1e-3-5e-3 (omega 1 alike, without the
-# subspace steps alike), the distance to the certified answer falls steadily (0.22 of |r| at
-# 500 sweeps, 0.12 at 2,000, 0.06 at 3,000, 0.017 at 4,750) with 45-77 kinds wrong (13-35 of
-# them sticks that slide at the answer), the residual on firm sticks with |u_t| ~ 1e-2, a
-# different handful of spheres each time; a subspace step there lowers it 1.0-1.7x (in 2 of
-# 11 it raised it 8x) and the next 10 sweeps raise it back. Body-blocked sweeps (the contacts under one sphere in a row, 4 on the
-# square piles, repeated m times; orders of the spheres random): m = 1 624 / 897 pile
-# 2,400 / 22,100 sweeps (3,400 / 4,800 without the blocks), m = 2 5,700 / 16,700 and m = 4 10,800 / 21,600
-# contact solves per contact. A proximal term (W + rho I, b - rho r_k, r_k renewed every 10
-# sweeps; rho 0.01 and 0.1 of W's mean diagonal): the 897 pile still at 1e-3-2e-3 after
-# 4,800 sweeps. A smoothing Newton (CHKS on the second-order cone, |u_t| smoothed alike,
-# eps = 0.1-10 residuals): from the CCP answer 2.6e-2 -> 1.4e-2 in 40 steps, from 500 sweeps
-# 1.8e-3 -> 1.7e-3 in 25 (line search at 1/8-1/128; every row live, 100 ms a step).
-# Newton tried from the mean of the last 10 checked iterates (its residual half the
-# iterate's): work 29,000 -> 37,300. Orders alternating a permutation and its reverse (the
-# unperturbed piles): 9,600 -> 12,300. The sweeps from zero instead of the CCP answer (seeds
-# 0-7): 624 / 726 pile 0.61-1.01 / 0.34-0.38 s (0.81-1.15 / 0.57-0.59 s), 897 pile 1.6-2.4 s
-# in 7 of 8 runs, 8.4 s in one (1.5-1.7 s, 8.5 and 8.8 s in two); with b moved by 1e-3 the
-# 726 pile uncertified (seed 1, 8e-6). The light Newton's tries judged on their first step: the
-# certifying ones' first steps 0.14-1.3 of the start (a rule at 0.5 would have cut 3 of 7).
-# The slide's local Newton with its derivative in closed form (one evaluation a step instead
-# of two): the sweeps as fast (1,000 sweeps 0.146 s against 0.147 s).
+# Tried without gain, a third time (every kind over-relaxed at 1.25 then; from the engine's CCP
+# start; work = sweeps + Newton steps, the three large piles with b moved by 1e-6, seeds 0-2,
+# unless said): where the sweeps spend their time on the 897-sphere pile, sweeps 700-3,400 at
+# 1e-3-5e-3 (omega 1 alike, without the subspace steps alike), the distance to the certified
+# answer falls steadily (0.22 of |r| at 500 sweeps, 0.12 at 2,000, 0.06 at 3,000, 0.017 at
+# 4,750) with 45-77 kinds wrong (13-35 of them sticks that slide at the answer), the residual on
+# firm sticks with |u_t| ~ 1e-2, a different handful of spheres each time; a subspace step there
+# lowers it 1.0-1.7x (in 2 of 11 it raised it 8x) and the next 10 sweeps raise it back.
+# Body-blocked sweeps (the contacts under one sphere in a row, 4 on the square piles, repeated m
+# times; orders of the spheres random): m = 1 624 / 897 pile 2,400 / 22,100 sweeps (3,400 /
+# 4,800 without the blocks), m = 2 5,700 / 16,700 and m = 4 10,800 / 21,600 contact solves per
+# contact. A proximal term (W + rho I, b - rho r_k, r_k renewed every 10 sweeps; rho 0.01 and
+# 0.1 of W's mean diagonal): the 897 pile still at 1e-3-2e-3 after 4,800 sweeps. A smoothing
+# Newton (CHKS on the second-order cone, |u_t| smoothed alike, eps = 0.1-10 residuals): from the
+# CCP answer 2.6e-2 -> 1.4e-2 in 40 steps, from 500 sweeps 1.8e-3 -> 1.7e-3 in 25 (line search
+# at 1/8-1/128; every row live, 100 ms a step). Newton tried from the mean of the last 10
+# checked iterates (its residual half the iterate's): work 29,000 -> 37,300. Orders alternating
+# a permutation and its reverse (the unperturbed piles): 9,600 -> 12,300. The sweeps from zero
+# instead of the CCP answer (seeds 0-7): 624 / 726 pile 0.61-1.01 / 0.34-0.38 s (0.81-1.15 /
+# 0.57-0.59 s), 897 pile 1.6-2.4 s in 7 of 8 runs, 8.4 s in one (1.5-1.7 s, 8.5 and 8.8 s in
+# two); with b moved by 1e-3 the 726 pile uncertified (seed 1, 8e-6). The light Newton's tries
+# judged on their first step: the certifying ones' first steps 0.14-1.3 of the start (a rule at
+# 0.5 would have cut 3 of 7). The slide's local Newton with its derivative in closed form (one
+# evaluation a step instead of two): the sweeps as fast (1,000 sweeps 0.146 s against 0.147 s).
+# The Newton tries' step system factored by the supernodal LDL^T (.supernodal) on the union of
+# the live patterns met so far (refactored numerically while it holds): the 897 / 624-sphere
+# piles' 18 / 26 steps 0.72 / 0.48 s -> 0.78 / 0.60 s (1.3e8 flops, 30 ms a numeric
+# factorization against QDLDL's 33-40 ms for a new pattern's whole one; on every contact's
+# pattern 4.2e8 flops, 70 ms).
 
 
 def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol: float,
