@@ -186,7 +186,10 @@ NSGS_CHECK = 10
 #: unperturbed CCP answer) every kind at 1.25 / sticks at 1.7: 137,000 / 148,000 (one
 #: 897-sphere pile left at 3e-6 / 9e-6 each, the tails 25,000-47,000 / 19,000-59,000). The
 #: engine's iterations on the corpus's 624 / 726 / 897-sphere piles 3,436 / 1,396 / 4,837 ->
-#: 2,408 / 936 / 4,234, with b moved by 1e-14 (seeds 1-8) 77,400 -> 60,600 in all
+#: 2,408 / 936 / 4,234, with b moved by 1e-14 (seeds 1-8) 77,400 -> 60,600 in all. Without
+#: the subspace steps in this run (b moved by 1e-6, seeds 0-7): work 72,400 -> 121,000 (624 /
+#: 726 pile 2,200-2,700 / 910 -> 5,000-5,600 / 1,860; 897 pile 1.2-1.6 s -> 1.0 s a run, but
+#: 20,000-21,000 in 2 of 8 runs instead of 1)
 NSGS_OMEGA = 1.7
 NSGS_OMEGA_OTHER = 1.0
 #: ...and where that run stops uncertified, the restarts (:data:`NSGS_RESTARTS`, in the next
