@@ -1,7 +1,7 @@
 """Coulomb's law by nonsmooth block Gauss-Seidel (Jean & Moreau's NSGS): contact after
 contact, the one-contact problem ``u_i = W_ii r_i + q_i`` (``q_i`` the velocity the other
 contacts' impulses give) is solved exactly (:func:`.local_coulomb.solve_local`), on W stored
-by rows (CSR), compiled.
+by block rows (BSR), compiled.
 """
 
 from __future__ import annotations
@@ -20,26 +20,55 @@ from .subspace import stick_step
 
 
 @_jit
-def _sweeps(indptr, indices, data, b, mu, d, r, hints, blocks, count, omega, order, first=0):
+def _sweeps(bptr, bcol, bdata, b, mu, d, r, hints, blocks, count, omega, order, first=0,
+            omega_other=-1.0):
     """``count`` sweeps over the contacts, sweep k in ``order[(first + k) % len(order)]``, in
     place on ``r`` (n d,); returns the number of contacts without a local answer in the last
-    sweep."""
-    n = mu.shape[0]
+    sweep. ``omega`` over-relaxes the sticking answers, ``omega_other`` the others (take-off
+    and slide; negative: ``omega``). W by block rows (BSR: ``bptr``, ``bcol``, ``bdata``
+    (nb, d, d)): each neighbour's impulse read once for its d x d block (on the 897-sphere
+    pile 1,000 sweeps in 0.15 s against 0.21 s by scalar rows, CSR; the same sums in the same
+    order, bit for bit)."""
     q = np.empty(d)
     ri = np.empty(d)
     old = np.empty(d)
     misses = 0
+    other = omega if omega_other < 0.0 else omega_other
     for sweep in range(count):
         misses = 0
         for k0 in range(order.shape[1]):
             c = order[(first + sweep) % order.shape[0], k0]
             o = c * d
-            for k in range(d):
-                row = o + k
-                s = b[row]
-                for p in range(indptr[row], indptr[row + 1]):
-                    s += data[p] * r[indices[p]]
-                q[k] = s
+            if d == 3:
+                s0 = b[o]
+                s1 = b[o + 1]
+                s2 = b[o + 2]
+                for p in range(bptr[c], bptr[c + 1]):
+                    j = bcol[p] * 3
+                    x0 = r[j]
+                    x1 = r[j + 1]
+                    x2 = r[j + 2]
+                    # (one term at a time: the CSR row's order of additions)
+                    s0 += bdata[p, 0, 0] * x0
+                    s0 += bdata[p, 0, 1] * x1
+                    s0 += bdata[p, 0, 2] * x2
+                    s1 += bdata[p, 1, 0] * x0
+                    s1 += bdata[p, 1, 1] * x1
+                    s1 += bdata[p, 1, 2] * x2
+                    s2 += bdata[p, 2, 0] * x0
+                    s2 += bdata[p, 2, 1] * x1
+                    s2 += bdata[p, 2, 2] * x2
+                q[0] = s0
+                q[1] = s1
+                q[2] = s2
+            else:
+                for k in range(d):
+                    s = b[o + k]
+                    for p in range(bptr[c], bptr[c + 1]):
+                        j = bcol[p] * d
+                        for jj in range(d):
+                            s += bdata[p, k, jj] * r[j + jj]
+                    q[k] = s
             A = blocks[c]
             for k in range(d):
                 old[k] = r[o + k]
@@ -53,8 +82,9 @@ def _sweeps(indptr, indices, data, b, mu, d, r, hints, blocks, count, omega, ord
             if kind < 0:
                 misses += 1
                 continue
+            w = omega if kind == 1 else other
             for k in range(d):
-                r[o + k] = omega * ri[k] + (1.0 - omega) * old[k]
+                r[o + k] = w * ri[k] + (1.0 - w) * old[k]
     return misses
 
 
@@ -69,10 +99,13 @@ def diagonal_blocks(W: sp.csr_matrix, d: int) -> np.ndarray:
 
 
 def gauss_seidel(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *,
-                 sweeps: int = 10, omega: float = 1.0, order=None, first: int = 0):
+                 sweeps: int = 10, omega: float = 1.0, order=None, first: int = 0,
+                 omega_other: float | None = None):
     """A generator of NSGS iterates: each ``next()`` runs ``sweeps`` sweeps from the last
     iterate (``r0`` (n, d) first) and yields the impulses (n, d) (a copy); ``send(r)`` runs
-    them from ``r`` (n, d) instead. ``order`` (k, n):
+    them from ``r`` (n, d) instead. Each contact's exact answer is over-relaxed by ``omega``
+    where it sticks, by ``omega_other`` (None: ``omega``) where it takes off or slides
+    (``r <- w r_exact + (1 - w) r``). ``order`` (k, n):
     the contact orders, sweep j in ``order[(first + j) % k]``."""
     W = sp.csr_matrix(W)
     W.sort_indices()
@@ -82,9 +115,11 @@ def gauss_seidel(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *,
     bb = np.ascontiguousarray(np.asarray(b, dtype=float).reshape(-1))
     m = np.ascontiguousarray(mu, dtype=float)
     hints = np.full(n, np.nan)
-    indptr = W.indptr.astype(np.int64)
-    indices = W.indices.astype(np.int64)
-    data = np.ascontiguousarray(W.data, dtype=float)
+    Wb = sp.bsr_matrix(W, blocksize=(d, d))
+    Wb.sort_indices()
+    bptr = Wb.indptr.astype(np.int64)
+    bcol = Wb.indices.astype(np.int64)
+    bdata = np.ascontiguousarray(Wb.data, dtype=float)
     if order is None:
         order = np.arange(n)[None, :]
     order = np.ascontiguousarray(order, dtype=np.int64)
@@ -92,8 +127,8 @@ def gauss_seidel(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *,
     while True:
         # the orders run on across calls (each call restarted at the first before: with 10
         # sweeps a call, 10 of the 64 orders served)
-        _sweeps(indptr, indices, data, bb, m, d, r, hints, blocks, sweeps, omega, order,
-                done % order.shape[0])
+        _sweeps(bptr, bcol, bdata, bb, m, d, r, hints, blocks, sweeps, omega, order,
+                done % order.shape[0], -1.0 if omega_other is None else omega_other)
         done += sweeps
         restart = yield r.reshape(n, d).copy()
         if restart is not None:  # send(r): the sweeps go on from r
@@ -138,8 +173,31 @@ NSGS_CHECK = 10
 #: sweeps to a residual of 3e-5 at 1.0 / 1.5: 10,000 / 7,000 on the 624-sphere pile, 8,000 /
 #: 4,000 on the 897-sphere pile, 4,000 / 2,500 on the 726-sphere pile; but at 1.5, with b
 #: moved by 1e-4, the 624-sphere pile's sweeps wandered at 4e-4-3e-3 for 12,000 sweeps (2 of 7
-#: perturbed problems left uncertified), at 1.0 and 1.25 none
-NSGS_OMEGA = 1.25
+#: perturbed problems left uncertified), at 1.0 and 1.25 none. That was every kind at 1.25; now
+#: the sticking answers only, the take-offs and slides exact (NSGS_OMEGA_OTHER: over-relaxed,
+#: the slides left their cones, 70 kinds changed per 10 sweeps at 1.25, the take-offs' normal
+#: impulse went negative). Work (sweeps plus Newton steps) on the 624 / 726 / 897-sphere piles
+#: from the CCP answer, b moved by 1e-6, seeds 3-9, every kind at 1.25 -> sticks at 1.7:
+#: 2,900-4,200 / 1,370 / 4,800-5,000 (and 20,800-21,300 in 2 of 7) -> 2,200-3,900 / 910 /
+#: 3,200-3,700 (and 19,000 in 2 of 7), seeds 0-2 29,000 -> 21,500 in all; sticks at 1.5:
+#: 24,400, at 1.85: seeds 3-9 624 / 726 pile as at 1.7, 897 pile 3,100-4,700 in 4 of 7 and
+#: 8,900-20,300 in 3; take-offs and slides at 1.1 (sticks 1.25 / 1.5): 897 pile 24,500-25,200
+#: / 4,300-20,800 with b moved by 1e-6, seeds 0-2; with b moved by 1e-3 (seeds 0-3, from the
+#: unperturbed CCP answer) every kind at 1.25 / sticks at 1.7: 137,000 / 148,000 (one
+#: 897-sphere pile left at 3e-6 / 9e-6 each, the tails 25,000-47,000 / 19,000-59,000). The
+#: engine's iterations on the corpus's 624 / 726 / 897-sphere piles 3,436 / 1,396 / 4,837 ->
+#: 2,408 / 936 / 4,234, with b moved by 1e-14 (seeds 1-8) 77,400 -> 60,600 in all. Without
+#: the subspace steps in this run (b moved by 1e-6, seeds 0-7): work 72,400 -> 121,000 (624 /
+#: 726 pile 2,200-2,700 / 910 -> 5,000-5,600 / 1,860; 897 pile 1.2-1.6 s -> 1.0 s a run, but
+#: 20,000-21,000 in 2 of 8 runs instead of 1)
+NSGS_OMEGA = 1.7
+NSGS_OMEGA_OTHER = 1.0
+#: ...and where that run stops uncertified, the restarts (:data:`NSGS_RESTARTS`, in the next
+#: seeds' orders, without the subspace steps) over-relax every kind by this, as before (with
+#: the sticks at 1.7 in the restarts too, the 897-sphere pile with b moved by 1e-3, seed 14, M
+#: and J given, was refused at 3.1e-4; with the first run of before as a second run, four in
+#: all, certified, but its sibling of seed 12 took 37 s under load 2, 10-14 s now)
+NSGS_OMEGA_EVERY = 1.25
 #: Newton is tried from an iterate within NSGS_NEWTON_FROM, then after each drop by
 #: NSGS_NEWTON_DROP below the residual of the last try, and NSGS_NEWTON_AGAIN sweeps after
 #: it while the NSGS plateaus: the light Newton (:data:`NSGS_NEWTON_DAMPING`) certified the
@@ -229,12 +287,42 @@ NSGS_SUBSPACE_PAUSE = 500
 # the 726-sphere pile every stalled try had one kind wrong (a stick separating at 2.5e-5-1e-4
 # m/s); opened, it certified in 5-7 steps, but the rule that picked it fired on the 624-sphere
 # pile's stalls too (1.00 -> 1.08 s and 1.62 -> 1.73 s unperturbed).
+# Tried without gain, a third time (every kind over-relaxed at 1.25 then; from the engine's CCP
+# start; work = sweeps + Newton steps, the three large piles with b moved by 1e-6, seeds 0-2,
+# unless said): where the sweeps spend their time on the 897-sphere pile, sweeps 700-3,400 at
+# 1e-3-5e-3 (omega 1 alike, without the subspace steps alike), the distance to the certified
+# answer falls steadily (0.22 of |r| at 500 sweeps, 0.12 at 2,000, 0.06 at 3,000, 0.017 at
+# 4,750) with 45-77 kinds wrong (13-35 of them sticks that slide at the answer), the residual on
+# firm sticks with |u_t| ~ 1e-2, a different handful of spheres each time; a subspace step there
+# lowers it 1.0-1.7x (in 2 of 11 it raised it 8x) and the next 10 sweeps raise it back.
+# Body-blocked sweeps (the contacts under one sphere in a row, 4 on the square piles, repeated m
+# times; orders of the spheres random): m = 1 624 / 897 pile 2,400 / 22,100 sweeps (3,400 /
+# 4,800 without the blocks), m = 2 5,700 / 16,700 and m = 4 10,800 / 21,600 contact solves per
+# contact. A proximal term (W + rho I, b - rho r_k, r_k renewed every 10 sweeps; rho 0.01 and
+# 0.1 of W's mean diagonal): the 897 pile still at 1e-3-2e-3 after 4,800 sweeps. A smoothing
+# Newton (CHKS on the second-order cone, |u_t| smoothed alike, eps = 0.1-10 residuals): from the
+# CCP answer 2.6e-2 -> 1.4e-2 in 40 steps, from 500 sweeps 1.8e-3 -> 1.7e-3 in 25 (line search
+# at 1/8-1/128; every row live, 100 ms a step). Newton tried from the mean of the last 10
+# checked iterates (its residual half the iterate's): work 29,000 -> 37,300. Orders alternating
+# a permutation and its reverse (the unperturbed piles): 9,600 -> 12,300. The sweeps from zero
+# instead of the CCP answer (seeds 0-7): 624 / 726 pile 0.61-1.01 / 0.34-0.38 s (0.81-1.15 /
+# 0.57-0.59 s), 897 pile 1.6-2.4 s in 7 of 8 runs, 8.4 s in one (1.5-1.7 s, 8.5 and 8.8 s in
+# two); with b moved by 1e-3 the 726 pile uncertified (seed 1, 8e-6). The light Newton's tries
+# judged on their first step: the certifying ones' first steps 0.14-1.3 of the start (a rule at
+# 0.5 would have cut 3 of 7). The slide's local Newton with its derivative in closed form (one
+# evaluation a step instead of two): the sweeps as fast (1,000 sweeps 0.146 s against 0.147 s).
+# The Newton tries' step system factored by the supernodal LDL^T (.supernodal) on the union of
+# the live patterns met so far (refactored numerically while it holds): the 897 / 624-sphere
+# piles' 18 / 26 steps 0.72 / 0.48 s -> 0.78 / 0.60 s (1.3e8 flops, 30 ms a numeric
+# factorization against QDLDL's 33-40 ms for a new pattern's whole one; on every contact's
+# pattern 4.2e8 flops, 70 ms).
 
 
 def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol: float,
                 residual: Callable, newton: Callable | None = None,
                 subspace: Callable | None = None,
                 max_sweeps: int = NSGS_MAX_SWEEPS, omega: float = NSGS_OMEGA,
+                omega_other: float = NSGS_OMEGA_OTHER,
                 seed: int = NSGS_SEED) -> tuple[np.ndarray, float, int]:
     """Over-relaxed NSGS in random contact orders from ``r0`` (n, d), Newton tried on its way.
 
@@ -253,7 +341,8 @@ def nsgs_newton(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol
     n = mu.shape[0]
     rng = np.random.default_rng(seed)
     order = np.stack([rng.permutation(n) for _ in range(NSGS_ORDERS)])
-    run = gauss_seidel(W, b, mu, d, r0, sweeps=NSGS_CHECK, omega=omega, order=order)
+    run = gauss_seidel(W, b, mu, d, r0, sweeps=NSGS_CHECK, omega=omega, order=order,
+                       omega_other=omega_other)
     best_r = np.asarray(r0, dtype=float).reshape(n, d)
     best = residual(best_r)
     work = 0
@@ -316,7 +405,8 @@ NSGS_NEWTON_DAMPING = 1e-3
 
 
 #: :func:`nsgs_light`: where the NSGS stops uncertified (its stall rule), it runs again from
-#: the same start in other contact orders (the next seed), at most this many times: which
+#: the same start in other contact orders (the next seed; every kind over-relaxed alike,
+#: :data:`NSGS_OMEGA_EVERY`), at most this many times: which
 #: plateau iterate Newton certifies from is a matter of the orders (the 897-sphere pile with
 #: b moved by 1e-6, seed 1, and by 1e-3, seed 12: stalled at 2.2e-5 and 1.2e-5 after 16,300
 #: and 17,300 sweeps, 7.8 and 8.5 s, then certified in 5,400 and 7,700 sweeps with the next
@@ -330,8 +420,9 @@ def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol:
     by :func:`.finish.newton_finish` with :data:`NSGS_NEWTON_DAMPING` (at most ``newton_iter``
     and :data:`NSGS_NEWTON_STEPS` steps) on one step system of W, certified on the natural-map
     residual, the firmly sticking contacts solved every :data:`NSGS_SUBSPACE_EVERY` sweeps
-    (:func:`.subspace.stick_step`); run again in other contact orders, without those steps,
-    where it stops uncertified (:data:`NSGS_RESTARTS`). Returns the best
+    (:func:`.subspace.stick_step`), the sticking answers over-relaxed by :data:`NSGS_OMEGA`;
+    where it stops uncertified, run again in other contact orders without those steps, every
+    kind over-relaxed by :data:`NSGS_OMEGA_EVERY` (:data:`NSGS_RESTARTS`). Returns the best
     ``(r, residual, work)`` (the runs' work summed).
     """
     W = sp.csr_matrix(W)
@@ -345,9 +436,15 @@ def nsgs_light(W, b: np.ndarray, mu: np.ndarray, d: int, r0: np.ndarray, *, tol:
                              stall_steps=NSGS_NEWTON_STALL, first=NSGS_NEWTON_FIRST)
 
     best_r, best, work = r0, np.inf, 0
-    for k in range(NSGS_RESTARTS + 1):
-        r, res, w = nsgs_newton(W, b, mu, d, r0, tol=tol, newton=newton, seed=NSGS_SEED + k,
-                                subspace=(lambda r: stick_step(W, b, mu, r)) if k == 0 else None,
+    # (omega, omega_other, seed, subspace steps): the sticks over-relaxed first, then the
+    # restarts with every kind at NSGS_OMEGA_EVERY (NSGS_RESTARTS)
+    runs = [(NSGS_OMEGA, NSGS_OMEGA_OTHER, NSGS_SEED, True)] + [
+        (NSGS_OMEGA_EVERY, NSGS_OMEGA_EVERY, NSGS_SEED + k, False)
+        for k in range(1, NSGS_RESTARTS + 1)]
+    for omega, other, seed, steps in runs:
+        r, res, w = nsgs_newton(W, b, mu, d, r0, tol=tol, newton=newton, seed=seed,
+                                omega=omega, omega_other=other,
+                                subspace=(lambda r: stick_step(W, b, mu, r)) if steps else None,
                                 residual=lambda r: natural_map_residual(W, b, mu, r, True)[0])
         work += w
         if res < best:

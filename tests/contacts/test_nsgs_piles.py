@@ -218,10 +218,12 @@ def test_the_897_sphere_pile_with_b_moved_by_1e_3_is_certified():
 
 @pytest.mark.slow
 def test_a_pile_the_engine_cannot_certify_gets_an_error_not_an_answer():
-    # the 897-sphere pile with b moved by 1e-3 (seed 7): the engine stops at 4.5e-7 (with and
-    # without the subspace steps). Whatever it does, an answer it returns satisfies Coulomb's
-    # law at 1e-8 on the natural map computed here, and a refusal is the typed error carrying
-    # a best residual above tol and the impulses it reached, whose residual is that one
+    # the 897-sphere pile with b moved by 1e-3 (seed 7): the engine stopped at 4.5e-7 (with and
+    # without the subspace steps; since the sticks' own over-relaxation, NSGS_OMEGA in
+    # contacts.gauss_seidel, it certifies it in 4,466 iterations). Whatever it does, an answer
+    # it returns satisfies Coulomb's law at 1e-8 on the natural map computed here, and a
+    # refusal is the typed error carrying a best residual above tol and the impulses it
+    # reached, whose residual is that one
     from convimpact import UncertifiedSolutionError, solve_contact_problem
     from convimpact.bench.contact_corpus import corpus
 
@@ -238,3 +240,25 @@ def test_a_pile_the_engine_cannot_certify_gets_an_error_not_an_answer():
     else:
         r = np.asarray(s.impulse).reshape(n, d)
         assert coulomb_residual(case.W, b.reshape(n, d), case.mu, r) <= 1e-8
+
+
+def test_sweeps_over_relax_the_sticking_answers_only():
+    # two decoupled contacts (W block diagonal, the closed forms of
+    # test_light_newton_on_two_decoupled_contacts_matches_their_closed_forms): contact 1 slides
+    # at r = (0.5, -0.15, -0.2), contact 2 sticks at r = (1, 0.1, 0). One sweep from r0 with
+    # omega 1.7 for the sticks and 1 for the others: the slide exact, the stick
+    # 1.7 (1, 0.1, 0) - 0.7 r0_2 = (1.7 - 0.7, 0.17 - 0.07, -0.07) = (1.0, 0.1, -0.07) for
+    # r0_2 = (1, 0.1, 0.1)
+    from convimpact.contacts.gauss_seidel import gauss_seidel
+
+    W = sp.block_diag([np.diag([2.0, 1.0, 1.0]), np.eye(3)], format="csr")
+    b = np.array([[-1.0, 0.6, 0.8], [-1.0, -0.1, 0.0]])
+    mu = np.array([0.5, 0.5])
+    r0 = np.array([[0.3, 0.0, 0.0], [1.0, 0.1, 0.1]])
+    r = next(gauss_seidel(W, b, mu, 3, r0, sweeps=1, omega=1.7, omega_other=1.0))
+    np.testing.assert_allclose(r[0], [0.5, -0.15, -0.2], atol=1e-12)
+    np.testing.assert_allclose(r[1], [1.0, 0.1, -0.07], atol=1e-12)
+    # every kind at 1.7: the slide over-relaxed too, 1.7 r_slide - 0.7 r0_1
+    r = next(gauss_seidel(W, b, mu, 3, r0, sweeps=1, omega=1.7))
+    np.testing.assert_allclose(r[0], [1.7 * 0.5 - 0.7 * 0.3, -1.7 * 0.15, -1.7 * 0.2],
+                               atol=1e-12)
