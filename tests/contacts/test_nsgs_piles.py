@@ -217,7 +217,7 @@ def test_the_897_sphere_pile_with_b_moved_by_1e_3_is_certified():
 
 
 @pytest.mark.slow
-def test_a_pile_the_engine_cannot_certify_gets_an_error_not_an_answer():
+def test_the_897_pile_moved_by_1e_3_seed_7_is_certified_or_refused_with_its_residual():
     # the 897-sphere pile with b moved by 1e-3 (seed 7): the engine stopped at 4.5e-7 (with and
     # without the subspace steps; since the sticks' own over-relaxation, NSGS_OMEGA in
     # contacts.gauss_seidel, it certifies it in 4,466 iterations). Whatever it does, an answer
