@@ -249,10 +249,10 @@ CRAWL_DROP = 0.1
 #: run from zero alone from 2,000 certified at 3,770 iterations in all instead of 5,040)
 REPLACE_BEYOND = 4000
 #: ...and the run from zero is Anderson-accelerated (:mod:`.admm_anderson`): on the brick wall
-#: of 976 contacts 3,766 -> 2,776 iterations in all (b perturbed by 1e-14, seeds 1-6: 2,777 to
-#: 2,781), 437 -> 355 ms; the run from the CCP answer is not: accelerated, on that wall from
-#: 6.3e-7 to 1.1e-7 at 6,000 iterations (memory 10) but the wall of 424 went from 2,492 to
-#: 12,905 iterations and the log pile of 528 from 1,080 to 1,940 (the sphere pile of 256
+#: of 976 contacts 3,766 -> 2,676 iterations in all (b perturbed by 1e-14, seeds 1-6: 2,677 to
+#: 2,681), 385-417 -> 319-323 ms; the run from the CCP answer is not: accelerated, on that wall
+#: from 6.3e-7 to 1.1e-7 at 6,000 iterations (memory 10) but the wall of 424 went from 2,492
+#: to 12,905 iterations and the log pile of 528 from 1,080 to 1,940 (the sphere pile of 256
 #: 1,155 -> 895); nothing else of the corpus runs from zero here
 ANDERSON_FROM_ZERO = True
 
@@ -271,7 +271,7 @@ class AdmmRace:
     window, the first is dropped there and then. On the brick wall of 976 contacts
     (over-relaxed) the run from zero replaces it at 2,000 iterations and certifies at 3,770
     (joining only: 5,040; with a window of two marks: joining at 3,000, 6,060); accelerated
-    (:data:`ANDERSON_FROM_ZERO`), at 2,776.
+    (:data:`ANDERSON_FROM_ZERO`), at 2,676.
     """
 
     def __init__(self, W, b, mu, r0, sparse: bool, *, factor=None, below: float = 1e-4,

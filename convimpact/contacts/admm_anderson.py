@@ -28,18 +28,19 @@ from ..compiled import jit as _jit
 from .admm_kernel import _desaxce
 from .admm_sparse_kernel import SparseAdmmRun, sparse_admm_steps, sparse_residual
 
-#: the differences kept; on the brick wall of 976 contacts from zero (the engine's run from
-#: zero, joining at 2,000 iterations), in iterations in all: 5 3,126, 6 2,928, 8 2,776,
-#: 10 2,969 (without: 3,766)
+#: the differences kept; on the brick wall of 976 contacts (the engine's run from zero, joining
+#: at 2,000 iterations), in iterations in all: 5 2,786, 6 2,686, 8 2,676, 10 2,797, 12 2,766
+#: (without: 3,766)
 MEMORY = 8
 #: the map accelerated is this many ADMM iterations (SCS 3's acceleration interval): on that
 #: wall from zero, alone, with a memory of 10, certified at 740 iterations with 1 (each
-#: iteration 2x dearer: the least squares on 2N rows) and 940 with 10; in the engine 1 and 8:
-#: 2,816 iterations, 401 ms; 5 and 8: 6,166; 10 and 8: 2,776, 355 ms (without: 3,766, 437 ms)
+#: iteration 2x dearer: the least squares on 2N rows) and 940 with 10; in the engine, memory
+#: 8: with 1 2,816 iterations, 401 ms; with 5 6,166; with 10 2,676, 320 ms (without: 3,766,
+#: 385-417 ms)
 INTERVAL = 10
 #: an accelerated iterate is kept where its fixed-point residual is at most this times the
-#: residual of the iterate it was extrapolated from (on that wall 0.9: 3,106 iterations in
-#: all, 2.0: 2,969)
+#: residual of the iterate it was extrapolated from (on that wall 0.95: 2,756 iterations in
+#: all, 1.05 and 1.5: 2,676)
 SAFEGUARD = 1.0
 #: the least-squares problem's Tikhonov weight, relative to the trace of Y^T Y
 REGULARIZE = 1e-10
@@ -103,6 +104,9 @@ def anderson_admm_steps(woodbury, Gp, Gi, Gx, Tp, Ti, Tx, Wp, Wi, Wx, Lp, Li, Lx
         if new_rho != rho:
             _reset(info)
             return it, new_rho
+        if done < interval:  # a part of the map (the count's end): no difference of F's
+            _reset(info)
+            continue
         if info[_CAND] == 1 and ng > safeguard * base[0]:
             # rejected: back to the plain iterate it was extrapolated from, memory cleared
             for i in range(N):
