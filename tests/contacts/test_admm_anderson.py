@@ -9,28 +9,17 @@ onto the friction cone written in this folder (``cone_checks``).
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
-from convimpact.bench.contact_corpus import corpus
 from convimpact.contacts import admm
 from convimpact.contacts.admm_anderson import AndersonAdmmRun
-from convimpact.contacts.generalized import GeneralizedFactor
 
 from .cone_checks import coulomb_residual, project_cone
 
 
-@pytest.fixture(scope="module")
-def wall():
-    (case,) = corpus(names=["box-wall-3x3-44"])
-    n, d = case.mu.shape[0], case.dim
-    G = GeneralizedFactor(case.M, case.J).G
-    return (sp.csr_matrix(case.W), np.asarray(case.b, float).reshape(n, d),
-            np.asarray(case.mu, float), d, G)
-
 
 @pytest.mark.parametrize("with_g", [True, False])
-def test_accelerated_run_solves_coulombs_law(wall, with_g):
-    W, b, mu, d, G = wall
+def test_accelerated_run_solves_coulombs_law(brick_wall_44, with_g):
+    W, b, mu, d, G = brick_wall_44
     n = mu.shape[0]
     factor = type("F", (), {"G": G})() if with_g else None
     run = admm.coulomb_admm(W, b, mu, np.zeros((n, d)), True, factor=factor,
@@ -52,11 +41,11 @@ def test_accelerated_run_solves_coulombs_law(wall, with_g):
     assert run.info[4] > 0  # extrapolations were kept
 
 
-def test_rejecting_every_extrapolation_is_the_plain_run(wall):
+def test_rejecting_every_extrapolation_is_the_plain_run(brick_wall_44):
     # a safeguard of zero keeps no extrapolation: each time the run goes back to the plain
     # iterate it extrapolated from (ten iterations spent on the rejected one), so its iterates
     # are the plain ADMM's, taken here from the plain run, each given once or twice in order
-    W, b, mu, d, _ = wall
+    W, b, mu, d, _ = brick_wall_44
     n = mu.shape[0]
     plain = admm.coulomb_admm(W, b, mu, np.zeros((n, d)), True, relax=admm.RELAX)
     run = AndersonAdmmRun(W, b, mu, np.zeros((n, d)), None, L=plain.L, rho=plain.rho,

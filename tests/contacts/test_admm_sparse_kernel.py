@@ -9,27 +9,16 @@ friction cone (``test_contact_admm.coulomb_residual``).
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
-from convimpact.bench.contact_corpus import corpus
 from convimpact.contacts import admm, admm_sparse_kernel as K
-from convimpact.contacts.generalized import GeneralizedFactor
 
 from .test_contact_admm import coulomb_residual
 
 
-@pytest.fixture(scope="module")
-def wall():
-    (case,) = corpus(names=["box-wall-3x3-44"])
-    n, d = case.mu.shape[0], case.dim
-    G = GeneralizedFactor(case.M, case.J).G
-    return (sp.csr_matrix(case.W), np.asarray(case.b, float).reshape(n, d),
-            np.asarray(case.mu, float), d, G)
-
 
 @pytest.mark.parametrize("woodbury", [True, False])
-def test_proximal_solve_matches_a_dense_solve(wall, woodbury):
-    W, b, mu, d, G = wall
+def test_proximal_solve_matches_a_dense_solve(brick_wall_44, woodbury):
+    W, b, mu, d, G = brick_wall_44
     N = W.shape[0]
     c = 0.37
     fac = K._Factor(W, G if woodbury else None)
@@ -46,10 +35,10 @@ def test_proximal_solve_matches_a_dense_solve(wall, woodbury):
 
 
 @pytest.mark.parametrize("with_g", [True, False])
-def test_compiled_run_solves_coulombs_law_and_reports_its_residual(wall, with_g):
+def test_compiled_run_solves_coulombs_law_and_reports_its_residual(brick_wall_44, with_g):
     # from zero, over-relaxed as the engine's: every reported residual is the one recomputed
     # here (to 1e-6 relative), and the best reaches 1e-8 within 3,000 iterations
-    W, b, mu, d, G = wall
+    W, b, mu, d, G = brick_wall_44
     n = mu.shape[0]
     factor = type("F", (), {"G": G})() if with_g else None
     run = admm.coulomb_admm(W, b, mu, np.zeros((n, d)), True, factor=factor, relax=admm.RELAX)
