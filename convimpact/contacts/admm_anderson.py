@@ -28,6 +28,7 @@ from ..compiled import announce
 from ..compiled import jit as _jit
 from .admm_kernel import _desaxce
 from .admm_sparse_kernel import SparseAdmmRun, sparse_admm_steps, sparse_residual
+from .interior_point import _cho_solve, _cholesky
 
 #: the differences kept; on the brick wall of 976 contacts (the engine's run from zero, joining
 #: at 2,000 iterations), in iterations in all: 5 2,786, 6 2,686, 8 2,676, 10 2,797, 12 2,766
@@ -84,6 +85,8 @@ def anderson_admm_steps(woodbury, Gp, Gi, Gx, Tp, Ti, Tx, Wp, Wi, Wx, Lp, Li, Lx
     f = np.empty(n2)
     g = np.empty(n2)
     rhs = np.empty(mem)
+    weights = np.empty(mem)
+    spd = np.empty((mem, mem))
     chol = np.empty((mem, mem))
     it = 0
     while it < count:
@@ -155,35 +158,18 @@ def anderson_admm_steps(woodbury, Gp, Gi, Gx, Tp, Ti, Tx, Wp, Wi, Wx, Lp, Li, Lx
                 t += Y[j, i] * g[i]
             rhs[j] = t
         reg = REGULARIZE * trace + 1e-300
-        ok = True
-        for a in range(k):  # Cholesky of gram + reg I, then the two substitutions
-            for c in range(a + 1):
-                t = gram[a, c] + (reg if a == c else 0.0)
-                for e in range(c):
-                    t -= chol[a, e] * chol[c, e]
-                if a == c:
-                    if t <= 0.0:
-                        ok = False
-                        break
-                    chol[a, a] = math.sqrt(t)
-                else:
-                    chol[a, c] = t / chol[c, c]
-            if not ok:
-                break
-        if not ok:
-            continue
+        A = spd[:k, :k]
         for a in range(k):
-            t = rhs[a]
-            for e in range(a):
-                t -= chol[a, e] * rhs[e]
-            rhs[a] = t / chol[a, a]
+            for c in range(k):
+                A[a, c] = gram[a, c]
+            A[a, a] += reg
+        if not _cholesky(A, chol[:k, :k]):
+            continue
+        gamma = weights[:k]
+        _cho_solve(chol[:k, :k], rhs[:k], gamma)
         big = 0.0
-        for a in range(k - 1, -1, -1):
-            t = rhs[a]
-            for e in range(a + 1, k):
-                t -= chol[e, a] * rhs[e]
-            rhs[a] = t / chol[a, a]
-            big = max(big, abs(rhs[a]))
+        for a in range(k):
+            big = max(big, abs(gamma[a]))
         if not big <= MAX_WEIGHT:
             continue
         base[0] = ng
@@ -192,7 +178,7 @@ def anderson_admm_steps(woodbury, Gp, Gi, Gx, Tp, Ti, Tx, Wp, Wi, Wx, Lp, Li, Lx
         for i in range(N):
             base[1 + n2 + i] = x[i]
         for j in range(k):
-            gj = rhs[j]
+            gj = gamma[j]
             for i in range(n2):
                 f[i] -= gj * (S[j, i] - Y[j, i])
         for i in range(N):
