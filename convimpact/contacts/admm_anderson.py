@@ -27,7 +27,7 @@ import numpy as np
 from ..compiled import announce
 from ..compiled import jit as _jit
 from .admm_kernel import _desaxce
-from .admm_sparse_kernel import SparseAdmmRun, sparse_admm_steps, sparse_residual
+from .admm_sparse_kernel import SparseAdmmRun, sparse_admm_steps
 from .interior_point import _cho_solve, _cholesky
 
 #: the differences kept; on the brick wall of 976 contacts (the engine's run from zero, joining
@@ -212,22 +212,14 @@ class AndersonAdmmRun(SparseAdmmRun):
         self.gprev = np.zeros(2 * N)
         self.wout = self.w.copy()
 
-    def next(self) -> np.ndarray:
-        left = 10
-        while left:
-            done, rho = anderson_admm_steps(
-                self.woodbury, *self.G, *self.T, *self.W, *self.F, self.q, self.mu, self.d,
-                self.x, self.w, self.lam, self.s, self.rho, self.eta, self.L, self.relax,
-                self.coulomb, left, self.balance, self.step, self.S, self.Y, self.gram,
-                self.info, self.base, self.zprev, self.gprev, self.wout, self.safeguard,
-                self.interval)
-            left -= done
-            if rho != self.rho:
-                self.rho = rho
-                self.F = self.fac.factor(rho + self.eta)
-        self.residual = sparse_residual(self.woodbury, *self.G, *self.T, *self.W, self.q,
-                                        self.mu, self.d, self.wout, self.coulomb)
-        return self.wout.reshape(self.shape).copy()
+    def _steps(self, left: int) -> tuple[int, float]:
+        return anderson_admm_steps(
+            self.woodbury, *self.G, *self.T, *self.W, *self.F, self.q, self.mu, self.d,
+            self.x, self.w, self.lam, self.s, self.rho, self.eta, self.L, self.relax,
+            self.coulomb, left, self.balance, self.step, self.S, self.Y, self.gram,
+            self.info, self.base, self.zprev, self.gprev, self.wout, self.safeguard,
+            self.interval)
 
-    __next__ = next
+    def _given(self) -> np.ndarray:
+        return self.wout  # the last plain ADMM iterate's cone copy, not the extrapolation
 

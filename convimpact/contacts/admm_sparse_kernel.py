@@ -251,20 +251,29 @@ class SparseAdmmRun:
     def _m(self) -> int:
         return self.T[0].shape[0] - 1 if self.woodbury else self.q.size
 
+    def _steps(self, left: int) -> tuple[int, float]:
+        """Up to ``left`` iterations in the compiled kernel: ``(iterations, new rho)``."""
+        return sparse_admm_steps(
+            self.woodbury, *self.G, *self.T, *self.W, *self.F, self.q, self.mu, self.d,
+            self.x, self.w, self.lam, self.s, self.rho, self.eta, self.L, self.relax,
+            self.coulomb, left, self.balance, self.step)
+
+    def _given(self) -> np.ndarray:
+        """The iterate :meth:`next` gives (flat): the cone copy w."""
+        return self.w
+
     def next(self) -> np.ndarray:
         left = 10
         while left:
-            done, rho = sparse_admm_steps(
-                self.woodbury, *self.G, *self.T, *self.W, *self.F, self.q, self.mu, self.d,
-                self.x, self.w, self.lam, self.s, self.rho, self.eta, self.L, self.relax,
-                self.coulomb, left, self.balance, self.step)
+            done, rho = self._steps(left)
             left -= done
             if rho != self.rho:
                 self.rho = rho
                 self.F = self.fac.factor(rho + self.eta)
+        w = self._given()
         self.residual = sparse_residual(self.woodbury, *self.G, *self.T, *self.W, self.q,
-                                        self.mu, self.d, self.w, self.coulomb)
-        return self.w.reshape(self.shape).copy()
+                                        self.mu, self.d, w, self.coulomb)
+        return w.reshape(self.shape).copy()
 
     __next__ = next
 
