@@ -38,16 +38,6 @@ def check_vector(model, value, name: str) -> np.ndarray:
     return a
 
 
-def same_configuration(data, theta) -> bool:
-    """True when ``data`` already holds configuration ``theta``."""
-    return data.theta is not None and np.array_equal(np.asarray(theta, dtype=float), data.theta)
-
-
-def ensure(model, data, flags: int, theta, dtheta=None) -> None:
-    """Validate theta (and dtheta) and bring the stages ``flags`` up to date in ``data``."""
-    data.compute(flags, theta, dtheta)
-
-
 def ensure_configuration(model, data, theta) -> None:
     """Make ``data`` hold configuration ``theta``, keeping its velocity if theta is unchanged
     (zero velocities otherwise)."""
@@ -66,26 +56,6 @@ def forward_kinematics(model, data, theta, dtheta=None) -> None:
 def world_point(data, body: int, local) -> np.ndarray:
     """World position of a point given in body ``body``'s frame."""
     return data.position[body] + data.rotation[body] @ np.asarray(local, dtype=float)
-
-
-def world_vector(data, body: int, local) -> np.ndarray:
-    """World components of a vector fixed in body ``body``."""
-    return data.rotation[body] @ np.asarray(local, dtype=float)
-
-
-def _lift(model, x) -> np.ndarray:
-    x = np.asarray(x, dtype=float)
-    return np.array([x[0], x[1], 0.0]) if model.planar else x
-
-
-def point_velocity(model, data, body: int, x: np.ndarray) -> np.ndarray:
-    """Velocity of the material point of ``body`` that is at world position ``x``."""
-    node = data.layout.node_of_body[body]
-    if node < 0:
-        return np.zeros(model.dim)
-    V = data.node_velocity[node]
-    v = V[:3] + np.cross(V[3:], _lift(model, x) - data.node_position[node])
-    return v[:model.dim]
 
 
 def _point_columns(model, data, body: int, x, rate: bool) -> tuple[np.ndarray, np.ndarray]:

@@ -44,10 +44,6 @@ class Factors:
         """``M^-1 b`` for a vector or a (k, m) matrix."""
         return _cho_solve(self.L, b)
 
-    def solve_constraints(self, b: np.ndarray) -> np.ndarray:
-        """``(C M^-1 C^T)^-1 b``."""
-        return _cho_solve(self.SL, b)
-
 
 def _cho_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = np.asarray(b, dtype=float)

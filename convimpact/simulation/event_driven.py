@@ -156,9 +156,6 @@ class EventDrivenRun(EventWatch, ContactEvents, SensitivityTracking):
     def contact_row(self, c: str, th: np.ndarray) -> np.ndarray:
         return np.asarray(self.mech.contact_jacobian(c, th), float)
 
-    def normal_speed(self, c: str, th: np.ndarray, dth: np.ndarray) -> float:
-        return float(self.contact_row(c, th)[0] @ dth)
-
     def gap(self, c: str, th: np.ndarray) -> float:
         """The gap of contact ``c``, counted as an event-function evaluation."""
         self.nevents_fev += 1

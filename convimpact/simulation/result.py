@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Mapping, Sequence, Union
+from typing import Any, Mapping, Union
 
 import numpy as np
 
@@ -469,15 +469,3 @@ def append_sample(rows: Mapping[str, list], mech, t: float, theta: np.ndarray,
         rows["psi"].append(0.0)
         rows["cdq"].append(0.0)
 
-
-def held_at(contact_events: Sequence[ContactEvent], t: float) -> tuple[str, ...]:
-    """The held set in force at time t (right-continuous), replayed from the switches."""
-    held: list[str] = []
-    for ev in contact_events:
-        if ev.time > t:
-            break
-        if ev.kind == "persist" and ev.contact not in held:
-            held.append(ev.contact)
-        elif ev.kind == "release" and ev.contact in held:
-            held.remove(ev.contact)
-    return tuple(held)
