@@ -9,13 +9,13 @@ derivatives=True)`` without its solve).
 
 from __future__ import annotations
 
-from types import MappingProxyType, SimpleNamespace
+from types import SimpleNamespace
 from typing import Mapping
 
 import numpy as np
 
 from ..derivatives.attach import check_derivatives
-from ..derivatives.chain import impact_jacobians
+from ..derivatives.chain import _read_only, impact_jacobians
 from ...errors import NotSupportedError, UnknownOptionError
 from ..laws import TANGENTIAL_LAWS, law_module
 from ..problem.build import build_problem
@@ -70,8 +70,5 @@ def batch_jacobians(law: str, M, Jc, dq, e, mu, e_t, dq_plus: np.ndarray,
             jq[name][i] = a[name]
             jp[name][i] = b[name]
         one_sided[i] = bool(cd.one_sided)
-    for group in (jq, jp):
-        for a in group.values():
-            a.flags.writeable = False
     one_sided.flags.writeable = False
-    return MappingProxyType(jq), MappingProxyType(jp), one_sided
+    return _read_only(jq), _read_only(jp), one_sided

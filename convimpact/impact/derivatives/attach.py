@@ -77,14 +77,13 @@ def with_derivatives(problem: ImpactProblem, result: ImpactResult, law: str,
             f"law {law!r}: the derivative of this impact is not finite (a singular or "
             "degenerate mode, or units beyond double precision's range); it is not returned")
     other = cd.other_side if both else None
+    ojac = oijac = None
     if other is not None:
         at = result.impulse if other.impulse is None else other.impulse
         ojac, oijac = impact_jacobians(problem, at, other, scalar)
-        record = ImpactDerivatives(modes=tuple(cd.regimes), one_sided=tuple(cd.one_sided),
-                                   other_modes=tuple(other.regimes), other_jacobian=ojac,
-                                   other_impulse_jacobian=oijac)
-    else:
-        record = ImpactDerivatives(modes=tuple(cd.regimes), one_sided=tuple(cd.one_sided))
+    record = ImpactDerivatives(modes=tuple(cd.regimes), one_sided=tuple(cd.one_sided),
+                               other_modes=None if other is None else tuple(other.regimes),
+                               other_jacobian=ojac, other_impulse_jacobian=oijac)
     diagnostics = result.diagnostics
     if cd.one_sided:
         diagnostics = diagnostics.with_notes(

@@ -19,13 +19,10 @@ form in ``(dx, dW, dv, de, dmu)`` -- the differential of one equation, written b
   normal rows);
 * :meth:`ModeSystem.friction` ``mu_i``;
 
-and the equations the laws share per contact: :meth:`~ModeSystem.separating`,
-:meth:`~ModeSystem.frictionless`, :meth:`~ModeSystem.stick`, :meth:`~ModeSystem.planar_slide`
-(eq. 55's ``pi_t = mu s pi_n``), :meth:`~ModeSystem.slide_on_cone` (``|pi_t| = mu pi_n``, the
-tangent set by the law's optimality conditions: the CCP, Coulomb's law, P_N's stationarity)
-and :meth:`~ModeSystem.slide_on_slip` (the slide next to a separation). :meth:`ModeSystem.solve`
-gives the several-contact derivative (the laws' ``several_impulse_derivative``), and
-:meth:`ModeSystem.one_contact` the one-contact one in the flat layout below.
+and the equations the laws share per contact (its methods from ``separating`` to
+``planar_slide``). :meth:`ModeSystem.solve` gives the several-contact derivative (the laws'
+``several_impulse_derivative``), :meth:`ModeSystem.one_contact` the one-contact one in the
+flat layout below.
 
 ``W`` derivatives are the partials with respect to the entries ``W_rj`` as they appear in the
 equations; contracted with a symmetric ``dW`` they give the derivative the contract of
@@ -35,14 +32,11 @@ equations; contracted with a symmetric ``dW`` they give the derivative the contr
 functions below return ``dp``, a (d, P) array: the derivative of the impulse (normal first)
 with respect to ``theta = (W_00, W_01, ..., W_dd, v_0, ..., v_d-1, e, mu, e_t)``
 (P = d^2 + d + 3); :func:`contact_derivative` splits it into a ``ContactDerivative``. With
-``b = ((1 + e) v_n, v_t)`` and ``c = -(1 + e) v_n``:
-
-* :func:`frictionless`: ``pi = (c / W_nn) n``;
-* :func:`stick`: ``W pi = -b`` (eq. 42/52);
-* :func:`eq55_slide`: ``pi = (c / D) (1, mu s)``, ``D = W_n . (1, mu s)`` with s held (eq. 38/55);
-* :func:`cone_slide`: the slide on the cone's boundary of ``"ccp"`` (``W pi + b = sigma (mu,
-  -t)``), ``"coulomb"`` (``W pi + b = sigma (0, -t)``) or ``"max-dissipation"`` (``W pi + v -
-  lambda W_n - sigma (mu, -t) = 0`` and ``W_n . pi = c``: P_N's Lagrange conditions, eq. 60).
+``b = ((1 + e) v_n, v_t)`` and ``c = -(1 + e) v_n``: :func:`frictionless`, :func:`stick`
+(eq. 42/52), :func:`eq55_slide` (eq. 38/55) and :func:`cone_slide`, the slide on the cone's
+boundary of ``"ccp"`` (``W pi + b = sigma (mu, -t)``), ``"coulomb"`` (``W pi + b = sigma (0,
+-t)``) or ``"max-dissipation"`` (``W pi + v - lambda W_n - sigma (mu, -t) = 0`` and
+``W_n . pi = c``: P_N's Lagrange conditions, eq. 60).
 """
 
 from __future__ import annotations
@@ -72,29 +66,17 @@ class Row:
         self.shape = (m, N, n)
         self.a = np.zeros(m + N * N + N + 2 * n) if a is None else a
 
-    @property
-    def x(self) -> np.ndarray:
-        return self.a[:self.shape[0]]
-
-    @property
-    def W(self) -> np.ndarray:
-        m, N, _ = self.shape
-        return self.a[m:m + N * N].reshape(N, N)
-
-    @property
-    def v(self) -> np.ndarray:
-        m, N, _ = self.shape
-        return self.a[m + N * N:m + N * N + N]
-
-    @property
-    def e(self) -> np.ndarray:
+    def _part(self, k: int) -> np.ndarray:
+        """The k-th of (dx, dW flat, dv, de, dmu): a view of ``a``."""
         m, N, n = self.shape
-        return self.a[m + N * N + N:m + N * N + N + n]
+        ends = (0, m, m + N * N, m + N * N + N, m + N * N + N + n, self.a.size)
+        return self.a[ends[k]:ends[k + 1]]
 
-    @property
-    def mu(self) -> np.ndarray:
-        m, N, n = self.shape
-        return self.a[m + N * N + N + n:]
+    x = property(lambda self: self._part(0))
+    W = property(lambda self: self._part(1).reshape(self.shape[1], self.shape[1]))
+    v = property(lambda self: self._part(2))
+    e = property(lambda self: self._part(3))
+    mu = property(lambda self: self._part(4))
 
     def __sub__(self, other: "Row") -> "Row":
         return Row(*self.shape, self.a - other.a)
@@ -124,9 +106,8 @@ class ModeSystem:
         self.m = self.N + n_aux
         self.pi = pi
         self.aux = np.zeros(n_aux) if aux is None else aux
-        vn = v[::d]
         self.b = v.copy()
-        self.b[::d] += e * np.minimum(vn, 0.0)
+        self.b[::d] += e * np.minimum(v[::d], 0.0)
         self.u = W @ pi + self.b
         self.rows: list[Row] = []
 

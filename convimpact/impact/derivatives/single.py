@@ -129,13 +129,10 @@ def one_contact_derivative(problem, result, law: str, mode: Mode, *, other_side:
 
 def _neighbour(mode, slide_at, W, v, e, mu, et, regime, ps, tangential):
     """The other side of a stick limit: the slide (at its answer there) or the stick."""
+    other = "slide" if regime == "stick" else "stick"
     try:
-        if regime == "stick":
-            q = slide_at(W, v, e, mu, et, ps) if slide_at is not None else ps
-            return contact_derivative(mode(W, v, e, mu, et, "slide", q), "slide", tangential,
-                                      impulse=q)
-        return contact_derivative(mode(W, v, e, mu, et, "stick", ps), "stick", tangential,
-                                  impulse=ps)
+        q = slide_at(W, v, e, mu, et, ps) if other == "slide" and slide_at is not None else ps
+        return contact_derivative(mode(W, v, e, mu, et, other, q), other, tangential, impulse=q)
     except (ConvImpactError, np.linalg.LinAlgError):
         return None  # the neighbouring mode has no answer here (e.g. a jam): no other side
 
@@ -202,15 +199,11 @@ def mu_zero_column(kind: str, W: np.ndarray, v: np.ndarray, e: float) -> np.ndar
             np.linalg.norm(ps)):
         return col  # no tangential impulse needed to stick: it sticks for every mu > 0
     if kind == "eq55":
-        if v[1] != 0.0:
-            t = np.array([-np.sign(v[1])])
-        else:
-            t = np.array([np.sign(ps[1]) if ps is not None else 1.0])
+        t = np.array([-np.sign(v[1]) if v[1] != 0.0 else
+                      (np.sign(ps[1]) if ps is not None else 1.0)])
     else:
-        if kind == "max-dissipation":
-            slip = v[1:] - W[1:, 0] * v[0] / A
-        else:
-            slip = b[1:] - W[1:, 0] * b[0] / A
+        s = v if kind == "max-dissipation" else b
+        slip = s[1:] - W[1:, 0] * s[0] / A
         size = float(np.linalg.norm(slip))
         if not size > 1e-14 * float(np.linalg.norm(v)):
             return col

@@ -97,14 +97,6 @@ impulse_derivative = law_entry(
     _mode, stick_of=lambda W, v, e, mu, et: candidate(W, v, e, et), tangential=True)
 
 
-def _block(W, v, e, mu, et, regime):
-    """The derivative of one contact's impulse: (d, d, d), (d, d), (d,), (d,), (d,)."""
-    d = v.size
-    g = contact_tangent(W, v, e, mu, et, *seeds(d), regime)
-    return (g[:, :d * d].reshape(d, d, d), g[:, d * d:d * d + d], g[:, -3], g[:, -2],
-            g[:, -1])
-
-
 def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool = False):
     """Derivative of the ``chatterjee-ruina`` impulse at several contacts (contact by contact,
     module docstring) with respect to ``(W, v_minus, e, mu, e_t)``.
@@ -150,10 +142,8 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
                      "derivative with respect to W's off-diagonal blocks is given as zero, "
                      "and a perturbation coupling the contacts leaves the domain (the law "
                      "then refuses coupled simultaneous impacts)")
-    out = [np.zeros((N, N, N)), np.zeros((N, N)), np.zeros((N, n)), np.zeros((N, n)),
-           np.zeros((N, n))]
-    flip = [np.zeros((N, N, N)), np.zeros((N, N)), np.zeros((N, n)), np.zeros((N, n)),
-            np.zeros((N, n))]
+    out, flip = ([np.zeros((N, N, N)), np.zeros((N, N))] + [np.zeros((N, n)) for _ in range(3)]
+                 for _ in range(2))  # (W, v, e, mu, e_t), this side's and the other's
     regimes, others = [], []
     any_boundary = False
     for i in range(n):
@@ -179,20 +169,18 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
                          f"one-sided derivative of the {regime} regime, the other side {other}")
         regimes.append(regime)
         others.append(other)
-        for dest, reg in ((out, regime), (flip, other)):
-            DW, Dv, De, Dmu, Det = _block(Wi, vi, e, mu, et, reg)
-            dest[0][rows, rows, rows] = DW
-            dest[1][rows, rows] = Dv
-            dest[2][rows, i] = De
-            dest[3][rows, i] = Dmu
-            dest[4][rows, i] = Det
+        for dest, reg in ((out, regime), (flip, other)):  # the (d, P) block at its place
+            g = contact_tangent(Wi, vi, e, mu, et, *seeds(d), reg)
+            dest[0][rows, rows, rows] = g[:, :d * d].reshape(d, d, d)
+            dest[1][rows, rows] = g[:, d * d:d * d + d]
+            for k in range(3):  # e, mu, e_t
+                dest[2 + k][rows, i] = g[:, k - 3]
     other = None
     if other_side and any_boundary:
-        other = ContactDerivative(W=flip[0], v=flip[1], e=flip[2], mu=flip[3], e_t=flip[4],
-                                  regimes=tuple(others),
+        other = ContactDerivative(*flip, regimes=tuple(others),
                                   one_sided=tuple(s + " (this is the other side)" for s in notes))
-    return ContactDerivative(W=out[0], v=out[1], e=out[2], mu=out[3], e_t=out[4],
-                             regimes=tuple(regimes), one_sided=tuple(notes), other_side=other)
+    return ContactDerivative(*out, regimes=tuple(regimes), one_sided=tuple(notes),
+                             other_side=other)
 
 
 __all__ = ["impulse_derivative", "several_impulse_derivative", "contact_tangent",

@@ -35,24 +35,18 @@ the neighbouring mode's, all boundary contacts flipped at once):
   contact approaching within round-off, which they give no friction of its own.
 
 At one contact (the laws' ``impulse_derivative``, driven by
-:mod:`convimpact.impact.derivatives.single`) the same modes with ``b = ((1 + e) v_n, v_t)``:
-stick ``W pi = -b``; slide ``W pi + b = sigma (mu, -t)`` (CCP) or ``sigma (0, -t)`` (Coulomb:
-friction opposing the post-impact slip at full strength), the direction t moving with the data
-in space; frictionless, Newton's impulse, with the right derivative with respect to mu at
-mu = 0 along the frictionless answer's post-impact slip. The impulse is continuous at the
-stick limit (sigma = 0 there), where the derivative is one-sided; where Coulomb's law has
-several sliding solutions the derivative is that of the one returned (the most dissipative).
-The dissipative law's is the plastic CCP impulse's, ``d pi = (1 + e) d pi_p + pi_p de``.
+:mod:`convimpact.impact.derivatives.single`) the same modes with ``b = ((1 + e) v_n, v_t)``
+(:func:`~convimpact.impact.derivatives.modes.cone_slide`), t moving with the data in space;
+at mu = 0 the right derivative with respect to mu is along the frictionless answer's
+post-impact slip. The impulse is continuous at the stick limit (sigma = 0 there); where
+Coulomb's law has several sliding solutions the derivative is that of the one returned (the
+most dissipative).
 
-Redundant contacts (W singular on the pressing contacts, a singular mode system) leave the
-impulse non-unique while the velocity is unique: the engine's choice (where its interior
-point, heading for the analytic centre of the solution set, stops) has no derivative written
-here. By default the functions then raise
-NotSupportedError naming the reason; with ``redundant="velocity"`` they give the
-minimum-norm solution of the linearized mode equations, which differs from any other
-derivative of the solution set by an impulse the bodies do not feel: ``W dpi`` and
-``G Jc^T dpi`` -- all the chain needs for ``dq_plus`` -- are exact along perturbations that
-keep the equations consistent (stated in ``one_sided``).
+Redundant contacts (a singular mode system: the impulse non-unique, the velocity unique):
+the engine's choice (where its interior point stops on its way to the analytic centre of the
+solution set) has no derivative written here; NotSupportedError, or with
+``redundant="velocity"`` the minimum-norm derivative exact for the velocity
+(:meth:`~convimpact.impact.derivatives.modes.ModeSystem.solve`).
 """
 
 from __future__ import annotations
@@ -85,11 +79,6 @@ def _answer(problem: ImpactProblem, result, law: str) -> np.ndarray:
             return np.asarray(plastic, dtype=float).reshape(n * d)
         return (pi.reshape(n, d) / (1.0 + problem.restitution)[:, None]).ravel()
     return pi
-
-
-def _reported(result, n: int) -> list[str]:
-    regime = result.regime
-    return [regime] * n if isinstance(regime, str) else list(regime)
 
 
 def classify(problem: ImpactProblem, pi: np.ndarray, u: np.ndarray, mu: np.ndarray,
@@ -144,21 +133,19 @@ def classify(problem: ImpactProblem, pi: np.ndarray, u: np.ndarray, mu: np.ndarr
     return out
 
 
-def _solve_mode(problem: ImpactProblem, pi: np.ndarray, modes: list[str], mu: np.ndarray,
-                lift: float, newton: bool, law: str, redundant: str):
-    """``d pi / d (W, v, e, mu)`` of the given modes (the law's own b and friction)."""
+def _solve_mode(problem: ImpactProblem, pi: np.ndarray, u: np.ndarray, modes: list[str],
+                mu: np.ndarray, lift: float, newton: bool, law: str, redundant: str):
+    """``d pi / d (W, v, e, mu)`` of the given modes (the law's own b and friction) at the
+    answer ``pi`` with ``u = W pi + b``."""
     n, d = problem.n_contacts, problem.dim
-    W = problem.delassus
-    v = problem.v_minus.ravel()
-    e = problem.restitution if newton else None
     N = n * d
     sliding = [i for i in range(n) if modes[i] == "slide"]
-    S0 = ModeSystem(W, v, e, d, pi)
     aux = np.zeros(len(sliding))
     for j, i in enumerate(sliding):  # u_t = -sigma t with t the tangential impulse's direction
         pt = pi[i * d + 1:(i + 1) * d]
-        aux[j] = max(-float(S0.u[i * d + 1:(i + 1) * d] @ pt) / float(np.linalg.norm(pt)), 0.0)
-    S = ModeSystem(W, v, e, d, pi, len(sliding), aux)
+        aux[j] = max(-float(u[i * d + 1:(i + 1) * d] @ pt) / float(np.linalg.norm(pt)), 0.0)
+    S = ModeSystem(problem.delassus, problem.v_minus.ravel(),
+                   problem.restitution if newton else None, d, pi, len(sliding), aux)
     col = {i: N + j for j, i in enumerate(sliding)}
     for i in range(n):
         mode = modes[i]
@@ -190,7 +177,8 @@ def _derivative(problem: ImpactProblem, result, law: str, other_side: bool, redu
                                                         0.0)
     S = ModeSystem(problem.delassus, problem.v_minus.ravel(),
                    problem.restitution if newton else None, d, pi)
-    found = classify(problem, pi, S.u, mu, lift, _reported(result, n))
+    reported = [result.regime] * n if isinstance(result.regime, str) else list(result.regime)
+    found = classify(problem, pi, S.u, mu, lift, reported)
     notes = [s for _, _, s in found if s]
     vn = problem.v_minus[:, 0]
     if not all_friction:  # a contact touching within round-off takes no friction of its own
@@ -207,8 +195,8 @@ def _derivative(problem: ImpactProblem, result, law: str, other_side: bool, redu
                   and found[i][0] != "separating"]
 
     def build(modes, statements, other):
-        dW, dv, de, dmu, singular = _solve_mode(problem, pi, modes, mu, lift, newton, law,
-                                                redundant)
+        dW, dv, de, dmu, singular = _solve_mode(problem, pi, S.u, modes, mu, lift, newton,
+                                                law, redundant)
         if singular:
             statements = [*statements, VELOCITY_ONLY]
         if law == "dissipative":  # pi = (1 + e_i) pi_p,i
