@@ -159,8 +159,7 @@ def _approaching_side(law, mode, W, v, e, mu, et, tangential):
 
 def stick_impulse(W: np.ndarray, v: np.ndarray, e: float) -> np.ndarray:
     """The Newton laws' stick impulse, ``W^-1 (-(1 + e) v_n, -v_t)``."""
-    b = newton_shift(v, e)
-    return np.linalg.solve(W, -b)
+    return np.linalg.solve(W, -newton_shift(v, e))
 
 
 def at_stick_limit(ps: np.ndarray, mu: float) -> bool:

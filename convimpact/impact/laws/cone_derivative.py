@@ -231,7 +231,7 @@ def _entry(law: str):
             An answer of law ``{law}`` (any method).
         other_side : bool
             At a mode boundary, also the neighbouring mode's derivative (``.other_side``).
-        redundant : {{"raise", "velocity"}}
+        redundant : {"raise", "velocity"}
             Where redundant contacts leave the impulse non-unique: raise NotSupportedError,
             or give the minimum-norm derivative of the mode's equations, exact for the
             velocity (``W dpi``, ``G Jc^T dpi``), stated in ``one_sided``.
@@ -251,9 +251,7 @@ def _entry(law: str):
         check_redundant(redundant)
         return _derivative(problem, result, law, other_side, redundant)
 
-    several_impulse_derivative.__doc__ = several_impulse_derivative.__doc__.replace(
-        "{law}", law).replace("{{", "{").replace("}}", "}")
-    several_impulse_derivative.__name__ = "several_impulse_derivative"
+    several_impulse_derivative.__doc__ = several_impulse_derivative.__doc__.replace("{law}", law)
     several_impulse_derivative.__qualname__ = f"{law}.several_impulse_derivative"
     return several_impulse_derivative
 
