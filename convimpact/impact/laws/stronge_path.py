@@ -274,13 +274,9 @@ class _Path:
     def run(self):
         """The whole path (the kernel's loop); returns (pi, dpi/dtheta (d, m))."""
         d = self.d
-        vscale = float(np.max(np.abs(self.vm)))
-        if d == 2:
-            rest = self.vt[0] == 0.0
-        else:
-            rest = float(np.linalg.norm(self.vt)) <= STOP_RTOL * vscale
+        tiny = float(np.linalg.norm(self.vt)) <= STOP_RTOL * float(np.max(np.abs(self.vm)))
+        rest = self.vt[0] == 0.0 if d == 2 else tiny
         s0 = not rest
-        tiny = float(np.linalg.norm(self.vt)) <= STOP_RTOL * vscale
         if rest and self.mu > 0.0:
             self.boundary(ZERO_SLIP, True)
             self._zero_slip_start()
@@ -296,7 +292,6 @@ class _Path:
         while not self.done:
             if rest:
                 self.at_rest(s0)
-                rest = True
             elif d == 2:
                 s = np.array([math.copysign(1.0, self.vt[0])])
                 rest = self.slip(s, np.zeros((1, self.m)))
