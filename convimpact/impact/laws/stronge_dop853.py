@@ -8,10 +8,9 @@ error control). Here are the integrator's parts, on the tableau of scipy.integra
 norm, each component scaled by :data:`ODE_RTOL`), :func:`_event` and :func:`_event_length`
 (the stage's event function and its location inside an accepted step; the sensitivities of
 the curved slip, :mod:`convimpact.impact.laws.stronge_sensitivity`, step on the same tableau
-and locate their events with these two). The loop
-that drives them -- step-size control, the stage's events, the stop and the hand-over to an
-exact straight finish -- is the law's, ``_curved_slip`` in
-:mod:`convimpact.impact.laws.stronge_slip`.
+and locate their events with these two). The loop that drives them -- step-size control,
+the stage's events, the stop and the hand-over to an exact straight finish -- is the law's,
+``_curved_slip`` in :mod:`convimpact.impact.laws.stronge_slip`.
 
 Every function runs unchanged as plain Python (``NUMBA_DISABLE_JIT=1``), which reads
 :data:`ODE_RTOL` from this module at run time.
