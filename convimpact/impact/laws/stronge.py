@@ -99,17 +99,10 @@ Poisson's normal impulses with maximal-dissipation friction; never creates energ
 
 Derivative. :func:`impulse_derivative` (and :func:`several_impulse_derivative`, which also
 differentiates the coupled contacts' two-phase formulation,
-:mod:`convimpact.impact.laws.stronge_contacts_derivative`) gives ``d pi / d(W, v-, e, mu)``
-(:mod:`convimpact.impact.laws.stronge_derivative`): the path re-traced with the kernel's
-decisions, each linear phase's rates and each event differentiated in closed form (the slip
-stop, the end of compression ``v_n = 0``, the end of restitution
-``W_n = (1 - e^2) W_n(p_c)``: ``dp = -dg / (dg/dp)``), the curved spatial slip by its
-variational equations integrated with the state (DOP853, 1e-13) with the events'
-sensitivities ``dsigma = -dg / (dg/dsigma)``, and the hand-over to the straight finish. Mode
-boundaries (a slip stopping at the end of restitution, ``|W_tt^-1 W_tn| = mu`` at rest, a zero
-pre-impact slip before an onset, e = 0, mu = 0, v_n- = 0) are one-sided and stated. Against
-central differences of this law: ~1e-11 relative (median; planar 2e-12), at worst 2e-8 where
-the differences themselves are limited.
+:mod:`convimpact.impact.laws.stronge_contacts_derivative`) gives ``d pi / d(W, v-, e, mu)``:
+the path re-traced with the kernel's decisions and differentiated phase by phase and event by
+event (:mod:`convimpact.impact.laws.stronge_derivative` states the method, its one-sided mode
+boundaries and its accuracy: ~1e-11 relative against central differences, median).
 
 ``extras`` of the result: ``phases`` (their kinds in order: ``"slip"``, ``"stick"``,
 ``"reversal"`` (planar slip after a stop), ``"onset"`` (slip from rest, in the selected

@@ -240,12 +240,9 @@ def _warm_key(P: ImpactProblem) -> tuple:
 
 
 def _warm_plastic(P: ImpactProblem, opts: ProgramOptions):
-    """The plastic compression by the active-set Newton on Coulomb's conditions from a
-    remembered compression of as many contacts (the latest first), without a cone program
-    (compiled, :func:`~.stronge_contacts_warm.warm_compression`). None unless one certifies
-    (residual :data:`WARM_RESIDUAL`) a solution that is the fixed point's answer too: locally
-    unique, or one whose redundant impulses change no velocity and feed no expansion (every
-    e = 0). ``P`` carries its own restitution (the gate); the compression itself has e = 0.
+    """The plastic compression warm-started from a remembered compression of as many contacts
+    (the latest first), or None when none certifies ("Warm start" in the module docstring).
+    ``P`` carries its own restitution (the gate); the compression itself has e = 0.
     Returns (impulse (n, d), info, index of the start used)."""
     n, d = P.n_contacts, P.dim
     starts = _WARM.get(_warm_key(P))

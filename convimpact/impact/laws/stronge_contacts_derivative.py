@@ -150,7 +150,6 @@ def _coupled(problem: ImpactProblem, result: ImpactResult, flip: bool):
         xt, g = x[i, 1:], g_all[t]
         ng = float(np.linalg.norm(g))
         gr = mu[i] * Gx[i * d]  # dr
-        gr = gr.copy()
         gr[m + N + n + i] += x[i, 0]
         if r <= 0.0:  # no friction to give: x_t stays 0 (a vanishing disc)
             K[rows, rows] = 1.0

@@ -146,31 +146,9 @@ def _without_kappa(J, Jx, kind, d):
         elif k == ACT:
             row += 1
             col += 1
-    mr, ur = 0, 0
-    for a in range(m):
-        if keep_r[a]:
-            mr += 1
-    for b in range(U):
-        if keep_c[b]:
-            ur += 1
-    Jr = np.empty((mr, ur))
-    Jxr = np.empty((Jx.shape[0], ur))
-    ia = 0
-    for a in range(m):
-        if keep_r[a]:
-            jb = 0
-            for b in range(U):
-                if keep_c[b]:
-                    Jr[ia, jb] = R[a, b]
-                    jb += 1
-            ia += 1
-    jb = 0
-    for b in range(U):
-        if keep_c[b]:
-            for a in range(Jx.shape[0]):
-                Jxr[a, jb] = Jx[a, b]
-            jb += 1
-    return Jr, Jxr
+    rows = np.nonzero(keep_r)[0]
+    cols = np.nonzero(keep_c)[0]
+    return R[rows][:, cols], Jx[:, cols]
 
 
 @_jit
@@ -187,12 +165,8 @@ def warm_compression(W, b, mu, d, prev, fast=False):
         for a in range(d):
             top = max(top, W[i * d + a, i * d + a])
         if top > 0.0:
-            for a in range(d):
-                D[i * d + a] = 1.0 / np.sqrt(top)
-    Wd = np.empty((N, N))
-    for r in range(N):
-        for c in range(N):
-            Wd[r, c] = D[r] * W[r, c] * D[c]
+            D[i * d:(i + 1) * d] = 1.0 / np.sqrt(top)
+    Wd = D[:, None] * W * D[None, :]
     qd = D * b
     sW = np.max(np.abs(Wd))
     sq = np.max(np.abs(qd))
@@ -215,14 +189,9 @@ def warm_compression(W, b, mu, d, prev, fast=False):
     resid = _coulomb_residual(Wu, qu, mu, d, y)
     # 5. the family of solutions through y
     if fast:
-        boundary = False
-        for i in range(n):
-            if kind[i] == BND:
-                boundary = True
-        if not boundary:
+        if not np.any(kind == BND):
             return STILL, y * scale, resid
-    if fast:  # the Jacobian at the answer's unknowns, as the Newton evaluated it
-        J = Jn
+        J = Jn  # the Jacobian at the answer's unknowns, as the Newton evaluated it
         Jx = _unpack(un, kind, tang, mu, d, _layout(kind, d), bool(True), un.size)[2]
     else:
         J, Jx = active_set_jacobian(Wu, qu, E, f, mu, d, kind, tang, y, bool(True))

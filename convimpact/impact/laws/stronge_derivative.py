@@ -55,6 +55,7 @@ has 4 x 12 components and takes the law's 10-300 steps), against ~0.15 ms for th
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -129,8 +130,7 @@ def _separating(W, v, e, mu, vs, ws, other_side) -> ContactDerivative:
     text = ("v_n- = 0: the contact touches without approaching; d pi / d v_n is one-sided "
             "(the other side: the approaching limit)")
     if not other_side:
-        return ContactDerivative(W=zero.W, v=zero.v, e=zero.e, mu=zero.mu, e_t=None,
-                                 regimes=("separating",), one_sided=(text,))
+        return dataclasses.replace(zero, one_sided=(text,))
     path = _Path(W / ws, np.concatenate(([-1.0], v[1:] / vs)), e, mu)
     vt = path.vt
     kind = "slip"
@@ -153,8 +153,7 @@ def _separating(W, v, e, mu, vs, ws, other_side) -> ContactDerivative:
     an = path.A + float(path.b @ lam)
     dv = np.zeros((d, d))
     dv[:, 0] = -(1.0 + e) * np.concatenate(([1.0], lam)) / (an * ws)
-    return ContactDerivative(W=zero.W, v=dv, e=zero.e, mu=zero.mu, e_t=None,
-                             regimes=(kind,), one_sided=(text,))
+    return dataclasses.replace(zero, v=dv, regimes=(kind,), one_sided=(text,))
 
 
 def _check(problem: ImpactProblem, result: ImpactResult, pi: np.ndarray, i: int) -> None:
@@ -174,9 +173,7 @@ def _with_other(problem, i, other_side):
     pi, deriv, sided = contact_derivative(W, v, e, mu)
     if other_side and sided:
         _, other, _ = contact_derivative(W, v, e, mu, other_side=True)
-        deriv = ContactDerivative(W=deriv.W, v=deriv.v, e=deriv.e, mu=deriv.mu, e_t=None,
-                                  regimes=deriv.regimes, one_sided=deriv.one_sided,
-                                  other_side=other)
+        deriv = dataclasses.replace(deriv, other_side=other)
     return pi, deriv
 
 

@@ -5,13 +5,12 @@ A slip off the invariant rays is integrated in ``sigma`` (``dsigma = dp / |v_t|`
 error control). Here are the integrator's parts, on the tableau of scipy.integrate's DOP853
 (Dormand--Prince 8(5,3), Hairer, Norsett & Wanner) frozen into the machine code:
 :func:`_rhs` (the slope ``dy/dsigma``), :func:`_step` (one step), :func:`_error` (the error
-norm, each component scaled by :data:`ODE_RTOL`), :func:`_event` and :func:`_locate` (the
-stage's event function and its location inside an accepted step). The sensitivities of the
-curved slip (:mod:`convimpact.impact.laws.stronge_sensitivity`) step on the same tableau
-and locate their events with the same :func:`_event_length` and :func:`_event`. The loop
-that drives them -- step-size control, the stage's events, the stop and the hand-over to an
-exact straight finish -- is the law's, ``_curved_slip`` in
-:mod:`convimpact.impact.laws.stronge_slip`.
+norm, each component scaled by :data:`ODE_RTOL`), :func:`_event` and :func:`_event_length`
+(the stage's event function and its location inside an accepted step; the sensitivities of
+the curved slip, :mod:`convimpact.impact.laws.stronge_sensitivity`, step on the same tableau
+and locate their events with these two). The loop that drives them -- step-size control,
+the stage's events, the stop and the hand-over to an exact straight finish -- is the law's,
+``_curved_slip`` in :mod:`convimpact.impact.laws.stronge_slip`.
 
 Every function runs unchanged as plain Python (``NUMBA_DISABLE_JIT=1``), which reads
 :data:`ODE_RTOL` from this module at run time.
@@ -40,19 +39,26 @@ _NE = _E5.shape[0]  # = _NS + 1: the stages and the slope at the step's end
 
 
 @_jit
+def _velocity(y0, y1, y2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22):
+    """v = v- + W pi at pi = (y0, y1, y2): (v_n, v_t1, v_t2)."""
+    return (vn0 + A * y0 + b1 * y1 + b2 * y2, vt01 + b1 * y0 + C11 * y1 + C12 * y2,
+            vt02 + b2 * y0 + C12 * y1 + C22 * y2)
+
+
+@_jit
 def _rhs(y0, y1, y2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22, mu):
     """dy/dsigma = (|v_t|, -mu v_t, |v_t| v_n) with v = v- + W pi."""
-    v1 = vt01 + b1 * y0 + C11 * y1 + C12 * y2
-    v2 = vt02 + b2 * y0 + C12 * y1 + C22 * y2
+    vn, v1, v2 = _velocity(y0, y1, y2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22)
     r = math.hypot(v1, v2)
-    return r, -mu * v1, -mu * v2, r * (vn0 + A * y0 + b1 * y1 + b2 * y2)
+    return r, -mu * v1, -mu * v2, r * vn
 
 
 @_jit
 def _step(y0, y1, y2, y3, f0, f1, f2, f3, h, K, vn0, vt01, vt02, A, b1, b2, C11, C12, C22,
           mu):
-    """One DOP853 step from y (slope f) of length h: y_new; the stage slopes in K[:, :12].
-    (The stages' W_n components are not formed: the slope does not depend on W_n.)"""
+    """One DOP853 step from y (slope f) of length h: y_new and its slope; the stage slopes
+    and that one in K. (The stages' W_n components are not formed: the slope does not depend
+    on W_n.)"""
     K[0, 0] = f0
     K[1, 0] = f1
     K[2, 0] = f2
@@ -82,7 +88,13 @@ def _step(y0, y1, y2, y3, f0, f1, f2, f3, h, K, vn0, vt01, vt02, A, b1, b2, C11,
         s1 += b * K[1, m]
         s2 += b * K[2, m]
         s3 += b * K[3, m]
-    return y0 + h * s0, y1 + h * s1, y2 + h * s2, y3 + h * s3
+    z0, z1, z2, z3 = y0 + h * s0, y1 + h * s1, y2 + h * s2, y3 + h * s3
+    n0, n1, n2, n3 = _rhs(z0, z1, z2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22, mu)
+    K[0, _NS] = n0
+    K[1, _NS] = n1
+    K[2, _NS] = n2
+    K[3, _NS] = n3
+    return z0, z1, z2, z3, n0, n1, n2, n3
 
 
 @_jit
@@ -138,14 +150,14 @@ def _event_length(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target
                   vt01, vt02, A, b1, b2, C11, C12, C22, mu):
     """The length of the step from y to the event inside the accepted step [0, h]: Newton on
     the step length, bracketed, each iterate re-taking the step (to |dsigma| <= 1e-13 h; at
-    most 60 iterations). The law's :func:`_locate` and the sensitivities'
+    most 60 iterations). The law's curved slip and its sensitivities
     (:mod:`convimpact.impact.laws.stronge_sensitivity`) both use it."""
     lo = 0.0
     hi = h
     tau = h * g0 / (g0 - g1)
     for it in range(60):
-        t0, t1, t2, t3 = _step(y0, y1, y2, y3, f0, f1, f2, f3, tau, K, vn0, vt01, vt02, A,
-                               b1, b2, C11, C12, C22, mu)
+        t0, t1, t2, t3, r0, r1, r2, r3 = _step(y0, y1, y2, y3, f0, f1, f2, f3, tau, K, vn0,
+                                               vt01, vt02, A, b1, b2, C11, C12, C22, mu)
         g = _event(t0, t1, t2, t3, compressing, target, vn0, A, b1, b2)
         if g == 0.0:
             return tau
@@ -153,7 +165,6 @@ def _event_length(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target
             lo = tau
         else:
             hi = tau
-        r0, r1, r2, r3 = _rhs(t0, t1, t2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22, mu)
         rate = A * r0 + b1 * r1 + b2 * r2 if compressing else r3
         new = tau - g / rate if rate > 0.0 else 0.5 * (lo + hi)
         if not lo <= new <= hi:
@@ -164,13 +175,3 @@ def _event_length(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target
             break
         tau = new
     return tau
-
-
-@_jit
-def _locate(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target, K, vn0, vt01,
-            vt02, A, b1, b2, C11, C12, C22, mu):
-    """The state at the event inside the accepted step [0, h] (:func:`_event_length`)."""
-    tau = _event_length(y0, y1, y2, y3, f0, f1, f2, f3, h, g0, g1, compressing, target, K, vn0,
-                        vt01, vt02, A, b1, b2, C11, C12, C22, mu)
-    return _step(y0, y1, y2, y3, f0, f1, f2, f3, tau, K, vn0, vt01, vt02, A, b1, b2, C11, C12,
-                 C22, mu)

@@ -52,12 +52,9 @@ class _Path:
         for k, (i, j) in enumerate(iu):
             Wg[k, i, j] = Wg[k, j, i] = 1.0
         self.Wg = Wg
-        self.vg = np.zeros((m, d))
-        self.vg[self.iv, np.arange(d)] = 1.0
-        self.unit_e = np.zeros(m)
-        self.unit_e[self.ie] = 1.0
-        self.unit_mu = np.zeros(m)
-        self.unit_mu[self.imu] = 1.0
+        eye = np.eye(m)
+        self.vg = eye[:, self.iv]
+        self.unit_e, self.unit_mu = eye[self.ie], eye[self.imu]
         self.A, self.b, self.C = W[0, 0], W[1:, 0], W[1:, 1:]
         self.gA, self.gb, self.gC = Wg[:, 0, 0], Wg[:, 1:, 0].T, Wg[:, 1:, 1:]
         self.tr = float(np.trace(W))
@@ -197,11 +194,8 @@ class _Path:
         _, _, at, gat = self.rates(lam, glam)
         rate = float(s @ at)
         if rate < 0.0 and not from_rest:
-            r = float(s @ self.vt)
-            if self.dt == 1:
-                stop = -self.vt[0] / at[0]  # the kernel's expression
-            else:
-                stop = r / -rate
+            # (in the plane, the kernel's expression)
+            stop = -self.vt[0] / at[0] if self.dt == 1 else float(s @ self.vt) / -rate
             gr = s @ self.gvel()[1:] + self.vt @ gs
             grate = at @ gs + s @ gat
             gstop = -(gr + stop * grate) / rate
@@ -254,33 +248,25 @@ class _Path:
             v = self.vm + self.W @ z[:3, 0]
             self.vn, self.vt = float(v[0]), v[1:].copy()
             self._open("slip")
-            if kind in ("compression", "restitution"):
-                r = float(np.linalg.norm(self.vt))
-                s = self.vt / r
-                self.stage_event(self.A - self.mu * float(self.b @ s), -self.mu * s)
-                if self.done:
-                    return
-                continue
             if kind == "floor":
                 self.vt = np.zeros(2)
                 return
             r = float(np.linalg.norm(self.vt))
             s = self.vt / r
-            gvt = self.gvel()[1:]
-            gs = (gvt - np.outer(s, s @ gvt)) / r
-            self.slip(s, gs)
-            return
+            if kind == "settled":
+                gvt = self.gvel()[1:]
+                self.slip(s, (gvt - np.outer(s, s @ gvt)) / r)
+                return
+            self.stage_event(self.A - self.mu * float(self.b @ s), -self.mu * s)  # an event
+            if self.done:
+                return
 
     def run(self):
         """The whole path (the kernel's loop); returns (pi, dpi/dtheta (d, m))."""
         d = self.d
-        vscale = float(np.max(np.abs(self.vm)))
-        if d == 2:
-            rest = self.vt[0] == 0.0
-        else:
-            rest = float(np.linalg.norm(self.vt)) <= STOP_RTOL * vscale
+        tiny = float(np.linalg.norm(self.vt)) <= STOP_RTOL * float(np.max(np.abs(self.vm)))
+        rest = self.vt[0] == 0.0 if d == 2 else tiny
         s0 = not rest
-        tiny = float(np.linalg.norm(self.vt)) <= STOP_RTOL * vscale
         if rest and self.mu > 0.0:
             self.boundary(ZERO_SLIP, True)
             self._zero_slip_start()
@@ -296,7 +282,6 @@ class _Path:
         while not self.done:
             if rest:
                 self.at_rest(s0)
-                rest = True
             elif d == 2:
                 s = np.array([math.copysign(1.0, self.vt[0])])
                 rest = self.slip(s, np.zeros((1, self.m)))

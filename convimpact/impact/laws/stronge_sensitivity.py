@@ -32,7 +32,7 @@ from scipy.integrate import solve_ivp
 
 from ...errors import SolverError
 from .stronge_dop853 import _A, _B, _E3, _E5, _NE, _NS, _error_norm, _event, _event_length
-from .stronge_slip import MAX_STEPS, _onset  # the law's bound on a curved slip's steps
+from .stronge_slip import MAX_STEPS, _onset, _settles  # (MAX_STEPS: the law's bound)
 
 #: local error tolerance of the variational integration (state and sensitivities)
 SENSITIVITY_RTOL = 1e-13
@@ -133,24 +133,6 @@ def _event_value(sys: SlipSystem, z, compressing, target):
                   target, vn0, A, b1, b2)
 
 
-def _event_rate(sys: SlipSystem, f, compressing):
-    """dg/dsigma from the slope f."""
-    if compressing:
-        return float(sys.W[0, :3] @ f[:3, 0])
-    return float(f[3, 0])
-
-
-def _locate(sys, z, f0, h, g0, g1, compressing, target):
-    """The event inside the accepted step [0, h]: its length located by the law's own
-    :func:`~.stronge_dop853._event_length` on the state's columns (their slopes do not depend
-    on the sensitivities), then the augmented step of that length."""
-    y, f = z[:, 0], f0[:, 0]
-    tau = _event_length(float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(f[0]),
-                        float(f[1]), float(f[2]), float(f[3]), float(h), float(g0), float(g1),
-                        bool(compressing), float(target), sys.K, *sys.coefficients, sys.mu)
-    return sys.step(z, f0, tau)[0]
-
-
 def integrate_slip(sys: SlipSystem, z, compressing: bool, target: float,
                    target_grad: np.ndarray, events: bool = True):
     """Integrate the curved slip with its sensitivities from z (4, 1 + m).
@@ -204,16 +186,20 @@ def integrate_slip(sys: SlipSystem, z, compressing: bool, target: float,
         if events:
             g_new = _event_value(sys, z_new, compressing, target)
             if g_new >= 0.0 and g_old < 0.0:
-                ze = _locate(sys, z, f, h, g_old, g_new, compressing, target)
-                fe = sys.rhs(ze)
+                # its length located by the law's own compiled locator on the state's columns
+                # (their slopes do not depend on the sensitivities), then the augmented step
+                tau = _event_length(*(float(x) for x in z[:, 0]), *(float(x) for x in f[:, 0]),
+                                    float(h), float(g_old), float(g_new), bool(compressing),
+                                    float(target), sys.K, *sys.coefficients, sys.mu)
+                ze, Ke = sys.step(z, f, tau)
+                fe = Ke[_NS]
                 # the event's sensitivity: dsigma = -(g_y S + g_theta) / (g_y f)
                 if compressing:
-                    _, gv = sys.velocity(ze)
-                    dg = gv[0]
+                    dg = sys.velocity(ze)[1][0]
+                    rate = float(W[0, :3] @ fe[:3, 0])
                 else:
                     dg = ze[3, 1:] - target_grad
-                rate = _event_rate(sys, fe, compressing)
-                ze = ze.copy()
+                    rate = float(fe[3, 0])
                 ze[:, 1:] -= np.outer(fe[:, 0], dg / rate)
                 return ("compression" if compressing else "restitution"), ze
             g_old = g_new
@@ -226,16 +212,8 @@ def integrate_slip(sys: SlipSystem, z, compressing: bool, target: float,
         s = vt / r
         a = b - mu * (C @ s)
         rate = float(s @ a)
-        settled = False
-        if rate < 0.0:
-            g = s[0] * a[1] - s[1] * a[0]
-            sp = np.array([-s[1], s[0]])
-            cs = float(s @ C @ sp)
-            cp = float(sp @ C @ sp)
-            dh = g - mu * cs
-            dg = -rate - mu * cp
-            settled = (dg < 0.0 and abs(g) <= 1e-3 * -dg
-                       and r * abs(dh * g) <= SETTLE_RTOL * pref * -rate * (-rate - dg) * -dg)
+        settled = _settles(r, s[0], s[1], a[0], a[1], C[0, 0], C[0, 1], C[1, 1], mu,
+                           SETTLE_RTOL * pref)
         if not events and rate > 0.0 and r > 1e3 * vscale:
             return "diverging", z
         if not events and rate <= 0.0 and (steps > MAX_STEPS_SELF_SIMILAR

@@ -36,7 +36,7 @@ import numpy as np
 
 from .codes import (FAILED, JAM, NO_SOLUTION, OK, SINGULAR, SLIDE, STICK, _NAN,
                                     _jit, _pmax2)
-from .stronge_dop853 import _NE, _NS, _error, _event, _locate, _rhs, _step
+from .stronge_dop853 import _NE, _error, _event, _event_length, _rhs, _step, _velocity
 from .stronge_dop853 import ODE_RTOL  # noqa: F401  (re-exported; _error reads it there)
 
 #: relative round-off allowance of the stick test |C^-1 b| <= mu
@@ -218,6 +218,32 @@ def _onset(b1, b2, C11, C12, C22, mu):
 
 
 @_jit
+def _slip_rates(A, b1, b2, C11, C12, C22, mu, s1, s2):
+    """A slip along s: (dv_n/dp, dv_t/dp) = (A - mu b.s, b - mu C s)."""
+    return (A - mu * (b1 * s1 + b2 * s2), b1 - mu * (C11 * s1 + C12 * s2),
+            b2 - mu * (C12 * s1 + C22 * s2))
+
+
+@_jit
+def _settles(r, s1, s2, a1, a2, C11, C12, C22, mu, tol):
+    """Whether a slip of speed r along s (rates a = b - mu C s) decelerates and has settled on
+    the direction phi* it stops along, so that an exact straight finish along s misses at most
+    ``tol`` of normal impulse. Near phi* (a stable zero of g = s_perp.(b - mu C s), rate
+    h = s.(b - mu C s) < 0) the straight finish misses about
+    |v_t| |dh/dphi| dphi / (|h| (|h| + |g'|)) of normal impulse, dphi ~ |g / g'|."""
+    rate = s1 * a1 + s2 * a2  # d|v_t|/dp
+    if not rate < 0.0:
+        return False
+    g = s1 * a2 - s2 * a1  # |v_t| dphi/dp
+    cs = -C11 * s1 * s2 + C12 * (s1 * s1 - s2 * s2) + C22 * s2 * s1  # s.C.s_perp
+    cp = C11 * s2 * s2 - 2.0 * C12 * s1 * s2 + C22 * s1 * s1  # s_perp.C.s_perp
+    dh = g - mu * cs  # dh/dphi
+    dg = -rate - mu * cp  # dg/dphi
+    return (dg < 0.0 and abs(g) <= 1e-3 * -dg
+            and r * abs(dh * g) <= tol * -rate * (-rate - dg) * -dg)
+
+
+@_jit
 def _curved_slip(out, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, e, tr, vn0,
                  vt01, vt02, A, b1, b2, C11, C12, C22, mu, vscale):
     """Integrate a curved slip in sigma until it stops (v_t set to 0) or the collision ends
@@ -241,96 +267,69 @@ def _curved_slip(out, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, 
     since = 0
     r_min = f0
     while True:
-        z0, z1, z2, z3 = _step(y0, y1, y2, y3, f0, f1, f2, f3, h, K, vn0, vt01, vt02, A, b1,
-                               b2, C11, C12, C22, mu)
-        n0, n1, n2, n3 = _rhs(z0, z1, z2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22, mu)
-        K[0, _NS] = n0
-        K[1, _NS] = n1
-        K[2, _NS] = n2
-        K[3, _NS] = n3
+        z0, z1, z2, z3, n0, n1, n2, n3 = _step(y0, y1, y2, y3, f0, f1, f2, f3, h, K, vn0,
+                                               vt01, vt02, A, b1, b2, C11, C12, C22, mu)
         err = _error(h, y0, y1, y2, y3, z0, z1, z2, z3, pref, ref3, K)
         if not err <= 1.0:  # rejected (NaN and inf too)
             if not math.isfinite(err):
                 err = 1e10
             h *= _pmax2(0.2, 0.9 * err ** -0.125)
             if h <= h_floor:
-                out[O_STEPS] += steps
-                return (NO_SOLUTION, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done)
+                st = NO_SOLUTION
+                break
             continue
         steps += 1
         g_new = _event(z0, z1, z2, z3, compressing, target, vn0, A, b1, b2)
         if g_new >= 0.0 and g_old < 0.0:  # the stage ends inside the step
-            y0, y1, y2, y3 = _locate(y0, y1, y2, y3, f0, f1, f2, f3, h, g_old, g_new,
-                                     compressing, target, K, vn0, vt01, vt02, A, b1, b2, C11,
-                                     C12, C22, mu)
+            tau = _event_length(y0, y1, y2, y3, f0, f1, f2, f3, h, g_old, g_new, compressing,
+                                target, K, vn0, vt01, vt02, A, b1, b2, C11, C12, C22, mu)
+            y0, y1, y2, y3, f0, f1, f2, f3 = _step(y0, y1, y2, y3, f0, f1, f2, f3, tau, K, vn0,
+                                                   vt01, vt02, A, b1, b2, C11, C12, C22, mu)
             p, pt1, pt2, Wn = y0, y1, y2, y3
-            vn = vn0 + A * y0 + b1 * y1 + b2 * y2
-            vt1 = vt01 + b1 * y0 + C11 * y1 + C12 * y2
-            vt2 = vt02 + b2 * y0 + C12 * y1 + C22 * y2
+            vn, vt1, vt2 = _velocity(y0, y1, y2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22)
             vn, Wn, compressing, target, done = _stage_event(out, p, vn, Wn, compressing,
                                                              target, e)
+            st = OK
             if done:
-                out[O_STEPS] += steps
-                return (OK, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done)
-            f0, f1, f2, f3 = _rhs(y0, y1, y2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22, mu)
+                break
             g_old = _event(y0, y1, y2, y3, compressing, target, vn0, A, b1, b2)
             continue
         y0, y1, y2, y3 = z0, z1, z2, z3
         f0, f1, f2, f3 = n0, n1, n2, n3
         g_old = g_new
         r = f0
-        v1 = vt01 + b1 * y0 + C11 * y1 + C12 * y2
-        v2 = vt02 + b2 * y0 + C12 * y1 + C22 * y2
-        if not compressing and vn0 + A * y0 + b1 * y1 + b2 * y2 < 1e-9 * vn0:
-            out[O_STEPS] += steps  # re-approaching during restitution: a jam
+        wn, v1, v2 = _velocity(y0, y1, y2, vn0, vt01, vt02, A, b1, b2, C11, C12, C22)
+        if not compressing and wn < 1e-9 * vn0:  # re-approaching during restitution: a jam
             an = A - mu * (b1 * v1 + b2 * v2) / r if r > 0.0 else A
             st = _failed(out, JAM, PH_SLIP, an, compressing)
-            return (st, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done)
+            break
         if r < r_min:
             r_min = r
             since = 0
         else:
             since += 1
         if r == 0.0:  # the slip has stopped exactly
-            out[O_STEPS] += steps
-            p, pt1, pt2, Wn = y0, y1, y2, y3
-            vn = vn0 + A * y0 + b1 * y1 + b2 * y2
-            return (OK, p, pt1, pt2, vn, 0.0, 0.0, Wn, compressing, target, done)
-        # settle: hand a decelerating slip to an exact straight finish once that is accurate.
-        # Near the direction phi* it stops along (a stable zero of g = s_perp.(b - mu C s),
-        # rate h = s.(b - mu C s) < 0) a straight finish misses about
-        # |v_t| |dh/dphi| dphi / (|h| (|h| + |g'|)) of normal impulse, dphi ~ |g / g'|
+            p, pt1, pt2, Wn, vn, vt1, vt2, st = y0, y1, y2, y3, wn, 0.0, 0.0, OK
+            break
+        # settle: hand a decelerating slip to an exact straight finish once that is accurate
         s1 = v1 / r
         s2 = v2 / r
-        a1 = b1 - mu * (C11 * s1 + C12 * s2)
-        a2 = b2 - mu * (C12 * s1 + C22 * s2)
+        an, a1, a2 = _slip_rates(A, b1, b2, C11, C12, C22, mu, s1, s2)
         rate = s1 * a1 + s2 * a2  # d|v_t|/dp
-        settled = r <= FLOOR_RTOL * vscale or (since > 20 and r <= TAIL_RTOL * vscale)
-        if not settled and rate < 0.0:
-            g = s1 * a2 - s2 * a1  # |v_t| dphi/dp
-            cs = -C11 * s1 * s2 + C12 * (s1 * s1 - s2 * s2) + C22 * s2 * s1  # s.C.s_perp
-            cp = C11 * s2 * s2 - 2.0 * C12 * s1 * s2 + C22 * s1 * s1  # s_perp.C.s_perp
-            dh = g - mu * cs  # dh/dphi
-            dg = -rate - mu * cp  # dg/dphi
-            settled = (dg < 0.0 and abs(g) <= 1e-3 * -dg
-                       and r * abs(dh * g) <= 1e-13 * pref * -rate * (-rate - dg) * -dg)
-        if settled:
-            out[O_STEPS] += steps
-            p, pt1, pt2, Wn = y0, y1, y2, y3
-            vn = vn0 + A * y0 + b1 * y1 + b2 * y2
+        if (r <= FLOOR_RTOL * vscale or (since > 20 and r <= TAIL_RTOL * vscale)
+                or _settles(r, s1, s2, a1, a2, C11, C12, C22, mu, 1e-13 * pref)):
+            p, pt1, pt2, Wn, vn, vt1, vt2, st = y0, y1, y2, y3, wn, 0.0, 0.0, OK
             if rate < 0.0:  # the exact straight finish along s
                 st, _, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done = _run_linear(
                     out, PH_SLIP, p, pt1, pt2, vn, r * s1, r * s2, Wn, compressing, target,
-                    done, e, tr, A - mu * (b1 * s1 + b2 * s2), -mu * s1, -mu * s2, rate * s1,
-                    rate * s2, r / -rate)
-                return (st, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done)
-            # |v_t| at the round-off floor, not decreasing: it has stopped
-            return (OK, p, pt1, pt2, vn, 0.0, 0.0, Wn, compressing, target, done)
+                    done, e, tr, an, -mu * s1, -mu * s2, rate * s1, rate * s2, r / -rate)
+            break  # (else |v_t| at the round-off floor, not decreasing: it has stopped)
         if steps > MAX_STEPS or y0 > MAX_IMPULSE * pref:
-            out[O_STEPS] += steps
-            st = _failed(out, JAM, PH_SLIP, A - mu * (b1 * s1 + b2 * s2), compressing)
-            return (st, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done)
+            st = _failed(out, JAM, PH_SLIP, an, compressing)
+            break
         h *= min(10.0, 0.9 * err ** -0.125) if err > 0.0 else 10.0
+    out[O_STEPS] += steps
+    return (st, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done)
 
 
 # --------------------------------------------------------------------------------------------
@@ -427,25 +426,23 @@ def _stronge_spatial_scaled(A, b1, b2, C11, C12, C22, v0, v1, v2, e, mu, out):
                 out[O_DIRECTION] = s1
                 out[O_DIRECTION + 1] = s2
                 out[O_HAS_DIRECTION] = 1.0
-                a1 = b1 - mu * (C11 * s1 + C12 * s2)
-                a2 = b2 - mu * (C12 * s1 + C22 * s2)
+                an, a1, a2 = _slip_rates(A, b1, b2, C11, C12, C22, mu, s1, s2)
                 st, _, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done = _run_linear(
                     out, PH_ONSET, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, e,
-                    tr, A - mu * (b1 * s1 + b2 * s2), -mu * s1, -mu * s2, a1, a2, _INF)
+                    tr, an, -mu * s1, -mu * s2, a1, a2, _INF)
             if st != OK:
                 return st, FAILED, _NAN, _NAN, _NAN, _NAN
             continue
         r = math.hypot(vt1, vt2)
         s1 = vt1 / r
         s2 = vt2 / r
-        a1 = b1 - mu * (C11 * s1 + C12 * s2)
-        a2 = b2 - mu * (C12 * s1 + C22 * s2)
+        an, a1, a2 = _slip_rates(A, b1, b2, C11, C12, C22, mu, s1, s2)
         if abs(s1 * a2 - s2 * a1) <= ray_tol:  # on an invariant ray: a linear phase
             rate = s1 * a1 + s2 * a2
             st, stopped, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done = \
                 _run_linear(out, PH_SLIP, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target,
-                            done, e, tr, A - mu * (b1 * s1 + b2 * s2), -mu * s1, -mu * s2,
-                            rate * s1, rate * s2, r / -rate if rate < 0.0 else _INF)
+                            done, e, tr, an, -mu * s1, -mu * s2, rate * s1, rate * s2,
+                            r / -rate if rate < 0.0 else _INF)
         else:
             st, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done = _curved_slip(
                 out, p, pt1, pt2, vn, vt1, vt2, Wn, compressing, target, done, e, tr, v0, v1,
