@@ -31,8 +31,9 @@ Assumptions and consequences, stated:
 * **Never creates energy.** The Poisson candidate ``x = E pi_c`` is feasible, so the expansion
   releases at most ``e pi_c.v^c + 1/2 e^2 |pi_c|_W^2``; with one common e the whole impact
   therefore loses at least ``1/2 (1 - e^2) |pi_c|_W^2 + (1 + e) sum mu pi_n |v_t^c| >= 0``.
-  With *different* e per contact on coupled contacts that bound can be negative; the expansion impulse is then scaled by the largest
-  ``kappa in [0, 1]`` that keeps ``T+ <= T-`` (a warning says so and gives kappa).
+  With *different* e per contact on coupled contacts that bound can be negative; the
+  expansion impulse is then scaled by the largest ``kappa in [0, 1]`` that keeps
+  ``T+ <= T-`` (a warning says so and gives kappa).
 * Restitution is Poisson's per contact (``x_n = e pi_c,n``); the works of each contact's
   normal impulse along the two phases' straight impulse paths are reported
   (``normal_work_compression`` / ``normal_work_restitution`` per contact under
