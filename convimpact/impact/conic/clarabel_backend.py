@@ -67,9 +67,7 @@ class _Built:
         self.A_indices = np.column_stack(
             [np.tile(np.arange(m, dtype=np.int64), (N, 1)), cone_row[:, None]]).ravel()
         # P: dense upper triangle, column by column
-        cols = np.concatenate([np.full(j + 1, j, dtype=np.int64) for j in range(N)])
-        rows = np.concatenate([np.arange(j + 1, dtype=np.int64) for j in range(N)])
-        self.P_rows, self.P_cols = rows, cols
+        self.P_cols, self.P_rows = np.tril_indices(N)
         self.P_indptr = np.concatenate(([0], np.cumsum(np.arange(1, N + 1)))).astype(np.int64)
         cones = []
         if n_zero:
@@ -92,7 +90,7 @@ class _Built:
         W0 = np.eye(N)
         E0 = np.ones((m, N))
         mu0 = np.ones(n)
-        P0 = sp.csc_matrix((self.P_data(W0), rows, self.P_indptr), shape=(N, N))
+        P0 = sp.csc_matrix((self.P_data(W0), self.P_rows, self.P_indptr), shape=(N, N))
         A0 = sp.csc_matrix((self.A_data(E0, mu0), self.A_indices, self.A_indptr),
                            shape=(self.n_rows, N))
         self.solver = clarabel.DefaultSolver(P0, np.zeros(N), A0, np.zeros(self.n_rows), cones,

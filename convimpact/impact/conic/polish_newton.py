@@ -2,20 +2,13 @@
 equations of the cone QP, or Coulomb's conditions) and :func:`active_set_jacobian` (their
 Jacobian at a solution: its null space is the solution's family).
 
-The equations, unknowns, steps and acceptance are those documented in
-:mod:`convimpact.impact.conic.polish` (which calls these kernels): each contact is at zero
-(``ZERO``), pressing without friction (``ACT``), inside its cone (``INT``) or on its boundary
-(``BND``), ``x_i = r (1, mu c)`` with ``z_i = kappa (mu, -c)`` for the cone QP (``kappa (0,
--c)``, a slip without normal lift, for Coulomb's law), c the unit tangent ``(cos a, sin a)``
-in space and ``sg = +-1`` in the plane; the multipliers of ``E x = f`` follow. Steps are the
-minimum-norm least-squares solutions (from the singular value decomposition, singular values
-below 1e-13 of the largest dropped, as numpy's ``lstsq`` with that ``rcond``: redundant
-contacts make the Jacobian singular; numba's own ``lstsq`` took 5 s more to compile;
-:mod:`.polish_steps`). An answer is accepted only when its scaled residual is at round-off
-(:data:`POLISH_ACCEPT`), its velocities are finite (:data:`VELOCITY_RESIDUAL_MAX`), its
-active set is consistent (r > 0, kappa >= 0, interior impulses inside, the duals of zero
-contacts in the dual cone) and, with ``near``, it lies within 1e-2 max |x0| of the start.
-Such an answer is an exact KKT point (Coulomb solution), however it was reached.
+The equations and the acceptance are those of
+:func:`convimpact.impact.conic.polish.polish_cone_qp` (which calls these kernels), on the
+unknowns of each contact's kind: ``ZERO``, ``ACT`` (frictionless, pressing), ``INT`` or
+``BND`` (``r``, the tangent's angle in space -- ``sg = +-1`` in the plane -- and ``kappa``),
+then the multipliers of ``E x = f``. Steps are the minimum-norm least-squares ones of
+:mod:`.polish_steps` (numba's own ``lstsq`` took 5 s more to compile). An accepted answer is
+an exact KKT point (Coulomb solution), however it was reached.
 """
 
 from __future__ import annotations
@@ -286,15 +279,16 @@ def primary_kinds(x, mu, d):
 
 
 @_jit_internal
-def _setup(W, q, E, mu, d, kind, tang, x0, coulomb):
-    """The active set's layout and the Newton's start at ``x0``: (start, n_prim, U, X0, u,
-    eq_rows, n_eq)."""
+def _setup(W, q, E, f, mu, d, kind, tang, x0, coulomb):
+    """The active set's layout, the Newton's start at ``x0`` and the residual's scales:
+    (start, n_prim, U, X0, u, eq_rows, n_eq, scales)."""
     start = _layout(kind, d)
     n_prim = start[mu.size]
     U = n_prim + E.shape[0]
     X0 = max(_absmax(x0), TINY)
     u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
-    return start, n_prim, U, X0, u, eq_rows, n_eq
+    scales = np.array([_absmax(q), _absmax(W), _absmax(f), _absmax(E)])
+    return start, n_prim, U, X0, u, eq_rows, n_eq, scales
 
 
 @_jit
@@ -352,10 +346,9 @@ def newton_core(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damp
     :mod:`convimpact.impact.laws.stronge_contacts_warm`)."""
     n = mu.size
     N = n * d
-    start, n_prim, U, X0, u, eq_rows, n_eq = _setup(W, q, E, mu, d, kind, tang, x0, coulomb)
-    wmax = _absmax(W)
-    qmax = _absmax(q)
-    scales = np.array([qmax, wmax, _absmax(f), _absmax(E)])
+    start, n_prim, U, X0, u, eq_rows, n_eq, scales = _setup(W, q, E, f, mu, d, kind, tang, x0,
+                                                            coulomb)
+    qmax, wmax = scales[0], scales[1]
     none = np.zeros((0, 0))
     if U == 0:
         x = np.zeros(N)
@@ -390,11 +383,7 @@ def newton_core(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damp
             step = cod_min_norm_solve(J, -F, 1e-13)
         else:
             step = _min_norm_solve(J, -F, 1e-13)
-        finite = True
-        for a in range(step.size):
-            if not np.isfinite(step[a]):
-                finite = False
-        if not finite:
+        if not np.all(np.isfinite(step)):
             break
         t = 1.0
         if damped:  # halve the step until the residual falls (a start far from the answer)
@@ -432,10 +421,10 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
     """The scaled Jacobian J of the active set's equations at the unknowns of ``x0`` (as
     :func:`active_set_newton` starts) and ``dx/du``: (J, Jx). With x0 a solution, the
     null space of J holds the directions of its family of solutions (redundant contacts)."""
-    start, n_prim, U, X0, u, eq_rows, n_eq = _setup(W, q, E, mu, d, kind, tang, x0, coulomb)
-    scales = np.array([_absmax(q), _absmax(W), _absmax(f), _absmax(E)])
-    F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
-                           n_prim, X0, bool(False), scales)  # a run-time flag: one compile
+    start, n_prim, U, X0, u, eq_rows, n_eq, scales = _setup(W, q, E, f, mu, d, kind, tang, x0,
+                                                            coulomb)
+    J = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq, n_prim, X0,
+                  bool(False), scales)[1]  # a run-time flag: one compile
     Jx = _unpack(u, kind, tang, mu, d, start, coulomb, U)[2]
     return J, Jx
 

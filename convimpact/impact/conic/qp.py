@@ -33,7 +33,7 @@ from typing import Protocol
 import numpy as np
 
 from ...errors import SolverError
-from .polish import VELOCITY_RESIDUAL_MAX, kkt_residual, polish_cone_qp, roundoff_floor
+from .polish import TINY, VELOCITY_RESIDUAL_MAX, kkt_residual, polish_cone_qp, roundoff_floor
 from .program import ConeQP
 
 #: default conic tolerance (gap and feasibility, on the scaled problem)
@@ -42,7 +42,6 @@ DEFAULT_TOL = 1e-10
 DEFAULT_MAX_ITER = 200
 #: largest relative KKT residual accepted from a conic solve (or 1e3 x its tolerance)
 KKT_ACCEPT = 1e-6
-TINY = 1e-300
 
 
 @dataclass(frozen=True)
