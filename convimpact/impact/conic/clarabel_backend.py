@@ -18,9 +18,8 @@ Tolerances (option ``tol``, default :data:`convimpact.impact.conic.qp.DEFAULT_TO
 Clarabel's ``tol_gap_abs``, ``tol_gap_rel`` and ``tol_feas`` on the scaled problem (unit-size
 data), ``tol_ktratio = 1e-3 sqrt(tol)``; ``max_iter`` its iteration limit. Clarabel's defaults
 (1e-8) give impulses to about 1e-5 on sliding contacts; 1e-10 gives about 1e-9 or better.
-``Solved`` is accepted; ``AlmostSolved`` only when the KKT polish of
-:func:`convimpact.impact.conic.qp.solve_cone_qp` certifies the answer; any other status raises
-:class:`~convimpact.errors.SolverError` with the status in its message.
+Statuses other than ``Solved`` and ``AlmostSolved`` raise SolverError (what is accepted:
+:func:`convimpact.impact.conic.qp.solve_cone_qp`).
 """
 
 from __future__ import annotations

@@ -80,37 +80,25 @@ def _unpack(u, kind, tang, mu, d, start, coulomb, U):
         elif k == ACT:
             x[o] = u[s]
             Jx[o, s] = 1.0
-        elif k == BND:
-            if d == 3:
-                r, ang, kap = u[s], u[s + 1], u[s + 2]
-                c, sn = np.cos(ang), np.sin(ang)
-                x[o] = r
-                x[o + 1] = r * m_ * c
-                x[o + 2] = r * m_ * sn
-                Jx[o, s] = 1.0
-                Jx[o + 1, s] = m_ * c
-                Jx[o + 2, s] = m_ * sn
+        elif k == BND:  # unknowns r, [angle,] kappa; the unit tangent (c, sn), or (sg) in 2-D
+            sk = s + d - 1
+            r, kap = u[s], u[sk]
+            c, sn = (np.cos(u[s + 1]), np.sin(u[s + 1])) if d == 3 else (tang[i, 0], 0.0)
+            x[o] = r
+            Jx[o, s] = 1.0
+            z[o] = kap * zn
+            Jz[o, sk] = zn
+            for a in range(d - 1):
+                ta = sn if a else c
+                x[o + 1 + a] = r * m_ * ta
+                Jx[o + 1 + a, s] = m_ * ta
+                z[o + 1 + a] = -kap * ta
+                Jz[o + 1 + a, sk] = -ta
+            if d == 3:  # the angle's column
                 Jx[o + 1, s + 1] = -r * m_ * sn
                 Jx[o + 2, s + 1] = r * m_ * c
-                z[o] = kap * zn
-                z[o + 1] = -kap * c
-                z[o + 2] = -kap * sn
                 Jz[o + 1, s + 1] = kap * sn
                 Jz[o + 2, s + 1] = -kap * c
-                Jz[o, s + 2] = zn
-                Jz[o + 1, s + 2] = -c
-                Jz[o + 2, s + 2] = -sn
-            else:
-                r, kap = u[s], u[s + 1]
-                sg = tang[i, 0]
-                x[o] = r
-                x[o + 1] = r * m_ * sg
-                Jx[o, s] = 1.0
-                Jx[o + 1, s] = m_ * sg
-                z[o] = kap * zn
-                z[o + 1] = -kap * sg
-                Jz[o, s + 1] = zn
-                Jz[o + 1, s + 1] = -sg
     return x, z, Jx, Jz
 
 
