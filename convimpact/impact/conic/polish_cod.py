@@ -28,6 +28,7 @@ import numpy as np
 
 from ...compiled import jit_internal as _jit_internal
 from ..problem.compiled_reduction import back_substitute
+from .polish_steps import _matvec
 
 
 @_jit_internal
@@ -114,42 +115,27 @@ def _rank(R, rcond):
 
 
 @_jit_internal
-def _right_factor(R, r):
-    """``[R11 R12] = [S^T 0] Z^T`` for the first r rows of R: (Z (n, n), S (n, r))."""
-    Z, S, _ = householder_qr(np.ascontiguousarray(R[:r].T), bool(False), bool(True))
-    return Z, S
-
-
-@_jit_internal
 def cod_min_norm_solve(A, y, rcond):
     """The minimum-norm least-squares solution of ``A x = y``, directions of
     ``|R_kk| <= rcond |R_00|`` dropped (see the module docstring)."""
-    m, n = A.shape
+    n = A.shape[1]
     Q, R, perm = householder_qr(A, bool(True), bool(True))
     r = _rank(R, rcond)
-    c = np.zeros(r)
-    for a in range(r):
-        acc = 0.0
-        for i in range(m):
-            acc += Q[i, a] * y[i]
-        c[a] = acc
+    c = _matvec(Q[:, :r].T, y)  # (Q^T y)_1
     xp = np.zeros(n)
     if r == n:  # R11 x = c by back substitution (R11 = (R11^T)^T)
         xp = c
         back_substitute(np.ascontiguousarray(R[:n].T), xp)
     elif r > 0:
-        Z, S = _right_factor(R, r)
+        # [R11 R12] = [S^T 0] Z^T: Z (n, n), S (n, r)
+        Z, S, _ = householder_qr(np.ascontiguousarray(R[:r].T), bool(False), bool(True))
         w = np.zeros(r)  # S11^T w = c (lower triangular)
         for k in range(r):
             acc = c[k]
             for j in range(k):
                 acc -= S[j, k] * w[j]
             w[k] = acc / S[k, k]
-        for j in range(n):
-            acc = 0.0
-            for a in range(r):
-                acc += Z[j, a] * w[a]
-            xp[j] = acc
+        xp = _matvec(Z[:, :r], w)
     x = np.empty(n)
     for j in range(n):
         x[perm[j]] = xp[j]

@@ -159,8 +159,7 @@ def rescaled(sol: ContactSolution, pw: int, pv: int) -> ContactSolution:
         if key in extras:
             extras[key] = _scale_value(extras[key], shifts[unit])
     mass = None if sol.effective_mass is None else _ldexp(sol.effective_mass, -pw)
-    return ContactSolution(np.array(impulse), sol.regime, mass, MappingProxyType(extras),
-                           sol.warnings)
+    return solution(impulse, sol.regime, mass, extras, sol.warnings)
 
 
 def _kernel(law: str) -> Kernel:
