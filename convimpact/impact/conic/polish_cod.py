@@ -125,7 +125,7 @@ def cod_min_norm_solve(A, y, rcond):
     xp = np.zeros(n)
     if r == n:  # R11 x = c by back substitution (R11 = (R11^T)^T)
         xp = c
-        back_substitute(np.ascontiguousarray(R[:n].T), xp)
+        back_substitute(R[:n].T, xp)
     elif r > 0:
         # [R11 R12] = [S^T 0] Z^T: Z (n, n), S (n, r)
         Z, S, _ = householder_qr(np.ascontiguousarray(R[:r].T), bool(False), bool(True))

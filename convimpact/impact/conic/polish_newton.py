@@ -85,16 +85,18 @@ def _unpack(u, kind, tang, mu, d, start, coulomb, U):
             r, kap = u[s], u[sk]
             c, sn = (np.cos(u[s + 1]), np.sin(u[s + 1])) if d == 3 else (tang[i, 0], 0.0)
             x[o] = r
+            x[o + 1] = r * m_ * c
             Jx[o, s] = 1.0
+            Jx[o + 1, s] = m_ * c
             z[o] = kap * zn
+            z[o + 1] = -kap * c
             Jz[o, sk] = zn
-            for a in range(d - 1):
-                ta = sn if a else c
-                x[o + 1 + a] = r * m_ * ta
-                Jx[o + 1 + a, s] = m_ * ta
-                z[o + 1 + a] = -kap * ta
-                Jz[o + 1 + a, sk] = -ta
-            if d == 3:  # the angle's column
+            Jz[o + 1, sk] = -c
+            if d == 3:  # the second tangent, and the angle's column
+                x[o + 2] = r * m_ * sn
+                Jx[o + 2, s] = m_ * sn
+                z[o + 2] = -kap * sn
+                Jz[o + 2, sk] = -sn
                 Jx[o + 1, s + 1] = -r * m_ * sn
                 Jx[o + 2, s + 1] = r * m_ * c
                 Jz[o + 1, s + 1] = kap * sn
@@ -371,7 +373,11 @@ def newton_core(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damp
             step = cod_min_norm_solve(J, -F, 1e-13)
         else:
             step = _min_norm_solve(J, -F, 1e-13)
-        if not np.all(np.isfinite(step)):
+        finite = True
+        for a in range(step.size):
+            if not np.isfinite(step[a]):
+                finite = False
+        if not finite:
             break
         t = 1.0
         if damped:  # halve the step until the residual falls (a start far from the answer)

@@ -112,7 +112,7 @@ def _pivoted_step(J, F):
                 for j in range(k + 1, n):
                     A[i, j] -= fct * A[k, j]
                 r[i] -= fct * r[k]
-    back_substitute(np.ascontiguousarray(A.T), r)  # A x = r, A upper = (A^T)^T
+    back_substitute(A.T, r)  # A x = r, A upper = (A^T)^T
     x = np.empty(n)
     for k in range(n):
         x[perm[k]] = r[k]
