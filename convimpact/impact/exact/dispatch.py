@@ -337,13 +337,11 @@ DECOUPLED_RTOL = 1e-12
 def coupled(problem: ImpactProblem) -> bool:
     """Whether some off-diagonal block of W couples two contacts (relative to their scales)."""
     n, d, W = problem.n_contacts, problem.dim, problem.delassus
-    diag = np.sqrt(np.maximum(np.diag(W), 0.0))
+    scale = np.maximum(np.sqrt(np.maximum(np.diag(W), 0.0)).reshape(n, d).max(axis=1), 1e-300)
     for i in range(n):
         for j in range(i + 1, n):
             block = W[i * d:(i + 1) * d, j * d:(j + 1) * d]
-            bound = DECOUPLED_RTOL * max(float(np.max(diag[i * d:(i + 1) * d])), 1e-300) * \
-                max(float(np.max(diag[j * d:(j + 1) * d])), 1e-300)
-            if np.max(np.abs(block)) > bound:
+            if np.max(np.abs(block)) > DECOUPLED_RTOL * scale[i] * scale[j]:
                 return True
     return False
 
