@@ -18,9 +18,8 @@ Tolerances (option ``tol``, default :data:`convimpact.impact.conic.qp.DEFAULT_TO
 Clarabel's ``tol_gap_abs``, ``tol_gap_rel`` and ``tol_feas`` on the scaled problem (unit-size
 data), ``tol_ktratio = 1e-3 sqrt(tol)``; ``max_iter`` its iteration limit. Clarabel's defaults
 (1e-8) give impulses to about 1e-5 on sliding contacts; 1e-10 gives about 1e-9 or better.
-``Solved`` is accepted; ``AlmostSolved`` only when the KKT polish of
-:func:`convimpact.impact.conic.qp.solve_cone_qp` certifies the answer; any other status raises
-:class:`~convimpact.errors.SolverError` with the status in its message.
+Statuses other than ``Solved`` and ``AlmostSolved`` raise SolverError (what is accepted:
+:func:`convimpact.impact.conic.qp.solve_cone_qp`).
 """
 
 from __future__ import annotations
@@ -67,9 +66,7 @@ class _Built:
         self.A_indices = np.column_stack(
             [np.tile(np.arange(m, dtype=np.int64), (N, 1)), cone_row[:, None]]).ravel()
         # P: dense upper triangle, column by column
-        cols = np.concatenate([np.full(j + 1, j, dtype=np.int64) for j in range(N)])
-        rows = np.concatenate([np.arange(j + 1, dtype=np.int64) for j in range(N)])
-        self.P_rows, self.P_cols = rows, cols
+        self.P_cols, self.P_rows = np.tril_indices(N)
         self.P_indptr = np.concatenate(([0], np.cumsum(np.arange(1, N + 1)))).astype(np.int64)
         cones = []
         if n_zero:
@@ -92,7 +89,7 @@ class _Built:
         W0 = np.eye(N)
         E0 = np.ones((m, N))
         mu0 = np.ones(n)
-        P0 = sp.csc_matrix((self.P_data(W0), rows, self.P_indptr), shape=(N, N))
+        P0 = sp.csc_matrix((self.P_data(W0), self.P_rows, self.P_indptr), shape=(N, N))
         A0 = sp.csc_matrix((self.A_data(E0, mu0), self.A_indices, self.A_indptr),
                            shape=(self.n_rows, N))
         self.solver = clarabel.DefaultSolver(P0, np.zeros(N), A0, np.zeros(self.n_rows), cones,

@@ -139,7 +139,6 @@ def _active_sets(options: list[list[Kind]], limit: int):
 def _kind_arrays(qp: ConeQP, sets: list[list[Kind]]) -> tuple[np.ndarray, np.ndarray]:
     """Active sets as the compiled Newton's arrays: kinds (n_sets, n) and tangents
     (n_sets, n, 2)."""
-
     code = {"zero": ZERO, "act": ACT, "int": INT, "bnd": BND}
     n = qp.n_contacts
     kinds = np.zeros((len(sets), n), dtype=np.int64)

@@ -27,6 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit_internal as _jit_internal
+from ..problem.compiled_reduction import back_substitute
+from .polish_steps import _matvec
 
 
 @_jit_internal
@@ -69,13 +71,8 @@ def householder_qr(A, pivot, want_q=True):
     ``want_q``), R (m, n) upper triangular, perm the column order (the largest remaining
     column norm first when ``pivot``, else the identity)."""
     m, n = A.shape
-    R = np.empty((m, n))
-    for i in range(m):
-        for j in range(n):
-            R[i, j] = A[i, j]
-    Q = np.zeros((m, m))
-    for i in range(m):
-        Q[i, i] = 1.0
+    R = A.copy()
+    Q = np.eye(m)
     perm = np.arange(n)
     v = np.empty(m)
     for k in range(min(m, n)):
@@ -118,50 +115,27 @@ def _rank(R, rcond):
 
 
 @_jit_internal
-def _right_factor(R, r):
-    """``[R11 R12] = [S^T 0] Z^T`` for the first r rows of R: (Z (n, n), S (n, r))."""
-    n = R.shape[1]
-    T = np.empty((n, r))
-    for i in range(r):
-        for j in range(n):
-            T[j, i] = R[i, j]
-    Z, S, _ = householder_qr(T, bool(False), bool(True))
-    return Z, S
-
-
-@_jit_internal
 def cod_min_norm_solve(A, y, rcond):
     """The minimum-norm least-squares solution of ``A x = y``, directions of
     ``|R_kk| <= rcond |R_00|`` dropped (see the module docstring)."""
-    m, n = A.shape
+    n = A.shape[1]
     Q, R, perm = householder_qr(A, bool(True), bool(True))
     r = _rank(R, rcond)
-    c = np.zeros(r)
-    for a in range(r):
-        acc = 0.0
-        for i in range(m):
-            acc += Q[i, a] * y[i]
-        c[a] = acc
+    c = _matvec(Q[:, :r].T, y)  # (Q^T y)_1
     xp = np.zeros(n)
-    if r == n:  # R11 x = c by back substitution
-        for k in range(n - 1, -1, -1):
-            acc = c[k]
-            for j in range(k + 1, n):
-                acc -= R[k, j] * xp[j]
-            xp[k] = acc / R[k, k]
+    if r == n:  # R11 x = c by back substitution (R11 = (R11^T)^T)
+        xp = c
+        back_substitute(R[:n].T, xp)
     elif r > 0:
-        Z, S = _right_factor(R, r)
+        # [R11 R12] = [S^T 0] Z^T: Z (n, n), S (n, r)
+        Z, S, _ = householder_qr(np.ascontiguousarray(R[:r].T), bool(False), bool(True))
         w = np.zeros(r)  # S11^T w = c (lower triangular)
         for k in range(r):
             acc = c[k]
             for j in range(k):
                 acc -= S[j, k] * w[j]
             w[k] = acc / S[k, k]
-        for j in range(n):
-            acc = 0.0
-            for a in range(r):
-                acc += Z[j, a] * w[a]
-            xp[j] = acc
+        xp = _matvec(Z[:, :r], w)
     x = np.empty(n)
     for j in range(n):
         x[perm[j]] = xp[j]
@@ -174,10 +148,7 @@ def _trailing_basis(R, r):
     Householder reflections of that QR applied to ``[0; I]`` in reverse order, without
     forming Z."""
     n = R.shape[1]
-    T = np.empty((n, r))
-    for i in range(r):
-        for j in range(n):
-            T[j, i] = R[i, j]
+    T = np.ascontiguousarray(R[:r].T)
     V = np.zeros((r, n))
     beta = np.zeros(r)
     for k in range(r):

@@ -2,20 +2,13 @@
 equations of the cone QP, or Coulomb's conditions) and :func:`active_set_jacobian` (their
 Jacobian at a solution: its null space is the solution's family).
 
-The equations, unknowns, steps and acceptance are those documented in
-:mod:`convimpact.impact.conic.polish` (which calls these kernels): each contact is at zero
-(``ZERO``), pressing without friction (``ACT``), inside its cone (``INT``) or on its boundary
-(``BND``), ``x_i = r (1, mu c)`` with ``z_i = kappa (mu, -c)`` for the cone QP (``kappa (0,
--c)``, a slip without normal lift, for Coulomb's law), c the unit tangent ``(cos a, sin a)``
-in space and ``sg = +-1`` in the plane; the multipliers of ``E x = f`` follow. Steps are the
-minimum-norm least-squares solutions (from the singular value decomposition, singular values
-below 1e-13 of the largest dropped, as numpy's ``lstsq`` with that ``rcond``: redundant
-contacts make the Jacobian singular; numba's own ``lstsq`` took 5 s more to compile;
-:mod:`.polish_steps`). An answer is accepted only when its scaled residual is at round-off
-(:data:`POLISH_ACCEPT`), its velocities are finite (:data:`VELOCITY_RESIDUAL_MAX`), its
-active set is consistent (r > 0, kappa >= 0, interior impulses inside, the duals of zero
-contacts in the dual cone) and, with ``near``, it lies within 1e-2 max |x0| of the start.
-Such an answer is an exact KKT point (Coulomb solution), however it was reached.
+The equations and the acceptance are those of
+:func:`convimpact.impact.conic.polish.polish_cone_qp` (which calls these kernels), on the
+unknowns of each contact's kind: ``ZERO``, ``ACT`` (frictionless, pressing), ``INT`` or
+``BND`` (``r``, the tangent's angle in space -- ``sg = +-1`` in the plane -- and ``kappa``),
+then the multipliers of ``E x = f``. Steps are the minimum-norm least-squares ones of
+:mod:`.polish_steps` (numba's own ``lstsq`` took 5 s more to compile). An accepted answer is
+an exact KKT point (Coulomb solution), however it was reached.
 """
 
 from __future__ import annotations
@@ -87,37 +80,27 @@ def _unpack(u, kind, tang, mu, d, start, coulomb, U):
         elif k == ACT:
             x[o] = u[s]
             Jx[o, s] = 1.0
-        elif k == BND:
-            if d == 3:
-                r, ang, kap = u[s], u[s + 1], u[s + 2]
-                c, sn = np.cos(ang), np.sin(ang)
-                x[o] = r
-                x[o + 1] = r * m_ * c
+        elif k == BND:  # unknowns r, [angle,] kappa; the unit tangent (c, sn), or (sg) in 2-D
+            sk = s + d - 1
+            r, kap = u[s], u[sk]
+            c, sn = (np.cos(u[s + 1]), np.sin(u[s + 1])) if d == 3 else (tang[i, 0], 0.0)
+            x[o] = r
+            x[o + 1] = r * m_ * c
+            Jx[o, s] = 1.0
+            Jx[o + 1, s] = m_ * c
+            z[o] = kap * zn
+            z[o + 1] = -kap * c
+            Jz[o, sk] = zn
+            Jz[o + 1, sk] = -c
+            if d == 3:  # the second tangent, and the angle's column
                 x[o + 2] = r * m_ * sn
-                Jx[o, s] = 1.0
-                Jx[o + 1, s] = m_ * c
                 Jx[o + 2, s] = m_ * sn
+                z[o + 2] = -kap * sn
+                Jz[o + 2, sk] = -sn
                 Jx[o + 1, s + 1] = -r * m_ * sn
                 Jx[o + 2, s + 1] = r * m_ * c
-                z[o] = kap * zn
-                z[o + 1] = -kap * c
-                z[o + 2] = -kap * sn
                 Jz[o + 1, s + 1] = kap * sn
                 Jz[o + 2, s + 1] = -kap * c
-                Jz[o, s + 2] = zn
-                Jz[o + 1, s + 2] = -c
-                Jz[o + 2, s + 2] = -sn
-            else:
-                r, kap = u[s], u[s + 1]
-                sg = tang[i, 0]
-                x[o] = r
-                x[o + 1] = r * m_ * sg
-                Jx[o, s] = 1.0
-                Jx[o + 1, s] = m_ * sg
-                z[o] = kap * zn
-                z[o + 1] = -kap * sg
-                Jz[o, s + 1] = zn
-                Jz[o + 1, s + 1] = -sg
     return x, z, Jx, Jz
 
 
@@ -286,15 +269,16 @@ def primary_kinds(x, mu, d):
 
 
 @_jit_internal
-def _setup(W, q, E, mu, d, kind, tang, x0, coulomb):
-    """The active set's layout and the Newton's start at ``x0``: (start, n_prim, U, X0, u,
-    eq_rows, n_eq)."""
+def _setup(W, q, E, f, mu, d, kind, tang, x0, coulomb):
+    """The active set's layout, the Newton's start at ``x0`` and the residual's scales:
+    (start, n_prim, U, X0, u, eq_rows, n_eq, scales)."""
     start = _layout(kind, d)
     n_prim = start[mu.size]
     U = n_prim + E.shape[0]
     X0 = max(_absmax(x0), TINY)
     u, eq_rows, n_eq = _start(W, q, E, mu, d, kind, tang, x0, coulomb, start, U)
-    return start, n_prim, U, X0, u, eq_rows, n_eq
+    scales = np.array([_absmax(q), _absmax(W), _absmax(f), _absmax(E)])
+    return start, n_prim, U, X0, u, eq_rows, n_eq, scales
 
 
 @_jit
@@ -352,10 +336,9 @@ def newton_core(W, q, E, f, mu, d, kind, tang, x0, coulomb, near, max_iter, damp
     :mod:`convimpact.impact.laws.stronge_contacts_warm`)."""
     n = mu.size
     N = n * d
-    start, n_prim, U, X0, u, eq_rows, n_eq = _setup(W, q, E, mu, d, kind, tang, x0, coulomb)
-    wmax = _absmax(W)
-    qmax = _absmax(q)
-    scales = np.array([qmax, wmax, _absmax(f), _absmax(E)])
+    start, n_prim, U, X0, u, eq_rows, n_eq, scales = _setup(W, q, E, f, mu, d, kind, tang, x0,
+                                                            coulomb)
+    qmax, wmax = scales[0], scales[1]
     none = np.zeros((0, 0))
     if U == 0:
         x = np.zeros(N)
@@ -432,10 +415,10 @@ def active_set_jacobian(W, q, E, f, mu, d, kind, tang, x0, coulomb):
     """The scaled Jacobian J of the active set's equations at the unknowns of ``x0`` (as
     :func:`active_set_newton` starts) and ``dx/du``: (J, Jx). With x0 a solution, the
     null space of J holds the directions of its family of solutions (redundant contacts)."""
-    start, n_prim, U, X0, u, eq_rows, n_eq = _setup(W, q, E, mu, d, kind, tang, x0, coulomb)
-    scales = np.array([_absmax(q), _absmax(W), _absmax(f), _absmax(E)])
-    F, J, x, G = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq,
-                           n_prim, X0, bool(False), scales)  # a run-time flag: one compile
+    start, n_prim, U, X0, u, eq_rows, n_eq, scales = _setup(W, q, E, f, mu, d, kind, tang, x0,
+                                                            coulomb)
+    J = _residual(u, W, q, E, f, kind, tang, mu, d, start, coulomb, eq_rows, n_eq, n_prim, X0,
+                  bool(False), scales)[1]  # a run-time flag: one compile
     Jx = _unpack(u, kind, tang, mu, d, start, coulomb, U)[2]
     return J, Jx
 

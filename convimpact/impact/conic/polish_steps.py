@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit_internal as _jit_internal
+from ..problem.compiled_reduction import back_substitute
 
 #: the pivoted steps' rank cut on a singular J (sqrt(1e-15): eigenvalues of J^T J below 1e-15)
 SINGULAR_RCOND = 3.1622776601683795e-08
@@ -111,13 +112,8 @@ def _pivoted_step(J, F):
                 for j in range(k + 1, n):
                     A[i, j] -= fct * A[k, j]
                 r[i] -= fct * r[k]
-    y = np.empty(n)
-    for k in range(n - 1, -1, -1):
-        acc = r[k]
-        for j in range(k + 1, n):
-            acc -= A[k, j] * y[j]
-        y[k] = acc / A[k, k]
+    back_substitute(A.T, r)  # A x = r, A upper = (A^T)^T
     x = np.empty(n)
     for k in range(n):
-        x[perm[k]] = y[k]
+        x[perm[k]] = r[k]
     return x

@@ -13,16 +13,13 @@ solved by a *backend* (:mod:`~convimpact.impact.conic.clarabel_backend`,
 ``pi_n >= 0, pi_t = 0`` rather than as a degenerate cone. The program is a
 :class:`~convimpact.impact.conic.program.ConeQP` (importable from here).
 
-Accuracy. Every program is equilibrated (each contact's impulse scaled by its own effective
-mass, then the whole to unit data: :func:`equilibrated`), solved by the interior-point
-method, and then *polished* (:mod:`~convimpact.impact.conic.polish`): each contact is
-classified (zero, interior, on the cone boundary) and the KKT equations of that active set
-are solved by Newton's method; the polish is kept only when its active set is consistent.
-Polished answers are exact to round-off (measured KKT residuals 1e-16 .. 1e-14; with an
-ill-conditioned W, cond(W) eps: 1e-6 at cond(M) = 1e10, as for the closed forms); raw
-interior-point impulses on the cone boundary are only accurate to about sqrt(tol) (1e-5 at
-Clarabel's default 1e-8, 1e-6 at 1e-10), which is what the results then claim
-(``extras["polished"]``, ``"kkt_residual"``).
+Accuracy. Every program is equilibrated (:func:`equilibrated`), solved by the interior-point
+method and then polished (:mod:`~convimpact.impact.conic.polish`: Newton on the KKT equations
+of its active set, kept only when that set is consistent). Polished answers are exact to
+round-off (measured KKT residuals 1e-16 .. 1e-14; with an ill-conditioned W, cond(W) eps: 1e-6
+at cond(M) = 1e10, as for the closed forms); raw interior-point impulses on the cone boundary
+only to about sqrt(tol) (1e-5 at Clarabel's default 1e-8, 1e-6 at 1e-10), which is what the
+results then claim (``extras["polished"]``, ``"kkt_residual"``).
 """
 
 from __future__ import annotations
@@ -33,7 +30,7 @@ from typing import Protocol
 import numpy as np
 
 from ...errors import SolverError
-from .polish import VELOCITY_RESIDUAL_MAX, kkt_residual, polish_cone_qp, roundoff_floor
+from .polish import TINY, VELOCITY_RESIDUAL_MAX, kkt_residual, polish_cone_qp, roundoff_floor
 from .program import ConeQP
 
 #: default conic tolerance (gap and feasibility, on the scaled problem)
@@ -42,7 +39,6 @@ DEFAULT_TOL = 1e-10
 DEFAULT_MAX_ITER = 200
 #: largest relative KKT residual accepted from a conic solve (or 1e3 x its tolerance)
 KKT_ACCEPT = 1e-6
-TINY = 1e-300
 
 
 @dataclass(frozen=True)

@@ -159,8 +159,7 @@ def rescaled(sol: ContactSolution, pw: int, pv: int) -> ContactSolution:
         if key in extras:
             extras[key] = _scale_value(extras[key], shifts[unit])
     mass = None if sol.effective_mass is None else _ldexp(sol.effective_mass, -pw)
-    return ContactSolution(np.array(impulse), sol.regime, mass, MappingProxyType(extras),
-                           sol.warnings)
+    return solution(impulse, sol.regime, mass, extras, sol.warnings)
 
 
 def _kernel(law: str) -> Kernel:
@@ -321,10 +320,13 @@ def compiled_kernel(law: str, planar: Callable, spatial: Callable, extras: Extra
     return kernel
 
 
-def tangential_restitution(problem: ImpactProblem, i: int) -> float:
-    """Contact i's e_t (0 where the problem has none)."""
+def _contact(kernel: Kernel, problem: ImpactProblem, i: int) -> ContactSolution:
+    """Contact i of ``problem`` by ``kernel``, through :func:`dispatch` (e_t 0 where the
+    problem has none)."""
+    w, v = problem.contact_lists(i)
     et = problem.tangential_restitution
-    return 0.0 if et is None else float(et[i])
+    return dispatch(kernel, w, v, problem.dim, float(problem.restitution[i]),
+                    float(problem.friction[i]), 0.0 if et is None else float(et[i]))
 
 
 #: off-diagonal blocks of W below this times the product of the two contacts' scales count
@@ -335,13 +337,11 @@ DECOUPLED_RTOL = 1e-12
 def coupled(problem: ImpactProblem) -> bool:
     """Whether some off-diagonal block of W couples two contacts (relative to their scales)."""
     n, d, W = problem.n_contacts, problem.dim, problem.delassus
-    diag = np.sqrt(np.maximum(np.diag(W), 0.0))
+    scale = np.maximum(np.sqrt(np.maximum(np.diag(W), 0.0)).reshape(n, d).max(axis=1), 1e-300)
     for i in range(n):
         for j in range(i + 1, n):
             block = W[i * d:(i + 1) * d, j * d:(j + 1) * d]
-            bound = DECOUPLED_RTOL * max(float(np.max(diag[i * d:(i + 1) * d])), 1e-300) * \
-                max(float(np.max(diag[j * d:(j + 1) * d])), 1e-300)
-            if np.max(np.abs(block)) > bound:
+            if np.max(np.abs(block)) > DECOUPLED_RTOL * scale[i] * scale[j]:
                 return True
     return False
 
@@ -370,9 +370,7 @@ def independent_contacts_result(problem: ImpactProblem, law: str, method: str,
     pi = np.zeros((n, d))
     regimes, per_contact, warnings = ["separating"] * n, [dict(lifted) for _ in range(n)], []
     for i in contacts:
-        w, v = problem.contact_lists(i)
-        sol = dispatch(_kernel(law), w, v, d, float(problem.restitution[i]),
-                       float(problem.friction[i]), tangential_restitution(problem, i))
+        sol = _contact(_kernel(law), problem, i)
         pi[i] = sol.impulse
         regimes[i] = sol.regime
         per_contact[i] = dict(sol.extras)
@@ -396,9 +394,7 @@ def kernel_solver(law: str, method: str = "fast"):
         check_single_contact(problem, options, "fast", "no options,",
                              "method='fast' is exact for one contact only; for {n} "
                              "simultaneous contacts use method='clarabel' or method='cvxpy'")
-        w, v = problem.contact_lists(0)
-        sol = dispatch(kernel, w, v, problem.dim, float(problem.restitution[0]),
-                       float(problem.friction[0]), tangential_restitution(problem, 0))
+        sol = _contact(kernel, problem, 0)
         return assemble_result(problem, sol.impulse, [sol.regime], law, "fast",
                                effective_mass=sol.effective_mass, tol=FAST_TOL,
                                extras=sol.extras, warnings=sol.warnings)

@@ -58,6 +58,7 @@ import numpy as np
 from ..diagnostics import assemble_result
 from ...errors import ConvImpactError, as_real_array
 from ..laws import LAW_CODES as _LAW_CODES
+from .dispatch import _REGIME_NAMES as _REGIMES
 from ..problem.build import _new, build_problem
 from ..results import ImpactDiagnostics, ImpactResult
 
@@ -66,11 +67,6 @@ LANE_TOL = 1e-10
 #: lane calls in a process after which the whole call is compiled (tier 2), when numba's disk
 #: cache does not hold it already
 HOT_CALLS = 200
-#: the compiled kernels' regime codes -> names (laws.codes)
-_REGIMES = ("separating", "frictionless", "stick", "slide")
-#: the compiled kernels' law codes (batch.LAW_CODES)
-
-
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
 _NO_EXTRAS = MappingProxyType({})
@@ -272,7 +268,6 @@ def resolve_one(M, Jc, dq, e, mu, law: str, kernel, e_t=None) -> ImpactResult | 
         _CALLS += 1
         if _CALLS >= HOT_CALLS:
             solve = _build_solve()
-    sol = None
     if solve is not None:
         if not (Mf.flags.c_contiguous and Jf.flags.c_contiguous and qf.flags.c_contiguous):
             Mf, Jf, qf = (np.ascontiguousarray(a) for a in (Mf, Jf, qf))  # the entry's types

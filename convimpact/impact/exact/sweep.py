@@ -373,15 +373,12 @@ def pereira_nikravesh_sweep(problem: ImpactProblem, xtol: float = DEFAULT_XTOL,
     p = sw.normal_impulse
     D = c / p
     impulse = p * np.array([1.0, mu * sw.direction[0], mu * sw.direction[1]])
+    # the paper's alpha_0, alpha_1 (Fig. 9) when there is a single gain sector
+    one = sw.energy_gain_sectors[0] if len(sw.energy_gain_sectors) == 1 else (None, None)
     extras = {"alpha_m": sw.alpha_m, "energy_loss_max": sw.energy_loss_max,
               "normal_impulse": p, "direction": tuple(sw.direction.tolist()),
               "energy_gain_sectors": sw.energy_gain_sectors,
-              # the paper's alpha_0, alpha_1 (Fig. 9) when there is a single gain sector
-              "alpha_0": (sw.energy_gain_sectors[0][0]
-                          if len(sw.energy_gain_sectors) == 1 else None),
-              "alpha_1": (sw.energy_gain_sectors[0][1]
-                          if len(sw.energy_gain_sectors) == 1 else None),
-              "excluded_sector": sw.excluded_sector,
+              "alpha_0": one[0], "alpha_1": one[1], "excluded_sector": sw.excluded_sector,
               "max_normal_impulse": sw.max_normal_impulse,
               "alpha_max_normal_impulse": sw.alpha_max_normal_impulse,
               "n_evaluations": sw.n_evaluations, "xtol": sw.xtol}
