@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from ...errors import ConvImpactError
-from ..conic.paths import ProgramOptions, approaching
+from ..conic.paths import ProgramOptions
 from ..conic.qp import Backend
 from ..problem.build import SAFE_SCALE, ImpactProblem, build_problem
 from . import pn_complementarity as law
@@ -25,11 +25,9 @@ from .pn_complementarity_search import (DONE, NEEDS, SLIDE_TIER, SlideWarmStart,
                                         tuple_ranks)
 
 
-@functools.lru_cache(maxsize=512)
-def _sets(n: int, closing: tuple[bool, ...]) -> tuple[list, np.ndarray]:
-    """The law's :func:`~.pn_complementarity.candidate_sets` (read only), kept per pattern of
-    approaching contacts: a time stepper asks for the same ones step after step."""
-    return law.candidate_sets(n, closing)
+#: the law's :func:`~.pn_complementarity.candidate_sets` (read only, kept per pattern of
+#: approaching contacts: a time stepper asks for the same ones step after step)
+_sets = law.candidate_sets
 
 
 @functools.lru_cache(maxsize=512)
@@ -51,10 +49,7 @@ def compiled_impulse(P, backend, opts, notes: list[str] | None = None,
     (``slide_on``, its admissibility test) and the law's own pick (``_pick``) is applied."""
     n, d = P.n_contacts, P.dim
     b = law.newton_velocity_shift(P)
-    closing = approaching(P)
-    if not closing.any():
-        closing = P.v_minus[:, 0] < 0.0
-    key = tuple(bool(c) for c in closing)
+    key = law.closing_key(P)
     subsets, masks = _sets(n, key)
     if not subsets:
         return None
@@ -87,10 +82,7 @@ def compiled_impulse(P, backend, opts, notes: list[str] | None = None,
     warm.pruned = bool(prune)
     if notes is not None and not prune and not same.all():
         others = [int(s) for s, sv in zip(sets, same) if not sv]
-        listed = ", ".join(str(list(subsets[s])) for s in [int(sets[best]), *others])
-        notes.append(f"Newton's law in complementarity form has {len(others) + 1} admissible "
-                     f"active sets here ({listed}) with different velocities; the most "
-                     "dissipative is returned")
+        notes.append(law.several_sets_note([subsets[s] for s in [int(sets[best]), *others]]))
     return pi.reshape(n, d)
 
 

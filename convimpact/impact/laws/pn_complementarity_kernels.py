@@ -31,6 +31,12 @@ TINY = 1e-300
 
 
 @_jit
+def energy_change(W, vminus, pi):
+    """``T+ - T- = pi.v- + 1/2 pi.W.pi``."""
+    return pi @ vminus + 0.5 * (pi @ (W @ pi))
+
+
+@_jit
 def _consistent(A, x, r, rtol):
     """|A x - r| <= rtol max(|r|, TINY) (2-norms): a least-squares answer solves its system."""
     res = 0.0
@@ -45,16 +51,22 @@ def _consistent(A, x, r, rtol):
 
 
 @_jit
+def submatrix(A, idx, m):
+    """``A[idx[:m]][:, idx[:m]]``, by loops."""
+    S = np.empty((m, m))
+    for i in range(m):
+        for j in range(m):
+            S[i, j] = A[idx[i], idx[j]]
+    return S
+
+
+@_jit
 def sub_cholesky(A, idx, m, L):
     """The lower Cholesky factor of ``A[idx[:m]][:, idx[:m]]`` into ``L[:m, :m]`` (zeros
     above the diagonal on entry), by the package's one Cholesky
     (:func:`~convimpact.impact.problem.compiled_reduction.cholesky_into`); False at the first
     pivot that is not positive."""
-    S = np.empty((m, m))
-    for i in range(m):
-        for j in range(m):
-            S[i, j] = A[idx[i], idx[j]]
-    return cholesky_into(S, L, m, 0.0)
+    return cholesky_into(submatrix(A, idx, m), L, m, 0.0)
 
 
 @_jit
@@ -94,8 +106,7 @@ def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
             pi[rows[a]] = x[a]
         if admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol):
             ok[s] = True
-            Wpi = W @ pi
-            energy[s] = pi @ vminus + 0.5 * (pi @ Wpi)
+            energy[s] = energy_change(W, vminus, pi)
             pis[s] = pi
     return ok, energy, pis
 
@@ -221,6 +232,6 @@ def relaxed_bounds(W, b, vminus, mu, d, sets):
         pi = np.zeros(N)
         for a in range(m):
             pi[rows[a]] = sol[a]
-        out[s] = pi @ vminus + 0.5 * (pi @ (W @ pi))
+        out[s] = energy_change(W, vminus, pi)
     return out
 

@@ -71,8 +71,9 @@ from .codes import OK as KERNEL_OK
 from .pereira_nikravesh_kernel import _pn_planar, _pn_spatial
 from ..problem.compiled_reduction import back_substitute
 from .pn_complementarity_exclusion import excluded_sets
-from .pn_complementarity_kernels import admissible, set_rows, stick_tier, sub_cholesky
-from .pn_complementarity_slide import slide_set_warm, warm_kkt_point
+from .pn_complementarity_kernels import (admissible, energy_change, set_rows, stick_tier,
+                                         sub_cholesky, submatrix)
+from .pn_complementarity_slide import project_out, slide_set_kept, warm_kkt_point
 
 TINY = 1e-300
 EPS = float(np.finfo(float).eps)
@@ -95,9 +96,13 @@ SCREEN_ERROR = 1e-8
 
 
 @_jit
-def energy_change(W, vminus, pi):
-    """``T+ - T- = pi.v- + 1/2 pi.W.pi``."""
-    return pi @ vminus + 0.5 * (pi @ (W @ pi))
+def add_candidate(fe, fs, fpi, nf, energy, s, pi):
+    """The search's candidate ``nf``: energy ``T+ - T-``, set index ``s``, impulse ``pi``;
+    returns ``nf + 1``."""
+    fe[nf] = energy
+    fs[nf] = s
+    fpi[nf] = pi
+    return nf + 1
 
 
 @_jit
@@ -158,20 +163,6 @@ def _dot(a, b):
 
 
 @_jit
-def _project_out(r, Q, k):
-    """r minus its projection on the orthonormal rows ``Q[:k]``, twice (for round-off), in
-    place."""
-    L = r.size
-    for _ in range(2):
-        for t in range(k):
-            c = 0.0
-            for x in range(L):
-                c += Q[t, x] * r[x]
-            for x in range(L):
-                r[x] -= c * Q[t, x]
-
-
-@_jit
 def dominance_rows(W, absW, b, d):
     """The rows ``[W_n | b_n]`` the dominance tests compare (:func:`dominated_into`): each
     contact's normal row of W and its b, b rescaled to W's largest entry (``absW = |W|``)."""
@@ -211,7 +202,7 @@ def dominated_into(R, member, Q, r, outside):
     for i in range(n):
         if member[i]:
             r[:] = R[i]
-            _project_out(r, Q, k)
+            project_out(Q, k, r, r[:0])
             nr = np.sqrt(_dot(r, r))
             if nr > cut:
                 for x in range(L):  # (loops, not array expressions: no temporaries)
@@ -221,7 +212,7 @@ def dominated_into(R, member, Q, r, outside):
     for j in range(n):
         if not member[j]:
             r[:] = R[j]
-            _project_out(r, Q, k)
+            project_out(Q, k, r, r[:0])
             nr = np.sqrt(_dot(r, r))
             if nr > cut:
                 if count == 2:
@@ -254,7 +245,7 @@ def rank_clear(A):
     k = 0
     for c in range(m):
         r = A[c].copy()
-        _project_out(r, Q, k)
+        project_out(Q, k, r, r[:0])
         nr = np.sqrt(_dot(r, r))
         if nr > RANK_INDEPENDENT * scale:
             Q[k] = r / nr
@@ -363,21 +354,12 @@ def _rank_exclusion(W, b, vminus, mu, d, masks, pi_full, escale, keep):
     full_rank, clear = rank_clear(W)
     if not clear:
         return
+    rows = np.empty(N, dtype=np.int64)
     for s in range(masks.shape[0]):
-        if not keep[s]:
-            continue
-        members = np.flatnonzero(masks[s])
-        m = members.size * d
-        rows = np.empty(m, dtype=np.int64)
-        for c in range(members.size):
-            for k in range(d):
-                rows[c * d + k] = members[c] * d + k
-        Wss = np.empty((m, m))
-        for x in range(m):
-            for y in range(m):
-                Wss[x, y] = W[rows[x], rows[y]]
-        r, clear = rank_clear(Wss)
-        keep[s] = not (clear and r == full_rank)
+        if keep[s]:  # (every contact frictional: all the rows of the set's contacts)
+            m, _ = set_rows(masks[s], mu, d, rows, rows[:0])
+            r, clear = rank_clear(submatrix(W, rows, m))
+            keep[s] = not (clear and r == full_rank)
 
 
 @_jit
@@ -427,14 +409,10 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
     if wvalid[0] and warm_kkt_point(W, vminus, b, mu, d, wpi[0], cone_rtol):
         pi_full = wpi[0].copy()  # the previous answer, a minimizer again (kind, tang kept)
     else:
-        st, pi_full, kind, tang = slide_set_warm(W, vminus, b, mu, d, full, wkind[0],
-                                                 wtang[0], wpi[0], wvalid[0])
-        wvalid[0] = st == 1
+        st, pi_full = slide_set_kept(W, vminus, b, mu, d, full, wkind, wtang, wpi, wvalid, 0,
+                                     wvalid[0])
         if st != 1:
             return -1, 0
-        wkind[0, :n] = kind
-        wtang[0, :n] = tang
-        wpi[0] = pi_full
     if not admissible(W, absW, masks[0], pi_full, b, mu, d, cone_rtol, slack_max, tol):
         return -1, 0
     # the sets with no admissible impulse at all (their far contacts would sink)
@@ -449,10 +427,7 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
         if np.any(ok):
             return -1, 0
     R = dominance_rows(W, absW, b, d)
-    fe[0] = energy_change(W, vminus, pi_full)
-    fs[0] = 0
-    fpi[0] = pi_full
-    nf = 1
+    nf = add_candidate(fe, fs, fpi, 0, energy_change(W, vminus, pi_full), 0, pi_full)
     nn = 0
     Qw = np.empty((n, N + 1))
     rw = np.empty(N + 1)
@@ -467,21 +442,13 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
         if members.size >= 2:
             # cold: the smaller sets' warm starts fail as often as not on a sliding box
             # (a side's pair), and a cold program costs about what a warm one does
-            st, pi, kind, tang = slide_set_warm(W, vminus, b, mu, d, members, wkind[s],
-                                                wtang[s], wpi[s], False)
-            wvalid[s] = st == 1
-            if st == 1:
-                wkind[s, :members.size] = kind
-                wtang[s, :members.size] = tang
-                wpi[s] = pi
+            st, pi = slide_set_kept(W, vminus, b, mu, d, members, wkind, wtang, wpi, wvalid, s,
+                                    False)
             if not (st == 1 or st == -1):
                 needs[nn] = s
                 nn += 1
             elif admissible(W, absW, masks[s], pi, b, mu, d, cone_rtol, slack_max, tol):
-                fe[nf] = energy_change(W, vminus, pi)
-                fs[nf] = s
-                fpi[nf] = pi
-                nf += 1
+                nf = add_candidate(fe, fs, fpi, nf, energy_change(W, vminus, pi), s, pi)
             continue
         got, pi, ok, energy = single_candidate(W, absW, vminus, b, e, mu, d, members[0],
                                                masks[s], cone_rtol, slack_max, lo, hi)
@@ -489,8 +456,5 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
             needs[nn] = s
             nn += 1
         elif ok:
-            fe[nf] = energy
-            fs[nf] = s
-            fpi[nf] = pi
-            nf += 1
+            nf = add_candidate(fe, fs, fpi, nf, energy, s, pi)
     return nf, nn

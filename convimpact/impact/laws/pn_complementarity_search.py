@@ -56,7 +56,8 @@ import numpy as np
 from ...compiled import jit as _jit
 from .pn_complementarity_exclusion import excluded_sets
 from .pn_complementarity_kernels import relaxed_bounds, stick_tier
-from .pn_complementarity_prune import SINGLE_ACCURACY, pruned_search, single_candidate
+from .pn_complementarity_prune import (SINGLE_ACCURACY, add_candidate, pruned_search,
+                                       single_candidate)
 from .pn_complementarity_slide import slide_many_warm
 
 TINY = 1e-300
@@ -159,10 +160,7 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
                                      slack_max, SINGLE_ACCURACY)
         for t in range(kept.size):
             if ok[t]:
-                fe[nf] = energy[t]
-                fs[nf] = kept[t]
-                fpi[nf] = pis[t]
-                nf += 1
+                nf = add_candidate(fe, fs, fpi, nf, energy[t], kept[t], pis[t])
     vs = 0.0
     for a in range(N):
         vs = max(vs, abs(vminus[a]))
@@ -202,11 +200,8 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
             st = status[s]
             if st == 1 or st == -1:
                 if sok[s]:
-                    fe[nf] = senergy[s]
-                    fs[nf] = s
-                    fpi[nf] = spis[s]
+                    nf = add_candidate(fe, fs, fpi, nf, senergy[s], s, spis[s])
                     best_e = min(best_e, senergy[s])
-                    nf += 1
                 continue
             members = np.flatnonzero(masks[s])
             if members.size != 1:
@@ -217,11 +212,8 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
             if got == 2:
                 return FALLBACK, tier, fpi[0] * 0.0, none_i, none_b, 0, none_pi, none_i
             if ok_one:
-                fe[nf] = energy_one
-                fs[nf] = s
-                fpi[nf] = pi
-                best_e = min(best_e, fe[nf])
-                nf += 1
+                nf = add_candidate(fe, fs, fpi, nf, energy_one, s, pi)
+                best_e = min(best_e, energy_one)
     if nf == 0:
         return FALLBACK, tier, np.zeros(N), none_i, none_b, 0, none_pi, none_i
     # the pick

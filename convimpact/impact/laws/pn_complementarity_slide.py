@@ -32,7 +32,7 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ..problem.compiled_reduction import back_substitute
-from .pn_complementarity_kernels import admissible
+from .pn_complementarity_kernels import admissible, energy_change, submatrix
 from ..conic.polish_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_NEWTON, ZERO,
                                    active_set_newton, primary_kinds)
 
@@ -116,13 +116,9 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
     for a in range(na):
         for k in range(d):
             idx[a * d + k] = A[a] * d + k
-    W = np.empty((N, N))
-    q = np.empty(N)
+    W = submatrix(Wf, idx, N)
+    q = vf[idx]
     mu = np.empty(na)
-    for a in range(N):
-        q[a] = vf[idx[a]]
-        for c in range(N):
-            W[a, c] = Wf[idx[a], idx[c]]
     f = np.empty(na)
     for a in range(na):
         mu[a] = muf[A[a]]
@@ -226,18 +222,35 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
 
 
 @_jit
-def _project_out(Q, m, r, coef):
+def slide_set_kept(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, wvalid, s, warm):
+    """:func:`slide_set_warm` from set ``s``'s warm start (``wkind[s]``, ``wtang[s]``,
+    ``wpi[s]``; tried with ``warm``), its certified answer kept as set s's next one
+    (``wvalid[s]`` False where none): (status, pi)."""
+    st, pi, kind, tang = slide_set_warm(Wf, vf, bf, muf, d, A, wkind[s], wtang[s], wpi[s], warm)
+    wvalid[s] = st == 1
+    if st == 1:
+        wkind[s, :A.size] = kind
+        wtang[s, :A.size] = tang
+        wpi[s] = pi
+    return st, pi
+
+
+@_jit
+def project_out(Q, m, r, coef):
     """r minus its projection on the orthonormal rows ``Q[:m]``, in place (classical
-    Gram-Schmidt, twice), the coefficients taken out into ``coef[:m]``."""
+    Gram-Schmidt, twice), the coefficients taken out into ``coef[:m]`` (not kept where
+    ``coef`` is empty)."""
     N = r.shape[0]
-    for t in range(m):
+    keep = coef.size > 0
+    for t in range(m if keep else 0):
         coef[t] = 0.0
     for _ in range(2):
         for t in range(m):
             h = 0.0
             for a in range(N):
                 h += Q[t, a] * r[a]
-            coef[t] += h
+            if keep:
+                coef[t] += h
             for a in range(N):
                 r[a] -= h * Q[t, a]
 
@@ -327,7 +340,7 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
     m = 0
     for j in range(ncol):
         r = C[j]  # (in place: C's row j is not read again)
-        _project_out(Q, m, r, coef)
+        project_out(Q, m, r, coef)
         nr = 0.0
         for a in range(N):
             nr += r[a] * r[a]
@@ -343,7 +356,7 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
             return False
     y = np.zeros(m)
     res = u
-    _project_out(Q, m, res, y)
+    project_out(Q, m, res, y)
     for a in range(N):
         if not abs(res[a]) <= tolr:
             return False
@@ -392,16 +405,10 @@ def slide_many_warm(W, b, vminus, mu, d, sets, cone_rtol, slack_max, tol, wkind,
         A = np.flatnonzero(sets[s])
         if A.size < 2:
             continue
-        st, pi, kind, tang = slide_set_warm(W, vminus, b, mu, d, A, wkind[s], wtang[s],
-                                            wpi[s], wvalid[s])
+        st, pi = slide_set_kept(W, vminus, b, mu, d, A, wkind, wtang, wpi, wvalid, s, wvalid[s])
         status[s] = st
-        wvalid[s] = st == 1
-        if st == 1:
-            wkind[s, :A.size] = kind
-            wtang[s, :A.size] = tang
-            wpi[s] = pi
         if st == 1 or st == -1:
             pis[s] = pi
             ok[s] = admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol)
-            energy[s] = pi @ vminus + 0.5 * (pi @ (W @ pi))
+            energy[s] = energy_change(W, vminus, pi)
     return status, pis, ok, energy
