@@ -56,6 +56,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
+from .pn_complementarity_kernels import tangent_sq
 
 #: the margin R0 must keep below zero, relative to |c0| (for the round-off of forming c, c0)
 EXCLUSION_RTOL = 1e-8
@@ -110,10 +111,7 @@ def _closes(W, member, mu, d, c, c0, bmax, theta, cone_rtol, rho0, rho1, xin, fa
         o = i * d
         mup = mu[i] * (1.0 + cone_rtol)
         mu_max = max(mu_max, mup)
-        ct2 = 0.0
-        for k in range(1, d):
-            ct2 += c[o + k] ** 2
-        ct = np.sqrt(ct2)
+        ct = np.sqrt(tangent_sq(c, o, d))
         kappa_min = min(kappa_min, -(c[o] + mup * ct))
         cni = abs(c[o]) + ct
         cmax = max(cmax, cni)
@@ -228,7 +226,8 @@ def _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slippin
         c[r] = acc
     rho1 = LU_RESIDUAL * np.sqrt(fro2)
     theta = max(tol, slack_max)
-    return _closes(W, member, mu, d, c, c0, bmax, theta, cone_rtol, STICK_RESIDUAL * np.sqrt(bnorm2), rho1, np.sqrt(xin2), 0.0, 0, 0.0)
+    return _closes(W, member, mu, d, c, c0, bmax, theta, cone_rtol,
+                   STICK_RESIDUAL * np.sqrt(bnorm2), rho1, np.sqrt(xin2), 0.0, 0, 0.0)
 
 
 @_jit

@@ -31,6 +31,16 @@ TINY = 1e-300
 
 
 @_jit
+def tangent_sq(x, o, d):
+    """``|x_t|^2`` of the contact whose rows start at ``o``: ``x[o + 1:o + d]`` squared and
+    summed, in order."""
+    acc = 0.0
+    for k in range(1, d):
+        acc += x[o + k] ** 2
+    return acc
+
+
+@_jit
 def energy_change(W, vminus, pi):
     """``T+ - T- = pi.v- + 1/2 pi.W.pi``."""
     return pi @ vminus + 0.5 * (pi @ (W @ pi))
@@ -186,9 +196,7 @@ def admissible(W, absW, A, pi, b, mu, d, cone_rtol, slack_max, tol):
         slack = max(tol * size, min(roundoff, slack_max * size))
         if A[i]:
             pn = pi[i * d]
-            pt2 = 0.0
-            for k in range(1, d):
-                pt2 += pi[i * d + k] ** 2
+            pt2 = tangent_sq(pi, i * d, d)
             pt = np.sqrt(pt2)
             pnorm = np.sqrt(pn * pn + pt2)
             ptol = max(tol * pnorm, slack / W[i * d, i * d])

@@ -30,26 +30,21 @@ island's contacts see: ``null J_A = null J``; on a box: three corners or four) s
 ``f`` over every impulse (``f(pi) - min f = 1/2 u.W^+.u``), and if admissible it is feasible
 for P_N(full), so ``min f >= f(pi*) >= min f + 1/2 u*.W^+.u*``: impossible while the full
 set's answer still slips, ``1/2 |u*|^2 / tr W > 1e-6`` of the law's energy scale (a margin
-far above the programs' round-off). Before that, every stick set whose sticking impulse certainly leaves a cone is
-excluded whatever the restitution (:func:`stick_clearly_inadmissible`: W_SS factored by
-Cholesky where its condition is below 1e4, so that the law's LU solve and this one differ by
-far less than the margin the test keeps, 1e-8 of the impulse; on a sliding box: the lone
-corners, whose sticking needs a friction many times mu). The stick sets left (rank W_AA
-judged by Gram-Schmidt with a clear gap, else not excluded) run the law's stick tier; any
-admissible one hands the decision to the law's own search.
+far above the programs' round-off). Before that, every stick set whose sticking impulse
+certainly leaves a cone is excluded whatever the restitution
+(:func:`stick_clearly_inadmissible`; on a sliding box: the lone corners, whose sticking needs
+a friction many times mu). The stick sets left (rank W_AA judged by Gram-Schmidt with a clear
+gap, else not excluded) run the law's stick tier; any admissible one hands the decision to
+the law's own search.
 
-**Sets with no admissible impulse** (:mod:`.pn_complementarity_exclusion`): before any
-other test, the sets whose far contacts would have to sink (on a sliding box the edges and
-the lone corners: no impulse on them passes the law's admissibility test) are neither stuck
-nor slid, and the stick sets whose sticking would need more friction than the cones give
-(on a box sliding at 2 m/s: all of them) are not stuck; the screens and the rank argument
-then run only on the stick sets left. Both are certificates on ``W``, ``b`` and the law's
-tolerances, not heuristics: an excluded set has no candidate the law could rank.
+**Sets with no admissible impulse** (:mod:`.pn_complementarity_exclusion`'s certificates,
+before any other test): neither stuck nor slid, and the stick sets certified to have no
+admissible sticking impulse not stuck; the screens and the rank argument then run only on
+the stick sets left.
 
 **The full set's program re-certified.** Where the previous step's answer of the full set
 is still a KKT point of this step's program (:func:`~.pn_complementarity_slide.
-warm_kkt_point`; a box sliding straight: the same normal impulses and friction direction
-every step) it is the minimizer, taken without the Newton.
+warm_kkt_point`) it is the minimizer, taken without the Newton.
 
 **Cold smaller sets.** The sets not dominated are solved from the law's own guesses (not
 from the previous step's answer): on a sliding box a side's pair rejects its warm start on
@@ -67,20 +62,16 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
-from .codes import OK as KERNEL_OK
+from .codes import OK as KERNEL_OK, OUT_SIZE
 from .pereira_nikravesh_kernel import _pn_planar, _pn_spatial
 from ..problem.compiled_reduction import back_substitute
 from .pn_complementarity_exclusion import excluded_sets
-from .pn_complementarity_kernels import (admissible, energy_change, set_rows, stick_tier,
-                                         sub_cholesky, submatrix)
+from .pn_complementarity_kernels import (EPS, TINY, admissible, energy_change, set_rows,
+                                         stick_tier, sub_cholesky, submatrix, tangent_sq)
 from .pn_complementarity_slide import project_out, slide_set_kept, warm_kkt_point
 
-TINY = 1e-300
-EPS = float(np.finfo(float).eps)
 #: the admissibility tolerance of the stick tier and of one-contact slides
 SINGLE_ACCURACY = 1e-10
-#: the out buffer of the single-contact kernels (laws.codes.OUT_SIZE)
-OUT_SIZE = 32
 #: the slip the full set's answer must keep for the stick sets' exclusion: 1/2 |u*|^2 / tr W
 #: over the law's energy scale
 STICK_EXCLUSION_MARGIN = 1e-6
@@ -321,9 +312,7 @@ def stick_clearly_inadmissible(W, b, mu, d, member, cone_rtol, slack_max, tol):
             roundoff = max(roundoff, 1e2 * EPS * ro)
         slack = max(tol * size, min(roundoff, slack_max * size))
         pn = pi[i * d]
-        pt2 = 0.0
-        for k in range(1, d):
-            pt2 += pi[i * d + k] ** 2
+        pt2 = tangent_sq(pi, i * d, d)
         pt = np.sqrt(pt2)
         wii = W[i * d, i * d]
         ptol = max(tol * np.sqrt(pn * pn + pt2), slack / wii)

@@ -24,10 +24,8 @@ does alike, step for step:
    the order; the candidates with other velocities are reported (the law's warning).
 
 **Warm starts** (:class:`SlideWarmStart`, a time stepper's island): each slide program is
-first tried from the active set of its cones and the impulse of the previous call
-(:func:`~.pn_complementarity_slide.slide_set_warm`); an accepted Newton answer is a KKT point
-of the convex program, hence a minimizer, with the velocities and energy of the cold one
-(where redundant contacts leave a family of minimizers, possibly another member).
+first tried from its answer of the previous call, a minimizer again wherever accepted
+(:func:`~.pn_complementarity_slide.slide_set_warm`).
 
 **The pruned search** (``prune``, for a time stepper whose island slid on every contact on
 the step before): :func:`~.pn_complementarity_prune.pruned_search`, without the stick sets
@@ -55,12 +53,11 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from .pn_complementarity_exclusion import excluded_sets
-from .pn_complementarity_kernels import relaxed_bounds, stick_tier
+from .pn_complementarity_kernels import TINY, relaxed_bounds, stick_tier
 from .pn_complementarity_prune import (SINGLE_ACCURACY, add_candidate, pruned_search,
                                        single_candidate)
 from .pn_complementarity_slide import slide_many_warm
 
-TINY = 1e-300
 #: statuses of :func:`search`
 DONE, FALLBACK, NEEDS = 0, 1, 2
 #: tiers of :func:`search`
@@ -86,32 +83,26 @@ def _slide_tier(W, b, vminus, mu, d, masks, cone_rtol, slack_max, tol, wkind, wt
     """The relaxed bounds and :func:`~.pn_complementarity_slide.slide_many_warm` on the sets
     not in ``skip`` (those: bound +inf, not solved, their warm starts dropped)."""
     ns = masks.shape[0]
-    N = W.shape[0]
     kept = np.flatnonzero(~skip)
-    bounds = np.full(ns, np.inf)
-    status = np.full(ns, -3, dtype=np.int64)
-    spis = np.zeros((ns, N))
-    sok = np.zeros(ns, dtype=np.bool_)
-    senergy = np.zeros(ns)
     sub = masks[kept]
-    kb = relaxed_bounds(W, b, vminus, mu, d, sub)
+    bounds = np.full(ns, np.inf)
+    bounds[kept] = relaxed_bounds(W, b, vminus, mu, d, sub)
     kk, kt, kp, kv = wkind[kept], wtang[kept], wpi[kept], wvalid[kept]
     st, pis, ok, energy = slide_many_warm(W, b, vminus, mu, d, sub, cone_rtol, slack_max, tol,
                                           kk, kt, kp, kv)
-    for t in range(kept.size):
-        s = kept[t]
-        bounds[s] = kb[t]
-        status[s] = st[t]
-        spis[s] = pis[t]
-        sok[s] = ok[t]
-        senergy[s] = energy[t]
-        wkind[s] = kk[t]
-        wtang[s] = kt[t]
-        wpi[s] = kp[t]
-        wvalid[s] = kv[t]
-    for s in range(ns):
-        if skip[s]:
-            wvalid[s] = False
+    status = np.full(ns, -3, dtype=np.int64)
+    status[kept] = st
+    spis = np.zeros((ns, W.shape[0]))
+    spis[kept] = pis
+    sok = np.zeros(ns, dtype=np.bool_)
+    sok[kept] = ok
+    senergy = np.zeros(ns)
+    senergy[kept] = energy
+    wkind[kept] = kk
+    wtang[kept] = kt
+    wpi[kept] = kp
+    wvalid[:] = False
+    wvalid[kept] = kv
     return bounds, status, spis, sok, senergy
 
 
@@ -162,10 +153,9 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
             if ok[t]:
                 nf = add_candidate(fe, fs, fpi, nf, energy[t], kept[t], pis[t])
     vs = 0.0
-    for a in range(N):
-        vs = max(vs, abs(vminus[a]))
     big = 0.0
     for a in range(N):
+        vs = max(vs, abs(vminus[a]))
         big = max(big, abs(W[a, a]))
     escale = max(0.5 * vs * vs / big, TINY)
     if prune:

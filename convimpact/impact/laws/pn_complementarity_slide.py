@@ -32,12 +32,11 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ..problem.compiled_reduction import back_substitute
-from .pn_complementarity_kernels import admissible, energy_change, submatrix
+from .pn_complementarity_kernels import (EPS, TINY, admissible, energy_change, submatrix,
+                                         tangent_sq)
 from ..conic.polish_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_NEWTON, ZERO,
                                    active_set_newton, primary_kinds)
 
-EPS = float(np.finfo(float).eps)
-TINY = 1e-300
 #: :func:`warm_kkt_point`: the residuals of the KKT conditions accepted, relative to
 #: ``max(|v-|, |b|, |W| |pi|)`` (the polish's POLISH_ACCEPT), and a contact read as on its
 #: cone's boundary within this of ``mu pn`` (relative)
@@ -68,10 +67,7 @@ def _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor):
             kind[i] = ZERO
             continue
         r = max(relaxed[o], r_floor)
-        s2 = 0.0
-        for a in range(1, d):
-            s2 += q[o + a] ** 2
-        sn = np.sqrt(s2)
+        sn = np.sqrt(tangent_sq(q, o, d))
         x0[o] = r
         if mu[i] == 0.0:
             kind[i] = ACT
@@ -272,15 +268,13 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
     n = mu.size
     N = n * d
     X = 0.0
-    for a in range(N):
-        X = max(X, abs(pi[a]))
     wmax = 0.0
-    for a in range(N):
-        for c in range(N):
-            wmax = max(wmax, abs(W[a, c]))
     bmax = 0.0
     for a in range(N):
+        X = max(X, abs(pi[a]))
         bmax = max(bmax, max(abs(b[a]), abs(vminus[a])))
+        for c in range(N):
+            wmax = max(wmax, abs(W[a, c]))
     tolr = KKT_RTOL * max(bmax, wmax * X, TINY)
     u = np.empty(N)
     for a in range(N):
@@ -297,10 +291,7 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
             return False
         if not abs(u[o] + b[o]) <= tolr:
             return False
-        pt2 = 0.0
-        for k in range(1, d):
-            pt2 += pi[o + k] ** 2
-        pt = np.sqrt(pt2)
+        pt = np.sqrt(tangent_sq(pi, o, d))
         if not pt <= mu[i] * pn * (1.0 + cone_rtol):
             return False
         if pt >= mu[i] * pn * (1.0 - BOUNDARY_RTOL):
@@ -315,10 +306,7 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
     for i in range(n):
         if bnd[i]:
             o = i * d
-            pt2 = 0.0
-            for c in range(1, d):
-                pt2 += pi[o + c] ** 2
-            pt = np.sqrt(pt2)
+            pt = np.sqrt(tangent_sq(pi, o, d))
             C[k, o] = mu[i]
             for c in range(1, d):
                 C[k, o + c] = -pi[o + c] / pt
