@@ -179,6 +179,10 @@ def _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, c, A):
             if member[i]:
                 for r in range(i * d, i * d + d):
                     c[r] += W[j * d, r]
+    for i in range(n):  # (the push must press every member down: else no need for Omega)
+        if member[i] and not c[i * d] + mu[i] * (1.0 + cone_rtol) * np.sqrt(
+                tangent_sq(c, i * d, d)) < 0.0:
+            return False
     omega = 0.0  # the largest sum of |W| over a row and a member contact's columns
     for r in range(N):
         for i in range(n):

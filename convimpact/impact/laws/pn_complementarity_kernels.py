@@ -23,17 +23,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...compiled import jit as _jit
+from ...compiled import jit as _jit, jit_inline
 from ..problem.compiled_reduction import cholesky_into
 
 EPS = float(np.finfo(float).eps)
 TINY = 1e-300
 
 
-@_jit
+@jit_inline
 def tangent_sq(x, o, d):
     """``|x_t|^2`` of the contact whose rows start at ``o``: ``x[o + 1:o + d]`` squared and
-    summed, in order."""
+    summed, in order (inlined: its callers' loops call it per contact)."""
     acc = 0.0
     for k in range(1, d):
         acc += x[o + k] ** 2

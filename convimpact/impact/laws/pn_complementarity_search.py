@@ -83,26 +83,32 @@ def _slide_tier(W, b, vminus, mu, d, masks, cone_rtol, slack_max, tol, wkind, wt
     """The relaxed bounds and :func:`~.pn_complementarity_slide.slide_many_warm` on the sets
     not in ``skip`` (those: bound +inf, not solved, their warm starts dropped)."""
     ns = masks.shape[0]
+    N = W.shape[0]
     kept = np.flatnonzero(~skip)
-    sub = masks[kept]
     bounds = np.full(ns, np.inf)
-    bounds[kept] = relaxed_bounds(W, b, vminus, mu, d, sub)
+    status = np.full(ns, -3, dtype=np.int64)
+    spis = np.zeros((ns, N))
+    sok = np.zeros(ns, dtype=np.bool_)
+    senergy = np.zeros(ns)
+    sub = masks[kept]
+    kb = relaxed_bounds(W, b, vminus, mu, d, sub)
     kk, kt, kp, kv = wkind[kept], wtang[kept], wpi[kept], wvalid[kept]
     st, pis, ok, energy = slide_many_warm(W, b, vminus, mu, d, sub, cone_rtol, slack_max, tol,
                                           kk, kt, kp, kv)
-    status = np.full(ns, -3, dtype=np.int64)
-    status[kept] = st
-    spis = np.zeros((ns, W.shape[0]))
-    spis[kept] = pis
-    sok = np.zeros(ns, dtype=np.bool_)
-    sok[kept] = ok
-    senergy = np.zeros(ns)
-    senergy[kept] = energy
-    wkind[kept] = kk
-    wtang[kept] = kt
-    wpi[kept] = kp
-    wvalid[:] = False
-    wvalid[kept] = kv
+    for t in range(kept.size):
+        s = kept[t]
+        bounds[s] = kb[t]
+        status[s] = st[t]
+        spis[s] = pis[t]
+        sok[s] = ok[t]
+        senergy[s] = energy[t]
+        wkind[s] = kk[t]
+        wtang[s] = kt[t]
+        wpi[s] = kp[t]
+        wvalid[s] = kv[t]
+    for s in range(ns):
+        if skip[s]:
+            wvalid[s] = False
     return bounds, status, spis, sok, senergy
 
 

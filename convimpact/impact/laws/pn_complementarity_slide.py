@@ -114,9 +114,10 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
             idx[a * d + k] = A[a] * d + k
     W = submatrix(Wf, idx, N)
     q = vf[idx]
-    mu = muf[A]
+    mu = np.empty(na)
     f = np.empty(na)
     for a in range(na):
+        mu[a] = muf[A[a]]
         f[a] = -bf[A[a] * d]
     pi = np.zeros(Wf.shape[0])
     # equilibration (conic.qp.equilibrated)
@@ -153,10 +154,13 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
     if warm:
         kind = wkind[:na].copy()
         tang = wtang[:na].copy()
-        x0 = wpi[idx] / scale
+        x0 = np.empty(N)
+        for a in range(N):
+            x0[a] = wpi[idx[a]] / scale[a]
         x, ok = _kkt(W, q, E, f, mu, d, kind, tang, x0, POLISH_MAX_NEWTON, False)
         if ok:
-            pi[idx] = x * scale
+            for a in range(N):
+                pi[idx[a]] = x[a] * scale[a]
             return 1, pi, kind, tang
     # the program without the cones, for the starts
     K = np.zeros((N + na, N + na))
@@ -208,7 +212,8 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
                 break
     if not ok:
         return 0, pi, no_kind, no_tang
-    pi[idx] = x * scale
+    for a in range(N):
+        pi[idx[a]] = x[a] * scale[a]
     return 1, pi, kind, tang
 
 
