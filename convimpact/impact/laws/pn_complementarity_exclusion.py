@@ -56,7 +56,6 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
-from .pn_complementarity_kernels import tangent_sq
 
 #: the margin R0 must keep below zero, relative to |c0| (for the round-off of forming c, c0)
 EXCLUSION_RTOL = 1e-8
@@ -67,13 +66,10 @@ LU_RESIDUAL = 1e-10
 
 
 @_jit
-def _contact_data(W, b, mu, d):
+def _contact_data(W, b, mu, d, bmax, xi, slipping):
     """Per contact: ``|b|_c`` (largest |b| on its rows), the sticking certificate's virtual
     impulse ``xi`` and whether it applies (frictional, slipping, ``W_nn > 0``)."""
     n = mu.size
-    bmax = np.empty(n)
-    xi = np.empty(W.shape[0])
-    slipping = np.empty(n, dtype=np.bool_)
     for i in range(n):
         o = i * d
         bt2 = 0.0
@@ -87,16 +83,15 @@ def _contact_data(W, b, mu, d):
         kap = (2.0 * max(-b[o], 0.0) + 1e-3 * np.sqrt(bt2 + b[o] ** 2)) / bt if bt > 0.0 else 0.0
         for k in range(1, d):
             xi[o + k] = -kap * b[o + k] / bt if bt > 0.0 else 0.0
-    return bmax, xi, slipping
 
 
 @_jit
-def _closes(W, member, mu, d, c, c0, bmax, theta, cone_rtol, rho0, rho1, xin, far_b, n_far,
-            omega):
+def _closes(W, member, mu, d, c, c0, bmax, tol, theta, cone_rtol, rho0, rho1, xin, far_b,
+            n_far, omega):
     """The common end of both certificates: with ``c`` (the virtual push's velocities on the
-    set's rows) and ``c0``, whether ``R0 < 0`` and ``K1 A1 <= kappa_min`` (module docstring,
-    ``tol`` taken as ``theta``; ``rho0 + rho1 Pi`` the residual allowed on the set's rows,
-    ``xin`` |xi|, ``far_b`` and ``n_far``, ``omega`` the far contacts' terms)."""
+    set's rows) and ``c0``, whether ``R0 < 0`` and ``K1 A1 <= kappa_min`` (module docstring;
+    ``rho0 + rho1 Pi`` the residual allowed on the set's rows, ``xin`` |xi|, ``far_b`` and
+    ``n_far``, ``omega`` the far contacts' terms)."""
     n = mu.size
     kappa_min = np.inf
     cmax = 0.0
@@ -111,7 +106,10 @@ def _closes(W, member, mu, d, c, c0, bmax, theta, cone_rtol, rho0, rho1, xin, fa
         o = i * d
         mup = mu[i] * (1.0 + cone_rtol)
         mu_max = max(mu_max, mup)
-        ct = np.sqrt(tangent_sq(c, o, d))
+        ct2 = 0.0
+        for k in range(1, d):
+            ct2 += c[o + k] ** 2
+        ct = np.sqrt(ct2)
         kappa_min = min(kappa_min, -(c[o] + mup * ct))
         cni = abs(c[o]) + ct
         cmax = max(cmax, cni)
@@ -123,12 +121,12 @@ def _closes(W, member, mu, d, c, c0, bmax, theta, cone_rtol, rho0, rho1, xin, fa
     if not kappa_min > 0.0:
         return False
     growth = rho1 + omega  # |W pi| on a row per unit of Pi: the residual's, or the far rows'
-    eps1 = 2.0 * theta + 2.0 * theta * rho1 * inv_w + 2.0 * theta * omega * inv_w
+    eps1 = 2.0 * tol + 2.0 * theta * rho1 * inv_w + 2.0 * theta * omega * inv_w
     if not eps1 < 0.5:
         return False
     a1 = (1.0 + mu_max) / (1.0 - eps1)
     a0 = 2.0 * theta * bw / (1.0 - eps1)
-    k1 = xin * rho1 + theta * omega * n_far + cmax * theta + theta * growth * cw
+    k1 = xin * rho1 + theta * omega * n_far + cmax * tol + theta * growth * cw
     if not k1 * a1 <= kappa_min:
         return False
     r0 = c0 + xin * rho0 + theta * far_b + theta * cbw + k1 * a0
@@ -180,17 +178,21 @@ def _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, c, A):
                 for r in range(i * d, i * d + d):
                     c[r] += W[j * d, r]
     for i in range(n):  # (the push must press every member down: else no need for Omega)
-        if member[i] and not c[i * d] + mu[i] * (1.0 + cone_rtol) * np.sqrt(
-                tangent_sq(c, i * d, d)) < 0.0:
-            return False
+        if member[i]:
+            o = i * d
+            ct2 = 0.0
+            for k in range(1, d):
+                ct2 += c[o + k] ** 2
+            if not c[o] + mu[i] * (1.0 + cone_rtol) * np.sqrt(ct2) < 0.0:
+                return False
     omega = 0.0  # the largest sum of |W| over a row and a member contact's columns
     for r in range(N):
         for i in range(n):
             if member[i]:
                 omega = max(omega, A[r, i])
     theta = max(tol, slack_max)
-    return _closes(W, member, mu, d, c, c0, bmax, theta, cone_rtol, 0.0, 0.0, 0.0, far_b,
-                   n_far, omega)
+    return _closes(W, member, mu, d, c, c0, bmax, theta, theta, cone_rtol, 0.0,
+                   0.0, 0.0, far_b, n_far, omega)
 
 
 @_jit
@@ -230,7 +232,7 @@ def _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slippin
         c[r] = acc
     rho1 = LU_RESIDUAL * np.sqrt(fro2)
     theta = max(tol, slack_max)
-    return _closes(W, member, mu, d, c, c0, bmax, theta, cone_rtol,
+    return _closes(W, member, mu, d, c, c0, bmax, theta, theta, cone_rtol,
                    STICK_RESIDUAL * np.sqrt(bnorm2), rho1, np.sqrt(xin2), 0.0, 0, 0.0)
 
 
@@ -240,9 +242,13 @@ def no_admissible_impulse(W, b, mu, d, member, tol, slack_max, cone_rtol):
     admissibility test at tolerance ``tol`` (module docstring: the far contacts would have
     to sink). False also where the argument does not apply (no far contact, a zero
     ``W_ii``, a push that does not press the set down)."""
-    bmax = _contact_data(W, b, mu, d)[0]
+    n = mu.size
+    bmax = np.empty(n)
+    xi = np.empty(W.shape[0])
+    slipping = np.empty(n, dtype=np.bool_)
+    _contact_data(W, b, mu, d, bmax, xi, slipping)
     return _far_sink(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax,
-                     np.empty(W.shape[0]), _row_sums(W, mu.size, d))
+                     np.empty(W.shape[0]), _row_sums(W, n, d))
 
 
 @_jit
@@ -250,7 +256,11 @@ def no_sticking_impulse(W, b, mu, d, member, tol, slack_max, cone_rtol):
     """Whether the law's stick tier can find no admissible sticking impulse on the contacts
     of ``member`` (every one frictional and slipping, ``b_t != 0``): the second certificate
     of the module docstring."""
-    bmax, xi, slipping = _contact_data(W, b, mu, d)
+    n = mu.size
+    bmax = np.empty(n)
+    xi = np.empty(W.shape[0])
+    slipping = np.empty(n, dtype=np.bool_)
+    _contact_data(W, b, mu, d, bmax, xi, slipping)
     return _stuck_out(W, b, mu, d, member, tol, slack_max, cone_rtol, bmax, xi, slipping,
                       np.empty(W.shape[0]))
 
@@ -264,8 +274,11 @@ def excluded_sets(W, b, mu, d, masks, tol, slack_max, cone_rtol):
     n = mu.size
     N = W.shape[0]
     ns = masks.shape[0]
+    bmax = np.empty(n)
+    xi = np.empty(N)
+    slipping = np.empty(n, dtype=np.bool_)
     c = np.empty(N)
-    bmax, xi, slipping = _contact_data(W, b, mu, d)
+    _contact_data(W, b, mu, d, bmax, xi, slipping)
     A = _row_sums(W, n, d)
     none = np.zeros(ns, dtype=np.bool_)
     stick = np.zeros(ns, dtype=np.bool_)
