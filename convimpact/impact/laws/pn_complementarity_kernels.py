@@ -23,27 +23,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...compiled import jit as _jit, jit_inline
+from ...compiled import jit as _jit
 from ..problem.compiled_reduction import cholesky_into
 
 EPS = float(np.finfo(float).eps)
 TINY = 1e-300
-
-
-@jit_inline
-def tangent_sq(x, o, d):
-    """``|x_t|^2`` of the contact whose rows start at ``o``: ``x[o + 1:o + d]`` squared and
-    summed, in order (inlined: its callers' loops call it per contact)."""
-    acc = 0.0
-    for k in range(1, d):
-        acc += x[o + k] ** 2
-    return acc
-
-
-@_jit
-def energy_change(W, vminus, pi):
-    """``T+ - T- = pi.v- + 1/2 pi.W.pi``."""
-    return pi @ vminus + 0.5 * (pi @ (W @ pi))
 
 
 @_jit
@@ -61,22 +45,16 @@ def _consistent(A, x, r, rtol):
 
 
 @_jit
-def submatrix(A, idx, m):
-    """``A[idx[:m]][:, idx[:m]]``, by loops."""
-    S = np.empty((m, m))
-    for i in range(m):
-        for j in range(m):
-            S[i, j] = A[idx[i], idx[j]]
-    return S
-
-
-@_jit
 def sub_cholesky(A, idx, m, L):
     """The lower Cholesky factor of ``A[idx[:m]][:, idx[:m]]`` into ``L[:m, :m]`` (zeros
     above the diagonal on entry), by the package's one Cholesky
     (:func:`~convimpact.impact.problem.compiled_reduction.cholesky_into`); False at the first
     pivot that is not positive."""
-    return cholesky_into(submatrix(A, idx, m), L, m, 0.0)
+    S = np.empty((m, m))
+    for i in range(m):
+        for j in range(m):
+            S[i, j] = A[idx[i], idx[j]]
+    return cholesky_into(S, L, m, 0.0)
 
 
 @_jit
@@ -116,7 +94,8 @@ def stick_tier(W, b, vminus, mu, d, sets, cond_max, cone_rtol, slack_max, tol):
             pi[rows[a]] = x[a]
         if admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol):
             ok[s] = True
-            energy[s] = energy_change(W, vminus, pi)
+            Wpi = W @ pi
+            energy[s] = pi @ vminus + 0.5 * (pi @ Wpi)
             pis[s] = pi
     return ok, energy, pis
 
@@ -196,7 +175,9 @@ def admissible(W, absW, A, pi, b, mu, d, cone_rtol, slack_max, tol):
         slack = max(tol * size, min(roundoff, slack_max * size))
         if A[i]:
             pn = pi[i * d]
-            pt2 = tangent_sq(pi, i * d, d)
+            pt2 = 0.0
+            for k in range(1, d):
+                pt2 += pi[i * d + k] ** 2
             pt = np.sqrt(pt2)
             pnorm = np.sqrt(pn * pn + pt2)
             ptol = max(tol * pnorm, slack / W[i * d, i * d])
@@ -240,6 +221,6 @@ def relaxed_bounds(W, b, vminus, mu, d, sets):
         pi = np.zeros(N)
         for a in range(m):
             pi[rows[a]] = sol[a]
-        out[s] = energy_change(W, vminus, pi)
+        out[s] = pi @ vminus + 0.5 * (pi @ (W @ pi))
     return out
 

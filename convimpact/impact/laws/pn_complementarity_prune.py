@@ -30,21 +30,26 @@ island's contacts see: ``null J_A = null J``; on a box: three corners or four) s
 ``f`` over every impulse (``f(pi) - min f = 1/2 u.W^+.u``), and if admissible it is feasible
 for P_N(full), so ``min f >= f(pi*) >= min f + 1/2 u*.W^+.u*``: impossible while the full
 set's answer still slips, ``1/2 |u*|^2 / tr W > 1e-6`` of the law's energy scale (a margin
-far above the programs' round-off). Before that, every stick set whose sticking impulse
-certainly leaves a cone is excluded whatever the restitution
-(:func:`stick_clearly_inadmissible`; on a sliding box: the lone corners, whose sticking needs
-a friction many times mu). The stick sets left (rank W_AA judged by Gram-Schmidt with a clear
-gap, else not excluded) run the law's stick tier; any admissible one hands the decision to
-the law's own search.
+far above the programs' round-off). Before that, every stick set whose sticking impulse certainly leaves a cone is
+excluded whatever the restitution (:func:`stick_clearly_inadmissible`: W_SS factored by
+Cholesky where its condition is below 1e4, so that the law's LU solve and this one differ by
+far less than the margin the test keeps, 1e-8 of the impulse; on a sliding box: the lone
+corners, whose sticking needs a friction many times mu). The stick sets left (rank W_AA
+judged by Gram-Schmidt with a clear gap, else not excluded) run the law's stick tier; any
+admissible one hands the decision to the law's own search.
 
-**Sets with no admissible impulse** (:mod:`.pn_complementarity_exclusion`'s certificates,
-before any other test): neither stuck nor slid, and the stick sets certified to have no
-admissible sticking impulse not stuck; the screens and the rank argument then run only on
-the stick sets left.
+**Sets with no admissible impulse** (:mod:`.pn_complementarity_exclusion`): before any
+other test, the sets whose far contacts would have to sink (on a sliding box the edges and
+the lone corners: no impulse on them passes the law's admissibility test) are neither stuck
+nor slid, and the stick sets whose sticking would need more friction than the cones give
+(on a box sliding at 2 m/s: all of them) are not stuck; the screens and the rank argument
+then run only on the stick sets left. Both are certificates on ``W``, ``b`` and the law's
+tolerances, not heuristics: an excluded set has no candidate the law could rank.
 
 **The full set's program re-certified.** Where the previous step's answer of the full set
 is still a KKT point of this step's program (:func:`~.pn_complementarity_slide.
-warm_kkt_point`) it is the minimizer, taken without the Newton.
+warm_kkt_point`; a box sliding straight: the same normal impulses and friction direction
+every step) it is the minimizer, taken without the Newton.
 
 **Cold smaller sets.** The sets not dominated are solved from the law's own guesses (not
 from the previous step's answer): on a sliding box a side's pair rejects its warm start on
@@ -62,16 +67,19 @@ from __future__ import annotations
 import numpy as np
 
 from ...compiled import jit as _jit
-from .codes import OK as KERNEL_OK, OUT_SIZE
+from .codes import OK as KERNEL_OK
 from .pereira_nikravesh_kernel import _pn_planar, _pn_spatial
 from ..problem.compiled_reduction import back_substitute
 from .pn_complementarity_exclusion import excluded_sets
-from .pn_complementarity_kernels import (EPS, TINY, admissible, energy_change, set_rows,
-                                         stick_tier, sub_cholesky, submatrix, tangent_sq)
-from .pn_complementarity_slide import project_out, slide_set_kept, warm_kkt_point
+from .pn_complementarity_kernels import admissible, set_rows, stick_tier, sub_cholesky
+from .pn_complementarity_slide import slide_set_warm, warm_kkt_point
 
+TINY = 1e-300
+EPS = float(np.finfo(float).eps)
 #: the admissibility tolerance of the stick tier and of one-contact slides
 SINGLE_ACCURACY = 1e-10
+#: the out buffer of the single-contact kernels (laws.codes.OUT_SIZE)
+OUT_SIZE = 32
 #: the slip the full set's answer must keep for the stick sets' exclusion: 1/2 |u*|^2 / tr W
 #: over the law's energy scale
 STICK_EXCLUSION_MARGIN = 1e-6
@@ -87,13 +95,9 @@ SCREEN_ERROR = 1e-8
 
 
 @_jit
-def add_candidate(fe, fs, fpi, nf, energy, s, pi):
-    """The search's candidate ``nf``: energy ``T+ - T-``, set index ``s``, impulse ``pi``;
-    returns ``nf + 1``."""
-    fe[nf] = energy
-    fs[nf] = s
-    fpi[nf] = pi
-    return nf + 1
+def energy_change(W, vminus, pi):
+    """``T+ - T- = pi.v- + 1/2 pi.W.pi``."""
+    return pi @ vminus + 0.5 * (pi @ (W @ pi))
 
 
 @_jit
@@ -154,6 +158,20 @@ def _dot(a, b):
 
 
 @_jit
+def _project_out(r, Q, k):
+    """r minus its projection on the orthonormal rows ``Q[:k]``, twice (for round-off), in
+    place."""
+    L = r.size
+    for _ in range(2):
+        for t in range(k):
+            c = 0.0
+            for x in range(L):
+                c += Q[t, x] * r[x]
+            for x in range(L):
+                r[x] -= c * Q[t, x]
+
+
+@_jit
 def dominance_rows(W, absW, b, d):
     """The rows ``[W_n | b_n]`` the dominance tests compare (:func:`dominated_into`): each
     contact's normal row of W and its b, b rescaled to W's largest entry (``absW = |W|``)."""
@@ -193,7 +211,7 @@ def dominated_into(R, member, Q, r, outside):
     for i in range(n):
         if member[i]:
             r[:] = R[i]
-            project_out(Q, k, r, r[:0])
+            _project_out(r, Q, k)
             nr = np.sqrt(_dot(r, r))
             if nr > cut:
                 for x in range(L):  # (loops, not array expressions: no temporaries)
@@ -203,7 +221,7 @@ def dominated_into(R, member, Q, r, outside):
     for j in range(n):
         if not member[j]:
             r[:] = R[j]
-            project_out(Q, k, r, r[:0])
+            _project_out(r, Q, k)
             nr = np.sqrt(_dot(r, r))
             if nr > cut:
                 if count == 2:
@@ -236,7 +254,7 @@ def rank_clear(A):
     k = 0
     for c in range(m):
         r = A[c].copy()
-        project_out(Q, k, r, r[:0])
+        _project_out(r, Q, k)
         nr = np.sqrt(_dot(r, r))
         if nr > RANK_INDEPENDENT * scale:
             Q[k] = r / nr
@@ -312,7 +330,9 @@ def stick_clearly_inadmissible(W, b, mu, d, member, cone_rtol, slack_max, tol):
             roundoff = max(roundoff, 1e2 * EPS * ro)
         slack = max(tol * size, min(roundoff, slack_max * size))
         pn = pi[i * d]
-        pt2 = tangent_sq(pi, i * d, d)
+        pt2 = 0.0
+        for k in range(1, d):
+            pt2 += pi[i * d + k] ** 2
         pt = np.sqrt(pt2)
         wii = W[i * d, i * d]
         ptol = max(tol * np.sqrt(pn * pn + pt2), slack / wii)
@@ -343,12 +363,21 @@ def _rank_exclusion(W, b, vminus, mu, d, masks, pi_full, escale, keep):
     full_rank, clear = rank_clear(W)
     if not clear:
         return
-    rows = np.empty(N, dtype=np.int64)
     for s in range(masks.shape[0]):
-        if keep[s]:  # (every contact frictional: all the rows of the set's contacts)
-            m, _ = set_rows(masks[s], mu, d, rows, rows[:0])
-            r, clear = rank_clear(submatrix(W, rows, m))
-            keep[s] = not (clear and r == full_rank)
+        if not keep[s]:
+            continue
+        members = np.flatnonzero(masks[s])
+        m = members.size * d
+        rows = np.empty(m, dtype=np.int64)
+        for c in range(members.size):
+            for k in range(d):
+                rows[c * d + k] = members[c] * d + k
+        Wss = np.empty((m, m))
+        for x in range(m):
+            for y in range(m):
+                Wss[x, y] = W[rows[x], rows[y]]
+        r, clear = rank_clear(Wss)
+        keep[s] = not (clear and r == full_rank)
 
 
 @_jit
@@ -398,10 +427,14 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
     if wvalid[0] and warm_kkt_point(W, vminus, b, mu, d, wpi[0], cone_rtol):
         pi_full = wpi[0].copy()  # the previous answer, a minimizer again (kind, tang kept)
     else:
-        st, pi_full = slide_set_kept(W, vminus, b, mu, d, full, wkind, wtang, wpi, wvalid, 0,
-                                     wvalid[0])
+        st, pi_full, kind, tang = slide_set_warm(W, vminus, b, mu, d, full, wkind[0],
+                                                 wtang[0], wpi[0], wvalid[0])
+        wvalid[0] = st == 1
         if st != 1:
             return -1, 0
+        wkind[0, :n] = kind
+        wtang[0, :n] = tang
+        wpi[0] = pi_full
     if not admissible(W, absW, masks[0], pi_full, b, mu, d, cone_rtol, slack_max, tol):
         return -1, 0
     # the sets with no admissible impulse at all (their far contacts would sink)
@@ -416,7 +449,10 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
         if np.any(ok):
             return -1, 0
     R = dominance_rows(W, absW, b, d)
-    nf = add_candidate(fe, fs, fpi, 0, energy_change(W, vminus, pi_full), 0, pi_full)
+    fe[0] = energy_change(W, vminus, pi_full)
+    fs[0] = 0
+    fpi[0] = pi_full
+    nf = 1
     nn = 0
     Qw = np.empty((n, N + 1))
     rw = np.empty(N + 1)
@@ -431,13 +467,21 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
         if members.size >= 2:
             # cold: the smaller sets' warm starts fail as often as not on a sliding box
             # (a side's pair), and a cold program costs about what a warm one does
-            st, pi = slide_set_kept(W, vminus, b, mu, d, members, wkind, wtang, wpi, wvalid, s,
-                                    False)
+            st, pi, kind, tang = slide_set_warm(W, vminus, b, mu, d, members, wkind[s],
+                                                wtang[s], wpi[s], False)
+            wvalid[s] = st == 1
+            if st == 1:
+                wkind[s, :members.size] = kind
+                wtang[s, :members.size] = tang
+                wpi[s] = pi
             if not (st == 1 or st == -1):
                 needs[nn] = s
                 nn += 1
             elif admissible(W, absW, masks[s], pi, b, mu, d, cone_rtol, slack_max, tol):
-                nf = add_candidate(fe, fs, fpi, nf, energy_change(W, vminus, pi), s, pi)
+                fe[nf] = energy_change(W, vminus, pi)
+                fs[nf] = s
+                fpi[nf] = pi
+                nf += 1
             continue
         got, pi, ok, energy = single_candidate(W, absW, vminus, b, e, mu, d, members[0],
                                                masks[s], cone_rtol, slack_max, lo, hi)
@@ -445,5 +489,8 @@ def pruned_search(W, b, vminus, mu, e, d, masks, tol, cond_max, cone_rtol, slack
             needs[nn] = s
             nn += 1
         elif ok:
-            nf = add_candidate(fe, fs, fpi, nf, energy, s, pi)
+            fe[nf] = energy
+            fs[nf] = s
+            fpi[nf] = pi
+            nf += 1
     return nf, nn

@@ -24,8 +24,10 @@ does alike, step for step:
    the order; the candidates with other velocities are reported (the law's warning).
 
 **Warm starts** (:class:`SlideWarmStart`, a time stepper's island): each slide program is
-first tried from its answer of the previous call, a minimizer again wherever accepted
-(:func:`~.pn_complementarity_slide.slide_set_warm`).
+first tried from the active set of its cones and the impulse of the previous call
+(:func:`~.pn_complementarity_slide.slide_set_warm`); an accepted Newton answer is a KKT point
+of the convex program, hence a minimizer, with the velocities and energy of the cold one
+(where redundant contacts leave a family of minimizers, possibly another member).
 
 **The pruned search** (``prune``, for a time stepper whose island slid on every contact on
 the step before): :func:`~.pn_complementarity_prune.pruned_search`, without the stick sets
@@ -53,11 +55,11 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from .pn_complementarity_exclusion import excluded_sets
-from .pn_complementarity_kernels import TINY, relaxed_bounds, stick_tier
-from .pn_complementarity_prune import (SINGLE_ACCURACY, add_candidate, pruned_search,
-                                       single_candidate)
+from .pn_complementarity_kernels import relaxed_bounds, stick_tier
+from .pn_complementarity_prune import SINGLE_ACCURACY, pruned_search, single_candidate
 from .pn_complementarity_slide import slide_many_warm
 
+TINY = 1e-300
 #: statuses of :func:`search`
 DONE, FALLBACK, NEEDS = 0, 1, 2
 #: tiers of :func:`search`
@@ -157,11 +159,15 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
                                      slack_max, SINGLE_ACCURACY)
         for t in range(kept.size):
             if ok[t]:
-                nf = add_candidate(fe, fs, fpi, nf, energy[t], kept[t], pis[t])
+                fe[nf] = energy[t]
+                fs[nf] = kept[t]
+                fpi[nf] = pis[t]
+                nf += 1
     vs = 0.0
-    big = 0.0
     for a in range(N):
         vs = max(vs, abs(vminus[a]))
+    big = 0.0
+    for a in range(N):
         big = max(big, abs(W[a, a]))
     escale = max(0.5 * vs * vs / big, TINY)
     if prune:
@@ -196,8 +202,11 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
             st = status[s]
             if st == 1 or st == -1:
                 if sok[s]:
-                    nf = add_candidate(fe, fs, fpi, nf, senergy[s], s, spis[s])
+                    fe[nf] = senergy[s]
+                    fs[nf] = s
+                    fpi[nf] = spis[s]
                     best_e = min(best_e, senergy[s])
+                    nf += 1
                 continue
             members = np.flatnonzero(masks[s])
             if members.size != 1:
@@ -208,8 +217,11 @@ def search(W, b, vminus, mu, e, d, masks, rank, tol, cond_max, cone_rtol, slack_
             if got == 2:
                 return FALLBACK, tier, fpi[0] * 0.0, none_i, none_b, 0, none_pi, none_i
             if ok_one:
-                nf = add_candidate(fe, fs, fpi, nf, energy_one, s, pi)
-                best_e = min(best_e, energy_one)
+                fe[nf] = energy_one
+                fs[nf] = s
+                fpi[nf] = pi
+                best_e = min(best_e, fe[nf])
+                nf += 1
     if nf == 0:
         return FALLBACK, tier, np.zeros(N), none_i, none_b, 0, none_pi, none_i
     # the pick

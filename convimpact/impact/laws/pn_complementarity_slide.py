@@ -32,11 +32,12 @@ import numpy as np
 
 from ...compiled import jit as _jit
 from ..problem.compiled_reduction import back_substitute
-from .pn_complementarity_kernels import (EPS, TINY, admissible, energy_change, submatrix,
-                                         tangent_sq)
+from .pn_complementarity_kernels import admissible
 from ..conic.polish_newton import (ACT, BND, DAMPED_MAX_NEWTON, INT, POLISH_MAX_NEWTON, ZERO,
                                    active_set_newton, primary_kinds)
 
+EPS = float(np.finfo(float).eps)
+TINY = 1e-300
 #: :func:`warm_kkt_point`: the residuals of the KKT conditions accepted, relative to
 #: ``max(|v-|, |b|, |W| |pi|)`` (the polish's POLISH_ACCEPT), and a contact read as on its
 #: cone's boundary within this of ``mu pn`` (relative)
@@ -67,7 +68,10 @@ def _sliding_guess(q, relaxed, mu, d, zero_mask, r_floor):
             kind[i] = ZERO
             continue
         r = max(relaxed[o], r_floor)
-        sn = np.sqrt(tangent_sq(q, o, d))
+        s2 = 0.0
+        for a in range(1, d):
+            s2 += q[o + a] ** 2
+        sn = np.sqrt(s2)
         x0[o] = r
         if mu[i] == 0.0:
             kind[i] = ACT
@@ -112,9 +116,13 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
     for a in range(na):
         for k in range(d):
             idx[a * d + k] = A[a] * d + k
-    W = submatrix(Wf, idx, N)
-    q = vf[idx]
+    W = np.empty((N, N))
+    q = np.empty(N)
     mu = np.empty(na)
+    for a in range(N):
+        q[a] = vf[idx[a]]
+        for c in range(N):
+            W[a, c] = Wf[idx[a], idx[c]]
     f = np.empty(na)
     for a in range(na):
         mu[a] = muf[A[a]]
@@ -218,35 +226,18 @@ def slide_set_warm(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, warm):
 
 
 @_jit
-def slide_set_kept(Wf, vf, bf, muf, d, A, wkind, wtang, wpi, wvalid, s, warm):
-    """:func:`slide_set_warm` from set ``s``'s warm start (``wkind[s]``, ``wtang[s]``,
-    ``wpi[s]``; tried with ``warm``), its certified answer kept as set s's next one
-    (``wvalid[s]`` False where none): (status, pi)."""
-    st, pi, kind, tang = slide_set_warm(Wf, vf, bf, muf, d, A, wkind[s], wtang[s], wpi[s], warm)
-    wvalid[s] = st == 1
-    if st == 1:
-        wkind[s, :A.size] = kind
-        wtang[s, :A.size] = tang
-        wpi[s] = pi
-    return st, pi
-
-
-@_jit
-def project_out(Q, m, r, coef):
+def _project_out(Q, m, r, coef):
     """r minus its projection on the orthonormal rows ``Q[:m]``, in place (classical
-    Gram-Schmidt, twice), the coefficients taken out into ``coef[:m]`` (not kept where
-    ``coef`` is empty)."""
+    Gram-Schmidt, twice), the coefficients taken out into ``coef[:m]``."""
     N = r.shape[0]
-    keep = coef.size > 0
-    for t in range(m if keep else 0):
+    for t in range(m):
         coef[t] = 0.0
     for _ in range(2):
         for t in range(m):
             h = 0.0
             for a in range(N):
                 h += Q[t, a] * r[a]
-            if keep:
-                coef[t] += h
+            coef[t] += h
             for a in range(N):
                 r[a] -= h * Q[t, a]
 
@@ -268,13 +259,15 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
     n = mu.size
     N = n * d
     X = 0.0
-    wmax = 0.0
-    bmax = 0.0
     for a in range(N):
         X = max(X, abs(pi[a]))
-        bmax = max(bmax, max(abs(b[a]), abs(vminus[a])))
+    wmax = 0.0
+    for a in range(N):
         for c in range(N):
             wmax = max(wmax, abs(W[a, c]))
+    bmax = 0.0
+    for a in range(N):
+        bmax = max(bmax, max(abs(b[a]), abs(vminus[a])))
     tolr = KKT_RTOL * max(bmax, wmax * X, TINY)
     u = np.empty(N)
     for a in range(N):
@@ -291,7 +284,10 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
             return False
         if not abs(u[o] + b[o]) <= tolr:
             return False
-        pt = np.sqrt(tangent_sq(pi, o, d))
+        pt2 = 0.0
+        for k in range(1, d):
+            pt2 += pi[o + k] ** 2
+        pt = np.sqrt(pt2)
         if not pt <= mu[i] * pn * (1.0 + cone_rtol):
             return False
         if pt >= mu[i] * pn * (1.0 - BOUNDARY_RTOL):
@@ -306,7 +302,10 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
     for i in range(n):
         if bnd[i]:
             o = i * d
-            pt = np.sqrt(tangent_sq(pi, o, d))
+            pt2 = 0.0
+            for c in range(1, d):
+                pt2 += pi[o + c] ** 2
+            pt = np.sqrt(pt2)
             C[k, o] = mu[i]
             for c in range(1, d):
                 C[k, o + c] = -pi[o + c] / pt
@@ -328,7 +327,7 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
     m = 0
     for j in range(ncol):
         r = C[j]  # (in place: C's row j is not read again)
-        project_out(Q, m, r, coef)
+        _project_out(Q, m, r, coef)
         nr = 0.0
         for a in range(N):
             nr += r[a] * r[a]
@@ -344,7 +343,7 @@ def warm_kkt_point(W, vminus, b, mu, d, pi, cone_rtol):
             return False
     y = np.zeros(m)
     res = u
-    project_out(Q, m, res, y)
+    _project_out(Q, m, res, y)
     for a in range(N):
         if not abs(res[a]) <= tolr:
             return False
@@ -393,10 +392,16 @@ def slide_many_warm(W, b, vminus, mu, d, sets, cone_rtol, slack_max, tol, wkind,
         A = np.flatnonzero(sets[s])
         if A.size < 2:
             continue
-        st, pi = slide_set_kept(W, vminus, b, mu, d, A, wkind, wtang, wpi, wvalid, s, wvalid[s])
+        st, pi, kind, tang = slide_set_warm(W, vminus, b, mu, d, A, wkind[s], wtang[s],
+                                            wpi[s], wvalid[s])
         status[s] = st
+        wvalid[s] = st == 1
+        if st == 1:
+            wkind[s, :A.size] = kind
+            wtang[s, :A.size] = tang
+            wpi[s] = pi
         if st == 1 or st == -1:
             pis[s] = pi
             ok[s] = admissible(W, absW, sets[s], pi, b, mu, d, cone_rtol, slack_max, tol)
-            energy[s] = energy_change(W, vminus, pi)
+            energy[s] = pi @ vminus + 0.5 * (pi @ (W @ pi))
     return status, pis, ok, energy
