@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..conic.paths import ProgramOptions, solver_report
-from ..conic.qp import Backend, ConeQP, QPSolution, solve_cone_qp
+from ..conic.qp import Backend, QPSolution, solve_cone_qp
 from ..diagnostics import assemble_result
 from ..exact.closed_forms import (  # the paper's closed forms, re-exported
     DELASSUS_COND_MAX,
@@ -62,7 +62,8 @@ from ..results import ImpactResult
 from ..problem.dense import angle_from_slip
 from .pereira_nikravesh_kernel import (_OUT_INTERIOR, _OUT_T1, _OUT_T2, _OUT_TL, _pn_planar,
                                        _pn_spatial)
-from .pn_complementarity import newton_velocity_shift, several_contacts_result, stick_on
+from .pn_complementarity import (newton_velocity_shift, several_contacts_result, slide_program,
+                                 stick_on)
 from .pn_complementarity_derivative import several_impulse_derivative  # noqa: F401
 
 LAW = "pereira-nikravesh"
@@ -109,19 +110,12 @@ def solve_pn_program(P: ImpactProblem, backend: Backend,
     Contacts with v_n- >= 0 are left out (zero impulse). Returns the full (n_contacts, d)
     impulse and the solver report; infeasibility raises a typed error naming other laws.
     """
-    n, d = P.n_contacts, P.dim
     active = np.flatnonzero(P.v_minus[:, 0] < 0.0)
-    idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in active])
-    W = P.delassus[np.ix_(idx, idx)]
-    v = P.v_minus[active].ravel()
-    nrows = np.arange(0, idx.size, d)
-    E = W[nrows]
     f = -(1.0 + P.restitution[active]) * P.v_minus[active, 0]
-    qp = ConeQP(W, v, P.friction[active], d, E, f)
     try:
-        sol = solve_cone_qp(backend, qp, opts.tol, opts.max_iter)
+        sol = solve_cone_qp(backend, slide_program(P, active, f), opts.tol, opts.max_iter)
     except SolverError as exc:
-        if "infeasible" in str(exc).lower() or "Infeasible" in str(exc):
+        if "infeasible" in str(exc).lower():
             if active.size == 1:
                 raise NonPositiveEffectiveMassError(
                     "P_N is infeasible: no impulse in the friction cone restores v_n+ = -e v_n- "
@@ -133,8 +127,8 @@ def solve_pn_program(P: ImpactProblem, backend: Backend,
                 "contact with compressive impulses in the friction cones; use law='coulomb', "
                 f"'ccp' or 'dissipative', which allow contacts to separate ({exc})") from exc
         raise
-    pi = np.zeros((n, d))
-    pi[active] = sol.x.reshape(active.size, d)
+    pi = np.zeros((P.n_contacts, P.dim))
+    pi[active] = sol.x.reshape(active.size, P.dim)
     return pi, sol
 
 

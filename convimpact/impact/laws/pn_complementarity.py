@@ -43,15 +43,10 @@ converged, a jam) is listed in ``extras["failed_active_sets"]`` and, when it mig
 been more dissipative than the answer, in a warning.
 
 The stick tier, the relaxed bounds and the admissibility test are written once, in
-:mod:`.pn_complementarity_kernels`. On the compiled path (:func:`compiled_kernels`: at once
-from a warm cache, else from the :data:`HOT_CALLS`-th call of a process or after
-:func:`~.pn_complementarity_impulse.compile_kernels`) they run compiled, and every slide
-program of several contacts is solved exactly from guessed active sets of its cones and
-certified by its KKT conditions (:mod:`.pn_complementarity_slide`), the interior-point
-method only for the programs no guess certifies. Before, the same kernel functions run as
-plain Python (:func:`convimpact.compiled.plain`: no compilation to wait for) and every
-slide program goes to the interior-point method and its polish (a second method: the two
-paths' minimizers agree to round-off). The same sets, tests, tie-break and warnings.
+:mod:`.pn_complementarity_kernels`, and run compiled or as plain Python
+(:func:`compiled_kernels`); compiled, every slide program of several contacts is first solved
+exactly and certified by its KKT conditions (:mod:`.pn_complementarity_slide`). The same
+sets, tests, tie-break and warnings either way.
 """
 
 from __future__ import annotations
@@ -111,6 +106,7 @@ def _mask(P: ImpactProblem, A: tuple[int, ...]) -> np.ndarray:
     """Active set A as the kernels take it: an (n,) bool membership mask."""
     member = np.zeros(P.n_contacts, dtype=np.bool_)
     member[list(A)] = True
+    member.flags.writeable = False  # (as candidate_sets' rows: one compiled signature)
     return member
 
 
@@ -153,13 +149,9 @@ def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backe
         pi[i] = sol.impulse
         return pi, {"effective_mass": sol.effective_mass, "accuracy": 1e-10,
                     "warnings": tuple(sol.warnings), "slide_rule": "single-contact law"}
-    idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in A])
-    W = P.delassus[np.ix_(idx, idx)]
-    E = W[::d]
-    f = -b[list(A), 0]
-    qp = ConeQP(W, P.v_minus[list(A)].ravel(), P.friction[list(A)], d, E, f)
     try:
-        sol = solve_cone_qp(backend, qp, opts.tol, opts.max_iter)
+        sol = solve_cone_qp(backend, slide_program(P, A, -b[list(A), 0]), opts.tol,
+                            opts.max_iter)
     except SolverError as exc:
         if "infeasible" in str(exc).lower():
             return None
@@ -170,14 +162,19 @@ def slide_on(P: ImpactProblem, A: tuple[int, ...], b: np.ndarray, backend: Backe
                 **solver_report(sol, opts)}
 
 
+def slide_program(P: ImpactProblem, A, f: np.ndarray) -> ConeQP:
+    """P_N over the contacts ``A``: minimize 1/2 pi.W.pi + v-.pi subject to ``W_n pi = f`` on
+    the normal rows of A and pi in A's friction cones (the law's one and several contacts)."""
+    A, d = list(A), P.dim
+    idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in A])
+    W = P.delassus[np.ix_(idx, idx)]
+    return ConeQP(W, P.v_minus[A].ravel(), P.friction[A], d, W[::d], f)
+
+
 def _kkt_residual(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, b: np.ndarray) -> float:
     """The relative KKT residual of P_N(A) at ``pi`` (on the equilibrated program, as the
     interior-point path reports it)."""
-    d = P.dim
-    idx = np.concatenate([np.arange(i * d, (i + 1) * d) for i in A])
-    W = P.delassus[np.ix_(idx, idx)]
-    qp = ConeQP(W, P.v_minus[list(A)].ravel(), P.friction[list(A)], d, W[::d], -b[list(A), 0])
-    eq = equilibrated(qp)
+    eq = equilibrated(slide_program(P, A, -b[list(A), 0]))
     if eq is None:
         return 0.0
     scaled, s = eq
@@ -185,9 +182,10 @@ def _kkt_residual(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, b: np.nd
 
 
 def _admissible(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, b: np.ndarray,
-                tol: float) -> bool:
+                tol: float, fast: bool = False) -> bool:
     """(N) and the cones: pi_n >= 0 and |pi_t| <= mu pi_n on A, u_n >= 0 off A, to round-off
-    (:func:`~.pn_complementarity_kernels.admissible`, run as plain Python).
+    (:func:`~.pn_complementarity_kernels.admissible`, compiled with ``fast``, else run as
+    plain Python).
 
     Contact by contact (their effective masses may lie far apart): a velocity row is allowed
     ``tol`` of its own size plus the round-off of forming it, ``1e2 eps sum_k |W_jk| |pi_k|``
@@ -195,8 +193,9 @@ def _admissible(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, b: np.ndar
     :data:`VELOCITY_SLACK_MAX`; an impulse the same divided by the contact's W_nn.
     """
     W, bf, _, mu = _kernel_data(P, b)
-    return bool(_ADMISSIBLE(W, np.abs(W), _mask(P, A), np.ascontiguousarray(pi.ravel(), float),
-                            bf, mu, P.dim, CONE_RTOL, VELOCITY_SLACK_MAX, float(tol)))
+    test = kernels.admissible if fast else _ADMISSIBLE
+    return bool(test(W, np.abs(W), _mask(P, A), np.ascontiguousarray(pi.ravel(), float), bf,
+                     mu, P.dim, CONE_RTOL, VELOCITY_SLACK_MAX, float(tol)))
 
 
 def _energy_change(P: ImpactProblem, pi: np.ndarray) -> float:
@@ -210,6 +209,19 @@ def _regimes(P: ImpactProblem, A: tuple[int, ...], pi: np.ndarray, tol: float) -
     return regimes_from_slip(P, pi, vplus, tol, [i not in A for i in range(P.n_contacts)])
 
 
+def _energy_scale(P: ImpactProblem) -> float:
+    """The law's energy scale ``1/2 max|v-|^2 / max W_ii`` of its ties and early stop."""
+    return max(0.5 * float(np.max(np.abs(P.v_minus))) ** 2 /
+               float(np.max(np.abs(np.diag(P.delassus)))), TINY)
+
+
+def several_sets_note(sets: list) -> str:
+    """The law's warning on several admissible active sets ``sets`` (the answer's first)."""
+    listed = ", ".join(str(list(A)) for A in sets)
+    return (f"Newton's law in complementarity form has {len(sets)} admissible active sets "
+            f"here ({listed}) with different velocities; the most dissipative is returned")
+
+
 def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
     """The most dissipative candidate, and a warning when others with other velocities exist.
 
@@ -220,7 +232,7 @@ def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
     with the data's round-off (on the box: m g h / 4 on each corner)."""
     found.sort(key=lambda c: c[0])
     vs = max(float(np.max(np.abs(P.v_minus))), TINY)
-    energy_scale = max(0.5 * vs ** 2 / float(np.max(np.abs(np.diag(P.delassus)))), TINY)
+    energy_scale = _energy_scale(P)
     # every candidate's velocity change W pi and impulse norm at once
     stacked = np.stack([c[2].ravel() for c in found])
     jumps = stacked @ P.delassus
@@ -230,13 +242,7 @@ def _pick(P: ImpactProblem, found: list[tuple]) -> tuple[tuple, list[str]]:
             if sv and c[0] <= found[0][0] + 1e-9 * energy_scale]
     best = found[min(ties)[2]]
     others = [c for c, sv in zip(found, same) if not sv]
-    notes = []
-    if others:
-        sets = ", ".join(str(list(c[1])) for c in [best, *others])
-        notes.append(f"Newton's law in complementarity form has {len(others) + 1} admissible "
-                     f"active sets here ({sets}) with different velocities; the most "
-                     "dissipative is returned")
-    return best, notes
+    return best, [several_sets_note([c[1] for c in [best, *others]])] if others else []
 
 
 def compiled_kernels() -> bool:
@@ -245,8 +251,9 @@ def compiled_kernels() -> bool:
     numba's disk cache holds them, else from the :data:`HOT_CALLS`-th several-contact call of
     the process on (a time-stepping loop, not a handful of impacts; their first compilation
     takes about a minute on 2 cores, announced on stderr), or after
-    :func:`~.pn_complementarity_impulse.compile_kernels`. Before, the same stick tier, bounds
-    and tests run as plain Python and the slide programs by the interior-point method (their
+    :func:`~.pn_complementarity_impulse.compile_kernels`. Before, the same kernel functions
+    run as plain Python (:func:`convimpact.compiled.plain`: no compilation to wait for) and
+    every slide program by the interior-point method and its polish (a second method: their
     minimizers agree to round-off; where redundant contacts leave a family of minimizers,
     the two paths may return different members, with the same velocities and energy)."""
     global _CALLS
@@ -274,6 +281,17 @@ def candidate_sets(n: int, closing: tuple[bool, ...]) -> tuple[list[tuple[int, .
         masks[s, list(A)] = True
     masks.flags.writeable = False
     return subsets, masks
+
+
+def closing_key(P: ImpactProblem) -> tuple[bool, ...]:
+    """The contacts an active set must hold one of (:func:`candidate_sets`): the approaching
+    ones; impulses among contacts that merely touch would be an impact without collision (one
+    contact alone takes no impulse then either). Where every approach is round-off (touching
+    contacts, no impact): those with ``v_n- < 0``."""
+    closing = approaching(P)
+    if not closing.any():
+        closing = P.v_minus[:, 0] < 0.0
+    return tuple(bool(c) for c in closing)
 
 
 def _kernel_data(P: ImpactProblem, b: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -322,8 +340,7 @@ def _slide_tier(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
     n, d = P.n_contacts, P.dim
     found: list[tuple] = []
     failures: list[str] = []
-    energy_scale = max(0.5 * float(np.max(np.abs(P.v_minus))) ** 2 /
-                       float(np.max(np.abs(np.diag(P.delassus)))), TINY)
+    energy_scale = _energy_scale(P)
     data = _kernel_data(P, b)
     bounds = _RELAXED_BOUNDS[bool(fast)](*data, d, masks).tolist()
     index = {A: i for i, A in enumerate(subsets)}
@@ -346,12 +363,7 @@ def _slide_tier(P: ImpactProblem, b: np.ndarray, subsets: list[tuple[int, ...]],
         except ConvImpactError as exc:  # a jam or an unconverged program of this A
             failures.append(f"{list(A)}: {exc}")
             continue
-        if got is None:
-            continue
-        admissible = kernels.admissible if fast else _ADMISSIBLE
-        if admissible(data[0], np.abs(data[0]), masks[index[A]],
-                      np.ascontiguousarray(got[0].ravel(), float), data[1], data[3], d,
-                      CONE_RTOL, VELOCITY_SLACK_MAX, float(got[1]["accuracy"])):
+        if got is not None and _admissible(P, A, got[0], b, got[1]["accuracy"], fast):
             found.append((_energy_change(P, got[0]), A, got[0], got[1]))
     return found, failures
 
@@ -366,12 +378,7 @@ def _search(P: ImpactProblem, backend: Backend, opts: ProgramOptions
             f"treats at most {MAX_CONTACTS} simultaneous contacts, got {n}; use law='coulomb', "
             "'ccp' or 'dissipative'")
     b = newton_velocity_shift(P)
-    # an active set needs an approaching contact: impulses among contacts that merely touch
-    # would be an impact without collision (one contact alone takes no impulse then either)
-    closing = approaching(P)
-    if not closing.any():  # every approach is round-off: touching contacts, no impact
-        closing = P.v_minus[:, 0] < 0.0
-    subsets, masks = candidate_sets(n, tuple(bool(c) for c in closing))
+    subsets, masks = candidate_sets(n, closing_key(P))
     fast = compiled_kernels()
     stick = stick_candidates(P, b, subsets, masks, fast)
     tier = "stick"

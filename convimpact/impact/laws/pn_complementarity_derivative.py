@@ -55,6 +55,16 @@ KKT_RTOL = 1e-6
 _NO_OTHER = " (no other-side derivative: across it the law re-selects its tier or active set)"
 
 
+def _cone_place(mu: float, p: np.ndarray, pscale: float) -> str:
+    """Where a contact's impulse ``p`` lies in its cone: "apex" (vanishing against the
+    impulse scale), else "interior" or "boundary" (``|p_t| = mu p_n`` to BOUNDARY_RTOL)."""
+    size = float(np.linalg.norm(p))
+    if size <= BOUNDARY_RTOL * pscale:
+        return "apex"
+    return "interior" if mu * p[0] - float(np.linalg.norm(p[1:])) > BOUNDARY_RTOL * size \
+        else "boundary"
+
+
 def _stick(problem: ImpactProblem, A: list[int], b: np.ndarray):
     """The stick tier's derivative: ``pi_S = -W_SS^+ b_S``, pi = 0 off S."""
     n, d = problem.n_contacts, problem.dim
@@ -170,18 +180,11 @@ def _slide_kinds(problem: ImpactProblem, A: list[int], pi: np.ndarray,
                          "the stick impulse's; one-sided" + _NO_OTHER)
         return kinds, notes, flips
     for i in A:
-        p = pi[i * d:(i + 1) * d]
-        size = float(np.linalg.norm(p))
-        if mu[i] == 0.0:
-            kinds[i] = "frictionless"
-        elif size <= BOUNDARY_RTOL * pscale:
-            kinds[i] = "apex"
+        kinds[i] = "frictionless" if mu[i] == 0.0 else _cone_place(mu[i], pi[i * d:(i + 1) * d],
+                                                                    pscale)
+        if kinds[i] == "apex":
             notes.append(f"contact {i}: its impulse in P_N vanishes (the cone's apex): "
                          "one-sided" + _NO_OTHER)
-        elif mu[i] * p[0] - float(np.linalg.norm(p[1:])) > BOUNDARY_RTOL * size:
-            kinds[i] = "interior"
-        else:
-            kinds[i] = "boundary"
     if any(k == "boundary" for k in kinds.values()):
         _, sig = _multipliers(problem, A, kinds, pi)
         bnd = [i for i in A if kinds[i] == "boundary"]
@@ -276,18 +279,16 @@ def several_impulse_derivative(problem: ImpactProblem, result, other_side: bool 
     if tier == "stick":
         shrink = []
         for i in A:
-            p = pi[i * d:(i + 1) * d]
-            size = float(np.linalg.norm(p))
-            if size <= BOUNDARY_RTOL * pscale and problem.friction[i] == 0.0:
+            place = _cone_place(problem.friction[i], pi[i * d:(i + 1) * d], pscale)
+            if place == "apex" and problem.friction[i] == 0.0:
                 shrink.append(i)
                 notes.append(f"contact {i}: frictionless, in the active set with zero impulse "
                              "(about to separate): one-sided derivative of the active set with "
                              "it, the other side without it")
-            elif size <= BOUNDARY_RTOL * pscale:
+            elif place == "apex":
                 notes.append(f"contact {i}: in the active set with zero impulse (at its "
                              "cone's apex): one-sided" + _NO_OTHER)
-            elif problem.friction[i] > 0.0 and problem.friction[i] * p[0] - \
-                    float(np.linalg.norm(p[1:])) <= BOUNDARY_RTOL * size:
+            elif problem.friction[i] > 0.0 and place == "boundary":
                 notes.append(f"contact {i}: at the stick limit (|pi_t| = mu pi_n): one-sided "
                              "derivative of the stick tier" + _NO_OTHER)
         parts, singular = _stick(problem, A, b)

@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from ...errors import ConvImpactError
-from ..conic.paths import ProgramOptions, approaching
+from ..conic.paths import ProgramOptions
 from ..conic.qp import Backend
 from ..problem.build import SAFE_SCALE, ImpactProblem, build_problem
 from . import pn_complementarity as law
@@ -25,11 +25,9 @@ from .pn_complementarity_search import (DONE, NEEDS, SLIDE_TIER, SlideWarmStart,
                                         tuple_ranks)
 
 
-@functools.lru_cache(maxsize=512)
-def _sets(n: int, closing: tuple[bool, ...]) -> tuple[list, np.ndarray]:
-    """The law's :func:`~.pn_complementarity.candidate_sets` (read only), kept per pattern of
-    approaching contacts: a time stepper asks for the same ones step after step."""
-    return law.candidate_sets(n, closing)
+#: the law's :func:`~.pn_complementarity.candidate_sets` (read only, kept per pattern of
+#: approaching contacts: a time stepper asks for the same ones step after step)
+_sets = law.candidate_sets
 
 
 @functools.lru_cache(maxsize=512)
@@ -40,21 +38,22 @@ def _ranks(n: int, closing: tuple[bool, ...]) -> np.ndarray:
 def compiled_impulse(P, backend, opts, notes: list[str] | None = None,
                      warm: SlideWarmStart | None = None, prune: bool = False
                      ) -> np.ndarray | None:
-    """The law's impulse (n_contacts, d) on its compiled path by one call of :func:`~.pn_complementarity_search.search`,
-    with its warning on several admissible active sets appended to ``notes``; None where the
-    law's own search must decide (:data:`~.pn_complementarity_search.FALLBACK`). ``backend``, ``opts``: the law's
-    interior-point backend and options; ``warm``: the slide programs' warm starts of these
-    contacts (:class:`~.pn_complementarity_search.SlideWarmStart`), updated; None: every program from the law's own
-    guesses. ``prune``: the slide tier without the dominated sets (:mod:`.pn_complementarity_search`; its
-    warning is then not that of the law's whole search: ``notes`` is left alone); the
-    programs it leaves to the interior-point method are solved here as the law solves them
-    (``slide_on``, its admissibility test) and the law's own pick (``_pick``) is applied."""
+    """The law's impulse (n_contacts, d) on its compiled path by one call of
+    :func:`~.pn_complementarity_search.search` (the same kernels, tests and warning), with its
+    warning on several admissible active sets appended to ``notes``; None where the law's own
+    search must decide (:data:`~.pn_complementarity_search.FALLBACK`). ``backend``, ``opts``:
+    the law's interior-point backend and options; ``warm``: the slide programs' warm starts of
+    these contacts (:class:`~.pn_complementarity_search.SlideWarmStart`, updated; the same
+    minimizers, :func:`~.pn_complementarity_slide.slide_set_warm`); None: every program from
+    the law's own guesses. ``prune``: the search without the sets that cannot beat the full
+    set's slide (:mod:`.pn_complementarity_prune`; its warning is then not the whole
+    search's: ``notes`` is left alone, ``warm.full_slide`` tells whether the answer slid on
+    every contact); the programs it leaves to the interior-point method are solved here as
+    the law solves them (``slide_on``, its admissibility test) and the law's own pick
+    (``_pick``) is applied."""
     n, d = P.n_contacts, P.dim
     b = law.newton_velocity_shift(P)
-    closing = approaching(P)
-    if not closing.any():
-        closing = P.v_minus[:, 0] < 0.0
-    key = tuple(bool(c) for c in closing)
+    key = law.closing_key(P)
     subsets, masks = _sets(n, key)
     if not subsets:
         return None
@@ -87,10 +86,7 @@ def compiled_impulse(P, backend, opts, notes: list[str] | None = None,
     warm.pruned = bool(prune)
     if notes is not None and not prune and not same.all():
         others = [int(s) for s, sv in zip(sets, same) if not sv]
-        listed = ", ".join(str(list(subsets[s])) for s in [int(sets[best]), *others])
-        notes.append(f"Newton's law in complementarity form has {len(others) + 1} admissible "
-                     f"active sets here ({listed}) with different velocities; the most "
-                     "dissipative is returned")
+        notes.append(law.several_sets_note([subsets[s] for s in [int(sets[best]), *others]]))
     return pi.reshape(n, d)
 
 
@@ -117,21 +113,14 @@ def compile_kernels() -> float:
 def several_contacts_impulse(P: ImpactProblem, backend: Backend, opts: ProgramOptions,
                              notes: list[str] | None = None, warm=None, prune: bool = False
                              ) -> np.ndarray | None:
-    """The impulse (n_contacts, d) of :func:`~.pn_complementarity.several_contacts_result`, without its result
-    (regimes, diagnostics), for a time stepper that needs only the impulse; None where that
-    call would raise or report active sets it could not solve (the caller then makes the
-    full call, which raises or reports). ``notes``, optional: a list the result's warning on
-    several admissible active sets with different velocities is appended to (the time
-    stepper aggregates them, :mod:`convimpact.simulation.moreau_impact`). On the compiled
-    path the search and pick run in one compiled call
-    (:func:`compiled_impulse`, the same kernels, tests and
-    warning), the law's own search where that call leaves the decision to it; ``warm``, a
-    :class:`~.pn_complementarity_search.SlideWarmStart` of these contacts, starts its slide
-    programs from their answers of the previous call (the same minimizers, see
-    :func:`~.pn_complementarity_slide.slide_set_warm`); ``prune`` (with ``warm``): first the
-    search without the slide programs that cannot beat the full set's
-    (:mod:`.pn_complementarity_search`), whose warning is not the whole search's (``notes``
-    untouched; ``warm.full_slide`` tells whether the answer slid on every contact)."""
+    """The impulse (n_contacts, d) of :func:`~.pn_complementarity.several_contacts_result`,
+    without its result (regimes, diagnostics), for a time stepper that needs only the
+    impulse; None where that call would raise or report active sets it could not solve (the
+    caller then makes the full call, which raises or reports). ``notes``, optional: a list
+    the result's warning on several admissible active sets with different velocities is
+    appended to (the time stepper aggregates them, :mod:`convimpact.simulation.moreau_impact`).
+    On the compiled path first :func:`compiled_impulse` (``warm`` and ``prune`` as there; with
+    ``prune`` the pruned search first), the law's own search where it leaves the decision."""
     if P.n_contacts <= law.MAX_CONTACTS and law.compiled_path_active():
         for pruned in ((True, False) if prune else (False,)):
             pi = compiled_impulse(P, backend, opts, notes, warm, pruned)
