@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import pytest
 
 
 def project_cone(x, mu):
@@ -37,3 +38,24 @@ def coulomb_residual(W, b, mu, r):
     y[:, 0] += mu * np.linalg.norm(u[:, 1:], axis=1)
     err = np.linalg.norm(r - project_cone(r - y, mu))
     return err / max(np.linalg.norm(b), np.linalg.norm(r), np.linalg.norm(u))
+
+
+def best_coulomb_residual(run, W, b, mu, *, in_cones: bool = False, batches: int = 300,
+                          tol: float = 1e-8) -> float:
+    """The best Coulomb residual (:func:`coulomb_residual`, on dense W) of up to ``batches``
+    iterates of an ADMM run (``next(run)``), stopping at ``tol``; every residual the run reports
+    must be the one recomputed here (to 1e-6 relative) and, with ``in_cones``, every iterate
+    must lie in the friction cones (:func:`project_cone`)."""
+    Wd = W.toarray() if hasattr(W, "toarray") else np.asarray(W)
+    best = np.inf
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for _ in range(batches):
+            r = next(run)
+            if in_cones:
+                assert np.abs(r - project_cone(r, mu)).max() <= 1e-12 * max(1.0, np.abs(r).max())
+            mine = coulomb_residual(Wd, b, mu, r)
+            assert run.residual == pytest.approx(mine, rel=1e-6, abs=1e-14)
+            best = min(best, mine)
+            if best <= tol:
+                break
+    return best

@@ -20,7 +20,7 @@ from convimpact.bench.contact_corpus import corpus
 from convimpact.contacts import admm, engine
 
 from .cone_checks import project_cone
-from .test_contact_admm import coulomb_residual
+from .cone_checks import coulomb_residual
 
 
 def ccp_residual(W, b, mu, r):

@@ -97,7 +97,7 @@ def test_over_relaxed_sparse_admm_solves_coulombs_law(relax):
     # wall: Coulomb's natural-map residual, recomputed here, reaches 1e-8
     from convimpact.contacts.admm import coulomb_admm
 
-    from .test_contact_admm import coulomb_residual
+    from .cone_checks import coulomb_residual
 
     (case,) = corpus(names=["box-wall-3x3-44"])
     n, d = case.mu.shape[0], case.dim
@@ -119,7 +119,7 @@ def test_over_relaxed_compiled_admm_solves_coulombs_law(relax):
     # small log pile: Coulomb's natural-map residual, recomputed here, at most 1e-8
     from convimpact.contacts.admm_kernel import dense_admm
 
-    from .test_contact_admm import coulomb_residual
+    from .cone_checks import coulomb_residual
 
     (case,) = corpus(names=["capsule-pile-4x4-56"])
     n, d = case.mu.shape[0], case.dim

@@ -13,17 +13,7 @@ import pytest
 import convimpact as ci
 from convimpact.contacts import admm_kernel, first_tries
 
-from .cone_checks import project_cone
-
-
-def coulomb_residual(W, b, mu, r):
-    """|r - P_K(r - y)| / max(|b|, |r|, |u|), y = u + mu |u_t| e_n, u = W r + b (here)."""
-    n, d = r.shape
-    u = (np.asarray(W) @ r.ravel() + np.ravel(b)).reshape(n, d)
-    y = u.copy()
-    y[:, 0] += mu * np.linalg.norm(u[:, 1:], axis=1)
-    err = np.linalg.norm(r - project_cone(r - y, mu))
-    return err / max(np.linalg.norm(b), np.linalg.norm(r), np.linalg.norm(u))
+from .cone_checks import coulomb_residual
 
 
 # one planar contact, W = [[2, 1/2], [1/2, 1]], b = (-1, 1/2), mu = 0.3: it slides forward

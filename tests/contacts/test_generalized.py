@@ -21,7 +21,7 @@ from convimpact.contacts.lowrank_sparse import SparseLowRankStep, sparse_lowrank
 from convimpact.errors import MassMatrixError, NonFiniteError, ParameterError, ShapeError
 
 from .cone_checks import project_cone
-from .test_contact_admm import coulomb_residual
+from .cone_checks import coulomb_residual
 
 
 def _random_generalized(rng, bodies=4, contacts=7, d=3):

@@ -15,7 +15,7 @@ from convimpact.contacts import engine, first_tries, light_direct
 
 from .cone_checks import project_cone
 from .test_admm_restart import ccp_residual
-from .test_contact_admm import coulomb_residual
+from .cone_checks import coulomb_residual
 
 
 @pytest.fixture(scope="module")
